@@ -1,0 +1,44 @@
+"""microimpact: Monte Carlo analysis of polydisperse microparticle impacts with rough
+surfaces, after Li, Dunn & Brach (2000), *Aerosol Sci. Technol.* 33:376-386.
+
+The public names are importable from the top level; they are loaded lazily so that
+``import microimpact`` stays fast and the physics core needs only NumPy.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+__version__ = "0.1.0"
+
+# public name -> module that defines it (relative to this package)
+_EXPORTS: dict[str, str] = {
+    # physics: one impact (paper Eqs. 1-9)
+    "rebound": "physics.impact",
+    "apparent_rebound": "physics.impact",
+    "ReboundResult": "physics.impact",
+    "ApparentReboundResult": "physics.impact",
+    # errors
+    "InputError": "errors",
+    "ScenarioError": "errors",
+    "ProfileFormatError": "errors",
+    "DataFormatError": "errors",
+    "ConvergenceWarning": "errors",
+}
+
+
+def __getattr__(name: str):
+    try:
+        module = _EXPORTS[name]
+    except KeyError:
+        raise AttributeError(f"module 'microimpact' has no attribute {name!r}") from None
+    value = getattr(importlib.import_module(f".{module}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(list(globals()) + list(_EXPORTS))
+
+
+__all__ = ["__version__", *_EXPORTS]

@@ -1,0 +1,58 @@
+"""Private input validation shared by the public entry points.
+
+Messages backtick the parameter, show the bad value and say what is allowed.
+"""
+
+from __future__ import annotations
+
+import numbers
+
+import numpy as np
+
+
+def as_float_array(x, name: str) -> np.ndarray:
+    """`x` as a float64 ndarray, or ``TypeError`` naming `name`."""
+    try:
+        return np.asarray(x, dtype=float)
+    except (TypeError, ValueError):
+        raise TypeError(f"`{name}` must be numeric (array_like); got {x!r}.") from None
+
+
+def check_nonnegative(x, name: str, *, allow_inf: bool = True) -> np.ndarray:
+    """Raise ``ValueError`` if any element of `x` is negative or NaN."""
+    a = as_float_array(x, name)
+    bad = np.isnan(a) | (a < 0)
+    if not allow_inf:
+        bad |= np.isinf(a)
+    if np.any(bad):
+        v = a[bad].flat[0] if a.ndim else a[()]
+        allowed = "a number >= 0" + ("" if allow_inf else " (finite)")
+        raise ValueError(f"`{name}` must be {allowed}; got {v!r}.")
+    return a
+
+
+def check_positive(x, name: str, *, allow_inf: bool = False) -> np.ndarray:
+    """Raise ``ValueError`` unless every element of `x` is > 0 (and finite)."""
+    a = as_float_array(x, name)
+    bad = np.isnan(a) | (a <= 0)
+    if not allow_inf:
+        bad |= np.isinf(a)
+    if np.any(bad):
+        v = a[bad].flat[0] if a.ndim else a[()]
+        raise ValueError(f"`{name}` must be a number > 0; got {v!r}.")
+    return a
+
+
+def check_int(x, name: str, *, minimum: int = 1) -> int:
+    """Return `x` as int, or raise ``ValueError`` unless it is an integer >= minimum."""
+    if isinstance(x, bool) or not isinstance(x, numbers.Integral) or x < minimum:
+        raise ValueError(f"`{name}` must be an integer >= {minimum}; got {x!r}.")
+    return int(x)
+
+
+def check_choice(x, name: str, choices) -> str:
+    """Raise ``ValueError`` unless `x` is one of `choices`."""
+    if x not in choices:
+        allowed = ", ".join(repr(c) for c in choices)
+        raise ValueError(f"`{name}` must be one of {allowed}; got {x!r}.")
+    return x

@@ -1,0 +1,1 @@
+"""microimpact.population subpackage."""
