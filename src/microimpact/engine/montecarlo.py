@@ -1,0 +1,422 @@
+"""The Monte Carlo driver: ``iter_blocks`` (a generator) and ``run`` (drains it).
+
+Work is split into blocks of :data:`~microimpact.engine.plan.BLOCK_SIZE` impacts. Block
+``b`` of sweep point ``p`` draws variable ``v`` from the stream
+``SeedSequence(entropy, spawn_key=(p, b, v))``; blocks are grouped into tasks for the
+workers and their accumulators are merged on the driver in (point, replicate, block)
+order. Hence one seed reproduces a run bit for bit, serially, on a process pool or on
+a Dask cluster, whatever the worker count, and whether or not the run was interrupted
+and resumed from its checkpoint.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import sys
+import time
+import warnings
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._tables import QuantileTable
+from .._validation import check_choice, check_int
+from ..errors import ConvergenceWarning, ScenarioError
+from . import checkpoint as ckpt
+from .accumulators import PointAccumulator
+from .parallel import BACKENDS, make_runner
+from .plan import (
+    BLOCK_SIZE,
+    Plan,
+    SweepPoint,
+    _speed_factor_atoms,
+    convolve_angles,
+)
+from .statistics import wilson_interval, z_value
+
+#: Blocks per task handed to a worker (bits do not depend on it).
+BLOCKS_PER_TASK = 8
+#: Seconds between checkpoint writes.
+CHECKPOINT_INTERVAL = 2.0
+
+
+def resolve_entropy(seed) -> int:
+    """Root entropy: the seed itself, or fresh OS entropy when `seed` is None."""
+    if seed is None:
+        return int(np.random.SeedSequence().entropy)
+    if isinstance(seed, np.random.SeedSequence):
+        return int(seed.entropy)
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
+        raise ValueError(f"`seed` must be an integer >= 0 or None; got {seed!r}.")
+    return int(seed)
+
+
+def _surface_atoms(variant, particle_roughness):
+    if variant.angles is None and particle_roughness is None:
+        return None
+    if variant.angles is None:
+        table = particle_roughness.table()
+    else:
+        table = variant.angles.table()
+        if particle_roughness is not None:
+            table = convolve_angles(table, particle_roughness.table())
+    return table.values
+
+
+def build_plan(scenario, *, seed=None) -> Plan:
+    """Tabulate everything the kernel needs for `scenario` (see :mod:`.plan`)."""
+    entropy = resolve_entropy(scenario.seed if seed is None else seed)
+    table: QuantileTable = scenario.particles.table()
+    diameter = table.values
+    coeffs = scenario.coefficients
+    k1, k2, v_c = (
+        np.broadcast_to(np.asarray(a, dtype=float), diameter.shape)
+        for a in coeffs.evaluate(diameter)
+    )
+    for name, arr in (("k1", k1), ("k2", k2), ("v_c", v_c)):
+        bad = np.isnan(arr) | (arr < 0) | ((name == "v_c") & np.isinf(arr))
+        if np.any(bad):
+            i = int(np.argmax(bad))
+            raise ScenarioError(
+                f"the law gives {arr[i]!r} at diameter {diameter[i] * 1e6:.4g} µm; "
+                "coefficients must be >= 0 (k1, k2 may be inf) over the whole "
+                "particle distribution",
+                source=scenario.source,
+                field=f"coefficients.{name}",
+            )
+    with np.errstate(divide="ignore"):
+        inv_k1 = 1.0 / k1
+        inv_k2 = 1.0 / k2
+    points = tuple(
+        SweepPoint(i, s, variant.name, speed, angle)
+        for i, ((s, variant), speed, angle) in enumerate(
+            itertools.product(
+                enumerate(scenario.surfaces), scenario.speeds_m_s, scenario.angles_deg
+            )
+        )
+    )
+    surface_atoms = tuple(
+        _surface_atoms(v, scenario.particle_roughness) for v in scenario.surfaces
+    )
+    speed_factor = None
+    if scenario.speed_spread > 0:
+        speed_factor = _speed_factor_atoms(float(scenario.speed_spread), table.size)
+    return Plan(
+        entropy=entropy,
+        points=points,
+        diameter=diameter,
+        inv_k1=np.ascontiguousarray(inv_k1),
+        inv_k2=np.ascontiguousarray(inv_k2),
+        v_c=np.ascontiguousarray(v_c),
+        p=float(coeffs.p),
+        q=float(coeffs.q),
+        friction=float(coeffs.friction),
+        speed_factor=speed_factor,
+        surface_atoms=surface_atoms,
+        shadowing=scenario.shadowing,
+        sampling=scenario.sampling,
+        replicates=scenario.qmc_replicates if scenario.sampling == "qmc" else 1,
+        block_size=BLOCK_SIZE,
+        table_bits=table.bits,
+    )
+
+
+@dataclass(frozen=True)
+class BlockResult:
+    """One merged block, as yielded by :func:`iter_blocks`."""
+
+    point: int
+    replicate: int
+    block: int
+    accumulator: PointAccumulator | None  # this block alone (None: restored)
+    total: PointAccumulator  # all blocks of (point, replicate) merged so far
+    done: bool  # no more blocks will follow for (point, replicate)
+
+
+@dataclass
+class _Stream:
+    """Driver-side state of one (point, replicate)."""
+
+    target: int | None  # samples, None = until the precision target
+    max_samples: int
+    next_block: int = 0
+    acc: PointAccumulator | None = None
+    done: bool = False
+
+    def samples_done(self, block_size):
+        return self.acc.n if self.acc is not None else 0
+
+    def block_n(self, b, block_size):
+        cap = self.target if self.target is not None else self.max_samples
+        return min(block_size, cap - b * block_size)
+
+    def n_blocks(self, block_size):
+        cap = self.target if self.target is not None else self.max_samples
+        return math.ceil(cap / block_size)
+
+
+def _converged(acc: PointAccumulator, precision, confidence) -> bool:
+    if acc.n < precision.min_samples:
+        return False
+    stat = precision.statistic
+    if stat == "capture_fraction":
+        lo, hi = wilson_interval(acc.captured, acc.impacts, confidence)
+        hw = (float(hi) - float(lo)) / 2.0
+    else:
+        m = {"e_mean": acc.e_all(), "e_rebound_mean": acc.e, "mu_mean": acc.mu}[stat]
+        hw = z_value(confidence) * math.sqrt(m.variance / m.n) if m.n > 1 else math.inf
+    return hw <= precision.half_width
+
+
+def iter_blocks(
+    scenario,
+    *,
+    samples=None,
+    seed=None,
+    workers=1,
+    backend="process",
+    executor=None,
+    address=None,
+    checkpoint=None,
+    progress=None,
+    plan=None,
+) -> Iterator[BlockResult]:
+    """Run the simulation block by block, yielding each merged block in key order.
+
+    Arguments are those of :func:`run`. Stopping the iteration early leaves the
+    checkpoint (if any) holding everything merged so far.
+    """
+    if samples is not None:
+        samples = check_int(samples, "samples")
+    workers = check_int(workers, "workers")
+    check_choice(backend, "backend", BACKENDS)
+    plan = build_plan(scenario, seed=seed) if plan is None else plan
+    B = plan.block_size
+    precision = scenario.precision if samples is None else None
+    n_target = samples if samples is not None else scenario.samples
+    streams = {
+        key: _Stream(target, cap)
+        for key, (target, cap) in _targets(plan, n_target, precision).items()
+    }
+    fingerprint = _fingerprint(plan, n_target, precision)
+    if checkpoint is not None:
+        saved = ckpt.load(checkpoint, fingerprint) or {}
+        for key, (nxt, acc) in saved.items():
+            if key in streams:
+                st = streams[key]
+                st.next_block, st.acc = nxt, acc
+                st.done = nxt >= st.n_blocks(B) or (
+                    precision is not None
+                    and _converged(acc, precision, scenario.confidence)
+                )
+    for key, st in streams.items():
+        if st.done:  # finished before the interruption: report it as it was
+            yield BlockResult(key[0], key[1], st.next_block - 1, None, st.acc, True)
+    total = None if precision is not None else sum(s.target for s in streams.values())
+    if progress is None:
+        progress = sys.stderr.isatty()
+    bar = None
+    if progress:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(
+            total=total,
+            unit="impacts",
+            unit_scale=True,
+            delay=1.0,
+            desc=scenario.name,
+            leave=False,
+        )
+        bar.update(sum(s.samples_done(B) for s in streams.values()))
+
+    runner = make_runner(
+        plan, workers=workers, backend=backend, executor=executor, address=address
+    )
+    last_save = time.monotonic()
+    try:
+        while True:
+            active = [k for k, s in streams.items() if not s.done]
+            if not active:
+                break
+            per_key = max(1, (runner.workers * 4 * BLOCKS_PER_TASK) // len(active))
+            if precision is not None:
+                per_key = min(per_key, max(1, runner.workers * 2))
+            wave: list[tuple] = []
+            for key in active:
+                st = streams[key]
+                stop = min(st.next_block + per_key, st.n_blocks(B))
+                specs = [
+                    (key[0], key[1], b, st.block_n(b, B))
+                    for b in range(st.next_block, stop)
+                ]
+                for i in range(0, len(specs), BLOCKS_PER_TASK):
+                    wave.append(tuple(specs[i : i + BLOCKS_PER_TASK]))
+            results = runner.map(wave)
+            merged = {}
+            for task, accs in zip(wave, results):
+                for (point, rep, b, _n), acc in zip(task, accs):
+                    merged[(point, rep, b)] = acc
+            for point, rep, b in sorted(merged):
+                st = streams[(point, rep)]
+                if st.done or b != st.next_block:
+                    continue  # after convergence: discarded, deterministically
+                acc = merged[(point, rep, b)]
+                st.acc = acc if st.acc is None else st.acc.merge(acc)
+                st.next_block = b + 1
+                if st.next_block >= st.n_blocks(B):
+                    st.done = True
+                elif precision is not None and _converged(
+                    st.acc, precision, scenario.confidence
+                ):
+                    st.done = True
+                if bar is not None:
+                    bar.update(acc.n)
+                yield BlockResult(point, rep, b, acc, st.acc, st.done)
+            if checkpoint is not None and (
+                time.monotonic() - last_save > CHECKPOINT_INTERVAL
+            ):
+                _save(checkpoint, fingerprint, streams)
+                last_save = time.monotonic()
+    finally:
+        runner.close()
+        if bar is not None:
+            bar.close()
+    if checkpoint is not None:
+        _save(checkpoint, fingerprint, streams)
+    if precision is not None:
+        short = [
+            plan.points[p]
+            for (p, _r), s in streams.items()
+            if not _converged(s.acc, precision, scenario.confidence)
+        ]
+        if short:
+            pts = ", ".join(
+                f"({sp.surface_name}, {sp.speed} m/s, {sp.angle_deg} deg)"
+                for sp in short[:5]
+            )
+            warnings.warn(
+                f"{len(short)} sweep point(s) did not reach the precision target "
+                f"{precision.half_width} on {precision.statistic} within "
+                f"max_samples={precision.max_samples}: {pts}",
+                ConvergenceWarning,
+                stacklevel=2,
+            )
+
+
+def _save(path, fingerprint, streams):
+    state = {k: (s.next_block, s.acc) for k, s in streams.items() if s.acc is not None}
+    ckpt.save(path, fingerprint, state)
+
+
+def run(
+    scenario,
+    *,
+    samples=None,
+    seed=None,
+    workers=1,
+    backend="process",
+    executor=None,
+    address=None,
+    checkpoint=None,
+    progress=None,
+):
+    """Run a Monte Carlo study.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The study (see :class:`microimpact.Scenario`).
+    samples : int, optional
+        Impacts per sweep point; overrides the scenario's count and its precision
+        target.
+    seed : int, optional
+        Root seed; overrides the scenario's. None (and no scenario seed) draws fresh
+        entropy, which is recorded in the result.
+    workers : int, default 1
+        Worker processes (``backend="process"``) or Dask workers for a local
+        cluster (``backend="dask"``).
+    backend : {"process", "dask"}
+    executor : object with ``map``, optional
+        Any pool (``concurrent.futures`` executor, ``multiprocessing.Pool``,
+        emcee-style pool); overrides `workers` and `backend`.
+    address : str, optional
+        Dask scheduler address; None starts a ``LocalCluster``.
+    checkpoint : path, optional
+        File that keeps finished work; re-running with the same arguments resumes.
+    progress : bool, optional
+        Show a progress bar; default: only when stderr is a terminal.
+
+    Returns
+    -------
+    SimulationResult
+    """
+    from .result import SimulationResult
+
+    plan = build_plan(scenario, seed=seed)
+    t0 = time.perf_counter()
+    totals: dict[tuple[int, int], PointAccumulator] = {}
+    for br in iter_blocks(
+        scenario,
+        samples=samples,
+        workers=workers,
+        backend=backend,
+        executor=executor,
+        address=address,
+        checkpoint=checkpoint,
+        progress=progress,
+        plan=plan,
+    ):
+        if br.done:
+            totals[(br.point, br.replicate)] = br.total
+    elapsed = time.perf_counter() - t0
+    return SimulationResult.from_accumulators(
+        scenario,
+        plan,
+        totals,
+        elapsed=elapsed,
+        samples=samples,
+        workers=workers,
+        backend=backend if executor is None else "executor",
+    )
+
+
+def _targets(plan, n_target, precision):
+    """(target samples or None, cap) for every (point, replicate)."""
+    out = {}
+    for sp in plan.points:
+        for rep in range(plan.replicates):
+            if precision is not None:
+                out[(sp.index, rep)] = (None, precision.max_samples)
+            else:
+                per_rep = math.ceil(n_target / plan.replicates)
+                out[(sp.index, rep)] = (per_rep, per_rep)
+    return out
+
+
+def _fingerprint(plan, n_target, precision):
+    targets = _targets(plan, n_target, precision)
+    return ckpt.plan_fingerprint(
+        plan, (targets, None if precision is None else vars(precision))
+    )
+
+
+def sample_point(scenario, point=0, n=4000, *, seed=None, replicate=0):
+    """Per-impact arrays at one sweep point (for inspection and small studies).
+
+    Returns a dict of arrays (``diameter`` [m], ``roughness_angle`` [rad],
+    ``speed`` [m s-1], ``e_m``, ``mu_m``, ``captured``, ``shadowed``, ``reimpact``).
+    The draws are exactly those :func:`run` makes for the same seed and point.
+    """
+    from .kernel import simulate_block
+
+    plan = build_plan(scenario, seed=seed)
+    n = check_int(n, "n")
+    if not 0 <= point < len(plan.points):
+        raise ValueError(f"`point` must be in [0, {len(plan.points)}); got {point!r}.")
+    parts = []
+    for b in range(math.ceil(n / plan.block_size)):
+        m = min(plan.block_size, n - b * plan.block_size)
+        parts.append(simulate_block(plan, point, replicate, b, m, store=True))
+    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}

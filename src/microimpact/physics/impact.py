@@ -1,0 +1,448 @@
+r"""
+The impact of one microsphere on a surface: the paper's Eqs. 1-9.
+
+Two pure, vectorised model functions:
+
+* :func:`rebound` -- the rigid-body impact model of Brach & Dunn (1995, 1998) with the
+  empirical coefficient laws of Li, Dunn & Brach (2000), Eqs. 1-6, in the frame of the
+  surface that is struck.
+* :func:`apparent_rebound` -- the same impact on a facet tilted by the local roughness
+  angle :math:`\phi`, seen in the nominal frame of the apparent surface: Eqs. 7-9.
+
+Frames and signs are set out once in ``docs/conventions.md``; in short:
+
+* ``n`` is the outward normal, so an approaching particle has ``v_n < 0`` and a
+  rebounding one ``V_n > 0``.
+* In :func:`apparent_rebound` the particle travels in the ``-t`` direction, the incidence
+  angle :math:`\theta` is measured from the nominal plane (90 deg is a normal impact),
+  and a facet with :math:`\phi > 0` is tilted away from the particle. The true
+  incidence angle is :math:`\theta' = \theta - \phi`; where :math:`\phi \ge \theta` the
+  facet cannot be reached (``shadowed``).
+* The impulse ratio :math:`\mu = (V_t - v_t)/(V_n - v_n)` is positive where friction
+  opposes the incoming tangential motion.
+* Spin :math:`\omega` is the angular velocity about the axis :math:`n \times t`, so the
+  contact point slips at :math:`v_t - r\omega` (the paper's :math:`\eta` numerator).
+
+Capture rule: the paper's Eq. 5 uses :math:`|v_n - v_c|`, which rises again below
+:math:`v_c` and would let slow particles rebound. We read :math:`v_c` as the largest
+normal speed that is captured: a particle with :math:`|v_n| \le v_c` is captured
+(``e = 0``, ``V_n = V_t = 0``, ``mu = nan``); above it Eq. 5 applies with speeds,
+:math:`\rho = k_2^q / (k_2^q + (|v_n| - v_c)^q)`, which is continuous at
+:math:`|v_n| = v_c` (there :math:`\rho = 1` and :math:`e = 0`).
+
+Elementwise rule for impossible inputs: where a particle is not approaching
+(``v_n >= 0``), where the speed is not positive, where an angle is outside its domain,
+or where any input is NaN, every float output is NaN and every flag is False. Such an
+element never raises in the middle of a vectorised call. Invalid *coefficients*
+(negative or NaN ``k1``, ``k2``, ``v_c``, ``friction < 0``, ``p <= 0``, ``q <= 0``)
+raise ``ValueError`` because they are parameter mistakes, not data.
+
+References
+----------
+.. [1] X. Li, P. F. Dunn and R. M. Brach, "Monte Carlo analysis of polydisperse
+   microparticle impacts with surfaces," *Aerosol Sci. Technol.* 33:376-386, 2000.
+.. [2] R. M. Brach and P. F. Dunn, "Models of rebound and capture for oblique
+   microparticle impacts," *Aerosol Sci. Technol.* 29:379-388, 1998.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._validation import as_float_array, check_nonnegative, check_positive
+
+__all__ = [
+    "ApparentReboundResult",
+    "ReboundResult",
+    "apparent_rebound",
+    "rebound",
+]
+
+#: Ratio of the moment of inertia to m r^2 for a solid sphere.
+SOLID_SPHERE_INERTIA = 2.0 / 5.0
+
+
+@dataclass(frozen=True)
+class ReboundResult:
+    """Outcome of :func:`rebound`, in the frame of the struck surface.
+
+    All fields are ndarrays broadcast to a common shape.
+
+    Attributes
+    ----------
+    R : ndarray
+        Restitution coefficient for internal dissipation, Eq. 4 [-].
+    rho : ndarray
+        Adhesion coefficient, Eq. 5 [-]; 1 where captured.
+    e : ndarray
+        Overall coefficient of restitution ``R (1 - rho)``, Eq. 6 [-]; 0 where captured.
+    V_n, V_t : ndarray
+        Normal and tangential velocity after impact, Eqs. 1-2 [m s-1].
+    mu : ndarray
+        Impulse ratio ``(V_t - v_t)/(V_n - v_n)`` [-]; NaN where captured.
+    mu0 : ndarray
+        Critical impulse ratio for rolling at separation, Eq. 3 [-].
+    rolling : ndarray of bool
+        True where the sphere leaves rolling without sliding (``|mu0| <= friction``).
+    captured : ndarray of bool
+        True where ``|v_n| <= v_c``.
+    spin : ndarray or None
+        Angular velocity after impact about ``n x t`` [rad s-1] for a solid sphere;
+        only when `radius` was given, else None. 0 where captured.
+    """
+
+    R: np.ndarray
+    rho: np.ndarray
+    e: np.ndarray
+    V_n: np.ndarray
+    V_t: np.ndarray
+    mu: np.ndarray
+    mu0: np.ndarray
+    rolling: np.ndarray
+    captured: np.ndarray
+    spin: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class ApparentReboundResult:
+    """Outcome of :func:`apparent_rebound`, seen on the nominal (apparent) surface.
+
+    Attributes
+    ----------
+    e_m : ndarray
+        Apparent (measured) coefficient of restitution ``-V_n/v_n`` in the nominal
+        frame, Eq. 8 [-]. 0 where captured, NaN where shadowed.
+    mu_m : ndarray
+        Apparent impulse ratio in the nominal frame, Eq. 9 [-]. NaN where captured or
+        shadowed.
+    e, mu : ndarray
+        The same coefficients in the facet frame (from :func:`rebound`).
+    captured, shadowed, rolling : ndarray of bool
+        Capture (decided on the true normal speed), facet out of reach (``phi >=
+        theta``), and rolling at separation.
+    reimpact : ndarray of bool
+        True where the rebound still heads into the nominal surface (``V_n < 0`` in
+        the nominal frame), so that a real particle would strike again.
+    V_n, V_t : ndarray
+        Rebound velocity in the nominal frame [m s-1].
+    v_n_true, v_t_true : ndarray
+        Incoming velocity in the facet frame [m s-1].
+    true_incidence_angle_deg : ndarray
+        ``theta - phi`` [deg].
+    spin : ndarray or None
+        Angular velocity after impact [rad s-1] when `radius` was given.
+    """
+
+    e_m: np.ndarray
+    mu_m: np.ndarray
+    e: np.ndarray
+    mu: np.ndarray
+    captured: np.ndarray
+    shadowed: np.ndarray
+    rolling: np.ndarray
+    reimpact: np.ndarray
+    V_n: np.ndarray
+    V_t: np.ndarray
+    v_n_true: np.ndarray
+    v_t_true: np.ndarray
+    true_incidence_angle_deg: np.ndarray
+    spin: np.ndarray | None = None
+
+
+def _coefficients_iv(k1, k2, v_c, p, q, friction, radius, spin):
+    """Validate the coefficient arguments shared by both model functions."""
+    k1 = check_nonnegative(k1, "k1")
+    k2 = check_nonnegative(k2, "k2")
+    v_c = check_nonnegative(v_c, "v_c", allow_inf=False)
+    p = check_positive(p, "p")
+    q = check_positive(q, "q")
+    friction = check_nonnegative(friction, "friction")
+    spin = as_float_array(spin, "spin")
+    if radius is None:
+        if np.any(spin != 0):
+            raise ValueError("`spin` needs `radius`: got spin != 0 and radius=None.")
+    else:
+        radius = check_positive(radius, "radius")
+    return k1, k2, v_c, p, q, friction, radius, spin
+
+
+def _ratio_law(k, x, power):
+    """``k^power / (k^power + x^power)`` written as ``1 / (1 + (x/k)^power)``.
+
+    This form is exact for the limits ``k = 0`` (gives 0 for x > 0) and ``k = inf``
+    (gives 1), and for ``power = 1`` avoids ``pow`` entirely.
+    """
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = x / k
+        if not (np.ndim(power) == 0 and power == 1.0):
+            z = z**power
+        return 1.0 / (1.0 + z)
+
+
+def rebound(
+    v_n,
+    v_t,
+    *,
+    k1,
+    k2,
+    v_c,
+    p=1.0,
+    q=1.0,
+    friction=math.inf,
+    radius=None,
+    spin=0.0,
+) -> ReboundResult:
+    r"""
+    Rebound of a sphere from a surface: the rigid-body model, Eqs. 1-6 of [1]_.
+
+    Parameters
+    ----------
+    v_n : array_like
+        Normal velocity before impact [m s-1]; negative for an approaching particle.
+    v_t : array_like
+        Tangential velocity before impact [m s-1].
+    k1 : array_like
+        Restitution speed scale of Eq. 4 [m s-1]; ``inf`` gives ``R = 1``.
+    k2 : array_like
+        Adhesion speed scale of Eq. 5 [m s-1]; 0 switches adhesion off.
+    v_c : array_like
+        Capture velocity [m s-1]: the largest normal speed that is captured.
+    p, q : float or array_like, default 1.0
+        Exponents of Eqs. 4 and 5 (the paper uses ``p = q = 1``, giving Eq. 6).
+    friction : float or array_like, default inf
+        Coulomb coefficient of friction; ``inf`` means the sphere always leaves
+        rolling.
+    radius : array_like, optional
+        Sphere radius [m]; needed for initial spin and to report the final spin.
+    spin : array_like, default 0.0
+        Angular velocity before impact about ``n x t`` [rad s-1].
+
+    Returns
+    -------
+    ReboundResult
+        ``R``, ``rho``, ``e``, ``V_n``, ``V_t``, ``mu``, ``mu0``, ``rolling``,
+        ``captured`` and ``spin``.
+
+    Notes
+    -----
+    .. math::
+
+        R &= k_1^p / (k_1^p + |v_n|^p)                          && \text{Eq. 4} \\
+        \rho &= k_2^q / (k_2^q + (|v_n| - v_c)^q)               && \text{Eq. 5} \\
+        e &= R (1 - \rho)                                      && \text{Eq. 6} \\
+        V_n &= -e\, v_n                                        && \text{Eq. 1} \\
+        V_t &= v_t - \mu (1 + e) v_n                           && \text{Eq. 2} \\
+        \mu_0 &= 2\eta / [7 (1 + e)],\ \eta = (v_t - r\omega)/v_n && \text{Eq. 3}
+
+    ``mu = mu0`` where ``|mu0| <= friction`` (rolling at separation), else
+    ``mu = sign(mu0) * friction`` (sliding). A particle with ``|v_n| <= v_c`` is
+    captured (see the module docstring for why Eq. 5 alone is not used there).
+
+    The final spin of a solid sphere (moment of inertia ``2/5 m r^2``) follows from the
+    tangential impulse: ``omega' = omega - (5/2) (V_t - v_t) / r``.
+
+    References
+    ----------
+    .. [1] X. Li, P. F. Dunn and R. M. Brach, *Aerosol Sci. Technol.* 33:376-386, 2000.
+    """
+    k1, k2, v_c, p, q, friction, radius, spin = _coefficients_iv(
+        k1, k2, v_c, p, q, friction, radius, spin
+    )
+    v_n = as_float_array(v_n, "v_n")
+    v_t = as_float_array(v_t, "v_t")
+    arrays = [v_n, v_t, k1, k2, v_c, p, q, friction, spin]
+    if radius is not None:
+        arrays.append(radius)
+    arrays = np.broadcast_arrays(*arrays)
+    v_n, v_t, k1, k2, v_c, p, q, friction, spin = arrays[:9]
+    r = arrays[9] if radius is not None else None
+
+    speed_n = np.abs(v_n)
+    valid = v_n < 0  # approaching; False for NaN
+    valid &= np.isfinite(v_t) & np.isfinite(spin)
+    captured = valid & (speed_n <= v_c)
+    rebounds = valid & ~captured
+
+    with np.errstate(divide="ignore", invalid="ignore"):
+        R = _ratio_law(k1, speed_n, p)  # [1], Eq. 4
+        rho = _ratio_law(k2, speed_n - v_c, q)  # [1], Eq. 5 (speeds; see docstring)
+        rho = np.where(captured, 1.0, rho)
+        e = R * (1.0 - rho)  # [1], Eq. 6
+        e = np.where(captured, 0.0, e)
+        slip = v_t if r is None else v_t - r * spin
+        eta = slip / v_n  # [1], Eq. 3
+        mu0 = 2.0 * eta / (7.0 * (1.0 + e))  # [1], Eq. 3
+        rolling = rebounds & (np.abs(mu0) <= friction)
+        mu = np.where(rolling, mu0, np.sign(mu0) * friction)
+        V_n = -e * v_n  # [1], Eq. 1
+        V_t = v_t - mu * (1.0 + e) * v_n  # [1], Eq. 2
+        final_spin = None
+        if r is not None:
+            dV_t = V_t - v_t
+            # Angular impulse about the centre: I (omega' - omega) = -r m dV_t with
+            # I = (2/5) m r^2, so omega' = omega - dV_t / ((2/5) r).
+            final_spin = spin - dV_t / (SOLID_SPHERE_INERTIA * r)
+
+    nan = np.nan
+    R = np.where(valid, R, nan)
+    rho = np.where(valid, rho, nan)
+    e = np.where(valid, e, nan)
+    mu0 = np.where(valid, mu0, nan)
+    mu = np.where(rebounds, mu, nan)
+    V_n = np.where(rebounds, V_n, np.where(captured, 0.0, nan))
+    V_t = np.where(rebounds, V_t, np.where(captured, 0.0, nan))
+    if final_spin is not None:
+        final_spin = np.where(rebounds, final_spin, np.where(captured, 0.0, nan))
+        final_spin = final_spin[()]
+
+    return ReboundResult(
+        R=R[()],
+        rho=rho[()],
+        e=e[()],
+        V_n=V_n[()],
+        V_t=V_t[()],
+        mu=mu[()],
+        mu0=mu0[()],
+        rolling=rolling[()],
+        captured=captured[()],
+        spin=final_spin,
+    )
+
+
+def apparent_rebound(
+    speed,
+    incidence_angle_deg,
+    roughness_angle_deg,
+    *,
+    k1,
+    k2,
+    v_c,
+    p=1.0,
+    q=1.0,
+    friction=math.inf,
+    radius=None,
+    spin=0.0,
+) -> ApparentReboundResult:
+    r"""
+    Impact on a rough surface's local facet, seen on the nominal surface: Eqs. 7-9.
+
+    The incoming particle travels in the ``-t`` direction at `speed`, at the apparent
+    incidence angle :math:`\theta` from the nominal plane. It strikes a facet tilted by
+    the roughness angle :math:`\phi`, so the true incidence angle is
+    :math:`\theta' = \theta - \phi`. The impact is computed in the facet frame with
+    :func:`rebound` (capture decided on the true normal speed) and rotated back to the
+    nominal frame with Eq. 7.
+
+    Parameters
+    ----------
+    speed : array_like
+        Incident speed [m s-1], > 0.
+    incidence_angle_deg : array_like
+        Apparent incidence angle from the nominal plane [deg], in (0, 90]; 90 is normal.
+    roughness_angle_deg : array_like
+        Local facet angle :math:`\phi` [deg], in (-90, 90). Positive: tilted away from
+        the particle; negative: facing it.
+    k1, k2, v_c, p, q, friction, radius, spin
+        As in :func:`rebound`.
+
+    Returns
+    -------
+    ApparentReboundResult
+
+    Notes
+    -----
+    With :math:`v_{n'} = -s\sin\theta'`, :math:`v_{t'} = -s\cos\theta'`,
+
+    .. math::
+
+        e_m &= \frac{e - \tan\phi\, V_{t'}/v_{n'}}{1 + \tan\phi\, v_{t'}/v_{n'}}
+            && \text{Eq. 8} \\
+        \mu_m &= \frac{\mu - \tan\phi}{\mu\tan\phi + 1} && \text{Eq. 9}
+
+    which are exactly ``-V_n/v_n`` and ``(V_t - v_t)/(V_n - v_n)`` after the rotation
+    of Eq. 7. Shadowed elements (``phi >= theta``) are NaN with ``shadowed = True``.
+    A captured particle has ``e_m = 0`` and ``mu_m = nan``.
+    """
+    speed = as_float_array(speed, "speed")
+    theta_deg = as_float_array(incidence_angle_deg, "incidence_angle_deg")
+    phi_deg = as_float_array(roughness_angle_deg, "roughness_angle_deg")
+    speed, theta_deg, phi_deg = np.broadcast_arrays(speed, theta_deg, phi_deg)
+
+    in_domain = (
+        (speed > 0)
+        & np.isfinite(speed)
+        & (theta_deg > 0)
+        & (theta_deg <= 90)
+        & (np.abs(phi_deg) < 90)
+    )
+    theta = np.deg2rad(theta_deg)
+    phi = np.deg2rad(phi_deg)
+    true_angle = theta - phi  # theta' = theta - phi
+    shadowed = in_domain & (true_angle <= 0)
+    reachable = in_domain & ~shadowed
+
+    # Incoming velocity in the facet frame (n', t').
+    with np.errstate(invalid="ignore"):
+        v_n_true = np.where(reachable, -speed * np.sin(true_angle), np.nan)
+        v_t_true = np.where(reachable, -speed * np.cos(true_angle), np.nan)
+
+    facet = rebound(
+        v_n_true,
+        v_t_true,
+        k1=k1,
+        k2=k2,
+        v_c=v_c,
+        p=p,
+        q=q,
+        friction=friction,
+        radius=radius,
+        spin=spin,
+    )
+    shape = np.broadcast_shapes(np.shape(facet.e), speed.shape)
+    e = np.broadcast_to(facet.e, shape)
+    mu = np.broadcast_to(facet.mu, shape)
+    captured = np.broadcast_to(facet.captured, shape)
+    phi_b = np.broadcast_to(phi, shape)
+    v_n_true = np.broadcast_to(v_n_true, shape)
+    v_t_true = np.broadcast_to(v_t_true, shape)
+
+    cos_phi, sin_phi = np.cos(phi_b), np.sin(phi_b)
+    tan_phi = np.tan(phi_b)
+    V_n_true = np.broadcast_to(facet.V_n, shape)
+    V_t_true = np.broadcast_to(facet.V_t, shape)
+
+    with np.errstate(divide="ignore", invalid="ignore"):
+        # [1], Eq. 7: nominal components from the facet (actual) components.
+        V_n = cos_phi * V_n_true + sin_phi * V_t_true
+        V_t = -sin_phi * V_n_true + cos_phi * V_t_true
+        # [1], Eq. 8
+        e_m = (e - tan_phi * V_t_true / v_n_true) / (
+            1.0 + tan_phi * v_t_true / v_n_true
+        )
+        # [1], Eq. 9
+        mu_m = (mu - tan_phi) / (mu * tan_phi + 1.0)
+    e_m = np.where(captured, 0.0, e_m)
+    reimpact = ~captured & (V_n < 0)  # NaN compares False
+
+    shadow_b = np.broadcast_to(shadowed, shape)
+    return ApparentReboundResult(
+        e_m=e_m[()],
+        mu_m=mu_m[()],
+        e=np.array(e)[()],
+        mu=np.array(mu)[()],
+        captured=np.array(captured)[()],
+        shadowed=np.array(shadow_b)[()],
+        rolling=np.array(np.broadcast_to(facet.rolling, shape))[()],
+        reimpact=reimpact[()],
+        V_n=V_n[()],
+        V_t=V_t[()],
+        v_n_true=np.array(v_n_true)[()],
+        v_t_true=np.array(v_t_true)[()],
+        true_incidence_angle_deg=np.where(
+            in_domain, np.broadcast_to(np.rad2deg(true_angle), shape), np.nan
+        )[()],
+        spin=facet.spin,
+    )

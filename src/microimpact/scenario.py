@@ -1,0 +1,318 @@
+"""Scenarios: a complete, validated description of a Monte Carlo study.
+
+A :class:`Scenario` holds model objects (a size distribution, the coefficient laws,
+roughness-angle distributions) rather than raw numbers, so it can be built in Python
+as easily as loaded from a TOML file with :meth:`Scenario.from_toml` (see
+``docs/scenarios.md`` for every key). Validation happens in ``__post_init__`` and
+raises :class:`~microimpact.errors.ScenarioError` naming the field, the value and what
+is allowed.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .errors import ScenarioError
+
+SHADOWING_OPTIONS = ("reject", "weighted", "none")
+SAMPLING_OPTIONS = ("mc", "qmc")
+PRECISION_STATISTICS = ("capture_fraction", "e_mean", "e_rebound_mean", "mu_mean")
+
+
+@dataclass(frozen=True)
+class SurfaceVariant:
+    """A named surface: a roughness-angle distribution, or None for molecularly
+    smooth (phi = 0 exactly)."""
+
+    name: str
+    angles: Any = None
+
+    @property
+    def smooth(self) -> bool:
+        return self.angles is None
+
+    def describe(self) -> dict:
+        if self.angles is None:
+            return {"name": self.name, "kind": "smooth"}
+        d = dict(self.angles.describe())
+        d["name"] = self.name
+        return d
+
+
+@dataclass(frozen=True)
+class Precision:
+    """Automatic sample size: stop a sweep point once the confidence-interval
+    half-width of `statistic` is at most `half_width` (or `max_samples` is reached).
+    """
+
+    statistic: str = "capture_fraction"
+    half_width: float = 0.01
+    max_samples: int = 10_000_000
+    min_samples: int = 1000
+
+    def __post_init__(self):
+        if self.statistic not in PRECISION_STATISTICS:
+            raise ScenarioError(
+                f"must be one of {', '.join(PRECISION_STATISTICS)}; "
+                f"got {self.statistic!r}",
+                field="precision.statistic",
+            )
+        if not (isinstance(self.half_width, int | float) and self.half_width > 0):
+            raise ScenarioError(
+                f"must be a number > 0; got {self.half_width!r}",
+                field="precision.half_width",
+            )
+        for name in ("max_samples", "min_samples"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+                raise ScenarioError(
+                    f"must be an integer >= 1; got {v!r}", field=f"precision.{name}"
+                )
+
+
+def _positive_tuple(values, name, *, lo=0.0, hi=math.inf, hi_inclusive=False):
+    try:
+        arr = np.atleast_1d(np.asarray(values, dtype=float))
+    except (TypeError, ValueError):
+        raise ScenarioError(f"must be numbers; got {values!r}", field=name) from None
+    if arr.ndim != 1 or arr.size == 0:
+        raise ScenarioError(f"must be a non-empty list; got {values!r}", field=name)
+    for v in arr:
+        ok = np.isfinite(v) and v > lo and (v <= hi if hi_inclusive else v < hi)
+        if not ok:
+            rng = f"({lo}, {hi}{']' if hi_inclusive else ')'}"
+            raise ScenarioError(f"value {v!r} is outside {rng}", field=name)
+    return tuple(float(v) for v in arr)
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A Monte Carlo study.
+
+    Parameters
+    ----------
+    name : str
+        Short identifier (used in output folder and file names).
+    particles : SizeDistribution
+        Particle diameter distribution (anything with ``table()`` and
+        ``describe()``).
+    coefficients : ImpactCoefficients
+        k1(d), k2(d), v_c(d) laws, the exponents p, q and the friction coefficient
+        (anything with ``evaluate(diameter)``, ``p``, ``q``, ``friction``,
+        ``describe()``).
+    speeds_m_s : sequence of float
+        Nominal incident speeds [m s-1].
+    angles_deg : sequence of float
+        Apparent incidence angles from the nominal plane [deg], in (0, 90].
+    surfaces : sequence of SurfaceVariant
+        Surfaces simulated side by side (default: one molecularly smooth surface).
+    particle_roughness : AngleDistribution, optional
+        The particle's own roughness angle; it adds to the surface's.
+    speed_spread : float
+        Relative standard deviation of the incident speed (normal, truncated to
+        (0, 2) times the nominal speed); 0 for a constant speed.
+    samples : int
+        Impacts per sweep point (the paper used 4,000).
+    precision : Precision, optional
+        Automatic sample size instead of `samples`.
+    shadowing : {"reject", "weighted", "none"}
+    seed : int, optional
+        Root seed; None draws fresh entropy (recorded in the results).
+    sampling : {"mc", "qmc"}
+        Plain Monte Carlo or randomised scrambled-Sobol quasi-Monte Carlo.
+    qmc_replicates : int
+        Independent scrambles for QMC error bars.
+    confidence : float
+        Confidence level of every reported interval.
+    reference_angle_deg : float, optional
+        Angle for the paper's relative coefficients ``e - e(ref)``.
+    capture_quantiles : sequence of float
+        Capture fractions at which the capture speed is reported.
+    """
+
+    name: str
+    particles: Any
+    coefficients: Any
+    speeds_m_s: tuple = (1.0,)
+    angles_deg: tuple = (90.0,)
+    surfaces: tuple = (SurfaceVariant("smooth"),)
+    particle_roughness: Any = None
+    speed_spread: float = 0.0
+    samples: int = 4000
+    precision: Precision | None = None
+    shadowing: str = "reject"
+    seed: int | None = None
+    sampling: str = "mc"
+    qmc_replicates: int = 8
+    confidence: float = 0.95
+    reference_angle_deg: float | None = 85.0
+    capture_quantiles: tuple = (0.5,)
+    description: str = ""
+    source: str | None = None
+    config: dict = field(default_factory=dict, compare=False, repr=False)
+    experiments: tuple = field(default=(), compare=False, repr=False)
+
+    def __post_init__(self):
+        set_ = object.__setattr__
+        if not isinstance(self.name, str) or not self.name.strip():
+            raise ScenarioError(
+                f"must be a non-empty string; got {self.name!r}",
+                source=self.source,
+                field="name",
+            )
+        for obj, attr, needs in (
+            (self.particles, "particles", ("table", "describe")),
+            (self.coefficients, "coefficients", ("evaluate", "describe")),
+        ):
+            missing = [m for m in needs if not hasattr(obj, m)]
+            if missing:
+                raise ScenarioError(
+                    f"{type(obj).__name__} lacks {', '.join(missing)}",
+                    source=self.source,
+                    field=attr,
+                )
+        try:
+            set_(self, "speeds_m_s", _positive_tuple(self.speeds_m_s, "speed_m_s"))
+            set_(
+                self,
+                "angles_deg",
+                _positive_tuple(
+                    self.angles_deg, "angle_deg", hi=90.0, hi_inclusive=True
+                ),
+            )
+        except ScenarioError as err:
+            raise ScenarioError(
+                err.message, source=self.source, field=f"sweep.{err.field}"
+            ) from None
+        surfaces = tuple(self.surfaces)
+        if not surfaces or not all(isinstance(s, SurfaceVariant) for s in surfaces):
+            raise ScenarioError(
+                "must be a non-empty sequence of SurfaceVariant",
+                source=self.source,
+                field="surfaces",
+            )
+        names = [s.name for s in surfaces]
+        if len(set(names)) != len(names):
+            raise ScenarioError(
+                f"surface names must be unique; got {names}",
+                source=self.source,
+                field="surfaces",
+            )
+        set_(self, "surfaces", surfaces)
+        checks = [
+            (
+                "shadowing",
+                self.shadowing in SHADOWING_OPTIONS,
+                f"one of {', '.join(SHADOWING_OPTIONS)}",
+            ),
+            (
+                "sampling",
+                self.sampling in SAMPLING_OPTIONS,
+                f"one of {', '.join(SAMPLING_OPTIONS)}",
+            ),
+            (
+                "samples",
+                isinstance(self.samples, int)
+                and not isinstance(self.samples, bool)
+                and self.samples >= 1,
+                "an integer >= 1",
+            ),
+            (
+                "qmc_replicates",
+                isinstance(self.qmc_replicates, int)
+                and not isinstance(self.qmc_replicates, bool)
+                and self.qmc_replicates >= 2,
+                "an integer >= 2",
+            ),
+            (
+                "speed_spread",
+                isinstance(self.speed_spread, int | float)
+                and 0 <= self.speed_spread <= 0.5,
+                "a number in [0, 0.5]",
+            ),
+            (
+                "confidence",
+                isinstance(self.confidence, float) and 0 < self.confidence < 1,
+                "a number in (0, 1)",
+            ),
+            (
+                "seed",
+                self.seed is None
+                or (
+                    isinstance(self.seed, int)
+                    and not isinstance(self.seed, bool)
+                    and self.seed >= 0
+                ),
+                "an integer >= 0 or omitted",
+            ),
+        ]
+        for key, ok, allowed in checks:
+            if not ok:
+                raise ScenarioError(
+                    f"must be {allowed}; got {getattr(self, key)!r}",
+                    source=self.source,
+                    field=key,
+                )
+        if self.precision is not None and self.sampling == "qmc":
+            raise ScenarioError(
+                "a precision target needs sampling = 'mc' (QMC error bars come from a "
+                "fixed number of replicates)",
+                source=self.source,
+                field="precision",
+            )
+        qs = tuple(float(q) for q in np.atleast_1d(self.capture_quantiles))
+        if not all(0 < q < 1 for q in qs):
+            raise ScenarioError(
+                f"must be in (0, 1); got {list(qs)}",
+                source=self.source,
+                field="capture_quantiles",
+            )
+        set_(self, "capture_quantiles", qs)
+
+    @classmethod
+    def from_toml(cls, path) -> Scenario:
+        """Load and validate a scenario file (see ``docs/scenarios.md``)."""
+        from .config import scenario_from_toml
+
+        return scenario_from_toml(Path(path))
+
+    @classmethod
+    def from_preset(cls, name: str) -> Scenario:
+        """One of the shipped presets reproducing the paper (see ``docs/presets.md``)."""
+        from .config import load_preset
+
+        return load_preset(name)
+
+    def with_options(self, **changes) -> Scenario:
+        """A copy with some fields changed (validated again)."""
+        return replace(self, **changes)
+
+    def describe(self) -> dict:
+        """Plain-data description for provenance."""
+        return {
+            "name": self.name,
+            "description": self.description,
+            "particles": self.particles.describe(),
+            "coefficients": self.coefficients.describe(),
+            "surfaces": [s.describe() for s in self.surfaces],
+            "particle_roughness": None
+            if self.particle_roughness is None
+            else self.particle_roughness.describe(),
+            "speeds_m_s": list(self.speeds_m_s),
+            "angles_deg": list(self.angles_deg),
+            "speed_spread": self.speed_spread,
+            "samples": self.samples,
+            "precision": None if self.precision is None else vars(self.precision),
+            "shadowing": self.shadowing,
+            "seed": self.seed,
+            "sampling": self.sampling,
+            "qmc_replicates": self.qmc_replicates,
+            "confidence": self.confidence,
+            "reference_angle_deg": self.reference_angle_deg,
+            "source": self.source,
+        }
