@@ -1,9 +1,9 @@
 """Exception and warning types that callers may want to catch.
 
-Every user mistake (a bad scenario key, a malformed data file, a bad CLI flag) raises
-:class:`InputError`, a :class:`ValueError`. Its message names the file, the field or line,
-the bad value and what is allowed. The CLI turns it into a one-line message and exit
-code 2, never a traceback.
+Every user mistake (a bad scenario key, a malformed data file, a bad CLI flag)
+raises :class:`InputError`, a :class:`ValueError`. Its message names the file, the
+field or line, the bad value and what is allowed. The CLI turns it into a one-line
+message and exit code 2, never a traceback.
 """
 
 from __future__ import annotations

@@ -283,7 +283,7 @@ class Scenario:
 
     @classmethod
     def from_preset(cls, name: str) -> Scenario:
-        """One of the shipped presets reproducing the paper (see ``docs/presets.md``)."""
+        """A shipped preset reproducing the paper (see ``docs/presets.md``)."""
         from .config import load_preset
 
         return load_preset(name)

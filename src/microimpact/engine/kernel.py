@@ -7,7 +7,8 @@ and ``i`` the diameter atom:
 
 .. math::
 
-    u &= s\,\sin(\theta-\phi_j) = |v_{n'}|, \qquad c = \cot(\theta-\phi_j) = v_{t'}/v_{n'} \\
+    u &= s\,\sin(\theta-\phi_j) = |v_{n'}|, \qquad
+    c = \cot(\theta-\phi_j) = v_{t'}/v_{n'} \\
     R &= 1/(1 + (u/k_1)^p)                                  && \text{Eq. 4} \\
     \rho &= 1/(1 + ((u - v_c)/k_2)^q), \quad
         \text{captured if } u \le v_c                       && \text{Eq. 5} \\
@@ -96,7 +97,8 @@ def simulate_block(
         variables.append(VAR_ANGLE)
     if plan.speed_factor is not None:
         variables.append(VAR_SPEED)
-    idx = dict(zip(variables, _draw_indices(plan, point, rep, block, n, variables)))
+    draws = _draw_indices(plan, point, rep, block, n, variables)
+    idx = dict(zip(variables, draws, strict=True))
 
     i_d = idx[VAR_DIAMETER]
     inv_k1 = plan.inv_k1[i_d]

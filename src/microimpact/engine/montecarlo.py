@@ -255,8 +255,8 @@ def iter_blocks(
                     wave.append(tuple(specs[i : i + BLOCKS_PER_TASK]))
             results = runner.map(wave)
             merged = {}
-            for task, accs in zip(wave, results):
-                for (point, rep, b, _n), acc in zip(task, accs):
+            for task, accs in zip(wave, results, strict=True):
+                for (point, rep, b, _n), acc in zip(task, accs, strict=True):
                     merged[(point, rep, b)] = acc
             for point, rep, b in sorted(merged):
                 st = streams[(point, rep)]

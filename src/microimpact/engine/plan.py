@@ -5,11 +5,11 @@ Every random input is an equiprobable :class:`~microimpact._tables.QuantileTable
 64-bit random integer, and everything that depends only on the drawn value is
 tabulated on the same atoms:
 
-* the diameter atoms ``d_j`` give ``1/k1(d_j)``, ``1/k2(d_j)`` and ``v_c(d_j)``
+* the diameter atoms ``d_j`` give ``1/k1(d_j)``, ``1/k2(d_j)``, ``v_c(d_j)``
   (the coefficient laws are evaluated 65,536 times per run, not once per impact);
 * the roughness-angle atoms ``phi_j`` give, for each apparent angle ``theta`` of the
-  sweep, ``sin(theta - phi_j)``, ``cot(theta - phi_j)`` and ``tan(phi_j)``, so the kernel
-  computes no trigonometric function at all.
+  sweep, ``sin(theta - phi_j)``, ``cot(theta - phi_j)`` and ``tan(phi_j)``, so the
+  kernel computes no trigonometric function at all.
 
 Shadowing is applied to the angle table of each sweep angle, exactly and without
 rejection loops (which keeps quasi-Monte Carlo structure intact):

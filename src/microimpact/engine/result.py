@@ -203,8 +203,8 @@ class SimulationResult:
         mu_h = np.stack(
             [self.accumulators[i].mu_hist for i in range(len(self.summary))]
         )
-        data_vars["e_hist"] = (dims + ("e_bin",), e_h[:, 1:-1].reshape(*shape, -1))
-        data_vars["mu_hist"] = (dims + ("mu_bin",), mu_h[:, 1:-1].reshape(*shape, -1))
+        data_vars["e_hist"] = ((*dims, "e_bin"), e_h[:, 1:-1].reshape(*shape, -1))
+        data_vars["mu_hist"] = ((*dims, "mu_bin"), mu_h[:, 1:-1].reshape(*shape, -1))
         for nm, h in (("e", e_h), ("mu", mu_h)):
             data_vars[f"{nm}_hist_underflow"] = (dims, h[:, 0].reshape(shape))
             data_vars[f"{nm}_hist_overflow"] = (dims, h[:, -1].reshape(shape))
@@ -241,7 +241,8 @@ class SimulationResult:
         ds.attrs.update(
             {
                 "title": f"microimpact Monte Carlo results: {sc.name}",
-                "references": "Li, Dunn & Brach (2000), Aerosol Sci. Technol. 33:376-386",
+                "references": "Li, Dunn & Brach (2000), "
+                "Aerosol Sci. Technol. 33:376-386",
                 "scenario": json.dumps(p["scenario"], default=str),
                 "seed_entropy": p["seed_entropy"],
                 "versions": json.dumps(p["versions"]),

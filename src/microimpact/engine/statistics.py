@@ -92,7 +92,7 @@ def point_row(acc: PointAccumulator, confidence: float) -> dict:
         ("mu", acc.mu_hist, MU_EDGES),
     ):
         qs = histogram_quantile(hist, edges, QUANTILES)
-        for qv, val in zip(QUANTILES, qs):
+        for qv, val in zip(QUANTILES, qs, strict=True):
             row[f"{name}_p{round(qv * 100):02d}"] = float(val)
     return row
 

@@ -13,11 +13,11 @@ Frames and signs are set out once in ``docs/conventions.md``; in short:
 
 * ``n`` is the outward normal, so an approaching particle has ``v_n < 0`` and a
   rebounding one ``V_n > 0``.
-* In :func:`apparent_rebound` the particle travels in the ``-t`` direction, the incidence
-  angle :math:`\theta` is measured from the nominal plane (90 deg is a normal impact),
-  and a facet with :math:`\phi > 0` is tilted away from the particle. The true
-  incidence angle is :math:`\theta' = \theta - \phi`; where :math:`\phi \ge \theta` the
-  facet cannot be reached (``shadowed``).
+* In :func:`apparent_rebound` the particle travels in the ``-t`` direction, the
+  incidence angle :math:`\theta` is measured from the nominal plane (90 deg is a
+  normal impact), and a facet with :math:`\phi > 0` is tilted away from the
+  particle. The true incidence angle is :math:`\theta' = \theta - \phi`; where
+  :math:`\phi \ge \theta` the facet cannot be reached (``shadowed``).
 * The impulse ratio :math:`\mu = (V_t - v_t)/(V_n - v_n)` is positive where friction
   opposes the incoming tangential motion.
 * Spin :math:`\omega` is the angular velocity about the axis :math:`n \times t`, so the
