@@ -280,11 +280,13 @@ def iter_blocks(
                 _save(checkpoint, fingerprint, streams)
                 last_save = time.monotonic()
     finally:
+        # normal end, an exception, Ctrl-C or the caller closing the generator: keep
+        # everything merged so far (the state is consistent between two yields)
+        if checkpoint is not None:
+            _save(checkpoint, fingerprint, streams)
         runner.close()
         if bar is not None:
             bar.close()
-    if checkpoint is not None:
-        _save(checkpoint, fingerprint, streams)
     if precision is not None:
         short = [
             plan.points[p]

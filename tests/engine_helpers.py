@@ -1,0 +1,76 @@
+"""Small test doubles for engine tests: any object with ``table()`` and ``describe()``
+is a distribution for the engine, and any object with ``evaluate(d)``, ``p``, ``q``,
+``friction`` and ``describe()`` is a set of coefficient laws."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+
+from microimpact._tables import QuantileTable
+from microimpact.scenario import Scenario, SurfaceVariant
+
+
+@dataclass(frozen=True)
+class FrozenDist:
+    dist: object
+
+    def table(self):
+        return QuantileTable.from_ppf(self.dist.ppf)
+
+    def describe(self):
+        return {"kind": "test", "repr": repr(self.dist)}
+
+
+@dataclass(frozen=True)
+class PowerCoefficients:
+    """k1, k2 constant; v_c = vc_ref (d / d_ref)^b."""
+
+    k1: float = 5.0
+    k2: float = 0.05
+    vc_ref: float = 0.2
+    b: float = -1.0
+    d_ref: float = 50e-6
+    p: float = 1.0
+    q: float = 1.0
+    friction: float = math.inf
+
+    def v_c(self, d):
+        return self.vc_ref * (np.asarray(d) / self.d_ref) ** self.b
+
+    def evaluate(self, d):
+        d = np.asarray(d, dtype=float)
+        return np.full_like(d, self.k1), np.full_like(d, self.k2), self.v_c(d)
+
+    def describe(self):
+        return {"k1": self.k1}
+
+
+def normal_diameters(mean_um=52.8, std_um=15.3):
+    mean, std = mean_um * 1e-6, std_um * 1e-6
+    return FrozenDist(stats.truncnorm(-mean / std, np.inf, loc=mean, scale=std))
+
+
+def normal_angles(std_deg, mean_deg=0.0):
+    return FrozenDist(stats.norm(np.deg2rad(mean_deg), np.deg2rad(std_deg)))
+
+
+def scenario(**kw):
+    base = dict(
+        name="test",
+        particles=normal_diameters(),
+        coefficients=PowerCoefficients(),
+        speeds_m_s=(0.2,),
+        angles_deg=(90.0,),
+        surfaces=(SurfaceVariant("smooth"),),
+        seed=12345,
+    )
+    base.update(kw)
+    return Scenario(**base)
+
+
+def rough(std_deg=10.0, mean_deg=0.0, name="rough"):
+    return SurfaceVariant(name, normal_angles(std_deg, mean_deg))

@@ -1,0 +1,333 @@
+"""Monte Carlo engine against independent oracles: closed forms, quadrature of the
+same expectations, the reference physics function, and invariants."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from engine_helpers import PowerCoefficients, normal_diameters, rough, scenario
+from numpy.testing import assert_allclose, assert_array_equal
+from scipy import integrate, stats
+
+import microimpact as mi
+from microimpact.engine import montecarlo
+from microimpact.engine.accumulators import Moments, PointAccumulator
+from microimpact.engine.montecarlo import build_plan, iter_blocks, run, sample_point
+from microimpact.errors import ScenarioError
+
+K = 4.0  # statistical assertions sit within K standard errors
+
+
+# --------------------------------------------------------------------- kernel
+@pytest.mark.parametrize(
+    "coeffs, shadowing, angle",
+    [
+        (PowerCoefficients(), "none", 30.0),
+        (PowerCoefficients(friction=0.15, p=1.7, q=0.6), "none", 20.0),
+        (PowerCoefficients(friction=0.3, k2=0.2, b=-1.5), "reject", 60.0),
+        (PowerCoefficients(friction=0.05), "weighted", 12.0),
+    ],
+)
+def test_kernel_matches_reference_physics(coeffs, shadowing, angle):
+    """Every impact the kernel computes equals microimpact.apparent_rebound."""
+    sc = scenario(
+        coefficients=coeffs,
+        surfaces=(rough(15.0, 3.0),),
+        speeds_m_s=(0.35,),
+        angles_deg=(angle,),
+        shadowing=shadowing,
+        speed_spread=0.1,
+    )
+    s = sample_point(sc, 0, 40_000)
+    k1, k2, v_c = coeffs.evaluate(s["diameter"])
+    ref = mi.apparent_rebound(
+        s["speed"],
+        angle,
+        np.rad2deg(s["roughness_angle"]),
+        k1=k1,
+        k2=k2,
+        v_c=v_c,
+        p=coeffs.p,
+        q=coeffs.q,
+        friction=coeffs.friction,
+    )
+    assert_array_equal(s["shadowed"], ref.shadowed)
+    assert_array_equal(s["captured"], ref.captured)
+    assert_array_equal(s["reimpact"], ref.reimpact)
+    assert_allclose(s["e_m"], ref.e_m, rtol=1e-11, atol=1e-13, equal_nan=True)
+    assert_allclose(s["mu_m"], ref.mu_m, rtol=1e-11, atol=1e-13, equal_nan=True)
+    if shadowing != "none":
+        assert not s["shadowed"].any()
+    else:
+        assert s["shadowed"].any()
+    assert s["captured"].any() and (~s["captured"]).any()
+
+
+def test_smooth_surface_gives_the_smooth_model():
+    """phi = 0: e_m = e and mu_m = mu of rebound(), and 0 <= e <= 1."""
+    coeffs = PowerCoefficients(friction=0.2)
+    sc = scenario(coefficients=coeffs, speeds_m_s=(0.5,), angles_deg=(40.0,))
+    s = sample_point(sc, 0, 20_000)
+    k1, k2, v_c = coeffs.evaluate(s["diameter"])
+    th = np.deg2rad(40.0)
+    ref = mi.rebound(
+        -0.5 * np.sin(th), -0.5 * np.cos(th), k1=k1, k2=k2, v_c=v_c, friction=0.2
+    )
+    assert_allclose(s["e_m"], ref.e, rtol=1e-13)
+    assert_allclose(s["mu_m"], ref.mu, rtol=1e-13, equal_nan=True)
+    assert np.all((s["e_m"] >= 0) & (s["e_m"] <= 1))
+
+
+# --------------------------------------------------------------------- oracles
+@pytest.mark.parametrize("speed", [0.12, 0.2, 0.3])
+def test_capture_fraction_closed_form(speed):
+    """Normal diameters, power-law v_c, normal incidence: P(capture) =
+    P(v_c(d) >= v) = F_D(v_c^{-1}(v)) (v_c decreasing in d)."""
+    coeffs = PowerCoefficients(vc_ref=0.2, b=-1.2)
+    sc = scenario(coefficients=coeffs, speeds_m_s=(speed,), samples=50_000)
+    row = run(sc).summary.iloc[0]
+    d_star = coeffs.d_ref * (speed / coeffs.vc_ref) ** (1.0 / coeffs.b)
+    mean, std = 52.8e-6, 15.3e-6
+    dist = stats.truncnorm(-mean / std, np.inf, loc=mean, scale=std)
+    exact = dist.cdf(d_star)
+    se = math.sqrt(exact * (1 - exact) / row["n"])
+    assert abs(row["capture_fraction"] - exact) < K * se + 1e-4
+    assert row["capture_ci_low"] <= exact + 1e-4
+    assert exact - 1e-4 <= row["capture_ci_high"]
+
+
+def _quadrature_e_mean(coeffs, speed, angle_deg, std_deg, shadowing):
+    """E[e_m] over diameter x roughness angle by 2-D quadrature of the reference
+    physics (captured counted as 0), for a normal angle distribution."""
+    mean, std = 52.8e-6, 15.3e-6
+    ddist = stats.truncnorm(-mean / std, np.inf, loc=mean, scale=std)
+    adist = stats.norm(0.0, np.deg2rad(std_deg))
+    theta = np.deg2rad(angle_deg)
+    # Gauss-Legendre grids on the bulk of each distribution
+    xd, wd = np.polynomial.legendre.leggauss(200)
+    d_lo, d_hi = ddist.ppf(1e-9), ddist.ppf(1 - 1e-9)
+    d = 0.5 * (d_hi - d_lo) * xd + 0.5 * (d_hi + d_lo)
+    wd = wd * 0.5 * (d_hi - d_lo) * ddist.pdf(d)
+    phi_lo = adist.ppf(1e-9)
+    phi_hi = min(adist.ppf(1 - 1e-9), theta)  # reachable facets only
+    xa, wa = np.polynomial.legendre.leggauss(400)
+    phi = 0.5 * (phi_hi - phi_lo) * xa + 0.5 * (phi_hi + phi_lo)
+    wa = wa * 0.5 * (phi_hi - phi_lo) * adist.pdf(phi)
+    if shadowing == "weighted":
+        wa = wa * np.sin(theta - phi) / np.sin(theta)
+    wa = wa / wa.sum()
+    k1, k2, v_c = coeffs.evaluate(d)
+    res = mi.apparent_rebound(
+        speed,
+        angle_deg,
+        np.rad2deg(phi)[None, :],
+        k1=k1[:, None],
+        k2=k2[:, None],
+        v_c=v_c[:, None],
+        friction=coeffs.friction,
+    )
+    w = wd[:, None] * wa[None, :]
+    return float((res.e_m * w).sum() / w.sum())
+
+
+@pytest.mark.parametrize(
+    "speed, angle, std_deg, shadowing, friction",
+    [
+        (0.3, 45.0, 10.0, "reject", math.inf),
+        (1.0, 20.0, 12.0, "reject", 0.15),
+        (0.5, 15.0, 8.0, "weighted", 0.3),
+        (0.25, 80.0, 5.0, "weighted", math.inf),
+    ],
+)
+def test_mean_apparent_restitution_matches_quadrature(
+    speed, angle, std_deg, shadowing, friction
+):
+    coeffs = PowerCoefficients(friction=friction)
+    sc = scenario(
+        coefficients=coeffs,
+        surfaces=(rough(std_deg),),
+        speeds_m_s=(speed,),
+        angles_deg=(angle,),
+        shadowing=shadowing,
+        samples=200_000,
+    )
+    row = run(sc).summary.iloc[0]
+    exact = _quadrature_e_mean(coeffs, speed, angle, std_deg, shadowing)
+    assert abs(row["e_mean"] - exact) < K * row["e_se"]
+
+
+def test_shadowed_fraction_is_the_exact_mass():
+    """'reject' removes P(phi >= theta); 'none' counts it, within sampling error."""
+    theta, std = 10.0, 12.0
+    exact = stats.norm(0, std).sf(theta)
+    rej = run(
+        scenario(
+            surfaces=(rough(std),),
+            angles_deg=(theta,),
+            shadowing="reject",
+            samples=1000,
+        )
+    ).summary.iloc[0]
+    assert_allclose(rej["shadowed_fraction"], 0.0)
+    none = run(
+        scenario(
+            surfaces=(rough(std),),
+            angles_deg=(theta,),
+            shadowing="none",
+            samples=100_000,
+        )
+    ).summary.iloc[0]
+    se = math.sqrt(exact * (1 - exact) / 100_000)
+    assert abs(none["shadowed_fraction"] - exact) < K * se
+
+
+def test_weighted_angle_table_is_the_sommerfeld_huber_pdf():
+    """The 'weighted' facet distribution has mean int phi f sin(th-phi) / int f sin."""
+    theta, std = np.deg2rad(20.0), np.deg2rad(10.0)
+    sc = scenario(surfaces=(rough(10.0),), angles_deg=(20.0,), shadowing="weighted")
+    tables = build_plan(sc).angle_tables(0, 20.0)
+    f = stats.norm(0, std).pdf
+    num = integrate.quad(lambda p: p * f(p) * np.sin(theta - p), -10 * std, theta)[0]
+    den = integrate.quad(lambda p: f(p) * np.sin(theta - p), -10 * std, theta)[0]
+    assert_allclose(tables.phi.mean(), num / den, atol=1e-4)
+
+
+# --------------------------------------------------------------------- invariants
+def _same(a, b):
+    cols = [c for c in a.summary.columns if c != "surface"]
+    assert_array_equal(a.summary[cols].to_numpy(), b.summary[cols].to_numpy())
+    for k in a.accumulators:
+        assert_array_equal(a.accumulators[k].e_hist, b.accumulators[k].e_hist)
+
+
+def _multi():
+    return scenario(
+        surfaces=(rough(10.0), rough(5.0, name="r2")),
+        speeds_m_s=(0.2, 0.5),
+        angles_deg=(30.0, 90.0),
+        samples=100_000,
+        shadowing="none",
+        speed_spread=0.05,
+    )
+
+
+def test_bit_identical_across_workers_and_grouping(monkeypatch):
+    sc = _multi()
+    serial = run(sc)
+    pooled = run(sc, workers=2)
+    _same(serial, pooled)
+    monkeypatch.setattr(montecarlo, "BLOCKS_PER_TASK", 1)
+    _same(serial, run(sc))
+    other = run(sc, seed=999)
+    assert not np.array_equal(other.summary["e_mean"], serial.summary["e_mean"])
+
+
+def test_bit_identical_on_dask():
+    pytest.importorskip("dask.distributed")
+    sc = _multi()
+    _same(run(sc), run(sc, backend="dask", workers=2))
+
+
+def test_resume_from_checkpoint_is_bit_identical(tmp_path):
+    sc = scenario(
+        surfaces=(rough(10.0),),
+        speeds_m_s=(0.2, 0.4),
+        angles_deg=(45.0,),
+        samples=300_000,
+    )
+    full = run(sc)
+    ck = tmp_path / "run.ckpt.npz"
+    monkey_interval = montecarlo.CHECKPOINT_INTERVAL
+    try:
+        montecarlo.CHECKPOINT_INTERVAL = 0.0  # save after every wave
+        gen = iter_blocks(sc, checkpoint=ck)
+        for _ in range(5):  # interrupt part-way
+            next(gen)
+        gen.close()
+    finally:
+        montecarlo.CHECKPOINT_INTERVAL = monkey_interval
+    assert ck.exists()
+    _same(full, run(sc, checkpoint=ck))
+    _same(full, run(sc, checkpoint=ck))  # a finished checkpoint reproduces too
+
+
+def test_precision_target_stops_deterministically():
+    sc = scenario(
+        speeds_m_s=(0.15, 0.25),
+        precision=mi.scenario.Precision("capture_fraction", 0.005, 2_000_000),
+    )
+    a = run(sc)
+    half = (a.summary["capture_ci_high"] - a.summary["capture_ci_low"]) / 2
+    assert half.max() <= 0.005
+    assert (a.summary["n"] < 2_000_000).all()
+    _same(a, run(sc, workers=2))
+
+
+def test_moments_merge_equals_one_shot(rng):
+    x = rng.gamma(2.0, size=10_001)
+    parts = np.array_split(x, [3, 500, 501, 7000])
+    m = Moments()
+    for p in parts:
+        m = m.merge(Moments.of(p))
+    assert m.n == x.size
+    assert_allclose(m.mean, x.mean(), rtol=1e-13)
+    assert_allclose(m.variance, x.var(ddof=1), rtol=1e-12)
+    assert_allclose(m.skewness, stats.skew(x), rtol=1e-10)
+
+
+def test_accumulator_roundtrip():
+    acc = run(scenario(samples=5000)).accumulators[0]
+    back = PointAccumulator.from_arrays(acc.to_arrays())
+    assert back.n == acc.n and back.captured == acc.captured
+    assert_array_equal(back.e_hist, acc.e_hist)
+
+
+def test_bad_coefficients_are_named():
+    sc = scenario(coefficients=PowerCoefficients(k1=-1.0))
+    with pytest.raises(ScenarioError, match=r"coefficients\.k1"):
+        run(sc)
+
+
+def test_bad_run_arguments():
+    sc = scenario()
+    with pytest.raises(ValueError, match="`samples`"):
+        run(sc, samples=0)
+    with pytest.raises(ValueError, match="`backend`"):
+        run(sc, backend="mpi")
+    with pytest.raises(ValueError, match="`seed`"):
+        run(sc, seed=-3)
+
+
+def test_qmc_has_honest_error_bars_and_smaller_error():
+    """Randomised QMC: replicate intervals cover the quadrature value, and the RMS
+    error over scrambles is below plain MC's at equal N."""
+    coeffs = PowerCoefficients()
+    kw = dict(
+        coefficients=coeffs,
+        surfaces=(rough(8.0),),
+        speeds_m_s=(0.5,),
+        angles_deg=(45.0,),
+    )
+    exact = _quadrature_e_mean(coeffs, 0.5, 45.0, 8.0, "reject")
+    n = 1 << 14
+    qmc_err, mc_err = [], []
+    for seed in range(6):
+        q = run(
+            scenario(sampling="qmc", qmc_replicates=8, seed=seed, **kw), samples=n
+        ).summary.iloc[0]
+        m = run(scenario(seed=seed, **kw), samples=n).summary.iloc[0]
+        qmc_err.append(q["e_mean"] - exact)
+        mc_err.append(m["e_mean"] - exact)
+        assert abs(q["e_mean"] - exact) < K * q["e_se"] + 1e-6
+    assert np.sqrt(np.mean(np.square(qmc_err))) < np.sqrt(np.mean(np.square(mc_err)))
+
+
+def test_normal_diameters_helper_is_the_truncated_normal():
+    t = normal_diameters().table()
+    assert_allclose(
+        t.mean(),
+        stats.truncnorm(-52.8 / 15.3, np.inf, loc=52.8, scale=15.3).mean() * 1e-6,
+        rtol=1e-4,
+    )
