@@ -1,0 +1,382 @@
+"""Readers for measured particle diameters and diameter histograms.
+
+Accepted text formats
+---------------------
+Both readers take plain text: comma-, tab-, semicolon- or whitespace-separated
+columns (the separator is detected from the file; the decimal separator is ``.``),
+blank lines and lines starting with ``#`` are ignored, and cells may be quoted.
+
+:func:`read_diameters` -- raw diameters, one per row (e.g. a Phase Doppler export).
+    An optional header row (any non-numeric cell makes the first row a header). With
+    several columns choose one by header name or 0-based index (``column=``); without
+    ``column`` a single column is used, or the one header name containing "diam".
+
+:func:`read_histogram` -- a histogram, in one of two layouts:
+
+* **columns**: one row per bin, ``lower edge, upper edge, count``, with an optional
+  header; bins must be contiguous (each lower edge equals the previous upper edge);
+* **rows**: exactly two rows, the ``k + 1`` bin edges then the ``k`` counts, each row
+  optionally starting with a text label (``edges_um, 10, 20, 30`` /
+  ``counts, 4, 9``).
+
+Counts may be integer counts or relative frequencies. Every problem raises
+:class:`~microimpact.errors.DataFormatError` naming the file, the line, the column,
+the bad value and what is allowed.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+import numpy as np
+
+from ..errors import DataFormatError
+from ..units import length_factor
+
+__all__ = ["read_diameters", "read_histogram"]
+
+_MISSING = {"", "nan", "na", "n/a", "null", "none", "-"}
+_LAYOUTS = (
+    "columns 'lower, upper, count' (one row per bin) or two rows "
+    "'edges' (k + 1 values) and 'counts' (k values)"
+)
+
+
+def _read_rows(path) -> tuple[list[tuple[int, list[str]]], str]:
+    """Non-blank, non-comment rows as (1-based line number, cells)."""
+    try:
+        with open(path, encoding="utf-8-sig") as fh:
+            lines = fh.read().splitlines()
+    except (FileNotFoundError, IsADirectoryError, PermissionError) as exc:
+        raise DataFormatError(
+            f"cannot read file: {exc.strerror}", source=path
+        ) from None
+    except UnicodeDecodeError:
+        raise DataFormatError(
+            "not a UTF-8 text file; expected delimited text", source=path
+        ) from None
+    content = [
+        (i, s) for i, s in enumerate(lines, 1) if s.strip() and not s.lstrip()[0] == "#"
+    ]
+    text = "\n".join(s for _, s in content)
+    delimiter = next((d for d in (",", "\t", ";") if d in text), None)
+    rows = []
+    for i, s in content:
+        cells = s.split(delimiter) if delimiter else s.split()
+        rows.append((i, [c.strip().strip("\"'").strip() for c in cells]))
+    return rows, {None: "whitespace", "\t": "tab"}.get(delimiter, delimiter)
+
+
+def _is_number(cell: str) -> bool:
+    try:
+        float(cell)
+    except ValueError:
+        return False
+    return True
+
+
+def _number(cell, *, path, line, field, allowed, minimum=None, strict=True) -> float:
+    """Parse one cell; DataFormatError naming file, line, column, value, allowed."""
+    if cell.lower() in _MISSING:
+        raise DataFormatError(
+            f"missing value {cell!r}; allowed: {allowed}",
+            source=path,
+            line=line,
+            field=field,
+        )
+    try:
+        v = float(cell)
+    except ValueError:
+        raise DataFormatError(
+            f"non-numeric value {cell!r}; allowed: {allowed}",
+            source=path,
+            line=line,
+            field=field,
+        ) from None
+    if not math.isfinite(v) or (
+        minimum is not None and (v <= minimum if strict else v < minimum)
+    ):
+        raise DataFormatError(
+            f"bad value {cell!r}; allowed: {allowed}",
+            source=path,
+            line=line,
+            field=field,
+        )
+    return v
+
+
+def _split_header(rows):
+    """(header or None, data rows); the first row is a header if any cell is text."""
+    if rows and not all(_is_number(c) or c.lower() in _MISSING for c in rows[0][1]):
+        return rows[0][1], rows[1:]
+    return None, rows
+
+
+def _choose_column(path, header, n_columns, column) -> tuple[int, str]:
+    """Resolve `column` to (0-based index, display name)."""
+    names = header or [str(j) for j in range(n_columns)]
+    listing = ", ".join(repr(h) for h in header) if header else f"0..{n_columns - 1}"
+    if column is None:
+        if n_columns == 1:
+            return 0, names[0]
+        hits = [j for j, h in enumerate(header or []) if "diam" in h.lower()]
+        if len(hits) == 1:
+            return hits[0], names[hits[0]]
+        raise DataFormatError(
+            f"the file has {n_columns} columns; pass `column=` one of {listing} "
+            "(a header name or a 0-based index)",
+            source=path,
+            field="column",
+        )
+    if isinstance(column, str):
+        folded = [h.strip().lower() for h in header or []]
+        if column in (header or []):
+            j = header.index(column)
+        elif column.strip().lower() in folded:
+            j = folded.index(column.strip().lower())
+        else:
+            raise DataFormatError(
+                f"no column named {column!r}; allowed: {listing}",
+                source=path,
+                field="column",
+            )
+        return j, names[j]
+    if isinstance(column, int | np.integer) and not isinstance(column, bool):
+        if -n_columns <= column < n_columns:
+            j = int(column) % n_columns
+            return j, names[j]
+        raise DataFormatError(
+            f"column index {column!r} out of range; allowed: {listing}",
+            source=path,
+            field="column",
+        )
+    raise TypeError(f"`column` must be a str, an int or None; got {column!r}.")
+
+
+def read_diameters(path, *, column=None, unit="um"):
+    """Read raw measured diameters, one per row.
+
+    Parameters
+    ----------
+    path : str or path-like
+        Delimited text file (see the module notes for the accepted format).
+    column : str or int, optional
+        Header name (exact, else case-insensitive) or 0-based index of the diameter
+        column; needed when there are several columns and no header name containing
+        "diam".
+    unit : str
+        Length unit of the values in the file (``"um"``, ``"mm"``, ``"m"``, ...).
+
+    Returns
+    -------
+    diameters : ndarray
+        The diameters [m], in file order.
+    metadata : dict
+        ``source``, ``column`` (name or index), ``column_index``, ``header``,
+        ``delimiter``, ``unit`` and ``n``.
+
+    Raises
+    ------
+    DataFormatError
+        Empty file; several columns and no `column`; unknown column; missing,
+        non-numeric, non-finite, zero or negative diameters (naming file, line and
+        column).
+    """
+    factor = length_factor(unit)
+    path = os.fspath(path)
+    rows, delimiter = _read_rows(path)
+    header, data = _split_header(rows)
+    if not data:
+        raise DataFormatError(
+            "no diameters found (the file is empty or has only a header); "
+            "expected one diameter per row",
+            source=path,
+        )
+    n_columns = len(header) if header else max(len(cells) for _, cells in data)
+    j, name = _choose_column(path, header, n_columns, column)
+    field = f"column {name!r}" if header else f"column {j}"
+    allowed = f"a diameter > 0 in {unit}"
+    values = np.empty(len(data))
+    for k, (line, cells) in enumerate(data):
+        cell = cells[j] if j < len(cells) else ""
+        values[k] = _number(
+            cell, path=path, line=line, field=field, allowed=allowed, minimum=0.0
+        )
+    metadata = {
+        "source": path,
+        "column": name if header else j,
+        "column_index": j,
+        "header": header,
+        "delimiter": delimiter,
+        "unit": unit,
+        "n": int(values.size),
+    }
+    return values * factor, metadata
+
+
+def read_histogram(path, *, unit="um"):
+    """Read a diameter histogram (bin edges and counts).
+
+    Parameters
+    ----------
+    path : str or path-like
+        Delimited text file in the *columns* or *rows* layout (module notes).
+    unit : str
+        Length unit of the bin edges in the file.
+
+    Returns
+    -------
+    edges : ndarray, shape (k + 1,)
+        Strictly increasing bin edges [m].
+    counts : ndarray, shape (k,)
+        Counts or frequencies per bin (>= 0, not all zero).
+    metadata : dict
+        ``source``, ``layout`` (``"columns"`` or ``"rows"``), ``header``, ``unit``,
+        ``n_bins`` and ``total``.
+
+    Raises
+    ------
+    DataFormatError
+        Empty file, unknown layout, missing or non-numeric cells, negative edges,
+        non-increasing or non-contiguous edges, negative or all-zero counts.
+    """
+    factor = length_factor(unit)
+    path = os.fspath(path)
+    rows, _ = _read_rows(path)
+    if not rows:
+        raise DataFormatError(f"the file is empty; expected {_LAYOUTS}", source=path)
+    as_rows = _rows_layout(rows)
+    if as_rows is not None:
+        edges, counts, header = _parse_rows_layout(path, *as_rows)
+        layout = "rows"
+    else:
+        edges, counts, header = _parse_columns_layout(path, rows, unit)
+        layout = "columns"
+    if not counts.sum() > 0:
+        raise DataFormatError(
+            "all counts are zero; allowed: counts >= 0 with a positive total",
+            source=path,
+            field="count",
+        )
+    metadata = {
+        "source": path,
+        "layout": layout,
+        "header": header,
+        "unit": unit,
+        "n_bins": int(counts.size),
+        "total": float(counts.sum()),
+    }
+    return edges * factor, counts, metadata
+
+
+def _rows_layout(rows):
+    """The two rows (without labels) if `rows` is the rows layout, else None."""
+    if len(rows) != 2:
+        return None
+    (l0, c0), (l1, c1) = rows
+    labels = []
+    if c0 and c1 and not _is_number(c0[0]) and not _is_number(c1[0]):
+        labels = [c0[0], c1[0]]
+        c0, c1 = c0[1:], c1[1:]
+    if len(c1) >= 1 and len(c0) == len(c1) + 1:
+        return (l0, c0), (l1, c1), labels or None
+    return None
+
+
+def _parse_rows_layout(path, row_edges, row_counts, labels):
+    (le, ce), (lc, cc) = row_edges, row_counts
+    shift = 1 if labels else 0
+    edges = np.array(
+        [
+            _number(
+                c,
+                path=path,
+                line=le,
+                field=f"column {j + shift}",
+                allowed="a bin edge >= 0",
+                minimum=0.0,
+                strict=False,
+            )
+            for j, c in enumerate(ce)
+        ]
+    )
+    bad = np.flatnonzero(np.diff(edges) <= 0)
+    if bad.size:
+        j = int(bad[0]) + 1
+        raise DataFormatError(
+            f"bin edges must be strictly increasing; got {ce[j]!r} after {ce[j - 1]!r}",
+            source=path,
+            line=le,
+            field=f"column {j + shift}",
+        )
+    counts = np.array(
+        [
+            _number(
+                c,
+                path=path,
+                line=lc,
+                field=f"column {j + shift}",
+                allowed="a count >= 0",
+                minimum=0.0,
+                strict=False,
+            )
+            for j, c in enumerate(cc)
+        ]
+    )
+    return edges, counts, labels
+
+
+def _parse_columns_layout(path, rows, unit):
+    header, data = _split_header(rows)
+    if header is not None and len(header) != 3:
+        raise DataFormatError(
+            f"header has {len(header)} columns; expected {_LAYOUTS}",
+            source=path,
+            line=rows[0][0],
+        )
+    if not data:
+        raise DataFormatError(
+            f"no bins found (only a header); expected {_LAYOUTS}", source=path
+        )
+    names = ("lower edge", "upper edge", "count")
+    lower, upper, counts = (np.empty(len(data)) for _ in range(3))
+    for k, (line, cells) in enumerate(data):
+        if len(cells) != 3:
+            raise DataFormatError(
+                f"row has {len(cells)} cells; expected {_LAYOUTS}",
+                source=path,
+                line=line,
+            )
+        lo, hi, n = (
+            _number(
+                c,
+                path=path,
+                line=line,
+                field=f"column {j} ({names[j]})",
+                allowed="a number >= 0" + (f" in {unit}" if j < 2 else ""),
+                minimum=0.0,
+                strict=False,
+            )
+            for j, c in enumerate(cells)
+        )
+        if not hi > lo:
+            raise DataFormatError(
+                f"upper edge {cells[1]!r} is not above lower edge {cells[0]!r}; "
+                "allowed: upper > lower",
+                source=path,
+                line=line,
+                field="column 1 (upper edge)",
+            )
+        if k and not math.isclose(lo, upper[k - 1], rel_tol=1e-9, abs_tol=0.0):
+            what = "a gap" if lo > upper[k - 1] else "an overlap or unsorted bins"
+            raise DataFormatError(
+                f"lower edge {cells[0]!r} does not equal the previous upper edge "
+                f"{upper[k - 1]:g} ({what}); allowed: contiguous bins in increasing "
+                "order",
+                source=path,
+                line=line,
+                field="column 0 (lower edge)",
+            )
+        lower[k], upper[k], counts[k] = lo, hi, n
+    return np.append(lower, upper[-1]), counts, header

@@ -1,0 +1,797 @@
+"""Particle size distributions: the diameter population of a Monte Carlo run.
+
+A :class:`SizeDistribution` wraps a distribution of particle **diameter in metres**:
+a SciPy frozen distribution (``norm``/``truncnorm``, ``lognorm``, ``uniform``,
+``rv_histogram`` or one supplied by the user) or, for the discrete kinds
+(``empirical``, ``monodisperse``), the sorted atoms themselves. Its vectorised
+:meth:`SizeDistribution.ppf` is what the Monte Carlo engine tabulates into a
+:class:`~microimpact._tables.QuantileTable`.
+
+The paper [1]_ lets the diameter be normal, log-normal, uniform or empirical (a Phase
+Doppler sample) and chooses between Gaussian and empirical with a chi-squared test;
+:func:`chi2_normality` implements that test.
+
+Truncation (see ``docs/populations.md``): every distribution is restricted to
+``lower <= d <= upper`` with ``lower >= 0`` plus any user limits, through the CDF,
+``F_t^{-1}(q) = F^{-1}(F(a) + q [F(b) - F(a)])`` (via ``sf``/``isf`` in an upper tail);
+the cut probability is ``truncated_mass``. Cutting more than
+:data:`CUT_WARN_THRESHOLD` warns (``UserWarning``); cutting everything raises
+``ValueError``. The normal kind uses ``scipy.stats.truncnorm``.
+
+References
+----------
+.. [1] X. Li, P. F. Dunn and R. M. Brach, "Monte Carlo Analysis of Polydisperse
+   Microparticle Impacts with Surfaces," *Aerosol Sci. Technol.* 33:376-386, 2000.
+.. [2] J. R. Taylor, *An Introduction to Error Analysis*, University Science Books,
+   1982, ch. 12 (the chi-squared test for a distribution).
+.. [3] H. A. Sturges, "The Choice of a Class Interval," *J. Am. Stat. Assoc.*
+   21:65-66, 1926.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import integrate, stats
+
+from .._tables import TABLE_SIZE, QuantileTable
+from .._validation import as_float_array, check_choice
+from ..units import length_factor, m_to_um, um_to_m
+
+#: The distribution kinds.
+KINDS = (
+    "normal",
+    "lognormal",
+    "uniform",
+    "empirical",
+    "histogram",
+    "monodisperse",
+    "scipy",
+)
+#: Truncating away more than this probability issues a ``UserWarning``.
+CUT_WARN_THRESHOLD = 1e-3
+#: Minimum expected count per class in :func:`chi2_normality` ([2], ch. 12).
+MIN_EXPECTED = 5.0
+
+
+def _out(x):
+    """ndarray result, 0-d arrays as NumPy scalars."""
+    return np.asarray(x, dtype=float)[()]
+
+
+@dataclass(frozen=True, eq=False)
+class SizeDistribution:
+    """A distribution of particle diameter [m].
+
+    Build it with a factory (:func:`normal_diameters`, :func:`lognormal_diameters`,
+    :func:`uniform_diameters`, :func:`monodisperse`, :func:`empirical_diameters`,
+    :func:`histogram_diameters`, :func:`scipy_diameters`), not directly.
+
+    Attributes
+    ----------
+    kind : str
+        One of :data:`KINDS`.
+    dist : scipy.stats frozen distribution or rv_histogram, or None
+        The continuous distribution of diameter [m]; ``None`` for the discrete kinds.
+    atoms : ndarray or None
+        Sorted atoms [m] of a discrete kind (the kept measured diameters of an
+        empirical sample; the single diameter of a monodisperse population).
+    lower, upper : float
+        Truncation limits [m] applied to `dist` through its CDF.
+    truncated_mass : float
+        Probability cut away by truncation (0.0 if none).
+    params : dict
+        The defining parameters in interface units (``mean_um``, ...), for provenance.
+
+    Notes
+    -----
+    The discrete kinds have no density: :meth:`pdf` returns ``inf`` at the atoms (a
+    Dirac delta) and 0 elsewhere.
+    """
+
+    kind: str
+    dist: object = None
+    atoms: np.ndarray | None = None
+    lower: float = 0.0
+    upper: float = math.inf
+    truncated_mass: float = 0.0
+    params: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        check_choice(self.kind, "kind", KINDS)
+        if (self.dist is None) == (self.atoms is None):
+            raise ValueError("give exactly one of `dist` and `atoms`.")
+        if self.atoms is not None:
+            a = np.sort(np.asarray(self.atoms, dtype=float).ravel())
+            if a.size == 0 or not np.all(np.isfinite(a) & (a > 0)):
+                raise ValueError("`atoms` must be a non-empty array of finite d > 0.")
+            a.setflags(write=False)
+            object.__setattr__(self, "atoms", a)
+            return
+        lo, hi = float(self.lower), float(self.upper)
+        fa, fb = float(self.dist.cdf(lo)), float(self.dist.cdf(hi))
+        sa, sb = float(self.dist.sf(lo)), float(self.dist.sf(hi))
+        upper_tail = fa > 0.5
+        kept = sa - sb if upper_tail else fb - fa
+        if not kept > 0:
+            raise ValueError(
+                f"truncation to [{m_to_um(lo):g}, {m_to_um(hi):g}] um cuts away all "
+                "of the probability; widen the limits."
+            )
+        generic = fa > 0 or sb > 0
+        for key, value in zip(
+            ("_fa", "_fb", "_sa", "_sb", "_kept", "_upper_tail", "_generic"),
+            (fa, fb, sa, sb, kept, upper_tail, generic),
+            strict=True,
+        ):
+            object.__setattr__(self, key, value)
+
+    # -- the distribution ------------------------------------------------------------
+    @property
+    def is_discrete(self) -> bool:
+        """True for the empirical and monodisperse kinds."""
+        return self.atoms is not None
+
+    def ppf(self, q):
+        """Quantile function: diameter [m] at probability `q`; ``nan`` outside [0, 1].
+
+        For the discrete kinds this is the left-continuous inverse of the CDF,
+        ``atoms[ceil(q n) - 1]``.
+        """
+        q = np.asarray(q, dtype=float)
+        bad = ~((q >= 0) & (q <= 1))
+        qq = np.where(bad, 0.5, q)
+        if self.is_discrete:
+            n = self.atoms.size
+            k = np.clip(np.ceil(qq * n).astype(np.intp) - 1, 0, n - 1)
+            x = self.atoms[k]
+        elif not self._generic:
+            x = np.asarray(self.dist.ppf(qq), dtype=float)
+        else:
+            if self._upper_tail:  # F_t^-1(q) through the survival function
+                x = self.dist.isf(self._sa - qq * (self._sa - self._sb))
+            else:
+                x = self.dist.ppf(self._fa + qq * (self._fb - self._fa))
+            x = np.clip(x, self.lower, self.upper)
+        return _out(np.where(bad, np.nan, x))
+
+    def cdf(self, d):
+        """Cumulative distribution function at diameter `d` [m]."""
+        d = np.asarray(d, dtype=float)
+        if self.is_discrete:
+            p = np.searchsorted(self.atoms, d, side="right") / self.atoms.size
+            return _out(np.where(np.isnan(d), np.nan, p))
+        if not self._generic:
+            return _out(self.dist.cdf(d))
+        dc = np.clip(d, self.lower, self.upper)
+        if self._upper_tail:
+            p = (self._sa - self.dist.sf(dc)) / self._kept
+        else:
+            p = (self.dist.cdf(dc) - self._fa) / self._kept
+        return _out(np.clip(p, 0.0, 1.0))
+
+    def pdf(self, d):
+        """Probability density [m⁻¹] at diameter `d` [m] (``inf`` at discrete atoms)."""
+        d = np.asarray(d, dtype=float)
+        if self.is_discrete:
+            at = np.isin(d, self.atoms)
+            return _out(np.where(np.isnan(d), np.nan, np.where(at, np.inf, 0.0)))
+        if not self._generic:
+            return _out(self.dist.pdf(d))
+        inside = (d >= self.lower) & (d <= self.upper)
+        f = np.where(inside, self.dist.pdf(d) / self._kept, 0.0)
+        return _out(np.where(np.isnan(d), np.nan, f))
+
+    def rvs(self, size=None, *, rng=None):
+        """Draw diameters [m] (SPEC 7 `rng`)."""
+        rng = np.random.default_rng(rng)
+        if self.is_discrete:
+            return _out(self.atoms[rng.integers(0, self.atoms.size, size=size)])
+        if not self._generic:
+            return _out(self.dist.rvs(size=size, random_state=rng))
+        return _out(self.ppf(rng.random(size)))
+
+    def mean(self) -> float:
+        """Mean diameter [m] of the (truncated) distribution."""
+        if self.is_discrete:
+            return float(self.atoms.mean())
+        if not self._generic:
+            return float(self.dist.mean())
+        return float(self._expect(lambda x: x))
+
+    def std(self) -> float:
+        """Standard deviation [m] of the (truncated) distribution (ddof=0)."""
+        if self.is_discrete:
+            return float(self.atoms.std())
+        if not self._generic:
+            return float(self.dist.std())
+        m = self.mean()
+        return float(math.sqrt(self._expect(lambda x: (x - m) ** 2)))
+
+    def _expect(self, func):
+        """E[func(d)] by quadrature in ``y = d / median`` (scale 1 for ``quad``)."""
+        lo, hi = self.support()
+        c = self.median()
+        pdf = self.dist.pdf
+
+        def integrand(y):
+            return func(c * y) * pdf(c * y) * c
+
+        parts = (
+            integrate.quad(integrand, a, b, limit=200)[0]
+            for a, b in ((lo / c, 1.0), (1.0, hi / c))
+            if b > a
+        )
+        return sum(parts) / self._kept
+
+    def median(self) -> float:
+        """Median diameter [m]."""
+        return float(self.ppf(0.5))
+
+    def support(self) -> tuple[float, float]:
+        """(lower, upper) limits of the diameter [m]."""
+        if self.is_discrete:
+            return float(self.atoms[0]), float(self.atoms[-1])
+        lo, hi = self.dist.support()
+        return float(max(lo, self.lower)), float(min(hi, self.upper))
+
+    def table(self, size: int = TABLE_SIZE) -> QuantileTable:
+        """The equiprobable :class:`~microimpact._tables.QuantileTable` [m].
+
+        An empirical sample is tabulated with ``QuantileTable.from_sample`` (the atoms
+        are the measured diameters); every other kind with ``from_ppf(self.ppf)``.
+        """
+        if self.kind == "empirical":
+            return QuantileTable.from_sample(self.atoms, size=size)
+        return QuantileTable.from_ppf(self.ppf, size=size)
+
+    def describe(self) -> dict:
+        """Summary in interface units (µm) for reports and provenance."""
+        lo, hi = self.support()
+        out = {
+            "kind": self.kind,
+            "params": dict(self.params),
+            "mean_um": float(m_to_um(self.mean())),
+            "std_um": float(m_to_um(self.std())),
+            "median_um": float(m_to_um(self.median())),
+            "support_um": (float(m_to_um(lo)), float(m_to_um(hi))),
+            "truncated_mass": float(self.truncated_mass),
+        }
+        if self.is_discrete:
+            out["n_atoms"] = int(self.atoms.size)
+        return out
+
+    def __repr__(self) -> str:
+        shown = ", ".join(
+            f"{k}={v:.6g}" if isinstance(v, float) else f"{k}={v!r}"
+            for k, v in self.params.items()
+            if isinstance(v, numbers.Number | str)
+        )
+        return (
+            f"SizeDistribution(kind={self.kind!r}, {shown}, "
+            f"truncated_mass={self.truncated_mass:.3g})"
+        )
+
+
+# -- validation helpers ----------------------------------------------------------------
+def _scalar(x, name, rule="finite", *, allow_inf=False) -> float:
+    """`x` as a float obeying `rule` ("finite", "> 0" or ">= 0"), else ValueError."""
+    a = as_float_array(x, name)
+    if a.ndim != 0:
+        raise TypeError(f"`{name}` must be a scalar; got an array of shape {a.shape}.")
+    v = float(a)
+    ok = {"finite": True, "> 0": v > 0, ">= 0": v >= 0}[rule]
+    if not (ok and (math.isfinite(v) or (allow_inf and v == math.inf))):
+        fin = "" if allow_inf else " (finite)"
+        raise ValueError(f"`{name}` must be a number {rule}{fin}; got {x!r}.")
+    return v
+
+
+def _limits_iv(min_um, max_um) -> tuple[float, float]:
+    """User limits [µm] -> (lower, upper) [m]; diameters are always > 0."""
+    lo = 0.0 if min_um is None else _scalar(min_um, "min_um", ">= 0")
+    hi = (
+        math.inf if max_um is None else _scalar(max_um, "max_um", "> 0", allow_inf=True)
+    )
+    if not hi > lo:
+        raise ValueError(
+            f"`max_um` must be > `min_um`; got min_um={min_um!r}, max_um={max_um!r}."
+        )
+    return float(um_to_m(lo)), float(um_to_m(hi))
+
+
+def _diameters_iv(diameters_um, name="diameters_um", *, minimum=1) -> np.ndarray:
+    """Measured diameters [µm] as a 1-d float array of finite values > 0."""
+    x = as_float_array(diameters_um, name).ravel()
+    if x.size < minimum:
+        raise ValueError(f"`{name}` needs at least {minimum} values; got {x.size}.")
+    bad = ~(np.isfinite(x) & (x > 0))
+    if np.any(bad):
+        i = int(np.flatnonzero(bad)[0])
+        raise ValueError(
+            f"`{name}` must contain finite diameters > 0; "
+            f"got {float(x[i])!r} at index {i}."
+        )
+    return x
+
+
+def _warn_cut(mass: float, where: str, stacklevel: int) -> None:
+    if mass > CUT_WARN_THRESHOLD:
+        warnings.warn(
+            f"truncation to {where} cuts away {mass:.3g} of the probability "
+            f"(more than {CUT_WARN_THRESHOLD:g}); the sampled population is the "
+            "truncated one.",
+            UserWarning,
+            stacklevel=stacklevel + 1,
+        )
+
+
+def _where(lower, upper) -> str:
+    return f"[{m_to_um(lower):g}, {m_to_um(upper):g}] um"
+
+
+def _continuous(kind, dist, lower, upper, params, stacklevel) -> SizeDistribution:
+    """Truncate `dist` [m] to [lower, upper] through its CDF, report the cut."""
+    out = SizeDistribution(kind, dist=dist, lower=lower, upper=upper, params=params)
+    cut = max(0.0, min(1.0, out._fa + out._sb))
+    object.__setattr__(out, "truncated_mass", cut)
+    _warn_cut(cut, _where(lower, upper), stacklevel + 1)
+    return out
+
+
+# -- factories -------------------------------------------------------------------------
+def _normal(mean_um, std_um, min_um, max_um, stacklevel) -> SizeDistribution:
+    mean_um = _scalar(mean_um, "mean_um")
+    std_um = _scalar(std_um, "std_um", "> 0")
+    lower, upper = _limits_iv(min_um, max_um)
+    mu, sigma = float(um_to_m(mean_um)), float(um_to_m(std_um))
+    a, b = (lower - mu) / sigma, (upper - mu) / sigma
+    if a > 0:
+        kept = stats.norm.sf(a) - stats.norm.sf(b)
+    elif b < 0:
+        kept = stats.norm.cdf(b) - stats.norm.cdf(a)
+    else:
+        kept = 1.0 - stats.norm.cdf(a) - stats.norm.sf(b)
+    if not kept > 0:
+        raise ValueError(
+            f"truncating N({mean_um:g} um, {std_um:g} um) to {_where(lower, upper)} "
+            "cuts away all of the probability; widen `min_um`/`max_um`."
+        )
+    cut = float(min(1.0, stats.norm.cdf(a) + stats.norm.sf(b)))
+    params = {"mean_um": mean_um, "std_um": std_um, "min_um": min_um, "max_um": max_um}
+    dist = stats.truncnorm(a, b, loc=mu, scale=sigma)
+    out = SizeDistribution("normal", dist=dist, params=params, truncated_mass=cut)
+    _warn_cut(cut, _where(lower, upper), stacklevel + 1)
+    return out
+
+
+def normal_diameters(mean_um, std_um, *, min_um=None, max_um=None) -> SizeDistribution:
+    """Gaussian diameters, truncated to ``max(min_um, 0) <= d <= max_um``.
+
+    Parameters
+    ----------
+    mean_um, std_um : float
+        Mean and standard deviation [µm] of the untruncated Gaussian (the paper's
+        SST65 fit is 52.8 and 15.3 µm [1]_).
+    min_um, max_um : float, optional
+        Truncation limits [µm]; diameters are always > 0.
+
+    Returns
+    -------
+    SizeDistribution
+        Wraps ``scipy.stats.truncnorm(a, b, loc=mean, scale=std)`` with
+        ``a = (lower - mean)/std``, ``b = (upper - mean)/std`` (SI). ``mean()`` is the
+        truncated mean; ``params`` keeps the given values.
+
+    Warns
+    -----
+    UserWarning
+        If more than :data:`CUT_WARN_THRESHOLD` of the probability is cut away.
+    """
+    return _normal(mean_um, std_um, min_um, max_um, stacklevel=2)
+
+
+def lognormal_diameters(
+    median_um, geometric_std, *, min_um=None, max_um=None
+) -> SizeDistribution:
+    """Log-normal diameters: ``ln d ~ N(ln median, ln geometric_std)``.
+
+    Parameters
+    ----------
+    median_um : float
+        Median (count median diameter) [µm], SciPy's ``scale``.
+    geometric_std : float
+        Geometric standard deviation [-], > 1; SciPy's ``s = ln(geometric_std)``.
+    min_um, max_um : float, optional
+        Truncation limits [µm], applied through the CDF (see module notes).
+    """
+    median_um = _scalar(median_um, "median_um", "> 0")
+    gsd = _scalar(geometric_std, "geometric_std", "> 0")
+    if not gsd > 1:
+        raise ValueError(
+            f"`geometric_std` must be > 1; got {geometric_std!r} "
+            "(for a single diameter use `monodisperse`)."
+        )
+    lower, upper = _limits_iv(min_um, max_um)
+    dist = stats.lognorm(math.log(gsd), scale=float(um_to_m(median_um)))
+    params = {
+        "median_um": median_um,
+        "geometric_std": gsd,
+        "min_um": min_um,
+        "max_um": max_um,
+    }
+    return _continuous("lognormal", dist, lower, upper, params, stacklevel=2)
+
+
+def uniform_diameters(min_um, max_um) -> SizeDistribution:
+    """Diameters uniform on ``[min_um, max_um]`` [µm] (``scipy.stats.uniform``)."""
+    lo = _scalar(min_um, "min_um", ">= 0")
+    hi = _scalar(max_um, "max_um", "> 0")
+    if not hi > lo:
+        raise ValueError(
+            f"`max_um` must be > `min_um`; got min_um={min_um!r}, max_um={max_um!r}."
+        )
+    lower, upper = float(um_to_m(lo)), float(um_to_m(hi))
+    dist = stats.uniform(loc=lower, scale=upper - lower)
+    params = {"min_um": lo, "max_um": hi}
+    return _continuous("uniform", dist, 0.0, math.inf, params, stacklevel=2)
+
+
+def monodisperse(diameter_um) -> SizeDistribution:
+    """A single diameter [µm]: the degenerate distribution (``ppf`` is constant)."""
+    d = _scalar(diameter_um, "diameter_um", "> 0")
+    return SizeDistribution(
+        "monodisperse", atoms=np.array([um_to_m(d)]), params={"diameter_um": d}
+    )
+
+
+def empirical_diameters(diameters_um, *, min_um=None, max_um=None) -> SizeDistribution:
+    """The discrete empirical distribution of measured diameters (e.g. a PDPA export).
+
+    Each kept measurement has probability ``1/n``; nothing is smoothed, and the
+    quantile table's atoms are the measured values.
+
+    Parameters
+    ----------
+    diameters_um : array_like
+        Measured diameters [µm], finite and > 0.
+    min_um, max_um : float, optional
+        Keep only ``min_um <= d <= max_um``; the dropped fraction is
+        ``truncated_mass``.
+    """
+    x = _diameters_iv(diameters_um)
+    lower, upper = _limits_iv(min_um, max_um)
+    d = um_to_m(x)
+    keep = (d >= lower) & (d <= upper)
+    n_kept = int(keep.sum())
+    if n_kept == 0:
+        raise ValueError(
+            f"no measured diameter lies in {_where(lower, upper)}; "
+            "widen `min_um`/`max_um`."
+        )
+    cut = 1.0 - n_kept / x.size
+    params = {"n": int(x.size), "n_kept": n_kept, "min_um": min_um, "max_um": max_um}
+    out = SizeDistribution(
+        "empirical", atoms=d[keep], params=params, truncated_mass=cut
+    )
+    _warn_cut(cut, _where(lower, upper), stacklevel=2)
+    return out
+
+
+def histogram_diameters(edges_um, counts) -> SizeDistribution:
+    """Diameters from a histogram: ``scipy.stats.rv_histogram`` with density=False.
+
+    Parameters
+    ----------
+    edges_um : array_like, shape (k + 1,)
+        Strictly increasing bin edges [µm], >= 0.
+    counts : array_like, shape (k,)
+        Counts or relative frequencies per bin, >= 0, not all zero. Within a bin the
+        diameter is uniform.
+    """
+    e = as_float_array(edges_um, "edges_um").ravel()
+    c = as_float_array(counts, "counts").ravel()
+    if e.size < 2 or not np.all(np.isfinite(e)) or np.any(e < 0):
+        raise ValueError(
+            f"`edges_um` must hold at least 2 finite edges >= 0; got {edges_um!r}."
+        )
+    if np.any(np.diff(e) <= 0):
+        i = int(np.flatnonzero(np.diff(e) <= 0)[0])
+        raise ValueError(
+            f"`edges_um` must be strictly increasing; got {e[i]!r} then {e[i + 1]!r} "
+            f"at index {i}."
+        )
+    if c.size != e.size - 1:
+        raise ValueError(
+            f"`counts` needs len(edges_um) - 1 = {e.size - 1} values; got {c.size}."
+        )
+    if not np.all(np.isfinite(c)) or np.any(c < 0) or not c.sum() > 0:
+        raise ValueError(
+            f"`counts` must be finite, >= 0 and not all 0; got {counts!r}."
+        )
+    dist = stats.rv_histogram((c, um_to_m(e)), density=False)
+    params = {"edges_um": e.tolist(), "counts": c.tolist()}
+    return _continuous("histogram", dist, 0.0, math.inf, params, stacklevel=2)
+
+
+def scipy_diameters(frozen_dist, *, unit="um") -> SizeDistribution:
+    """Wrap a user's continuous SciPy distribution of diameter in `unit`.
+
+    Parameters
+    ----------
+    frozen_dist : scipy.stats frozen continuous distribution or rv_histogram
+        E.g. ``scipy.stats.gamma(4, scale=12)`` for diameters in µm.
+    unit : str
+        Length unit of `frozen_dist` (see :data:`microimpact.units.LENGTH_UNITS`).
+
+    Notes
+    -----
+    The distribution is rebuilt in metres by scaling ``loc`` and ``scale``, then
+    truncated to d > 0 (``scipy.stats.norm`` puts some mass below zero).
+    """
+    factor = length_factor(unit)
+    if isinstance(frozen_dist, stats.rv_continuous) and frozen_dist.numargs == 0:
+        gen, args, kwds = frozen_dist, (), {}
+    elif isinstance(getattr(frozen_dist, "dist", None), stats.rv_continuous):
+        gen, args, kwds = frozen_dist.dist, frozen_dist.args, dict(frozen_dist.kwds)
+    else:
+        raise TypeError(
+            "`frozen_dist` must be a frozen continuous scipy.stats distribution "
+            f"(e.g. scipy.stats.gamma(4, scale=12)); got {frozen_dist!r}. For measured "
+            "diameters use `empirical_diameters`."
+        )
+    shapes, rest = args[: gen.numargs], args[gen.numargs :]
+    loc = rest[0] if len(rest) > 0 else kwds.pop("loc", 0.0)
+    scale = rest[1] if len(rest) > 1 else kwds.pop("scale", 1.0)
+    kwds.pop("loc", None), kwds.pop("scale", None)
+    dist = gen(*shapes, **kwds, loc=loc * factor, scale=scale * factor)
+    params = {
+        "name": gen.name,
+        "args": list(args),
+        "kwds": dict(getattr(frozen_dist, "kwds", {})),
+        "unit": unit,
+    }
+    return _continuous("scipy", dist, 0.0, math.inf, params, stacklevel=2)
+
+
+# -- fits ------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class FitResult:
+    """A maximum-likelihood fit of a diameter sample.
+
+    Attributes
+    ----------
+    distribution : SizeDistribution
+        The fitted population.
+    params : dict
+        Fitted parameters in interface units (``mean_um``/``std_um`` or
+        ``median_um``/``geometric_std``).
+    stderr : dict
+        Asymptotic standard errors of `params` (inverse Fisher information, delta
+        method for derived parameters), same keys.
+    n : int
+        Sample size.
+    log_likelihood : float
+        Log-likelihood of the sample with densities in µm⁻¹.
+    """
+
+    distribution: SizeDistribution
+    params: dict
+    stderr: dict
+    n: int
+    log_likelihood: float
+
+
+def fit_normal(diameters_um) -> FitResult:
+    """Maximum-likelihood Gaussian fit (``scipy.stats.norm.fit``).
+
+    The estimates are the sample mean and the ddof=0 standard deviation; their
+    standard errors are ``std/sqrt(n)`` and ``std/sqrt(2n)``.
+    """
+    x = _diameters_iv(diameters_um, minimum=2)
+    mu, sigma = stats.norm.fit(x)
+    if np.ptp(x) == 0:
+        raise ValueError(
+            "`diameters_um` are all equal; cannot fit a Gaussian (use `monodisperse`)."
+        )
+    n = x.size
+    return FitResult(
+        distribution=_normal(mu, sigma, None, None, stacklevel=2),
+        params={"mean_um": float(mu), "std_um": float(sigma)},
+        stderr={
+            "mean_um": float(sigma / math.sqrt(n)),
+            "std_um": float(sigma / math.sqrt(2 * n)),
+        },
+        n=n,
+        log_likelihood=float(stats.norm.logpdf(x, mu, sigma).sum()),
+    )
+
+
+def fit_lognormal(diameters_um) -> FitResult:
+    """Maximum-likelihood log-normal fit (``scipy.stats.lognorm.fit``, ``floc=0``).
+
+    With ``s = std(ln d)`` (ddof=0), ``median = exp(mean(ln d))`` and
+    ``geometric_std = exp(s)``, the standard errors (delta method) are
+    ``median s/sqrt(n)`` and ``geometric_std s/sqrt(2n)``.
+    """
+    x = _diameters_iv(diameters_um, minimum=2)
+    s, _, scale = stats.lognorm.fit(x, floc=0)
+    if np.ptp(x) == 0:
+        raise ValueError(
+            "`diameters_um` are all equal; cannot fit a log-normal (use "
+            "`monodisperse`)."
+        )
+    n = x.size
+    gsd = math.exp(s)
+    return FitResult(
+        distribution=lognormal_diameters(scale, gsd),
+        params={"median_um": float(scale), "geometric_std": gsd},
+        stderr={
+            "median_um": float(scale * s / math.sqrt(n)),
+            "geometric_std": float(gsd * s / math.sqrt(2 * n)),
+        },
+        n=n,
+        log_likelihood=float(stats.lognorm.logpdf(x, s, scale=scale).sum()),
+    )
+
+
+# -- the chi-squared test of the paper ---------------------------------------------
+@dataclass(frozen=True, eq=False)
+class Chi2NormalityResult:
+    """Result of :func:`chi2_normality`.
+
+    Attributes
+    ----------
+    statistic : float
+        ``sum((observed - expected)**2 / expected)`` over the merged classes.
+    dof : int
+        Degrees of freedom, ``classes - 1 - 2`` (mean and std were estimated).
+    pvalue : float
+        ``scipy.stats.chi2.sf(statistic, dof)``.
+    reject : bool
+        ``pvalue < alpha``: the Gaussian is rejected.
+    alpha : float
+        Significance level.
+    edges_um : ndarray
+        Class edges [µm] after merging; the first and last are ``-inf`` and ``inf``
+        (open-ended tail classes).
+    observed, expected : ndarray
+        Observed counts (summing to n) and expected Gaussian counts per class.
+    mean_um, std_um : float
+        The fitted (maximum-likelihood) Gaussian [µm].
+    decision : str
+        ``"gaussian"`` (not rejected) or ``"empirical"`` (rejected), as in [1]_.
+    n_classes_initial : int
+        Number of classes from Sturges' rule, before merging.
+    """
+
+    statistic: float
+    dof: int
+    pvalue: float
+    reject: bool
+    alpha: float
+    edges_um: np.ndarray
+    observed: np.ndarray
+    expected: np.ndarray
+    mean_um: float
+    std_um: float
+    decision: str
+    n_classes_initial: int
+
+
+def _merge(edges, observed, expected):
+    """Merge tail classes inward, then any class left below MIN_EXPECTED."""
+    edges, observed, expected = list(edges), list(observed), list(expected)
+
+    def join(i):  # merge class i with class i + 1
+        del edges[i + 1]
+        observed[i : i + 2] = [observed[i] + observed[i + 1]]
+        expected[i : i + 2] = [expected[i] + expected[i + 1]]
+
+    while len(expected) > 1 and expected[0] < MIN_EXPECTED:
+        join(0)
+    while len(expected) > 1 and expected[-1] < MIN_EXPECTED:
+        join(len(expected) - 2)
+    while len(expected) > 1 and min(expected) < MIN_EXPECTED:  # rare: interior class
+        i = int(np.argmin(expected))
+        if i == 0 or (i < len(expected) - 1 and expected[i + 1] < expected[i - 1]):
+            join(i)
+        else:
+            join(i - 1)
+    return np.array(edges), np.array(observed), np.array(expected)
+
+
+def chi2_normality(
+    diameters_um, *, alpha=0.05, classes="equal-width"
+) -> Chi2NormalityResult:
+    """Chi-squared test of a diameter sample against its fitted Gaussian ([1]_, [2]_).
+
+    The paper uses this test to decide whether a measured diameter distribution is
+    represented by a Gaussian or must be used as an empirical distribution.
+
+    Procedure
+    ---------
+    1. Fit the Gaussian by maximum likelihood: sample mean and ddof=0 std.
+    2. Number of classes by Sturges' rule [3]_: ``k = ceil(1 + log2 n)``.
+    3. Classes: ``"equal-width"`` (default, the textbook procedure of [2]_) divides the
+       data range ``[min, max]`` into `k` equal classes and makes the first and last
+       open-ended (``-inf``, ``inf``), so the expected counts cover the whole Gaussian;
+       ``"equiprobable"`` uses the fitted Gaussian's ``i/k`` quantiles as edges.
+    4. Expected count per class ``n [Φ(z_hi) - Φ(z_lo)]``; observed counts of the data
+       (class ``i`` is ``[e_i, e_{i+1})``).
+    5. Merge the tail classes inward until every expected count is >= 5 (any interior
+       class still below 5 is merged with its smaller neighbour).
+    6. ``statistic = Σ (O - E)² / E``, ``dof = classes - 1 - 2``,
+       ``pvalue = chi2.sf(statistic, dof)``; reject the Gaussian if ``pvalue < alpha``.
+
+    Parameters
+    ----------
+    diameters_um : array_like
+        Measured diameters [µm], finite and > 0.
+    alpha : float
+        Significance level, in (0, 1).
+    classes : {"equal-width", "equiprobable"}
+        How the classes are formed (step 3).
+
+    Returns
+    -------
+    Chi2NormalityResult
+
+    Raises
+    ------
+    ValueError
+        If fewer than 4 classes remain after merging (dof < 1): too few data.
+
+    Notes
+    -----
+    The mean and std are estimated from the raw data, not the grouped counts, so the
+    statistic lies between chi2(k - 3) and chi2(k - 1) (Chernoff and Lehmann, 1954):
+    the test is slightly liberal, as in the textbook procedure the paper follows.
+    """
+    x = _diameters_iv(diameters_um, minimum=2)
+    alpha = _scalar(alpha, "alpha", "> 0")
+    if not alpha < 1:
+        raise ValueError(f"`alpha` must be in (0, 1); got {alpha!r}.")
+    check_choice(classes, "classes", ("equal-width", "equiprobable"))
+    n = x.size
+    mu, sigma = float(x.mean()), float(x.std())
+    if not sigma > 0:
+        raise ValueError("`diameters_um` are all equal; a Gaussian cannot be tested.")
+    k = math.ceil(1 + math.log2(n))  # Sturges' rule [3]
+    if classes == "equal-width":
+        inner = np.linspace(x.min(), x.max(), k + 1)[1:-1]
+    else:
+        inner = mu + sigma * stats.norm.ppf(np.arange(1, k) / k)
+    edges = np.concatenate([[-np.inf], inner, [np.inf]])
+    cdf = stats.norm.cdf((edges - mu) / sigma)
+    expected = n * np.diff(cdf)
+    observed = np.bincount(np.searchsorted(inner, x, side="right"), minlength=k)
+    edges, observed, expected = _merge(edges, observed, expected)
+    dof = expected.size - 3
+    if dof < 1:
+        raise ValueError(
+            f"too few diameters for the chi-squared test: n={n} leaves "
+            f"{expected.size} classes with expected count >= {MIN_EXPECTED:g}; "
+            "need at least 4 (about 30 or more diameters)."
+        )
+    statistic = float(np.sum((observed - expected) ** 2 / expected))
+    pvalue = float(stats.chi2.sf(statistic, dof))
+    reject = bool(pvalue < alpha)
+    return Chi2NormalityResult(
+        statistic=statistic,
+        dof=int(dof),
+        pvalue=pvalue,
+        reject=reject,
+        alpha=alpha,
+        edges_um=edges,
+        observed=observed.astype(np.int64),
+        expected=expected,
+        mean_um=mu,
+        std_um=sigma,
+        decision="empirical" if reject else "gaussian",
+        n_classes_initial=k,
+    )

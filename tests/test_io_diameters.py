@@ -1,0 +1,174 @@
+"""Tests for microimpact.io.diameters (raw-diameter and histogram readers)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+from scipy import stats
+
+from microimpact.errors import DataFormatError
+from microimpact.io.diameters import read_diameters, read_histogram
+from microimpact.population.distributions import histogram_diameters
+from microimpact.units import m_to_um
+
+UM = 1e-6
+
+
+def _write(tmp_path, name, text):
+    path = tmp_path / name
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+# -- read_diameters ----------------------------------------------------------------
+def test_single_column_no_header(tmp_path):
+    path = _write(tmp_path, "d.txt", "52.1\n48.0\n\n# a comment\n61.5\n")
+    d, meta = read_diameters(path)
+    assert_allclose(d, np.array([52.1, 48.0, 61.5]) * UM, rtol=1e-15)
+    assert meta["n"] == 3 and meta["header"] is None and meta["unit"] == "um"
+    assert meta["source"] == str(path)
+
+
+def test_header_and_auto_diameter_column(tmp_path):
+    text = "# PDPA export\ntime_s,velocity_m_s,Diameter_um\n0.1,2.0,50.5\n0.2,2.1,48\n"
+    d, meta = read_diameters(_write(tmp_path, "pdpa.csv", text))
+    assert_allclose(d, [50.5 * UM, 48 * UM], rtol=1e-15)
+    assert meta["column"] == "Diameter_um" and meta["column_index"] == 2
+    assert meta["delimiter"] == ","
+
+
+@pytest.mark.parametrize(
+    ("sep", "column"), [("\t", "size"), (";", 1), (" ", -1), ("\t", "SIZE")]
+)
+def test_choose_column_by_name_or_index(tmp_path, sep, column):
+    text = sep.join(["t", "size"]) + "\n" + sep.join(["1", "30"]) + "\n"
+    text += sep.join(["2", "40.5"]) + "\n"
+    d, meta = read_diameters(_write(tmp_path, "d.txt", text), column=column)
+    assert_allclose(d, [30 * UM, 40.5 * UM], rtol=1e-15)
+    assert meta["column_index"] == 1
+
+
+def test_unit_conversion_and_quotes(tmp_path):
+    path = _write(tmp_path, "mm.csv", '"d_mm"\n"0.05"\n0.0625\n')
+    d, _ = read_diameters(path, unit="mm")
+    assert_allclose(d, [50 * UM, 62.5 * UM], rtol=1e-14)
+    with pytest.raises(ValueError, match="unknown length unit"):
+        read_diameters(path, unit="inch")
+
+
+def test_whitespace_columns_without_header_by_index(tmp_path):
+    d, meta = read_diameters(_write(tmp_path, "w.dat", "1 2 3\n4 5 6\n"), column=2)
+    assert_allclose(d, [3 * UM, 6 * UM], rtol=1e-15)
+    assert meta["column"] == 2 and meta["delimiter"] == "whitespace"
+
+
+@pytest.mark.parametrize(
+    ("text", "kwargs", "match"),
+    [
+        ("10\n0\n", {}, r"d\.txt:2: column 0: bad value '0'; allowed: a diameter > 0"),
+        ("10\n-3.5\n", {}, r":2: column 0: bad value '-3.5'"),
+        ("10\nabc\n", {}, r":2: column 0: non-numeric value 'abc'"),
+        ("d\n10\nNaN\n", {}, r":3: column 'd': missing value 'NaN'"),
+        ("a,d\n1,10\n2,\n", {"column": "d"}, r":3: column 'd': missing value ''"),
+        ("a,d\n1,10\n2\n", {"column": 1}, r":3: column 'd': missing value"),
+        ("10\ninf\n", {}, r":2: column 0: bad value 'inf'"),
+        ("", {}, r"d\.txt: no diameters found"),
+        ("# only comments\n\n", {}, "no diameters found"),
+        ("diameter_um\n", {}, "only a header"),
+        ("a,b\n1,2\n", {}, r"column: the file has 2 columns; pass `column=` one of"),
+        ("a,b\n1,2\n", {"column": "c"}, r"no column named 'c'; allowed: 'a', 'b'"),
+        ("1,2\n3,4\n", {"column": 5}, r"column index 5 out of range; allowed: 0\.\.1"),
+    ],
+)
+def test_read_diameters_errors(tmp_path, text, kwargs, match):
+    path = _write(tmp_path, "d.txt", text)
+    with pytest.raises(DataFormatError, match=match):
+        read_diameters(path, **kwargs)
+
+
+def test_read_diameters_missing_file_and_bad_column_type(tmp_path):
+    with pytest.raises(DataFormatError, match="cannot read file"):
+        read_diameters(tmp_path / "nope.csv")
+    path = _write(tmp_path, "d.txt", "1\n")
+    with pytest.raises(TypeError, match="`column`"):
+        read_diameters(path, column=1.5)
+
+
+def test_error_carries_fields(tmp_path):
+    path = _write(tmp_path, "d.txt", "d\n10\n-1\n")
+    with pytest.raises(DataFormatError) as info:
+        read_diameters(path)
+    err = info.value
+    assert err.source == str(path) and err.line == 3 and err.field == "column 'd'"
+    assert "-1" in err.message and "allowed" in err.message
+
+
+def test_roundtrip_large_sample(tmp_path):
+    rng = np.random.default_rng(3)
+    x = np.round(rng.normal(52.8, 15.3, 5000).clip(1), 3)
+    path = tmp_path / "big.csv"
+    np.savetxt(path, x, header="diameter_um", comments="", fmt="%.3f")
+    d, meta = read_diameters(path)
+    assert meta["n"] == 5000
+    assert_allclose(m_to_um(d), x, rtol=1e-12)
+
+
+# -- read_histogram ------------------------------------------------------------------
+COLUMNS = "lower_um,upper_um,count\n10,20,12\n20,30,40\n30,40,95\n40,55,33\n"
+
+
+def test_histogram_columns_layout(tmp_path):
+    edges, counts, meta = read_histogram(_write(tmp_path, "h.csv", COLUMNS))
+    assert_allclose(edges, np.array([10, 20, 30, 40, 55]) * UM, rtol=1e-15)
+    assert_allclose(counts, [12, 40, 95, 33], rtol=0)
+    assert meta["layout"] == "columns" and meta["n_bins"] == 4
+    assert meta["header"] == ["lower_um", "upper_um", "count"]
+    assert_allclose(meta["total"], 180, rtol=0)
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "10 20 30 40\n0.1 0.5 0.4\n",
+        "edges_um;10;20;30;40\ncounts;0.1;0.5;0.4\n",
+    ],
+)
+def test_histogram_rows_layout(tmp_path, text):
+    edges, counts, meta = read_histogram(_write(tmp_path, "h.txt", text))
+    assert_allclose(edges, np.array([10, 20, 30, 40]) * UM, rtol=1e-15)
+    assert_allclose(counts, [0.1, 0.5, 0.4], rtol=1e-15)
+    assert meta["layout"] == "rows"
+
+
+def test_histogram_file_to_distribution_reproduces_counts(tmp_path):
+    edges, counts, _ = read_histogram(_write(tmp_path, "h.csv", COLUMNS))
+    dist = histogram_diameters(m_to_um(edges), counts)
+    n = 20000
+    sample = dist.table().sample(n, rng=np.random.default_rng(11))
+    observed = np.histogram(sample, bins=edges)[0]
+    p = counts / counts.sum()
+    assert stats.chisquare(observed, n * p).pvalue > 1e-3
+
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        ("", "the file is empty; expected columns"),
+        ("lower,upper,count\n", "no bins found"),
+        ("10,20,5\n25,30,7\n31,40,1\n", r":2: column 0 \(lower edge\): .* \(a gap\)"),
+        ("10,20,5\n15,30,7\n30,40,1\n", r":2: .*an overlap or unsorted bins"),
+        ("10,20,5\n20,20,7\n20,40,1\n", r":2: column 1 \(upper edge\): upper edge"),
+        ("10,20,5\n20,30,-7\n30,40,1\n", r":2: column 2 \(count\): bad value '-7'"),
+        ("10,20,5\n20,30,x\n30,40,1\n", r":2: column 2 \(count\): non-numeric"),
+        ("10,20,5\n20,30\n30,40,1\n", r":2: row has 2 cells; expected columns"),
+        ("10,20,0\n20,30,0\n30,40,0\n", r"count: all counts are zero"),
+        ("-10,20,5\n20,30,7\n30,40,1\n", r":1: column 0 \(lower edge\): bad value"),
+        ("a,b\n10,20\n", "header has 2 columns"),
+        ("10 30 20\n1 1\n", r":1: column 2: bin edges must be strictly increasing"),
+        ("edges 10 20 30\ncounts 1 -1\n", r":2: column 2: bad value '-1'"),
+    ],
+)
+def test_read_histogram_errors(tmp_path, text, match):
+    with pytest.raises(DataFormatError, match=match):
+        read_histogram(_write(tmp_path, "h.csv", text))
