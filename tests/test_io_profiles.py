@@ -1,0 +1,277 @@
+"""Tests for microimpact.io.profiles: text and x3p profile readers."""
+
+from __future__ import annotations
+
+import sys
+import zipfile
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from microimpact.errors import ProfileFormatError
+from microimpact.io.profiles import Profile, ProfileSet, read_profile, read_profiles
+
+
+def _write(tmp_path, name, text):
+    p = tmp_path / name
+    p.write_text(text, encoding="utf-8")
+    return p
+
+
+def _one_line_error(excinfo, path, line=None):
+    msg = str(excinfo.value)
+    assert "\n" not in msg
+    assert str(path) in msg
+    if line is not None:
+        assert f"{path}:{line}:" in msg
+    return msg
+
+
+# ------------------------------------------------------------------ good input
+
+
+def test_csv_with_header_in_um(tmp_path):
+    p = _write(tmp_path, "a.csv", "# a comment\nx,z\n0,1.5\n0.5,-2\n1.0,3 # note\n")
+    prof = read_profile(p)
+    assert isinstance(prof, Profile)
+    assert_allclose(prof.x, [0.0, 0.5e-6, 1.0e-6], rtol=0, atol=1e-18)
+    assert_allclose(prof.z, [1.5e-6, -2e-6, 3e-6], rtol=1e-15)
+    assert prof.metadata["source"] == str(p)
+    assert prof.metadata["n_points"] == 3
+    assert_allclose(prof.metadata["dx"], 0.5e-6, rtol=1e-12)
+    assert prof.metadata["z_unit"] == "um"
+
+
+@pytest.mark.parametrize(
+    ("text", "delimiter"),
+    [
+        ("0\t10\n1\t20\n2\t30\n", None),
+        ("0 10\n1   20\n2 30\n", None),
+        ("0;10\n1;20\n2;30\n", None),
+        ("0|10\n1|20\n2|30\n", "|"),
+    ],
+)
+def test_delimiters(tmp_path, text, delimiter):
+    p = _write(tmp_path, "a.txt", text)
+    prof = read_profile(p, unit="mm", delimiter=delimiter)
+    assert_allclose(prof.x, [0.0, 1e-3, 2e-3], rtol=1e-15)
+    assert_allclose(prof.z, [10e-3, 20e-3, 30e-3], rtol=1e-15)
+
+
+@pytest.mark.parametrize(
+    ("unit", "factor"),
+    [("m", 1.0), ("mm", 1e-3), ("um", 1e-6), ("µm", 1e-6), ("nm", 1e-9), ("A", 1e-10)],
+)
+def test_units(tmp_path, unit, factor):
+    p = _write(tmp_path, "a.csv", "0,2\n4,6\n")
+    prof = read_profile(p, unit=unit)
+    assert_allclose(prof.x, [0.0, 4 * factor], rtol=1e-15)
+    assert_allclose(prof.z, [2 * factor, 6 * factor], rtol=1e-15)
+
+
+def test_separate_units_paper_angstrom(tmp_path):
+    # positions in µm, heights in Å as in the paper's H_bar [Å]
+    p = _write(tmp_path, "a.csv", "x,z\n0,200000\n0.5,-100000\n")
+    prof = read_profile(p, x_unit="um", z_unit="Å")
+    assert_allclose(prof.x, [0.0, 0.5e-6], rtol=1e-15)
+    assert_allclose(prof.z, [20e-6, -10e-6], rtol=1e-15)
+
+
+def test_heights_only_with_dx(tmp_path):
+    p = _write(tmp_path, "h.txt", "# heights only\n1\n2\n3\n4\n")
+    prof = read_profile(p, dx_um=0.5)
+    assert_allclose(prof.x, np.arange(4) * 0.5e-6, rtol=1e-15)
+    assert_allclose(prof.z, [1e-6, 2e-6, 3e-6, 4e-6], rtol=1e-15)
+
+
+def test_named_columns(tmp_path):
+    p = _write(tmp_path, "a.csv", "t,height,pos\n9,1,0\n9,2,1\n9,3,2\n")
+    prof = read_profile(p, x_column="pos", z_column="Height")
+    assert_allclose(prof.x, [0, 1e-6, 2e-6], rtol=1e-15)
+    assert_allclose(prof.z, [1e-6, 2e-6, 3e-6], rtol=1e-15)
+    prof2 = read_profile(p, x_column=2, z_column=1)
+    assert_allclose(prof2.z, prof.z, rtol=0)
+
+
+def test_decreasing_positions_are_reversed(tmp_path):
+    p = _write(tmp_path, "a.csv", "2,30\n1,20\n0,10\n")
+    prof = read_profile(p)
+    assert_allclose(prof.x, [0, 1e-6, 2e-6], rtol=1e-15)
+    # (x, z) pairs are kept, so slopes keep their sign
+    assert_allclose(prof.z, [10e-6, 20e-6, 30e-6], rtol=1e-15)
+
+
+def test_scan_column_gives_separate_scans(tmp_path):
+    rows = ["scan,x_um,z_um"]
+    rows += [f"A,{i * 0.5},{i}" for i in range(5)]
+    rows += [f"B,{i * 0.5},{-i}" for i in range(6)]
+    p = _write(tmp_path, "s.csv", "\n".join(rows) + "\n")
+    ps = read_profiles(p)
+    assert isinstance(ps, ProfileSet)
+    assert len(ps) == 2
+    assert [q.scan for q in ps] == ["A", "B"]
+    assert [q.n_points for q in ps] == [5, 6]
+    assert ps.n_points == 11
+    assert_allclose(ps[1].z, -np.arange(6) * 1e-6, rtol=1e-15)
+    with pytest.raises(ProfileFormatError, match="holds 2 scans"):
+        read_profile(p)
+
+
+def test_several_files(tmp_path):
+    p1 = _write(tmp_path, "1.csv", "0,1\n1,2\n2,3\n")
+    p2 = _write(tmp_path, "2.csv", "0,4\n1,5\n")
+    ps = read_profiles([p1, p2])
+    assert len(ps) == 2
+    assert ps.metadata["sources"] == [str(p1), str(p2)]
+    assert ps.metadata["n_points"] == 5
+
+
+# ------------------------------------------------------------------ bad input
+
+
+@pytest.mark.parametrize(
+    ("text", "line", "match"),
+    [
+        ("x,z\n0,1\n1,abc\n", 3, "non-numeric value 'abc'"),
+        ("x,z\n0,1\n1,\n", 3, "missing value"),
+        ("0,1\n1,NaN\n", 2, "missing or infinite"),
+        ("0,1\n1,NA\n", 2, "missing value"),
+        ("0,1\n2,2\n1,3\n", 3, "not strictly monotonic"),
+        ("0,1\n1,2\n1,3\n", 3, "not strictly monotonic"),
+        ("0,1\n1,2,3\n", 2, "expected 2 columns, found 3"),
+    ],
+)
+def test_bad_cells_one_line_error(tmp_path, text, line, match):
+    p = _write(tmp_path, "bad.csv", text)
+    with pytest.raises(ProfileFormatError, match=match) as excinfo:
+        read_profile(p)
+    _one_line_error(excinfo, p, line)
+
+
+def test_unknown_unit(tmp_path):
+    p = _write(tmp_path, "a.csv", "0,1\n1,2\n")
+    with pytest.raises(ProfileFormatError, match="unknown length unit 'inch'") as ei:
+        read_profile(p, unit="inch")
+    _one_line_error(ei, p)
+    with pytest.raises(ProfileFormatError, match="z_unit"):
+        read_profile(p, z_unit="furlong")
+
+
+@pytest.mark.parametrize(
+    ("text", "kwargs", "match"),
+    [
+        ("# only comments\n", {}, "no data rows"),
+        ("1\n2\n3\n", {}, "heights alone need"),
+        ("x,z\n0,1\n1,2\n", {"z_column": "h"}, "no column named 'h'"),
+        ("0,1\n1,2\n", {"z_column": "h"}, "no header row"),
+        ("0,1\n1,2\n", {"z_column": 5}, "out of range"),
+        ("0,1\n", {}, "at least 2 are needed"),
+        ("0,1\n1,2\n", {"dx_um": 0.5, "x_column": 0}, "not both"),
+    ],
+)
+def test_structural_errors(tmp_path, text, kwargs, match):
+    p = _write(tmp_path, "bad.csv", text)
+    with pytest.raises(ProfileFormatError, match=match) as excinfo:
+        read_profile(p, **kwargs)
+    _one_line_error(excinfo, p)
+
+
+def test_missing_file_and_binary(tmp_path):
+    with pytest.raises(ProfileFormatError, match="file not found"):
+        read_profile(tmp_path / "nope.csv")
+    p = tmp_path / "bin.csv"
+    p.write_bytes(b"\xff\xfe\x00\x81" * 10)
+    with pytest.raises(ProfileFormatError, match="not a UTF-8 text file"):
+        read_profile(p)
+
+
+def test_bad_dx(tmp_path):
+    p = _write(tmp_path, "h.txt", "1\n2\n")
+    with pytest.raises(ValueError, match="`dx_um` must be a number > 0"):
+        read_profile(p, dx_um=-1)
+
+
+# ------------------------------------------------------------------ x3p
+
+
+def _make_x3p(path, z, dx, *, dtype="D", z_increment=1.0, feature="PRF", rows=1):
+    """A minimal ISO 5436-2 x3p container built by hand (zipfile + XML text)."""
+    code = {"D": "<f8", "F": "<f4", "I": "<i2", "L": "<i4"}[dtype]
+    z = np.asarray(z, dtype=float)
+    nx = z.shape[-1]
+    xml = f"""<?xml version="1.0" encoding="UTF-8"?>
+<p:ISO5436_2 xmlns:p="http://www.opengps.eu/2008/ISO5436_2">
+ <Record1><Revision>ISO5436 - 2000</Revision><FeatureType>{feature}</FeatureType>
+  <Axes>
+   <CX><AxisType>I</AxisType><DataType>D</DataType><Increment>{dx!r}</Increment>
+       <Offset>0</Offset></CX>
+   <CY><AxisType>I</AxisType><DataType>D</DataType><Increment>{dx!r}</Increment>
+       <Offset>0</Offset></CY>
+   <CZ><AxisType>A</AxisType><DataType>{dtype}</DataType>
+       <Increment>{z_increment!r}</Increment><Offset>0</Offset></CZ>
+  </Axes></Record1>
+ <Record3><MatrixDimension><SizeX>{nx}</SizeX><SizeY>{rows}</SizeY><SizeZ>1</SizeZ>
+  </MatrixDimension>
+  <DataLink><PointDataLink>bindata/data.bin</PointDataLink></DataLink></Record3>
+ <Record4><ChecksumFile>md5checksum.hex</ChecksumFile></Record4>
+</p:ISO5436_2>"""
+    raw = np.round(z / z_increment) if dtype in "IL" else z / z_increment
+    with zipfile.ZipFile(path, "w") as zf:
+        zf.writestr("main.xml", xml)
+        zf.writestr("bindata/data.bin", raw.astype(code).tobytes())
+    return path
+
+
+@pytest.mark.parametrize(
+    ("dtype", "inc", "rtol"), [("D", 1.0, 1e-15), ("F", 1.0, 1e-7), ("I", 1e-9, 1e-12)]
+)
+def test_x3p_profile(tmp_path, dtype, inc, rtol):
+    pytest.importorskip("x3pio")
+    z = np.array([1e-6, 2e-6, -1e-6, 0.5e-6, 3e-6])
+    p = _make_x3p(tmp_path / "p.x3p", z, 0.5e-6, dtype=dtype, z_increment=inc)
+    prof = read_profile(p)
+    assert_allclose(prof.x, np.arange(5) * 0.5e-6, rtol=1e-12, atol=1e-18)
+    assert_allclose(prof.z, z, rtol=rtol, atol=1e-18)
+    assert prof.metadata["format"] == "x3p"
+
+
+def test_x3p_surface_rows_are_scans(tmp_path):
+    pytest.importorskip("x3pio")
+    z = np.arange(12.0).reshape(3, 4) * 1e-6
+    p = _make_x3p(tmp_path / "s.x3p", z, 1e-6, feature="SUR", rows=3)
+    ps = read_profiles(p)
+    assert len(ps) == 3
+    assert_allclose(ps[2].z, z[2], rtol=1e-15)
+    with pytest.raises(ProfileFormatError, match="holds 3 scans"):
+        read_profile(p)
+
+
+def test_x3p_damaged(tmp_path):
+    pytest.importorskip("x3pio")
+    p = tmp_path / "bad.x3p"
+    with zipfile.ZipFile(p, "w") as zf:
+        zf.writestr("readme.txt", "not an x3p")
+    with pytest.raises(ProfileFormatError, match="not a readable x3p file") as ei:
+        read_profile(p)
+    _one_line_error(ei, p)
+
+
+def test_x3p_without_x3pio(tmp_path, monkeypatch):
+    monkeypatch.setitem(sys.modules, "x3pio", None)  # import fails
+    p = _make_x3p(tmp_path / "p.x3p", [0.0, 1e-6], 1e-6)
+    with pytest.raises(ProfileFormatError, match="pip install x3pio") as ei:
+        read_profile(p)
+    _one_line_error(ei, p)
+
+
+def test_profile_validation():
+    with pytest.raises(ValueError, match="strictly increasing"):
+        Profile([0.0, 0.0], [1.0, 2.0])
+    with pytest.raises(ValueError, match="same length"):
+        Profile([0.0, 1.0], [1.0])
+    with pytest.raises(ValueError, match="finite"):
+        Profile([0.0, 1.0], [1.0, np.nan])
+    p = Profile([0.0, 1.0, 2.0], [0.0, 1.0, 0.0])
+    with pytest.raises(ValueError):
+        p.z[0] = 5.0  # read-only
