@@ -34,14 +34,21 @@ class Moments:
 
     @classmethod
     def of(cls, x: np.ndarray) -> Moments:
-        """Moments of the finite 1-d array `x` (two-pass, so well conditioned)."""
+        """Moments of the finite 1-d array `x`.
+
+        Two passes (well conditioned), each summed sequentially left to right
+        (``np.add.accumulate``), the same order as the compiled kernel, so both give
+        the same bits.
+        """
         n = int(x.size)
         if n == 0:
             return cls()
-        mean = float(x.sum()) / n
+        mean = float(np.add.accumulate(x)[-1]) / n
         d = x - mean
         d2 = d * d
-        return cls(n, mean, float(d2.sum()), float((d2 * d).sum()))
+        m2 = float(np.add.accumulate(d2)[-1])
+        d2 *= d
+        return cls(n, mean, m2, float(np.add.accumulate(d2)[-1]))
 
     def merge(self, other: Moments) -> Moments:
         """Combine two disjoint streams (Pebay 2008, Eqs. 1.1-1.3)."""

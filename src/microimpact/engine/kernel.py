@@ -26,6 +26,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.stats import qmc
 
+from . import _fused
 from .accumulators import (
     E_EDGES,
     MU_EDGES,
@@ -115,6 +116,9 @@ def simulate_block(
     else:
         sin_true, cot = tables.sin_true, tables.cot_true
         tan_phi, tan_cot, gain = 0.0, 0.0, 1.0
+
+    if not store and _fused.AVAILABLE:
+        return _simulate_fused(plan, sp, tables, idx, n)
 
     speed = sp.speed
     if plan.speed_factor is not None:
@@ -211,4 +215,114 @@ def simulate_block(
         mu=Moments.of(mu_r),
         e_hist=histogram_counts(e_r, E_EDGES),
         mu_hist=histogram_counts(mu_r, MU_EDGES),
+    )
+
+
+_WORKSPACE: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+_E_INV_W = (E_EDGES.size - 1) / (E_EDGES[-1] - E_EDGES[0])
+_MU_INV_W = (MU_EDGES.size - 1) / (MU_EDGES[-1] - MU_EDGES[0])
+
+
+def _angle_rows(tables):
+    """The atom -> row map and the distinct interleaved angle rows (64 bytes each).
+
+    Cached on the tables object; measured angle sets have few distinct atoms, so
+    the rows and the 16-bit map stay in the L2 cache.
+    """
+    if tables.rows is None:
+        cols = (
+            tables.sin_true,
+            tables.cot_true,
+            tables.tan_phi,
+            tables.tan_cot,
+            tables.gain,
+        )
+        m = max(np.size(c) for c in cols)
+        full = np.zeros((m, 8))
+        for j, c in enumerate(cols):
+            full[:, j] = c
+        if m > 1:
+            rows, amap = np.unique(full, axis=0, return_inverse=True)
+            amap = amap.ravel().astype(
+                np.uint16 if rows.shape[0] <= 65536 else np.int64
+            )
+        else:
+            rows, amap = full, np.zeros(1, dtype=np.uint16)
+        object.__setattr__(tables, "rows", (amap, np.ascontiguousarray(rows)))
+    return tables.rows
+
+
+def _simulate_fused(plan, sp, tables, idx, n):
+    """The same block through the compiled single-pass kernel (see ``_fused``)."""
+    ws = _WORKSPACE.get(n)
+    if ws is None:  # per-process workspace, reused: no page faults per block
+        _WORKSPACE.clear()
+        ws = _WORKSPACE[n] = (
+            np.empty(n),
+            np.empty(n),
+            np.empty(n),
+            np.empty(n),
+            np.empty(n, dtype=np.int64),
+        )
+    buf_e, buf_mu = ws[0], ws[1]
+    none = np.zeros(1, dtype=np.int64)
+    i_a = idx.get(VAR_ANGLE, none)
+    i_s = idx.get(VAR_SPEED, none)
+    sf = plan.speed_factor if plan.speed_factor is not None else np.ones(1)
+    e_hist = np.zeros(E_EDGES.size + 1, dtype=np.int64)
+    mu_hist = np.zeros(MU_EDGES.size + 1, dtype=np.int64)
+    counts = np.zeros(5, dtype=np.int64)
+    em, mum, flags = ws[2], ws[3], ws[4]
+    _fused.physics(
+        idx[VAR_DIAMETER],
+        i_a,
+        i_s,
+        n,
+        tables.random,
+        plan.speed_factor is not None,
+        plan.diameter_rows(),
+        *_angle_rows(tables),
+        sf,
+        float(sp.speed),
+        plan.p,
+        plan.q,
+        plan.friction,
+        em,
+        mum,
+        flags,
+    )
+    _fused.reduce(
+        n,
+        bool(tables.random and plan.shadowing == "none"),
+        em,
+        mum,
+        flags,
+        float(E_EDGES[0]),
+        _E_INV_W,
+        float(E_EDGES.size - 1),
+        float(MU_EDGES[0]),
+        _MU_INV_W,
+        float(MU_EDGES.size - 1),
+        e_hist,
+        mu_hist,
+        buf_e,
+        buf_mu,
+        counts,
+    )
+    m = int(counts[4])
+    mom = np.empty(3)
+    _fused.moments(buf_e, m, mom)
+    e_mom = Moments(m, float(mom[0]), float(mom[1]), float(mom[2])) if m else Moments()
+    _fused.moments(buf_mu, m, mom)
+    mu_mom = Moments(m, float(mom[0]), float(mom[1]), float(mom[2])) if m else Moments()
+    return PointAccumulator(
+        n=n,
+        shadowed=int(counts[0]),
+        captured=int(counts[1]),
+        reimpact=int(counts[2]),
+        rolling=int(counts[3]),
+        e=e_mom,
+        mu=mu_mom,
+        e_hist=e_hist,
+        mu_hist=mu_hist,
     )

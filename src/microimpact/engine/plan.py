@@ -74,6 +74,7 @@ class AngleTables:
     phi: np.ndarray | float  # the atoms themselves [rad]
     shadowed_mass: float  # P(phi >= theta) under the surface's own distribution
     random: bool  # False for a smooth surface (no angle draw needed)
+    rows: np.ndarray | None = None  # interleaved copy for the compiled kernel
 
 
 @dataclass(frozen=True, eq=False)
@@ -104,12 +105,24 @@ class Plan:
         tables = self._cache.get(key)
         if tables is None:
             if len(self._cache) > 16:
+                rows = self._cache.get("diameter_rows")
                 self._cache.clear()
+                if rows is not None:
+                    self._cache["diameter_rows"] = rows
             tables = _angle_tables(
                 self.surface_atoms[surface], float(angle_deg), self.shadowing
             )
             self._cache[key] = tables
         return tables
+
+    def diameter_rows(self) -> np.ndarray:
+        """Interleaved (1/k1, 1/k2, v_c, 0) rows for the compiled kernel."""
+        rows = self._cache.get("diameter_rows")
+        if rows is None:
+            rows = np.zeros((self.diameter.size, 4))
+            rows[:, 0], rows[:, 1], rows[:, 2] = self.inv_k1, self.inv_k2, self.v_c
+            self._cache["diameter_rows"] = rows
+        return rows
 
     def __getstate__(self):
         state = dict(self.__dict__)

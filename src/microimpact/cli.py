@@ -1,0 +1,656 @@
+"""The ``microimpact`` command line: a thin layer over the library.
+
+It parses arguments, builds a Scenario or reads data, calls the library and writes
+the outputs. Exit codes: 0 success; 2 a user error (bad flag, bad file, bad scenario),
+reported as one line without a traceback; 1 an internal error (set
+``MICROIMPACT_DEBUG=1`` to see the traceback).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+import time
+from pathlib import Path
+
+from . import __version__
+from .errors import InputError
+
+EXIT_OK, EXIT_INTERNAL, EXIT_USER = 0, 1, 2
+CHECKPOINT_NAME = ".microimpact-checkpoint.npz"
+
+
+# ----------------------------------------------------------------- arg types
+def _positive_int(text):
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected a whole number; got {text!r}"
+        ) from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1; got {v}")
+    return v
+
+
+def _nonneg_int(text):
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected a whole number; got {text!r}"
+        ) from None
+    if v < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0; got {v}")
+    return v
+
+
+def _positive_float(text):
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number; got {text!r}") from None
+    if not (v > 0 and math.isfinite(v)):
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0; got {text}")
+    return v
+
+
+def _fraction(text):
+    v = _positive_float(text)
+    if not v < 1:
+        raise argparse.ArgumentTypeError(f"must be in (0, 1); got {text}")
+    return v
+
+
+def _formats(text):
+    fmts = [f.strip().lower() for f in text.split(",") if f.strip()]
+    bad = [f for f in fmts if f not in ("png", "pdf", "svg")]
+    if bad or not fmts:
+        raise argparse.ArgumentTypeError(
+            f"formats must be a comma list of png, pdf, svg; got {text!r}"
+        )
+    return tuple(fmts)
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # one line, exit 2 (argparse's own convention)
+        self.exit(EXIT_USER, f"{self.prog}: error: {message}\n")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = _Parser(
+        prog="microimpact",
+        description="Monte Carlo analysis of polydisperse microparticle impacts "
+        "with rough surfaces (Li, Dunn & Brach 2000).",
+    )
+    p.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    sub.required = True
+
+    def common_run(sp):
+        sp.add_argument(
+            "--seed", type=_nonneg_int, help="root seed (overrides the file)"
+        )
+        sp.add_argument(
+            "--workers",
+            type=_positive_int,
+            default=1,
+            help="worker processes (default 1)",
+        )
+        sp.add_argument("--backend", choices=("process", "dask"), default="process")
+        sp.add_argument(
+            "--scheduler",
+            metavar="ADDRESS",
+            help="Dask scheduler address (default: a LocalCluster)",
+        )
+        sp.add_argument("--quiet", action="store_true", help="no progress bar")
+        sp.add_argument(
+            "--formats",
+            type=_formats,
+            default=("png", "pdf"),
+            help="figure formats, e.g. png,pdf (default png,pdf)",
+        )
+
+    r = sub.add_parser("run", help="run a scenario file")
+    r.add_argument("scenario", help="scenario TOML file or preset name")
+    r.add_argument("--out", required=True, type=Path, help="output folder")
+    r.add_argument("--samples", type=_positive_int, help="impacts per sweep point")
+    r.add_argument(
+        "--precision",
+        type=_positive_float,
+        metavar="X",
+        help="stop each point at this CI half-width of the scenario's "
+        "precision statistic (default capture_fraction)",
+    )
+    r.add_argument("--no-figures", action="store_true")
+    common_run(r)
+
+    rp = sub.add_parser("reproduce", help="run the paper's four presets + report")
+    rp.add_argument("--out", type=Path, default=Path("out"))
+    rp.add_argument("--quick", action="store_true", help="1,000 samples per point")
+    rp.add_argument(
+        "--samples",
+        type=_positive_int,
+        help="impacts per sweep point (default: each preset's, 4,000)",
+    )
+    common_run(rp)
+
+    rg = sub.add_parser("roughness", help="characterise a profilometer scan")
+    rg.add_argument("profile", type=Path, nargs="+", help="profile file(s)")
+    rg.add_argument("--out", required=True, type=Path)
+    rg.add_argument("--contact-length-um", type=_positive_float, default=20.0)
+    rg.add_argument("--method", choices=("slope", "paper"), default="slope")
+    rg.add_argument("--unit", default="um", help="unit of x and z (um, nm, A, mm, m)")
+    rg.add_argument(
+        "--dx-um",
+        type=_positive_float,
+        help="sampling interval when the file holds heights only",
+    )
+    rg.add_argument(
+        "--n-angles",
+        type=_positive_int,
+        default=4000,
+        help="angles in the exported sample file (paper: 4,000)",
+    )
+    rg.add_argument("--seed", type=_nonneg_int, default=0)
+
+    sz = sub.add_parser("sizes", help="fit diameters, chi-squared test, plot")
+    sz.add_argument("data", type=Path)
+    sz.add_argument("--out", type=Path, default=None)
+    sz.add_argument("--column", default=None, help="column name or 0-based index")
+    sz.add_argument("--unit", default="um")
+    sz.add_argument("--alpha", type=_fraction, default=0.05)
+
+    ft = sub.add_parser("fit", help="least-squares k1, k2, v_c from impact data")
+    ft.add_argument("data", type=Path, help="CSV: diameter_um, v_n_m_s, e")
+    ft.add_argument("--out", type=Path, default=None)
+    ft.add_argument(
+        "--form", choices=("power", "polynomial", "constant"), default="power"
+    )
+
+    cv = sub.add_parser("convergence", help="the paper's convergence study")
+    cv.add_argument("scenario", help="scenario TOML file or preset name")
+    cv.add_argument("--out", type=Path, default=None)
+    cv.add_argument(
+        "--point",
+        type=_nonneg_int,
+        default=None,
+        help="sweep-point index (default: the one nearest 50 %% capture)",
+    )
+    cv.add_argument("--n-max", type=_positive_int, default=20_000)
+    cv.add_argument("--tolerance", type=_fraction, default=0.03)
+    cv.add_argument("--seed", type=_nonneg_int)
+
+    cp = sub.add_parser("compare", help="simulation vs experiment at 95 %% level")
+    cp.add_argument("results", type=Path, help="summary.csv, results.nc or run folder")
+    cp.add_argument("experiment", type=Path, help="experimental CSV")
+    cp.add_argument("--out", type=Path, default=None)
+    cp.add_argument("--confidence", type=_fraction, default=0.95)
+
+    sub.add_parser("presets", help="list the shipped presets")
+    return p
+
+
+# ----------------------------------------------------------------- helpers
+def _load_scenario(text):
+    from .config import PRESETS, load_preset
+    from .scenario import Scenario
+
+    path = Path(text)
+    if path.suffix.lower() == ".toml" or path.exists():
+        if not path.exists():
+            raise InputError("no such scenario file", source=path)
+        return Scenario.from_toml(path)
+    if text in PRESETS:
+        return load_preset(text)
+    raise InputError(
+        f"not a scenario file or preset name; presets: {', '.join(sorted(PRESETS))}",
+        source=text,
+    )
+
+
+def _say(args, msg):
+    if not getattr(args, "quiet", False):
+        print(msg)
+
+
+def _run_one(scenario, out_dir, args, samples=None):
+    from .engine.montecarlo import run
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    ck = out_dir / CHECKPOINT_NAME
+    result = run(
+        scenario,
+        samples=samples,
+        seed=getattr(args, "seed", None),
+        workers=args.workers,
+        backend=args.backend,
+        address=args.scheduler,
+        checkpoint=ck,
+        progress=False if args.quiet else None,
+    )
+    result.to_files(out_dir)
+    from .engine.result import atomic_write
+
+    atomic_write(
+        out_dir / "capture_speed.csv",
+        lambda t: result.capture_speed().to_csv(t, index=False),
+    )
+    figures = []
+    if not getattr(args, "no_figures", False):
+        from .plotting.results import figures_for_result
+
+        figures = figures_for_result(
+            result,
+            out_dir,
+            formats=args.formats,
+            experiments=_experiments(scenario),
+        )
+    ck.unlink(missing_ok=True)
+    return result, figures
+
+
+def _experiments(scenario):
+    paths = list(getattr(scenario, "experiments", ()) or ())
+    if not paths:
+        return None
+    import pandas as pd
+
+    from .io.experiments import read_experiments
+
+    return pd.concat([read_experiments(p) for p in paths], ignore_index=True)
+
+
+def _print_capture(result):
+    cs = result.capture_speed()
+    for _, r in cs.dropna(subset=["speed_m_s"]).iterrows():
+        print(
+            f"  {r['surface']}, {r['angle_deg']:g} deg: {r['quantile']:.0%} capture at "
+            f"{r['speed_m_s']:.3f} m/s [{r['speed_ci_low']:.3f}, "
+            f"{r['speed_ci_high']:.3f}]"
+        )
+
+
+# ----------------------------------------------------------------- commands
+def cmd_run(args):
+    from .report import write_report
+    from .scenario import Precision
+
+    scenario = _load_scenario(args.scenario)
+    if args.precision is not None:
+        stat = (
+            scenario.precision.statistic if scenario.precision else "capture_fraction"
+        )
+        maxs = scenario.precision.max_samples if scenario.precision else 10_000_000
+        scenario = scenario.with_options(
+            precision=Precision(stat, args.precision, maxs), sampling="mc"
+        )
+        if args.samples is not None:
+            raise InputError(
+                "give either --samples or --precision, not both", field="--precision"
+            )
+    t0 = time.perf_counter()
+    result, figures = _run_one(scenario, args.out, args, samples=args.samples)
+    write_report(
+        [result], args.out / "report.html", extra_figures={scenario.name: figures}
+    )
+    _say(
+        args,
+        f"{scenario.name}: {len(result.summary)} sweep points, "
+        f"seed entropy {result.seed_entropy}, "
+        f"{time.perf_counter() - t0:.1f} s -> {args.out}",
+    )
+    if not args.quiet:
+        _print_capture(result)
+    return EXIT_OK
+
+
+def cmd_reproduce(args):
+    from .config import PRESETS, load_preset
+    from .report import write_report
+
+    samples = args.samples or (1000 if args.quick else None)
+    results, figures = [], {}
+    t0 = time.perf_counter()
+    for name in PRESETS:
+        scenario = load_preset(name)
+        result, figs = _run_one(scenario, args.out / name, args, samples=samples)
+        results.append(result)
+        figures[scenario.name] = figs
+        _say(
+            args,
+            f"{name}: {len(result.summary)} points, "
+            f"{result.elapsed_s:.1f} s -> {args.out / name}",
+        )
+        if not args.quiet:
+            _print_capture(result)
+    path = write_report(
+        results,
+        args.out / "report.html",
+        extra_figures=figures,
+        title="microimpact: reproducing Li, Dunn & Brach (2000)",
+    )
+    _say(args, f"report: {path} ({time.perf_counter() - t0:.1f} s in all)")
+    return EXIT_OK
+
+
+def cmd_roughness(args):
+    from .engine.result import atomic_write
+    from .io.profiles import read_profile, read_profiles
+    from .plotting.roughness import plot_angle_pdf, plot_profile
+    from .surface.roughness import characterise, write_angle_file
+    from .units import um_to_m
+
+    kw = {"unit": args.unit}
+    if args.dx_um is not None:
+        kw["dx_um"] = args.dx_um
+    if len(args.profile) == 1:
+        profile = read_profile(args.profile[0], **kw)
+    else:
+        profile = read_profiles(args.profile, **kw)
+    ch = characterise(
+        profile,
+        contact_length=float(um_to_m(args.contact_length_um)),
+        method=args.method,
+    )
+    out = args.out
+    out.mkdir(parents=True, exist_ok=True)
+    stats = ch.statistics() if hasattr(ch, "statistics") else ch.to_dict()
+    atomic_write(
+        out / "roughness.json",
+        lambda t: Path(t).write_text(json.dumps(stats, indent=2, default=str)),
+    )
+    write_angle_file(
+        out / "angles.txt",
+        ch.angles_deg,
+        n=args.n_angles,
+        rng=args.seed,
+        metadata={
+            "source": ", ".join(map(str, args.profile)),
+            "contact_length_um": args.contact_length_um,
+            "method": args.method,
+        },
+    )
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .plotting.results import save_figure
+
+    ax = plot_angle_pdf(ch)
+    save_figure(ax.figure, out / "angle_pdf", formats=("png", "pdf"))
+    plt.close(ax.figure)
+    ax = plot_profile(profile)
+    save_figure(ax.figure, out / "profile", formats=("png",))
+    plt.close(ax.figure)
+    for k, v in stats.items():
+        if isinstance(v, int | float):
+            print(f"  {k:>24s} = {v:.6g}")
+    print(f"-> {out}")
+    return EXIT_OK
+
+
+def cmd_sizes(args):
+    from .io.diameters import read_diameters
+    from .population.distributions import chi2_normality, fit_lognormal, fit_normal
+    from .units import m_to_um
+
+    column = args.column
+    if column is not None and column.isdigit():
+        column = int(column)
+    diameters, _meta = read_diameters(args.data, column=column, unit=args.unit)
+    d_um = m_to_um(diameters)
+    normal, lognormal = fit_normal(d_um), fit_lognormal(d_um)
+    chi = chi2_normality(d_um, alpha=args.alpha)
+    print(f"{args.data}: n = {d_um.size}")
+    print(f"  normal fit     : {normal}")
+    print(f"  log-normal fit : {lognormal}")
+    print(
+        f"  chi-squared    : statistic {chi.statistic:.3f}, dof {chi.dof}, "
+        f"p = {chi.pvalue:.4g} -> {chi.decision} (alpha {args.alpha})"
+    )
+    if args.out is not None:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        from .engine.result import atomic_write
+        from .plotting.results import save_figure
+        from .plotting.sizes import plot_size_distribution
+
+        args.out.mkdir(parents=True, exist_ok=True)
+        ax = plot_size_distribution(
+            d_um, fit=normal.distribution if hasattr(normal, "distribution") else None
+        )
+        save_figure(ax.figure, args.out / "size_distribution", formats=("png", "pdf"))
+        plt.close(ax.figure)
+        report = {
+            "n": int(d_um.size),
+            "normal": str(normal),
+            "lognormal": str(lognormal),
+            "chi2": {
+                "statistic": chi.statistic,
+                "dof": chi.dof,
+                "pvalue": chi.pvalue,
+                "reject": bool(chi.reject),
+                "decision": chi.decision,
+                "alpha": args.alpha,
+            },
+        }
+        atomic_write(
+            args.out / "sizes.json",
+            lambda t: Path(t).write_text(json.dumps(report, indent=2, default=str)),
+        )
+        print(f"-> {args.out}")
+    return EXIT_OK
+
+
+def cmd_fit(args):
+    from .io.impact_data import read_impact_data
+    from .physics.fitting import fit_coefficient_laws, fit_impact_coefficients
+
+    data = read_impact_data(args.data)
+    table = fit_impact_coefficients(
+        data["diameter"].to_numpy(), data["v_n"].to_numpy(), data["e"].to_numpy()
+    )
+    print(table.to_string(index=False))
+    laws = fit_coefficient_laws(table, form=args.form)
+    print(json.dumps(laws.describe(), indent=2, default=str))
+    if args.out is not None:
+        from .engine.result import atomic_write
+
+        args.out.mkdir(parents=True, exist_ok=True)
+        atomic_write(
+            args.out / "coefficients_by_diameter.csv",
+            lambda t: table.to_csv(t, index=False),
+        )
+        atomic_write(
+            args.out / "coefficient_laws.json",
+            lambda t: Path(t).write_text(
+                json.dumps(laws.describe(), indent=2, default=str)
+            ),
+        )
+        print(f"-> {args.out}")
+    return EXIT_OK
+
+
+def cmd_convergence(args):
+    from .engine.convergence import convergence_study
+    from .engine.montecarlo import run
+
+    scenario = _load_scenario(args.scenario)
+    point = args.point
+    n_points = (
+        len(scenario.surfaces) * len(scenario.speeds_m_s) * len(scenario.angles_deg)
+    )
+    if point is None:  # the point nearest 50 % capture in a quick pilot
+        pilot = run(scenario, samples=1000, seed=args.seed, progress=False).summary
+        point = int((pilot["capture_fraction"] - 0.5).abs().to_numpy().argmin())
+    elif point >= n_points:
+        raise InputError(
+            f"must be < {n_points} (the number of sweep points)", field="--point"
+        )
+    res = convergence_study(
+        scenario,
+        point=point,
+        n_max=args.n_max,
+        tolerance=args.tolerance,
+        seed=args.seed,
+    )
+    pt = res.point
+    print(
+        f"{scenario.name}: point {point} ({pt['surface']}, {pt['speed_m_s']} m/s, "
+        f"{pt['angle_deg']} deg)"
+    )
+    print(f"  capture fraction after {args.n_max} impacts: {res.final:.4f}")
+    print(f"  settled within +-{res.tolerance:.3f} after N = {res.n_settled}")
+    print(
+        f"  N for a {res.confidence:.0%} half-width of {res.tolerance:.3f}: "
+        f"{res.n_required} (worst case {res.n_required_worst_case})"
+    )
+    if args.out is not None:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        from .engine.result import atomic_write
+        from .plotting.results import plot_convergence, save_figure
+
+        args.out.mkdir(parents=True, exist_ok=True)
+        atomic_write(
+            args.out / "convergence.csv", lambda t: res.table.to_csv(t, index=False)
+        )
+        ax = plot_convergence(res)
+        save_figure(ax.figure, args.out / "convergence", formats=("png", "pdf"))
+        plt.close(ax.figure)
+        print(f"-> {args.out}")
+    return EXIT_OK
+
+
+def _read_results(path: Path):
+    import pandas as pd
+
+    if path.is_dir():
+        path = path / "summary.csv"
+    if not path.exists():
+        raise InputError(
+            "no such results file (give summary.csv, results.nc or a run folder)",
+            source=path,
+        )
+    if path.suffix == ".nc":
+        import xarray as xr
+
+        with xr.open_dataset(path) as ds:
+            dims = ["surface", "speed_m_s", "angle_deg"]
+            keep = [v for v in ds.data_vars if set(ds[v].dims) == set(dims)]
+            return ds[keep].to_dataframe().reset_index()
+    try:
+        return pd.read_csv(path)
+    except (OSError, ValueError, pd.errors.ParserError) as err:
+        raise InputError(f"cannot read results: {err}", source=path) from None
+
+
+def cmd_compare(args):
+    from .compare import compare, plot_comparison
+    from .io.experiments import read_experiments
+
+    summary = _read_results(args.results)
+    exp = read_experiments(args.experiment)
+    table = compare(summary, exp, confidence=args.confidence)
+    print(table.to_string(index=False))
+    n_agree = int(table["agree"].sum())
+    print(
+        f"{n_agree} of {len(table)} points agree at the "
+        f"{args.confidence:.0%} confidence level"
+    )
+    if args.out is not None:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        from .engine.result import atomic_write
+        from .plotting.results import save_figure
+
+        args.out.mkdir(parents=True, exist_ok=True)
+        atomic_write(
+            args.out / "comparison.csv", lambda t: table.to_csv(t, index=False)
+        )
+        ax = plot_comparison(table)
+        save_figure(ax.figure, args.out / "comparison", formats=("png", "pdf"))
+        plt.close(ax.figure)
+        print(f"-> {args.out}")
+    return EXIT_OK
+
+
+def cmd_presets(args):
+    from .config import PRESETS, load_preset
+
+    for name in PRESETS:
+        sc = load_preset(name)
+        print(f"{name:28s} {sc.description}")
+    return EXIT_OK
+
+
+COMMANDS = {
+    "run": cmd_run,
+    "reproduce": cmd_reproduce,
+    "roughness": cmd_roughness,
+    "sizes": cmd_sizes,
+    "fit": cmd_fit,
+    "convergence": cmd_convergence,
+    "compare": cmd_compare,
+    "presets": cmd_presets,
+}
+
+
+def main(argv=None) -> int:
+    """Entry point of the ``microimpact`` command; returns the exit code."""
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # --help, --version, or a usage error
+        return int(exc.code or 0)
+    try:
+        return COMMANDS[args.command](args)
+    except InputError as err:
+        print(f"microimpact {args.command}: error: {err}", file=sys.stderr)
+        return EXIT_USER
+    except (
+        ValueError,
+        TypeError,
+        FileNotFoundError,
+        IsADirectoryError,
+        PermissionError,
+    ) as err:
+        if os.environ.get("MICROIMPACT_DEBUG"):
+            raise
+        print(f"microimpact {args.command}: error: {err}", file=sys.stderr)
+        return EXIT_USER
+    except KeyboardInterrupt:
+        print(
+            "interrupted; finished work is kept in the checkpoint and a re-run "
+            "resumes it",
+            file=sys.stderr,
+        )
+        return 130
+    except Exception as err:  # an internal error: say so, keep it short
+        if os.environ.get("MICROIMPACT_DEBUG"):
+            raise
+        print(
+            f"microimpact {args.command}: internal error: "
+            f"{type(err).__name__}: {err} (set MICROIMPACT_DEBUG=1 for the "
+            "traceback and please report it)",
+            file=sys.stderr,
+        )
+        return EXIT_INTERNAL
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
