@@ -520,7 +520,8 @@ def cmd_convergence(args):
         import matplotlib.pyplot as plt
 
         from .engine.result import atomic_write
-        from .plotting.results import plot_convergence, save_figure
+        from .plotting.convergence import plot_convergence
+        from .plotting.results import save_figure
 
         args.out.mkdir(parents=True, exist_ok=True)
         atomic_write(
