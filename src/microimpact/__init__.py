@@ -97,6 +97,12 @@ _EXPORTS: dict[str, str] = {
     "hertz_contact_diameter": "surface.contact",
     "plot_angle_pdf": "plotting.roughness",
     "plot_profile": "plotting.roughness",
+    # scenario files and presets
+    "scenario_from_toml": "config",
+    "scenario_from_dict": "config",
+    "load_preset": "config",
+    "list_presets": "config",
+    "PRESETS": "config",
     # errors
     "InputError": "errors",
     "ScenarioError": "errors",

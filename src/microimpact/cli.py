@@ -295,7 +295,10 @@ def cmd_run(args):
     t0 = time.perf_counter()
     result, figures = _run_one(scenario, args.out, args, samples=args.samples)
     write_report(
-        [result], args.out / "report.html", extra_figures={scenario.name: figures}
+        [result],
+        args.out / "report.html",
+        extra_figures={scenario.name: figures},
+        csv_paths=[args.out / "summary.csv"],
     )
     _say(
         args,
@@ -331,6 +334,7 @@ def cmd_reproduce(args):
         results,
         args.out / "report.html",
         extra_figures=figures,
+        csv_paths=[args.out / name / "summary.csv" for name in PRESETS],
         title="microimpact: reproducing Li, Dunn & Brach (2000)",
     )
     _say(args, f"report: {path} ({time.perf_counter() - t0:.1f} s in all)")
@@ -520,8 +524,7 @@ def cmd_convergence(args):
         import matplotlib.pyplot as plt
 
         from .engine.result import atomic_write
-        from .plotting.convergence import plot_convergence
-        from .plotting.results import save_figure
+        from .plotting.results import plot_convergence, save_figure
 
         args.out.mkdir(parents=True, exist_ok=True)
         atomic_write(

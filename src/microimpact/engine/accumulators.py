@@ -17,10 +17,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-#: Fixed histogram edges of the apparent coefficient of restitution e_m [-].
-E_EDGES = np.linspace(-1.0, 3.0, 401)
-#: Fixed histogram edges of the apparent impulse ratio mu_m [-].
-MU_EDGES = np.linspace(-5.0, 5.0, 1001)
+#: Fixed histogram edges of the apparent coefficient of restitution e_m [-]: 0.01
+#: bins on [-2, 10] (at grazing angles on rough surfaces e_m far exceeds 1).
+E_EDGES = np.linspace(-2.0, 10.0, 1201)
+#: Fixed histogram edges of the apparent impulse ratio mu_m [-]: 0.01 bins on [-10, 10].
+MU_EDGES = np.linspace(-10.0, 10.0, 2001)
 
 
 @dataclass

@@ -242,10 +242,13 @@ def _angle_rows(tables):
         for j, c in enumerate(cols):
             full[:, j] = c
         if m > 1:
-            rows, amap = np.unique(full, axis=0, return_inverse=True)
-            amap = amap.ravel().astype(
-                np.uint16 if rows.shape[0] <= 65536 else np.int64
-            )
+            # the atoms are sorted, so equal atoms are adjacent: O(M) run-length map
+            phi = np.asarray(tables.phi)
+            starts = np.empty(m, dtype=bool)
+            starts[0] = True
+            np.not_equal(phi[1:], phi[:-1], out=starts[1:])
+            amap = (np.cumsum(starts) - 1).astype(np.uint16 if m <= 65536 else np.int64)
+            rows = full[starts]
         else:
             rows, amap = full, np.zeros(1, dtype=np.uint16)
         object.__setattr__(tables, "rows", (amap, np.ascontiguousarray(rows)))

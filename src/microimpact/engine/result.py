@@ -63,6 +63,10 @@ def atomic_write(path, write) -> Path:
     os.close(fd)
     try:
         write(tmp)
+        # mkstemp creates 0600 files; give the result the usual permissions
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
@@ -268,6 +272,12 @@ class SimulationResult:
         )
         nc = atomic_write(
             out_dir / "results.nc",
-            lambda t: self.dataset.to_netcdf(t, engine="netcdf4"),
+            lambda t: self.dataset.to_netcdf(
+                t,
+                engine="netcdf4",
+                encoding={
+                    v: {"zlib": True, "complevel": 4} for v in self.dataset.data_vars
+                },
+            ),
         )
         return {"summary": csv, "results": nc}

@@ -1,0 +1,369 @@
+"""Compare simulated means with experimental means ("agree at the 95 % level").
+
+The rule, for one experimental point (see ``docs/outputs.md``):
+
+* the simulated estimate ``m_s`` with standard error ``s_s`` is taken from the
+  summary at the point's surface, speed and angle, interpolated linearly between
+  the two neighbouring sweep points when the point falls between them;
+* the experimental mean ``m_e`` has standard error ``s_e`` (from its interval, see
+  :func:`microimpact.io.experiments.read_experiments`);
+* the difference ``d = m_s - m_e`` has the combined standard error
+  ``s = sqrt(s_s² + s_e²)`` (independent estimates), ``z = d / s``;
+* the two **agree** when ``|d| <= z_c s``, with ``z_c`` the two-sided normal
+  quantile of `confidence` (1.96 at 95 %): the difference lies inside the combined
+  interval, i.e. a two-sided z-test does not reject equality at level
+  ``1 - confidence``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+import numpy as np
+
+__all__ = ["SIMULATED", "compare", "plot_comparison"]
+
+#: experimental statistic -> (summary column of the estimate, column of its SE).
+#: The capture fraction's SE is ``capture_se`` when present (QMC), else the Wilson
+#: interval's width over ``2 z``.
+SIMULATED = {
+    "e": ("e_rebound_mean", "e_rebound_se"),
+    "mu": ("mu_mean", "mu_se"),
+    "e_relative": ("e_relative", "e_relative_se"),
+    "mu_relative": ("mu_relative", "mu_relative_se"),
+    "capture_fraction": ("capture_fraction", "capture_se"),
+}
+
+_EXP_COLUMNS = ("statistic", "mean", "ci_low", "ci_high")
+_COORDS = ("speed_m_s", "angle_deg")
+
+
+def _z(confidence):
+    from scipy.special import ndtri
+
+    return float(ndtri(0.5 + confidence / 2.0))
+
+
+def _summary_iv(summary_or_result):
+    import pandas as pd
+
+    if isinstance(summary_or_result, pd.DataFrame):
+        summary = summary_or_result
+        sim_conf = float(summary.attrs.get("confidence", 0.95))
+    elif hasattr(summary_or_result, "summary"):
+        summary = summary_or_result.summary
+        sim_conf = float(getattr(summary_or_result.scenario, "confidence", 0.95))
+    else:
+        raise TypeError(
+            "`summary_or_result` must be a SimulationResult or a summary DataFrame; "
+            f"got {type(summary_or_result).__name__}."
+        )
+    need = {"surface", *_COORDS}
+    if not need <= set(summary.columns):
+        raise ValueError(
+            f"`summary_or_result` lacks columns {sorted(need - set(summary.columns))}."
+        )
+    summary = summary.reset_index(drop=True).copy()
+    if "capture_se" not in summary and "capture_ci_low" in summary:
+        summary["capture_se"] = (
+            summary["capture_ci_high"] - summary["capture_ci_low"]
+        ) / (2.0 * _z(sim_conf))
+    return summary
+
+
+def _experiments_iv(experiments):
+    import pandas as pd
+
+    from .io.experiments import read_experiments
+
+    if isinstance(experiments, str | os.PathLike):
+        experiments = read_experiments(experiments)
+    if not isinstance(experiments, pd.DataFrame):
+        raise TypeError(
+            "`experiments` must be a path or a DataFrame from read_experiments; "
+            f"got {type(experiments).__name__}."
+        )
+    missing = [c for c in _EXP_COLUMNS if c not in experiments]
+    if missing or not any(c in experiments for c in _COORDS):
+        raise ValueError(
+            f"`experiments` must have columns {list(_EXP_COLUMNS)} and speed_m_s "
+            f"and/or angle_deg; got {list(experiments.columns)}."
+        )
+    exp = experiments.reset_index(drop=True).copy()
+    for c in (*_COORDS, "se", "n"):
+        if c not in exp:
+            exp[c] = math.nan
+    if "surface" not in exp:
+        exp["surface"] = None
+    if "line" not in exp:
+        exp["line"] = np.arange(1, len(exp) + 1)
+    # rows built by hand may lack a standard error: take the interval as 95 % normal
+    no_se = exp["se"].isna()
+    exp.loc[no_se, "se"] = (exp["ci_high"] - exp["ci_low"])[no_se] / (2.0 * _z(0.95))
+    return exp
+
+
+def _where(row):
+    return f"experimental point (line {row['line']})"
+
+
+def _select(summary, row):
+    """Rows of `summary` for this point, the axis to interpolate on (or None)."""
+    surface = row["surface"]
+    surfaces = list(dict.fromkeys(summary["surface"]))
+    if surface is None or (isinstance(surface, float) and math.isnan(surface)):
+        if len(surfaces) != 1:
+            raise ValueError(
+                f"{_where(row)} names no surface but the simulation has surfaces "
+                f"{surfaces}; add a `surface` column to the experiments."
+            )
+        surface = surfaces[0]
+    g = summary[summary["surface"] == surface]
+    if g.empty:
+        raise ValueError(
+            f"{_where(row)}: surface {surface!r} is not simulated; "
+            f"choose one of {surfaces}."
+        )
+    axis = []
+    for c in _COORDS:
+        x = row[c]
+        values = np.unique(g[c].to_numpy(dtype=float))
+        if np.isnan(x):
+            if values.size != 1:
+                raise ValueError(
+                    f"{_where(row)} has no {c} but the simulation sweeps {c} over "
+                    f"{values.tolist()}; add a `{c}` column to the experiments."
+                )
+            continue
+        exact = np.isclose(g[c].to_numpy(dtype=float), x, rtol=1e-9, atol=1e-12)
+        if exact.any():
+            g = g[exact]
+        else:
+            axis.append(c)
+    return surface, g, axis
+
+
+def _interpolate(g, axis, x, col, se_col):
+    """Linear interpolation of an estimate and its SE at ``axis = x``."""
+    g = g.sort_values(axis)
+    v = g[axis].to_numpy(dtype=float)
+    m = g[col].to_numpy(dtype=float)
+    s = g[se_col].to_numpy(dtype=float)
+    if v.size < 2 or not v[0] < x < v[-1]:
+        return (
+            math.nan,
+            math.nan,
+            (
+                f"{axis} = {x:g} is outside the simulated range "
+                f"[{v.min():g}, {v.max():g}]; not extrapolated"
+            ),
+        )
+    i = int(np.searchsorted(v, x)) - 1
+    w = (v[i + 1] - x) / (v[i + 1] - v[i])  # weight of the lower point
+    mean = w * m[i] + (1.0 - w) * m[i + 1]
+    se = math.sqrt((w * s[i]) ** 2 + ((1.0 - w) * s[i + 1]) ** 2)
+    return mean, se, f"interpolated in {axis} between {v[i]:g} and {v[i + 1]:g}"
+
+
+def compare(summary_or_result, experiments, *, confidence=0.95):
+    """Compare simulated means with experimental means, point by point.
+
+    Parameters
+    ----------
+    summary_or_result : SimulationResult or pandas.DataFrame
+        A result, or its ``summary`` table. The relative statistics need the
+        ``e_relative``/``mu_relative`` columns (reference angle in the sweep).
+    experiments : pandas.DataFrame or path-like
+        Output of :func:`~microimpact.io.experiments.read_experiments`, or a path to
+        such a CSV file. A row without ``surface`` matches a simulation with one
+        surface; a row without ``speed_m_s`` (``angle_deg``) matches a simulation
+        with one speed (angle).
+    confidence : float, default 0.95
+        Level of the agreement test and of the simulated interval reported.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per experimental point: ``surface``, ``speed_m_s``, ``angle_deg``,
+        ``statistic``, ``exp_mean``, ``exp_ci_low``, ``exp_ci_high``, ``exp_se``,
+        ``sim_mean``, ``sim_se``, ``sim_ci_low``, ``sim_ci_high``
+        (``sim_mean ± z_c sim_se``), ``interpolated`` (bool), ``difference``
+        (simulated minus experimental), ``combined_se``, ``z``, ``agree`` (bool),
+        ``note`` (how the simulated value was obtained, or why it is missing) and
+        ``line``. Where the point lies outside the simulated sweep the simulated
+        columns are NaN and ``agree`` is False.
+
+    Notes
+    -----
+    ``agree`` is ``|difference| <= z_c * combined_se`` with
+    ``combined_se = sqrt(sim_se² + exp_se²)`` and ``z_c`` the two-sided normal
+    quantile of `confidence`. Interpolating between sweep points ``a`` and ``b``
+    with weight ``w`` on ``a`` gives ``w m_a + (1 - w) m_b`` and standard error
+    ``sqrt(w² s_a² + (1 - w)² s_b²)`` (independent points); the error of the
+    linear interpolation itself is not included.
+    """
+    import pandas as pd
+
+    if not (isinstance(confidence, float | int) and 0 < confidence < 1):
+        raise ValueError(f"`confidence` must be in (0, 1); got {confidence!r}.")
+    summary = _summary_iv(summary_or_result)
+    exp = _experiments_iv(experiments)
+    zc = _z(confidence)
+    rows = []
+    for _, row in exp.iterrows():
+        stat = row["statistic"]
+        if stat not in SIMULATED:
+            raise ValueError(
+                f"{_where(row)}: unknown statistic {stat!r}; "
+                f"allowed: {', '.join(SIMULATED)}."
+            )
+        col, se_col = SIMULATED[stat]
+        if col not in summary or se_col not in summary:
+            raise ValueError(
+                f"{_where(row)}: the simulation has no {col!r} column"
+                + (
+                    "; relative coefficients need the reference angle in the sweep."
+                    if "relative" in stat
+                    else "."
+                )
+            )
+        surface, g, axis = _select(summary, row)
+        coords = {c: float(row[c]) for c in _COORDS}
+        interpolated = False
+        if not axis:
+            if len(g) != 1:
+                raise ValueError(
+                    f"{_where(row)} matches {len(g)} simulated points; "
+                    "give both speed_m_s and angle_deg."
+                )
+            sim, sim_se, note = float(g[col].iloc[0]), float(g[se_col].iloc[0]), ""
+            for c in _COORDS:
+                coords[c] = float(g[c].iloc[0])
+        elif len(axis) == 2:
+            sim, sim_se = math.nan, math.nan
+            note = "between sweep points in both speed and angle; not interpolated"
+        else:
+            (ax_name,) = axis
+            other = next(c for c in _COORDS if c != ax_name)
+            if np.unique(g[other].to_numpy(dtype=float)).size != 1:
+                raise ValueError(
+                    f"{_where(row)} matches several {other} values; give {other}."
+                )
+            coords[other] = float(g[other].iloc[0])
+            sim, sim_se, note = _interpolate(g, ax_name, coords[ax_name], col, se_col)
+            interpolated = not math.isnan(sim)
+        if math.isnan(sim) and not note:
+            note = f"no simulated value ({col} is NaN)"
+        d = sim - float(row["mean"])
+        comb = math.hypot(sim_se, float(row["se"]))
+        if comb > 0:
+            z = d / comb
+        else:
+            z = 0.0 if d == 0 else math.copysign(math.inf, d)
+        agree = bool(abs(d) <= zc * comb) if not math.isnan(d) else False
+        rows.append(
+            {
+                "surface": surface,
+                **coords,
+                "statistic": stat,
+                "exp_mean": float(row["mean"]),
+                "exp_ci_low": float(row["ci_low"]),
+                "exp_ci_high": float(row["ci_high"]),
+                "exp_se": float(row["se"]),
+                "sim_mean": sim,
+                "sim_se": sim_se,
+                "sim_ci_low": sim - zc * sim_se,
+                "sim_ci_high": sim + zc * sim_se,
+                "interpolated": interpolated,
+                "difference": d,
+                "combined_se": comb,
+                "z": z,
+                "agree": agree,
+                "note": note,
+                "line": row["line"],
+            }
+        )
+    table = pd.DataFrame(rows)
+    table.attrs["confidence"] = confidence
+    if "source" in exp.attrs:
+        table.attrs["source"] = exp.attrs["source"]
+    return table
+
+
+_STAT_LABELS = {
+    "e": "e",
+    "mu": "μ",
+    "e_relative": "e relative",
+    "mu_relative": "μ relative",
+    "capture_fraction": "capture fraction",
+}
+
+
+def plot_comparison(table, *, ax=None):
+    """Simulated against experimental means with their intervals (parity plot).
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        Output of :func:`compare`.
+    ax : matplotlib.axes.Axes, optional
+        Axes to draw on; a new figure is made if omitted.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+        Each point has horizontal (experimental) and vertical (simulated) interval
+        bars; filled markers agree, open markers do not. The dashed line is
+        simulated = experimental.
+    """
+    import matplotlib as mpl
+    import matplotlib.pyplot as plt
+
+    from .plotting.results import STYLE, colour
+
+    need = {"statistic", "exp_mean", "sim_mean", "agree"}
+    if not hasattr(table, "columns") or not need <= set(table.columns):
+        raise ValueError(f"`table` must be the output of compare(); got {table!r}.")
+    with mpl.rc_context(STYLE):
+        if ax is None:
+            _, ax = plt.subplots(figsize=(4.2, 4.0), layout="constrained")
+        ok = table.dropna(subset=["sim_mean"])
+        for k, (stat, g) in enumerate(ok.groupby("statistic", sort=False)):
+            c = colour(k)
+            for agree, h in g.groupby("agree"):
+                ax.errorbar(
+                    h["exp_mean"],
+                    h["sim_mean"],
+                    xerr=[
+                        h["exp_mean"] - h["exp_ci_low"],
+                        h["exp_ci_high"] - h["exp_mean"],
+                    ],
+                    yerr=[
+                        h["sim_mean"] - h["sim_ci_low"],
+                        h["sim_ci_high"] - h["sim_mean"],
+                    ],
+                    fmt="o" if agree else "s",
+                    ms=5,
+                    color=c,
+                    mfc=c if agree else "white",
+                    capsize=2,
+                    lw=0.9,
+                    label=f"{_STAT_LABELS.get(stat, stat)}"
+                    + ("" if agree else " (disagree)"),
+                )
+        if len(ok):
+            lo = float(np.nanmin(ok[["exp_ci_low", "sim_ci_low"]].to_numpy()))
+            hi = float(np.nanmax(ok[["exp_ci_high", "sim_ci_high"]].to_numpy()))
+            pad = 0.05 * (hi - lo or 1.0)
+            ax.plot([lo - pad, hi + pad], [lo - pad, hi + pad], "k--", lw=0.8)
+            ax.set_xlim(lo - pad, hi + pad)
+            ax.set_ylim(lo - pad, hi + pad)
+            ax.set_aspect("equal", adjustable="box")
+        n_ok, n = int(table["agree"].sum()), len(table)
+        conf = table.attrs.get("confidence", 0.95)
+        ax.set_title(f"{n_ok} of {n} points agree at the {conf:.0%} level")
+        ax.set_xlabel("Experimental mean [–]")
+        ax.set_ylabel("Simulated mean [–]")
+        ax.legend(loc="upper left", fontsize="small")
+    return ax

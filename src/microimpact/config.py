@@ -1,0 +1,936 @@
+"""Scenario files: TOML -> validated :class:`~microimpact.scenario.Scenario`.
+
+Every key, its unit, default and allowed values are documented in
+``docs/scenarios.md``; the shipped presets in ``docs/presets.md``. In short::
+
+    name = "sst65"                      # default: the file name without .toml
+    seed = 2000
+    samples = 4000
+    [particles]
+    distribution = "normal"
+    mean_um = 52.8
+    std_um = 15.3
+    [coefficients]
+    k1 = 4.0                            # a number [m/s] or a law table
+    k2 = {law = "power", a_m_s = 0.05, b = -1.53, d_ref_um = 52.8}
+    v_c = {law = "power", a_m_s = 0.20, b = -1.53, d_ref_um = 52.8}
+    friction = 0.15
+    [[surfaces]]
+    name = "silicon"
+    kind = "smooth"
+    [sweep]
+    speed_m_s = {start = 0.05, stop = 1.0, step = 0.01}
+    angle_deg = [90]
+
+Relative paths in a scenario file resolve from the folder holding that file. Every
+problem raises one :class:`~microimpact.errors.ScenarioError` whose one-line message
+names the file, the key path (``particles.std_um``, ``surfaces[1].kind``), the bad
+value and what is allowed; an unknown key gets a "did you mean" suggestion.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import numbers
+import re
+import tomllib
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError, ScenarioError
+from .scenario import (
+    PRECISION_STATISTICS,
+    SAMPLING_OPTIONS,
+    SHADOWING_OPTIONS,
+    Precision,
+    Scenario,
+    SurfaceVariant,
+)
+from .units import LENGTH_UNITS
+
+__all__ = [
+    "PRESETS",
+    "PRESET_DIR",
+    "list_presets",
+    "load_preset",
+    "scenario_from_dict",
+    "scenario_from_toml",
+]
+
+#: Folder of the shipped preset scenario files.
+PRESET_DIR = Path(__file__).resolve().parent / "presets"
+#: Preset name -> scenario file in :data:`PRESET_DIR` (see ``docs/presets.md``).
+PRESETS: dict[str, str] = {
+    "sst65-silicon-normal": "sst65-silicon-normal.toml",
+    "sst125-silicon-normal": "sst125-silicon-normal.toml",
+    "sst76-formica-oblique": "sst76-formica-oblique.toml",
+    "lycopodium-formica-oblique": "lycopodium-formica-oblique.toml",
+}
+
+TOP_KEYS = (
+    "name",
+    "description",
+    "seed",
+    "samples",
+    "precision",
+    "shadowing",
+    "sampling",
+    "qmc_replicates",
+    "confidence",
+    "reference_angle_deg",
+    "capture_quantiles",
+    "particles",
+    "coefficients",
+    "surfaces",
+    "surface",
+    "particle_roughness",
+    "sweep",
+    "outputs",
+)
+PARTICLE_KEYS = {
+    "normal": ({"mean_um", "std_um"}, {"min_um", "max_um"}),
+    "lognormal": ({"median_um", "geometric_std"}, {"min_um", "max_um"}),
+    "uniform": ({"min_um", "max_um"}, set()),
+    "monodisperse": ({"diameter_um"}, set()),
+    "empirical": (
+        set(),
+        {"file", "diameters_um", "column", "unit", "min_um", "max_um"},
+    ),
+    "histogram": (set(), {"file", "edges_um", "counts", "unit"}),
+}
+SURFACE_KEYS = {
+    "smooth": (set(), set()),
+    "angles": (set(), {"file", "angles_deg"}),
+    "normal": ({"std_deg"}, {"mean_deg"}),
+    "scipy": ({"distribution"}, {"shapes", "loc_deg", "scale_deg"}),
+    "profile": (
+        {"file", "contact_length_um"},
+        {
+            "method",
+            "detrend",
+            "cutoff_um",
+            "x_column",
+            "z_column",
+            "scan_column",
+            "unit",
+            "x_unit",
+            "z_unit",
+            "dx_um",
+        },
+    ),
+    "synthetic": (
+        {"contact_length_um"},
+        {
+            "profile",
+            "method",
+            "detrend",
+            "cutoff_um",
+            "n_points",
+            "dx_um",
+            "rms_height_um",
+            "correlation_length_um",
+            "seed",
+        },
+    ),
+}
+COEFFICIENT_KEYS = ("set", "k1", "k2", "v_c", "p", "q", "friction")
+SWEEP_KEYS = ("speed_m_s", "angle_deg", "speed_spread")
+PRECISION_KEYS = ("statistic", "half_width", "max_samples", "min_samples")
+OUTPUT_KEYS = ("figures", "experiments")
+FIGURE_FORMATS = ("png", "pdf", "svg", "eps", "ps", "jpg", "tif")
+ANGLE_METHODS = ("slope", "paper")
+DETREND = ("line", "mean", "none")
+SYNTHETIC_PROFILES = ("formica", "gaussian")
+#: Largest number of sweep values a range table may generate.
+MAX_SWEEP_POINTS = 100_000
+
+_TOML_POSITION = re.compile(r"\s*\(at line (\d+), column (\d+)\)\s*$")
+_TOML_EOF = re.compile(r"\s*\(at end of document\)\s*$")
+_BACKTICKED = re.compile(r"`([A-Za-z_][A-Za-z0-9_]*)`")
+
+
+# ---------------------------------------------------------------------- helpers
+def _show(value) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _type_name(value) -> str:
+    return {
+        bool: "a boolean",
+        int: "an integer",
+        float: "a number",
+        str: "a string",
+        list: "an array",
+        dict: "a table",
+    }.get(type(value), type(value).__name__)
+
+
+def _one_line(text) -> str:
+    return " ".join(str(text).split())
+
+
+class _Ctx:
+    """Where the data came from: the file for messages, the folder for paths."""
+
+    def __init__(self, source, base_dir):
+        self.source = None if source is None else str(source)
+        self.base_dir = Path(base_dir) if base_dir is not None else Path.cwd()
+
+    def error(self, key, message) -> ScenarioError:
+        return ScenarioError(_one_line(message), source=self.source, field=key)
+
+    # -- structure ----------------------------------------------------------
+    def table(self, value, key) -> dict:
+        if not isinstance(value, dict):
+            raise self.error(key, f"must be a table; got {_type_name(value)}")
+        return value
+
+    def keys(self, table, where, allowed, required=()):
+        allowed = tuple(allowed)
+        for key in table:
+            if key not in allowed:
+                close = difflib.get_close_matches(key, allowed, n=1, cutoff=0.6)
+                hint = f" (did you mean {close[0]!r}?)" if close else ""
+                raise self.error(
+                    _join(where, key),
+                    f"unknown key {key!r}{hint}; allowed: {', '.join(sorted(allowed))}",
+                )
+        for key in sorted(required):
+            if key not in table:
+                raise self.error(_join(where, key), "missing required key")
+
+    # -- scalars ------------------------------------------------------------
+    def number(self, value, key, *, low=None, strict=False, high=None, inf=False):
+        ok = isinstance(value, numbers.Real) and not isinstance(value, bool)
+        if not ok:
+            raise self.error(
+                key, f"must be a number; got {_type_name(value)} {_show(value)}"
+            )
+        x = float(value)
+        if math.isnan(x) or (math.isinf(x) and not inf):
+            raise self.error(key, f"must be a finite number; got {_show(value)}")
+        if low is not None and (x <= low if strict else x < low):
+            raise self.error(
+                key, f"must be {'>' if strict else '>='} {low:g}; got {_show(value)}"
+            )
+        if high is not None and x > high:
+            raise self.error(key, f"must be <= {high:g}; got {_show(value)}")
+        return x
+
+    def integer(self, value, key, *, low=0):
+        if isinstance(value, bool) or not isinstance(value, int) or value < low:
+            raise self.error(key, f"must be an integer >= {low}; got {_show(value)}")
+        return int(value)
+
+    def string(self, value, key):
+        if not isinstance(value, str) or not value.strip():
+            raise self.error(
+                key,
+                f"must be a non-empty string; got {_type_name(value)} {_show(value)}",
+            )
+        return value
+
+    def choice(self, value, key, options):
+        if value not in options:
+            close = difflib.get_close_matches(str(value), options, n=1, cutoff=0.6)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            raise self.error(
+                key,
+                f"must be one of {', '.join(repr(o) for o in options)}; "
+                f"got {_show(value)}{hint}",
+            )
+        return value
+
+    def numbers(self, value, key, *, low=None, strict=False, minimum=1):
+        if not isinstance(value, list):
+            raise self.error(
+                key, f"must be an array of numbers; got {_type_name(value)}"
+            )
+        if len(value) < minimum:
+            raise self.error(
+                key, f"must hold at least {minimum} value(s); got {len(value)}"
+            )
+        return [
+            self.number(v, f"{key}[{i}]", low=low, strict=strict)
+            for i, v in enumerate(value)
+        ]
+
+    def unit(self, value, key):
+        return self.choice(value, key, tuple(LENGTH_UNITS))
+
+    def path(self, value, key) -> Path:
+        text = self.string(value, key)
+        p = Path(text).expanduser()
+        if not p.is_absolute():
+            p = self.base_dir / p
+        if not p.is_file():
+            where = "" if Path(text).is_absolute() else f" (resolved to {p})"
+            raise self.error(key, f"file not found: {text!r}{where}")
+        return p
+
+    # -- factories ----------------------------------------------------------
+    def build(self, where, table, func, *args, **kwargs):
+        """Call a model factory; turn its errors into a ScenarioError that names
+        the scenario file and the key path (the key named in the message if any)."""
+        try:
+            return func(*args, **kwargs)
+        except InputError as exc:  # a data file: keep its own file/line in the text
+            raise self.error(where, str(exc)) from None
+        except (ValueError, TypeError, KeyError, OSError) as exc:
+            msg = str(exc).strip("'\"")
+            key = where
+            for name in _BACKTICKED.findall(msg):
+                if name in table:
+                    key = _join(where, name)
+                    break
+            raise self.error(key, msg) from None
+
+
+def _join(where, key) -> str:
+    return f"{where}.{key}" if where else key
+
+
+# ---------------------------------------------------------------------- particles
+def _particles(ctx: _Ctx, data, where="particles"):
+    from .population import distributions as pd_
+
+    t = ctx.table(data, where)
+    kind = (
+        ctx.choice(
+            t.get("distribution"),
+            _join(where, "distribution"),
+            tuple(PARTICLE_KEYS),
+        )
+        if "distribution" in t
+        else None
+    )
+    if kind is None:
+        raise ctx.error(
+            _join(where, "distribution"),
+            f"missing required key (one of: {', '.join(PARTICLE_KEYS)})",
+        )
+    required, optional = PARTICLE_KEYS[kind]
+    ctx.keys(t, where, {"distribution"} | required | optional, required)
+
+    def num(key, **kw):
+        return ctx.number(t[key], _join(where, key), **kw) if key in t else None
+
+    lim = {"min_um": num("min_um", low=0), "max_um": num("max_um", low=0, strict=True)}
+    if kind == "normal":
+        return ctx.build(
+            where,
+            t,
+            pd_.normal_diameters,
+            num("mean_um", low=0, strict=True),
+            num("std_um", low=0, strict=True),
+            **lim,
+        )
+    if kind == "lognormal":
+        return ctx.build(
+            where,
+            t,
+            pd_.lognormal_diameters,
+            num("median_um", low=0, strict=True),
+            num("geometric_std", low=1, strict=True),
+            **lim,
+        )
+    if kind == "uniform":
+        return ctx.build(where, t, pd_.uniform_diameters, lim["min_um"], lim["max_um"])
+    if kind == "monodisperse":
+        return ctx.build(
+            where, t, pd_.monodisperse, num("diameter_um", low=0, strict=True)
+        )
+    if kind == "empirical":
+        _exactly_one(ctx, t, where, ("file", "diameters_um"))
+        if "diameters_um" in t:
+            if "column" in t or "unit" in t:
+                bad = "column" if "column" in t else "unit"
+                raise ctx.error(_join(where, bad), "only allowed with 'file'")
+            d = ctx.numbers(
+                t["diameters_um"], _join(where, "diameters_um"), low=0, strict=True
+            )
+        else:
+            from .io.diameters import read_diameters
+            from .units import m_to_um
+
+            path = ctx.path(t["file"], _join(where, "file"))
+            column = t.get("column")
+            if column is not None and (
+                isinstance(column, bool) or not isinstance(column, str | int)
+            ):
+                raise ctx.error(
+                    _join(where, "column"),
+                    f"must be a column name or a 0-based index; got {_show(column)}",
+                )
+            unit = ctx.unit(t.get("unit", "um"), _join(where, "unit"))
+            d_m, _ = ctx.build(
+                _join(where, "file"), t, read_diameters, path, column=column, unit=unit
+            )
+            d = m_to_um(d_m)
+        return ctx.build(where, t, pd_.empirical_diameters, d, **lim)
+    # histogram
+    _exactly_one(ctx, t, where, ("file", "edges_um"))
+    if "edges_um" in t:
+        if "counts" not in t:
+            raise ctx.error(_join(where, "counts"), "missing required key")
+        edges = ctx.numbers(t["edges_um"], _join(where, "edges_um"), low=0, minimum=2)
+        counts = ctx.numbers(t["counts"], _join(where, "counts"), low=0)
+    else:
+        from .io.diameters import read_histogram
+        from .units import m_to_um
+
+        if "counts" in t:
+            raise ctx.error(_join(where, "counts"), "only allowed with 'edges_um'")
+        path = ctx.path(t["file"], _join(where, "file"))
+        unit = ctx.unit(t.get("unit", "um"), _join(where, "unit"))
+        e_m, counts, _ = ctx.build(
+            _join(where, "file"), t, read_histogram, path, unit=unit
+        )
+        edges = m_to_um(e_m)
+    return ctx.build(where, t, pd_.histogram_diameters, edges, counts)
+
+
+def _exactly_one(ctx, t, where, keys):
+    present = [k for k in keys if k in t]
+    if len(present) != 1:
+        raise ctx.error(
+            _join(where, keys[0]),
+            f"give exactly one of {' or '.join(repr(k) for k in keys)}"
+            + ("; got both" if len(present) > 1 else ""),
+        )
+
+
+# ---------------------------------------------------------------------- surfaces
+def _angles(ctx: _Ctx, t, where):
+    """An angle distribution from a surface table, or None (molecularly smooth)."""
+    from .surface import angles as ang
+
+    kind = t.get("kind")
+    if kind is None:
+        raise ctx.error(
+            _join(where, "kind"),
+            f"missing required key (one of: {', '.join(SURFACE_KEYS)})",
+        )
+    kind = ctx.choice(kind, _join(where, "kind"), tuple(SURFACE_KEYS))
+    required, optional = SURFACE_KEYS[kind]
+    ctx.keys(t, where, {"name", "kind"} | required | optional, required)
+
+    def num(key, **kw):
+        return ctx.number(t[key], _join(where, key), **kw) if key in t else None
+
+    if kind == "smooth":
+        return None
+    if kind == "normal":
+        mean = num("mean_deg", low=-90, high=90)
+        if mean is not None and abs(mean) >= 90:
+            raise ctx.error(
+                _join(where, "mean_deg"), f"must be in (-90, 90); got {mean}"
+            )
+        return ctx.build(
+            where,
+            t,
+            ang.normal_angles,
+            num("std_deg", low=0),
+            mean_deg=0.0 if mean is None else mean,
+        )
+    if kind == "angles":
+        _exactly_one(ctx, t, where, ("file", "angles_deg"))
+        if "file" in t:
+            path = ctx.path(t["file"], _join(where, "file"))
+            return ctx.build(_join(where, "file"), t, ang.angles_from_file, path)
+        a = ctx.numbers(t["angles_deg"], _join(where, "angles_deg"))
+        return ctx.build(_join(where, "angles_deg"), t, ang.angles_from_sample, a)
+    if kind == "scipy":
+        from scipy import stats
+
+        name = ctx.string(t["distribution"], _join(where, "distribution"))
+        gen = getattr(stats, name, None)
+        if not isinstance(gen, stats.rv_continuous):
+            names = [
+                n
+                for n in dir(stats)
+                if isinstance(getattr(stats, n), stats.rv_continuous)
+            ]
+            close = difflib.get_close_matches(name, names, n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            raise ctx.error(
+                _join(where, "distribution"),
+                f"{name!r} is not a continuous scipy.stats distribution{hint}",
+            )
+        shapes = ctx.numbers(t.get("shapes", []), _join(where, "shapes"), minimum=0)
+        loc = num("loc_deg") or 0.0
+        scale = num("scale_deg", low=0, strict=True) or 1.0
+        frozen = ctx.build(where, t, gen, *shapes, loc=loc, scale=scale)
+        return ctx.build(where, t, ang.scipy_angles, frozen, unit="deg")
+    # profile or synthetic: angles over the contact length
+    length = num("contact_length_um", low=0, strict=True)
+    method = ctx.choice(t.get("method", "slope"), _join(where, "method"), ANGLE_METHODS)
+    detrend = ctx.choice(t.get("detrend", "line"), _join(where, "detrend"), DETREND)
+    cutoff = num("cutoff_um", low=0, strict=True)
+    if kind == "profile":
+        profiles = _read_profiles(ctx, t, where)
+    else:
+        profiles = _synthetic(ctx, t, where)
+    return ctx.build(
+        where,
+        t,
+        ang.angles_from_profile,
+        profiles,
+        contact_length_um=length,
+        method=method,
+        detrend=None if detrend == "none" else detrend,
+        cutoff_um=cutoff,
+    )
+
+
+def _read_profiles(ctx, t, where):
+    from .io.profiles import read_profiles
+
+    files = t["file"]
+    key = _join(where, "file")
+    if isinstance(files, list):
+        if not files:
+            raise ctx.error(key, "must be a file name or a non-empty array of them")
+        paths = [ctx.path(f, f"{key}[{i}]") for i, f in enumerate(files)]
+    else:
+        paths = [ctx.path(files, key)]
+    kw = {}
+    for col in ("x_column", "z_column", "scan_column"):
+        if col in t:
+            v = t[col]
+            if isinstance(v, bool) or not isinstance(v, str | int):
+                raise ctx.error(
+                    _join(where, col),
+                    f"must be a column name or a 0-based index; got {_show(v)}",
+                )
+            kw[col] = v
+    for u in ("unit", "x_unit", "z_unit"):
+        if u in t:
+            kw[u] = ctx.unit(t[u], _join(where, u))
+    if "dx_um" in t:
+        kw["dx_um"] = ctx.number(t["dx_um"], _join(where, "dx_um"), low=0, strict=True)
+    return ctx.build(key, t, read_profiles, paths, **kw)
+
+
+def _synthetic(ctx, t, where):
+    from .surface import synthetic
+    from .units import um_to_m
+
+    kind = ctx.choice(
+        t.get("profile", "formica"), _join(where, "profile"), SYNTHETIC_PROFILES
+    )
+    extra = ("n_points", "dx_um", "rms_height_um", "correlation_length_um", "seed")
+    if kind == "formica":
+        for key in extra:
+            if key in t:
+                raise ctx.error(
+                    _join(where, key), "only allowed with profile = 'gaussian'"
+                )
+        return ctx.build(where, t, synthetic.formica_profile)
+    ctx.keys(t, where, t.keys(), extra[:4])
+    n = ctx.integer(t["n_points"], _join(where, "n_points"), low=2)
+    seed = ctx.integer(t["seed"], _join(where, "seed")) if "seed" in t else None
+    return ctx.build(
+        where,
+        t,
+        synthetic.gaussian_profile,
+        n,
+        float(
+            um_to_m(ctx.number(t["dx_um"], _join(where, "dx_um"), low=0, strict=True))
+        ),
+        rms_height=float(
+            um_to_m(
+                ctx.number(
+                    t["rms_height_um"],
+                    _join(where, "rms_height_um"),
+                    low=0,
+                    strict=True,
+                )
+            )
+        ),
+        correlation_length=float(
+            um_to_m(
+                ctx.number(
+                    t["correlation_length_um"],
+                    _join(where, "correlation_length_um"),
+                    low=0,
+                    strict=True,
+                )
+            )
+        ),
+        rng=seed,
+    )
+
+
+def _surfaces(ctx: _Ctx, data) -> tuple:
+    if "surfaces" in data and "surface" in data:
+        raise ctx.error("surface", "give either [surface] or [[surfaces]], not both")
+    if "surface" in data:
+        tables = [(ctx.table(data["surface"], "surface"), "surface")]
+    elif "surfaces" in data:
+        items = data["surfaces"]
+        if not isinstance(items, list) or not items:
+            raise ctx.error(
+                "surfaces", "must be a non-empty array of tables ([[surfaces]])"
+            )
+        tables = [
+            (ctx.table(s, f"surfaces[{i}]"), f"surfaces[{i}]")
+            for i, s in enumerate(items)
+        ]
+    else:
+        return (SurfaceVariant("smooth"),)
+    out, seen = [], {}
+    for t, key in tables:
+        name = t.get("name", t.get("kind") if isinstance(t.get("kind"), str) else None)
+        name = ctx.string(name, _join(key, "name"))
+        if name in seen:
+            raise ctx.error(
+                _join(key, "name"),
+                f"duplicate surface name {name!r} (also used by {seen[name]})",
+            )
+        seen[name] = key
+        out.append(SurfaceVariant(name, _angles(ctx, t, key)))
+    return tuple(out)
+
+
+# ---------------------------------------------------------------------- sweep
+def _values(ctx: _Ctx, value, key) -> list:
+    """A sweep value: a number, an array of numbers and range tables, or a range
+    table ``{start, stop, num}`` / ``{start, stop, step}`` (both ends included)."""
+    if isinstance(value, dict):
+        return _range(ctx, value, key)
+    if isinstance(value, list):
+        if not value:
+            raise ctx.error(key, "must not be empty")
+        out = []
+        for i, v in enumerate(value):
+            sub = f"{key}[{i}]"
+            out.extend(
+                _range(ctx, v, sub) if isinstance(v, dict) else [ctx.number(v, sub)]
+            )
+        return out
+    return [ctx.number(value, key)]
+
+
+def _range(ctx, t, key) -> list:
+    ctx.keys(t, key, ("start", "stop", "num", "step"), ("start", "stop"))
+    start = ctx.number(t["start"], f"{key}.start")
+    stop = ctx.number(t["stop"], f"{key}.stop")
+    if ("num" in t) == ("step" in t):
+        raise ctx.error(f"{key}.num", "give exactly one of 'num' or 'step'")
+    if stop < start:
+        raise ctx.error(f"{key}.stop", f"must be >= start ({start:g}); got {stop:g}")
+    if "num" in t:
+        n = ctx.integer(t["num"], f"{key}.num", low=1)
+        if n > MAX_SWEEP_POINTS:
+            raise ctx.error(f"{key}.num", f"must be <= {MAX_SWEEP_POINTS}; got {n}")
+        vals = np.linspace(start, stop, n) if n > 1 else np.array([start])
+    else:
+        step = ctx.number(t["step"], f"{key}.step", low=0, strict=True)
+        n = math.floor((stop - start) / step * (1 + 1e-12) + 1e-9) + 1
+        if n > MAX_SWEEP_POINTS:
+            raise ctx.error(
+                f"{key}.step", f"gives {n} values, more than {MAX_SWEEP_POINTS}"
+            )
+        vals = start + step * np.arange(n)
+    return [float(v) for v in np.round(vals, 12)]
+
+
+def _sweep(ctx: _Ctx, data) -> dict:
+    if "sweep" not in data:
+        raise ctx.error("sweep", "missing required table [sweep] (with speed_m_s)")
+    t = ctx.table(data["sweep"], "sweep")
+    ctx.keys(t, "sweep", SWEEP_KEYS, ("speed_m_s",))
+    speeds = _values(ctx, t["speed_m_s"], "sweep.speed_m_s")
+    for i, v in enumerate(speeds):
+        if not v > 0:
+            raise ctx.error(
+                "sweep.speed_m_s", f"speeds must be > 0 m/s; got {v:g} (value {i})"
+            )
+    angles = _values(ctx, t.get("angle_deg", [90.0]), "sweep.angle_deg")
+    for i, v in enumerate(angles):
+        if not 0 < v <= 90:
+            raise ctx.error(
+                "sweep.angle_deg",
+                f"apparent incidence angles from the surface plane must be in "
+                f"(0, 90] deg (90 = normal impact); got {v:g} (value {i})",
+            )
+    spread = 0.0
+    if "speed_spread" in t:
+        spread = ctx.number(t["speed_spread"], "sweep.speed_spread", low=0, high=0.5)
+    return {
+        "speeds_m_s": tuple(speeds),
+        "angles_deg": tuple(angles),
+        "speed_spread": spread,
+    }
+
+
+# ---------------------------------------------------------------------- coefficients
+def _coefficients(ctx: _Ctx, data):
+    from .physics.coefficients import ImpactCoefficients
+
+    if "coefficients" not in data:
+        raise ctx.error("coefficients", "missing required table [coefficients]")
+    t = dict(ctx.table(data["coefficients"], "coefficients"))
+    ctx.keys(
+        t, "coefficients", COEFFICIENT_KEYS, () if "set" in t else ("k1", "k2", "v_c")
+    )
+    for key in ("k1", "k2", "v_c"):
+        if key in t and not isinstance(t[key], dict):
+            t[key] = ctx.number(t[key], f"coefficients.{key}", low=0, inf=key != "v_c")
+    for key in ("p", "q"):
+        if key in t:
+            t[key] = ctx.number(t[key], f"coefficients.{key}", low=0, strict=True)
+    if "friction" in t:
+        f = t["friction"]
+        if isinstance(f, str) and f.strip().lower() in ("inf", "infinity"):
+            t["friction"] = math.inf
+        elif isinstance(f, str):
+            raise ctx.error(
+                "coefficients.friction", f"must be a number >= 0 or 'inf'; got {f!r}"
+            )
+        else:
+            t["friction"] = ctx.number(f, "coefficients.friction", low=0, inf=True)
+    if "set" in t:
+        ctx.string(t["set"], "coefficients.set")
+    try:
+        return ImpactCoefficients.from_dict(t, source=ctx.source, field="coefficients")
+    except ScenarioError as exc:
+        raise ctx.error(exc.field, exc.message.rstrip(".")) from None
+    except (TypeError, ValueError) as exc:
+        raise ctx.error("coefficients", str(exc)) from None
+
+
+# ---------------------------------------------------------------------- top level
+def _precision(ctx: _Ctx, data):
+    if "precision" not in data:
+        return None
+    t = ctx.table(data["precision"], "precision")
+    ctx.keys(t, "precision", PRECISION_KEYS)
+    kw = {}
+    if "statistic" in t:
+        kw["statistic"] = ctx.choice(
+            t["statistic"], "precision.statistic", PRECISION_STATISTICS
+        )
+    if "half_width" in t:
+        kw["half_width"] = ctx.number(
+            t["half_width"], "precision.half_width", low=0, strict=True
+        )
+    for key in ("max_samples", "min_samples"):
+        if key in t:
+            kw[key] = ctx.integer(t[key], f"precision.{key}", low=1)
+    if kw.get("min_samples", 1) > kw.get("max_samples", 10_000_000):
+        raise ctx.error(
+            "precision.min_samples",
+            f"must be <= max_samples ({kw.get('max_samples')}); "
+            f"got {kw['min_samples']}",
+        )
+    try:
+        return Precision(**kw)
+    except ScenarioError as exc:
+        raise ctx.error(exc.field, exc.message) from None
+
+
+def _outputs(ctx: _Ctx, data) -> tuple[dict, tuple]:
+    t = ctx.table(data.get("outputs", {}), "outputs")
+    ctx.keys(t, "outputs", OUTPUT_KEYS)
+    figures = t.get("figures", [])
+    if isinstance(figures, str):
+        figures = [figures]
+    if not isinstance(figures, list):
+        raise ctx.error("outputs.figures", "must be an array of formats, e.g. ['png']")
+    figures = [
+        ctx.choice(f, f"outputs.figures[{i}]", FIGURE_FORMATS)
+        for i, f in enumerate(figures)
+    ]
+    exp = t.get("experiments", [])
+    if isinstance(exp, str):
+        experiments = (ctx.path(exp, "outputs.experiments"),)
+    elif isinstance(exp, list):
+        experiments = tuple(
+            ctx.path(e, f"outputs.experiments[{i}]") for i, e in enumerate(exp)
+        )
+    else:
+        raise ctx.error(
+            "outputs.experiments", "must be a CSV file name or an array of them"
+        )
+    return {
+        "figures": figures,
+        "experiments": [str(p) for p in experiments],
+    }, experiments
+
+
+def scenario_from_dict(data: dict, *, source=None, base_dir=None) -> Scenario:
+    """Build a :class:`Scenario` from parsed TOML data (see ``docs/scenarios.md``).
+
+    Parameters
+    ----------
+    data : dict
+        The scenario, as :func:`tomllib.load` returns it.
+    source : str or path-like, optional
+        The file `data` came from; named in every error message and recorded as
+        ``Scenario.source``.
+    base_dir : path-like, optional
+        Folder that relative file names resolve from (default: the folder of
+        `source`, else the current directory).
+
+    Returns
+    -------
+    Scenario
+        With ``config = {"outputs": {...}, "source": ..., "base_dir": ...,
+        "raw": data}`` and ``experiments`` the resolved experiment CSV paths.
+
+    Raises
+    ------
+    ScenarioError
+        One line naming the file, the key path, the bad value and what is allowed.
+    """
+    if base_dir is None and source is not None:
+        base_dir = Path(source).resolve().parent
+    ctx = _Ctx(source, base_dir)
+    ctx.table(data, "(top level)")
+    ctx.keys(data, "", TOP_KEYS, ("particles",))
+    kw = {}
+    if "name" in data:
+        kw["name"] = ctx.string(data["name"], "name")
+    else:
+        kw["name"] = Path(source).stem if source is not None else "scenario"
+    if "description" in data:
+        if not isinstance(data["description"], str):
+            raise ctx.error(
+                "description", f"must be a string; got {_show(data['description'])}"
+            )
+        kw["description"] = data["description"]
+    if "seed" in data:
+        kw["seed"] = ctx.integer(data["seed"], "seed", low=0)
+    if "samples" in data:
+        kw["samples"] = ctx.integer(data["samples"], "samples", low=1)
+    if "qmc_replicates" in data:
+        kw["qmc_replicates"] = ctx.integer(
+            data["qmc_replicates"], "qmc_replicates", low=2
+        )
+    if "shadowing" in data:
+        kw["shadowing"] = ctx.choice(data["shadowing"], "shadowing", SHADOWING_OPTIONS)
+    if "sampling" in data:
+        kw["sampling"] = ctx.choice(data["sampling"], "sampling", SAMPLING_OPTIONS)
+    if "confidence" in data:
+        c = ctx.number(data["confidence"], "confidence", low=0, strict=True)
+        if not c < 1:
+            raise ctx.error(
+                "confidence", f"must be in (0, 1); got {_show(data['confidence'])}"
+            )
+        kw["confidence"] = c
+    if "reference_angle_deg" in data:
+        ref = data["reference_angle_deg"]
+        if ref is False:
+            kw["reference_angle_deg"] = None
+        else:
+            r = ctx.number(ref, "reference_angle_deg", low=0, strict=True, high=90)
+            kw["reference_angle_deg"] = r
+    if "capture_quantiles" in data:
+        q = data["capture_quantiles"]
+        qs = ctx.numbers(q if isinstance(q, list) else [q], "capture_quantiles")
+        for v in qs:
+            if not 0 < v < 1:
+                raise ctx.error("capture_quantiles", f"must be in (0, 1); got {v:g}")
+        kw["capture_quantiles"] = tuple(qs)
+    kw["precision"] = _precision(ctx, data)
+    kw["particles"] = _particles(ctx, data["particles"])
+    kw["coefficients"] = _coefficients(ctx, data)
+    kw["surfaces"] = _surfaces(ctx, data)
+    if "particle_roughness" in data:
+        t = ctx.table(data["particle_roughness"], "particle_roughness")
+        if "name" in t:
+            raise ctx.error(
+                "particle_roughness.name", "not allowed here (only for surfaces)"
+            )
+        kw["particle_roughness"] = _angles(ctx, t, "particle_roughness")
+    kw.update(_sweep(ctx, data))
+    outputs, experiments = _outputs(ctx, data)
+    kw["config"] = {
+        "outputs": outputs,
+        "source": ctx.source,
+        "base_dir": str(ctx.base_dir),
+        "raw": data,
+    }
+    kw["experiments"] = experiments
+    kw["source"] = ctx.source
+    try:
+        return Scenario(**kw)
+    except ScenarioError as exc:
+        raise ctx.error(exc.field, exc.message) from None
+
+
+def scenario_from_toml(path) -> Scenario:
+    """Load and validate a TOML scenario file (see ``docs/scenarios.md``).
+
+    Relative paths inside the file resolve from the file's own folder.
+
+    Raises
+    ------
+    ScenarioError
+        File not found or unreadable, TOML syntax errors (with line and column), and
+        every invalid key or value (naming the key path).
+    """
+    path = Path(path)
+    try:
+        raw = path.read_bytes()
+    except FileNotFoundError:
+        raise ScenarioError("scenario file not found", source=path) from None
+    except IsADirectoryError:
+        raise ScenarioError(
+            "is a directory, not a scenario file", source=path
+        ) from None
+    except OSError as exc:
+        raise ScenarioError(
+            f"cannot read the file ({exc.strerror})", source=path
+        ) from None
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise ScenarioError(f"not UTF-8 text (byte {exc.start})", source=path) from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        msg = str(exc)
+        m = _TOML_POSITION.search(msg)
+        line = None
+        if m:
+            line = int(m.group(1))
+            msg = f"{msg[: m.start()]} (column {m.group(2)})"
+        else:
+            msg = _TOML_EOF.sub(" (at the end of the file)", msg)
+        raise ScenarioError(
+            f"TOML syntax error: {_one_line(msg)}", source=path, line=line
+        ) from None
+    return scenario_from_dict(data, source=path, base_dir=path.resolve().parent)
+
+
+# ---------------------------------------------------------------------- presets
+def list_presets() -> list[str]:
+    """Names of the shipped presets (see ``docs/presets.md``)."""
+    return sorted(PRESETS)
+
+
+def preset_path(name: str) -> Path:
+    """The scenario file of preset `name`."""
+    if name not in PRESETS:
+        close = difflib.get_close_matches(str(name), list(PRESETS), n=1)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        raise ValueError(
+            f"`name` must be one of {', '.join(repr(p) for p in list_presets())}; "
+            f"got {name!r}{hint}."
+        )
+    return PRESET_DIR / PRESETS[name]
+
+
+def load_preset(name: str) -> Scenario:
+    """Load a shipped preset reproducing the paper by name (see ``docs/presets.md``).
+
+    >>> load_preset("sst65-silicon-normal").samples
+    4000
+    """
+    return scenario_from_toml(preset_path(name))

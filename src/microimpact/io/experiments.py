@@ -1,0 +1,370 @@
+"""Read experimental mean values with confidence intervals from CSV.
+
+File format: UTF-8 CSV with one header row. Blank lines and lines whose first
+non-blank character is ``#`` are skipped. Columns (any order; others are ignored):
+
+``speed_m_s`` and/or ``angle_deg``
+    Where the point was measured: nominal incident speed [m s⁻¹] (> 0) and/or
+    apparent incidence angle from the nominal plane [deg] (in (0, 90]). At least one
+    of the two columns must be present; a cell may be left empty in a file that has
+    both.
+``surface`` (optional)
+    Name of the simulated surface the point belongs to (e.g. ``rough``).
+``statistic``
+    What was measured, one of :data:`STATISTICS`: ``e`` (mean coefficient of
+    restitution of rebounding particles), ``mu`` (mean impulse ratio),
+    ``e_relative`` and ``mu_relative`` (the paper's relative coefficients,
+    ``e - e(85°)``), ``capture_fraction`` (fraction captured, in [0, 1]).
+``mean``
+    The measured mean.
+The interval, per row, one of:
+    * ``ci_low`` and ``ci_high`` (the confidence limits);
+    * ``half_width`` (symmetric: ``mean ± half_width``);
+    * ``std`` and ``n`` (sample standard deviation and sample size; the interval is
+      the Student-t interval ``mean ± t_{n-1} std / sqrt(n)``).
+``confidence`` (optional)
+    Confidence level of the interval, default 0.95 (the paper's error bars).
+``n`` (optional with the first two forms)
+    Sample size; when given, the standard error is the half-width over ``t_{n-1}``
+    instead of over the normal quantile.
+
+Example (paper Fig. 5 style)::
+
+    # SST65 on silicon, Li et al. (1999); 95 % error bars
+    speed_m_s,statistic,mean,ci_low,ci_high
+    0.35,e,0.42,0.36,0.48
+    1.20,e,0.78,0.75,0.81
+"""
+
+from __future__ import annotations
+
+import csv
+import difflib
+import math
+import os
+
+from ..errors import DataFormatError
+
+__all__ = ["COORDINATES", "STATISTICS", "combine_experiments", "read_experiments"]
+
+#: Statistics an experimental point may report.
+STATISTICS = ("e", "mu", "e_relative", "mu_relative", "capture_fraction")
+#: Columns that locate a point in the sweep.
+COORDINATES = ("speed_m_s", "angle_deg")
+
+_NUMERIC = ("mean", "ci_low", "ci_high", "half_width", "std", "n", "confidence")
+_OUT_COLUMNS = (
+    "surface",
+    "speed_m_s",
+    "angle_deg",
+    "statistic",
+    "mean",
+    "ci_low",
+    "ci_high",
+    "se",
+    "n",
+    "confidence",
+    "line",
+)
+
+
+def _data_lines(fh):
+    for lineno, line in enumerate(fh, start=1):
+        stripped = line.strip()
+        if stripped and not stripped.startswith("#"):
+            yield lineno, line
+
+
+def _open(source):
+    try:
+        return open(source, newline="", encoding="utf-8-sig")
+    except FileNotFoundError:
+        raise DataFormatError("file not found.", source=source) from None
+    except IsADirectoryError:
+        raise DataFormatError(
+            "is a directory, not a CSV file.", source=source
+        ) from None
+    except OSError as exc:
+        raise DataFormatError(
+            f"cannot open file ({exc.strerror}).", source=source
+        ) from None
+
+
+def _header(source, lines):
+    if not lines:
+        raise DataFormatError(
+            "no header found; expected columns speed_m_s or angle_deg, statistic, "
+            "mean and an interval (ci_low, ci_high | half_width | std, n).",
+            source=source,
+        )
+    lineno, text = lines[0]
+    header = [h.strip() for h in next(csv.reader([text]))]
+    dup = sorted({h for h in header if h and header.count(h) > 1})
+    if dup:
+        raise DataFormatError(
+            f"duplicate column(s) {dup}; each column may appear once.",
+            source=source,
+            line=lineno,
+        )
+
+    def missing(col, allowed):
+        close = difflib.get_close_matches(col, header, n=1)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        raise DataFormatError(
+            f"required column missing; header has {header}, {allowed}{hint}.",
+            source=source,
+            line=lineno,
+            field=col,
+        )
+
+    if not any(c in header for c in COORDINATES):
+        missing("speed_m_s", "need speed_m_s and/or angle_deg")
+    for col in ("statistic", "mean"):
+        if col not in header:
+            missing(col, "statistic and mean are required")
+    has_ci = "ci_low" in header and "ci_high" in header
+    if not (has_ci or "half_width" in header or {"std", "n"} <= set(header)):
+        missing(
+            "ci_low",
+            "an interval needs ci_low and ci_high, or half_width, or std and n",
+        )
+    return lineno, {h: i for i, h in enumerate(header) if h}
+
+
+def _number(cell, *, source, line, col, allowed, ok):
+    try:
+        value = float(cell)
+    except ValueError:
+        raise DataFormatError(
+            f"non-numeric value {cell!r}; {allowed} is required.",
+            source=source,
+            line=line,
+            field=col,
+        ) from None
+    if not (math.isfinite(value) and ok(value)):
+        raise DataFormatError(
+            f"bad value {cell!r}; {allowed} is required.",
+            source=source,
+            line=line,
+            field=col,
+        )
+    return value
+
+
+_RULES = {
+    "speed_m_s": ("a finite speed > 0 [m/s]", lambda v: v > 0),
+    "angle_deg": ("an angle in (0, 90] [deg]", lambda v: 0 < v <= 90),
+    "mean": ("a finite number", lambda v: True),
+    "ci_low": ("a finite number", lambda v: True),
+    "ci_high": ("a finite number", lambda v: True),
+    "half_width": ("a finite number >= 0", lambda v: v >= 0),
+    "std": ("a finite number >= 0", lambda v: v >= 0),
+    "n": ("an integer >= 2", lambda v: v >= 2 and v == int(v)),
+    "confidence": ("a number in (0, 1)", lambda v: 0 < v < 1),
+}
+
+
+def _parse_row(cells, index, *, source, line):
+    def cell(col):
+        k = index.get(col)
+        return cells[k].strip() if k is not None and k < len(cells) else ""
+
+    row = {"line": line}
+    for col in (*COORDINATES, *_NUMERIC):
+        text = cell(col)
+        if text == "":
+            row[col] = math.nan
+            continue
+        allowed, ok = _RULES[col]
+        row[col] = _number(
+            text, source=source, line=line, col=col, allowed=allowed, ok=ok
+        )
+    if all(math.isnan(row[c]) for c in COORDINATES):
+        raise DataFormatError(
+            "missing value; each row needs speed_m_s or angle_deg.",
+            source=source,
+            line=line,
+            field="/".join(c for c in COORDINATES if c in index),
+        )
+    stat = cell("statistic")
+    if stat not in STATISTICS:
+        close = difflib.get_close_matches(stat, STATISTICS, n=1)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        raise DataFormatError(
+            f"unknown statistic {stat!r}; allowed: {', '.join(STATISTICS)}{hint}.",
+            source=source,
+            line=line,
+            field="statistic",
+        )
+    row["statistic"] = stat
+    row["surface"] = cell("surface") or None
+    if math.isnan(row["mean"]):
+        raise DataFormatError(
+            "missing value; a number is required.",
+            source=source,
+            line=line,
+            field="mean",
+        )
+    if stat == "capture_fraction" and not 0 <= row["mean"] <= 1:
+        raise DataFormatError(
+            f"bad value {row['mean']!r}; a capture fraction must lie in [0, 1] "
+            "(give a fraction, not a percentage).",
+            source=source,
+            line=line,
+            field="mean",
+        )
+    if math.isnan(row["confidence"]):
+        row["confidence"] = 0.95
+    _interval(row, source=source)
+    return row
+
+
+def _interval(row, *, source):
+    """Fill ``ci_low``, ``ci_high`` and ``se`` from whichever form the row uses."""
+    from scipy.special import ndtri
+    from scipy.stats import t as student_t
+
+    line, mean, n, conf = row["line"], row["mean"], row["n"], row["confidence"]
+    q = 0.5 + conf / 2.0
+    crit = float(ndtri(q)) if math.isnan(n) else float(student_t.ppf(q, n - 1))
+    lo, hi = row["ci_low"], row["ci_high"]
+    if not (math.isnan(lo) and math.isnan(hi)):
+        for col, v in (("ci_low", lo), ("ci_high", hi)):
+            if math.isnan(v):
+                raise DataFormatError(
+                    "missing value; ci_low and ci_high must be given together.",
+                    source=source,
+                    line=line,
+                    field=col,
+                )
+        if not lo <= mean <= hi:
+            raise DataFormatError(
+                f"interval [{lo!r}, {hi!r}] does not contain the mean {mean!r}; "
+                "ci_low <= mean <= ci_high is required.",
+                source=source,
+                line=line,
+                field="ci_low",
+            )
+        row["se"] = (hi - lo) / (2.0 * crit)
+    elif not math.isnan(row["half_width"]):
+        h = row["half_width"]
+        row["ci_low"], row["ci_high"], row["se"] = mean - h, mean + h, h / crit
+    elif not (math.isnan(row["std"]) or math.isnan(n)):
+        se = row["std"] / math.sqrt(n)
+        row["ci_low"], row["ci_high"], row["se"] = (
+            mean - crit * se,
+            mean + crit * se,
+            se,
+        )
+    else:
+        raise DataFormatError(
+            "no interval on this row; give ci_low and ci_high, or half_width, "
+            "or std and n.",
+            source=source,
+            line=line,
+            field="ci_low",
+        )
+
+
+def read_experiments(path):
+    """Read experimental means with confidence intervals (format: module docstring).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The CSV file.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per data line, in file order, with columns ``surface`` (str or
+        None), ``speed_m_s`` [m s⁻¹] and ``angle_deg`` [deg] (NaN where not given),
+        ``statistic``, ``mean``, ``ci_low``, ``ci_high``, ``se`` (standard error of
+        the mean: the half-width over the normal quantile, or over ``t_{n-1}`` when
+        ``n`` is given), ``n`` (NaN if not given), ``confidence`` and ``line`` (the
+        1-based line number in the file). ``attrs["source"]`` is the path.
+
+    Raises
+    ------
+    DataFormatError
+        Naming file, line, column and value, if the file is missing or empty, a
+        required column is missing or duplicated, a statistic is unknown, a number
+        is malformed or out of range, a row has no interval, or an interval does not
+        contain its mean.
+    """
+    import pandas as pd
+
+    source = os.fspath(path)
+    with _open(source) as fh:
+        try:
+            lines = list(_data_lines(fh))
+        except UnicodeDecodeError as exc:
+            raise DataFormatError(
+                f"not a UTF-8 text file ({exc.reason}).", source=source
+            ) from None
+    header_line, index = _header(source, lines)
+    body = lines[1:]
+    if not body:
+        raise DataFormatError(
+            "no data rows after the header.", source=source, line=header_line
+        )
+    rows = []
+    for lineno, text in body:
+        try:
+            cells = next(csv.reader([text]))
+        except csv.Error as exc:
+            raise DataFormatError(
+                f"cannot parse line: {exc}.", source=source, line=lineno
+            ) from None
+        rows.append(_parse_row(cells, index, source=source, line=lineno))
+    table = pd.DataFrame(rows, columns=list(_OUT_COLUMNS))
+    for col in ("speed_m_s", "angle_deg", "mean", "ci_low", "ci_high", "se", "n"):
+        table[col] = table[col].astype(float)
+    table["surface"] = table["surface"].astype(object)
+    table.attrs["source"] = source
+    return table
+
+
+def combine_experiments(experiments):
+    """One table from experiments given as tables and/or CSV paths.
+
+    Parameters
+    ----------
+    experiments : None, DataFrame, path-like or sequence of them
+        Tables as returned by :func:`read_experiments`, or paths to such files.
+
+    Returns
+    -------
+    pandas.DataFrame or None
+        The rows of all of them (None for None or an empty sequence).
+    """
+    if experiments is None:
+        return None
+    import pandas as pd
+
+    items = (
+        [experiments]
+        if isinstance(experiments, str | os.PathLike | pd.DataFrame)
+        else list(experiments)
+    )
+    tables = [
+        read_experiments(x) if isinstance(x, str | os.PathLike) else x for x in items
+    ]
+    for t in tables:
+        if not isinstance(t, pd.DataFrame) or not {
+            "statistic",
+            "mean",
+            "ci_low",
+            "ci_high",
+        } <= set(t.columns):
+            raise TypeError(
+                "`experiments` must be read_experiments() tables or paths; "
+                f"got {type(t).__name__}."
+            )
+    if not tables:
+        return None
+    out = pd.concat(tables, ignore_index=True)
+    for c in ("speed_m_s", "angle_deg", "surface"):
+        if c not in out:
+            out[c] = math.nan if c != "surface" else None
+    return out

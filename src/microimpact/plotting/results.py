@@ -1,0 +1,787 @@
+"""Result figures: capture (paper Figs. 5, 6), coefficients against angle (Figs. 8,
+11) and frequency distributions of e_m and mu_m (Figs. 9, 10).
+
+matplotlib is imported only when a figure is made. Each ``plot_*`` function takes
+``axes=None`` (a new figure) or the Axes to draw on, and returns the Axes. Bands are
+the confidence intervals of the summary table; experimental points are drawn with
+their interval bars. The style is applied with a local ``rc_context`` only.
+
+References
+----------
+.. [1] X. Li, P. F. Dunn and R. M. Brach, "Monte Carlo Analysis of Polydisperse
+   Microparticle Impacts with Surfaces," *Aerosol Sci. Technol.* 33:376-386, 2000.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+
+from ..io.experiments import combine_experiments
+
+__all__ = [
+    "FIGURE_FORMATS",
+    "figure_caption",
+    "figures_for_result",
+    "plot_capture",
+    "plot_coefficients_vs_angle",
+    "plot_convergence",
+    "plot_distributions",
+    "result_figures",
+    "save_figure",
+]
+
+#: Okabe-Ito colours (distinguishable with colour-vision deficiency).
+PALETTE = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#000000")
+#: Local rcParams of every figure made here.
+STYLE = {
+    "font.size": 9.0,
+    "axes.labelsize": 9.0,
+    "axes.titlesize": 9.5,
+    "legend.fontsize": 8.0,
+    "xtick.labelsize": 8.0,
+    "ytick.labelsize": 8.0,
+    "axes.spines.top": False,
+    "axes.spines.right": False,
+    "axes.grid": True,
+    "grid.alpha": 0.3,
+    "grid.linewidth": 0.5,
+    "lines.linewidth": 1.5,
+    "legend.frameon": False,
+    "errorbar.capsize": 2.5,
+    "savefig.dpi": 200,
+    "pdf.fonttype": 42,
+}
+#: File formats :func:`save_figure` writes.
+FIGURE_FORMATS = ("png", "pdf", "svg")
+_EXP_STYLE = {"fmt": "s", "ms": 5, "mfc": "white", "color": "black", "lw": 0.9}
+_BAND_ALPHA = 0.22
+
+
+def colour(k: int) -> str:
+    """The `k`-th colour of the palette (cycled)."""
+    return PALETTE[k % len(PALETTE)]
+
+
+def _mpl():
+    import matplotlib as mpl
+    import matplotlib.pyplot as plt
+
+    return mpl, plt
+
+
+# --------------------------------------------------------------------- helpers
+def _summary(result):
+    if not hasattr(result, "summary") or not hasattr(result, "scenario"):
+        raise TypeError(
+            f"`result` must be a SimulationResult; got {type(result).__name__}."
+        )
+    return result.summary.reset_index(drop=True)
+
+
+def _z(result) -> float:
+    from scipy.special import ndtri
+
+    conf = float(getattr(result.scenario, "confidence", 0.95))
+    return float(ndtri(0.5 + conf / 2.0))
+
+
+def _smooth(result, name) -> bool:
+    for s in getattr(result.scenario, "surfaces", ()):
+        if s.name == name:
+            return bool(getattr(s, "smooth", False))
+    return "smooth" in str(name).lower()
+
+
+def _pick(values, wanted, name):
+    """The element of `values` close to `wanted`, or ValueError listing them."""
+    values = np.unique(np.asarray(values, dtype=float))
+    hit = values[np.isclose(values, float(wanted), rtol=1e-9, atol=1e-9)]
+    if hit.size == 0:
+        raise ValueError(
+            f"`{name}` must be one of the simulated values {values.tolist()}; "
+            f"got {wanted!r}."
+        )
+    return float(hit[0])
+
+
+def _surfaces(summary, surface):
+    names = list(dict.fromkeys(summary["surface"]))
+    if surface is None:
+        return names
+    wanted = [surface] if isinstance(surface, str) else list(surface)
+    bad = [w for w in wanted if w not in names]
+    if bad or not wanted:
+        raise ValueError(f"`surface` must be one of {names}; got {surface!r}.")
+    return wanted
+
+
+def _draw_experiments(ax, exp, statistic, x_col, *, scale=1.0, label=None):
+    if exp is None:
+        return
+    g = exp[(exp["statistic"] == statistic) & exp[x_col].notna()]
+    if g.empty:
+        return
+    m = g["mean"].to_numpy(dtype=float) * scale
+    lo = g["ci_low"].to_numpy(dtype=float) * scale
+    hi = g["ci_high"].to_numpy(dtype=float) * scale
+    ax.errorbar(
+        g[x_col].to_numpy(dtype=float),
+        m,
+        yerr=[m - lo, hi - m],
+        label=label or "Experiment (95 % CI)",
+        zorder=5,
+        **_EXP_STYLE,
+    )
+
+
+def _band(ax, x, mean, lo, hi, *, color, ls="-", label=None, marker=None):
+    ax.fill_between(x, lo, hi, color=color, alpha=_BAND_ALPHA, lw=0)
+    ax.plot(x, mean, color=color, ls=ls, label=label, marker=marker, ms=3)
+
+
+def _new_axes(axes, nrows, ncols, figsize, *, sharex=False):
+    _, plt = _mpl()
+    if axes is None:
+        _, axes = plt.subplots(
+            nrows, ncols, figsize=figsize, sharex=sharex, layout="constrained"
+        )
+    axes = np.atleast_1d(np.asarray(axes, dtype=object)).ravel()
+    if axes.size != nrows * ncols:
+        raise ValueError(f"`axes` must hold {nrows * ncols} Axes; got {axes.size}.")
+    return axes
+
+
+# --------------------------------------------------------------------- capture
+def plot_capture(result, *, surface=None, angle_deg=90, experiments=None, axes=None):
+    """Coefficient of restitution and capture percentage against impact speed.
+
+    The paper's Figs. 5 and 6 [1]_: the upper panel is the mean coefficient of
+    restitution of the rebounding particles with its confidence band; the lower
+    panel is the percentage captured with its Wilson band, and a diamond marks the
+    speed at which 50 % are captured, with the interval where the band crosses 50 %.
+
+    Parameters
+    ----------
+    result : SimulationResult
+        A run with at least one speed at `angle_deg`.
+    surface : str, optional
+        Surface to draw (default: every simulated surface, one colour each).
+    angle_deg : float, default 90
+        Apparent incidence angle [deg]; at 90° the speed is the normal impact speed.
+    experiments : DataFrame, path or sequence of them, optional
+        Experimental points (:func:`~microimpact.io.experiments.read_experiments`);
+        rows with ``statistic`` ``e`` go to the upper panel, ``capture_fraction``
+        to the lower one (as percentages).
+    axes : sequence of two Axes, optional
+        Upper and lower panel; a new figure is made if omitted.
+
+    Returns
+    -------
+    numpy.ndarray of matplotlib.axes.Axes
+        The two panels.
+    """
+    mpl, _ = _mpl()
+    summary = _summary(result)
+    angle = _pick(summary["angle_deg"], angle_deg, "angle_deg")
+    names = _surfaces(summary, surface)
+    exp = combine_experiments(experiments)
+    if exp is not None:
+        exp = exp[exp["angle_deg"].isna() | np.isclose(exp["angle_deg"], angle)]
+    z = _z(result)
+    cap = _capture_speeds(result, summary)
+    with mpl.rc_context(STYLE):
+        ax_e, ax_c = _new_axes(axes, 2, 1, (5.0, 5.6), sharex=True)
+        for k, name in enumerate(names):
+            g = summary[
+                (summary["surface"] == name) & np.isclose(summary["angle_deg"], angle)
+            ].sort_values("speed_m_s")
+            v = g["speed_m_s"].to_numpy(dtype=float)
+            c = colour(k)
+            label = "Monte Carlo" + (f" ({name})" if len(names) > 1 else "")
+            e = g["e_rebound_mean"].to_numpy(dtype=float)
+            lo = g.get("e_rebound_ci_low", g["e_rebound_mean"] - z * g["e_rebound_se"])
+            hi = g.get("e_rebound_ci_high", g["e_rebound_mean"] + z * g["e_rebound_se"])
+            _band(ax_e, v, e, lo, hi, color=c, label=label, marker="o")
+            _band(
+                ax_c,
+                v,
+                100 * g["capture_fraction"],
+                100 * g["capture_ci_low"],
+                100 * g["capture_ci_high"],
+                color=c,
+                label=label,
+                marker="o",
+            )
+            row = cap[(cap["surface"] == name) & np.isclose(cap["angle_deg"], angle)]
+            if len(row) and np.isfinite(row["speed_m_s"].iloc[0]):
+                v50 = float(row["speed_m_s"].iloc[0])
+                lo50 = float(row["speed_ci_low"].iloc[0])
+                hi50 = float(row["speed_ci_high"].iloc[0])
+                ax_c.errorbar(
+                    [v50],
+                    [50.0],
+                    xerr=[[v50 - lo50], [hi50 - v50]],
+                    fmt="D",
+                    ms=6,
+                    color=c,
+                    mec="black",
+                    mew=0.6,
+                    zorder=6,
+                    label=f"50 % capture: {v50:.3g} m s⁻¹ [{lo50:.3g}, {hi50:.3g}]",
+                )
+        _draw_experiments(ax_e, exp, "e", "speed_m_s")
+        _draw_experiments(ax_c, exp, "capture_fraction", "speed_m_s", scale=100.0)
+        ax_c.axhline(50.0, color="0.5", lw=0.7, ls=":")
+        speeds = summary["speed_m_s"].to_numpy(dtype=float)
+        if speeds.min() > 0 and speeds.max() / speeds.min() > 20:
+            from matplotlib import ticker
+
+            ax_c.set_xscale("log")
+            ax_c.xaxis.set_major_locator(ticker.LogLocator(subs=(1.0, 2.0, 5.0)))
+            ax_c.xaxis.set_major_formatter(ticker.FuncFormatter(lambda v, _: f"{v:g}"))
+            ax_c.xaxis.set_minor_formatter(ticker.NullFormatter())
+        xl = (
+            "Normal impact speed $v_n$ [m s⁻¹]"
+            if math.isclose(angle, 90.0)
+            else f"Incident speed at θ = {angle:g}° [m s⁻¹]"
+        )
+        ax_c.set_xlabel(xl)
+        ax_e.set_ylabel("Coefficient of restitution $e$ [–]")
+        ax_c.set_ylabel("Capture [%]")
+        ax_c.set_ylim(-3, 103)
+        ax_e.set_ylim(bottom=0)
+        ax_e.set_title(
+            f"{result.scenario.name}: mean of rebounds, {_conf_label(result)} band"
+        )
+        ax_e.legend(loc="lower right")
+        ax_c.legend(loc="upper right")
+    return np.array([ax_e, ax_c], dtype=object)
+
+
+def _conf_label(result) -> str:
+    return f"{100 * float(getattr(result.scenario, 'confidence', 0.95)):g} %"
+
+
+def _capture_speeds(result, summary):
+    from ..engine.statistics import capture_speed
+
+    return capture_speed(summary, 0.5)
+
+
+# --------------------------------------------------------------------- angles
+def plot_coefficients_vs_angle(
+    result, *, relative=True, experiments=None, axes=None, speed_m_s=None
+):
+    """Coefficient of restitution and impulse ratio against incidence angle.
+
+    The paper's Figs. 8 and 11 [1]_: one line per surface (solid for a rough
+    surface, dashed for a molecularly smooth one) and, if several speeds are swept,
+    per speed (one colour each), with confidence bands.
+
+    Parameters
+    ----------
+    result : SimulationResult
+        A run with an angle sweep.
+    relative : bool, default True
+        Draw the paper's relative coefficients ``e - e(θ_ref)`` and
+        ``μ - μ(θ_ref)`` (band ``± z SE``), else the means of rebounds
+        ``e`` and ``μ`` (band: their confidence interval).
+    experiments : DataFrame, path or sequence of them, optional
+        Rows with ``statistic`` ``e_relative``/``mu_relative`` (or ``e``/``mu``
+        when ``relative=False``) and an ``angle_deg``.
+    axes : sequence of two Axes, optional
+        Upper (e) and lower (μ) panel; a new figure is made if omitted.
+    speed_m_s : float, optional
+        Draw one speed only (default: all).
+
+    Returns
+    -------
+    numpy.ndarray of matplotlib.axes.Axes
+    """
+    mpl, _ = _mpl()
+    summary = _summary(result)
+    if speed_m_s is not None:
+        sp = _pick(summary["speed_m_s"], speed_m_s, "speed_m_s")
+        summary = summary[np.isclose(summary["speed_m_s"], sp)]
+    ref = getattr(result.scenario, "reference_angle_deg", None)
+    if relative and "e_relative" not in summary:
+        raise ValueError(
+            "`relative=True` needs the reference angle "
+            f"({ref!r} deg) in the angle sweep; pass `relative=False`."
+        )
+    z = _z(result)
+    if relative:
+        specs = (
+            ("e_relative", "e_relative_se", None, None),
+            ("mu_relative", "mu_relative_se", None, None),
+        )
+        stats = ("e_relative", "mu_relative")
+        ylabels = (
+            f"Relative restitution $e - e_{{{ref:g}°}}$ [–]",
+            f"Relative impulse ratio $μ - μ_{{{ref:g}°}}$ [–]",
+        )
+    else:
+        specs = (
+            ("e_rebound_mean", "e_rebound_se", "e_rebound_ci_low", "e_rebound_ci_high"),
+            ("mu_mean", "mu_se", "mu_ci_low", "mu_ci_high"),
+        )
+        stats = ("e", "mu")
+        ylabels = ("Coefficient of restitution $e_m$ [–]", "Impulse ratio $μ_m$ [–]")
+    exp = combine_experiments(experiments)
+    speeds = list(dict.fromkeys(summary["speed_m_s"]))
+    names = list(dict.fromkeys(summary["surface"]))
+    with mpl.rc_context(STYLE):
+        axs = _new_axes(axes, 2, 1, (5.0, 5.6), sharex=True)
+        for ax, (col, se_col, lo_col, hi_col) in zip(axs, specs, strict=True):
+            for i, name in enumerate(names):
+                for j, sp in enumerate(speeds):
+                    g = summary[
+                        (summary["surface"] == name)
+                        & np.isclose(summary["speed_m_s"], sp)
+                    ].sort_values("angle_deg")
+                    m = g[col].to_numpy(dtype=float)
+                    if lo_col is None:
+                        lo = m - z * g[se_col].to_numpy(dtype=float)
+                        hi = m + z * g[se_col].to_numpy(dtype=float)
+                    else:
+                        lo, hi = g[lo_col], g[hi_col]
+                    label = f"Monte Carlo, {name}"
+                    if len(speeds) > 1:
+                        label += f", {sp:g} m s⁻¹"
+                    _band(
+                        ax,
+                        g["angle_deg"].to_numpy(dtype=float),
+                        m,
+                        lo,
+                        hi,
+                        color=colour(j if len(speeds) > 1 else i),
+                        ls="--" if _smooth(result, name) else "-",
+                        label=label,
+                    )
+        for ax, stat, yl in zip(axs, stats, ylabels, strict=True):
+            _draw_experiments(ax, exp, stat, "angle_deg")
+            if relative:
+                ax.axhline(0.0, color="0.4", lw=0.6)
+            ax.set_ylabel(yl)
+        axs[1].set_xlabel("Apparent incidence angle θ [°]")
+        axs[1].set_xlim(0, 90)
+        axs[1].set_xticks(np.arange(0, 91, 15))
+        axs[0].set_title(
+            f"{result.scenario.name}: mean of rebounds, {_conf_label(result)} band"
+        )
+        axs[0].legend(loc="best")
+    return axs
+
+
+# --------------------------------------------------------------------- histograms
+def rebin(counts, edges, *, target_bins=30, tail=0.002):
+    """Merge uniform histogram bins into about `target_bins` readable classes.
+
+    The shown range drops a fraction `tail` of the pooled counts (half each side)
+    and is at least `target_bins` original bins wide; bins are merged in groups of
+    ``ceil(range / target_bins)`` aligned on the original grid.
+
+    Parameters
+    ----------
+    counts : sequence of 1-D arrays
+        Histograms on the same uniform `edges`.
+    edges : 1-D array
+        Uniform bin edges.
+
+    Returns
+    -------
+    list of ndarray, ndarray, float
+        Merged counts (one per input), the merged edges, and the fraction of the
+        pooled counts outside the shown range.
+    """
+    counts = [np.asarray(c, dtype=float) for c in counts]
+    edges = np.asarray(edges, dtype=float)
+    nb = edges.size - 1
+    total = np.sum(counts, axis=0)
+    s = total.sum()
+    if s <= 0:
+        return [c[:0] for c in counts], edges[:1], 0.0
+    cdf = np.cumsum(total) / s
+    i0 = int(np.searchsorted(cdf, tail / 2.0, side="right"))
+    i1 = int(np.searchsorted(cdf, 1.0 - tail / 2.0, side="left")) + 1
+    i1 = min(max(i1, i0 + 1), nb)
+    if i1 - i0 < target_bins:  # a spike: show at least target_bins fine bins
+        mid = (i0 + i1) // 2
+        i0 = max(0, mid - target_bins // 2)
+        i1 = min(nb, i0 + target_bins)
+    factor = max(1, math.ceil((i1 - i0) / target_bins))
+    i0 = (i0 // factor) * factor
+    n_new = math.ceil((i1 - i0) / factor)
+    i1 = i0 + n_new * factor
+    dw = edges[1] - edges[0]
+    new_edges = edges[0] + dw * np.arange(i0, i1 + 1, factor)
+    merged = []
+    for c in counts:
+        part = np.zeros(n_new * factor)
+        stop = min(i1, nb)
+        part[: stop - i0] = c[i0:stop]
+        merged.append(part.reshape(n_new, factor).sum(axis=1))
+    shown = np.sum(merged, axis=0).sum()
+    return merged, new_edges, float(1.0 - shown / s)
+
+
+def _n_rebounds(summary, point, counts):
+    if "n_rebounds" in summary and np.isfinite(summary.loc[point, "n_rebounds"]):
+        return summary.loc[point, "n_rebounds"]
+    return np.asarray(counts).sum()
+
+
+def plot_distributions(result, *, angle_deg, speed_m_s=None, surface=None, axes=None):
+    """Frequency distributions of e_m and μ_m over rebounds at one angle.
+
+    The paper's Figs. 9 and 10 [1]_, from the run's fixed-bin histograms merged
+    into about 30 classes (:func:`rebin`). The frequency is the percentage of the
+    rebounding particles in each class.
+
+    Parameters
+    ----------
+    result : SimulationResult
+    angle_deg : float
+        Apparent incidence angle [deg], one of the simulated angles.
+    speed_m_s : float, optional
+        Incident speed [m s⁻¹]; required when several are simulated.
+    surface : str or sequence of str, optional
+        Surfaces to overlay (default: all).
+    axes : sequence of two Axes, optional
+        Left (e_m) and right (μ_m) panel; a new figure is made if omitted.
+
+    Returns
+    -------
+    numpy.ndarray of matplotlib.axes.Axes
+    """
+    mpl, _ = _mpl()
+    summary = _summary(result)
+    angle = _pick(summary["angle_deg"], angle_deg, "angle_deg")
+    speeds = np.unique(summary["speed_m_s"].to_numpy(dtype=float))
+    if speed_m_s is None:
+        if speeds.size != 1:
+            raise ValueError(
+                f"`speed_m_s` must be given (one of {speeds.tolist()}) when several "
+                "speeds are simulated; got None."
+            )
+        speed = float(speeds[0])
+    else:
+        speed = _pick(speeds, speed_m_s, "speed_m_s")
+    names = _surfaces(summary, surface)
+    points = []
+    for name in names:
+        idx = np.flatnonzero(
+            (summary["surface"] == name).to_numpy()
+            & np.isclose(summary["angle_deg"], angle)
+            & np.isclose(summary["speed_m_s"], speed)
+        )
+        points.append((name, int(idx[0])))
+    with mpl.rc_context(STYLE):
+        axs = _new_axes(axes, 1, 2, (7.4, 3.2))
+        for ax, stat, xl in zip(
+            axs,
+            ("e", "mu"),
+            ("Apparent restitution $e_m$ [–]", "Apparent impulse ratio $μ_m$ [–]"),
+            strict=True,
+        ):
+            hists = [result.histogram(p, stat) for _, p in points]
+            edges = hists[0][1]
+            merged, new_edges, _ = rebin([h[0] for h in hists], edges)
+            n_tot, n_shown = 0, 0.0
+            for k, ((name, p), c) in enumerate(zip(points, merged, strict=True)):
+                # all rebounds, including those beyond the histogram's edges
+                n_reb = int(_n_rebounds(summary, p, hists[k][0]))
+                if n_reb == 0:
+                    continue
+                n_tot += n_reb
+                n_shown += float(c.sum())
+                mean_col = "e_rebound_mean" if stat == "e" else "mu_mean"
+                mean = float(summary.loc[p, mean_col])
+                ax.stairs(
+                    100.0 * c / n_reb,
+                    new_edges,
+                    fill=k == 0,
+                    alpha=0.55 if k == 0 else 1.0,
+                    color=colour(k),
+                    lw=1.2,
+                    label=f"{name}: n = {n_reb:,}, mean = {mean:.3f}",
+                )
+            if n_tot == 0:
+                ax.text(
+                    0.5,
+                    0.5,
+                    "no rebounds",
+                    transform=ax.transAxes,
+                    ha="center",
+                    va="center",
+                )
+            else:
+                outside = 1.0 - n_shown / n_tot
+                title = (
+                    f"{100 * outside:.2g} % outside the range shown"
+                    if outside > 5e-5
+                    else None
+                )
+                ax.legend(
+                    loc="best",
+                    fontsize="x-small",
+                    title=title,
+                    title_fontsize="x-small",
+                )
+            ax.set_xlabel(xl)
+            ax.set_ylabel("Frequency [% of rebounds]")
+            ax.set_ylim(bottom=0)
+        axs[0].set_title(f"θ = {angle:g}°, {speed:g} m s⁻¹", loc="left")
+    return axs
+
+
+# --------------------------------------------------------------------- convergence
+def plot_convergence(convergence, *, ax=None):
+    """Running capture percentage against the number of impacts N.
+
+    The paper's convergence study: the estimate with its Wilson band, the band
+    ``final ± tolerance`` (the paper's ±3 %), and the N at which the estimate settles
+    inside it and the N at which the Wilson half-width reaches it.
+
+    Parameters
+    ----------
+    convergence : ConvergenceResult
+        Output of :func:`microimpact.engine.convergence.convergence_study`.
+    ax : matplotlib.axes.Axes, optional
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+    """
+    mpl, plt = _mpl()
+    t = getattr(convergence, "table", None)
+    if t is None or not {"n", "capture_fraction", "ci_low", "ci_high"} <= set(
+        t.columns
+    ):
+        raise TypeError(
+            "`convergence` must be a ConvergenceResult; "
+            f"got {type(convergence).__name__}."
+        )
+    with mpl.rc_context(STYLE):
+        if ax is None:
+            _, ax = plt.subplots(figsize=(5.0, 3.4), layout="constrained")
+        n = t["n"].to_numpy(dtype=float)
+        conf = f"{100 * float(convergence.confidence):g} %"
+        _band(
+            ax,
+            n,
+            100 * t["capture_fraction"],
+            100 * t["ci_low"],
+            100 * t["ci_high"],
+            color=colour(0),
+            label=f"running estimate, {conf} Wilson band",
+        )
+        f, tol = 100 * convergence.final, 100 * convergence.tolerance
+        ax.axhspan(
+            f - tol, f + tol, color="0.5", alpha=0.15, lw=0, label=f"final ± {tol:g} %"
+        )
+        if convergence.n_settled is not None:
+            ax.axvline(
+                convergence.n_settled,
+                color=colour(1),
+                ls="--",
+                lw=1,
+                label=f"settled: N = {convergence.n_settled:,}",
+            )
+        ax.axvline(
+            convergence.n_required,
+            color=colour(2),
+            ls=":",
+            lw=1.2,
+            label=f"half-width ≤ {tol:g} %: N = {convergence.n_required:,}",
+        )
+        ax.set_xscale("log")
+        ax.set_xlabel("Number of simulated impacts N [–]")
+        ax.set_ylabel("Capture [%]")
+        ax.legend(loc="lower right")
+    return ax
+
+
+# --------------------------------------------------------------------- files
+def save_figure(fig, path_without_ext, formats=("png", "pdf")):
+    """Write `fig` as ``<path_without_ext>.<format>`` for each format, atomically.
+
+    Each file is written to a temporary file in the same folder and renamed onto
+    its name, so a reader never sees a half-written figure. PDF and SVG files
+    carry no creation date, so reruns give identical files.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+    path_without_ext : str or path-like
+    formats : sequence of {"png", "pdf", "svg"}
+
+    Returns
+    -------
+    list of pathlib.Path
+    """
+    from ..engine.result import atomic_write
+
+    if isinstance(formats, str):
+        formats = (formats,)
+    formats = tuple(formats)
+    bad = [f for f in formats if f not in FIGURE_FORMATS]
+    if bad or not formats:
+        raise ValueError(
+            f"`formats` must be a non-empty subset of {FIGURE_FORMATS}; "
+            f"got {formats!r}."
+        )
+    base = Path(path_without_ext)
+    meta = {"png": {}, "pdf": {"CreationDate": None}, "svg": {"Date": None}}
+    out = []
+    for fmt in formats:
+        path = atomic_write(
+            base.with_name(f"{base.name}.{fmt}"),
+            lambda tmp, fmt=fmt: fig.savefig(
+                tmp, format=fmt, dpi=STYLE["savefig.dpi"], metadata=meta[fmt]
+            ),
+        )
+        os.chmod(path, 0o644)  # mkstemp creates 0600
+        out.append(path)
+    return out
+
+
+def _angle_tag(a: float) -> str:
+    return f"{a:g}".replace(".", "p") + "deg"
+
+
+def figure_caption(stem, result) -> str:
+    """Caption of the figure file `stem` (see :func:`figures_for_result`)."""
+    sc = result.scenario
+    conf = _conf_label(result)
+    ref = getattr(sc, "reference_angle_deg", None)
+    speeds = getattr(sc, "speeds_m_s", (math.nan,))
+    if stem == "capture":
+        return (
+            "Normal (90°) impact against speed (paper Figs. 5, 6). Upper: mean "
+            "coefficient of restitution of the rebounding particles; lower: "
+            f"percentage captured. Bands: {conf} confidence intervals; diamond: "
+            "speed of 50 % capture with its interval; squares: experiments."
+        )
+    if stem == "coefficients_relative":
+        return (
+            f"Relative coefficients e − e({ref:g}°) and μ − μ({ref:g}°) "
+            "against apparent incidence angle (paper Figs. 8, 11). Solid: rough "
+            f"surface; dashed: molecularly smooth. Bands: {conf} intervals; "
+            "squares: experiments."
+        )
+    if stem == "coefficients":
+        return (
+            "Mean apparent coefficient of restitution and impulse ratio of the "
+            "rebounding particles against apparent incidence angle. Solid: rough "
+            f"surface; dashed: molecularly smooth. Bands: {conf} intervals."
+        )
+    if stem.startswith("distributions_"):
+        a = stem.removeprefix("distributions_").removesuffix("deg").replace("p", ".")
+        return (
+            f"Frequency distributions of e_m and μ_m at θ = {a}°, "
+            f"{speeds[0]:g} m s⁻¹ (paper Figs. 9, 10); rough surfaces only when "
+            "there are any."
+        )
+    if stem == "comparison":
+        return (
+            "Simulated against experimental means with their intervals; "
+            "filled markers agree at the 95 % level."
+        )
+    return stem.replace("_", " ")
+
+
+def result_figures(result, *, experiments=None):
+    """The figures that apply to `result`, made in memory.
+
+    Returns a list of ``(stem, caption, Figure)``; see :func:`figures_for_result`
+    for the rules and names. The caller closes the figures.
+    """
+    summary = _summary(result)
+    speeds = np.unique(summary["speed_m_s"].to_numpy(dtype=float))
+    angles = np.unique(summary["angle_deg"].to_numpy(dtype=float))
+    if experiments is None:
+        experiments = tuple(getattr(result.scenario, "experiments", ()) or ()) or None
+    exp = combine_experiments(experiments)
+    out = []
+
+    def add(stem, axes):
+        fig = np.ravel(axes)[0].figure
+        out.append((stem, figure_caption(stem, result), fig))
+
+    if speeds.size >= 2 and np.isclose(angles, 90.0).any():
+        add("capture", plot_capture(result, experiments=exp))
+    if angles.size >= 2:
+        relative = "e_relative" in summary and summary["e_relative"].notna().any()
+        if relative:
+            add(
+                "coefficients_relative",
+                plot_coefficients_vs_angle(result, relative=True, experiments=exp),
+            )
+        add(
+            "coefficients",
+            plot_coefficients_vs_angle(result, relative=False, experiments=exp),
+        )
+        rough = [n for n in dict.fromkeys(summary["surface"]) if not _smooth(result, n)]
+        ref = getattr(result.scenario, "reference_angle_deg", None)
+        high = angles.max()
+        if ref is not None and np.isclose(angles, ref).any():
+            high = float(angles[np.isclose(angles, ref)][0])  # the paper's 85°
+        for a in dict.fromkeys((float(angles.min()), float(high))):
+            add(
+                f"distributions_{_angle_tag(a)}",
+                plot_distributions(
+                    result, angle_deg=a, speed_m_s=speeds[0], surface=rough or None
+                ),
+            )
+    if exp is not None and len(exp):
+        from ..compare import compare, plot_comparison
+
+        add("comparison", plot_comparison(compare(result, exp)))
+    return out
+
+
+def figures_for_result(result, out_dir, *, formats=("png", "pdf"), experiments=None):
+    """Make and save every figure that applies to `result`.
+
+    ===============================  =============================================
+    file stem                        made when; what it shows
+    ===============================  =============================================
+    ``capture``                      ≥ 2 speeds and 90° simulated: Figs. 5/6
+    ``coefficients_relative``        ≥ 2 angles and the reference angle in the
+                                     sweep: Figs. 8/11, relative e and μ
+    ``coefficients``                 ≥ 2 angles: absolute e_m and μ_m vs angle
+    ``distributions_<a>deg``         ≥ 2 angles, at the smallest angle and at the
+                                     reference angle (the largest if it is not
+                                     swept), first speed, rough surfaces only if
+                                     any: Figs. 9/10 (``12p5deg`` for 12.5°)
+    ``comparison``                   experiments given (or in the scenario)
+    ===============================  =============================================
+
+    Parameters
+    ----------
+    result : SimulationResult
+    out_dir : str or path-like
+        Folder for the files (created if needed).
+    formats : sequence of {"png", "pdf", "svg"}
+    experiments : DataFrame, path or sequence of them, optional
+        Default: the scenario's ``experiments``.
+
+    Returns
+    -------
+    list of pathlib.Path
+        Every file written, in the order of the table above.
+    """
+    _, plt = _mpl()
+    out_dir = Path(out_dir)
+    paths = []
+    for stem, _caption, fig in result_figures(result, experiments=experiments):
+        try:
+            paths.extend(save_figure(fig, out_dir / stem, formats))
+        finally:
+            plt.close(fig)
+    return paths

@@ -1,0 +1,715 @@
+"""Reports: one self-contained HTML page, and a plain-text summary for terminals.
+
+:func:`write_report` writes ``report.html`` with inline CSS and every figure embedded
+as a base64 PNG (no external assets, no scripts), so the file can be mailed or
+archived on its own. For each result it shows the scenario and its key settings, the
+provenance (seed entropy, versions, sample counts, run time, backend), the capture
+speed table, a readable summary table (estimate and confidence interval) with a
+relative link to the full CSV, the comparison with experiments if any, and the
+figures. :func:`summary_text` gives scenario, versions, seed entropy, n and
+estimate ± SE as Markdown-flavoured text.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["summary_text", "write_report"]
+
+_CSS = """
+body{font-family:system-ui,-apple-system,"Segoe UI",Roboto,"DejaVu Sans",sans-serif;
+ margin:0;color:#1d2329;background:#f6f7f9;line-height:1.45}
+main{max-width:1100px;margin:0 auto;padding:24px 32px 48px;background:#fff;
+ box-shadow:0 0 12px rgba(0,0,0,.06)}
+h1{font-size:1.7em;margin:.2em 0 .1em}h2{font-size:1.35em;margin-top:2em;
+ border-bottom:2px solid #0072B2;padding-bottom:.2em}
+h3{font-size:1.08em;margin:1.4em 0 .4em}
+p.sub{color:#56606b;margin-top:0}
+table{border-collapse:collapse;font-size:.86em;margin:.4em 0 1em}
+th,td{padding:3px 9px;border-bottom:1px solid #e3e6ea;text-align:right;
+ vertical-align:top;white-space:nowrap}
+th{background:#eef2f6;font-weight:600}td.l,th.l{text-align:left;white-space:normal}
+table.kv td:first-child{text-align:left;color:#56606b;font-weight:600}
+table.kv td{text-align:left;white-space:normal}
+.scroll{overflow-x:auto;max-height:560px;overflow-y:auto;border:1px solid #e3e6ea}
+.scroll table{margin:0;font-size:.8em}
+.scroll th{position:sticky;top:0;white-space:normal;vertical-align:bottom}
+figure{margin:1.2em 0;text-align:center}figure img{max-width:100%;height:auto;
+ border:1px solid #e3e6ea}figcaption{font-size:.86em;color:#56606b;max-width:820px;
+ margin:.4em auto 0;text-align:left}
+.no{color:#b00020;font-weight:600}.yes{color:#00703c}
+nav ul{columns:2;font-size:.92em}code{font-size:.92em}
+.notes{background:#fff8e1;border-left:4px solid #E69F00;padding:.5em 1em}
+details summary{cursor:pointer;color:#0072B2}
+"""
+
+
+def _e(x) -> str:
+    return html.escape(str(x), quote=True)
+
+
+def _fmt(x, digits=4) -> str:
+    if x is None:
+        return "–"
+    try:
+        x = float(x)
+    except (TypeError, ValueError):
+        return str(x)
+    if not math.isfinite(x):
+        return "–"
+    return f"{x:.{digits}g}"
+
+
+def _tidy(x):
+    """Round-off noise (|x| < 1e-12, e.g. μ of a normal impact) shown as 0."""
+    return 0.0 if abs(x) < 1e-12 else x
+
+
+def _ci(m, lo, hi, *, scale=1.0, digits=3) -> str:
+    m, lo, hi = _tidy(m), _tidy(lo), _tidy(hi)
+    if not np.isfinite(m):
+        return "–"
+    s = f"{m * scale:.{digits}g}"
+    if np.isfinite(lo) and np.isfinite(hi):
+        s += f" [{lo * scale:.{digits}g}, {hi * scale:.{digits}g}]"
+    return s
+
+
+def _pm(m, se, digits=3) -> str:
+    m, se = _tidy(m), _tidy(se)
+    if not np.isfinite(m):
+        return "–"
+    return f"{m:.{digits}g} ± {se:.2g}" if np.isfinite(se) else f"{m:.{digits}g}"
+
+
+def _slug(name: str) -> str:
+    return "".join(c if c.isalnum() or c in "-_" else "_" for c in str(name))
+
+
+def _table(header, rows, *, left=(0,)) -> str:
+    th = "".join(
+        f'<th class="l">{_e(h)}</th>' if i in left else f"<th>{_e(h)}</th>"
+        for i, h in enumerate(header)
+    )
+    body = []
+    for r in rows:
+        tds = "".join(
+            f'<td class="l">{c}</td>' if i in left else f"<td>{c}</td>"
+            for i, c in enumerate(r)
+        )
+        body.append(f"<tr>{tds}</tr>")
+    return f"<table><thead><tr>{th}</tr></thead><tbody>{''.join(body)}</tbody></table>"
+
+
+def _kv(pairs) -> str:
+    rows = "".join(f"<tr><td>{_e(k)}</td><td>{v}</td></tr>" for k, v in pairs)
+    return f'<table class="kv"><tbody>{rows}</tbody></table>'
+
+
+def _plain(obj) -> str:
+    """A compact, escaped one-line rendering of a describe() value."""
+    if isinstance(obj, dict):
+        return _e(", ".join(f"{k} = {_short(v)}" for k, v in obj.items()))
+    if isinstance(obj, list | tuple):
+        return _e("; ".join(_short(v) for v in obj))
+    return _e(_short(obj))
+
+
+def _short(v) -> str:
+    if isinstance(v, dict):
+        return "{" + ", ".join(f"{k}: {_short(x)}" for k, x in v.items()) + "}"
+    if isinstance(v, list | tuple):
+        if len(v) > 12:
+            return f"[{', '.join(_short(x) for x in v[:6])}, … ({len(v)} values)]"
+        return "[" + ", ".join(_short(x) for x in v) + "]"
+    if isinstance(v, float):
+        return f"{v:.6g}"
+    return str(v)
+
+
+def _write(path, write):
+    """Atomic write, then the usual permissions of a shared output file."""
+    from .engine.result import atomic_write
+
+    path = atomic_write(path, write)
+    os.chmod(path, 0o644)  # mkstemp creates 0600
+    return path
+
+
+def _png_data_uri(fig) -> str:
+    from .plotting.results import STYLE
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=STYLE["savefig.dpi"] * 0.75)
+    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
+
+
+def _figure_html(uri, caption) -> str:
+    return (
+        f'<figure><img src="{uri}" alt="{_e(caption)}">'
+        f"<figcaption>{_e(caption)}</figcaption></figure>"
+    )
+
+
+# ------------------------------------------------------------------ sections
+def _settings(result) -> str:
+    sc = result.scenario
+    d = sc.describe() if hasattr(sc, "describe") else {}
+    pairs = [
+        ("Description", _e(d.get("description") or "–")),
+        ("Particles", _plain(d.get("particles", "–"))),
+        ("Coefficient laws", _plain(d.get("coefficients", "–"))),
+        ("Surfaces", _plain(d.get("surfaces", "–"))),
+        ("Particle roughness", _plain(d.get("particle_roughness") or "none")),
+        ("Speeds [m s⁻¹]", _e(_short(list(sc.speeds_m_s)))),
+        ("Angles [deg]", _e(_short(list(sc.angles_deg)))),
+        ("Speed spread (relative SD)", _e(_fmt(sc.speed_spread))),
+        (
+            "Samples per point (scenario)",
+            _e(sc.samples if sc.precision is None else "adaptive"),
+        ),
+        ("Precision target", _plain(d.get("precision") or "none")),
+        ("Sampling", _e(sc.sampling)),
+        ("Shadowing", _e(sc.shadowing)),
+        ("Confidence level", _e(_fmt(sc.confidence))),
+        ("Reference angle [deg]", _e(_fmt(sc.reference_angle_deg))),
+        ("Seed (scenario)", _e(sc.seed if sc.seed is not None else "fresh entropy")),
+        ("Source file", _e(d.get("source") or "built in Python")),
+    ]
+    return _kv(pairs)
+
+
+def _provenance(result) -> str:
+    p = dict(result.provenance or {})
+    s = result.summary
+    n = s["n"].to_numpy(dtype=float) if "n" in s else np.array([np.nan])
+    versions = p.get("versions", {})
+    pairs = [
+        ("Seed entropy", f"<code>{_e(result.seed_entropy)}</code>"),
+        ("Versions", _e(", ".join(f"{k} {v}" for k, v in versions.items()))),
+        (
+            "Impacts per sweep point",
+            _e(f"{int(np.nanmin(n)):,} – {int(np.nanmax(n)):,}")
+            if np.isfinite(n).any()
+            else "–",
+        ),
+        ("Sweep points", _e(len(s))),
+        ("Run time", _e(f"{float(result.elapsed_s):.3g} s")),
+        ("Backend", _e(f"{p.get('backend', '–')}, {p.get('workers', '–')} worker(s)")),
+        (
+            "Sampling",
+            _e(f"{p.get('sampling', '–')}, {p.get('replicates', '–')} replicate(s)"),
+        ),
+        (
+            "Block size / table size",
+            _e(f"{p.get('block_size')} / {p.get('table_size')}"),
+        ),
+        ("Created", _e(p.get("created", "–"))),
+    ]
+    return _kv(pairs)
+
+
+def _capture_table(result) -> str:
+    try:
+        cs = result.capture_speed()
+    except (KeyError, ValueError):
+        return "<p>No capture speed (no capture fractions in the summary).</p>"
+    cs = cs[np.isfinite(cs["speed_m_s"].to_numpy(dtype=float))]
+    if len(result.scenario.speeds_m_s) < 2:
+        return "<p>One speed was simulated, so there is no capture speed.</p>"
+    if cs.empty:
+        return (
+            "<p>The capture speed is not bracketed by the speed sweep at any angle "
+            "(the capture fraction never crosses the quantile).</p>"
+        )
+    rows = [
+        [
+            _e(r["surface"]),
+            _e(_fmt(r["angle_deg"])),
+            _e(f"{100 * r['quantile']:g} %"),
+            _e(_ci(r["speed_m_s"], r["speed_ci_low"], r["speed_ci_high"], digits=3)),
+        ]
+        for _, r in cs.iterrows()
+    ]
+    conf = f"{100 * result.scenario.confidence:g} %"
+    return _table(
+        [
+            "surface",
+            "angle [deg]",
+            "captured",
+            f"capture speed [m s⁻¹] [{conf} CI]",
+        ],
+        rows,
+    )
+
+
+def _summary_table(result, csv_href) -> str:
+    s = result.summary
+    has_rel = "e_relative" in s
+    conf = f"{100 * result.scenario.confidence:g} %"
+    header = [
+        "surface",
+        "speed [m s⁻¹]",
+        "angle [deg]",
+        "n",
+        f"capture [%] [{conf} CI]",
+        f"e of rebounds [{conf} CI]",
+        f"μ [{conf} CI]",
+    ]
+    if has_rel:
+        header += ["e relative ± SE", "μ relative ± SE"]
+    header += ["shadowed [%]", "re-impact [%]"]
+    rows = []
+
+    def g(r, c):
+        return float(r[c]) if c in r and r[c] is not None else math.nan
+
+    for _, r in s.iterrows():
+        row = [
+            _e(r["surface"]),
+            _e(_fmt(r["speed_m_s"])),
+            _e(_fmt(r["angle_deg"])),
+            _e(f"{int(r['n']):,}"),
+            _e(
+                _ci(
+                    g(r, "capture_fraction"),
+                    g(r, "capture_ci_low"),
+                    g(r, "capture_ci_high"),
+                    scale=100,
+                )
+            ),
+            _e(
+                _ci(
+                    g(r, "e_rebound_mean"),
+                    g(r, "e_rebound_ci_low"),
+                    g(r, "e_rebound_ci_high"),
+                )
+            ),
+            _e(_ci(g(r, "mu_mean"), g(r, "mu_ci_low"), g(r, "mu_ci_high"))),
+        ]
+        if has_rel:
+            row += [
+                _e(_pm(g(r, "e_relative"), g(r, "e_relative_se"))),
+                _e(_pm(g(r, "mu_relative"), g(r, "mu_relative_se"))),
+            ]
+        row += [
+            _e(_fmt(100 * g(r, "shadowed_fraction"), 3)),
+            _e(_fmt(100 * g(r, "reimpact_fraction"), 3)),
+        ]
+        rows.append(row)
+    link = (
+        f'<p>All {len(s.columns)} columns: <a href="{_e(csv_href)}">'
+        f"{_e(csv_href)}</a> (described in <code>docs/outputs.md</code>).</p>"
+    )
+    return f'<div class="scroll">{_table(header, rows)}</div>{link}'
+
+
+def _comparison_html(table) -> str:
+    rows = []
+    for _, r in table.iterrows():
+        where = f"{_fmt(r['speed_m_s'])} m s⁻¹, {_fmt(r['angle_deg'])}°, {r['surface']}"
+        ok = (
+            '<span class="yes">yes</span>'
+            if r["agree"]
+            else '<span class="no">no</span>'
+        )
+        rows.append(
+            [
+                _e(where),
+                _e(r["statistic"]),
+                _e(_ci(r["exp_mean"], r["exp_ci_low"], r["exp_ci_high"])),
+                _e(_ci(r["sim_mean"], r["sim_ci_low"], r["sim_ci_high"])),
+                _e(_fmt(r["z"], 3)),
+                ok,
+                _e(r["note"]),
+            ]
+        )
+    n_ok = int(table["agree"].sum())
+    conf = table.attrs.get("confidence", 0.95)
+    head = (
+        f"<p>{n_ok} of {len(table)} experimental points agree with the simulation at "
+        f"the {100 * conf:g} % level (|simulated − experimental| within "
+        "z·√(SE²<sub>sim</sub> + SE²<sub>exp</sub>); see <code>docs/outputs.md</code>)."
+        "</p>"
+    )
+    return head + _table(
+        [
+            "point",
+            "statistic",
+            "experiment [CI]",
+            "simulation [CI]",
+            "z",
+            "agree",
+            "note",
+        ],
+        rows,
+        left=(0, 6),
+    )
+
+
+def _input_figures(result):
+    """Population and roughness figures from the optional plotting modules."""
+    out = []
+    sc = result.scenario
+    try:
+        from .plotting.sizes import plot_size_distribution
+    except ImportError:
+        plot_size_distribution = None
+    if plot_size_distribution is not None:
+        try:
+            ax = plot_size_distribution(sc.particles)
+            out.append(("Particle diameter distribution (paper Fig. 2).", ax.figure))
+        except (TypeError, ValueError, AttributeError, KeyError):
+            pass  # not a SizeDistribution this module can draw
+    try:
+        from .plotting.roughness import plot_angle_pdf
+    except ImportError:
+        return out
+    from .units import rad_to_deg
+
+    q = (np.arange(4096) + 0.5) / 4096  # deterministic: the quantile function
+    for s in sc.surfaces:
+        if getattr(s, "angles", None) is None or not hasattr(s.angles, "ppf"):
+            continue
+        try:
+            angles_deg = rad_to_deg(np.asarray(s.angles.ppf(q), dtype=float))
+            ax = plot_angle_pdf(angles_deg)
+            ax.set_title(f"Surface {s.name}")
+            out.append(
+                (
+                    f"Roughness-angle probability density of surface {s.name!r} "
+                    "(paper Fig. 4), drawn from its quantile function.",
+                    ax.figure,
+                )
+            )
+        except (TypeError, ValueError, AttributeError):
+            pass
+    return out
+
+
+def _experiments_for(result, experiments):
+    if isinstance(experiments, dict):
+        experiments = experiments.get(result.scenario.name)
+    if experiments is None:
+        experiments = tuple(getattr(result.scenario, "experiments", ()) or ()) or None
+    return experiments
+
+
+def _png_uri_from_file(path) -> str:
+    data = Path(path).read_bytes()
+    return "data:image/png;base64," + base64.b64encode(data).decode("ascii")
+
+
+def _result_section(result, k, csv_href, experiments, saved) -> str:
+    import matplotlib.pyplot as plt
+
+    from .io.experiments import combine_experiments
+    from .plotting.results import figure_caption, result_figures
+
+    sc = result.scenario
+    anchor = f"r{k}-{_slug(sc.name)}"
+    parts = [f'<section id="{anchor}"><h2>{_e(sc.name)}</h2>']
+    if getattr(sc, "description", ""):
+        parts.append(f'<p class="sub">{_e(sc.description)}</p>')
+    parts += ["<h3>Scenario</h3>", _settings(result)]
+    parts += ["<h3>Provenance</h3>", _provenance(result)]
+    parts += ["<h3>Capture speed</h3>", _capture_table(result)]
+    parts += ["<h3>Summary</h3>", _summary_table(result, csv_href)]
+    exp = combine_experiments(_experiments_for(result, experiments))
+    if exp is not None and len(exp):
+        from .compare import compare
+
+        parts += [
+            "<h3>Comparison with experiments</h3>",
+            _comparison_html(compare(result, exp)),
+        ]
+    if saved is not None:  # figure files already written for this result
+        pngs = [Path(p) for p in saved if Path(p).suffix.lower() == ".png"]
+        figs = [(figure_caption(p.stem, result), p) for p in pngs]
+    else:
+        figs = [(c, f) for _, c, f in result_figures(result, experiments=exp)]
+    import matplotlib as mpl
+
+    from .plotting.results import STYLE
+
+    rc = {**STYLE, "figure.figsize": (5.0, 3.4), "figure.constrained_layout.use": True}
+    with mpl.rc_context(rc):
+        figs += _input_figures(result)
+    if figs:
+        parts.append("<h3>Figures</h3>")
+    for caption, fig in figs:
+        if isinstance(fig, Path):
+            parts.append(_figure_html(_png_uri_from_file(fig), caption))
+            continue
+        try:
+            parts.append(_figure_html(_png_data_uri(fig), caption))
+        finally:
+            plt.close(fig)
+    parts.append("</section>")
+    return "\n".join(parts)
+
+
+def _extra_items(extra_figures):
+    """``extra_figures`` -> list of (caption, Figure | Axes | Path)."""
+    if not extra_figures:
+        return []
+    pairs = (
+        list(extra_figures.items())
+        if isinstance(extra_figures, dict)
+        else [(None, f) for f in extra_figures]
+    )
+    out = []
+    for caption, fig in pairs:
+        if isinstance(fig, list | tuple):  # a group of files: embed the PNGs
+            for f in fig:
+                if Path(f).suffix.lower() == ".png":
+                    stem = Path(f).stem.replace("_", " ")
+                    out.append((f"{caption}: {stem}" if caption else stem, Path(f)))
+            continue
+        if isinstance(fig, str | os.PathLike):
+            path = Path(fig)
+            if path.suffix.lower() != ".png":
+                raise ValueError(
+                    f"`extra_figures` files must be PNG images; got {str(path)!r}."
+                )
+            out.append((caption or path.stem.replace("_", " "), path))
+        elif hasattr(fig, "savefig") or (
+            hasattr(fig, "figure") and hasattr(fig.figure, "savefig")
+        ):
+            out.append((caption or "", fig))
+        else:
+            raise TypeError(
+                "`extra_figures` items must be matplotlib Figures/Axes or PNG paths; "
+                f"got {type(fig).__name__}."
+            )
+    return out
+
+
+def _extra_figures_html(items) -> str:
+    import matplotlib.pyplot as plt
+
+    if not items:
+        return ""
+    parts = ['<section id="extra"><h2>Additional figures</h2>']
+    for caption, fig in items:
+        if isinstance(fig, Path):
+            uri = _png_uri_from_file(fig)
+        else:
+            f = fig if hasattr(fig, "savefig") else fig.figure
+            uri = _png_data_uri(f)
+            plt.close(f)
+        parts.append(_figure_html(uri, caption))
+    parts.append("</section>")
+    return "\n".join(parts)
+
+
+def write_report(
+    results,
+    out_path,
+    *,
+    title=None,
+    extra_figures=None,
+    notes=None,
+    experiments=None,
+    csv_paths=None,
+):
+    """Write one self-contained HTML report for one or several results.
+
+    Parameters
+    ----------
+    results : SimulationResult or sequence of SimulationResult
+    out_path : str or path-like
+        The HTML file (its folder is created if needed); written atomically.
+    title : str, optional
+        Page title (default: "microimpact report" and the scenario names).
+    extra_figures : dict or sequence, optional
+        More figures to embed: ``{caption: Figure | Axes | path.png}`` or a list of
+        them. A value that is a list of files is a group: its PNG files are
+        embedded (other formats skipped). When the key of such a group is the name
+        of a scenario in `results` (as ``{name: figures_for_result(...)}``), those
+        files are that result's figures and are embedded in its section instead of
+        being drawn again.
+    notes : str or sequence of str, optional
+        Paragraphs shown at the top (escaped; no HTML).
+    experiments : dict, optional
+        ``{scenario name: experiments}`` (DataFrame, path or list of them), for
+        the comparison table and figure; default: each scenario's ``experiments``.
+    csv_paths : sequence of path-like, optional
+        One per result: the full summary CSV to link to (e.g. the ``summary.csv``
+        written by :meth:`SimulationResult.to_files`). By default the summary is
+        written next to the report as ``<name>_summary.csv`` and linked.
+
+    Returns
+    -------
+    pathlib.Path
+        `out_path`.
+    """
+    from . import __version__
+
+    if hasattr(results, "summary"):
+        results = [results]
+    results = list(results)
+    if not results or not all(hasattr(r, "summary") for r in results):
+        raise TypeError(
+            "`results` must be a SimulationResult or a non-empty sequence of them; "
+            f"got {results!r}."
+        )
+    if csv_paths is not None and len(csv_paths) != len(results):
+        raise ValueError(
+            f"`csv_paths` must have one path per result ({len(results)}); "
+            f"got {len(csv_paths)}."
+        )
+    out_path = Path(out_path)
+    report_dir = out_path.parent
+    report_dir.mkdir(parents=True, exist_ok=True)
+    names = [r.scenario.name for r in results]
+    title = title or "microimpact report: " + ", ".join(names)
+    if isinstance(notes, str):
+        notes = [notes]
+    hrefs = []
+    for k, r in enumerate(results):
+        if csv_paths is None:
+            csv = report_dir / f"{_slug(r.scenario.name)}_summary.csv"
+            _write(csv, lambda t, r=r: r.summary.to_csv(t, index=False))
+        else:
+            csv = Path(csv_paths[k])
+        rel = os.path.relpath(csv.resolve(), report_dir.resolve())
+        hrefs.append(Path(rel).as_posix())
+    saved = {}
+    if isinstance(extra_figures, dict):
+        extra_figures = dict(extra_figures)
+        for n in names:
+            if isinstance(extra_figures.get(n), list | tuple):
+                saved[n] = extra_figures.pop(n)
+    extra = _extra_items(extra_figures)  # validated before any drawing
+    sections = [
+        _result_section(r, k, hrefs[k], experiments, saved.get(r.scenario.name))
+        for k, r in enumerate(results)
+    ]
+    extra_html = _extra_figures_html(extra)
+    nav = "".join(
+        f'<li><a href="#r{k}-{_slug(n)}">{_e(n)}</a></li>' for k, n in enumerate(names)
+    )
+    created = results[0].provenance.get("created", "")
+    notes_html = (
+        '<div class="notes">' + "".join(f"<p>{_e(p)}</p>" for p in notes) + "</div>"
+        if notes
+        else ""
+    )
+    page = f"""<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8">
+<meta name="viewport" content="width=device-width, initial-scale=1">
+<meta name="generator" content="microimpact {_e(__version__)}">
+<title>{_e(title)}</title><style>{_CSS}</style></head>
+<body><main>
+<h1>{_e(title)}</h1>
+<p class="sub">Monte Carlo analysis of polydisperse microparticle impacts after
+Li, Dunn &amp; Brach (2000), <i>Aerosol Sci. Technol.</i> 33:376–386.
+microimpact {_e(__version__)}; {_e(created)}.</p>
+{notes_html}
+<nav><ul>{nav}</ul></nav>
+{"".join(sections)}
+{extra_html}
+</main></body></html>
+"""
+    return _write(out_path, lambda t: Path(t).write_text(page, encoding="utf-8"))
+
+
+# ------------------------------------------------------------------ text
+def summary_text(result) -> str:
+    """A plain-text (Markdown) summary of a result for terminals.
+
+    Gives the scenario, versions, seed entropy, run time and, per sweep point, n and
+    estimate ± SE of the capture fraction, e (rebounds) and μ.
+
+    Parameters
+    ----------
+    result : SimulationResult
+
+    Returns
+    -------
+    str
+    """
+    if not hasattr(result, "summary"):
+        raise TypeError(
+            f"`result` must be a SimulationResult; got {type(result).__name__}."
+        )
+    sc = result.scenario
+    p = result.provenance or {}
+    s = result.summary
+    lines = [f"# {sc.name}"]
+    if getattr(sc, "description", ""):
+        lines.append(sc.description)
+    lines += [
+        "",
+        f"- seed entropy: {result.seed_entropy}",
+        "- versions: "
+        + ", ".join(f"{k} {v}" for k, v in p.get("versions", {}).items()),
+        f"- sampling: {p.get('sampling', sc.sampling)}, shadowing: {sc.shadowing}, "
+        f"confidence: {sc.confidence:g}",
+        f"- sweep: {len(s)} points; run time {float(result.elapsed_s):.3g} s "
+        f"({p.get('backend', '?')}, {p.get('workers', '?')} worker(s))",
+        "",
+    ]
+    from scipy.special import ndtri
+
+    z = float(ndtri(0.5 + sc.confidence / 2.0))
+    head = [
+        "surface",
+        "speed [m/s]",
+        "angle [deg]",
+        "n",
+        "capture ± SE",
+        "e (rebounds) ± SE",
+        "mu ± SE",
+    ]
+    rows = []
+    for _, r in s.iterrows():
+        cap_se = (
+            float(r["capture_se"])
+            if "capture_se" in r
+            else (r["capture_ci_high"] - r["capture_ci_low"]) / (2 * z)
+        )
+        rows.append(
+            [
+                str(r["surface"]),
+                _fmt(r["speed_m_s"]),
+                _fmt(r["angle_deg"]),
+                f"{int(r['n'])}",
+                _pm(float(r["capture_fraction"]), cap_se),
+                _pm(float(r["e_rebound_mean"]), float(r["e_rebound_se"])),
+                _pm(float(r["mu_mean"]), float(r["mu_se"])),
+            ]
+        )
+    widths = [max(len(h), *(len(x[i]) for x in rows)) for i, h in enumerate(head)]
+    lines.append(
+        "| " + " | ".join(h.ljust(w) for h, w in zip(head, widths, strict=True)) + " |"
+    )
+    lines.append("|" + "|".join("-" * (w + 2) for w in widths) + "|")
+    for row in rows:
+        lines.append(
+            "| "
+            + " | ".join(c.rjust(w) for c, w in zip(row, widths, strict=True))
+            + " |"
+        )
+    try:
+        cs = result.capture_speed()
+        cs = cs[np.isfinite(cs["speed_m_s"].to_numpy(dtype=float))]
+    except (KeyError, ValueError):
+        cs = []
+    if len(cs):
+        lines.append("")
+        for _, r in cs.iterrows():
+            lines.append(
+                f"- {100 * r['quantile']:g} % capture speed, {r['surface']} at "
+                f"{r['angle_deg']:g} deg: {r['speed_m_s']:.4g} m/s "
+                f"[{r['speed_ci_low']:.4g}, {r['speed_ci_high']:.4g}]"
+            )
+    return "\n".join(lines) + "\n"

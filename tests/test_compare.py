@@ -1,0 +1,169 @@
+"""Tests for microimpact.compare: simulated vs experimental means.
+
+The oracle is a summary table built by hand with known means and standard errors,
+so the z statistics, agreement flags and interpolated values are computed here on
+paper, independently of the code.
+"""
+
+from __future__ import annotations
+
+import math
+
+import matplotlib
+import numpy as np
+import pandas as pd
+import pytest
+from numpy.testing import assert_allclose
+
+from microimpact.compare import compare, plot_comparison
+
+matplotlib.use("Agg")
+
+Z95 = 1.959963984540054
+Z99 = 2.5758293035489004
+
+
+@pytest.fixture
+def summary():
+    """Rough surface at 1 m/s and 10, 30, 85 deg; smooth at 85 deg only."""
+    rows = [
+        # surface, speed, angle, e_reb, e_se, mu, mu_se, capture, lo, hi
+        ("rough", 1.0, 10.0, 0.80, 0.03, 0.40, 0.02, 0.10, 0.08, 0.12),
+        ("rough", 1.0, 30.0, 0.60, 0.04, 0.20, 0.01, 0.05, 0.04, 0.06),
+        ("rough", 1.0, 85.0, 0.50, 0.03, 0.01, 0.01, 0.02, 0.01, 0.03),
+        ("smooth", 1.0, 85.0, 0.55, 0.02, 0.00, 0.001, 0.02, 0.01, 0.03),
+    ]
+    cols = [
+        "surface",
+        "speed_m_s",
+        "angle_deg",
+        "e_rebound_mean",
+        "e_rebound_se",
+        "mu_mean",
+        "mu_se",
+        "capture_fraction",
+        "capture_ci_low",
+        "capture_ci_high",
+    ]
+    return pd.DataFrame(rows, columns=cols)
+
+
+def exp_table(rows):
+    """Experiments with a given SE: interval = mean +- 1.96 SE."""
+    out = []
+    for surface, speed, angle, stat, mean, se in rows:
+        out.append(
+            {
+                "surface": surface,
+                "speed_m_s": speed,
+                "angle_deg": angle,
+                "statistic": stat,
+                "mean": mean,
+                "ci_low": mean - Z95 * se,
+                "ci_high": mean + Z95 * se,
+                "se": se,
+            }
+        )
+    return pd.DataFrame(out)
+
+
+def test_z_and_agree_by_hand(summary):
+    exp = exp_table(
+        [
+            # sim 0.50 +- 0.03, exp 0.45 +- 0.04 -> d 0.05, s 0.05, z 1
+            ("rough", 1.0, 85.0, "e", 0.45, 0.04),
+            # d 0.11 -> z 2.2 -> disagree at 95 %
+            ("rough", 1.0, 85.0, "e", 0.39, 0.04),
+            # z = -1.95 exactly inside, -1.97 outside
+            ("rough", 1.0, 85.0, "e", 0.50 + 1.95 * 0.05, 0.04),
+            ("rough", 1.0, 85.0, "e", 0.50 + 1.97 * 0.05, 0.04),
+            # mu: sim 0.40 +- 0.02, exp 0.30 +- 0.0 -> z = 5
+            ("rough", 1.0, 10.0, "mu", 0.30, 0.0),
+        ]
+    )
+    t = compare(summary, exp)
+    assert_allclose(t["combined_se"], [0.05, 0.05, 0.05, 0.05, 0.02], rtol=1e-12)
+    assert_allclose(t["z"], [1.0, 2.2, -1.95, -1.97, 5.0], rtol=1e-9)
+    assert list(t["agree"]) == [True, False, True, False, False]
+    assert_allclose(t["difference"], [0.05, 0.11, -0.0975, -0.0985, 0.10], rtol=1e-9)
+    assert not t["interpolated"].any()
+    assert_allclose(t["sim_ci_high"] - t["sim_mean"], Z95 * t["sim_se"], rtol=1e-12)
+    # at 99 % the z = 2.2 point agrees (z_c = 2.576)
+    t99 = compare(summary, exp, confidence=0.99)
+    assert list(t99["agree"]) == [True, True, True, True, False]
+    assert_allclose(
+        t99["sim_ci_high"] - t99["sim_mean"],
+        Z99 * 0.03 * np.array([1, 1, 1, 1, 0.02 / 0.03]),
+        rtol=1e-9,
+    )
+
+
+def test_interpolation_in_angle_by_hand(summary):
+    # 15 deg: weight 0.75 on 10 deg (0.80 +- 0.03), 0.25 on 30 deg (0.60 +- 0.04)
+    exp = exp_table([("rough", 1.0, 15.0, "e", 0.70, 0.05)])
+    t = compare(summary, exp)
+    assert_allclose(t.loc[0, "sim_mean"], 0.75, rtol=1e-12)
+    assert_allclose(
+        t.loc[0, "sim_se"], math.sqrt(0.75**2 * 0.03**2 + 0.25**2 * 0.04**2), rtol=1e-12
+    )
+    assert bool(t.loc[0, "interpolated"])
+    assert "interpolated in angle_deg between 10 and 30" in t.loc[0, "note"]
+    # the speed was not given: filled in from the single simulated speed
+    exp2 = exp_table([("rough", np.nan, 20.0, "e", 0.70, 0.05)])
+    t2 = compare(summary, exp2)
+    assert_allclose(t2.loc[0, "sim_mean"], 0.70, rtol=1e-12)
+    assert_allclose(t2.loc[0, "speed_m_s"], 1.0, rtol=0)
+
+
+def test_outside_range_is_not_extrapolated(summary):
+    exp = exp_table([("rough", 1.0, 5.0, "e", 0.9, 0.05)])
+    t = compare(summary, exp)
+    assert np.isnan(t.loc[0, "sim_mean"])
+    assert not t.loc[0, "agree"]
+    assert "outside the simulated range [10, 85]" in t.loc[0, "note"]
+
+
+def test_capture_fraction_se_from_wilson_width(summary):
+    exp = exp_table([("rough", 1.0, 30.0, "capture_fraction", 0.05, 0.0)])
+    t = compare(summary, exp)
+    assert_allclose(t.loc[0, "sim_se"], 0.02 / (2 * Z95), rtol=1e-12)
+    assert t.loc[0, "agree"]
+
+
+def test_surface_rules_and_errors(summary):
+    exp = exp_table([(None, 1.0, 85.0, "e", 0.5, 0.01)])
+    with pytest.raises(ValueError, match="add a `surface` column"):
+        compare(summary, exp)
+    one = summary[summary["surface"] == "rough"]
+    assert compare(one, exp).loc[0, "surface"] == "rough"
+    with pytest.raises(ValueError, match="surface 'glass' is not simulated"):
+        compare(summary, exp_table([("glass", 1.0, 85.0, "e", 0.5, 0.01)]))
+    with pytest.raises(ValueError, match="e_relative"):
+        compare(summary, exp_table([("rough", 1.0, 10.0, "e_relative", 0.5, 0.01)]))
+    with pytest.raises(ValueError, match="confidence"):
+        compare(summary, exp, confidence=95)
+    with pytest.raises(TypeError, match="summary_or_result"):
+        compare([1, 2], exp)
+    two_speeds = pd.concat([summary, summary.assign(speed_m_s=2.0)], ignore_index=True)
+    with pytest.raises(ValueError, match="add a `speed_m_s` column"):
+        compare(two_speeds, exp_table([("rough", np.nan, 85.0, "e", 0.5, 0.01)]))
+
+
+def test_path_input_and_plot(summary, tmp_path):
+    p = tmp_path / "exp.csv"
+    p.write_text(
+        "surface,angle_deg,statistic,mean,half_width\n"
+        f"rough,85,e,0.45,{Z95 * 0.04}\n"
+        f"rough,85,e,0.39,{Z95 * 0.04}\n"
+    )
+    t = compare(summary, p)
+    assert_allclose(t["z"], [1.0, 2.2], rtol=1e-9)
+    assert list(t["line"]) == [2, 3]
+    ax = plot_comparison(t)
+    assert "1 of 2 points agree" in ax.get_title()
+    assert "[–]" in ax.get_xlabel() and "[–]" in ax.get_ylabel()
+    with pytest.raises(ValueError, match="compare"):
+        plot_comparison(pd.DataFrame({"a": [1]}))
+    import matplotlib.pyplot as plt
+
+    plt.close("all")

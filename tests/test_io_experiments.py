@@ -1,0 +1,174 @@
+"""Tests for microimpact.io.experiments (experimental means with intervals)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+from numpy.testing import assert_allclose
+
+from microimpact.errors import DataFormatError
+from microimpact.io.experiments import combine_experiments, read_experiments
+
+# Two-sided 95 % quantiles from printed tables (not recomputed by the code's path):
+Z95 = 1.959963984540054  # standard normal
+T95_DF9 = 2.262157162740992  # Student t, 9 degrees of freedom
+
+
+def write(tmp_path, text, name="exp.csv"):
+    p = tmp_path / name
+    p.write_text(text, encoding="utf-8")
+    return p
+
+
+def test_three_interval_forms(tmp_path):
+    p = write(
+        tmp_path,
+        "# comment line\n"
+        "\n"
+        "speed_m_s,statistic,mean,ci_low,ci_high,half_width,std,n\n"
+        "0.5,e,0.60,0.55,0.67,,,\n"
+        "1.0,e,0.70,,,0.05,,\n"
+        "1.5,e,0.75,,,,0.1,10\n",
+    )
+    t = read_experiments(p)
+    assert list(t["line"]) == [4, 5, 6]
+    assert_allclose(t["speed_m_s"], [0.5, 1.0, 1.5], rtol=0, atol=0)
+    assert t["angle_deg"].isna().all()
+    assert t["surface"].isna().all()
+    # ci given: SE = width / (2 z)
+    assert_allclose(t.loc[0, "se"], 0.12 / (2 * Z95), rtol=1e-12)
+    assert_allclose([t.loc[0, "ci_low"], t.loc[0, "ci_high"]], [0.55, 0.67], rtol=0)
+    # half-width: symmetric interval, SE = h / z
+    assert_allclose([t.loc[1, "ci_low"], t.loc[1, "ci_high"]], [0.65, 0.75], rtol=1e-12)
+    assert_allclose(t.loc[1, "se"], 0.05 / Z95, rtol=1e-12)
+    # std and n: Student-t interval
+    se = 0.1 / math.sqrt(10)
+    assert_allclose(t.loc[2, "se"], se, rtol=1e-12)
+    assert_allclose(t.loc[2, "ci_high"] - 0.75, T95_DF9 * se, rtol=1e-9)
+    assert_allclose(t["confidence"], 0.95, rtol=0)
+    assert t.attrs["source"] == str(p)
+
+
+def test_n_with_ci_uses_t_and_confidence_column(tmp_path):
+    p = write(
+        tmp_path,
+        "angle_deg,surface,statistic,mean,ci_low,ci_high,n,confidence\n"
+        "45,rough,mu_relative,0.1,0.0,0.2,10,0.95\n"
+        "30,rough,mu,0.2,0.1,0.3,,0.6826894921370859\n",
+    )
+    t = read_experiments(p)
+    assert list(t["surface"]) == ["rough", "rough"]
+    assert_allclose(t.loc[0, "se"], 0.1 / T95_DF9, rtol=1e-9)
+    # a 68.27 % normal interval is +- 1 SE
+    assert_allclose(t.loc[1, "se"], 0.1, rtol=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("text", "line", "field", "match"),
+    [
+        ("statistic,mean,ci_low,ci_high\ne,1,0,2\n", 1, "speed_m_s", "speed_m_s"),
+        ("speed_m_s,mean,ci_low,ci_high\n1,1,0,2\n", 1, "statistic", "required"),
+        ("speed_m_s,statistic,mean\n1,e,0.5\n", 1, "ci_low", "interval needs"),
+        (
+            "speed_m_s,statistic,mean,half_width\n1,ee,0.5,0.1\n",
+            2,
+            "statistic",
+            "did you mean 'e'",
+        ),
+        (
+            "speed_m_s,statistic,mean,half_width\nfast,e,0.5,0.1\n",
+            2,
+            "speed_m_s",
+            "non-numeric value 'fast'",
+        ),
+        (
+            "speed_m_s,statistic,mean,half_width\n-1,e,0.5,0.1\n",
+            2,
+            "speed_m_s",
+            "speed > 0",
+        ),
+        (
+            "angle_deg,statistic,mean,half_width\n95,e,0.5,0.1\n",
+            2,
+            "angle_deg",
+            r"\(0, 90\]",
+        ),
+        (
+            "speed_m_s,statistic,mean,ci_low,ci_high\n1,e,0.5,0.6,0.7\n",
+            2,
+            "ci_low",
+            "does not contain the mean",
+        ),
+        (
+            "speed_m_s,statistic,mean,ci_low,ci_high\n1,e,0.5,0.4,\n",
+            2,
+            "ci_high",
+            "together",
+        ),
+        (
+            "speed_m_s,statistic,mean,half_width,std\n1,e,0.5,,0.1\n",
+            2,
+            "ci_low",
+            "no interval",
+        ),
+        ("speed_m_s,statistic,mean,std,n\n1,e,0.5,0.1,2.5\n", 2, "n", "integer >= 2"),
+        (
+            "speed_m_s,statistic,mean,half_width\n1,capture_fraction,50,1\n",
+            2,
+            "mean",
+            "not a percentage",
+        ),
+        ("speed_m_s,statistic,mean,half_width\n1,e,,0.1\n", 2, "mean", "missing"),
+        ("speed_m_s,statistic,mean,half_width\n1,e,nan,0.1\n", 2, "mean", "finite"),
+        (
+            "speed_m_s,angle_deg,statistic,mean,half_width\n,,e,0.5,0.1\n",
+            2,
+            "speed_m_s/angle_deg",
+            "needs speed_m_s or angle_deg",
+        ),
+        (
+            "speed_m_s,speed_m_s,statistic,mean,half_width\n1,1,e,0.5,0.1\n",
+            1,
+            None,
+            "duplicate",
+        ),
+    ],
+)
+def test_errors_name_file_line_field(tmp_path, text, line, field, match):
+    p = write(tmp_path, text)
+    with pytest.raises(DataFormatError, match=match) as info:
+        read_experiments(p)
+    err = info.value
+    assert err.source == str(p)
+    assert err.line == line
+    assert err.field == field
+    assert str(p) in str(err)
+
+
+def test_missing_empty_and_headeronly_files(tmp_path):
+    with pytest.raises(DataFormatError, match="file not found"):
+        read_experiments(tmp_path / "nope.csv")
+    with pytest.raises(DataFormatError, match="no header"):
+        read_experiments(write(tmp_path, "# only a comment\n"))
+    with pytest.raises(DataFormatError, match="no data rows"):
+        read_experiments(write(tmp_path, "speed_m_s,statistic,mean,half_width\n"))
+    with pytest.raises(DataFormatError, match="directory"):
+        read_experiments(tmp_path)
+
+
+def test_combine_experiments(tmp_path):
+    a = write(tmp_path, "speed_m_s,statistic,mean,half_width\n1,e,0.5,0.1\n", "a.csv")
+    b = read_experiments(
+        write(tmp_path, "angle_deg,statistic,mean,half_width\n10,mu,0.3,0.1\n", "b.csv")
+    )
+    t = combine_experiments([a, b])
+    assert len(t) == 2
+    assert list(t["statistic"]) == ["e", "mu"]
+    assert np.isnan(t.loc[0, "angle_deg"]) and np.isnan(t.loc[1, "speed_m_s"])
+    assert combine_experiments(None) is None
+    assert combine_experiments([]) is None
+    with pytest.raises(TypeError, match="experiments"):
+        combine_experiments([pd.DataFrame({"x": [1]})])

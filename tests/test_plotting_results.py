@@ -1,0 +1,251 @@
+"""Tests for microimpact.plotting.results (paper Figs. 5, 6, 8-11)."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import matplotlib
+import numpy as np
+import pandas as pd
+import pytest
+from numpy.testing import assert_allclose
+from scipy import stats
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+
+from microimpact._tables import QuantileTable
+from microimpact.engine.montecarlo import run
+from microimpact.plotting.results import (
+    figures_for_result,
+    plot_capture,
+    plot_coefficients_vs_angle,
+    plot_convergence,
+    plot_distributions,
+    rebin,
+    save_figure,
+)
+from microimpact.scenario import Scenario, SurfaceVariant
+
+
+class _Dist:
+    def __init__(self, dist):
+        self.dist = dist
+
+    def table(self):
+        return QuantileTable.from_ppf(self.dist.ppf)
+
+    def ppf(self, q):
+        return self.dist.ppf(q)
+
+    def describe(self):
+        return {"kind": "test"}
+
+
+class _Laws:
+    p = q = 1.0
+    friction = 0.15
+
+    def evaluate(self, d):
+        one = np.ones_like(d)
+        return 5.0 * one, 0.05 * one, 0.2 * (d / 50e-6) ** -1.0
+
+    def describe(self):
+        return {"law": "test"}
+
+
+DIAM = _Dist(stats.truncnorm(-52.8 / 15.3, np.inf, loc=52.8e-6, scale=15.3e-6))
+ANGLES = _Dist(stats.norm(0, np.deg2rad(10)))
+
+
+@pytest.fixture(scope="module")
+def capture_result():
+    sc = Scenario(
+        "normal",
+        DIAM,
+        _Laws(),
+        speeds_m_s=(0.1, 0.15, 0.2, 0.3, 0.5, 1.0),
+        angles_deg=(90,),
+        seed=11,
+    )
+    return run(sc, samples=1500)
+
+
+@pytest.fixture(scope="module")
+def angle_result():
+    sc = Scenario(
+        "oblique",
+        DIAM,
+        _Laws(),
+        speeds_m_s=(1.0,),
+        angles_deg=(10, 30, 60, 85),
+        surfaces=(SurfaceVariant("rough", ANGLES), SurfaceVariant("smooth")),
+        seed=12,
+    )
+    return run(sc, samples=1500)
+
+
+@pytest.fixture(autouse=True)
+def _close():
+    yield
+    plt.close("all")
+
+
+def test_plot_capture(capture_result):
+    rc_before = dict(matplotlib.rcParams)
+    s = capture_result.summary
+    exp = pd.DataFrame(
+        {
+            "speed_m_s": [0.5],
+            "angle_deg": [np.nan],
+            "statistic": ["e"],
+            "mean": [0.7],
+            "ci_low": [0.65],
+            "ci_high": [0.75],
+            "surface": [None],
+        }
+    )
+    ax_e, ax_c = plot_capture(capture_result, experiments=exp)
+    assert "[m s⁻¹]" in ax_c.get_xlabel() and "[%]" in ax_c.get_ylabel()
+    assert "[–]" in ax_e.get_ylabel()
+    line = ax_e.get_lines()[0]
+    assert_allclose(line.get_xdata(), s["speed_m_s"], rtol=0)
+    assert_allclose(
+        np.asarray(line.get_ydata(), dtype=float),
+        s["e_rebound_mean"].to_numpy(dtype=float),
+        rtol=0,
+        equal_nan=True,
+    )
+    cap = ax_c.get_lines()[0]
+    assert_allclose(cap.get_ydata(), 100 * s["capture_fraction"], rtol=1e-12)
+    # the 50 % marker sits at the tabulated capture speed, at 50 %
+    v50 = capture_result.capture_speed(0.5)["speed_m_s"].iloc[0]
+    assert np.isfinite(v50)
+    diamonds = [ln for ln in ax_c.get_lines() if ln.get_marker() == "D"]
+    assert_allclose(np.asarray(diamonds[0].get_xdata(), float), [v50], rtol=1e-12)
+    assert_allclose(np.asarray(diamonds[0].get_ydata(), float), [50.0], rtol=0)
+    # one experimental point with its error bar
+    squares = [ln for ln in ax_e.get_lines() if ln.get_marker() == "s"]
+    assert_allclose(np.asarray(squares[0].get_xdata(), float), [0.5], rtol=0)
+    assert dict(matplotlib.rcParams) == rc_before  # the style is local
+    with pytest.raises(ValueError, match="angle_deg"):
+        plot_capture(capture_result, angle_deg=45)
+    with pytest.raises(ValueError, match="surface"):
+        plot_capture(capture_result, surface="glass")
+
+
+def test_plot_coefficients_vs_angle(angle_result):
+    ax_e, ax_mu = plot_coefficients_vs_angle(angle_result, relative=True)
+    styles = {ln.get_label(): ln.get_linestyle() for ln in ax_e.get_lines()}
+    assert styles["Monte Carlo, rough"] == "-"
+    assert styles["Monte Carlo, smooth"] == "--"
+    s = angle_result.summary
+    rough = s[s["surface"] == "rough"].sort_values("angle_deg")
+    line = next(ln for ln in ax_mu.get_lines() if ln.get_label().endswith("rough"))
+    assert_allclose(line.get_ydata(), rough["mu_relative"], rtol=0)
+    # relative values vanish at the reference angle
+    assert_allclose(line.get_ydata()[-1], 0.0, atol=1e-15)
+    assert "[°]" in ax_mu.get_xlabel()
+    ax_e, _ = plot_coefficients_vs_angle(angle_result, relative=False)
+    assert "e_m" in ax_e.get_ylabel()
+    no_ref = SimpleNamespace(
+        summary=s.drop(columns=[c for c in s if "relative" in c]),
+        scenario=angle_result.scenario,
+    )
+    with pytest.raises(ValueError, match="relative=False"):
+        plot_coefficients_vs_angle(no_ref, relative=True)
+
+
+def test_rebin_hand_computed():
+    edges = np.linspace(0.0, 1.0, 11)  # 10 bins of 0.1
+    counts = np.array([0, 1, 2, 3, 4, 5, 6, 7, 8, 0])
+    (merged,), new_edges, outside = rebin([counts], edges, target_bins=4, tail=0.0)
+    # occupied bins 1..8 -> 8 bins, factor 2, aligned at 0: [0,1],[2,3],...,[8,9]
+    assert_allclose(new_edges, [0.0, 0.2, 0.4, 0.6, 0.8, 1.0], atol=1e-12)
+    assert_allclose(merged, [1, 5, 9, 13, 8], rtol=0)
+    assert outside == 0.0
+    # a spike is shown on at least target_bins original bins
+    spike = np.zeros(100)
+    spike[50] = 10
+    (m,), e, _ = rebin([spike], np.linspace(0, 1, 101), target_bins=30, tail=0.0)
+    assert m.size == 30 and m.sum() == 10
+    assert e[1] - e[0] == pytest.approx(0.01)
+
+
+def test_plot_distributions(angle_result):
+    s = angle_result.summary
+    axs = plot_distributions(angle_result, angle_deg=10, surface="rough")
+    assert len(axs) == 2
+    p = int(np.flatnonzero((s["surface"] == "rough") & (s["angle_deg"] == 10))[0])
+    for ax, name in zip(axs, ("e", "mu"), strict=True):
+        counts, _ = angle_result.histogram(p, name)
+        (patch,) = ax.patches
+        heights = np.asarray(patch.get_data().values)
+        # percentages of all rebounds: at most 100, at least the in-histogram share
+        # less the trimmed tails (0.2 %)
+        shown = 100 * counts.sum() / s.loc[p, "n_rebounds"]
+        total = heights.sum()
+        assert total <= 100 + 1e-9
+        assert total >= shown - 0.2 - 1e-9
+        assert heights.max() > 0
+        assert "[%" in ax.get_ylabel()
+    with pytest.raises(ValueError, match="angle_deg"):
+        plot_distributions(angle_result, angle_deg=12)
+
+
+def test_save_figure_atomic_and_deterministic(tmp_path):
+    fig, ax = plt.subplots()
+    ax.plot([0, 1], [0, 1])
+    paths = save_figure(fig, tmp_path / "f", formats=("png", "pdf"))
+    assert [p.name for p in paths] == ["f.png", "f.pdf"]
+    assert paths[0].read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert paths[1].read_bytes()[:5] == b"%PDF-"
+    first = paths[1].read_bytes()
+    save_figure(fig, tmp_path / "f", formats=("pdf",))
+    assert paths[1].read_bytes() == first  # no creation date
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["f.pdf", "f.png"]
+    with pytest.raises(ValueError, match="formats"):
+        save_figure(fig, tmp_path / "f", formats=("jpg",))
+
+
+def test_figures_for_result_names(capture_result, angle_result, tmp_path):
+    paths = figures_for_result(capture_result, tmp_path / "a", formats=("png",))
+    assert [p.name for p in paths] == ["capture.png"]
+    paths = figures_for_result(angle_result, tmp_path / "b", formats=("png", "pdf"))
+    names = [p.name for p in paths]
+    assert names == [
+        "coefficients_relative.png",
+        "coefficients_relative.pdf",
+        "coefficients.png",
+        "coefficients.pdf",
+        "distributions_10deg.png",
+        "distributions_10deg.pdf",
+        "distributions_85deg.png",
+        "distributions_85deg.pdf",
+    ]
+    assert all(p.stat().st_size > 1000 for p in paths)
+    assert plt.get_fignums() == []  # figures are closed
+
+
+def test_plot_convergence():
+    n = np.array([10, 100, 1000])
+    res = SimpleNamespace(
+        table=pd.DataFrame(
+            {
+                "n": n,
+                "capture_fraction": [0.5, 0.45, 0.44],
+                "ci_low": [0.2, 0.35, 0.41],
+                "ci_high": [0.8, 0.55, 0.47],
+            }
+        ),
+        final=0.44,
+        tolerance=0.03,
+        confidence=0.95,
+        n_settled=100,
+        n_required=1050,
+    )
+    ax = plot_convergence(res)
+    assert ax.get_xscale() == "log"
+    assert_allclose(ax.get_lines()[0].get_ydata(), [50, 45, 44], rtol=1e-12)
+    with pytest.raises(TypeError, match="ConvergenceResult"):
+        plot_convergence(object())

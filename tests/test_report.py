@@ -1,0 +1,213 @@
+"""Tests for microimpact.report: self-contained HTML report and text summary."""
+
+from __future__ import annotations
+
+import base64
+import re
+import shutil
+import subprocess
+
+import matplotlib
+import numpy as np
+import pytest
+from scipy import stats
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+
+from microimpact._tables import QuantileTable
+from microimpact.engine.montecarlo import run
+from microimpact.plotting.results import figures_for_result
+from microimpact.report import summary_text, write_report
+from microimpact.scenario import Scenario, SurfaceVariant
+
+
+class _Dist:
+    def __init__(self, dist):
+        self.dist = dist
+
+    def table(self):
+        return QuantileTable.from_ppf(self.dist.ppf)
+
+    def ppf(self, q):
+        return self.dist.ppf(q)
+
+    def describe(self):
+        return {"kind": "test <b>bold</b>"}
+
+
+class _Laws:
+    p = q = 1.0
+    friction = 0.15
+
+    def evaluate(self, d):
+        one = np.ones_like(d)
+        return 5.0 * one, 0.05 * one, 0.2 * (d / 50e-6) ** -1.0
+
+    def describe(self):
+        return {"law": "test"}
+
+
+DIAM = _Dist(stats.truncnorm(-52.8 / 15.3, np.inf, loc=52.8e-6, scale=15.3e-6))
+
+
+@pytest.fixture(scope="module")
+def results():
+    normal = Scenario(
+        "normal",
+        DIAM,
+        _Laws(),
+        speeds_m_s=(0.1, 0.2, 0.3, 1.0),
+        angles_deg=(90,),
+        seed=21,
+        description="Normal impact & capture",
+    )
+    oblique = Scenario(
+        "oblique",
+        DIAM,
+        _Laws(),
+        speeds_m_s=(1.0,),
+        angles_deg=(10, 45, 85),
+        surfaces=(
+            SurfaceVariant("rough", _Dist(stats.norm(0, np.deg2rad(10)))),
+            SurfaceVariant("smooth"),
+        ),
+        seed=22,
+    )
+    return run(normal, samples=800), run(oblique, samples=800)
+
+
+@pytest.fixture(autouse=True)
+def _close():
+    yield
+    plt.close("all")
+
+
+@pytest.fixture(scope="module")
+def report(results, tmp_path_factory):
+    out = tmp_path_factory.mktemp("rep") / "report.html"
+    exp = out.parent / "exp.csv"
+    exp.write_text("speed_m_s,statistic,mean,half_width\n1.0,e,0.78,0.05\n")
+    path = write_report(
+        list(results),
+        out,
+        title="Report <script>alert(1)</script>",
+        notes=["Note with <tags> & ampersands."],
+        experiments={"normal": exp},
+    )
+    return path
+
+
+def test_report_is_self_contained(report):
+    html = report.read_text(encoding="utf-8")
+    assert html.startswith("<!DOCTYPE html>")
+    assert not re.search(r"""(src|href)\s*=\s*["']?\s*(https?:)?//""", html, re.I)
+    assert "<script" not in html.lower()  # the title was escaped
+    assert "&lt;script&gt;alert(1)&lt;/script&gt;" in html
+    assert "Note with &lt;tags&gt; &amp; ampersands." in html
+    assert "test &lt;b&gt;bold&lt;/b&gt;" in html  # describe() text escaped
+    assert "<link" not in html.lower()
+    imgs = re.findall(r'<img src="([^"]+)"', html)
+    assert len(imgs) >= 5  # capture, comparison, 2 angle figures, 2 distributions
+    for uri in imgs:
+        assert uri.startswith("data:image/png;base64,")
+        assert base64.b64decode(uri.split(",", 1)[1])[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_report_content_and_links(report, results):
+    html = report.read_text(encoding="utf-8")
+    for r in results:
+        assert str(r.seed_entropy) in html
+        assert f'href="{r.scenario.name}_summary.csv"' in html
+        assert (report.parent / f"{r.scenario.name}_summary.csv").exists()
+    assert "Normal impact &amp; capture" in html
+    assert "Capture speed" in html and "Comparison with experiments" in html
+    assert "numpy" in html and "Run time" in html
+    # no temporary files left behind
+    assert not [p for p in report.parent.iterdir() if p.name.startswith(".")]
+
+
+def test_saved_figures_are_reused(results, tmp_path):
+    normal = results[0]
+    files = figures_for_result(normal, tmp_path / "figs", formats=("png", "pdf"))
+    png = (tmp_path / "figs" / "capture.png").read_bytes()
+    out = write_report(
+        [normal],
+        tmp_path / "r.html",
+        extra_figures={"normal": files},
+        csv_paths=[tmp_path / "figs" / "summary.csv"],
+    )
+    html = out.read_text(encoding="utf-8")
+    assert base64.b64encode(png).decode("ascii") in html
+    assert 'href="figs/summary.csv"' in html
+    assert "Additional figures" not in html
+
+
+def test_extra_figure_errors(results, tmp_path):
+    with pytest.raises(ValueError, match="PNG"):
+        write_report(
+            [results[0]], tmp_path / "r.html", extra_figures={"x": tmp_path / "a.pdf"}
+        )
+    with pytest.raises(TypeError, match="extra_figures"):
+        write_report([results[0]], tmp_path / "r.html", extra_figures=[42])
+    with pytest.raises(TypeError, match="results"):
+        write_report([], tmp_path / "r.html")
+    with pytest.raises(ValueError, match="csv_paths"):
+        write_report([results[0]], tmp_path / "r.html", csv_paths=["a", "b"])
+    assert not (tmp_path / "r.html").exists()
+
+
+def test_summary_text(results):
+    normal = results[0]
+    text = summary_text(normal)
+    assert text.startswith("# normal")
+    assert f"seed entropy: {normal.seed_entropy}" in text
+    assert "numpy" in text
+    assert "800" in text and "±" in text
+    s = normal.summary
+    last = s.iloc[-1]
+    assert f"{last['e_rebound_mean']:.3g} ± {last['e_rebound_se']:.2g}" in text
+    assert "capture speed" in text
+    with pytest.raises(TypeError, match="SimulationResult"):
+        summary_text(object())
+
+
+def _chromium():
+    for name in ("chromium", "chromium-browser"):
+        path = shutil.which(name)
+        if path:
+            return path
+    return None
+
+
+def test_report_renders_in_headless_chromium(report, tmp_path):
+    exe = _chromium()
+    if exe is None:
+        pytest.skip("Chromium is not installed (chromium or chromium-browser)")
+    shot = tmp_path / "shot.png"
+    cmd = [
+        exe,
+        "--headless",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--disable-quic",
+        "--no-first-run",
+        "--disable-background-networking",
+        "--disable-component-update",
+        "--disable-sync",
+        f"--user-data-dir={tmp_path / 'profile'}",
+        f"--screenshot={shot}",
+        "--window-size=1280,2000",
+        report.resolve().as_uri(),
+    ]
+    try:
+        subprocess.run(cmd, capture_output=True, timeout=90, check=False)
+    except subprocess.TimeoutExpired:
+        pytest.fail("headless Chromium did not finish within 90 s")
+    assert shot.exists()
+    img = plt.imread(shot)
+    assert img.shape[:2] == (2000, 1280)
+    # not a blank page: many distinct grey levels (text, tables, figures)
+    grey = np.round(img[..., :3].mean(axis=2) * 255).astype(int)
+    assert np.unique(grey).size > 50
+    assert grey.std() > 10
