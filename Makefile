@@ -26,8 +26,8 @@ demo: $(VENV)/.installed
 	$(BIN)/microimpact reproduce --out out
 
 lint: $(VENV)/.installed-test
-	$(BIN)/ruff check src tests benchmarks docs
-	$(BIN)/ruff format --check src tests benchmarks docs
+	$(BIN)/ruff check src tests benchmarks docs/figures
+	$(BIN)/ruff format --check src tests benchmarks docs/figures
 
 test: lint
 	$(BIN)/python -m pytest -n 2 -q
