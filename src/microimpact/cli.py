@@ -362,7 +362,7 @@ def cmd_roughness(args):
     )
     out = args.out
     out.mkdir(parents=True, exist_ok=True)
-    stats = ch.statistics() if hasattr(ch, "statistics") else ch.to_dict()
+    stats = _roughness_stats(ch, args)
     atomic_write(
         out / "roughness.json",
         lambda t: Path(t).write_text(json.dumps(stats, indent=2, default=str)),
@@ -396,6 +396,30 @@ def cmd_roughness(args):
             print(f"  {k:>24s} = {v:.6g}")
     print(f"-> {out}")
     return EXIT_OK
+
+
+def _roughness_stats(ch, args):
+    """Interface-unit (µm, degrees) statistics of a RoughnessCharacterisation."""
+    from .units import m_to_um, rad_to_deg
+
+    p = ch.profile
+    return {
+        "sources": [str(s) for s in args.profile],
+        "method": ch.method,
+        "contact_length_um": float(m_to_um(ch.contact_length)),
+        "n_scans": int(ch.n_scans),
+        "n_angles": int(ch.n_segments),
+        "angle_mean_deg": float(rad_to_deg(ch.mean_angle)),
+        "angle_std_deg": float(rad_to_deg(ch.std_angle)),
+        "angle_skewness": float(ch.skewness_angle),
+        "angle_kurtosis": float(ch.kurtosis_angle),
+        "Ra_um": float(m_to_um(p.Ra)),
+        "Rq_um": float(m_to_um(p.Rq)),
+        "Rsk": float(p.Rsk),
+        "Rku": float(p.Rku),
+        "Rdq": float(p.Rdq),
+        "conditioning": ch.conditioning,
+    }
 
 
 def cmd_sizes(args):

@@ -1,0 +1,314 @@
+"""The command line: every verb end to end, exit codes, bad input, and resume after
+SIGKILL."""
+
+from __future__ import annotations
+
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+import xarray as xr
+from numpy.testing import assert_array_equal
+
+from microimpact.cli import main
+
+BAD = Path(__file__).parent / "data" / "bad_scenarios"
+
+SMALL = """\
+name = "cli-test"
+seed = 7
+samples = {samples}
+
+[particles]
+distribution = "normal"
+mean_um = 52.8
+std_um = 15.3
+
+[coefficients]
+k1 = 4.0
+k2 = 0.05
+v_c = {{ law = "power", a_m_s = 0.2, b = -1.5, d_ref_um = 52.8 }}
+friction = 0.15
+
+[[surfaces]]
+name = "rough"
+kind = "normal"
+std_deg = 10.0
+
+[sweep]
+speed_m_s = [0.2, 0.5]
+angle_deg = [{angles}]
+"""
+
+
+def _scenario(tmp_path, samples=2000, angles="30, 85"):
+    p = tmp_path / "small.toml"
+    p.write_text(SMALL.format(samples=samples, angles=angles))
+    return p
+
+
+def test_run_writes_every_output(tmp_path, capsys):
+    out = tmp_path / "out"
+    code = main(
+        [
+            "run",
+            str(_scenario(tmp_path)),
+            "--out",
+            str(out),
+            "--quiet",
+            "--formats",
+            "png",
+        ]
+    )
+    assert code == 0
+    for name in ("summary.csv", "results.nc", "capture_speed.csv", "report.html"):
+        assert (out / name).stat().st_size > 0, name
+    assert list(out.glob("*.png"))
+    assert not (out / ".microimpact-checkpoint.npz").exists()
+    summary = pd.read_csv(out / "summary.csv")
+    assert len(summary) == 4 and (summary["n"] == 2000).all()
+    with xr.open_dataset(out / "results.nc") as ds:
+        assert ds.attrs["seed_entropy"] == "7"
+        assert ds["e_hist"].sum() == summary["n"].sum() - (
+            summary["n"] * summary["capture_fraction"]
+        ).round().sum() - (ds["e_hist_underflow"].sum() + ds["e_hist_overflow"].sum())
+
+
+def test_run_seed_flag_reproduces_and_overrides(tmp_path):
+    sc = str(_scenario(tmp_path))
+    a, b, c = tmp_path / "a", tmp_path / "b", tmp_path / "c"
+    for d, seed in ((a, "3"), (b, "3"), (c, "4")):
+        assert (
+            main(
+                ["run", sc, "--out", str(d), "--seed", seed, "--quiet", "--no-figures"]
+            )
+            == 0
+        )
+    sa, sb, sc_ = (pd.read_csv(d / "summary.csv") for d in (a, b, c))
+    assert_array_equal(sa["e_mean"], sb["e_mean"])
+    assert not np.array_equal(sa["e_mean"], sc_["e_mean"])
+
+
+def test_precision_flag(tmp_path):
+    out = tmp_path / "p"
+    assert (
+        main(
+            [
+                "run",
+                str(_scenario(tmp_path)),
+                "--out",
+                str(out),
+                "--precision",
+                "0.02",
+                "--quiet",
+                "--no-figures",
+            ]
+        )
+        == 0
+    )
+    s = pd.read_csv(out / "summary.csv")
+    assert ((s["capture_ci_high"] - s["capture_ci_low"]) / 2 <= 0.02).all()
+
+
+@pytest.mark.parametrize("path", sorted(BAD.glob("*.toml")), ids=lambda p: p.stem)
+def test_bad_scenarios_exit_2_with_one_line_naming_the_key(path, tmp_path, capsys):
+    first = path.read_text().splitlines()[0]
+    key = re.match(r"#\s*expect:\s*(\S+)", first).group(1)
+    code = main(["run", str(path), "--out", str(tmp_path / "o"), "--quiet"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2
+    assert "\n" not in err and "Traceback" not in err
+    assert key in err
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["run"],
+        ["run", "x.toml"],
+        ["run", "x.toml", "--out", "o", "--workers", "0"],
+        ["run", "x.toml", "--out", "o", "--backend", "mpi"],
+        ["run", "x.toml", "--out", "o", "--samples", "many"],
+        ["run", "x.toml", "--out", "o", "--formats", "gif"],
+        ["frobnicate"],
+        ["run", "no-such-file.toml", "--out", "o"],
+        ["run", "no-such-preset", "--out", "o"],
+        ["compare", "missing-dir", "missing.csv"],
+        ["sizes", "missing.csv"],
+    ],
+)
+def test_user_errors_exit_2(argv, tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and err.strip()
+
+
+def test_samples_and_precision_are_exclusive(tmp_path, capsys):
+    code = main(
+        [
+            "run",
+            str(_scenario(tmp_path)),
+            "--out",
+            str(tmp_path / "o"),
+            "--samples",
+            "100",
+            "--precision",
+            "0.01",
+            "--quiet",
+        ]
+    )
+    assert code == 2
+    assert "--precision" in capsys.readouterr().err
+
+
+def test_roughness_command(tmp_path, capsys):
+    rng = np.random.default_rng(3)
+    x = np.arange(4000) * 0.5
+    z = np.cumsum(rng.normal(0, 0.4, x.size))
+    f = tmp_path / "scan.csv"
+    pd.DataFrame({"x_um": x, "z_um": z}).to_csv(f, index=False)
+    out = tmp_path / "r"
+    assert main(["roughness", str(f), "--out", str(out), "--n-angles", "500"]) == 0
+    for name in ("roughness.json", "angles.txt", "angle_pdf.png", "profile.png"):
+        assert (out / name).exists(), name
+    angles = [
+        ln
+        for ln in (out / "angles.txt").read_text().splitlines()
+        if ln.strip() and not ln.startswith("#")
+    ]
+    assert len(angles) == 500
+
+
+def test_roughness_bad_profile(tmp_path, capsys):
+    f = tmp_path / "bad.csv"
+    f.write_text("x_um,z_um\n0,1\n0.5,abc\n1.0,2\n")
+    assert main(["roughness", str(f), "--out", str(tmp_path / "r")]) == 2
+    err = capsys.readouterr().err
+    assert "bad.csv" in err and "Traceback" not in err
+
+
+def test_sizes_command(tmp_path, capsys):
+    d = np.random.default_rng(5).normal(52.8, 15.3, 800)
+    d = d[d > 0]
+    f = tmp_path / "d.csv"
+    f.write_text("diameter_um\n" + "\n".join(f"{v:.3f}" for v in d))
+    assert main(["sizes", str(f), "--out", str(tmp_path / "s")]) == 0
+    assert (tmp_path / "s" / "size_distribution.png").exists()
+    assert "chi-squared" in capsys.readouterr().out
+
+
+def test_fit_command(tmp_path, capsys):
+    rng = np.random.default_rng(11)
+    rows = []
+    for d_um in (30.0, 50.0, 70.0):
+        vc = 0.2 * (d_um / 50) ** -1.5
+        v = np.linspace(vc * 1.2, 3.0, 40)
+        e = 4.0 / (4.0 + v) * (1 - 0.05 / (0.05 + v - vc))
+        e += rng.normal(0, 0.005, v.size)
+        rows += [(d_um, vi, ei) for vi, ei in zip(v, e, strict=True)]
+    f = tmp_path / "impacts.csv"
+    pd.DataFrame(rows, columns=["diameter_um", "v_n_m_s", "e"]).to_csv(f, index=False)
+    assert main(["fit", str(f), "--out", str(tmp_path / "f")]) == 0
+    table = pd.read_csv(tmp_path / "f" / "coefficients_by_diameter.csv")
+    assert len(table) == 3
+
+
+def test_convergence_command(tmp_path, capsys):
+    sc = _scenario(tmp_path, angles="90")
+    assert (
+        main(["convergence", str(sc), "--n-max", "3000", "--out", str(tmp_path / "c")])
+        == 0
+    )
+    assert (tmp_path / "c" / "convergence.csv").exists()
+    assert "settled" in capsys.readouterr().out
+
+
+def test_compare_command(tmp_path, capsys):
+    out = tmp_path / "run"
+    assert (
+        main(
+            [
+                "run",
+                str(_scenario(tmp_path)),
+                "--out",
+                str(out),
+                "--quiet",
+                "--no-figures",
+            ]
+        )
+        == 0
+    )
+    s = pd.read_csv(out / "summary.csv")
+    row = s.iloc[0]
+    exp = tmp_path / "exp.csv"
+    exp.write_text(
+        "surface,speed_m_s,angle_deg,statistic,mean,ci_low,ci_high\n"
+        f"rough,{row.speed_m_s},{row.angle_deg},e,"
+        f"{row.e_rebound_mean},{row.e_rebound_mean - 0.05},"
+        f"{row.e_rebound_mean + 0.05}\n"
+    )
+    assert main(["compare", str(out), str(exp), "--out", str(tmp_path / "cmp")]) == 0
+    assert "1 of 1 points agree" in capsys.readouterr().out
+
+
+def test_presets_command(capsys):
+    assert main(["presets"]) == 0
+    out = capsys.readouterr().out
+    for name in (
+        "sst65-silicon-normal",
+        "sst125-silicon-normal",
+        "sst76-formica-oblique",
+        "lycopodium-formica-oblique",
+    ):
+        assert name in out
+
+
+def _console(*args, **kw):
+    exe = Path(sys.executable).with_name("microimpact")
+    return subprocess.run([str(exe), *args], capture_output=True, text=True, **kw)
+
+
+def test_console_script_smoke():
+    r = _console("--version")
+    assert r.returncode == 0 and "microimpact" in r.stdout
+    r = _console("run", "nothing.toml", "--out", "/tmp/never")
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+
+
+def test_sigkill_then_rerun_is_bit_identical(tmp_path):
+    """Kill a long run with SIGKILL mid-way; the re-run resumes from the checkpoint
+    and produces exactly the uninterrupted results."""
+    sc = _scenario(tmp_path, samples=3_000_000, angles="30")
+    ref, out = tmp_path / "ref", tmp_path / "out"
+    args = ["--quiet", "--no-figures"]
+    assert _console("run", str(sc), "--out", str(ref), *args).returncode == 0
+    exe = Path(sys.executable).with_name("microimpact")
+    proc = subprocess.Popen(
+        [str(exe), "run", str(sc), "--out", str(out), *args],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    ck = out / ".microimpact-checkpoint.npz"
+    deadline = time.monotonic() + 60
+    while not ck.exists() and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.05)
+    killed = proc.poll() is None
+    if killed:
+        os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    if not killed:
+        pytest.skip("the run finished before it could be killed")
+    assert not (out / "summary.csv").exists()
+    assert _console("run", str(sc), "--out", str(out), *args).returncode == 0
+    a = pd.read_csv(ref / "summary.csv")
+    b = pd.read_csv(out / "summary.csv")
+    num = a.select_dtypes("number").columns
+    assert_array_equal(a[num].to_numpy(), b[num].to_numpy())
