@@ -286,7 +286,7 @@ def test_console_script_smoke():
 def test_sigkill_then_rerun_is_bit_identical(tmp_path):
     """Kill a long run with SIGKILL mid-way; the re-run resumes from the checkpoint
     and produces exactly the uninterrupted results."""
-    sc = _scenario(tmp_path, samples=3_000_000, angles="30")
+    sc = _scenario(tmp_path, samples=40_000_000, angles="30")
     ref, out = tmp_path / "ref", tmp_path / "out"
     args = ["--quiet", "--no-figures"]
     assert _console("run", str(sc), "--out", str(ref), *args).returncode == 0
