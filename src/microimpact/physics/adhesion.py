@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validation import as_float_array
+from .._validation import as_float_array, check_positive
 
 __all__ = [
     "MATERIALS",
@@ -52,15 +52,7 @@ THORNTON_NING_CONSTANT = math.sqrt(3.0 * JKR_SEPARATION_WORK_CONSTANT / (2.0 * m
 del _F
 
 
-def _positive_param(x, name, *, allow_inf=False):
-    a = as_float_array(x, name)
-    bad = np.isnan(a) | (a <= 0)
-    if not allow_inf:
-        bad |= np.isinf(a)
-    if np.any(bad):
-        v = a[bad].flat[0] if a.ndim else a[()]
-        raise ValueError(f"`{name}` must be a number > 0; got {v!r}.")
-    return a
+_positive_param = check_positive  # one validator for the whole package
 
 
 def _diameter(diameter):
