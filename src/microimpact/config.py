@@ -32,23 +32,19 @@ from __future__ import annotations
 
 import difflib
 import math
-import numbers
-import re
 import tomllib
 from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError, ScenarioError
+from .errors import ScenarioError
 from .scenario import (
     PRECISION_STATISTICS,
     SAMPLING_OPTIONS,
     SHADOWING_OPTIONS,
     Precision,
     Scenario,
-    SurfaceVariant,
 )
-from .units import LENGTH_UNITS
 
 __all__ = [
     "PRESETS",
@@ -60,240 +56,27 @@ __all__ = [
 ]
 
 #: Folder of the shipped preset scenario files.
-PRESET_DIR = Path(__file__).resolve().parent / "presets"
-#: Preset name -> scenario file in :data:`PRESET_DIR` (see ``docs/presets.md``).
-PRESETS: dict[str, str] = {
-    "sst65-silicon-normal": "sst65-silicon-normal.toml",
-    "sst125-silicon-normal": "sst125-silicon-normal.toml",
-    "sst76-formica-oblique": "sst76-formica-oblique.toml",
-    "lycopodium-formica-oblique": "lycopodium-formica-oblique.toml",
-}
-
-TOP_KEYS = (
-    "name",
-    "description",
-    "seed",
-    "samples",
-    "precision",
-    "shadowing",
-    "sampling",
-    "qmc_replicates",
-    "confidence",
-    "reference_angle_deg",
-    "capture_quantiles",
-    "particles",
-    "coefficients",
-    "surfaces",
-    "surface",
-    "particle_roughness",
-    "sweep",
-    "outputs",
+from ._config_base import (
+    _TOML_EOF,
+    _TOML_POSITION,
+    COEFFICIENT_KEYS,
+    FIGURE_FORMATS,
+    MAX_SWEEP_POINTS,
+    OUTPUT_KEYS,
+    PARTICLE_KEYS,
+    PRECISION_KEYS,
+    PRESET_DIR,
+    PRESETS,
+    SWEEP_KEYS,
+    TOP_KEYS,
+    _Ctx,
+    _join,
+    _one_line,
+    _show,
 )
-PARTICLE_KEYS = {
-    "normal": ({"mean_um", "std_um"}, {"min_um", "max_um"}),
-    "lognormal": ({"median_um", "geometric_std"}, {"min_um", "max_um"}),
-    "uniform": ({"min_um", "max_um"}, set()),
-    "monodisperse": ({"diameter_um"}, set()),
-    "empirical": (
-        set(),
-        {"file", "diameters_um", "column", "unit", "min_um", "max_um"},
-    ),
-    "histogram": (set(), {"file", "edges_um", "counts", "unit"}),
-}
-SURFACE_KEYS = {
-    "smooth": (set(), set()),
-    "angles": (set(), {"file", "angles_deg"}),
-    "normal": ({"std_deg"}, {"mean_deg"}),
-    "scipy": ({"distribution"}, {"shapes", "loc_deg", "scale_deg"}),
-    "profile": (
-        {"file", "contact_length_um"},
-        {
-            "method",
-            "detrend",
-            "cutoff_um",
-            "x_column",
-            "z_column",
-            "scan_column",
-            "unit",
-            "x_unit",
-            "z_unit",
-            "dx_um",
-        },
-    ),
-    "synthetic": (
-        {"contact_length_um"},
-        {
-            "profile",
-            "method",
-            "detrend",
-            "cutoff_um",
-            "n_points",
-            "dx_um",
-            "rms_height_um",
-            "correlation_length_um",
-            "seed",
-        },
-    ),
-}
-COEFFICIENT_KEYS = ("set", "k1", "k2", "v_c", "p", "q", "friction")
-SWEEP_KEYS = ("speed_m_s", "angle_deg", "speed_spread")
-PRECISION_KEYS = ("statistic", "half_width", "max_samples", "min_samples")
-OUTPUT_KEYS = ("figures", "experiments")
-FIGURE_FORMATS = ("png", "pdf", "svg", "eps", "ps", "jpg", "tif")
-ANGLE_METHODS = ("slope", "paper")
-DETREND = ("line", "mean", "none")
-SYNTHETIC_PROFILES = ("formica", "gaussian")
-#: Largest number of sweep values a range table may generate.
-MAX_SWEEP_POINTS = 100_000
-
-_TOML_POSITION = re.compile(r"\s*\(at line (\d+), column (\d+)\)\s*$")
-_TOML_EOF = re.compile(r"\s*\(at end of document\)\s*$")
-_BACKTICKED = re.compile(r"`([A-Za-z_][A-Za-z0-9_]*)`")
+from ._config_surfaces import _angles, _exactly_one, _surfaces
 
 
-# ---------------------------------------------------------------------- helpers
-def _show(value) -> str:
-    text = repr(value)
-    return text if len(text) <= 60 else text[:57] + "..."
-
-
-def _type_name(value) -> str:
-    return {
-        bool: "a boolean",
-        int: "an integer",
-        float: "a number",
-        str: "a string",
-        list: "an array",
-        dict: "a table",
-    }.get(type(value), type(value).__name__)
-
-
-def _one_line(text) -> str:
-    return " ".join(str(text).split())
-
-
-class _Ctx:
-    """Where the data came from: the file for messages, the folder for paths."""
-
-    def __init__(self, source, base_dir):
-        self.source = None if source is None else str(source)
-        self.base_dir = Path(base_dir) if base_dir is not None else Path.cwd()
-
-    def error(self, key, message) -> ScenarioError:
-        return ScenarioError(_one_line(message), source=self.source, field=key)
-
-    # -- structure ----------------------------------------------------------
-    def table(self, value, key) -> dict:
-        if not isinstance(value, dict):
-            raise self.error(key, f"must be a table; got {_type_name(value)}")
-        return value
-
-    def keys(self, table, where, allowed, required=()):
-        allowed = tuple(allowed)
-        for key in table:
-            if key not in allowed:
-                close = difflib.get_close_matches(key, allowed, n=1, cutoff=0.6)
-                hint = f" (did you mean {close[0]!r}?)" if close else ""
-                raise self.error(
-                    _join(where, key),
-                    f"unknown key {key!r}{hint}; allowed: {', '.join(sorted(allowed))}",
-                )
-        for key in sorted(required):
-            if key not in table:
-                raise self.error(_join(where, key), "missing required key")
-
-    # -- scalars ------------------------------------------------------------
-    def number(self, value, key, *, low=None, strict=False, high=None, inf=False):
-        ok = isinstance(value, numbers.Real) and not isinstance(value, bool)
-        if not ok:
-            raise self.error(
-                key, f"must be a number; got {_type_name(value)} {_show(value)}"
-            )
-        x = float(value)
-        if math.isnan(x) or (math.isinf(x) and not inf):
-            raise self.error(key, f"must be a finite number; got {_show(value)}")
-        if low is not None and (x <= low if strict else x < low):
-            raise self.error(
-                key, f"must be {'>' if strict else '>='} {low:g}; got {_show(value)}"
-            )
-        if high is not None and x > high:
-            raise self.error(key, f"must be <= {high:g}; got {_show(value)}")
-        return x
-
-    def integer(self, value, key, *, low=0):
-        if isinstance(value, bool) or not isinstance(value, int) or value < low:
-            raise self.error(key, f"must be an integer >= {low}; got {_show(value)}")
-        return int(value)
-
-    def string(self, value, key):
-        if not isinstance(value, str) or not value.strip():
-            raise self.error(
-                key,
-                f"must be a non-empty string; got {_type_name(value)} {_show(value)}",
-            )
-        return value
-
-    def choice(self, value, key, options):
-        if value not in options:
-            close = difflib.get_close_matches(str(value), options, n=1, cutoff=0.6)
-            hint = f" (did you mean {close[0]!r}?)" if close else ""
-            raise self.error(
-                key,
-                f"must be one of {', '.join(repr(o) for o in options)}; "
-                f"got {_show(value)}{hint}",
-            )
-        return value
-
-    def numbers(self, value, key, *, low=None, strict=False, minimum=1):
-        if not isinstance(value, list):
-            raise self.error(
-                key, f"must be an array of numbers; got {_type_name(value)}"
-            )
-        if len(value) < minimum:
-            raise self.error(
-                key, f"must hold at least {minimum} value(s); got {len(value)}"
-            )
-        return [
-            self.number(v, f"{key}[{i}]", low=low, strict=strict)
-            for i, v in enumerate(value)
-        ]
-
-    def unit(self, value, key):
-        return self.choice(value, key, tuple(LENGTH_UNITS))
-
-    def path(self, value, key) -> Path:
-        text = self.string(value, key)
-        p = Path(text).expanduser()
-        if not p.is_absolute():
-            p = self.base_dir / p
-        if not p.is_file():
-            where = "" if Path(text).is_absolute() else f" (resolved to {p})"
-            raise self.error(key, f"file not found: {text!r}{where}")
-        return p
-
-    # -- factories ----------------------------------------------------------
-    def build(self, where, table, func, *args, **kwargs):
-        """Call a model factory; turn its errors into a ScenarioError that names
-        the scenario file and the key path (the key named in the message if any)."""
-        try:
-            return func(*args, **kwargs)
-        except InputError as exc:  # a data file: keep its own file/line in the text
-            raise self.error(where, str(exc)) from None
-        except (ValueError, TypeError, KeyError, OSError) as exc:
-            msg = str(exc).strip("'\"")
-            key = where
-            for name in _BACKTICKED.findall(msg):
-                if name in table:
-                    key = _join(where, name)
-                    break
-            raise self.error(key, msg) from None
-
-
-def _join(where, key) -> str:
-    return f"{where}.{key}" if where else key
-
-
-# ---------------------------------------------------------------------- particles
 def _particles(ctx: _Ctx, data, where="particles"):
     from .population import distributions as pd_
 
@@ -393,210 +176,6 @@ def _particles(ctx: _Ctx, data, where="particles"):
     return ctx.build(where, t, pd_.histogram_diameters, edges, counts)
 
 
-def _exactly_one(ctx, t, where, keys):
-    present = [k for k in keys if k in t]
-    if len(present) != 1:
-        raise ctx.error(
-            _join(where, keys[0]),
-            f"give exactly one of {' or '.join(repr(k) for k in keys)}"
-            + ("; got both" if len(present) > 1 else ""),
-        )
-
-
-# ---------------------------------------------------------------------- surfaces
-def _angles(ctx: _Ctx, t, where):
-    """An angle distribution from a surface table, or None (molecularly smooth)."""
-    from .surface import angles as ang
-
-    kind = t.get("kind")
-    if kind is None:
-        raise ctx.error(
-            _join(where, "kind"),
-            f"missing required key (one of: {', '.join(SURFACE_KEYS)})",
-        )
-    kind = ctx.choice(kind, _join(where, "kind"), tuple(SURFACE_KEYS))
-    required, optional = SURFACE_KEYS[kind]
-    ctx.keys(t, where, {"name", "kind"} | required | optional, required)
-
-    def num(key, **kw):
-        return ctx.number(t[key], _join(where, key), **kw) if key in t else None
-
-    if kind == "smooth":
-        return None
-    if kind == "normal":
-        mean = num("mean_deg", low=-90, high=90)
-        if mean is not None and abs(mean) >= 90:
-            raise ctx.error(
-                _join(where, "mean_deg"), f"must be in (-90, 90); got {mean}"
-            )
-        return ctx.build(
-            where,
-            t,
-            ang.normal_angles,
-            num("std_deg", low=0),
-            mean_deg=0.0 if mean is None else mean,
-        )
-    if kind == "angles":
-        _exactly_one(ctx, t, where, ("file", "angles_deg"))
-        if "file" in t:
-            path = ctx.path(t["file"], _join(where, "file"))
-            return ctx.build(_join(where, "file"), t, ang.angles_from_file, path)
-        a = ctx.numbers(t["angles_deg"], _join(where, "angles_deg"))
-        return ctx.build(_join(where, "angles_deg"), t, ang.angles_from_sample, a)
-    if kind == "scipy":
-        from scipy import stats
-
-        name = ctx.string(t["distribution"], _join(where, "distribution"))
-        gen = getattr(stats, name, None)
-        if not isinstance(gen, stats.rv_continuous):
-            names = [
-                n
-                for n in dir(stats)
-                if isinstance(getattr(stats, n), stats.rv_continuous)
-            ]
-            close = difflib.get_close_matches(name, names, n=1)
-            hint = f" (did you mean {close[0]!r}?)" if close else ""
-            raise ctx.error(
-                _join(where, "distribution"),
-                f"{name!r} is not a continuous scipy.stats distribution{hint}",
-            )
-        shapes = ctx.numbers(t.get("shapes", []), _join(where, "shapes"), minimum=0)
-        loc = num("loc_deg") or 0.0
-        scale = num("scale_deg", low=0, strict=True) or 1.0
-        frozen = ctx.build(where, t, gen, *shapes, loc=loc, scale=scale)
-        return ctx.build(where, t, ang.scipy_angles, frozen, unit="deg")
-    # profile or synthetic: angles over the contact length
-    length = num("contact_length_um", low=0, strict=True)
-    method = ctx.choice(t.get("method", "slope"), _join(where, "method"), ANGLE_METHODS)
-    detrend = ctx.choice(t.get("detrend", "line"), _join(where, "detrend"), DETREND)
-    cutoff = num("cutoff_um", low=0, strict=True)
-    if kind == "profile":
-        profiles = _read_profiles(ctx, t, where)
-    else:
-        profiles = _synthetic(ctx, t, where)
-    return ctx.build(
-        where,
-        t,
-        ang.angles_from_profile,
-        profiles,
-        contact_length_um=length,
-        method=method,
-        detrend=None if detrend == "none" else detrend,
-        cutoff_um=cutoff,
-    )
-
-
-def _read_profiles(ctx, t, where):
-    from .io.profiles import read_profiles
-
-    files = t["file"]
-    key = _join(where, "file")
-    if isinstance(files, list):
-        if not files:
-            raise ctx.error(key, "must be a file name or a non-empty array of them")
-        paths = [ctx.path(f, f"{key}[{i}]") for i, f in enumerate(files)]
-    else:
-        paths = [ctx.path(files, key)]
-    kw = {}
-    for col in ("x_column", "z_column", "scan_column"):
-        if col in t:
-            v = t[col]
-            if isinstance(v, bool) or not isinstance(v, str | int):
-                raise ctx.error(
-                    _join(where, col),
-                    f"must be a column name or a 0-based index; got {_show(v)}",
-                )
-            kw[col] = v
-    for u in ("unit", "x_unit", "z_unit"):
-        if u in t:
-            kw[u] = ctx.unit(t[u], _join(where, u))
-    if "dx_um" in t:
-        kw["dx_um"] = ctx.number(t["dx_um"], _join(where, "dx_um"), low=0, strict=True)
-    return ctx.build(key, t, read_profiles, paths, **kw)
-
-
-def _synthetic(ctx, t, where):
-    from .surface import synthetic
-    from .units import um_to_m
-
-    kind = ctx.choice(
-        t.get("profile", "formica"), _join(where, "profile"), SYNTHETIC_PROFILES
-    )
-    extra = ("n_points", "dx_um", "rms_height_um", "correlation_length_um", "seed")
-    if kind == "formica":
-        for key in extra:
-            if key in t:
-                raise ctx.error(
-                    _join(where, key), "only allowed with profile = 'gaussian'"
-                )
-        return ctx.build(where, t, synthetic.formica_profile)
-    ctx.keys(t, where, t.keys(), extra[:4])
-    n = ctx.integer(t["n_points"], _join(where, "n_points"), low=2)
-    seed = ctx.integer(t["seed"], _join(where, "seed")) if "seed" in t else None
-    return ctx.build(
-        where,
-        t,
-        synthetic.gaussian_profile,
-        n,
-        float(
-            um_to_m(ctx.number(t["dx_um"], _join(where, "dx_um"), low=0, strict=True))
-        ),
-        rms_height=float(
-            um_to_m(
-                ctx.number(
-                    t["rms_height_um"],
-                    _join(where, "rms_height_um"),
-                    low=0,
-                    strict=True,
-                )
-            )
-        ),
-        correlation_length=float(
-            um_to_m(
-                ctx.number(
-                    t["correlation_length_um"],
-                    _join(where, "correlation_length_um"),
-                    low=0,
-                    strict=True,
-                )
-            )
-        ),
-        rng=seed,
-    )
-
-
-def _surfaces(ctx: _Ctx, data) -> tuple:
-    if "surfaces" in data and "surface" in data:
-        raise ctx.error("surface", "give either [surface] or [[surfaces]], not both")
-    if "surface" in data:
-        tables = [(ctx.table(data["surface"], "surface"), "surface")]
-    elif "surfaces" in data:
-        items = data["surfaces"]
-        if not isinstance(items, list) or not items:
-            raise ctx.error(
-                "surfaces", "must be a non-empty array of tables ([[surfaces]])"
-            )
-        tables = [
-            (ctx.table(s, f"surfaces[{i}]"), f"surfaces[{i}]")
-            for i, s in enumerate(items)
-        ]
-    else:
-        return (SurfaceVariant("smooth"),)
-    out, seen = [], {}
-    for t, key in tables:
-        name = t.get("name", t.get("kind") if isinstance(t.get("kind"), str) else None)
-        name = ctx.string(name, _join(key, "name"))
-        if name in seen:
-            raise ctx.error(
-                _join(key, "name"),
-                f"duplicate surface name {name!r} (also used by {seen[name]})",
-            )
-        seen[name] = key
-        out.append(SurfaceVariant(name, _angles(ctx, t, key)))
-    return tuple(out)
-
-
-# ---------------------------------------------------------------------- sweep
 def _values(ctx: _Ctx, value, key) -> list:
     """A sweep value: a number, an array of numbers and range tables, or a range
     table ``{start, stop, num}`` / ``{start, stop, step}`` (both ends included)."""

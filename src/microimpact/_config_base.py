@@ -1,0 +1,251 @@
+"""Scenario files: shared constants and the validation context.
+
+Part of :mod:`microimpact.config`, split out to keep modules small.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import numbers
+import re
+from pathlib import Path
+
+from .errors import InputError, ScenarioError
+from .units import LENGTH_UNITS
+
+#: Folder of the shipped preset scenario files.
+PRESET_DIR = Path(__file__).resolve().parent / "presets"
+#: Preset name -> scenario file in :data:`PRESET_DIR` (see ``docs/presets.md``).
+PRESETS: dict[str, str] = {
+    "sst65-silicon-normal": "sst65-silicon-normal.toml",
+    "sst125-silicon-normal": "sst125-silicon-normal.toml",
+    "sst76-formica-oblique": "sst76-formica-oblique.toml",
+    "lycopodium-formica-oblique": "lycopodium-formica-oblique.toml",
+}
+
+TOP_KEYS = (
+    "name",
+    "description",
+    "seed",
+    "samples",
+    "precision",
+    "shadowing",
+    "sampling",
+    "qmc_replicates",
+    "confidence",
+    "reference_angle_deg",
+    "capture_quantiles",
+    "particles",
+    "coefficients",
+    "surfaces",
+    "surface",
+    "particle_roughness",
+    "sweep",
+    "outputs",
+)
+PARTICLE_KEYS = {
+    "normal": ({"mean_um", "std_um"}, {"min_um", "max_um"}),
+    "lognormal": ({"median_um", "geometric_std"}, {"min_um", "max_um"}),
+    "uniform": ({"min_um", "max_um"}, set()),
+    "monodisperse": ({"diameter_um"}, set()),
+    "empirical": (
+        set(),
+        {"file", "diameters_um", "column", "unit", "min_um", "max_um"},
+    ),
+    "histogram": (set(), {"file", "edges_um", "counts", "unit"}),
+}
+SURFACE_KEYS = {
+    "smooth": (set(), set()),
+    "angles": (set(), {"file", "angles_deg"}),
+    "normal": ({"std_deg"}, {"mean_deg"}),
+    "scipy": ({"distribution"}, {"shapes", "loc_deg", "scale_deg"}),
+    "profile": (
+        {"file", "contact_length_um"},
+        {
+            "method",
+            "detrend",
+            "cutoff_um",
+            "x_column",
+            "z_column",
+            "scan_column",
+            "unit",
+            "x_unit",
+            "z_unit",
+            "dx_um",
+        },
+    ),
+    "synthetic": (
+        {"contact_length_um"},
+        {
+            "profile",
+            "method",
+            "detrend",
+            "cutoff_um",
+            "n_points",
+            "dx_um",
+            "rms_height_um",
+            "correlation_length_um",
+            "seed",
+        },
+    ),
+}
+COEFFICIENT_KEYS = ("set", "k1", "k2", "v_c", "p", "q", "friction")
+SWEEP_KEYS = ("speed_m_s", "angle_deg", "speed_spread")
+PRECISION_KEYS = ("statistic", "half_width", "max_samples", "min_samples")
+OUTPUT_KEYS = ("figures", "experiments")
+FIGURE_FORMATS = ("png", "pdf", "svg", "eps", "ps", "jpg", "tif")
+ANGLE_METHODS = ("slope", "paper")
+DETREND = ("line", "mean", "none")
+SYNTHETIC_PROFILES = ("formica", "gaussian")
+#: Largest number of sweep values a range table may generate.
+MAX_SWEEP_POINTS = 100_000
+
+_TOML_POSITION = re.compile(r"\s*\(at line (\d+), column (\d+)\)\s*$")
+_TOML_EOF = re.compile(r"\s*\(at end of document\)\s*$")
+_BACKTICKED = re.compile(r"`([A-Za-z_][A-Za-z0-9_]*)`")
+
+
+# ---------------------------------------------------------------------- helpers
+def _show(value) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _type_name(value) -> str:
+    return {
+        bool: "a boolean",
+        int: "an integer",
+        float: "a number",
+        str: "a string",
+        list: "an array",
+        dict: "a table",
+    }.get(type(value), type(value).__name__)
+
+
+def _one_line(text) -> str:
+    return " ".join(str(text).split())
+
+
+class _Ctx:
+    """Where the data came from: the file for messages, the folder for paths."""
+
+    def __init__(self, source, base_dir):
+        self.source = None if source is None else str(source)
+        self.base_dir = Path(base_dir) if base_dir is not None else Path.cwd()
+
+    def error(self, key, message) -> ScenarioError:
+        return ScenarioError(_one_line(message), source=self.source, field=key)
+
+    # -- structure ----------------------------------------------------------
+    def table(self, value, key) -> dict:
+        if not isinstance(value, dict):
+            raise self.error(key, f"must be a table; got {_type_name(value)}")
+        return value
+
+    def keys(self, table, where, allowed, required=()):
+        allowed = tuple(allowed)
+        for key in table:
+            if key not in allowed:
+                close = difflib.get_close_matches(key, allowed, n=1, cutoff=0.6)
+                hint = f" (did you mean {close[0]!r}?)" if close else ""
+                raise self.error(
+                    _join(where, key),
+                    f"unknown key {key!r}{hint}; allowed: {', '.join(sorted(allowed))}",
+                )
+        for key in sorted(required):
+            if key not in table:
+                raise self.error(_join(where, key), "missing required key")
+
+    # -- scalars ------------------------------------------------------------
+    def number(self, value, key, *, low=None, strict=False, high=None, inf=False):
+        ok = isinstance(value, numbers.Real) and not isinstance(value, bool)
+        if not ok:
+            raise self.error(
+                key, f"must be a number; got {_type_name(value)} {_show(value)}"
+            )
+        x = float(value)
+        if math.isnan(x) or (math.isinf(x) and not inf):
+            raise self.error(key, f"must be a finite number; got {_show(value)}")
+        if low is not None and (x <= low if strict else x < low):
+            raise self.error(
+                key, f"must be {'>' if strict else '>='} {low:g}; got {_show(value)}"
+            )
+        if high is not None and x > high:
+            raise self.error(key, f"must be <= {high:g}; got {_show(value)}")
+        return x
+
+    def integer(self, value, key, *, low=0):
+        if isinstance(value, bool) or not isinstance(value, int) or value < low:
+            raise self.error(key, f"must be an integer >= {low}; got {_show(value)}")
+        return int(value)
+
+    def string(self, value, key):
+        if not isinstance(value, str) or not value.strip():
+            raise self.error(
+                key,
+                f"must be a non-empty string; got {_type_name(value)} {_show(value)}",
+            )
+        return value
+
+    def choice(self, value, key, options):
+        if value not in options:
+            close = difflib.get_close_matches(str(value), options, n=1, cutoff=0.6)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            raise self.error(
+                key,
+                f"must be one of {', '.join(repr(o) for o in options)}; "
+                f"got {_show(value)}{hint}",
+            )
+        return value
+
+    def numbers(self, value, key, *, low=None, strict=False, minimum=1):
+        if not isinstance(value, list):
+            raise self.error(
+                key, f"must be an array of numbers; got {_type_name(value)}"
+            )
+        if len(value) < minimum:
+            raise self.error(
+                key, f"must hold at least {minimum} value(s); got {len(value)}"
+            )
+        return [
+            self.number(v, f"{key}[{i}]", low=low, strict=strict)
+            for i, v in enumerate(value)
+        ]
+
+    def unit(self, value, key):
+        return self.choice(value, key, tuple(LENGTH_UNITS))
+
+    def path(self, value, key) -> Path:
+        text = self.string(value, key)
+        p = Path(text).expanduser()
+        if not p.is_absolute():
+            p = self.base_dir / p
+        if not p.is_file():
+            where = "" if Path(text).is_absolute() else f" (resolved to {p})"
+            raise self.error(key, f"file not found: {text!r}{where}")
+        return p
+
+    # -- factories ----------------------------------------------------------
+    def build(self, where, table, func, *args, **kwargs):
+        """Call a model factory; turn its errors into a ScenarioError that names
+        the scenario file and the key path (the key named in the message if any)."""
+        try:
+            return func(*args, **kwargs)
+        except InputError as exc:  # a data file: keep its own file/line in the text
+            raise self.error(where, str(exc)) from None
+        except (ValueError, TypeError, KeyError, OSError) as exc:
+            msg = str(exc).strip("'\"")
+            key = where
+            for name in _BACKTICKED.findall(msg):
+                if name in table:
+                    key = _join(where, name)
+                    break
+            raise self.error(key, msg) from None
+
+
+def _join(where, key) -> str:
+    return f"{where}.{key}" if where else key
+
+
+# ---------------------------------------------------------------------- particles

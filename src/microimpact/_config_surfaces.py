@@ -1,0 +1,228 @@
+"""Scenario files: the surface, particle-roughness and profile tables.
+
+Part of :mod:`microimpact.config`, split out to keep modules small.
+"""
+
+from __future__ import annotations
+
+import difflib
+
+#: Folder of the shipped preset scenario files.
+from ._config_base import (
+    ANGLE_METHODS,
+    DETREND,
+    SURFACE_KEYS,
+    SYNTHETIC_PROFILES,
+    _Ctx,
+    _join,
+    _show,
+)
+from .scenario import (
+    SurfaceVariant,
+)
+
+
+def _exactly_one(ctx, t, where, keys):
+    present = [k for k in keys if k in t]
+    if len(present) != 1:
+        raise ctx.error(
+            _join(where, keys[0]),
+            f"give exactly one of {' or '.join(repr(k) for k in keys)}"
+            + ("; got both" if len(present) > 1 else ""),
+        )
+
+
+# ---------------------------------------------------------------------- surfaces
+def _angles(ctx: _Ctx, t, where):
+    """An angle distribution from a surface table, or None (molecularly smooth)."""
+    from .surface import angles as ang
+
+    kind = t.get("kind")
+    if kind is None:
+        raise ctx.error(
+            _join(where, "kind"),
+            f"missing required key (one of: {', '.join(SURFACE_KEYS)})",
+        )
+    kind = ctx.choice(kind, _join(where, "kind"), tuple(SURFACE_KEYS))
+    required, optional = SURFACE_KEYS[kind]
+    ctx.keys(t, where, {"name", "kind"} | required | optional, required)
+
+    def num(key, **kw):
+        return ctx.number(t[key], _join(where, key), **kw) if key in t else None
+
+    if kind == "smooth":
+        return None
+    if kind == "normal":
+        mean = num("mean_deg", low=-90, high=90)
+        if mean is not None and abs(mean) >= 90:
+            raise ctx.error(
+                _join(where, "mean_deg"), f"must be in (-90, 90); got {mean}"
+            )
+        return ctx.build(
+            where,
+            t,
+            ang.normal_angles,
+            num("std_deg", low=0),
+            mean_deg=0.0 if mean is None else mean,
+        )
+    if kind == "angles":
+        _exactly_one(ctx, t, where, ("file", "angles_deg"))
+        if "file" in t:
+            path = ctx.path(t["file"], _join(where, "file"))
+            return ctx.build(_join(where, "file"), t, ang.angles_from_file, path)
+        a = ctx.numbers(t["angles_deg"], _join(where, "angles_deg"))
+        return ctx.build(_join(where, "angles_deg"), t, ang.angles_from_sample, a)
+    if kind == "scipy":
+        from scipy import stats
+
+        name = ctx.string(t["distribution"], _join(where, "distribution"))
+        gen = getattr(stats, name, None)
+        if not isinstance(gen, stats.rv_continuous):
+            names = [
+                n
+                for n in dir(stats)
+                if isinstance(getattr(stats, n), stats.rv_continuous)
+            ]
+            close = difflib.get_close_matches(name, names, n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            raise ctx.error(
+                _join(where, "distribution"),
+                f"{name!r} is not a continuous scipy.stats distribution{hint}",
+            )
+        shapes = ctx.numbers(t.get("shapes", []), _join(where, "shapes"), minimum=0)
+        loc = num("loc_deg") or 0.0
+        scale = num("scale_deg", low=0, strict=True) or 1.0
+        frozen = ctx.build(where, t, gen, *shapes, loc=loc, scale=scale)
+        return ctx.build(where, t, ang.scipy_angles, frozen, unit="deg")
+    # profile or synthetic: angles over the contact length
+    length = num("contact_length_um", low=0, strict=True)
+    method = ctx.choice(t.get("method", "slope"), _join(where, "method"), ANGLE_METHODS)
+    detrend = ctx.choice(t.get("detrend", "line"), _join(where, "detrend"), DETREND)
+    cutoff = num("cutoff_um", low=0, strict=True)
+    if kind == "profile":
+        profiles = _read_profiles(ctx, t, where)
+    else:
+        profiles = _synthetic(ctx, t, where)
+    return ctx.build(
+        where,
+        t,
+        ang.angles_from_profile,
+        profiles,
+        contact_length_um=length,
+        method=method,
+        detrend=None if detrend == "none" else detrend,
+        cutoff_um=cutoff,
+    )
+
+
+def _read_profiles(ctx, t, where):
+    from .io.profiles import read_profiles
+
+    files = t["file"]
+    key = _join(where, "file")
+    if isinstance(files, list):
+        if not files:
+            raise ctx.error(key, "must be a file name or a non-empty array of them")
+        paths = [ctx.path(f, f"{key}[{i}]") for i, f in enumerate(files)]
+    else:
+        paths = [ctx.path(files, key)]
+    kw = {}
+    for col in ("x_column", "z_column", "scan_column"):
+        if col in t:
+            v = t[col]
+            if isinstance(v, bool) or not isinstance(v, str | int):
+                raise ctx.error(
+                    _join(where, col),
+                    f"must be a column name or a 0-based index; got {_show(v)}",
+                )
+            kw[col] = v
+    for u in ("unit", "x_unit", "z_unit"):
+        if u in t:
+            kw[u] = ctx.unit(t[u], _join(where, u))
+    if "dx_um" in t:
+        kw["dx_um"] = ctx.number(t["dx_um"], _join(where, "dx_um"), low=0, strict=True)
+    return ctx.build(key, t, read_profiles, paths, **kw)
+
+
+def _synthetic(ctx, t, where):
+    from .surface import synthetic
+    from .units import um_to_m
+
+    kind = ctx.choice(
+        t.get("profile", "formica"), _join(where, "profile"), SYNTHETIC_PROFILES
+    )
+    extra = ("n_points", "dx_um", "rms_height_um", "correlation_length_um", "seed")
+    if kind == "formica":
+        for key in extra:
+            if key in t:
+                raise ctx.error(
+                    _join(where, key), "only allowed with profile = 'gaussian'"
+                )
+        return ctx.build(where, t, synthetic.formica_profile)
+    ctx.keys(t, where, t.keys(), extra[:4])
+    n = ctx.integer(t["n_points"], _join(where, "n_points"), low=2)
+    seed = ctx.integer(t["seed"], _join(where, "seed")) if "seed" in t else None
+    return ctx.build(
+        where,
+        t,
+        synthetic.gaussian_profile,
+        n,
+        float(
+            um_to_m(ctx.number(t["dx_um"], _join(where, "dx_um"), low=0, strict=True))
+        ),
+        rms_height=float(
+            um_to_m(
+                ctx.number(
+                    t["rms_height_um"],
+                    _join(where, "rms_height_um"),
+                    low=0,
+                    strict=True,
+                )
+            )
+        ),
+        correlation_length=float(
+            um_to_m(
+                ctx.number(
+                    t["correlation_length_um"],
+                    _join(where, "correlation_length_um"),
+                    low=0,
+                    strict=True,
+                )
+            )
+        ),
+        rng=seed,
+    )
+
+
+def _surfaces(ctx: _Ctx, data) -> tuple:
+    if "surfaces" in data and "surface" in data:
+        raise ctx.error("surface", "give either [surface] or [[surfaces]], not both")
+    if "surface" in data:
+        tables = [(ctx.table(data["surface"], "surface"), "surface")]
+    elif "surfaces" in data:
+        items = data["surfaces"]
+        if not isinstance(items, list) or not items:
+            raise ctx.error(
+                "surfaces", "must be a non-empty array of tables ([[surfaces]])"
+            )
+        tables = [
+            (ctx.table(s, f"surfaces[{i}]"), f"surfaces[{i}]")
+            for i, s in enumerate(items)
+        ]
+    else:
+        return (SurfaceVariant("smooth"),)
+    out, seen = [], {}
+    for t, key in tables:
+        name = t.get("name", t.get("kind") if isinstance(t.get("kind"), str) else None)
+        name = ctx.string(name, _join(key, "name"))
+        if name in seen:
+            raise ctx.error(
+                _join(key, "name"),
+                f"duplicate surface name {name!r} (also used by {seen[name]})",
+            )
+        seen[name] = key
+        out.append(SurfaceVariant(name, _angles(ctx, t, key)))
+    return tuple(out)
+
+
+# ---------------------------------------------------------------------- sweep
