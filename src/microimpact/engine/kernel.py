@@ -24,7 +24,6 @@ re-impacts the nominal surface when :math:`e_m < 0` (nominal :math:`V_n < 0`).
 from __future__ import annotations
 
 import numpy as np
-from scipy.stats import qmc
 
 from . import _fused
 from .accumulators import (
@@ -56,6 +55,8 @@ def stream_indices(entropy, point, block, var, n, bits):
 
 def qmc_uniforms(entropy, point, rep, block, n, dim, block_size):
     """Scrambled Sobol points ``[block*B, block*B + n)`` of replicate `rep`."""
+    from scipy.stats import qmc  # lazily: scipy.stats costs 0.6 s and ~80 MB
+
     ss = np.random.SeedSequence(entropy, spawn_key=(point, QMC_TAG, rep))
     engine = qmc.Sobol(dim, scramble=True, rng=np.random.default_rng(ss))
     if block:
@@ -100,6 +101,8 @@ def simulate_block(
         variables.append(VAR_SPEED)
     draws = _draw_indices(plan, point, rep, block, n, variables)
     idx = dict(zip(variables, draws, strict=True))
+    if not store and _fused.AVAILABLE:
+        return _simulate_fused(plan, sp, tables, idx, n)
 
     i_d = idx[VAR_DIAMETER]
     inv_k1 = plan.inv_k1[i_d]
@@ -116,9 +119,6 @@ def simulate_block(
     else:
         sin_true, cot = tables.sin_true, tables.cot_true
         tan_phi, tan_cot, gain = 0.0, 0.0, 1.0
-
-    if not store and _fused.AVAILABLE:
-        return _simulate_fused(plan, sp, tables, idx, n)
 
     speed = sp.speed
     if plan.speed_factor is not None:

@@ -124,6 +124,12 @@ class SimulationResult:
             for a in accs[1:]:
                 acc = acc.merge(a)
             pooled[sp.index] = acc
+            if plan.shadowing != "none":
+                # the facets removed ('reject') or re-weighted ('weighted') were
+                # never sampled: report their exact probability from the table
+                row["shadowed_fraction"] = plan.angle_tables(
+                    sp.surface, sp.angle_deg
+                ).shadowed_mass
             rows.append(
                 {
                     "surface": sp.surface_name,

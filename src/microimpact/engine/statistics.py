@@ -14,7 +14,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import pandas as pd
 from scipy.special import ndtri
 
 from .accumulators import E_EDGES, MU_EDGES, PointAccumulator, histogram_quantile
@@ -136,7 +135,7 @@ def half_width(acc: PointAccumulator, statistic: str, confidence: float) -> floa
     return (row[hi] - row[lo]) / 2.0
 
 
-def capture_speed(summary: pd.DataFrame, quantile: float = 0.5) -> pd.DataFrame:
+def capture_speed(summary, quantile: float = 0.5):
     """Speed at which a given fraction of particles is captured.
 
     For each surface and apparent angle, the capture fraction and its confidence
@@ -148,6 +147,8 @@ def capture_speed(summary: pd.DataFrame, quantile: float = 0.5) -> pd.DataFrame:
     Returns a DataFrame with ``surface``, ``angle_deg``, ``quantile``, ``speed_m_s``,
     ``speed_ci_low``, ``speed_ci_high``.
     """
+    import pandas as pd
+
     rows = []
     for (surface, angle), g in summary.groupby(["surface", "angle_deg"], sort=False):
         g = g.sort_values("speed_m_s")
@@ -188,7 +189,7 @@ def _crossing(v, f, level):
     return math.nan
 
 
-def relative_coefficients(summary: pd.DataFrame, reference_angle_deg: float = 85.0):
+def relative_coefficients(summary, reference_angle_deg: float = 85.0):
     """The paper's relative coefficients ``e - e(ref)`` and ``mu - mu(ref)``.
 
     Adds ``e_relative``, ``e_relative_se``, ``mu_relative``, ``mu_relative_se`` to a

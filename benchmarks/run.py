@@ -1,0 +1,824 @@
+"""Performance benchmark of the microimpact Monte Carlo engine, in one run.
+
+The kernel measured is the full oblique impact on a rough surface, one sweep point:
+diameters normal 52.8 +/- 15.3 um [1]; roughness angles empirical, from the synthetic
+Formica profile at a 20 um contact length; apparent incidence 30 deg at 1 m/s;
+shadowing "reject"; capture test; rolling/sliding with friction 0.15; Eqs. 7-9;
+streaming statistics. Coefficients as the shipped presets: k1 = 4 m/s,
+k2 = 0.05 (d/52.8 um)^-1.58 m/s, v_c = 0.20 (d/52.8 um)^-1.58 m/s, p = q = 1.
+
+Measured (impacts per second; median of 3 repetitions: each in its own fresh
+process by default, in one fresh process per variant with ``--quick``, in this
+process once with ``--smoke``):
+
+1. ``rng_floor_per_s``: only the random numbers the engine draws: per block of 32,768
+   impacts and per variable (diameter, angle), ``PCG64(SeedSequence(entropy,
+   spawn_key=(point, block, var))).random_raw(n)``; and ``rng_floor_classic_per_s``,
+   the floor of ``PERFORMANCE.md``: one ``standard_normal`` and one ``random`` per
+   impact from one PCG64 generator, chunked with ``out=``.
+2. ``numpy_baseline_per_s``: the same physics in plain whole-array NumPy, as a user
+   writes it (checked to agree with the engine within 5 standard errors).
+3. ``engine_per_s``: ``microimpact.run(workers=1)``, wall time of the call.
+4. ``engine_all_cores_per_s``: ``microimpact.run(workers=os.cpu_count())``.
+5. ``peak_rss_mb``: the largest peak RSS [MiB] of a fresh process running
+   ``microimpact.run`` at 10^6, 10^7, 10^8 impacts (``peak_rss_mb_by_n``).
+6. ``dask_per_s``: ``microimpact.run(backend="dask")`` on a ``LocalCluster`` of
+   ``os.cpu_count()`` workers (the cluster start is timed separately).
+7. ``qmc_error_ratio``: RMS error of the mean e_m, plain MC over QMC, at 2^14
+   impacts per replicate, against an independent quadrature of the exact
+   expectation (> 1 means QMC is better).
+8. ``paper_reproduction_s``: the four presets at 4,000 impacts per point, if
+   ``microimpact.config.load_preset`` exists.
+
+Usage::
+
+    python benchmarks/run.py [--quick | --smoke] [--json PATH]
+
+``--quick`` takes about a minute on 2 cores, ``--smoke`` about 10 s (tiny sizes, no
+timing is meaningful; it checks that everything runs). Timings on shared machines are
+noisy: trust the ratios measured in one run, not the absolute rates.
+
+References
+----------
+[1] X. Li, P. F. Dunn, R. M. Brach, Aerosol Sci. Technol. 33:376-386, 2000.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import platform
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+# ------------------------------------------------------------------------ the model
+MEAN_UM, STD_UM = 52.8, 15.3  # [1], SST65 size distribution
+K1 = 4.0  # [m s-1]
+K2_A, VC_A = 0.05, 0.20  # [m s-1] at D_REF_UM
+EXPONENT = -1.58  # [-], power law of k2 and v_c against diameter
+D_REF_UM = 52.8
+FRICTION = 0.15  # [1], Fig. 8 text
+SPEED = 1.0  # [m s-1]
+ANGLE_DEG = 30.0  # apparent incidence from the nominal plane [deg]
+CONTACT_LENGTH_UM = 20.0
+#: The engine's block (kernel.stream_indices draws one stream per block and variable).
+BLOCK = 1 << 15
+SEED = 20000376
+
+#: Sizes per mode (``--quick`` and ``--smoke`` override the default ``full``).
+#: ``isolate``: measure in fresh processes; ``process_per_repeat``: one per repetition.
+FULL = dict(
+    n_rng=2 * 10**7,
+    n_numpy=10**7,
+    n_engine=2 * 10**7,
+    repeats=3,
+    rss_ns=(10**6, 10**7, 10**8),
+    qmc_replicates=32,
+    qmc_n=1 << 14,
+    reproduce_samples=4000,
+    reproduce_presets=None,
+    reproduce_cli=True,
+    isolate=True,
+    process_per_repeat=True,
+)
+QUICK = {**FULL, "n_rng": 1 << 23, "n_numpy": 2 * 10**6, "n_engine": 2 * 10**6}
+QUICK.update(rss_ns=(10**6, 10**7), qmc_replicates=16)
+QUICK.update(reproduce_cli=False, process_per_repeat=False)
+SMOKE = {**QUICK, "n_rng": 1 << 18, "n_numpy": 1 << 17, "n_engine": 1 << 17}
+SMOKE.update(repeats=1, rss_ns=(10**5,), qmc_replicates=4, qmc_n=1 << 12)
+SMOKE.update(reproduce_samples=100, reproduce_presets=1, isolate=False)
+MODES = {"full": FULL, "quick": QUICK, "smoke": SMOKE}
+#: Largest N of the whole-array NumPy baseline (memory: ~2 GiB at 10^7).
+NUMPY_MAX_N = 10**7
+#: Agreement tolerance between the NumPy baseline and the engine [standard errors].
+AGREEMENT_SE = 5.0
+
+REQUIRED_KEYS = (
+    "rng_floor_per_s",
+    "numpy_baseline_per_s",
+    "engine_per_s",
+    "engine_all_cores_per_s",
+    "dask_per_s",
+    "peak_rss_mb",
+    "qmc_error_ratio",
+)
+
+
+# ------------------------------------------------------------------ model objects
+def formica_angles():
+    """(AngleDistribution for the engine, the raw angle sample [rad])."""
+    import microimpact as mi
+    from microimpact.units import um_to_m
+
+    profile = mi.formica_profile()
+    dist = mi.angles_from_profile(profile, contact_length_um=CONTACT_LENGTH_UM)
+    raw = mi.surface_angles(profile, contact_length=float(um_to_m(CONTACT_LENGTH_UM)))
+    raw = raw[np.abs(raw) < 0.5 * np.pi]
+    if raw.size != dist.params["n"]:  # both must describe the same sample
+        raise RuntimeError(
+            f"angle sample of {raw.size} values but the distribution has "
+            f"{dist.params['n']}"
+        )
+    return dist, raw
+
+
+def make_scenario(angles=None, **kw):
+    """The benchmark's one-point Scenario (keyword overrides go to Scenario)."""
+    import microimpact as mi
+
+    if angles is None:
+        angles = formica_angles()[0]
+    d_ref = D_REF_UM * 1e-6
+    coefficients = mi.ImpactCoefficients(
+        k1=K1,
+        k2=mi.PowerLaw(K2_A, EXPONENT, d_ref=d_ref),
+        v_c=mi.PowerLaw(VC_A, EXPONENT, d_ref=d_ref),
+        p=1.0,
+        q=1.0,
+        friction=FRICTION,
+    )
+    base = dict(
+        name="benchmark",
+        particles=mi.normal_diameters(MEAN_UM, STD_UM),
+        coefficients=coefficients,
+        speeds_m_s=(SPEED,),
+        angles_deg=(ANGLE_DEG,),
+        surfaces=(mi.SurfaceVariant("formica", angles),),
+        shadowing="reject",
+        seed=SEED,
+        reference_angle_deg=None,
+    )
+    base.update(kw)
+    return mi.Scenario(**base)
+
+
+def _summary_stats(result) -> dict:
+    row = result.summary.iloc[0]
+    return {
+        "n": int(row["n"]),
+        "e_mean": float(row["e_mean"]),
+        "e_se": float(row["e_se"]),
+        "capture_fraction": float(row["capture_fraction"]),
+        "mu_mean": float(row["mu_mean"]),
+    }
+
+
+# --------------------------------------------------------------- 1. the RNG floors
+def rng_floor(n: int, *, entropy: int = SEED) -> dict:
+    """The engine's draws only: one stream per (block, variable), 2 variables."""
+    t0 = time.perf_counter()
+    for b in range(math.ceil(n / BLOCK)):
+        m = min(BLOCK, n - b * BLOCK)
+        for var in (0, 1):  # diameter, angle
+            ss = np.random.SeedSequence(entropy, spawn_key=(0, b, var))
+            np.random.PCG64(ss).random_raw(m)
+    return {"rate": n / (time.perf_counter() - t0)}
+
+
+def rng_floor_classic(n: int, *, entropy: int = SEED) -> dict:
+    """PERFORMANCE.md's floor: 1 standard_normal + 1 random per impact, ``out=``."""
+    rng = np.random.Generator(np.random.PCG64(entropy))
+    z, u = np.empty(BLOCK), np.empty(BLOCK)
+    t0 = time.perf_counter()
+    for b in range(math.ceil(n / BLOCK)):
+        m = min(BLOCK, n - b * BLOCK)
+        rng.standard_normal(out=z[:m])
+        rng.random(out=u[:m])
+    return {"rate": n / (time.perf_counter() - t0)}
+
+
+# ------------------------------------------------------------- 2. NumPy baseline
+def numpy_baseline(n: int, angles_rad, *, rng=None, speed=SPEED, angle_deg=ANGLE_DEG):
+    """The benchmark's physics in plain whole-array NumPy, as a user writes it.
+
+    Returns a dict of statistics (``e_mean`` over all impacts with captured
+    particles counted as 0, its standard error ``e_se``, ``capture_fraction``,
+    ``mu_mean`` over rebounds, ``e_hist`` ...).
+    """
+    rng = np.random.default_rng(rng)
+    d_ref = D_REF_UM * 1e-6
+    theta = np.deg2rad(angle_deg)
+    # diameters: normal, truncated to d > 0 by redrawing
+    d = rng.normal(MEAN_UM * 1e-6, STD_UM * 1e-6, n)
+    bad = d <= 0
+    while bad.any():
+        d[bad] = rng.normal(MEAN_UM * 1e-6, STD_UM * 1e-6, np.count_nonzero(bad))
+        bad = d <= 0
+    # roughness angles from the measured sample; shadowed facets drawn again
+    phi = rng.choice(angles_rad, n)
+    shadowed = phi >= theta
+    while shadowed.any():
+        phi[shadowed] = rng.choice(angles_rad, np.count_nonzero(shadowed))
+        shadowed = phi >= theta
+    # coefficients per impact
+    k2 = K2_A * (d / d_ref) ** EXPONENT
+    v_c = VC_A * (d / d_ref) ** EXPONENT
+    # facet frame: v_n' = -s sin(theta - phi), v_t' = -s cos(theta - phi)
+    v_n = -speed * np.sin(theta - phi)
+    v_t = -speed * np.cos(theta - phi)
+    u = -v_n
+    captured = u <= v_c
+    R = K1 / (K1 + u)  # [1], Eq. 4 (p = 1)
+    rho = k2 / (k2 + (u - v_c))  # [1], Eq. 5 (q = 1)
+    e = np.where(captured, 0.0, R * (1.0 - rho))  # [1], Eq. 6
+    mu0 = 2.0 * (v_t / v_n) / (7.0 * (1.0 + e))  # [1], Eq. 3
+    mu = np.clip(mu0, -FRICTION, FRICTION)  # sliding when |mu0| > friction
+    V_t = v_t - mu * (1.0 + e) * v_n  # [1], Eq. 2
+    tan_phi = np.tan(phi)
+    e_m = (e - tan_phi * V_t / v_n) / (1.0 + tan_phi * v_t / v_n)  # [1], Eq. 8
+    mu_m = (mu - tan_phi) / (mu * tan_phi + 1.0)  # [1], Eq. 9
+    e_m = np.where(captured, 0.0, e_m)
+    rebound = ~captured
+    e_r, mu_r = e_m[rebound], mu_m[rebound]
+    return {
+        "n": n,
+        "e_mean": float(e_m.mean()),
+        "e_std": float(e_m.std(ddof=1)),
+        "e_se": float(e_m.std(ddof=1) / np.sqrt(n)),
+        "capture_fraction": float(captured.mean()),
+        "e_rebound_mean": float(e_r.mean()),
+        "mu_mean": float(mu_r.mean()),
+        "mu_std": float(mu_r.std(ddof=1)),
+        "e_hist": np.histogram(e_r, bins=np.linspace(-1.0, 3.0, 401))[0],
+        "mu_hist": np.histogram(mu_r, bins=np.linspace(-5.0, 5.0, 1001))[0],
+    }
+
+
+def _numpy_task(n: int, seed: int) -> dict:
+    _, raw = formica_angles()
+    numpy_baseline(1 << 12, raw, rng=0)  # warm-up
+    t0 = time.perf_counter()
+    out = numpy_baseline(n, raw, rng=seed)
+    dt = time.perf_counter() - t0
+    stats = {k: v for k, v in out.items() if not k.endswith("_hist")}
+    return {"rate": n / dt, "stats": stats}
+
+
+# ------------------------------------------------------------ 3.-4. the engine
+def _engine_task(n: int, workers: int, seed: int, warmup: bool = True) -> dict:
+    import microimpact as mi
+
+    scenario = make_scenario()
+    if warmup:
+        mi.run(scenario, samples=BLOCK, seed=1, workers=workers, progress=False)
+    t0 = time.perf_counter()
+    result = mi.run(scenario, samples=n, seed=seed, workers=workers, progress=False)
+    dt = time.perf_counter() - t0
+    return {
+        "rate": n / dt,
+        "wall_s": dt,
+        "engine_elapsed_s": float(result.elapsed_s),
+        "stats": _summary_stats(result),
+    }
+
+
+def _fixed_cost_task(workers: int) -> dict:
+    """Wall time of one block with `workers` (the fixed cost of a run)."""
+    import microimpact as mi
+
+    scenario = make_scenario()
+    mi.run(scenario, samples=BLOCK, seed=1, workers=1, progress=False)  # imports
+    t0 = time.perf_counter()
+    mi.run(scenario, samples=BLOCK, seed=2, workers=workers, progress=False)
+    return {"wall_s": time.perf_counter() - t0}
+
+
+# ---------------------------------------------------------------------- 6. Dask
+def _dask_task(n: int, workers: int, repeats: int) -> dict:
+    import logging
+
+    try:
+        from dask.distributed import Client, LocalCluster
+    except ImportError as exc:
+        return {"skipped": f"dask.distributed is not importable ({exc})"}
+    import microimpact as mi
+
+    logging.getLogger("distributed").setLevel(logging.ERROR)
+    scenario = make_scenario()
+    t0 = time.perf_counter()
+    cluster = LocalCluster(
+        n_workers=workers,
+        threads_per_worker=1,
+        processes=True,
+        dashboard_address=None,
+    )
+    start_s = time.perf_counter() - t0
+    try:
+        addr = cluster.scheduler_address
+        kw = dict(backend="dask", address=addr, workers=workers, progress=False)
+        mi.run(scenario, samples=BLOCK * workers, seed=1, **kw)  # warm-up
+        rates, stats = [], None
+        for r in range(repeats):
+            t0 = time.perf_counter()
+            result = mi.run(scenario, samples=n, seed=SEED + r, **kw)
+            rates.append(n / (time.perf_counter() - t0))
+            stats = _summary_stats(result)
+        with Client(addr) as client:
+            rss = client.run(_self_maxrss_mb)
+    finally:
+        cluster.close()
+    return {
+        "rates": rates,
+        "cluster_start_s": start_s,
+        "worker_maxrss_mb": sorted(rss.values()),
+        "stats": stats,
+    }
+
+
+# ------------------------------------------------------ 7. QMC versus plain MC
+def reference_values(angles_rad, *, speed=SPEED, angle_deg=ANGLE_DEG, nodes=4096):
+    """Exact expectation of e_m (captured = 0) and of the capture fraction.
+
+    Quadrature, independent of the engine: the angle is the measured sample
+    conditioned on phi < theta (equal weights); for each angle the capture
+    threshold ``d*`` (``v_c(d*) = s sin(theta - phi)``) splits the diameter
+    integral exactly, the capture probability is the truncated-normal CDF at ``d*``
+    (closed form) and the rebound part is a midpoint rule with `nodes` points in
+    probability over ``[F(d*), 1]``.
+    """
+    from scipy.special import ndtr, ndtri
+
+    theta = np.deg2rad(angle_deg)
+    phi = np.asarray(angles_rad, dtype=float)
+    phi = phi[phi < theta]
+    mean, std, d_ref = MEAN_UM * 1e-6, STD_UM * 1e-6, D_REF_UM * 1e-6
+    p0 = ndtr(-mean / std)  # normal mass below d = 0 (truncated away)
+
+    def cdf(d):
+        return (ndtr((d - mean) / std) - p0) / (1.0 - p0)
+
+    def ppf(q):
+        return mean + std * ndtri(p0 + q * (1.0 - p0))
+
+    mid = (np.arange(nodes) + 0.5) / nodes
+    e_sum, cap_sum = 0.0, 0.0
+    for lo in range(0, phi.size, 64):
+        ph = phi[lo : lo + 64, None]
+        u = speed * np.sin(theta - ph)  # |v_n'|
+        d_star = d_ref * (u / VC_A) ** (1.0 / EXPONENT)  # v_c(d*) = u
+        q_star = cdf(d_star)
+        cap_sum += float(q_star.sum())
+        d = ppf(q_star + mid[None, :] * (1.0 - q_star))
+        v_c = VC_A * (d / d_ref) ** EXPONENT
+        k2 = K2_A * (d / d_ref) ** EXPONENT
+        e = (K1 / (K1 + u)) * (1.0 - k2 / (k2 + u - v_c))
+        cot = 1.0 / np.tan(theta - ph)
+        mu = np.clip(2.0 * cot / (7.0 * (1.0 + e)), -FRICTION, FRICTION)
+        t = np.tan(ph)
+        e_m = (e - t * (cot - mu * (1.0 + e))) / (1.0 + t * cot)
+        e_sum += float((e_m.mean(axis=1) * (1.0 - q_star[:, 0])).sum())
+    return {"e_mean": e_sum / phi.size, "capture_fraction": cap_sum / phi.size}
+
+
+def qmc_error_ratio(n: int, replicates: int, reference: float, angles) -> dict:
+    """RMS error of the mean e_m over `replicates` estimates of `n` impacts each."""
+    import microimpact as mi
+
+    qmc = make_scenario(angles, sampling="qmc", qmc_replicates=replicates)
+    qmc_est = {}
+    for br in mi.iter_blocks(qmc, samples=n * replicates, seed=SEED, progress=False):
+        if br.done:
+            qmc_est[br.replicate] = br.total.e_all().mean
+    mc = make_scenario(angles)
+    mc_est = [
+        _summary_stats(mi.run(mc, samples=n, seed=SEED + 1 + r, progress=False))[
+            "e_mean"
+        ]
+        for r in range(replicates)
+    ]
+    rms_qmc = math.sqrt(np.mean((np.array(list(qmc_est.values())) - reference) ** 2))
+    rms_mc = math.sqrt(np.mean((np.array(mc_est) - reference) ** 2))
+    return {
+        "ratio": rms_mc / rms_qmc,
+        "rms_mc": rms_mc,
+        "rms_qmc": rms_qmc,
+        "n_per_replicate": n,
+        "replicates": replicates,
+    }
+
+
+# ------------------------------------------------------- 8. paper reproduction
+def paper_reproduction(samples: int, *, max_presets=None, cli_out=None) -> dict:
+    """Time the presets (all, or the first `max_presets`) at `samples` impacts per
+    point (engine only) and, with `cli_out`, ``microimpact reproduce`` as a user
+    runs it."""
+    try:
+        from microimpact.config import PRESETS, load_preset
+    except ImportError as exc:
+        return {"skipped": f"presets not available ({exc})"}
+    import microimpact as mi
+
+    out = {"samples": samples, "presets": {}}
+    t_all = time.perf_counter()
+    for name in list(PRESETS)[:max_presets]:
+        t0 = time.perf_counter()
+        result = mi.run(load_preset(name), samples=samples, workers=1, progress=False)
+        out["presets"][name] = {
+            "points": len(result.summary),
+            "s": time.perf_counter() - t0,
+        }
+    out["engine_s"] = time.perf_counter() - t_all
+    if cli_out is not None:
+        cmd = [
+            sys.executable,
+            "-c",
+            "import sys; from microimpact.cli import main; sys.exit(main())",
+            "reproduce",
+            "--out",
+            str(cli_out),
+            "--quiet",
+            "--samples",
+            str(samples),
+            "--formats",
+            "png",
+        ]
+        t0 = time.perf_counter()
+        proc = subprocess.run(cmd, capture_output=True, text=True, check=False)
+        if proc.returncode == 0:
+            out["cli_s"] = time.perf_counter() - t0
+        else:
+            tail = (proc.stderr or proc.stdout).strip().splitlines()[-1:]
+            out["cli_note"] = f"reproduce exited {proc.returncode}: {' '.join(tail)}"
+    return out
+
+
+# ------------------------------------------------------------ process plumbing
+def _self_maxrss_mb() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # KiB->MiB
+
+
+TASKS = {
+    "rng": lambda p: rng_floor(p["n"]),
+    "rng_classic": lambda p: rng_floor_classic(p["n"]),
+    "numpy": lambda p: _numpy_task(p["n"], p["seed"]),
+    "engine": lambda p: _engine_task(
+        p["n"], p["workers"], p["seed"], p.get("warmup", True)
+    ),
+    "fixed_cost": lambda p: _fixed_cost_task(p["workers"]),
+    "dask": lambda p: _dask_task(p["n"], p["workers"], p["repeats"]),
+}
+
+
+def _run_task(p: dict) -> dict:
+    """Run task ``p["task"]`` ``p["reps"]`` times (seeds ``seed, seed + 1, ...``;
+    the warm-up, if any, only before the first)."""
+    runs = []
+    for r in range(p.get("reps", 1)):
+        q = dict(
+            p, seed=p.get("seed", SEED) + r, warmup=p.get("warmup", True) and r == 0
+        )
+        runs.append(TASKS[p["task"]](q))
+    return {"runs": runs}
+
+
+def _child(spec: str) -> int:
+    out = _run_task(json.loads(spec))
+    out["maxrss_mb"] = _self_maxrss_mb()
+    out["children_maxrss_mb"] = (
+        resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024.0
+    )
+    print("@@RESULT " + json.dumps(out))
+    return 0
+
+
+def measure(task: str, *, isolate: bool, **params) -> dict:
+    """Run a measurement (``reps`` times), in a fresh process when `isolate`.
+
+    Returns ``{"runs": [...], "maxrss_mb": ..., "children_maxrss_mb": ...}``.
+    """
+    params["task"] = task
+    if not isolate:
+        out = _run_task(params)
+        out["maxrss_mb"] = out["children_maxrss_mb"] = None
+        return out
+    cmd = [sys.executable, str(Path(__file__).resolve()), "--child", json.dumps(params)]
+    env = dict(os.environ, PYTHONWARNINGS="ignore")
+    proc = subprocess.run(cmd, capture_output=True, text=True, check=False, env=env)
+    for line in proc.stdout.splitlines():
+        if line.startswith("@@RESULT "):
+            return json.loads(line[len("@@RESULT ") :])
+    raise RuntimeError(
+        f"benchmark child {task} failed (exit {proc.returncode}):\n{proc.stderr}"
+    )
+
+
+def repeated(
+    task: str, repeats: int, *, isolate: bool, per_process: bool, **params
+) -> dict:
+    """Median rate of `repeats` measurements (each with its own seed), each in its
+    own fresh process (`per_process`) or all in one."""
+    if per_process:
+        procs = [
+            measure(task, isolate=isolate, seed=SEED + r, **params)
+            for r in range(repeats)
+        ]
+    else:
+        procs = [measure(task, isolate=isolate, seed=SEED, reps=repeats, **params)]
+    runs = [run for p in procs for run in p["runs"]]
+    rates = [r["rate"] for r in runs]
+    rss = [p["maxrss_mb"] for p in procs if p["maxrss_mb"] is not None]
+    kids = [p["children_maxrss_mb"] for p in procs if p["children_maxrss_mb"]]
+    return {
+        "rate": statistics.median(rates),
+        "rates": rates,
+        "maxrss_mb": max(rss) if rss else None,
+        "workers_maxrss_mb": max(kids) if kids else None,
+        "runs": runs,
+    }
+
+
+def agreement(a: dict, b: dict) -> dict:
+    """z-scores of the differences of e_mean and capture_fraction of two estimates."""
+    z_e = (a["e_mean"] - b["e_mean"]) / math.hypot(a["e_se"], b["e_se"])
+    pa, pb = a["capture_fraction"], b["capture_fraction"]
+    se_c = math.sqrt(pa * (1 - pa) / a["n"] + pb * (1 - pb) / b["n"])
+    return {"z_e_mean": z_e, "z_capture_fraction": (pa - pb) / se_c}
+
+
+def check_agreement(a: dict, b: dict, what: str) -> dict:
+    z = agreement(a, b)
+    bad = {k: v for k, v in z.items() if not abs(v) <= AGREEMENT_SE}
+    if bad:
+        raise RuntimeError(
+            f"{what}: differ by more than {AGREEMENT_SE} standard errors: {bad}"
+        )
+    return z
+
+
+def write_json_atomic(path, data) -> None:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w") as f:
+            json.dump(data, f, indent=2)
+            f.write("\n")
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+# ------------------------------------------------------------------------ main
+def _fmt(x, spec):
+    width = int(spec.split(".")[0] or 0)
+    return f"{'-':>{width}}" if x is None else format(x, spec)
+
+
+def print_table(res: dict) -> None:
+    floor = res["rng_floor_per_s"]
+    classic = res["rng_floor_classic_per_s"]
+    base = res["numpy_baseline_per_s"]
+    rss = res["details"]["variant_peak_rss_mb"]
+    rows = [
+        ("RNG floor: engine streams (2 x random_raw)", floor),
+        ("RNG floor: classic (normal + uniform, out=)", classic),
+        ("NumPy whole arrays (user baseline)", base),
+        ("microimpact.run, 1 process", res["engine_per_s"]),
+        (
+            f"microimpact.run, {res['cpu_count']} processes",
+            res["engine_all_cores_per_s"],
+        ),
+        (f"microimpact.run, Dask LocalCluster ({res['cpu_count']})", res["dask_per_s"]),
+    ]
+    keys = ["rng", "rng_classic", "numpy", "engine", "engine_all_cores", "dask"]
+    print(
+        f"{'variant':<46} {'M/s':>7} {'floor/x':>8} {'classic/x':>9} "
+        f"{'x/numpy':>8} {'peak RSS MiB':>13}"
+    )
+    for (name, rate), key in zip(rows, keys, strict=True):
+        print(
+            f"{name:<46} {_fmt(rate and rate / 1e6, '7.2f')} "
+            f"{_fmt(rate and floor / rate, '8.2f')} "
+            f"{_fmt(rate and classic / rate, '9.2f')} "
+            f"{_fmt(rate and rate / base, '8.2f')} {rss.get(key) or '-':>13}"
+        )
+    print(
+        "floor/x, classic/x: times slower than each RNG floor; x/numpy: speed-up over "
+        "the NumPy baseline.\nPeak RSS of the measuring process; process-pool workers "
+        "are forkserver grandchildren and not counted; '+X/wkr': each Dask worker."
+    )
+    by_n = ", ".join(
+        f"{int(n):.0e}: {v:.0f}" for n, v in res["peak_rss_mb_by_n"].items()
+    )
+    print(f"peak RSS of a fresh run [MiB] by N: {by_n}")
+    q = res["details"].get("qmc")
+    if q:
+        print(
+            f"QMC: RMS error of mean e_m at N={q['n_per_replicate']}, "
+            f"{q['replicates']} replicates: MC {q['rms_mc']:.2e}, QMC "
+            f"{q['rms_qmc']:.2e}, ratio {q['ratio']:.2f}"
+        )
+    if res.get("dask_cluster_start_s") is not None:
+        print(f"Dask LocalCluster start: {res['dask_cluster_start_s']:.2f} s")
+    if res.get("paper_reproduction_s") is not None:
+        n_presets = len(res["details"]["paper_reproduction"]["presets"])
+        print(
+            f"paper reproduction ({n_presets} presets, "
+            f"{res['paper_reproduction_samples']} "
+            f"per point, engine only): {res['paper_reproduction_s']:.2f} s"
+        )
+    if res.get("paper_reproduction_cli_s") is not None:
+        print(f"microimpact reproduce (CLI): {res['paper_reproduction_cli_s']:.2f} s")
+    for note in res["notes"]:
+        print(f"note: {note}")
+
+
+def run_benchmark(mode: str, *, dask: bool = True, reproduce: bool = True) -> dict:
+    cfg = MODES[mode]
+    iso, reps = cfg["isolate"], cfg["repeats"]
+    kw = dict(isolate=iso, per_process=cfg["process_per_repeat"])
+    workers = os.cpu_count() or 1
+    notes, details = [], {"config": cfg}
+    t_start = time.perf_counter()
+
+    rng = repeated("rng", reps, n=cfg["n_rng"], **kw)
+    classic = repeated("rng_classic", reps, n=cfg["n_rng"], **kw)
+    n_np = min(cfg["n_numpy"], NUMPY_MAX_N)
+    npb = repeated("numpy", reps, n=n_np, **kw)
+    eng = repeated("engine", reps, n=cfg["n_engine"], workers=1, **kw)
+    allc = repeated(
+        "engine", reps, n=cfg["n_engine"], workers=workers, warmup=iso, **kw
+    )
+    if iso:  # the fixed cost of one run (pool start, plan, result)
+        details["fixed_cost_s"] = {
+            str(w): measure("fixed_cost", isolate=iso, workers=w)["runs"][0]["wall_s"]
+            for w in sorted({1, workers})
+        }
+
+    # both compute the same physics: NumPy baseline versus engine, and both versus
+    # the independent quadrature of the exact expectation
+    angles, raw = formica_angles()
+    ref = reference_values(raw)
+    np_stats = npb["runs"][0]["stats"]
+    eng_stats = eng["runs"][0]["stats"]
+    details["agreement"] = {
+        "numpy_vs_engine": check_agreement(np_stats, eng_stats, "NumPy vs engine"),
+        "reference": ref,
+        "engine_e_mean_z_vs_reference": (eng_stats["e_mean"] - ref["e_mean"])
+        / eng_stats["e_se"],
+        "numpy_e_mean_z_vs_reference": (np_stats["e_mean"] - ref["e_mean"])
+        / np_stats["e_se"],
+        "engine": eng_stats,
+        "numpy": np_stats,
+    }
+
+    rss_by_n = {}
+    for n in cfg["rss_ns"]:
+        r = measure("engine", isolate=True, n=n, workers=1, warmup=False)
+        rss_by_n[str(n)] = r["maxrss_mb"]
+
+    dask_rate = dask_start = None
+    if dask:
+        dp = measure(
+            "dask", isolate=iso, n=cfg["n_engine"], workers=workers, repeats=reps
+        )
+        d = dict(dp["runs"][0], maxrss_mb=dp["maxrss_mb"])
+        if "skipped" in d:
+            notes.append(f"Dask skipped: {d['skipped']}")
+        else:
+            dask_rate = statistics.median(d["rates"])
+            dask_start = d["cluster_start_s"]
+            details["dask"] = d
+    else:
+        notes.append("Dask skipped (--no-dask)")
+
+    q = qmc_error_ratio(cfg["qmc_n"], cfg["qmc_replicates"], ref["e_mean"], angles)
+    details["qmc"] = q
+
+    repro = None
+    if reproduce:
+        with tempfile.TemporaryDirectory() as tmp:
+            cli_out = Path(tmp) / "reproduce" if cfg["reproduce_cli"] else None
+            repro = paper_reproduction(
+                cfg["reproduce_samples"],
+                max_presets=cfg["reproduce_presets"],
+                cli_out=cli_out,
+            )
+        if "skipped" in repro:
+            notes.append(f"paper reproduction skipped: {repro['skipped']}")
+            repro = None
+        else:
+            details["paper_reproduction"] = repro
+            if "cli_note" in repro:
+                notes.append(repro["cli_note"])
+    if mode == "smoke":
+        notes.append("smoke mode: tiny sizes, the timings mean nothing")
+
+    details["variant_peak_rss_mb"] = {
+        "rng": _rss_str(rng),
+        "rng_classic": _rss_str(classic),
+        "numpy": _rss_str(npb),
+        "engine": _rss_str(eng),
+        "engine_all_cores": _rss_str(allc, pool=True),
+        "dask": _dask_rss_str(details.get("dask")),
+    }
+    details["rates"] = {
+        k: v["rates"]
+        for k, v in (
+            ("rng", rng),
+            ("rng_classic", classic),
+            ("numpy", npb),
+            ("engine", eng),
+            ("engine_all_cores", allc),
+        )
+    }
+    details["engine_elapsed_s"] = [r["engine_elapsed_s"] for r in eng["runs"]]
+    import scipy
+
+    return {
+        "rng_floor_per_s": rng["rate"],
+        "numpy_baseline_per_s": npb["rate"],
+        "engine_per_s": eng["rate"],
+        "engine_all_cores_per_s": allc["rate"],
+        "dask_per_s": dask_rate,
+        "peak_rss_mb": max(rss_by_n.values()),
+        "qmc_error_ratio": q["ratio"],
+        "rng_floor_classic_per_s": classic["rate"],
+        "peak_rss_mb_by_n": rss_by_n,
+        "dask_cluster_start_s": dask_start,
+        "paper_reproduction_s": None if repro is None else repro["engine_s"],
+        "paper_reproduction_cli_s": None if repro is None else repro.get("cli_s"),
+        "paper_reproduction_samples": None if repro is None else repro["samples"],
+        "mode": mode,
+        "n": {
+            "rng": cfg["n_rng"],
+            "numpy": n_np,
+            "engine": cfg["n_engine"],
+            "qmc_per_replicate": cfg["qmc_n"],
+        },
+        "repeats": reps,
+        "cpu_count": workers,
+        "machine": {
+            "python": platform.python_version(),
+            "numpy": np.__version__,
+            "scipy": scipy.__version__,
+            "platform": platform.platform(),
+            "processor": platform.processor() or platform.machine(),
+        },
+        "wall_s": time.perf_counter() - t_start,
+        "notes": notes,
+        "details": details,
+    }
+
+
+def _rss_str(rep, pool=False):
+    if rep["maxrss_mb"] is None:
+        return None
+    s = f"{rep['maxrss_mb']:.0f}"
+    if pool and rep["workers_maxrss_mb"]:
+        s += f" +{rep['workers_maxrss_mb']:.0f}/wkr"
+    return s
+
+
+def _dask_rss_str(d):
+    if not d or not d.get("worker_maxrss_mb"):
+        return None
+    driver = "-" if d.get("maxrss_mb") is None else f"{d['maxrss_mb']:.0f}"
+    return f"{driver} +{max(d['worker_maxrss_mb']):.0f}/wkr"
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    size = parser.add_mutually_exclusive_group()
+    size.add_argument("--quick", action="store_true", help="about one minute")
+    size.add_argument(
+        "--smoke", action="store_true", help="about 10 s, tiny sizes (CI)"
+    )
+    parser.add_argument("--json", type=Path, metavar="PATH", help="write results")
+    parser.add_argument("--no-dask", action="store_true", help="skip the Dask run")
+    parser.add_argument(
+        "--no-reproduce", action="store_true", help="skip the paper reproduction"
+    )
+    parser.add_argument("--child", help=argparse.SUPPRESS)
+    args = parser.parse_args(argv)
+    if args.child:
+        return _child(args.child)
+    mode = "smoke" if args.smoke else "quick" if args.quick else "full"
+    res = run_benchmark(mode, dask=not args.no_dask, reproduce=not args.no_reproduce)
+    print(
+        f"# microimpact benchmark, mode {mode}, {res['cpu_count']} CPUs, "
+        f"Python {res['machine']['python']}, NumPy {res['machine']['numpy']}; "
+        f"N engine {res['n']['engine']:.3g}, NumPy {res['n']['numpy']:.3g}; "
+        f"median of {res['repeats']}; {res['wall_s']:.0f} s in all"
+    )
+    print_table(res)
+    missing = [k for k in REQUIRED_KEYS if k not in res]
+    if missing:  # pragma: no cover - a programming error
+        raise RuntimeError(f"results lack {missing}")
+    if args.json:
+        write_json_atomic(args.json, res)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,148 @@
+"""The performance benchmark ``benchmarks/run.py``: it runs end to end (``--smoke``),
+writes every documented key, and its plain-NumPy baseline computes the same physics
+as the engine (both checked against an independent quadrature of the exact
+expectation). No timing is asserted."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+from scipy import integrate, stats
+
+import microimpact as mi
+
+ROOT = Path(__file__).resolve().parents[1]
+SCRIPT = ROOT / "benchmarks" / "run.py"
+
+
+@pytest.fixture(scope="module")
+def bench():
+    spec = importlib.util.spec_from_file_location("microimpact_bench_run", SCRIPT)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.fixture(scope="module")
+def angles(bench):
+    return bench.formica_angles()
+
+
+def test_smoke_writes_every_key(tmp_path):
+    out = tmp_path / "bench.json"
+    proc = subprocess.run(
+        [sys.executable, str(SCRIPT), "--smoke", "--json", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    data = json.loads(out.read_text())
+    dask_missing = importlib.util.find_spec("dask") is None
+    for key in (
+        "rng_floor_per_s",
+        "numpy_baseline_per_s",
+        "engine_per_s",
+        "engine_all_cores_per_s",
+        "dask_per_s",
+        "peak_rss_mb",
+        "qmc_error_ratio",
+        "rng_floor_classic_per_s",
+    ):
+        assert key in data, key
+        if key == "dask_per_s" and dask_missing:
+            assert data[key] is None
+            continue
+        value = data[key]
+        assert isinstance(value, int | float) and math.isfinite(value), (key, value)
+        assert value > 0, (key, value)
+    assert data["peak_rss_mb_by_n"]
+    assert all(v > 0 for v in data["peak_rss_mb_by_n"].values())
+    assert data["peak_rss_mb"] == max(data["peak_rss_mb_by_n"].values())
+    # no temporary file left beside the JSON (atomic write)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bench.json"]
+    assert "variant" in proc.stdout and "M/s" in proc.stdout
+
+
+def test_reference_capture_fraction_is_the_closed_form(bench, angles):
+    """The quadrature's capture fraction against scipy's truncated normal CDF."""
+    _, raw = angles
+    theta = np.deg2rad(bench.ANGLE_DEG)
+    phi = raw[raw < theta]
+    u = bench.SPEED * np.sin(theta - phi)
+    d_star = bench.D_REF_UM * 1e-6 * (u / bench.VC_A) ** (1.0 / bench.EXPONENT)
+    mean, std = bench.MEAN_UM * 1e-6, bench.STD_UM * 1e-6
+    dist = stats.truncnorm(-mean / std, np.inf, loc=mean, scale=std)
+    expected = dist.cdf(d_star).mean()
+    ref = bench.reference_values(raw, nodes=256)
+    assert_allclose(ref["capture_fraction"], expected, rtol=1e-12)
+
+
+def test_reference_e_mean_matches_adaptive_quadrature(bench):
+    """Midpoint quadrature of E[e_m] against scipy.integrate.quad of the reference
+    physics (microimpact.apparent_rebound) over diameter, for a few angles."""
+    mean, std = bench.MEAN_UM * 1e-6, bench.STD_UM * 1e-6
+    dist = stats.truncnorm(-mean / std, np.inf, loc=mean, scale=std)
+    d_ref = bench.D_REF_UM * 1e-6
+    phis = np.array([-0.4, -0.1, 0.0, 0.2, 0.45])  # [rad], all < 30 deg
+    expected = []
+    for phi in phis:
+
+        def integrand(d, phi=phi):
+            r = mi.apparent_rebound(
+                bench.SPEED,
+                bench.ANGLE_DEG,
+                np.rad2deg(phi),
+                k1=bench.K1,
+                k2=bench.K2_A * (d / d_ref) ** bench.EXPONENT,
+                v_c=bench.VC_A * (d / d_ref) ** bench.EXPONENT,
+                friction=bench.FRICTION,
+            )
+            return float(r.e_m) * dist.pdf(d)
+
+        u = bench.SPEED * np.sin(np.deg2rad(bench.ANGLE_DEG) - phi)
+        d_star = d_ref * (u / bench.VC_A) ** (1.0 / bench.EXPONENT)
+        val, _ = integrate.quad(integrand, d_star, mean + 12 * std, limit=200)
+        expected.append(val)
+    got = [bench.reference_values(np.array([p]))["e_mean"] for p in phis]
+    assert_allclose(got, expected, rtol=0, atol=2e-7)
+
+
+def test_numpy_baseline_agrees_with_engine(bench, angles):
+    """Same physics: NumPy baseline and engine agree within 5 standard errors, and
+    each agrees with the quadrature of the exact expectation."""
+    dist, raw = angles
+    n = 1 << 17
+    base = bench.numpy_baseline(n, raw, rng=np.random.default_rng(7))
+    result = mi.run(bench.make_scenario(dist), samples=n, seed=11, progress=False)
+    row = result.summary.iloc[0]
+    eng = {
+        "n": int(row["n"]),
+        "e_mean": float(row["e_mean"]),
+        "e_se": float(row["e_se"]),
+        "capture_fraction": float(row["capture_fraction"]),
+    }
+    z = bench.agreement(base, eng)
+    assert abs(z["z_e_mean"]) < 5, z
+    assert abs(z["z_capture_fraction"]) < 5, z
+    ref = bench.reference_values(raw)
+    for est in (base, eng):
+        p = ref["capture_fraction"]
+        assert abs(est["e_mean"] - ref["e_mean"]) < 5 * est["e_se"]
+        assert abs(est["capture_fraction"] - p) < 5 * math.sqrt(p * (1 - p) / n)
+    # the histogram of rebounds (with under/overflow slots) counts every rebound
+    rebounds = round(n * (1 - base["capture_fraction"]))
+    assert base["e_hist"].sum() == rebounds
+    # check_agreement raises on a real disagreement
+    shifted = dict(eng, e_mean=eng["e_mean"] + 10 * eng["e_se"])
+    with pytest.raises(RuntimeError, match="standard errors"):
+        bench.check_agreement(base, shifted, "test")
