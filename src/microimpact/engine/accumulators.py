@@ -152,8 +152,8 @@ class PointAccumulator:
             rolling=self.rolling + other.rolling,
             e=self.e.merge(other.e),
             mu=self.mu.merge(other.mu),
-            e_hist=self.e_hist + other.e_hist,
-            mu_hist=self.mu_hist + other.mu_hist,
+            e_hist=np.add(self.e_hist, other.e_hist, dtype=np.int64),
+            mu_hist=np.add(self.mu_hist, other.mu_hist, dtype=np.int64),
         )
 
     @property

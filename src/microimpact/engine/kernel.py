@@ -272,8 +272,10 @@ def _simulate_fused(plan, sp, tables, idx, n):
     i_a = idx.get(VAR_ANGLE, none)
     i_s = idx.get(VAR_SPEED, none)
     sf = plan.speed_factor if plan.speed_factor is not None else np.ones(1)
-    e_hist = np.zeros(E_EDGES.size + 1, dtype=np.int64)
-    mu_hist = np.zeros(MU_EDGES.size + 1, dtype=np.int64)
+    # int32 per block (a block holds < 2**31 impacts) halves the transfer to the
+    # driver; totals are accumulated in int64 (PointAccumulator.merge)
+    e_hist = np.zeros(E_EDGES.size + 1, dtype=np.int32)
+    mu_hist = np.zeros(MU_EDGES.size + 1, dtype=np.int32)
     counts = np.zeros(5, dtype=np.int64)
     em, mum, flags = ws[2], ws[3], ws[4]
     _fused.physics(

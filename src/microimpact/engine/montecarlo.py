@@ -235,45 +235,69 @@ def iter_blocks(
         plan, workers=workers, backend=backend, executor=executor, address=address
     )
     last_save = time.monotonic()
+
+    def merge(point, rep, b, acc):
+        """Merge block b of (point, rep) if it is the next one; None otherwise."""
+        st = streams[(point, rep)]
+        if st.done or b != st.next_block:
+            return None  # after convergence: discarded, deterministically
+        st.acc = acc if st.acc is None else st.acc.merge(acc)
+        st.next_block = b + 1
+        if st.next_block >= st.n_blocks(B):
+            st.done = True
+        elif precision is not None and _converged(
+            st.acc, precision, scenario.confidence
+        ):
+            st.done = True
+        if bar is not None:
+            bar.update(acc.n)
+        return BlockResult(point, rep, b, acc, st.acc, st.done)
+
     try:
-        while True:
+        if precision is None:
+            # fixed sizes: stream every remaining block in key order through the
+            # runner with bounded look-ahead; results come back in the same order
+            tasks = []
+            for key in sorted(k for k, st in streams.items() if not st.done):
+                st = streams[key]
+                specs = [
+                    (key[0], key[1], b, st.block_n(b, B))
+                    for b in range(st.next_block, st.n_blocks(B))
+                ]
+                for i in range(0, len(specs), BLOCKS_PER_TASK):
+                    tasks.append(tuple(specs[i : i + BLOCKS_PER_TASK]))
+            for task, accs in zip(tasks, runner.imap(tasks), strict=True):
+                for (point, rep, b, _n), acc in zip(task, accs, strict=True):
+                    yield merge(point, rep, b, acc)
+                if checkpoint is not None and (
+                    time.monotonic() - last_save > CHECKPOINT_INTERVAL
+                ):
+                    _save(checkpoint, fingerprint, streams)
+                    last_save = time.monotonic()
+        while precision is not None:
+            # precision targets: waves of blocks, convergence checked block by block
             active = [k for k, s in streams.items() if not s.done]
             if not active:
                 break
-            per_key = max(1, (runner.workers * 4 * BLOCKS_PER_TASK) // len(active))
-            if precision is not None:
-                per_key = min(per_key, max(1, runner.workers * 2))
+            per_key = max(1, runner.workers * 2)
             wave: list[tuple] = []
             for key in active:
                 st = streams[key]
                 stop = min(st.next_block + per_key, st.n_blocks(B))
-                specs = [
-                    (key[0], key[1], b, st.block_n(b, B))
-                    for b in range(st.next_block, stop)
-                ]
-                for i in range(0, len(specs), BLOCKS_PER_TASK):
-                    wave.append(tuple(specs[i : i + BLOCKS_PER_TASK]))
-            results = runner.map(wave)
+                wave.append(
+                    tuple(
+                        (key[0], key[1], b, st.block_n(b, B))
+                        for b in range(st.next_block, stop)
+                    )
+                )
             merged = {}
-            for task, accs in zip(wave, results, strict=True):
+            for task, accs in zip(wave, runner.map(wave), strict=True):
                 for (point, rep, b, _n), acc in zip(task, accs, strict=True):
                     merged[(point, rep, b)] = acc
             for point, rep, b in sorted(merged):
-                st = streams[(point, rep)]
-                if st.done or b != st.next_block:
-                    continue  # after convergence: discarded, deterministically
-                acc = merged[(point, rep, b)]
-                st.acc = acc if st.acc is None else st.acc.merge(acc)
-                st.next_block = b + 1
-                if st.next_block >= st.n_blocks(B):
-                    st.done = True
-                elif precision is not None and _converged(
-                    st.acc, precision, scenario.confidence
-                ):
-                    st.done = True
-                if bar is not None:
-                    bar.update(acc.n)
-                yield BlockResult(point, rep, b, acc, st.acc, st.done)
+                br = merge(point, rep, b, merged[(point, rep, b)])
+                if br is not None:
+                    yield br
             if checkpoint is not None and (
                 time.monotonic() - last_save > CHECKPOINT_INTERVAL
             ):

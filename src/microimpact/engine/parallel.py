@@ -33,6 +33,25 @@ def _run_task_global(task):
     return run_task(_WORKER_PLAN, task)
 
 
+def _ordered(submit, tasks, in_flight):
+    """Yield ``submit(task).result()`` in task order, keeping at most `in_flight`
+    tasks submitted ahead (bounded memory, no barrier between waves)."""
+    import collections
+
+    pending = collections.deque()
+    it = iter(tasks)
+    for task in it:
+        pending.append(submit(task))
+        if len(pending) >= in_flight:
+            break
+    while pending:
+        result = pending.popleft().result()
+        for task in it:
+            pending.append(submit(task))
+            break
+        yield result
+
+
 class SerialRunner:
     """Run tasks in this process."""
 
@@ -44,6 +63,9 @@ class SerialRunner:
     def map(self, tasks):
         return [run_task(self.plan, t) for t in tasks]
 
+    def imap(self, tasks):
+        return (run_task(self.plan, t) for t in tasks)
+
     def close(self):
         pass
 
@@ -53,11 +75,19 @@ class PoolRunner:
 
     def __init__(self, plan, workers: int):
         import multiprocessing as mp
+        import threading
         from concurrent.futures import ProcessPoolExecutor
 
         self.workers = workers
-        # 'spawn' is safe with threads (Dask, BLAS) and identical on every platform.
-        ctx = mp.get_context("spawn" if os.name == "nt" else "forkserver")
+        # 'fork' starts workers instantly with the compiled kernel already loaded,
+        # but is unsafe once threads run; otherwise 'forkserver' (or 'spawn').
+        if os.name == "nt":
+            method = "spawn"
+        elif threading.active_count() == 1 and "fork" in mp.get_all_start_methods():
+            method = "fork"
+        else:
+            method = "forkserver"
+        ctx = mp.get_context(method)
         self._pool = ProcessPoolExecutor(
             max_workers=workers,
             mp_context=ctx,
@@ -67,6 +97,11 @@ class PoolRunner:
 
     def map(self, tasks):
         return list(self._pool.map(_run_task_global, tasks))
+
+    def imap(self, tasks):
+        return _ordered(
+            lambda t: self._pool.submit(_run_task_global, t), tasks, 4 * self.workers
+        )
 
     def close(self):
         self._pool.shutdown(wait=True, cancel_futures=True)
@@ -85,6 +120,13 @@ class ExecutorRunner:
         import functools
 
         return list(self.executor.map(functools.partial(run_task, self.plan), tasks))
+
+    def imap(self, tasks):
+        import itertools
+
+        it = iter(tasks)
+        while batch := list(itertools.islice(it, 8 * self.workers)):
+            yield from self.map(batch)
 
     def close(self):
         pass
