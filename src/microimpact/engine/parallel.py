@@ -167,6 +167,13 @@ class DaskRunner:
         )
         return self._client.gather(futures)
 
+    def imap(self, tasks):
+        return _ordered(
+            lambda t: self._client.submit(run_task, self._plan, t, pure=False),
+            tasks,
+            4 * self.workers,
+        )
+
     def close(self):
         self._client.close()
         if self._cluster is not None:
