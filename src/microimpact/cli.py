@@ -244,8 +244,25 @@ def _run_one(scenario, out_dir, args, samples=None):
             formats=args.formats,
             experiments=_experiments(scenario),
         )
+        figures += _write_input_figures(result, out_dir, args.formats)
     ck.unlink(missing_ok=True)
     return result, figures
+
+
+def _write_input_figures(result, out_dir, formats):
+    """Fig. 2 (diameters) and Fig. 4 (roughness angles) as files."""
+    import matplotlib.pyplot as plt
+
+    from .plotting.results import save_figure
+    from .report import input_figures
+
+    paths = []
+    for name, _caption, fig in input_figures(result):
+        try:
+            paths += save_figure(fig, out_dir / name, formats=formats)
+        finally:
+            plt.close(fig)
+    return paths
 
 
 def _experiments(scenario):

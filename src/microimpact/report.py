@@ -354,8 +354,13 @@ def _comparison_html(table) -> str:
     )
 
 
-def _input_figures(result):
-    """Population and roughness figures from the optional plotting modules."""
+def input_figures(result):
+    """The input figures of a result: its diameter distribution (paper Fig. 2) and
+    the roughness-angle PDF of each rough surface (Fig. 4).
+
+    Returns a list of ``(name, caption, figure)``; names are ``size_distribution``
+    and ``angle_pdf_<surface>``.
+    """
     out = []
     sc = result.scenario
     try:
@@ -365,7 +370,13 @@ def _input_figures(result):
     if plot_size_distribution is not None:
         try:
             ax = plot_size_distribution(sc.particles)
-            out.append(("Particle diameter distribution (paper Fig. 2).", ax.figure))
+            out.append(
+                (
+                    "size_distribution",
+                    "Particle diameter distribution (paper Fig. 2).",
+                    ax.figure,
+                )
+            )
         except (TypeError, ValueError, AttributeError, KeyError):
             pass  # not a SizeDistribution this module can draw
     try:
@@ -384,6 +395,7 @@ def _input_figures(result):
             ax.set_title(f"Surface {s.name}")
             out.append(
                 (
+                    f"angle_pdf_{s.name}",
                     f"Roughness-angle probability density of surface {s.name!r} "
                     "(paper Fig. 4), drawn from its quantile function.",
                     ax.figure,
@@ -440,8 +452,9 @@ def _result_section(result, k, csv_href, experiments, saved) -> str:
     from .plotting.results import STYLE
 
     rc = {**STYLE, "figure.figsize": (5.0, 3.4), "figure.constrained_layout.use": True}
-    with mpl.rc_context(rc):
-        figs += _input_figures(result)
+    if saved is None:  # otherwise the caller wrote the input figures too
+        with mpl.rc_context(rc):
+            figs += [(c, f) for _, c, f in input_figures(result)]
     if figs:
         parts.append("<h3>Figures</h3>")
     for caption, fig in figs:
