@@ -287,6 +287,36 @@ def _print_capture(result):
 
 
 # ----------------------------------------------------------------- commands
+def _write_outputs(out, *, tables=None, texts=None, figures=None):
+    """Write tables (CSV), texts and figures (PNG + PDF) to `out`, each atomically.
+
+    `figures` maps a file stem to a zero-argument function that draws and returns
+    an Axes; matplotlib is imported (with the Agg backend) only when needed.
+    """
+    from .engine.result import atomic_write
+
+    out.mkdir(parents=True, exist_ok=True)
+    for name, table in (tables or {}).items():
+        atomic_write(out / name, lambda t, df=table: df.to_csv(t, index=False))
+    for name, text in (texts or {}).items():
+        atomic_write(out / name, lambda t, x=text: Path(t).write_text(x))
+    if figures:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        from .plotting.results import save_figure
+
+        for stem, draw in figures.items():
+            ax = draw()
+            try:
+                save_figure(ax.figure, out / stem, formats=("png", "pdf"))
+            finally:
+                plt.close(ax.figure)
+    print(f"-> {out}")
+
+
 def cmd_run(args):
     from .report import write_report
     from .scenario import Precision
@@ -454,21 +484,8 @@ def cmd_sizes(args):
         f"p = {chi.pvalue:.4g} -> {chi.decision} (alpha {args.alpha})"
     )
     if args.out is not None:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        from .engine.result import atomic_write
-        from .plotting.results import save_figure
         from .plotting.sizes import plot_size_distribution
 
-        args.out.mkdir(parents=True, exist_ok=True)
-        ax = plot_size_distribution(
-            d_um, fit=normal.distribution if hasattr(normal, "distribution") else None
-        )
-        save_figure(ax.figure, args.out / "size_distribution", formats=("png", "pdf"))
-        plt.close(ax.figure)
         report = {
             "n": int(d_um.size),
             "normal": str(normal),
@@ -482,11 +499,15 @@ def cmd_sizes(args):
                 "alpha": args.alpha,
             },
         }
-        atomic_write(
-            args.out / "sizes.json",
-            lambda t: Path(t).write_text(json.dumps(report, indent=2, default=str)),
+        _write_outputs(
+            args.out,
+            texts={"sizes.json": json.dumps(report, indent=2, default=str)},
+            figures={
+                "size_distribution": lambda: plot_size_distribution(
+                    d_um, fit=getattr(normal, "distribution", None)
+                )
+            },
         )
-        print(f"-> {args.out}")
     return EXIT_OK
 
 
@@ -502,20 +523,15 @@ def cmd_fit(args):
     laws = fit_coefficient_laws(table, form=args.form)
     print(json.dumps(laws.describe(), indent=2, default=str))
     if args.out is not None:
-        from .engine.result import atomic_write
-
-        args.out.mkdir(parents=True, exist_ok=True)
-        atomic_write(
-            args.out / "coefficients_by_diameter.csv",
-            lambda t: table.to_csv(t, index=False),
+        _write_outputs(
+            args.out,
+            tables={"coefficients_by_diameter.csv": table},
+            texts={
+                "coefficient_laws.json": json.dumps(
+                    laws.describe(), indent=2, default=str
+                )
+            },
         )
-        atomic_write(
-            args.out / "coefficient_laws.json",
-            lambda t: Path(t).write_text(
-                json.dumps(laws.describe(), indent=2, default=str)
-            ),
-        )
-        print(f"-> {args.out}")
     return EXIT_OK
 
 
@@ -554,22 +570,13 @@ def cmd_convergence(args):
         f"{res.n_required} (worst case {res.n_required_worst_case})"
     )
     if args.out is not None:
-        import matplotlib
+        from .plotting.results import plot_convergence
 
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        from .engine.result import atomic_write
-        from .plotting.results import plot_convergence, save_figure
-
-        args.out.mkdir(parents=True, exist_ok=True)
-        atomic_write(
-            args.out / "convergence.csv", lambda t: res.table.to_csv(t, index=False)
+        _write_outputs(
+            args.out,
+            tables={"convergence.csv": res.table},
+            figures={"convergence": lambda: plot_convergence(res)},
         )
-        ax = plot_convergence(res)
-        save_figure(ax.figure, args.out / "convergence", formats=("png", "pdf"))
-        plt.close(ax.figure)
-        print(f"-> {args.out}")
     return EXIT_OK
 
 
@@ -610,22 +617,11 @@ def cmd_compare(args):
         f"{args.confidence:.0%} confidence level"
     )
     if args.out is not None:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        from .engine.result import atomic_write
-        from .plotting.results import save_figure
-
-        args.out.mkdir(parents=True, exist_ok=True)
-        atomic_write(
-            args.out / "comparison.csv", lambda t: table.to_csv(t, index=False)
+        _write_outputs(
+            args.out,
+            tables={"comparison.csv": table},
+            figures={"comparison": lambda: plot_comparison(table)},
         )
-        ax = plot_comparison(table)
-        save_figure(ax.figure, args.out / "comparison", formats=("png", "pdf"))
-        plt.close(ax.figure)
-        print(f"-> {args.out}")
     return EXIT_OK
 
 
