@@ -97,7 +97,6 @@ class Plan:
     replicates: int = 1
     block_size: int = BLOCK_SIZE
     table_bits: int = 16
-    random_diameter: bool = True
     _cache: dict = field(default_factory=dict, repr=False, compare=False)
 
     def angle_tables(self, surface: int, angle_deg: float) -> AngleTables:
