@@ -135,12 +135,9 @@ def _short(v) -> str:
 
 
 def _write(path, write):
-    """Atomic write, then the usual permissions of a shared output file."""
-    from .engine.result import atomic_write
+    from ._files import atomic_write
 
-    path = atomic_write(path, write)
-    os.chmod(path, 0o644)  # mkstemp creates 0600
-    return path
+    return atomic_write(path, write)
 
 
 def _png_data_uri(fig) -> str:

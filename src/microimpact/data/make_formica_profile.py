@@ -25,12 +25,11 @@ Run from the repository root::
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
+from microimpact._files import atomic_write
 from microimpact.surface.synthetic import FORMICA_FILE, gaussian_profile
 from microimpact.units import m_to_um, um_to_m
 
@@ -84,12 +83,7 @@ def main(path=None):
         for xi, zi in zip(x, z[s], strict=True)
     ]
     text = "\n".join(lines + body) + "\n"
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=".csv")
-    with os.fdopen(fd, "w", encoding="utf-8") as fh:
-        fh.write(text)
-    os.chmod(tmp, 0o644)
-    os.replace(tmp, path)
-    return path
+    return atomic_write(path, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
 
 
 if __name__ == "__main__":

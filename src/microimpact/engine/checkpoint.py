@@ -13,11 +13,11 @@ from __future__ import annotations
 
 import hashlib
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
+from .._files import atomic_write
 from .accumulators import PointAccumulator
 
 FORMAT_VERSION = 1
@@ -50,16 +50,14 @@ def save(path, fingerprint: str, state: dict) -> None:
         arrays[prefix + "next"] = np.array(nxt)
         for k, v in acc.to_arrays().items():
             arrays[prefix + k] = v
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as f:
+
+    def write(tmp):
+        with open(tmp, "wb") as f:
             np.savez(f, **arrays)
             f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+            os.fsync(f.fileno())  # durable before the rename: survives SIGKILL
+
+    atomic_write(path, write)
 
 
 def load(path, fingerprint: str) -> dict | None:

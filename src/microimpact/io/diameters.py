@@ -31,6 +31,7 @@ import os
 
 import numpy as np
 
+from .._files import data_lines, is_number, read_lines
 from ..errors import DataFormatError
 from ..units import length_factor
 
@@ -45,20 +46,9 @@ _LAYOUTS = (
 
 def _read_rows(path) -> tuple[list[tuple[int, list[str]]], str]:
     """Non-blank, non-comment rows as (1-based line number, cells)."""
-    try:
-        with open(path, encoding="utf-8-sig") as fh:
-            lines = fh.read().splitlines()
-    except (FileNotFoundError, IsADirectoryError, PermissionError) as exc:
-        raise DataFormatError(
-            f"cannot read file: {exc.strerror}", source=path
-        ) from None
-    except UnicodeDecodeError:
-        raise DataFormatError(
-            "not a UTF-8 text file; expected delimited text", source=path
-        ) from None
-    content = [
-        (i, s) for i, s in enumerate(lines, 1) if s.strip() and not s.lstrip()[0] == "#"
-    ]
+    content = data_lines(
+        read_lines(path, error=DataFormatError, hint="; expected delimited text")
+    )
     text = "\n".join(s for _, s in content)
     delimiter = next((d for d in (",", "\t", ";") if d in text), None)
     rows = []
@@ -66,14 +56,6 @@ def _read_rows(path) -> tuple[list[tuple[int, list[str]]], str]:
         cells = s.split(delimiter) if delimiter else s.split()
         rows.append((i, [c.strip().strip("\"'").strip() for c in cells]))
     return rows, {None: "whitespace", "\t": "tab"}.get(delimiter, delimiter)
-
-
-def _is_number(cell: str) -> bool:
-    try:
-        float(cell)
-    except ValueError:
-        return False
-    return True
 
 
 def _number(cell, *, path, line, field, allowed, minimum=None, strict=True) -> float:
@@ -108,7 +90,7 @@ def _number(cell, *, path, line, field, allowed, minimum=None, strict=True) -> f
 
 def _split_header(rows):
     """(header or None, data rows); the first row is a header if any cell is text."""
-    if rows and not all(_is_number(c) or c.lower() in _MISSING for c in rows[0][1]):
+    if rows and not all(is_number(c) or c.lower() in _MISSING for c in rows[0][1]):
         return rows[0][1], rows[1:]
     return None, rows
 
@@ -276,7 +258,7 @@ def _rows_layout(rows):
         return None
     (l0, c0), (l1, c1) = rows
     labels = []
-    if c0 and c1 and not _is_number(c0[0]) and not _is_number(c1[0]):
+    if c0 and c1 and not is_number(c0[0]) and not is_number(c1[0]):
         labels = [c0[0], c1[0]]
         c0, c1 = c0[1:], c1[1:]
     if len(c1) >= 1 and len(c0) == len(c1) + 1:

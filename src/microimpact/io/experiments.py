@@ -43,6 +43,7 @@ import difflib
 import math
 import os
 
+from .._files import data_lines, read_lines
 from ..errors import DataFormatError
 
 __all__ = ["COORDINATES", "STATISTICS", "combine_experiments", "read_experiments"]
@@ -66,28 +67,6 @@ _OUT_COLUMNS = (
     "confidence",
     "line",
 )
-
-
-def _data_lines(fh):
-    for lineno, line in enumerate(fh, start=1):
-        stripped = line.strip()
-        if stripped and not stripped.startswith("#"):
-            yield lineno, line
-
-
-def _open(source):
-    try:
-        return open(source, newline="", encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise DataFormatError("file not found.", source=source) from None
-    except IsADirectoryError:
-        raise DataFormatError(
-            "is a directory, not a CSV file.", source=source
-        ) from None
-    except OSError as exc:
-        raise DataFormatError(
-            f"cannot open file ({exc.strerror}).", source=source
-        ) from None
 
 
 def _header(source, lines):
@@ -295,13 +274,7 @@ def read_experiments(path):
     import pandas as pd
 
     source = os.fspath(path)
-    with _open(source) as fh:
-        try:
-            lines = list(_data_lines(fh))
-        except UnicodeDecodeError as exc:
-            raise DataFormatError(
-                f"not a UTF-8 text file ({exc.reason}).", source=source
-            ) from None
+    lines = data_lines(read_lines(source, error=DataFormatError))
     header_line, index = _header(source, lines)
     body = lines[1:]
     if not body:

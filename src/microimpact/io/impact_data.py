@@ -21,6 +21,7 @@ import os
 
 import numpy as np
 
+from .._files import data_lines, read_lines
 from ..errors import DataFormatError
 from ..units import um_to_m
 
@@ -31,13 +32,6 @@ REQUIRED_COLUMNS = ("diameter_um", "v_n_m_s", "e")
 #: Largest accepted restitution coefficient; values a little above 1 occur on
 #: rough surfaces (apparent e, [1] Eq. 8), larger ones are taken as typos.
 E_MAX = 1.5
-
-
-def _data_lines(fh):
-    for lineno, line in enumerate(fh, start=1):
-        stripped = line.strip()
-        if stripped and not stripped.startswith("#"):
-            yield lineno, line
 
 
 def read_impact_data(path):
@@ -65,20 +59,7 @@ def read_impact_data(path):
     import pandas as pd
 
     source = os.fspath(path)
-    try:
-        fh = open(source, newline="", encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise DataFormatError("file not found.", source=source) from None
-    except IsADirectoryError:
-        raise DataFormatError(
-            "is a directory, not a CSV file.", source=source
-        ) from None
-    except OSError as exc:
-        raise DataFormatError(
-            f"cannot open file ({exc.strerror}).", source=source
-        ) from None
-    with fh:
-        lines = list(_data_lines(fh))
+    lines = data_lines(read_lines(source, error=DataFormatError))
     if not lines:
         raise DataFormatError(
             "no header found; expected a header with columns "

@@ -35,6 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._files import is_number, read_lines
 from ..errors import ProfileFormatError
 from ..units import LENGTH_UNITS, length_factor
 
@@ -221,29 +222,13 @@ def _sniff(line: str):
     return None
 
 
-def _is_number(cell: str) -> bool:
-    try:
-        float(cell)
-    except ValueError:
-        return False
-    return True
-
-
 def _read_rows(path, delimiter):
     """Header (list or None), rows [(lineno, cells)], comment lines of a text file."""
-    try:
-        with open(path, encoding="utf-8-sig") as fh:
-            lines = fh.read().splitlines()
-    except FileNotFoundError:
-        raise ProfileFormatError("file not found", source=path) from None
-    except UnicodeDecodeError:
-        raise ProfileFormatError(
-            "not a UTF-8 text file (for .x3p files use the .x3p suffix)", source=path
-        ) from None
-    except OSError as exc:
-        raise ProfileFormatError(
-            f"cannot read file: {exc.strerror}", source=path
-        ) from None
+    lines = read_lines(
+        path,
+        error=ProfileFormatError,
+        hint=" (for .x3p files use the .x3p suffix)",
+    )
     header = None
     rows = []
     comments = []
@@ -260,7 +245,7 @@ def _read_rows(path, delimiter):
             if delimiter is None:
                 delimiter = ""  # whitespace
         cells = _split(text, delimiter or None)
-        if header is None and not rows and not any(_is_number(c) for c in cells):
+        if header is None and not rows and not any(is_number(c) for c in cells):
             header = (lineno, cells)
             continue
         rows.append((lineno, cells))

@@ -15,7 +15,6 @@ References
 from __future__ import annotations
 
 import math
-import os
 from pathlib import Path
 
 import numpy as np
@@ -645,7 +644,6 @@ def save_figure(fig, path_without_ext, formats=("png", "pdf")):
                 tmp, format=fmt, dpi=STYLE["savefig.dpi"], metadata=meta[fmt]
             ),
         )
-        os.chmod(path, 0o644)  # mkstemp creates 0600
         out.append(path)
     return out
 

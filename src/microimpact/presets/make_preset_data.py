@@ -27,11 +27,11 @@ the repository root::
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
+
+from microimpact._files import atomic_write
 
 SEED = 20000376
 HERE = Path(__file__).resolve().parent
@@ -65,11 +65,7 @@ def mixture_sample(components, n, rng):
 
 
 def _write(path, text):
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=path.suffix)
-    with os.fdopen(fd, "w", encoding="utf-8") as fh:
-        fh.write(text)
-    os.chmod(tmp, 0o644)
-    os.replace(tmp, path)
+    atomic_write(path, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
 
 
 def write_diameters(path, d, title, recipe):

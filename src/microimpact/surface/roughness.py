@@ -46,11 +46,12 @@ from __future__ import annotations
 import datetime
 import math
 import os
-import tempfile
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
+from .._files import atomic_write, read_lines
 from .._validation import as_float_array, check_choice, check_int, check_positive
 from ..errors import DataFormatError, ProfileFormatError
 from ..io.profiles import Profile, ProfileSet, as_profiles
@@ -609,18 +610,7 @@ def write_angle_file(path, angles_deg, *, n=4000, rng=None, metadata=None):
         header.append(f"{k}: {' '.join(str(v).split())}")
     text = "".join(f"# {h}\n" for h in header)
     text += "".join(f"{v:.6f}\n" for v in out)
-    path = os.fspath(path)
-    directory = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(dir=directory, prefix=".tmp-", suffix=".angles")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    atomic_write(path, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
     return out
 
 
@@ -644,13 +634,7 @@ def read_angle_file(path):
         one value on a line, :math:`|\\phi| \\ge 90°`, or no angles at all.
     """
     path = os.fspath(path)
-    try:
-        with open(path, encoding="utf-8-sig") as fh:
-            lines = fh.read().splitlines()
-    except FileNotFoundError:
-        raise DataFormatError("file not found", source=path) from None
-    except UnicodeDecodeError:
-        raise DataFormatError("not a UTF-8 text file", source=path) from None
+    lines = read_lines(path, error=DataFormatError)
     values = []
     for lineno, raw in enumerate(lines, start=1):
         text = raw.split("#", 1)[0].strip()
