@@ -108,7 +108,11 @@ def _reduce(
     buf_mu,
     counts,
 ):
-    """Counts, compaction of the rebounds and the fixed-edge histograms."""
+    """Counts, compaction of the rebounds and the fixed-edge histograms.
+
+    `buf_e`, `buf_mu` may be `em_in`, `mum_in` themselves: the rebound written to
+    slot ``m <= k`` never overwrites a value still to be read.
+    """
     n_shadow = 0
     n_capt = 0
     n_reimp = 0

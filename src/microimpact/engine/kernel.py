@@ -33,7 +33,18 @@ from .accumulators import (
     PointAccumulator,
     histogram_counts,
 )
-from .plan import VAR_ANGLE, VAR_DIAMETER, VAR_SPEED, Plan
+from .plan import (
+    A_COT,
+    A_GAIN,
+    A_PHI,
+    A_SIN,
+    A_TAN,
+    A_TANCOT,
+    VAR_ANGLE,
+    VAR_DIAMETER,
+    VAR_SPEED,
+    Plan,
+)
 
 #: spawn-key slot that separates QMC scrambles from MC block streams
 QMC_TAG = 0xFFFF_FFFF
@@ -105,20 +116,16 @@ def simulate_block(
         return _simulate_fused(plan, sp, tables, idx, n)
 
     i_d = idx[VAR_DIAMETER]
-    inv_k1 = plan.inv_k1[i_d]
-    inv_k2 = plan.inv_k2[i_d]
-    v_c = plan.v_c[i_d]
-
-    if tables.random:
-        i_a = idx[VAR_ANGLE]
-        sin_true = tables.sin_true[i_a]
-        cot = tables.cot_true[i_a]
-        tan_phi = tables.tan_phi[i_a]
-        tan_cot = tables.tan_cot[i_a]
-        gain = tables.gain[i_a]
-    else:
-        sin_true, cot = tables.sin_true, tables.cot_true
-        tan_phi, tan_cot, gain = 0.0, 0.0, 1.0
+    coef = plan.coefficients[i_d]
+    inv_k1, inv_k2, v_c = coef[:, 0], coef[:, 1], coef[:, 2]
+    # one row per impact (or the single row of a smooth surface: scalars)
+    row = (
+        tables.rows[tables.row_of_atom[idx[VAR_ANGLE]]]
+        if tables.random
+        else (tables.rows[0])
+    )
+    sin_true, cot = row[..., A_SIN], row[..., A_COT]
+    tan_phi, tan_cot, gain = row[..., A_TAN], row[..., A_TANCOT], row[..., A_GAIN]
 
     speed = sp.speed
     if plan.speed_factor is not None:
@@ -191,9 +198,7 @@ def simulate_block(
             out = full
         out["shadowed"] = shadowed if shadowed is not None else np.zeros(n, bool)
         out["diameter"] = plan.diameter[i_d]
-        out["roughness_angle"] = (
-            tables.phi[idx[VAR_ANGLE]] if tables.random else np.zeros(n)
-        )
+        out["roughness_angle"] = row[:, A_PHI].copy() if tables.random else np.zeros(n)
         out["speed"] = np.broadcast_to(speed, (n,)).copy()
         return out
 
@@ -218,76 +223,47 @@ def simulate_block(
     )
 
 
-_WORKSPACE: dict[int, tuple[np.ndarray, np.ndarray]] = {}
-_E_INV_W = (E_EDGES.size - 1) / (E_EDGES[-1] - E_EDGES[0])
-_MU_INV_W = (MU_EDGES.size - 1) / (MU_EDGES[-1] - MU_EDGES[0])
+# Constants of the compiled path, computed once per process.
+_WORKSPACE: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+_NO_DRAW = np.zeros(1, dtype=np.int64)  # index array for a variable not drawn
+_NO_SPREAD = np.ones(1)  # speed factor table without a speed spread
+_HIST = (
+    float(E_EDGES[0]),
+    (E_EDGES.size - 1) / (E_EDGES[-1] - E_EDGES[0]),
+    float(E_EDGES.size - 1),
+    float(MU_EDGES[0]),
+    (MU_EDGES.size - 1) / (MU_EDGES[-1] - MU_EDGES[0]),
+    float(MU_EDGES.size - 1),
+)
 
 
-def _angle_rows(tables):
-    """The atom -> row map and the distinct interleaved angle rows (64 bytes each).
-
-    Cached on the tables object; measured angle sets have few distinct atoms, so
-    the rows and the 16-bit map stay in the L2 cache.
-    """
-    if tables.rows is None:
-        cols = (
-            tables.sin_true,
-            tables.cot_true,
-            tables.tan_phi,
-            tables.tan_cot,
-            tables.gain,
-        )
-        m = max(np.size(c) for c in cols)
-        full = np.zeros((m, 8))
-        for j, c in enumerate(cols):
-            full[:, j] = c
-        if m > 1:
-            # the atoms are sorted, so equal atoms are adjacent: O(M) run-length map
-            phi = np.asarray(tables.phi)
-            starts = np.empty(m, dtype=bool)
-            starts[0] = True
-            np.not_equal(phi[1:], phi[:-1], out=starts[1:])
-            amap = (np.cumsum(starts) - 1).astype(np.uint16 if m <= 65536 else np.int64)
-            rows = full[starts]
-        else:
-            rows, amap = full, np.zeros(1, dtype=np.uint16)
-        object.__setattr__(tables, "rows", (amap, np.ascontiguousarray(rows)))
-    return tables.rows
+def _moments_of(buf, m):
+    if not m:
+        return Moments()
+    mom = np.empty(3)
+    _fused.moments(buf, m, mom)
+    return Moments(m, float(mom[0]), float(mom[1]), float(mom[2]))
 
 
 def _simulate_fused(plan, sp, tables, idx, n):
-    """The same block through the compiled single-pass kernel (see ``_fused``)."""
+    """The same block through the compiled kernel (see ``_fused``)."""
     ws = _WORKSPACE.get(n)
     if ws is None:  # per-process workspace, reused: no page faults per block
         _WORKSPACE.clear()
-        ws = _WORKSPACE[n] = (
-            np.empty(n),
-            np.empty(n),
-            np.empty(n),
-            np.empty(n),
-            np.empty(n, dtype=np.int64),
-        )
-    buf_e, buf_mu = ws[0], ws[1]
-    none = np.zeros(1, dtype=np.int64)
-    i_a = idx.get(VAR_ANGLE, none)
-    i_s = idx.get(VAR_SPEED, none)
-    sf = plan.speed_factor if plan.speed_factor is not None else np.ones(1)
-    # int32 per block (a block holds < 2**31 impacts) halves the transfer to the
-    # driver; totals are accumulated in int64 (PointAccumulator.merge)
-    e_hist = np.zeros(E_EDGES.size + 1, dtype=np.int32)
-    mu_hist = np.zeros(MU_EDGES.size + 1, dtype=np.int32)
-    counts = np.zeros(5, dtype=np.int64)
-    em, mum, flags = ws[2], ws[3], ws[4]
+        ws = _WORKSPACE[n] = (np.empty(n), np.empty(n), np.empty(n, dtype=np.int64))
+    em, mum, flags = ws
+    spread = plan.speed_factor is not None
     _fused.physics(
         idx[VAR_DIAMETER],
-        i_a,
-        i_s,
+        idx.get(VAR_ANGLE, _NO_DRAW),
+        idx.get(VAR_SPEED, _NO_DRAW),
         n,
         tables.random,
-        plan.speed_factor is not None,
-        plan.diameter_rows(),
-        *_angle_rows(tables),
-        sf,
+        spread,
+        plan.coefficients,
+        tables.row_of_atom,
+        tables.rows,
+        plan.speed_factor if spread else _NO_SPREAD,
         float(sp.speed),
         plan.p,
         plan.q,
@@ -296,38 +272,34 @@ def _simulate_fused(plan, sp, tables, idx, n):
         mum,
         flags,
     )
+    # int32 per block (a block holds < 2**31 impacts) halves the transfer to the
+    # driver; totals are accumulated in int64 (PointAccumulator.merge)
+    e_hist = np.zeros(E_EDGES.size + 1, dtype=np.int32)
+    mu_hist = np.zeros(MU_EDGES.size + 1, dtype=np.int32)
+    counts = np.zeros(5, dtype=np.int64)
+    # the rebounds are compacted in place to the front of em and mum
     _fused.reduce(
         n,
         bool(tables.random and plan.shadowing == "none"),
         em,
         mum,
         flags,
-        float(E_EDGES[0]),
-        _E_INV_W,
-        float(E_EDGES.size - 1),
-        float(MU_EDGES[0]),
-        _MU_INV_W,
-        float(MU_EDGES.size - 1),
+        *_HIST,
         e_hist,
         mu_hist,
-        buf_e,
-        buf_mu,
+        em,
+        mum,
         counts,
     )
     m = int(counts[4])
-    mom = np.empty(3)
-    _fused.moments(buf_e, m, mom)
-    e_mom = Moments(m, float(mom[0]), float(mom[1]), float(mom[2])) if m else Moments()
-    _fused.moments(buf_mu, m, mom)
-    mu_mom = Moments(m, float(mom[0]), float(mom[1]), float(mom[2])) if m else Moments()
     return PointAccumulator(
         n=n,
         shadowed=int(counts[0]),
         captured=int(counts[1]),
         reimpact=int(counts[2]),
         rolling=int(counts[3]),
-        e=e_mom,
-        mu=mu_mom,
+        e=_moments_of(em, m),
+        mu=_moments_of(mum, m),
         e_hist=e_hist,
         mu_hist=mu_hist,
     )

@@ -86,9 +86,11 @@ def build_plan(scenario, *, seed=None) -> Plan:
                 source=scenario.source,
                 field=f"coefficients.{name}",
             )
+    coefficients = np.zeros((diameter.size, 4))  # interleaved: one row per atom
     with np.errstate(divide="ignore"):
-        inv_k1 = 1.0 / k1
-        inv_k2 = 1.0 / k2
+        np.divide(1.0, k1, out=coefficients[:, 0])
+        np.divide(1.0, k2, out=coefficients[:, 1])
+    coefficients[:, 2] = v_c
     points = tuple(
         SweepPoint(i, s, variant.name, speed, angle)
         for i, ((s, variant), speed, angle) in enumerate(
@@ -107,9 +109,7 @@ def build_plan(scenario, *, seed=None) -> Plan:
         entropy=entropy,
         points=points,
         diameter=diameter,
-        inv_k1=np.ascontiguousarray(inv_k1),
-        inv_k2=np.ascontiguousarray(inv_k2),
-        v_c=np.ascontiguousarray(v_c),
+        coefficients=coefficients,
         p=float(coeffs.p),
         q=float(coeffs.q),
         friction=float(coeffs.friction),
@@ -145,7 +145,7 @@ class _Stream:
     acc: PointAccumulator | None = None
     done: bool = False
 
-    def samples_done(self, block_size):
+    def samples_done(self):
         return self.acc.n if self.acc is not None else 0
 
     def block_n(self, b, block_size):
@@ -229,7 +229,7 @@ def iter_blocks(
             desc=scenario.name,
             leave=False,
         )
-        bar.update(sum(s.samples_done(B) for s in streams.values()))
+        bar.update(sum(s.samples_done() for s in streams.values()))
 
     runner = make_runner(
         plan, workers=workers, backend=backend, executor=executor, address=address

@@ -41,9 +41,6 @@ BLOCK_SIZE = 1 << 15
 #: Atoms per one-dimensional table used when convolving two angle distributions.
 CONVOLUTION_ATOMS = 1024
 
-SHADOWING_OPTIONS = ("reject", "weighted", "none")
-SAMPLING_OPTIONS = ("mc", "qmc")
-
 # Variable ids in the stream keys (fixed: adding a variable never shifts the others).
 VAR_DIAMETER, VAR_ANGLE, VAR_SPEED = 0, 1, 2
 
@@ -59,34 +56,43 @@ class SweepPoint:
     angle_deg: float  # apparent incidence angle from the nominal plane [deg]
 
 
-@dataclass(frozen=True)
+#: Columns of an angle-table row (one 64-byte row per distinct angle atom).
+A_SIN, A_COT, A_TAN, A_TANCOT, A_GAIN, A_PHI = range(6)
+
+
+@dataclass(frozen=True, eq=False)
 class AngleTables:
     """Per-atom quantities for one (surface, apparent angle) pair.
 
-    Scalars for a molecularly smooth surface (phi = 0 exactly).
+    ``rows[row_of_atom[j]]`` holds, for angle atom ``j``: ``sin(theta - phi)`` (so
+    ``|v_n'| = speed * sin``), ``cot(theta - phi) = v_t'/v_n'``, ``tan(phi)``,
+    ``tan(phi) cot(theta - phi)``, ``1 / (1 + tan(phi) cot(theta - phi))`` (the Eq. 8
+    denominator) and ``phi`` itself, padded to 8 columns. Measured angle sets have far
+    fewer distinct atoms than the 65,536 equiprobable ones, so the distinct rows and
+    the 16-bit map stay in the L2 cache. A molecularly smooth surface has one row
+    (phi = 0 exactly) and needs no angle draw.
     """
 
-    sin_true: np.ndarray | float  # sin(theta - phi): |v_n'| = speed * sin_true
-    cot_true: np.ndarray | float  # cot(theta - phi) = v_t'/v_n'
-    tan_phi: np.ndarray | float
-    tan_cot: np.ndarray | float  # tan(phi) * cot(theta - phi)
-    gain: np.ndarray | float  # 1 / (1 + tan(phi) cot(theta - phi))  (Eq. 8 denominator)
-    phi: np.ndarray | float  # the atoms themselves [rad]
+    rows: np.ndarray
+    row_of_atom: np.ndarray
     shadowed_mass: float  # P(phi >= theta) under the surface's own distribution
-    random: bool  # False for a smooth surface (no angle draw needed)
-    rows: np.ndarray | None = None  # interleaved copy for the compiled kernel
+    random: bool  # False for a smooth surface
+
+    @property
+    def phi(self) -> np.ndarray:
+        """The equiprobable angle atoms [rad]."""
+        return self.rows[self.row_of_atom, A_PHI]
 
 
 @dataclass(frozen=True, eq=False)
 class Plan:
-    """Picklable description of a run for the kernel (built by :func:`build_plan`)."""
+    """Picklable description of a run for the kernel (built by
+    :func:`~microimpact.engine.montecarlo.build_plan`)."""
 
     entropy: int
     points: tuple[SweepPoint, ...]
     diameter: np.ndarray  # atoms [m]
-    inv_k1: np.ndarray  # 1/k1 per diameter atom [s m-1]
-    inv_k2: np.ndarray  # 1/k2 per diameter atom [s m-1]
-    v_c: np.ndarray  # capture velocity per diameter atom [m s-1]
+    coefficients: np.ndarray  # (M, 4) rows (1/k1, 1/k2, v_c, 0) per diameter atom
     p: float
     q: float
     friction: float
@@ -99,29 +105,33 @@ class Plan:
     table_bits: int = 16
     _cache: dict = field(default_factory=dict, repr=False, compare=False)
 
+    @property
+    def inv_k1(self) -> np.ndarray:
+        """1/k1 per diameter atom [s m-1]."""
+        return self.coefficients[:, 0]
+
+    @property
+    def inv_k2(self) -> np.ndarray:
+        """1/k2 per diameter atom [s m-1]."""
+        return self.coefficients[:, 1]
+
+    @property
+    def v_c(self) -> np.ndarray:
+        """Capture velocity per diameter atom [m s-1]."""
+        return self.coefficients[:, 2]
+
     def angle_tables(self, surface: int, angle_deg: float) -> AngleTables:
+        """Tables of one (surface, angle), cached (a sweep revisits each angle once
+        per speed)."""
         key = (surface, float(angle_deg))
         tables = self._cache.get(key)
         if tables is None:
-            if len(self._cache) > 16:
-                rows = self._cache.get("diameter_rows")
+            if len(self._cache) >= 16:
                 self._cache.clear()
-                if rows is not None:
-                    self._cache["diameter_rows"] = rows
-            tables = _angle_tables(
+            tables = self._cache[key] = _angle_tables(
                 self.surface_atoms[surface], float(angle_deg), self.shadowing
             )
-            self._cache[key] = tables
         return tables
-
-    def diameter_rows(self) -> np.ndarray:
-        """Interleaved (1/k1, 1/k2, v_c, 0) rows for the compiled kernel."""
-        rows = self._cache.get("diameter_rows")
-        if rows is None:
-            rows = np.zeros((self.diameter.size, 4))
-            rows[:, 0], rows[:, 1], rows[:, 2] = self.inv_k1, self.inv_k2, self.v_c
-            self._cache["diameter_rows"] = rows
-        return rows
 
     def __getstate__(self):
         state = dict(self.__dict__)
@@ -136,7 +146,9 @@ def _angle_tables(atoms, angle_deg: float, shadowing: str) -> AngleTables:
     theta = np.deg2rad(angle_deg)
     if atoms is None:  # molecularly smooth: phi = 0 exactly
         s, c = np.sin(theta), np.cos(theta)
-        return AngleTables(s, c / s, 0.0, 0.0, 1.0, 0.0, 0.0, False)
+        rows = np.zeros((1, 8))
+        rows[0, [A_SIN, A_COT, A_GAIN]] = s, c / s, 1.0
+        return AngleTables(rows, np.zeros(1, dtype=np.uint16), 0.0, False)
     phi = atoms
     reachable = phi < theta
     shadowed_mass = 1.0 - float(np.count_nonzero(reachable)) / phi.size
@@ -154,16 +166,22 @@ def _angle_tables(atoms, angle_deg: float, shadowing: str) -> AngleTables:
     elif shadowing == "weighted":
         weights = np.sin(theta - phi)
         phi = QuantileTable.from_weights(phi, weights, size=phi.size).values
-    true = theta - phi
+    # the atoms are sorted, so equal atoms are adjacent: an O(M) run-length map
+    starts = np.empty(phi.size, dtype=bool)
+    starts[0] = True
+    np.not_equal(phi[1:], phi[:-1], out=starts[1:])
+    row_of_atom = (np.cumsum(starts) - 1).astype(np.uint16)
+    distinct = phi[starts]
+    true = theta - distinct
+    rows = np.zeros((distinct.size, 8))
     with np.errstate(divide="ignore", invalid="ignore"):
-        sin_true = np.sin(true)
-        cot_true = np.where(true > 0, np.cos(true) / sin_true, 0.0)
-        tan_phi = np.tan(phi)
-        tan_cot = tan_phi * cot_true
-        gain = 1.0 / (1.0 + tan_cot)
-    return AngleTables(
-        sin_true, cot_true, tan_phi, tan_cot, gain, phi, shadowed_mass, True
-    )
+        rows[:, A_SIN] = np.sin(true)
+        rows[:, A_COT] = np.where(true > 0, np.cos(true) / rows[:, A_SIN], 0.0)
+        rows[:, A_TAN] = np.tan(distinct)
+        rows[:, A_TANCOT] = rows[:, A_TAN] * rows[:, A_COT]
+        rows[:, A_GAIN] = 1.0 / (1.0 + rows[:, A_TANCOT])
+    rows[:, A_PHI] = distinct
+    return AngleTables(rows, row_of_atom, shadowed_mass, True)
 
 
 def convolve_angles(a: QuantileTable, b: QuantileTable, *, size: int = TABLE_SIZE):

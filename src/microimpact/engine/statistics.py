@@ -128,13 +128,6 @@ def replicate_row(accs: list[PointAccumulator], confidence: float) -> dict:
     return row
 
 
-def half_width(acc: PointAccumulator, statistic: str, confidence: float) -> float:
-    """Current CI half-width of `statistic` (for the automatic sample size)."""
-    row = point_row(acc, confidence)
-    lo, hi, _ = _REPLICATED[statistic]
-    return (row[hi] - row[lo]) / 2.0
-
-
 def capture_speed(summary, quantile: float = 0.5):
     """Speed at which a given fraction of particles is captured.
 
