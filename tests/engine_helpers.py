@@ -17,12 +17,16 @@ from microimpact.scenario import Scenario, SurfaceVariant
 @dataclass(frozen=True)
 class FrozenDist:
     dist: object
+    label: str = "test"
 
     def table(self):
         return QuantileTable.from_ppf(self.dist.ppf)
 
+    def ppf(self, q):
+        return self.dist.ppf(q)
+
     def describe(self):
-        return {"kind": "test", "repr": repr(self.dist)}
+        return {"kind": self.label, "repr": repr(self.dist)}
 
 
 @dataclass(frozen=True)

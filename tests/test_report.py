@@ -14,41 +14,17 @@ from scipy import stats
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
+from engine_helpers import FrozenDist, PowerCoefficients
 
-from microimpact._tables import QuantileTable
 from microimpact.engine.montecarlo import run
 from microimpact.plotting.results import figures_for_result
 from microimpact.report import summary_text, write_report
 from microimpact.scenario import Scenario, SurfaceVariant
 
-
-class _Dist:
-    def __init__(self, dist):
-        self.dist = dist
-
-    def table(self):
-        return QuantileTable.from_ppf(self.dist.ppf)
-
-    def ppf(self, q):
-        return self.dist.ppf(q)
-
-    def describe(self):
-        return {"kind": "test <b>bold</b>"}
-
-
-class _Laws:
-    p = q = 1.0
-    friction = 0.15
-
-    def evaluate(self, d):
-        one = np.ones_like(d)
-        return 5.0 * one, 0.05 * one, 0.2 * (d / 50e-6) ** -1.0
-
-    def describe(self):
-        return {"law": "test"}
-
-
-DIAM = _Dist(stats.truncnorm(-52.8 / 15.3, np.inf, loc=52.8e-6, scale=15.3e-6))
+DIAM = FrozenDist(
+    stats.truncnorm(-52.8 / 15.3, np.inf, loc=52.8e-6, scale=15.3e-6),
+    label="test <b>bold</b>",
+)
 
 
 @pytest.fixture(scope="module")
@@ -56,7 +32,7 @@ def results():
     normal = Scenario(
         "normal",
         DIAM,
-        _Laws(),
+        PowerCoefficients(friction=0.15),
         speeds_m_s=(0.1, 0.2, 0.3, 1.0),
         angles_deg=(90,),
         seed=21,
@@ -65,11 +41,11 @@ def results():
     oblique = Scenario(
         "oblique",
         DIAM,
-        _Laws(),
+        PowerCoefficients(friction=0.15),
         speeds_m_s=(1.0,),
         angles_deg=(10, 45, 85),
         surfaces=(
-            SurfaceVariant("rough", _Dist(stats.norm(0, np.deg2rad(10)))),
+            SurfaceVariant("rough", FrozenDist(stats.norm(0, np.deg2rad(10)))),
             SurfaceVariant("smooth"),
         ),
         seed=22,
