@@ -36,6 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from .._files import is_number, read_lines
+from .._validation import as_float_array
 from ..errors import ProfileFormatError
 from ..units import LENGTH_UNITS, length_factor
 
@@ -43,6 +44,25 @@ __all__ = ["Profile", "ProfileSet", "read_profile", "read_profiles"]
 
 _SCAN_NAMES = ("scan", "scan_id", "scanid", "scan_no", "scan_number")
 _MISSING = {"", "nan", "na", "n/a", "none", "null", "-", "?"}
+
+
+def check_xz(x, z):
+    """`x`, `z` as float arrays, or ``ValueError`` unless they are finite 1-d arrays
+    of the same length (>= 2) with `x` strictly increasing."""
+    x = as_float_array(x, "x")
+    z = as_float_array(z, "z")
+    if x.ndim != 1 or z.ndim != 1 or x.shape != z.shape:
+        raise ValueError(
+            "`x` and `z` must be 1-d arrays of the same length; got shapes "
+            f"{x.shape} and {z.shape}."
+        )
+    if x.size < 2:
+        raise ValueError(f"a profile needs at least 2 points; got {x.size}.")
+    if not (np.isfinite(x).all() and np.isfinite(z).all()):
+        raise ValueError("`x` and `z` must be finite (no NaN or inf).")
+    if not np.all(np.diff(x) > 0):
+        raise ValueError("`x` must be strictly increasing.")
+    return x, z
 
 
 @dataclass(frozen=True, eq=False)
@@ -65,19 +85,7 @@ class Profile:
     metadata: dict = field(default_factory=dict)
 
     def __post_init__(self):
-        x = np.array(self.x, dtype=float)
-        z = np.array(self.z, dtype=float)
-        if x.ndim != 1 or z.ndim != 1 or x.shape != z.shape:
-            raise ValueError(
-                "`x` and `z` must be 1-d arrays of the same length; got shapes "
-                f"{x.shape} and {z.shape}."
-            )
-        if x.size < 2:
-            raise ValueError(f"a profile needs at least 2 points; got {x.size}.")
-        if not (np.isfinite(x).all() and np.isfinite(z).all()):
-            raise ValueError("`x` and `z` must be finite (no NaN or inf).")
-        if not np.all(np.diff(x) > 0):
-            raise ValueError("`x` must be strictly increasing.")
+        x, z = check_xz(np.array(self.x, dtype=float), np.array(self.z, dtype=float))
         x.setflags(write=False)
         z.setflags(write=False)
         object.__setattr__(self, "x", x)

@@ -54,7 +54,7 @@ import numpy as np
 from .._files import atomic_write, read_lines
 from .._validation import as_float_array, check_choice, check_int, check_positive
 from ..errors import DataFormatError, ProfileFormatError
-from ..io.profiles import Profile, ProfileSet, as_profiles
+from ..io.profiles import Profile, ProfileSet, as_profiles, check_xz
 from ..units import m_to_um, rad_to_deg, um_to_m
 
 __all__ = [
@@ -79,23 +79,6 @@ DETREND_METHODS = ("line", "mean", None)
 # ------------------------------------------------------------------ conditioning
 
 
-def _xz_iv(x, z):
-    x = as_float_array(x, "x")
-    z = as_float_array(z, "z")
-    if x.ndim != 1 or x.shape != z.shape:
-        raise ValueError(
-            f"`x` and `z` must be 1-d arrays of equal length; got shapes {x.shape} "
-            f"and {z.shape}."
-        )
-    if x.size < 2:
-        raise ValueError(f"a profile needs at least 2 points; got {x.size}.")
-    if not (np.isfinite(x).all() and np.isfinite(z).all()):
-        raise ValueError("`x` and `z` must be finite (no NaN or inf).")
-    if not np.all(np.diff(x) > 0):
-        raise ValueError("`x` must be strictly increasing.")
-    return x, z
-
-
 def detrend(x, z, *, method="line"):
     """
     Remove a scan's form: its least-squares mean line or its mean height.
@@ -113,7 +96,7 @@ def detrend(x, z, *, method="line"):
     ndarray, shape (n,)
         Heights about the mean line [m]; they sum to zero.
     """
-    x, z = _xz_iv(x, z)
+    x, z = check_xz(x, z)
     check_choice(method, "method", ("line", "mean"))
     if method == "mean":
         return z - z.mean()
@@ -155,7 +138,7 @@ def gaussian_filter_profile(x, z, *, cutoff):
     """
     from scipy.signal import fftconvolve
 
-    x, z = _xz_iv(x, z)
+    x, z = check_xz(x, z)
     lam = float(check_positive(cutoff, "cutoff"))
     d = np.diff(x)
     dx = float(np.median(d))
@@ -287,7 +270,7 @@ def profile_angles(x_um, z_um, *, contact_length_um, method="slope"):
     ProfileFormatError
         If the scan is shorter than the contact length (two for ``'slope'``).
     """
-    x, z = _xz_iv(x_um, z_um)
+    x, z = check_xz(x_um, z_um)
     x, z = um_to_m(x), um_to_m(z)
     length = float(um_to_m(check_positive(contact_length_um, "contact_length_um")))
     check_choice(method, "method", ANGLE_METHODS)
