@@ -231,10 +231,21 @@ def iter_blocks(
         )
         bar.update(sum(s.samples_done() for s in streams.values()))
 
+    if all(st.done for st in streams.values()):
+        if bar is not None:
+            bar.close()
+        return  # everything was restored from the checkpoint: no workers needed
     runner = make_runner(
         plan, workers=workers, backend=backend, executor=executor, address=address
     )
     last_save = time.monotonic()
+
+    def specs(key, stop):
+        """Block specifications of (point, rep) from its next block to `stop`."""
+        st = streams[key]
+        return tuple(
+            (key[0], key[1], b, st.block_n(b, B)) for b in range(st.next_block, stop)
+        )
 
     def merge(point, rep, b, acc):
         """Merge block b of (point, rep) if it is the next one; None otherwise."""
@@ -253,56 +264,47 @@ def iter_blocks(
             bar.update(acc.n)
         return BlockResult(point, rep, b, acc, st.acc, st.done)
 
+    def save_now_and_then():
+        nonlocal last_save
+        if (
+            checkpoint is not None
+            and time.monotonic() - last_save > CHECKPOINT_INTERVAL
+        ):
+            _save(checkpoint, fingerprint, streams)
+            last_save = time.monotonic()
+
     try:
         if precision is None:
             # fixed sizes: stream every remaining block in key order through the
             # runner with bounded look-ahead; results come back in the same order
             tasks = []
             for key in sorted(k for k, st in streams.items() if not st.done):
-                st = streams[key]
-                specs = [
-                    (key[0], key[1], b, st.block_n(b, B))
-                    for b in range(st.next_block, st.n_blocks(B))
-                ]
-                for i in range(0, len(specs), BLOCKS_PER_TASK):
-                    tasks.append(tuple(specs[i : i + BLOCKS_PER_TASK]))
+                blocks = specs(key, streams[key].n_blocks(B))
+                for i in range(0, len(blocks), BLOCKS_PER_TASK):
+                    tasks.append(blocks[i : i + BLOCKS_PER_TASK])
             for task, accs in zip(tasks, runner.imap(tasks), strict=True):
                 for (point, rep, b, _n), acc in zip(task, accs, strict=True):
                     yield merge(point, rep, b, acc)
-                if checkpoint is not None and (
-                    time.monotonic() - last_save > CHECKPOINT_INTERVAL
-                ):
-                    _save(checkpoint, fingerprint, streams)
-                    last_save = time.monotonic()
-        while precision is not None:
+                save_now_and_then()
+        else:
             # precision targets: waves of blocks, convergence checked block by block
-            active = [k for k, s in streams.items() if not s.done]
-            if not active:
-                break
             per_key = max(1, runner.workers * 2)
-            wave: list[tuple] = []
-            for key in active:
-                st = streams[key]
-                stop = min(st.next_block + per_key, st.n_blocks(B))
-                wave.append(
-                    tuple(
-                        (key[0], key[1], b, st.block_n(b, B))
-                        for b in range(st.next_block, stop)
+            while active := [k for k, st in streams.items() if not st.done]:
+                wave = [
+                    specs(
+                        k, min(streams[k].next_block + per_key, streams[k].n_blocks(B))
                     )
-                )
-            merged = {}
-            for task, accs in zip(wave, runner.map(wave), strict=True):
-                for (point, rep, b, _n), acc in zip(task, accs, strict=True):
-                    merged[(point, rep, b)] = acc
-            for point, rep, b in sorted(merged):
-                br = merge(point, rep, b, merged[(point, rep, b)])
-                if br is not None:
-                    yield br
-            if checkpoint is not None and (
-                time.monotonic() - last_save > CHECKPOINT_INTERVAL
-            ):
-                _save(checkpoint, fingerprint, streams)
-                last_save = time.monotonic()
+                    for k in active
+                ]
+                merged = {}
+                for task, accs in zip(wave, runner.map(wave), strict=True):
+                    for (point, rep, b, _n), acc in zip(task, accs, strict=True):
+                        merged[(point, rep, b)] = acc
+                for point, rep, b in sorted(merged):
+                    br = merge(point, rep, b, merged[(point, rep, b)])
+                    if br is not None:
+                        yield br
+                save_now_and_then()
     finally:
         # normal end, an exception, Ctrl-C or the caller closing the generator: keep
         # everything merged so far (the state is consistent between two yields)
