@@ -142,6 +142,7 @@ def test_bad_scenarios_exit_2_with_one_line_naming_the_key(path, tmp_path, capsy
         ["run", "no-such-preset", "--out", "o"],
         ["compare", "missing-dir", "missing.csv"],
         ["sizes", "missing.csv"],
+        ["run", "sst65-silicon-normal", "--out", "o", "--scheduler", "tcp://h:1"],
     ],
 )
 def test_user_errors_exit_2(argv, tmp_path, capsys, monkeypatch):

@@ -331,3 +331,13 @@ def test_normal_diameters_helper_is_the_truncated_normal():
         stats.truncnorm(-52.8 / 15.3, np.inf, loc=52.8, scale=15.3).mean() * 1e-6,
         rtol=1e-4,
     )
+
+
+def test_unreachable_dask_scheduler_is_a_user_error(monkeypatch):
+    pytest.importorskip("dask.distributed")
+    from microimpact.engine import parallel
+    from microimpact.errors import InputError
+
+    monkeypatch.setattr(parallel, "DASK_CONNECT_TIMEOUT", 1)
+    with pytest.raises(InputError, match=r"address: cannot connect .*127\.0\.0\.1:9"):
+        run(scenario(samples=1000), backend="dask", address="tcp://127.0.0.1:9")

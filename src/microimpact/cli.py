@@ -215,18 +215,27 @@ def _say(args, msg):
 def _run_one(scenario, out_dir, args, samples=None):
     from .engine.montecarlo import run
 
+    if args.scheduler is not None and args.backend != "dask":
+        raise InputError(
+            f"{args.scheduler!r} needs --backend dask", field="--scheduler"
+        )
     out_dir.mkdir(parents=True, exist_ok=True)
     ck = out_dir / CHECKPOINT_NAME
-    result = run(
-        scenario,
-        samples=samples,
-        seed=getattr(args, "seed", None),
-        workers=args.workers,
-        backend=args.backend,
-        address=args.scheduler,
-        checkpoint=ck,
-        progress=False if args.quiet else None,
-    )
+    try:
+        result = run(
+            scenario,
+            samples=samples,
+            seed=getattr(args, "seed", None),
+            workers=args.workers,
+            backend=args.backend,
+            address=args.scheduler,
+            checkpoint=ck,
+            progress=False if args.quiet else None,
+        )
+    except InputError as err:
+        if err.field != "address":
+            raise
+        raise InputError(err.message, field="--scheduler") from None
     result.to_files(out_dir)
     from .engine.result import atomic_write
 

@@ -14,9 +14,12 @@ from __future__ import annotations
 
 import os
 
+from ..errors import InputError
 from .kernel import simulate_block
 
 _WORKER_PLAN = None
+#: Seconds to wait for a Dask scheduler given by address.
+DASK_CONNECT_TIMEOUT = 10
 
 
 def run_task(plan, task):
@@ -157,7 +160,16 @@ class DaskRunner:
             )
             self._client = Client(self._cluster)
         else:
-            self._client = Client(address)
+            try:
+                self._client = Client(address, timeout=DASK_CONNECT_TIMEOUT)
+            except (OSError, TimeoutError, ValueError) as exc:
+                raise InputError(
+                    f"cannot connect to a Dask scheduler at {address!r} within "
+                    f"{DASK_CONNECT_TIMEOUT} s ({type(exc).__name__}); give the "
+                    "address of a running scheduler, e.g. 'tcp://host:8786', or "
+                    "none to start a local cluster",
+                    field="address",
+                ) from None
         self.workers = max(1, len(self._client.scheduler_info()["workers"]))
         [self._plan] = self._client.scatter([plan], broadcast=True)
 
