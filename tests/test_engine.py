@@ -341,3 +341,24 @@ def test_unreachable_dask_scheduler_is_a_user_error(monkeypatch):
     monkeypatch.setattr(parallel, "DASK_CONNECT_TIMEOUT", 1)
     with pytest.raises(InputError, match=r"address: cannot connect .*127\.0\.0\.1:9"):
         run(scenario(samples=1000), backend="dask", address="tcp://127.0.0.1:9")
+
+
+@pytest.mark.parametrize("k, n", [(0, 10), (3, 10), (50, 100), (999, 1000), (7, 4000)])
+def test_wilson_interval_solves_the_score_equation(k, n):
+    """Wilson's limits are the roots of |k/n - p| = z sqrt(p (1 - p) / n)."""
+    from scipy.optimize import brentq
+
+    from microimpact.engine.statistics import wilson_interval
+
+    z = stats.norm.ppf(0.975)
+    p_hat = k / n
+
+    def score(p):
+        return abs(p_hat - p) - z * math.sqrt(p * (1 - p) / n)
+
+    lo, hi = wilson_interval(k, n, 0.95)
+    expect_lo = 0.0 if k == 0 else brentq(score, 1e-15, p_hat)
+    expect_hi = 1.0 if k == n else brentq(score, p_hat, 1 - 1e-15)
+    assert_allclose([lo, hi], [expect_lo, expect_hi], atol=1e-12)
+    if k == 0:  # closed form of the upper limit
+        assert_allclose(hi, z * z / (n + z * z), rtol=1e-12)
