@@ -357,8 +357,10 @@ def test_wilson_interval_solves_the_score_equation(k, n):
         return abs(p_hat - p) - z * math.sqrt(p * (1 - p) / n)
 
     lo, hi = wilson_interval(k, n, 0.95)
-    expect_lo = 0.0 if k == 0 else brentq(score, 1e-15, p_hat)
-    expect_hi = 1.0 if k == n else brentq(score, p_hat, 1 - 1e-15)
+    # brackets exclude p = p_hat, where the score vanishes trivially when k = 0, n
+    inner_lo, inner_hi = max(p_hat, 1e-15), min(p_hat, 1 - 1e-15)
+    expect_lo = 0.0 if k == 0 else brentq(score, 1e-15, inner_hi)
+    expect_hi = 1.0 if k == n else brentq(score, inner_lo, 1 - 1e-15)
     assert_allclose([lo, hi], [expect_lo, expect_hi], atol=1e-12)
     if k == 0:  # closed form of the upper limit
         assert_allclose(hi, z * z / (n + z * z), rtol=1e-12)
