@@ -51,6 +51,37 @@ class Moments:
         d2 *= d
         return cls(n, mean, m2, float(np.add.accumulate(d2)[-1]))
 
+    @classmethod
+    def from_shifted_sums(cls, n, shift, s1, s2, s3) -> Moments:
+        """Moments from the shifted sums ``S_r = sum (x - shift)^r`` of `n` values.
+
+        This is how the kernels reduce a block in one pass (Chan, Golub & LeVeque
+        1983, "shifted data"): with the shift equal to one of the values (the
+        kernels take the first), ``|mean - shift|`` is of the order of the standard
+        deviation and the subtraction below loses no more than a two-pass
+        algorithm; a constant stream gives exactly zero.
+        """
+        if n == 0:
+            return cls()
+        delta = s1 / n
+        m2 = s2 - s1 * delta
+        m3 = s3 - 3.0 * delta * s2 + 2.0 * n * delta**3
+        return cls(int(n), float(shift + delta), float(max(m2, 0.0)), float(m3))
+
+    @staticmethod
+    def shifted_sums(x: np.ndarray) -> tuple[float, float, float, float]:
+        """``(shift, S1, S2, S3)`` of `x` with the shift ``x[0]``, summed
+        sequentially in order (``np.add.accumulate``), as the compiled kernel does."""
+        if x.size == 0:
+            return 0.0, 0.0, 0.0, 0.0
+        shift = float(x[0])
+        d = x - shift
+        d2 = d * d
+        s1 = float(np.add.accumulate(d)[-1])
+        s2 = float(np.add.accumulate(d2)[-1])
+        d2 *= d
+        return shift, s1, s2, float(np.add.accumulate(d2)[-1])
+
     def merge(self, other: Moments) -> Moments:
         """Combine two disjoint streams (Pebay 2008, Eqs. 1.1-1.3)."""
         if other.n == 0:

@@ -216,47 +216,44 @@ def simulate_block(
         captured=n_captured,
         reimpact=int(np.count_nonzero(e_r < 0.0)),
         rolling=n_rolling,
-        e=Moments.of(e_r),
-        mu=Moments.of(mu_r),
+        e=Moments.from_shifted_sums(e_r.size, *Moments.shifted_sums(e_r)),
+        mu=Moments.from_shifted_sums(mu_r.size, *Moments.shifted_sums(mu_r)),
         e_hist=histogram_counts(e_r, E_EDGES),
         mu_hist=histogram_counts(mu_r, MU_EDGES),
     )
 
 
 # Constants of the compiled path, computed once per process.
-_WORKSPACE: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
-_NO_DRAW = np.zeros(1, dtype=np.int64)  # index array for a variable not drawn
+_WORKSPACE: list = []
+_NO_DRAW = np.zeros(1, dtype=np.uint64)  # index array for a variable not drawn
 _NO_SPREAD = np.ones(1)  # speed factor table without a speed spread
-_HIST = (
-    float(E_EDGES[0]),
-    (E_EDGES.size - 1) / (E_EDGES[-1] - E_EDGES[0]),
-    float(E_EDGES.size - 1),
-    float(MU_EDGES[0]),
-    (MU_EDGES.size - 1) / (MU_EDGES[-1] - MU_EDGES[0]),
-    float(MU_EDGES.size - 1),
+_HIST = np.array(
+    [
+        E_EDGES[0],
+        (E_EDGES.size - 1) / (E_EDGES[-1] - E_EDGES[0]),
+        E_EDGES.size - 1,
+        MU_EDGES[0],
+        (MU_EDGES.size - 1) / (MU_EDGES[-1] - MU_EDGES[0]),
+        MU_EDGES.size - 1,
+    ]
 )
-
-
-def _moments_of(buf, m):
-    if not m:
-        return Moments()
-    mom = np.empty(3)
-    _fused.moments(buf, m, mom)
-    return Moments(m, float(mom[0]), float(mom[1]), float(mom[2]))
 
 
 def _simulate_fused(plan, sp, tables, idx, n):
     """The same block through the compiled kernel (see ``_fused``)."""
-    ws = _WORKSPACE.get(n)
-    if ws is None:  # per-process workspace, reused: no page faults per block
-        _WORKSPACE.clear()
-        ws = _WORKSPACE[n] = (np.empty(n), np.empty(n), np.empty(n, dtype=np.int64))
-    em, mum, flags = ws
+    if not _WORKSPACE:  # per-process scratch, reused: no page faults per block
+        _WORKSPACE.append(np.zeros(_fused.W_ROWS * _fused.CHUNK))
+        _WORKSPACE.append(np.zeros(_fused.I_ROWS * _fused.CHUNK, dtype=np.int64))
+    ws, iws = _WORKSPACE
     spread = plan.speed_factor is not None
-    _fused.physics(
-        idx[VAR_DIAMETER],
-        idx.get(VAR_ANGLE, _NO_DRAW),
-        idx.get(VAR_SPEED, _NO_DRAW),
+    e_hist = np.zeros(E_EDGES.size + 1 + _fused.SPILL, dtype=np.int64)
+    mu_hist = np.zeros(MU_EDGES.size + 1 + _fused.SPILL, dtype=np.int64)
+    counts = np.zeros(5, dtype=np.int64)
+    sums = np.zeros(8)
+    _fused.block(
+        idx[VAR_DIAMETER].view(np.uint64),
+        idx[VAR_ANGLE].view(np.uint64) if VAR_ANGLE in idx else _NO_DRAW,
+        idx[VAR_SPEED].view(np.uint64) if VAR_SPEED in idx else _NO_DRAW,
         n,
         tables.random,
         spread,
@@ -268,28 +265,14 @@ def _simulate_fused(plan, sp, tables, idx, n):
         plan.p,
         plan.q,
         plan.friction,
-        em,
-        mum,
-        flags,
-    )
-    # int32 per block (a block holds < 2**31 impacts) halves the transfer to the
-    # driver; totals are accumulated in int64 (PointAccumulator.merge)
-    e_hist = np.zeros(E_EDGES.size + 1, dtype=np.int32)
-    mu_hist = np.zeros(MU_EDGES.size + 1, dtype=np.int32)
-    counts = np.zeros(5, dtype=np.int64)
-    # the rebounds are compacted in place to the front of em and mum
-    _fused.reduce(
-        n,
         bool(tables.random and plan.shadowing == "none"),
-        em,
-        mum,
-        flags,
-        *_HIST,
+        _HIST,
         e_hist,
         mu_hist,
-        em,
-        mum,
         counts,
+        sums,
+        ws,
+        iws,
     )
     m = int(counts[4])
     return PointAccumulator(
@@ -298,8 +281,8 @@ def _simulate_fused(plan, sp, tables, idx, n):
         captured=int(counts[1]),
         reimpact=int(counts[2]),
         rolling=int(counts[3]),
-        e=_moments_of(em, m),
-        mu=_moments_of(mum, m),
-        e_hist=e_hist,
-        mu_hist=mu_hist,
+        e=Moments.from_shifted_sums(m, *sums[:4]),
+        mu=Moments.from_shifted_sums(m, *sums[4:]),
+        e_hist=e_hist[: -_fused.SPILL],
+        mu_hist=mu_hist[: -_fused.SPILL],
     )

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import os
 import sys
 import time
 import warnings
@@ -23,7 +24,7 @@ import numpy as np
 
 from .._tables import QuantileTable
 from .._validation import check_choice, check_int
-from ..errors import ConvergenceWarning, ScenarioError
+from ..errors import ConvergenceWarning, InputError, ScenarioError
 from . import checkpoint as ckpt
 from .accumulators import PointAccumulator
 from .parallel import BACKENDS, make_runner
@@ -38,8 +39,27 @@ from .statistics import wilson_interval, z_value
 
 #: Blocks per task handed to a worker (bits do not depend on it).
 BLOCKS_PER_TASK = 8
-#: Seconds between checkpoint writes.
+#: Seconds between checkpoint writes (override: MICROIMPACT_CHECKPOINT_INTERVAL).
 CHECKPOINT_INTERVAL = 2.0
+
+
+def checkpoint_interval() -> float:
+    """Seconds between checkpoint writes: ``MICROIMPACT_CHECKPOINT_INTERVAL`` if set
+    (a positive number), else :data:`CHECKPOINT_INTERVAL`."""
+    raw = os.environ.get("MICROIMPACT_CHECKPOINT_INTERVAL")
+    if raw is None or not raw.strip():
+        return CHECKPOINT_INTERVAL
+    try:
+        value = float(raw)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value > 0):
+        raise InputError(
+            f"environment variable MICROIMPACT_CHECKPOINT_INTERVAL={raw!r} is not "
+            "a positive number of seconds",
+            field="MICROIMPACT_CHECKPOINT_INTERVAL",
+        )
+    return value
 
 
 def resolve_entropy(seed) -> int:
@@ -192,6 +212,7 @@ def iter_blocks(
         samples = check_int(samples, "samples")
     workers = check_int(workers, "workers")
     check_choice(backend, "backend", BACKENDS)
+    interval = checkpoint_interval() if checkpoint is not None else math.inf
     plan = build_plan(scenario, seed=seed) if plan is None else plan
     B = plan.block_size
     precision = scenario.precision if samples is None else None
@@ -266,10 +287,7 @@ def iter_blocks(
 
     def save_now_and_then():
         nonlocal last_save
-        if (
-            checkpoint is not None
-            and time.monotonic() - last_save > CHECKPOINT_INTERVAL
-        ):
+        if checkpoint is not None and time.monotonic() - last_save > interval:
             _save(checkpoint, fingerprint, streams)
             last_save = time.monotonic()
 
