@@ -50,16 +50,20 @@ from .plan import (
 QMC_TAG = 0xFFFF_FFFF
 
 
-def stream_indices(entropy, point, block, var, n, bits):
-    """Table indices for `n` draws of variable `var` in block `block` of `point`.
+def stream_raw(entropy, point, block, var, n):
+    """`n` raw 64-bit draws of variable `var` in block `block` of `point`.
 
     The stream is addressed by key, ``SeedSequence(entropy, spawn_key=(point, block,
     var))``, so any worker can build it directly and the draws do not depend on the
-    worker count, the task grouping or the order blocks are run in. The index is the
-    top `bits` bits of each 64-bit PCG64 output.
+    worker count, the task grouping or the order blocks are run in.
     """
     ss = np.random.SeedSequence(entropy, spawn_key=(point, block, var))
-    raw = np.random.PCG64(ss).random_raw(n)
+    return np.random.PCG64(ss).random_raw(n)
+
+
+def stream_indices(entropy, point, block, var, n, bits):
+    """Table indices: the top `bits` bits of each draw of :func:`stream_raw`."""
+    raw = stream_raw(entropy, point, block, var, n)
     raw >>= np.uint64(64 - bits)
     return raw.view(np.int64)
 
@@ -79,8 +83,9 @@ def qmc_uniforms(entropy, point, rep, block, n, dim, block_size):
         return engine.random(n)
 
 
-def _draw_indices(plan: Plan, point, rep, block, n, variables):
-    """Index arrays for the listed variables, MC or QMC."""
+def _draw(plan: Plan, point, rep, block, n, variables):
+    """``(arrays, shift)``: per listed variable a uint64 array whose values shifted
+    right by `shift` are the table indices, MC (raw draws) or QMC."""
     bits = plan.table_bits
     if plan.sampling == "qmc":
         u = qmc_uniforms(
@@ -88,10 +93,11 @@ def _draw_indices(plan: Plan, point, rep, block, n, variables):
         )
         scale = float(1 << bits)
         return [
-            np.minimum((u[:, k] * scale).astype(np.int64), (1 << bits) - 1)
+            np.minimum((u[:, k] * scale).astype(np.uint64), (1 << bits) - 1)
             for k in range(len(variables))
-        ]
-    return [stream_indices(plan.entropy, point, block, v, n, bits) for v in variables]
+        ], 0
+    raws = [stream_raw(plan.entropy, point, block, v, n) for v in variables]
+    return raws, 64 - bits
 
 
 def simulate_block(
@@ -110,10 +116,12 @@ def simulate_block(
         variables.append(VAR_ANGLE)
     if plan.speed_factor is not None:
         variables.append(VAR_SPEED)
-    draws = _draw_indices(plan, point, rep, block, n, variables)
-    idx = dict(zip(variables, draws, strict=True))
-    if not store and _fused.AVAILABLE:
-        return _simulate_fused(plan, sp, tables, idx, n)
+    draws, shift = _draw(plan, point, rep, block, n, variables)
+    if not store and _fused.AVAILABLE:  # the kernel shifts as it reads
+        return _simulate_fused(plan, sp, tables, dict(zip(variables, draws)), shift, n)
+    for a in draws:
+        a >>= np.uint64(shift)
+    idx = {v: a.view(np.int64) for v, a in zip(variables, draws, strict=True)}
 
     i_d = idx[VAR_DIAMETER]
     coef = plan.coefficients[i_d]
@@ -235,11 +243,13 @@ _HIST = np.array(
         MU_EDGES[0],
         (MU_EDGES.size - 1) / (MU_EDGES[-1] - MU_EDGES[0]),
         MU_EDGES.size - 1,
+        E_EDGES.size + 1,  # first spill slot of the e_m histogram array
+        MU_EDGES.size + 1,
     ]
 )
 
 
-def _simulate_fused(plan, sp, tables, idx, n):
+def _simulate_fused(plan, sp, tables, raw, shift, n):
     """The same block through the compiled kernel (see ``_fused``)."""
     if not _WORKSPACE:  # per-process scratch, reused: no page faults per block
         _WORKSPACE.append(np.zeros(_fused.W_ROWS * _fused.CHUNK))
@@ -251,9 +261,10 @@ def _simulate_fused(plan, sp, tables, idx, n):
     counts = np.zeros(5, dtype=np.int64)
     sums = np.zeros(8)
     _fused.block(
-        idx[VAR_DIAMETER].view(np.uint64),
-        idx[VAR_ANGLE].view(np.uint64) if VAR_ANGLE in idx else _NO_DRAW,
-        idx[VAR_SPEED].view(np.uint64) if VAR_SPEED in idx else _NO_DRAW,
+        raw[VAR_DIAMETER],
+        raw.get(VAR_ANGLE, _NO_DRAW),
+        raw.get(VAR_SPEED, _NO_DRAW),
+        np.uint64(shift),
         n,
         tables.random,
         spread,

@@ -37,8 +37,10 @@ from .plan import (
 )
 from .statistics import wilson_interval, z_value
 
-#: Blocks per task handed to a worker (bits do not depend on it).
-BLOCKS_PER_TASK = 8
+#: Consecutive blocks per task (fixed-size runs): a worker merges them in order and
+#: returns one accumulator. An algorithm constant like the block size: it fixes the
+#: merge order, so the bits depend on it, never on the workers or the backend.
+BLOCKS_PER_TASK = 16
 #: Seconds between checkpoint writes (override: MICROIMPACT_CHECKPOINT_INTERVAL).
 CHECKPOINT_INTERVAL = 2.0
 
@@ -145,12 +147,13 @@ def build_plan(scenario, *, seed=None) -> Plan:
 
 @dataclass(frozen=True)
 class BlockResult:
-    """One merged block, as yielded by :func:`iter_blocks`."""
+    """One merged task, as yielded by :func:`iter_blocks`: a block, or (fixed-size
+    runs) a group of up to ``BLOCKS_PER_TASK`` consecutive blocks."""
 
     point: int
     replicate: int
-    block: int
-    accumulator: PointAccumulator | None  # this block alone (None: restored)
+    block: int  # the last block merged
+    accumulator: PointAccumulator | None  # these blocks alone (None: restored)
     total: PointAccumulator  # all blocks of (point, replicate) merged so far
     done: bool  # no more blocks will follow for (point, replicate)
 
@@ -268,13 +271,14 @@ def iter_blocks(
             (key[0], key[1], b, st.block_n(b, B)) for b in range(st.next_block, stop)
         )
 
-    def merge(point, rep, b, acc):
-        """Merge block b of (point, rep) if it is the next one; None otherwise."""
+    def merge(point, rep, b, acc, last=None):
+        """Merge blocks b..last of (point, rep) if b is the next one; else None."""
+        last = b if last is None else last
         st = streams[(point, rep)]
         if st.done or b != st.next_block:
             return None  # after convergence: discarded, deterministically
         st.acc = acc if st.acc is None else st.acc.merge(acc)
-        st.next_block = b + 1
+        st.next_block = last + 1
         if st.next_block >= st.n_blocks(B):
             st.done = True
         elif precision is not None and _converged(
@@ -283,7 +287,7 @@ def iter_blocks(
             st.done = True
         if bar is not None:
             bar.update(acc.n)
-        return BlockResult(point, rep, b, acc, st.acc, st.done)
+        return BlockResult(point, rep, last, acc, st.acc, st.done)
 
     def save_now_and_then():
         nonlocal last_save
@@ -293,31 +297,45 @@ def iter_blocks(
 
     try:
         if precision is None:
-            # fixed sizes: stream every remaining block in key order through the
-            # runner with bounded look-ahead; results come back in the same order
+            # fixed sizes: stream the remaining tasks (groups of BLOCKS_PER_TASK
+            # blocks aligned on multiples of it, so a resumed run groups as an
+            # uninterrupted one) in key order through the runner with bounded
+            # look-ahead; results come back in the same order
             tasks = []
             for key in sorted(k for k, st in streams.items() if not st.done):
-                blocks = specs(key, streams[key].n_blocks(B))
-                for i in range(0, len(blocks), BLOCKS_PER_TASK):
-                    tasks.append(blocks[i : i + BLOCKS_PER_TASK])
-            for task, accs in zip(tasks, runner.imap(tasks), strict=True):
-                for (point, rep, b, _n), acc in zip(task, accs, strict=True):
-                    yield merge(point, rep, b, acc)
+                st = streams[key]
+                for start in range(st.next_block, st.n_blocks(B), BLOCKS_PER_TASK):
+                    stop = min(
+                        (start // BLOCKS_PER_TASK + 1) * BLOCKS_PER_TASK,
+                        st.n_blocks(B),
+                    )
+                    tasks.append(
+                        tuple(
+                            (key[0], key[1], b, st.block_n(b, B))
+                            for b in range(start, stop)
+                        )
+                    )
+            for task, acc in zip(tasks, runner.imap(tasks), strict=True):
+                (point, rep, first, _n), last = task[0], task[-1][2]
+                yield merge(point, rep, first, acc, last)
                 save_now_and_then()
         else:
             # precision targets: waves of blocks, convergence checked block by block
             per_key = max(1, runner.workers * 2)
             while active := [k for k, st in streams.items() if not st.done]:
+                # one block per task: convergence is decided block by block
                 wave = [
-                    specs(
+                    (spec,)
+                    for k in active
+                    for spec in specs(
                         k, min(streams[k].next_block + per_key, streams[k].n_blocks(B))
                     )
-                    for k in active
                 ]
                 merged = {}
-                for task, accs in zip(wave, runner.map(wave), strict=True):
-                    for (point, rep, b, _n), acc in zip(task, accs, strict=True):
-                        merged[(point, rep, b)] = acc
+                for ((point, rep, b, _n),), acc in zip(
+                    wave, runner.map(wave), strict=True
+                ):
+                    merged[(point, rep, b)] = acc
                 for point, rep, b in sorted(merged):
                     br = merge(point, rep, b, merged[(point, rep, b)])
                     if br is not None:

@@ -1,10 +1,13 @@
 """Serial, process-pool and Dask adapters for the engine (lazy imports).
 
 A *runner* takes a list of tasks and returns their results in the same order. Each
-task is a tuple of block specifications ``(point, rep, block, n)``; its result is the
-list of per-block accumulators. Because the driver merges per-block results in key
-order, neither the grouping of blocks into tasks nor the number of workers changes a
-single bit of the result.
+task is a tuple of block specifications ``(point, rep, block, n)`` of consecutive
+blocks of one (point, replicate); its result is their accumulator, merged in block
+order in the worker (and sent between processes packed into arrays, see
+:func:`~microimpact.engine.accumulators.pack`). The driver merges task results in
+key order. Tasks are fixed by the plan (``montecarlo.BLOCKS_PER_TASK``), never by the
+number of workers, so the merge order - and every bit of the result - is the same on
+one core, a process pool or a Dask cluster.
 
 The plan (tables of ~2 MB) is sent to each worker once: through the pool initializer
 for processes, and by ``Client.scatter(..., broadcast=True)`` for Dask.
@@ -15,6 +18,7 @@ from __future__ import annotations
 import os
 
 from ..errors import InputError
+from .accumulators import pack, unpack
 from .kernel import simulate_block
 
 _WORKER_PLAN = None
@@ -23,8 +27,26 @@ DASK_CONNECT_TIMEOUT = 10
 
 
 def run_task(plan, task):
-    """Run the blocks of one task with `plan`; returns their accumulators."""
-    return [simulate_block(plan, *spec) for spec in task]
+    """Run the blocks of one task with `plan`; returns their merged accumulator.
+
+    Merging here, in block order, rather than on the driver keeps the driver's share
+    of the cores to a few microseconds per task.
+    """
+    acc = None
+    for spec in task:
+        block = simulate_block(plan, *spec)
+        acc = block if acc is None else acc.merge(block)
+    return acc
+
+
+def run_task_packed(plan, task):
+    """:func:`run_task` with the result packed for transport (:func:`pack`)."""
+    return pack([run_task(plan, task)])
+
+
+def _unpack_one(packed):
+    [acc] = unpack(packed)
+    return acc
 
 
 def _init_worker(plan):
@@ -33,7 +55,7 @@ def _init_worker(plan):
 
 
 def _run_task_global(task):
-    return run_task(_WORKER_PLAN, task)
+    return run_task_packed(_WORKER_PLAN, task)
 
 
 def _ordered(submit, tasks, in_flight):
@@ -99,11 +121,16 @@ class PoolRunner:
         )
 
     def map(self, tasks):
-        return list(self._pool.map(_run_task_global, tasks))
+        return [_unpack_one(r) for r in self._pool.map(_run_task_global, tasks)]
 
     def imap(self, tasks):
-        return _ordered(
-            lambda t: self._pool.submit(_run_task_global, t), tasks, 4 * self.workers
+        return map(
+            _unpack_one,
+            _ordered(
+                lambda t: self._pool.submit(_run_task_global, t),
+                tasks,
+                4 * self.workers,
+            ),
         )
 
     def close(self):
@@ -122,7 +149,8 @@ class ExecutorRunner:
     def map(self, tasks):
         import functools
 
-        return list(self.executor.map(functools.partial(run_task, self.plan), tasks))
+        fn = functools.partial(run_task_packed, self.plan)
+        return [_unpack_one(r) for r in self.executor.map(fn, tasks)]
 
     def imap(self, tasks):
         import itertools
@@ -175,15 +203,20 @@ class DaskRunner:
 
     def map(self, tasks):
         futures = self._client.map(
-            run_task, [self._plan] * len(tasks), tasks, pure=False
+            run_task_packed, [self._plan] * len(tasks), tasks, pure=False
         )
-        return self._client.gather(futures)
+        return [_unpack_one(r) for r in self._client.gather(futures)]
 
     def imap(self, tasks):
-        return _ordered(
-            lambda t: self._client.submit(run_task, self._plan, t, pure=False),
-            tasks,
-            4 * self.workers,
+        return map(
+            _unpack_one,
+            _ordered(
+                lambda t: self._client.submit(
+                    run_task_packed, self._plan, t, pure=False
+                ),
+                tasks,
+                4 * self.workers,
+            ),
         )
 
     def close(self):
