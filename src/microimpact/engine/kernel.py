@@ -117,8 +117,9 @@ def simulate_block(
     if plan.speed_factor is not None:
         variables.append(VAR_SPEED)
     draws, shift = _draw(plan, point, rep, block, n, variables)
+    raw = dict(zip(variables, draws, strict=True))
     if not store and _fused.AVAILABLE:  # the kernel shifts as it reads
-        return _simulate_fused(plan, sp, tables, dict(zip(variables, draws)), shift, n)
+        return _simulate_fused(plan, sp, tables, raw, shift, n)
     for a in draws:
         a >>= np.uint64(shift)
     idx = {v: a.view(np.int64) for v, a in zip(variables, draws, strict=True)}
