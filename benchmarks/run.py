@@ -77,9 +77,9 @@ SEED = 20000376
 #: Sizes per mode (``--quick`` and ``--smoke`` override the default ``full``).
 #: ``isolate``: measure in fresh processes; ``process_per_repeat``: one per repetition.
 FULL = dict(
-    n_rng=2 * 10**7,
+    n_rng=2 * 10**8,
     n_numpy=10**7,
-    n_engine=2 * 10**7,
+    n_engine=2 * 10**8,
     repeats=3,
     rss_ns=(10**6, 10**7, 10**8),
     qmc_replicates=32,
@@ -90,7 +90,7 @@ FULL = dict(
     isolate=True,
     process_per_repeat=True,
 )
-QUICK = {**FULL, "n_rng": 1 << 23, "n_numpy": 2 * 10**6, "n_engine": 2 * 10**6}
+QUICK = {**FULL, "n_rng": 2 * 10**7, "n_numpy": 2 * 10**6, "n_engine": 2 * 10**7}
 QUICK.update(rss_ns=(10**6, 10**7), qmc_replicates=16)
 QUICK.update(reproduce_cli=False, process_per_repeat=False)
 SMOKE = {**QUICK, "n_rng": 1 << 18, "n_numpy": 1 << 17, "n_engine": 1 << 17}

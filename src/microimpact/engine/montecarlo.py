@@ -40,7 +40,7 @@ from .statistics import wilson_interval, z_value
 #: Consecutive blocks per task (fixed-size runs): a worker merges them in order and
 #: returns one accumulator. An algorithm constant like the block size: it fixes the
 #: merge order, so the bits depend on it, never on the workers or the backend.
-BLOCKS_PER_TASK = 16
+BLOCKS_PER_TASK = 64
 #: Seconds between checkpoint writes (override: MICROIMPACT_CHECKPOINT_INTERVAL).
 CHECKPOINT_INTERVAL = 2.0
 
