@@ -597,8 +597,8 @@ def print_table(res: dict) -> None:
         )
     print(
         "floor/x, classic/x: times slower than each RNG floor; x/numpy: speed-up over "
-        "the NumPy baseline.\nPeak RSS of the measuring process; process-pool workers "
-        "are forkserver grandchildren and not counted; '+X/wkr': each Dask worker."
+        "the NumPy baseline.\nPeak RSS of the measuring process ('+X/wkr': the "
+        "largest process-pool or Dask worker, which shares most pages with it)."
     )
     by_n = ", ".join(
         f"{int(n):.0e}: {v:.0f}" for n, v in res["peak_rss_mb_by_n"].items()
