@@ -146,34 +146,30 @@ def _physics(ws, iws, c, p, q, friction, shadow_none, hist, general, ke, km, pow
         t = 0 if t < 0.0 else (mu_top if t >= mu_nb else int(t) + 1)
         iws[I_BM * CHUNK + k] = t if reb else mu_spill + spill
         if powers:
-            d = em - ke if reb else 0.0
-            d2 = d * d
-            ws[W_D1 * CHUNK + k] = d
-            ws[W_D2 * CHUNK + k] = d2
-            ws[W_D3 * CHUNK + k] = d2 * d
-            d = mum - km if reb else 0.0
-            d2 = d * d
-            ws[W_G1 * CHUNK + k] = d
-            ws[W_G2 * CHUNK + k] = d2
-            ws[W_G3 * CHUNK + k] = d2 * d
+            shifted_powers(ws, k, em, mum, reb, ke, km)
     return n_shadow, n_capt, n_reimp, n_roll, m
+
+
+def _shifted_powers(ws, k, em, mum, reb, ke, km):
+    """(x - K)^r, r = 1, 2, 3, of impact `k`'s e_m and mu_m (0 unless a rebound)."""
+    d = em - ke if reb else 0.0
+    d2 = d * d
+    ws[W_D1 * CHUNK + k] = d
+    ws[W_D2 * CHUNK + k] = d2
+    ws[W_D3 * CHUNK + k] = d2 * d
+    d = mum - km if reb else 0.0
+    d2 = d * d
+    ws[W_G1 * CHUNK + k] = d
+    ws[W_G2 * CHUNK + k] = d2
+    ws[W_G3 * CHUNK + k] = d2 * d
 
 
 def _powers(ws, iws, ke, km):
     """The shifted powers of a chunk whose shift was not known before its physics
-    (the chunk holding the block's first rebound); same operations as `_physics`."""
+    (the chunk holding the block's first rebound)."""
     for k in range(CHUNK):
-        reb = iws[I_CODE * CHUNK + k] != 0
-        d = ws[W_EM * CHUNK + k] - ke if reb else 0.0
-        d2 = d * d
-        ws[W_D1 * CHUNK + k] = d
-        ws[W_D2 * CHUNK + k] = d2
-        ws[W_D3 * CHUNK + k] = d2 * d
-        d = ws[W_MUM * CHUNK + k] - km if reb else 0.0
-        d2 = d * d
-        ws[W_G1 * CHUNK + k] = d
-        ws[W_G2 * CHUNK + k] = d2
-        ws[W_G3 * CHUNK + k] = d2 * d
+        em, mum = ws[W_EM * CHUNK + k], ws[W_MUM * CHUNK + k]
+        shifted_powers(ws, k, em, mum, iws[I_CODE * CHUNK + k] != 0, ke, km)
 
 
 def _block(
@@ -290,8 +286,9 @@ def _block(
 
 if AVAILABLE:  # pragma: no branch
     _opts = dict(cache=True, nogil=True, error_model="numpy")
+    shifted_powers = numba.njit(inline="always", **_opts)(_shifted_powers)
     physics = numba.njit(inline="always", **_opts)(_physics)
     powers = numba.njit(inline="always", **_opts)(_powers)
     block = numba.njit(**_opts)(_block)
 else:  # pragma: no cover
-    physics = powers = block = None
+    shifted_powers = physics = powers = block = None

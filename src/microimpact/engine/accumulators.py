@@ -34,24 +34,6 @@ class Moments:
     m3: float = 0.0
 
     @classmethod
-    def of(cls, x: np.ndarray) -> Moments:
-        """Moments of the finite 1-d array `x`.
-
-        Two passes (well conditioned), each summed sequentially left to right
-        (``np.add.accumulate``), the same order as the compiled kernel, so both give
-        the same bits.
-        """
-        n = int(x.size)
-        if n == 0:
-            return cls()
-        mean = float(np.add.accumulate(x)[-1]) / n
-        d = x - mean
-        d2 = d * d
-        m2 = float(np.add.accumulate(d2)[-1])
-        d2 *= d
-        return cls(n, mean, m2, float(np.add.accumulate(d2)[-1]))
-
-    @classmethod
     def from_shifted_sums(cls, n, shift, s1, s2, s3) -> Moments:
         """Moments from the shifted sums ``S_r = sum (x - shift)^r`` of `n` values.
 
@@ -68,19 +50,22 @@ class Moments:
         m3 = s3 - 3.0 * delta * s2 + 2.0 * n * delta**3
         return cls(int(n), float(shift + delta), float(max(m2, 0.0)), float(m3))
 
-    @staticmethod
-    def shifted_sums(x: np.ndarray) -> tuple[float, float, float, float]:
-        """``(shift, S1, S2, S3)`` of `x` with the shift ``x[0]``, summed
-        sequentially in order (``np.add.accumulate``), as the compiled kernel does."""
+    @classmethod
+    def of(cls, x: np.ndarray) -> Moments:
+        """Moments of the finite 1-d array `x`, exactly as the compiled kernel
+        reduces a block (same bits): shifted sums about ``x[0]``, each summed
+        sequentially left to right (``np.add.accumulate``)."""
         if x.size == 0:
-            return 0.0, 0.0, 0.0, 0.0
+            return cls()
         shift = float(x[0])
         d = x - shift
         d2 = d * d
         s1 = float(np.add.accumulate(d)[-1])
         s2 = float(np.add.accumulate(d2)[-1])
         d2 *= d
-        return shift, s1, s2, float(np.add.accumulate(d2)[-1])
+        return cls.from_shifted_sums(
+            x.size, shift, s1, s2, float(np.add.accumulate(d2)[-1])
+        )
 
     def merge(self, other: Moments) -> Moments:
         """Combine two disjoint streams (Pebay 2008, Eqs. 1.1-1.3)."""
@@ -228,51 +213,6 @@ class PointAccumulator:
             e_hist=np.asarray(d["e_hist"], dtype=np.int64).copy(),
             mu_hist=np.asarray(d["mu_hist"], dtype=np.int64).copy(),
         )
-
-
-_N_COUNTS = 5  # n, shadowed, captured, reimpact, rolling
-
-
-def pack(accs: list[PointAccumulator]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per-block accumulators as three arrays, for cheap transport between processes.
-
-    Returns ``(counts, hists, floats)``: per block the counts and rebound counts
-    (int64), both histograms (int32: a block holds far fewer than 2**31 impacts) and
-    ``(mean, M2, M3)`` of e_m and mu_m (float64). Pickling arrays costs a few
-    microseconds per block; pickling the objects cost ~10x more, paid by the driver
-    on the same cores as the workers.
-    """
-    ne = E_EDGES.size + 1
-    counts = np.empty((len(accs), _N_COUNTS + 2), dtype=np.int64)
-    hists = np.empty((len(accs), ne + MU_EDGES.size + 1), dtype=np.int32)
-    floats = np.empty((len(accs), 6))
-    for i, a in enumerate(accs):
-        counts[i] = (a.n, a.shadowed, a.captured, a.reimpact, a.rolling, a.e.n, a.mu.n)
-        hists[i, :ne] = a.e_hist
-        hists[i, ne:] = a.mu_hist
-        floats[i] = (a.e.mean, a.e.m2, a.e.m3, a.mu.mean, a.mu.m2, a.mu.m3)
-    return counts, hists, floats
-
-
-def unpack(packed) -> list[PointAccumulator]:
-    """The inverse of :func:`pack` (bit for bit; histograms widened to int64)."""
-    counts, hists, floats = packed
-    ne = E_EDGES.size + 1
-    wide = hists.astype(np.int64)
-    return [
-        PointAccumulator(
-            n=c[0],
-            shadowed=c[1],
-            captured=c[2],
-            reimpact=c[3],
-            rolling=c[4],
-            e=Moments(c[5], f[0], f[1], f[2]),
-            mu=Moments(c[6], f[3], f[4], f[5]),
-            e_hist=wide[i, :ne],
-            mu_hist=wide[i, ne:],
-        )
-        for i, (c, f) in enumerate(zip(counts.tolist(), floats.tolist(), strict=True))
-    ]
 
 
 def histogram_quantile(counts: np.ndarray, edges: np.ndarray, q) -> np.ndarray:

@@ -225,8 +225,8 @@ def simulate_block(
         captured=n_captured,
         reimpact=int(np.count_nonzero(e_r < 0.0)),
         rolling=n_rolling,
-        e=Moments.from_shifted_sums(e_r.size, *Moments.shifted_sums(e_r)),
-        mu=Moments.from_shifted_sums(mu_r.size, *Moments.shifted_sums(mu_r)),
+        e=Moments.of(e_r),
+        mu=Moments.of(mu_r),
         e_hist=histogram_counts(e_r, E_EDGES),
         mu_hist=histogram_counts(mu_r, MU_EDGES),
     )

@@ -264,18 +264,17 @@ def iter_blocks(
     )
     last_save = time.monotonic()
 
-    def specs(key, stop):
-        """Block specifications of (point, rep) from its next block to `stop`."""
+    def specs(key, start, stop):
+        """Block specifications of (point, rep) for blocks start..stop-1."""
         st = streams[key]
-        return tuple(
-            (key[0], key[1], b, st.block_n(b, B)) for b in range(st.next_block, stop)
-        )
+        return tuple((key[0], key[1], b, st.block_n(b, B)) for b in range(start, stop))
 
-    def merge(point, rep, b, acc, last=None):
-        """Merge blocks b..last of (point, rep) if b is the next one; else None."""
-        last = b if last is None else last
+    def merge(task, acc):
+        """Merge the blocks of `task` if the first is the next one; else None."""
+        point, rep, first, _n = task[0]
+        last = task[-1][2]
         st = streams[(point, rep)]
-        if st.done or b != st.next_block:
+        if st.done or first != st.next_block:
             return None  # after convergence: discarded, deterministically
         st.acc = acc if st.acc is None else st.acc.merge(acc)
         st.next_block = last + 1
@@ -301,23 +300,18 @@ def iter_blocks(
             # blocks aligned on multiples of it, so a resumed run groups as an
             # uninterrupted one) in key order through the runner with bounded
             # look-ahead; results come back in the same order
-            tasks = []
-            for key in sorted(k for k, st in streams.items() if not st.done):
-                st = streams[key]
-                for start in range(st.next_block, st.n_blocks(B), BLOCKS_PER_TASK):
-                    stop = min(
-                        (start // BLOCKS_PER_TASK + 1) * BLOCKS_PER_TASK,
-                        st.n_blocks(B),
-                    )
-                    tasks.append(
-                        tuple(
-                            (key[0], key[1], b, st.block_n(b, B))
-                            for b in range(start, stop)
-                        )
-                    )
+            T = BLOCKS_PER_TASK
+            tasks = [
+                specs(key, start, min((start // T + 1) * T, st.n_blocks(B)))
+                for key, st in sorted(streams.items())
+                if not st.done
+                for start in (
+                    st.next_block,
+                    *range((st.next_block // T + 1) * T, st.n_blocks(B), T),
+                )
+            ]
             for task, acc in zip(tasks, runner.imap(tasks), strict=True):
-                (point, rep, first, _n), last = task[0], task[-1][2]
-                yield merge(point, rep, first, acc, last)
+                yield merge(task, acc)
                 save_now_and_then()
         else:
             # precision targets: waves of blocks, convergence checked block by block
@@ -328,16 +322,14 @@ def iter_blocks(
                     (spec,)
                     for k in active
                     for spec in specs(
-                        k, min(streams[k].next_block + per_key, streams[k].n_blocks(B))
+                        k,
+                        streams[k].next_block,
+                        min(streams[k].next_block + per_key, streams[k].n_blocks(B)),
                     )
                 ]
-                merged = {}
-                for ((point, rep, b, _n),), acc in zip(
-                    wave, runner.map(wave), strict=True
-                ):
-                    merged[(point, rep, b)] = acc
-                for point, rep, b in sorted(merged):
-                    br = merge(point, rep, b, merged[(point, rep, b)])
+                done = dict(zip(wave, runner.map(wave), strict=True))
+                for task in sorted(done):
+                    br = merge(task, done[task])
                     if br is not None:
                         yield br
                 save_now_and_then()

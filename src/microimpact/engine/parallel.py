@@ -3,11 +3,10 @@
 A *runner* takes a list of tasks and returns their results in the same order. Each
 task is a tuple of block specifications ``(point, rep, block, n)`` of consecutive
 blocks of one (point, replicate); its result is their accumulator, merged in block
-order in the worker (and sent between processes packed into arrays, see
-:func:`~microimpact.engine.accumulators.pack`). The driver merges task results in
-key order. Tasks are fixed by the plan (``montecarlo.BLOCKS_PER_TASK``), never by the
-number of workers, so the merge order - and every bit of the result - is the same on
-one core, a process pool or a Dask cluster.
+order in the worker, so the driver handles one small object per task and merges the
+tasks in key order. Tasks are fixed by the plan (``montecarlo.BLOCKS_PER_TASK``),
+never by the number of workers, so the merge order - and every bit of the result -
+is the same on one core, a process pool or a Dask cluster.
 
 The plan (tables of ~2 MB) is sent to each worker once: through the pool initializer
 for processes, and by ``Client.scatter(..., broadcast=True)`` for Dask.
@@ -18,7 +17,6 @@ from __future__ import annotations
 import os
 
 from ..errors import InputError
-from .accumulators import pack, unpack
 from .kernel import simulate_block
 
 _WORKER_PLAN = None
@@ -39,23 +37,13 @@ def run_task(plan, task):
     return acc
 
 
-def run_task_packed(plan, task):
-    """:func:`run_task` with the result packed for transport (:func:`pack`)."""
-    return pack([run_task(plan, task)])
-
-
-def _unpack_one(packed):
-    [acc] = unpack(packed)
-    return acc
-
-
 def _init_worker(plan):
     global _WORKER_PLAN
     _WORKER_PLAN = plan
 
 
 def _run_task_global(task):
-    return run_task_packed(_WORKER_PLAN, task)
+    return run_task(_WORKER_PLAN, task)
 
 
 def _ordered(submit, tasks, in_flight):
@@ -126,16 +114,11 @@ class PoolRunner:
         )
 
     def map(self, tasks):
-        return [_unpack_one(r) for r in self._pool.map(_run_task_global, tasks)]
+        return list(self._pool.map(_run_task_global, tasks))
 
     def imap(self, tasks):
-        return map(
-            _unpack_one,
-            _ordered(
-                lambda t: self._pool.submit(_run_task_global, t),
-                tasks,
-                4 * self.workers,
-            ),
+        return _ordered(
+            lambda t: self._pool.submit(_run_task_global, t), tasks, 4 * self.workers
         )
 
     def close(self):
@@ -154,8 +137,7 @@ class ExecutorRunner:
     def map(self, tasks):
         import functools
 
-        fn = functools.partial(run_task_packed, self.plan)
-        return [_unpack_one(r) for r in self.executor.map(fn, tasks)]
+        return list(self.executor.map(functools.partial(run_task, self.plan), tasks))
 
     def imap(self, tasks):
         import itertools
@@ -208,20 +190,15 @@ class DaskRunner:
 
     def map(self, tasks):
         futures = self._client.map(
-            run_task_packed, [self._plan] * len(tasks), tasks, pure=False
+            run_task, [self._plan] * len(tasks), tasks, pure=False
         )
-        return [_unpack_one(r) for r in self._client.gather(futures)]
+        return self._client.gather(futures)
 
     def imap(self, tasks):
-        return map(
-            _unpack_one,
-            _ordered(
-                lambda t: self._client.submit(
-                    run_task_packed, self._plan, t, pure=False
-                ),
-                tasks,
-                4 * self.workers,
-            ),
+        return _ordered(
+            lambda t: self._client.submit(run_task, self._plan, t, pure=False),
+            tasks,
+            4 * self.workers,
         )
 
     def close(self):
