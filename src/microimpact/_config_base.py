@@ -5,12 +5,12 @@ Part of :mod:`microimpact.config`, split out to keep modules small.
 
 from __future__ import annotations
 
-import difflib
 import math
 import numbers
 import re
 from pathlib import Path
 
+from ._validation import did_you_mean
 from .errors import InputError, ScenarioError
 from .units import LENGTH_UNITS
 
@@ -147,11 +147,10 @@ class _Ctx:
         allowed = tuple(allowed)
         for key in table:
             if key not in allowed:
-                close = difflib.get_close_matches(key, allowed, n=1, cutoff=0.6)
-                hint = f" (did you mean {close[0]!r}?)" if close else ""
                 raise self.error(
                     _join(where, key),
-                    f"unknown key {key!r}{hint}; allowed: {', '.join(sorted(allowed))}",
+                    f"unknown key {key!r}{did_you_mean(key, allowed)}; "
+                    f"allowed: {', '.join(sorted(allowed))}",
                 )
         for key in sorted(required):
             if key not in table:
@@ -190,12 +189,10 @@ class _Ctx:
 
     def choice(self, value, key, options):
         if value not in options:
-            close = difflib.get_close_matches(str(value), options, n=1, cutoff=0.6)
-            hint = f" (did you mean {close[0]!r}?)" if close else ""
             raise self.error(
                 key,
                 f"must be one of {', '.join(repr(o) for o in options)}; "
-                f"got {_show(value)}{hint}",
+                f"got {_show(value)}{did_you_mean(value, options)}",
             )
         return value
 

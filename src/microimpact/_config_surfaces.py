@@ -5,9 +5,6 @@ Part of :mod:`microimpact.config`, split out to keep modules small.
 
 from __future__ import annotations
 
-import difflib
-
-#: Folder of the shipped preset scenario files.
 from ._config_base import (
     ANGLE_METHODS,
     DETREND,
@@ -17,6 +14,9 @@ from ._config_base import (
     _join,
     _show,
 )
+
+#: Folder of the shipped preset scenario files.
+from ._validation import did_you_mean
 from .scenario import (
     SurfaceVariant,
 )
@@ -83,11 +83,10 @@ def _angles(ctx: _Ctx, t, where):
                 for n in dir(stats)
                 if isinstance(getattr(stats, n), stats.rv_continuous)
             ]
-            close = difflib.get_close_matches(name, names, n=1)
-            hint = f" (did you mean {close[0]!r}?)" if close else ""
             raise ctx.error(
                 _join(where, "distribution"),
-                f"{name!r} is not a continuous scipy.stats distribution{hint}",
+                f"{name!r} is not a continuous scipy.stats distribution"
+                f"{did_you_mean(name, names)}",
             )
         shapes = ctx.numbers(t.get("shapes", []), _join(where, "shapes"), minimum=0)
         loc = num("loc_deg") or 0.0
@@ -162,34 +161,18 @@ def _synthetic(ctx, t, where):
     ctx.keys(t, where, t.keys(), extra[:4])
     n = ctx.integer(t["n_points"], _join(where, "n_points"), low=2)
     seed = ctx.integer(t["seed"], _join(where, "seed")) if "seed" in t else None
+
+    def length(key):  # a positive length in um, returned in m
+        return float(um_to_m(ctx.number(t[key], _join(where, key), low=0, strict=True)))
+
     return ctx.build(
         where,
         t,
         synthetic.gaussian_profile,
         n,
-        float(
-            um_to_m(ctx.number(t["dx_um"], _join(where, "dx_um"), low=0, strict=True))
-        ),
-        rms_height=float(
-            um_to_m(
-                ctx.number(
-                    t["rms_height_um"],
-                    _join(where, "rms_height_um"),
-                    low=0,
-                    strict=True,
-                )
-            )
-        ),
-        correlation_length=float(
-            um_to_m(
-                ctx.number(
-                    t["correlation_length_um"],
-                    _join(where, "correlation_length_um"),
-                    low=0,
-                    strict=True,
-                )
-            )
-        ),
+        length("dx_um"),
+        rms_height=length("rms_height_um"),
+        correlation_length=length("correlation_length_um"),
         rng=seed,
     )
 

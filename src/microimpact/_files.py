@@ -8,6 +8,7 @@ output file is ever left half-written.
 
 from __future__ import annotations
 
+import csv
 import os
 import tempfile
 from pathlib import Path
@@ -44,6 +45,17 @@ def data_lines(lines) -> list[tuple[int, str]]:
         if stripped and not stripped.startswith("#"):
             out.append((lineno, line))
     return out
+
+
+def csv_cells(text: str, *, source, line: int) -> list[str]:
+    """The cells of one comma-separated line (quotes allowed); a line the csv module
+    cannot parse raises :class:`DataFormatError` naming the file and the line."""
+    try:
+        return next(csv.reader([text]))
+    except csv.Error as exc:
+        raise DataFormatError(
+            f"cannot parse line: {exc}.", source=source, line=line
+        ) from None
 
 
 def is_number(cell: str) -> bool:

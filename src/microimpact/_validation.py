@@ -5,6 +5,7 @@ Messages backtick the parameter, show the bad value and say what is allowed.
 
 from __future__ import annotations
 
+import difflib
 import numbers
 
 import numpy as np
@@ -48,6 +49,12 @@ def check_int(x, name: str, *, minimum: int = 1) -> int:
     if isinstance(x, bool) or not isinstance(x, numbers.Integral) or x < minimum:
         raise ValueError(f"`{name}` must be an integer >= {minimum}; got {x!r}.")
     return int(x)
+
+
+def did_you_mean(word, choices) -> str:
+    """``" (did you mean 'x'?)"`` for the closest of `choices` to `word`, or ``""``."""
+    close = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""
 
 
 def check_choice(x, name: str, choices) -> str:

@@ -30,13 +30,13 @@ value and what is allowed; an unknown key gets a "did you mean" suggestion.
 
 from __future__ import annotations
 
-import difflib
 import math
 import tomllib
 from pathlib import Path
 
 import numpy as np
 
+from ._validation import did_you_mean
 from .errors import ScenarioError
 from .scenario import (
     PRECISION_STATISTICS,
@@ -497,11 +497,9 @@ def list_presets() -> list[str]:
 def preset_path(name: str) -> Path:
     """The scenario file of preset `name`."""
     if name not in PRESETS:
-        close = difflib.get_close_matches(str(name), list(PRESETS), n=1)
-        hint = f" (did you mean {close[0]!r}?)" if close else ""
         raise ValueError(
             f"`name` must be one of {', '.join(repr(p) for p in list_presets())}; "
-            f"got {name!r}{hint}."
+            f"got {name!r}{did_you_mean(name, PRESETS)}."
         )
     return PRESET_DIR / PRESETS[name]
 

@@ -269,20 +269,24 @@ def _rows_layout(rows):
 def _parse_rows_layout(path, row_edges, row_counts, labels):
     (le, ce), (lc, cc) = row_edges, row_counts
     shift = 1 if labels else 0
-    edges = np.array(
-        [
-            _number(
-                c,
-                path=path,
-                line=le,
-                field=f"column {j + shift}",
-                allowed="a bin edge >= 0",
-                minimum=0.0,
-                strict=False,
-            )
-            for j, c in enumerate(ce)
-        ]
-    )
+
+    def row(line, cells, allowed):
+        return np.array(
+            [
+                _number(
+                    c,
+                    path=path,
+                    line=line,
+                    field=f"column {j + shift}",
+                    allowed=allowed,
+                    minimum=0.0,
+                    strict=False,
+                )
+                for j, c in enumerate(cells)
+            ]
+        )
+
+    edges = row(le, ce, "a bin edge >= 0")
     bad = np.flatnonzero(np.diff(edges) <= 0)
     if bad.size:
         j = int(bad[0]) + 1
@@ -292,21 +296,7 @@ def _parse_rows_layout(path, row_edges, row_counts, labels):
             line=le,
             field=f"column {j + shift}",
         )
-    counts = np.array(
-        [
-            _number(
-                c,
-                path=path,
-                line=lc,
-                field=f"column {j + shift}",
-                allowed="a count >= 0",
-                minimum=0.0,
-                strict=False,
-            )
-            for j, c in enumerate(cc)
-        ]
-    )
-    return edges, counts, labels
+    return edges, row(lc, cc, "a count >= 0"), labels
 
 
 def _parse_columns_layout(path, rows, unit):

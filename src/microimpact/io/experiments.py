@@ -38,12 +38,11 @@ Example (paper Fig. 5 style)::
 
 from __future__ import annotations
 
-import csv
-import difflib
 import math
 import os
 
-from .._files import data_lines, read_lines
+from .._files import csv_cells, data_lines, read_lines
+from .._validation import did_you_mean
 from ..errors import DataFormatError
 
 __all__ = ["COORDINATES", "STATISTICS", "combine_experiments", "read_experiments"]
@@ -77,7 +76,7 @@ def _header(source, lines):
             source=source,
         )
     lineno, text = lines[0]
-    header = [h.strip() for h in next(csv.reader([text]))]
+    header = [h.strip() for h in csv_cells(text, source=source, line=lineno)]
     dup = sorted({h for h in header if h and header.count(h) > 1})
     if dup:
         raise DataFormatError(
@@ -87,10 +86,9 @@ def _header(source, lines):
         )
 
     def missing(col, allowed):
-        close = difflib.get_close_matches(col, header, n=1)
-        hint = f" (did you mean {close[0]!r}?)" if close else ""
         raise DataFormatError(
-            f"required column missing; header has {header}, {allowed}{hint}.",
+            f"required column missing; header has {header}, {allowed}"
+            f"{did_you_mean(col, header)}.",
             source=source,
             line=lineno,
             field=col,
@@ -167,10 +165,9 @@ def _parse_row(cells, index, *, source, line):
         )
     stat = cell("statistic")
     if stat not in STATISTICS:
-        close = difflib.get_close_matches(stat, STATISTICS, n=1)
-        hint = f" (did you mean {close[0]!r}?)" if close else ""
         raise DataFormatError(
-            f"unknown statistic {stat!r}; allowed: {', '.join(STATISTICS)}{hint}.",
+            f"unknown statistic {stat!r}; allowed: {', '.join(STATISTICS)}"
+            f"{did_you_mean(stat, STATISTICS)}.",
             source=source,
             line=line,
             field="statistic",
@@ -283,12 +280,7 @@ def read_experiments(path):
         )
     rows = []
     for lineno, text in body:
-        try:
-            cells = next(csv.reader([text]))
-        except csv.Error as exc:
-            raise DataFormatError(
-                f"cannot parse line: {exc}.", source=source, line=lineno
-            ) from None
+        cells = csv_cells(text, source=source, line=lineno)
         rows.append(_parse_row(cells, index, source=source, line=lineno))
     table = pd.DataFrame(rows, columns=list(_OUT_COLUMNS))
     for col in ("speed_m_s", "angle_deg", "mean", "ci_low", "ci_high", "se", "n"):

@@ -14,14 +14,13 @@ whose first non-blank character is ``#`` are skipped::
 
 from __future__ import annotations
 
-import csv
-import difflib
 import math
 import os
 
 import numpy as np
 
-from .._files import data_lines, read_lines
+from .._files import csv_cells, data_lines, read_lines
+from .._validation import did_you_mean
 from ..errors import DataFormatError
 from ..units import um_to_m
 
@@ -67,20 +66,14 @@ def read_impact_data(path):
             source=source,
         )
     (header_line, header_text), body = lines[0], lines[1:]
-    try:
-        header = [h.strip() for h in next(csv.reader([header_text]))]
-    except csv.Error as exc:
-        raise DataFormatError(
-            f"cannot parse header: {exc}.", source=source, line=header_line
-        ) from None
+    cells = csv_cells(header_text, source=source, line=header_line)
+    header = [h.strip() for h in cells]
     index = {}
     for col in REQUIRED_COLUMNS:
         if col not in header:
-            close = difflib.get_close_matches(col, header, n=1)
-            hint = f" (did you mean {close[0]!r}?)" if close else ""
             raise DataFormatError(
                 f"required column missing; header has {header}, required "
-                f"{list(REQUIRED_COLUMNS)}{hint}.",
+                f"{list(REQUIRED_COLUMNS)}{did_you_mean(col, header)}.",
                 source=source,
                 line=header_line,
                 field=col,
@@ -93,12 +86,7 @@ def read_impact_data(path):
 
     out = np.empty((len(body), 3))
     for row_no, (lineno, text) in enumerate(body):
-        try:
-            cells = next(csv.reader([text]))
-        except csv.Error as exc:
-            raise DataFormatError(
-                f"cannot parse line: {exc}.", source=source, line=lineno
-            ) from None
+        cells = csv_cells(text, source=source, line=lineno)
         for j, col in enumerate(REQUIRED_COLUMNS):
             k = index[col]
             cell = cells[k].strip() if k < len(cells) else ""

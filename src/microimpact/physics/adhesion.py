@@ -22,13 +22,12 @@ References
 
 from __future__ import annotations
 
-import difflib
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from .._validation import as_float_array, check_positive
+from .._validation import as_float_array, check_positive, did_you_mean
 
 __all__ = [
     "MATERIALS",
@@ -364,8 +363,7 @@ def material(name: str) -> Material:
         return MATERIALS[key]
     except KeyError:
         known = sorted(MATERIALS) + sorted(_ALIASES)
-        close = difflib.get_close_matches(key, known, n=1)
-        hint = f" Did you mean {close[0]!r}?" if close else ""
         raise ValueError(
-            f"unknown material {name!r}; known: {', '.join(known)}.{hint}"
+            f"unknown material {name!r}; known: {', '.join(known)}"
+            f"{did_you_mean(key, known)}."
         ) from None

@@ -27,7 +27,6 @@ References
 
 from __future__ import annotations
 
-import difflib
 import itertools
 import math
 import numbers
@@ -37,7 +36,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from .._validation import as_float_array
+from .._validation import as_float_array, did_you_mean
 from ..errors import ScenarioError
 from ..units import m_to_um, um_to_m
 from . import adhesion
@@ -466,7 +465,7 @@ class ImpactCoefficients:
                 raise ScenarioError(
                     f"unknown coefficient set {name!r}; allowed: "
                     f"{', '.join(sorted(COEFFICIENT_SETS))}"
-                    + _did_you_mean(name, COEFFICIENT_SETS),
+                    + did_you_mean(name, COEFFICIENT_SETS),
                     source=source,
                     field=f"{where}.set",
                 )
@@ -506,7 +505,7 @@ class ImpactCoefficients:
         if name not in COEFFICIENT_SETS:
             raise ValueError(
                 f"`name` must be one of {sorted(COEFFICIENT_SETS)}; got {name!r}."
-                + _did_you_mean(name, COEFFICIENT_SETS)
+                + did_you_mean(name, COEFFICIENT_SETS)
             )
         return cls.from_dict({"set": name}, field=f"COEFFICIENT_SETS[{name!r}]")
 
@@ -518,18 +517,13 @@ class _SpecError(Exception):
         self.key, self.message = key, message
 
 
-def _did_you_mean(key, allowed) -> str:
-    close = difflib.get_close_matches(str(key), [str(a) for a in allowed], n=1)
-    return f" (did you mean {close[0]!r}?)" if close else ""
-
-
 def _check_keys(params, required, optional, source=None, where=None):
     allowed = set(required) | set(optional)
     for key in params:
         if key not in allowed:
             msg = (
                 f"unknown key {key!r}; allowed: {', '.join(sorted(allowed))}"
-                + _did_you_mean(key, allowed)
+                + did_you_mean(key, allowed)
             )
             if where is None:
                 raise _SpecError(key, msg)
@@ -723,7 +717,7 @@ def law_from_dict(spec: dict, *, source=None, field: str | None = None):
         if "law" not in spec:
             msg += f" (one of: {', '.join(sorted(LAWS))})"
         raise ScenarioError(
-            msg + _did_you_mean(name, LAWS), source=source, field=f"{where}.law"
+            msg + did_you_mean(name, LAWS), source=source, field=f"{where}.law"
         )
     params = {k: v for k, v in spec.items() if k != "law"}
     try:
