@@ -23,9 +23,11 @@ re-impacts the nominal surface when :math:`e_m < 0` (nominal :math:`V_n < 0`).
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
-from . import _fused
+from ..errors import InputError
 from .accumulators import (
     E_EDGES,
     MU_EDGES,
@@ -118,8 +120,8 @@ def simulate_block(
         variables.append(VAR_SPEED)
     draws, shift = _draw(plan, point, rep, block, n, variables)
     raw = dict(zip(variables, draws, strict=True))
-    if not store and _fused.AVAILABLE:  # the kernel shifts as it reads
-        return _simulate_fused(plan, sp, tables, raw, shift, n)
+    if not store and _COMPILED is not None:  # the kernel shifts as it reads
+        return _simulate_compiled(plan, sp, tables, raw, shift, n)
     for a in draws:
         a >>= np.uint64(shift)
     idx = {v: a.view(np.int64) for v, a in zip(variables, draws, strict=True)}
@@ -232,10 +234,44 @@ def simulate_block(
     )
 
 
-# Constants of the compiled path, computed once per process.
-_WORKSPACE: list = []
+# ------------------------------------------------------------------ compiled path
+#: Environment variable choosing the kernel: ``numpy`` forces the NumPy kernel,
+#: ``compiled`` requires the compiled one, unset or ``auto`` takes the compiled
+#: kernel when it was built at install time.
+KERNEL_ENV = "MICROIMPACT_KERNEL"
+_KERNEL_CHOICES = ("auto", "compiled", "numpy")
+
+
+def _load_compiled():
+    """The compiled kernel module ``_ckernel``, or None for the NumPy kernel."""
+    choice = os.environ.get(KERNEL_ENV, "").strip().lower() or "auto"
+    if choice not in _KERNEL_CHOICES:
+        raise InputError(
+            f"environment variable {KERNEL_ENV}={os.environ[KERNEL_ENV]!r}: "
+            f"expected one of {', '.join(_KERNEL_CHOICES)}"
+        )
+    if choice == "numpy":
+        return None
+    try:
+        from . import _ckernel
+    except ImportError as exc:
+        if choice == "compiled":
+            raise InputError(
+                f"{KERNEL_ENV}=compiled, but the compiled kernel is not installed "
+                f"({exc}); reinstall microimpact on a machine with a C compiler"
+            ) from exc
+        return None
+    return _ckernel
+
+
+_COMPILED = _load_compiled()
+#: Which kernel this process runs: ``"compiled"`` or ``"numpy"`` (recorded in the
+#: provenance of every result).
+KERNEL = "numpy" if _COMPILED is None else "compiled"
 _NO_DRAW = np.zeros(1, dtype=np.uint64)  # index array for a variable not drawn
 _NO_SPREAD = np.ones(1)  # speed factor table without a speed spread
+#: The histogram layout for the compiled kernel: e_m then mu_m lower edge, inverse
+#: bin width, bin count; then the first spill slot of each histogram array.
 _HIST = np.array(
     [
         E_EDGES[0],
@@ -244,34 +280,31 @@ _HIST = np.array(
         MU_EDGES[0],
         (MU_EDGES.size - 1) / (MU_EDGES[-1] - MU_EDGES[0]),
         MU_EDGES.size - 1,
-        E_EDGES.size + 1,  # first spill slot of the e_m histogram array
+        E_EDGES.size + 1,
         MU_EDGES.size + 1,
     ]
 )
+_SPILL = 8  # spill slots appended to each histogram array (the C kernel's SPILL)
 
 
-def _simulate_fused(plan, sp, tables, raw, shift, n):
-    """The same block through the compiled kernel (see ``_fused``)."""
-    if not _WORKSPACE:  # per-process scratch, reused: no page faults per block
-        _WORKSPACE.append(np.zeros(_fused.W_ROWS * _fused.CHUNK))
-        _WORKSPACE.append(np.zeros(_fused.I_ROWS * _fused.CHUNK, dtype=np.int64))
-    ws, iws = _WORKSPACE
+def _simulate_compiled(plan, sp, tables, raw, shift, n):
+    """The same block through the compiled kernel (``_ckernel.c``)."""
     spread = plan.speed_factor is not None
-    e_hist = np.zeros(E_EDGES.size + 1 + _fused.SPILL, dtype=np.int64)
-    mu_hist = np.zeros(MU_EDGES.size + 1 + _fused.SPILL, dtype=np.int64)
-    counts = np.zeros(5, dtype=np.int64)
-    sums = np.zeros(8)
-    _fused.block(
+    e_hist = np.zeros(E_EDGES.size + 1 + _SPILL, dtype=np.int64)
+    mu_hist = np.zeros(MU_EDGES.size + 1 + _SPILL, dtype=np.int64)
+    counts, sums = _COMPILED.block(
         raw[VAR_DIAMETER],
         raw.get(VAR_ANGLE, _NO_DRAW),
         raw.get(VAR_SPEED, _NO_DRAW),
-        np.uint64(shift),
+        shift,
         n,
         tables.random,
         spread,
         plan.coefficients,
+        plan.coefficients.shape[1],
         tables.row_of_atom,
         tables.rows,
+        tables.rows.shape[1],
         plan.speed_factor if spread else _NO_SPREAD,
         float(sp.speed),
         plan.p,
@@ -281,20 +314,16 @@ def _simulate_fused(plan, sp, tables, raw, shift, n):
         _HIST,
         e_hist,
         mu_hist,
-        counts,
-        sums,
-        ws,
-        iws,
     )
-    m = int(counts[4])
+    m = counts[4]
     return PointAccumulator(
         n=n,
-        shadowed=int(counts[0]),
-        captured=int(counts[1]),
-        reimpact=int(counts[2]),
-        rolling=int(counts[3]),
+        shadowed=counts[0],
+        captured=counts[1],
+        reimpact=counts[2],
+        rolling=counts[3],
         e=Moments.from_shifted_sums(m, *sums[:4]),
         mu=Moments.from_shifted_sums(m, *sums[4:]),
-        e_hist=e_hist[: -_fused.SPILL],
-        mu_hist=mu_hist[: -_fused.SPILL],
+        e_hist=e_hist[:-_SPILL],
+        mu_hist=mu_hist[:-_SPILL],
     )

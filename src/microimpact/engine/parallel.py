@@ -102,9 +102,8 @@ class PoolRunner:
             method = "forkserver"
         ctx = mp.get_context(method)
         if method == "fork":
-            # load the compiled kernel (numba cache) and the first angle table here,
-            # once, so that forked workers inherit them instead of each spending
-            # ~0.2 s on it at every run
+            # build the first angle table and touch the kernel here, once, so that
+            # forked workers inherit them instead of each building them per run
             simulate_block(plan, 0, 0, 0, 1)
         self._pool = ProcessPoolExecutor(
             max_workers=workers,

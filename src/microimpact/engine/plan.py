@@ -78,6 +78,18 @@ class AngleTables:
     shadowed_mass: float  # P(phi >= theta) under the surface's own distribution
     random: bool  # False for a smooth surface
 
+    def __post_init__(self):
+        # the layout the compiled kernel reads without checking each row number
+        if not (
+            self.rows.dtype == np.float64
+            and self.rows.ndim == 2
+            and self.rows.flags.c_contiguous
+            and self.row_of_atom.dtype == np.uint16
+            and self.row_of_atom.size
+            and int(self.row_of_atom.max()) < self.rows.shape[0]
+        ):
+            raise ValueError("AngleTables: row_of_atom must index rows (internal)")
+
     @property
     def phi(self) -> np.ndarray:
         """The equiprobable angle atoms [rad]."""

@@ -14,6 +14,7 @@ import pandas as pd
 
 from .._files import atomic_write
 from .accumulators import E_EDGES, MU_EDGES, PointAccumulator
+from .kernel import KERNEL
 from .plan import BLOCK_SIZE
 from .statistics import (
     capture_speed,
@@ -134,6 +135,7 @@ class SimulationResult:
             "shadowing": plan.shadowing,
             "block_size": BLOCK_SIZE,
             "table_size": int(plan.diameter.size),
+            "kernel": KERNEL,
             "workers": workers,
             "backend": backend,
             "elapsed_s": elapsed,
@@ -241,6 +243,7 @@ class SimulationResult:
                 "shadowing": p["shadowing"],
                 "block_size": p["block_size"],
                 "table_size": p["table_size"],
+                "kernel": p["kernel"],
                 "elapsed_s": p["elapsed_s"],
                 "created": p["created"],
                 "e_edges": f"{E_EDGES[0]}:{E_EDGES[-1]}:{E_EDGES.size - 1} bins",

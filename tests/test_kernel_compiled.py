@@ -1,0 +1,172 @@
+"""The compiled kernel and the NumPy kernel compute the same bits.
+
+The compiled single-pass kernel (``engine/_ckernel.c``) exists only for speed; the
+NumPy kernel is the readable form (and the fallback where no C compiler was there at
+install time). With p = q = 1
+they perform the same IEEE operations in the same order, so every count, histogram
+and moment must agree exactly; with general p, q they may differ by the last bit of
+``pow`` and agree to round-off.
+"""
+
+import numpy as np
+import pytest
+from engine_helpers import PowerCoefficients, rough, scenario
+from numpy.testing import assert_allclose, assert_array_equal
+
+from microimpact import SurfaceVariant
+from microimpact.engine import kernel
+from microimpact.engine.montecarlo import build_plan
+from microimpact.errors import InputError
+
+pytestmark = pytest.mark.skipif(
+    kernel.KERNEL != "compiled", reason="the compiled kernel is not built"
+)
+
+
+def _both(plan, point, monkeypatch, block=3, n=30_000):
+    fused = kernel.simulate_block(plan, point, 0, block, n)
+    with monkeypatch.context() as m:
+        m.setattr(kernel, "_COMPILED", None)
+        plain = kernel.simulate_block(plan, point, 0, block, n)
+    return fused.to_arrays(), plain.to_arrays()
+
+
+@pytest.mark.parametrize("shadowing", ["reject", "none", "weighted"])
+@pytest.mark.parametrize("friction", [0.15, np.inf])
+def test_bit_identical_for_p_q_one(shadowing, friction, monkeypatch):
+    sc = scenario(
+        coefficients=PowerCoefficients(friction=friction),
+        surfaces=(rough(15.0), SurfaceVariant("smooth")),
+        speeds_m_s=(0.3,),
+        angles_deg=(20.0, 90.0),
+        shadowing=shadowing,
+        speed_spread=0.1,
+    )
+    plan = build_plan(sc)
+    for point in range(len(plan.points)):
+        a, b = _both(plan, point, monkeypatch)
+        for key in a:
+            assert_array_equal(a[key], b[key], err_msg=f"{key} at point {point}")
+
+
+def test_general_exponents_agree_to_round_off(monkeypatch):
+    sc = scenario(
+        coefficients=PowerCoefficients(p=1.3, q=0.7, friction=0.2),
+        surfaces=(rough(12.0),),
+        speeds_m_s=(0.4,),
+        angles_deg=(35.0,),
+    )
+    a, b = _both(build_plan(sc), 0, monkeypatch)
+    assert_array_equal(a["counts"], b["counts"])
+    assert_allclose(a["e"], b["e"], rtol=1e-12)
+    assert_allclose(a["mu"], b["mu"], rtol=1e-12)
+    assert np.abs(a["e_hist"] - b["e_hist"]).sum() <= 2
+
+
+@pytest.mark.parametrize("n", [0, 1, 255, 256, 257, 1000])
+def test_bit_identical_at_chunk_edges(n, monkeypatch):
+    # a block shorter than, equal to and just past one inner chunk (256 impacts)
+    sc = scenario(surfaces=(rough(15.0),), speeds_m_s=(0.3,), angles_deg=(30.0,))
+    a, b = _both(build_plan(sc), 0, monkeypatch, block=0, n=n)
+    for key in a:
+        assert_array_equal(a[key], b[key], err_msg=key)
+
+
+def test_qmc_bit_identical(monkeypatch):
+    # QMC indices arrive unshifted (shift 0), so the kernel checks their range
+    sc = scenario(
+        surfaces=(rough(15.0),), speeds_m_s=(0.3,), angles_deg=(30.0,), sampling="qmc"
+    )
+    a, b = _both(build_plan(sc), 0, monkeypatch, block=0, n=4096)
+    for key in a:
+        assert_array_equal(a[key], b[key], err_msg=key)
+
+
+def _block_args(**over):
+    """Arguments of a valid 4-impact call of ``_ckernel.block`` (smooth surface)."""
+    n = 4
+    args = dict(
+        i_d=np.arange(n, dtype=np.uint64),
+        i_a=np.zeros(1, np.uint64),
+        i_s=np.zeros(1, np.uint64),
+        shift=0,
+        n=n,
+        angle_random=False,
+        speed_random=False,
+        dtab=np.tile([1.0, 1.0, 0.1, 0.0], (n, 1)),
+        dstride=4,
+        amap=np.zeros(1, np.uint16),
+        atab=np.array([[1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0]]),
+        astride=8,
+        sfac=np.ones(1),
+        speed=1.0,
+        p=1.0,
+        q=1.0,
+        friction=0.2,
+        shadow_none=False,
+        hist=kernel._HIST,
+        e_hist=np.zeros(kernel.E_EDGES.size + 1 + kernel._SPILL, np.int64),
+        mu_hist=np.zeros(kernel.MU_EDGES.size + 1 + kernel._SPILL, np.int64),
+    )
+    args.update(over)
+    return list(args.values())
+
+
+def test_direct_call_normal_impact():
+    # normal impact at 1 m/s on a smooth surface: u = 1, k1 = k2 = 1, v_c = 0.1,
+    # so R = 1/2, rho = 1/1.9, e = R (1 - rho) (Eqs. 4-6) for all 4 impacts
+    args = _block_args()
+    counts, sums = kernel._COMPILED.block(*args)
+    # (shadowed, captured, reimpact, rolling, rebounds): mu = 0 rolls (Eq. 3)
+    assert counts == (0, 0, 0, 4, 4)
+    e_hist = args[-2]
+    assert e_hist.sum() == 4
+    assert e_hist[np.searchsorted(kernel.E_EDGES, 0.5 * (1 - 1 / 1.9))] == 4
+    e = 0.5 * (1.0 - 1.0 / 1.9)
+    assert sums[0] == pytest.approx(e, rel=1e-15)  # shift K = first rebound
+    assert sums[1:4] == (0.0, 0.0, 0.0)  # all equal to K
+
+
+def test_spill_constant_matches():
+    assert kernel._COMPILED.SPILL == kernel._SPILL
+    assert kernel._COMPILED.CHUNK == 256
+
+
+@pytest.mark.parametrize(
+    ("over", "error"),
+    [
+        ({"i_d": np.array([0, 1, 2, 99], np.uint64)}, IndexError),  # row 99 of 4
+        ({"i_d": np.arange(3, dtype=np.uint64)}, ValueError),  # shorter than n
+        ({"i_d": np.arange(8, dtype=np.uint64)[::2]}, ValueError),  # strided
+        ({"e_hist": np.zeros(3, np.int64)}, ValueError),  # no room for the bins
+        ({"shift": 64}, ValueError),
+        ({"n": -1}, ValueError),
+        ({"dstride": 2}, ValueError),
+    ],
+)
+def test_direct_call_rejects_bad_buffers(over, error):
+    with pytest.raises(error):
+        kernel._COMPILED.block(*_block_args(**over))
+
+
+def test_angle_tables_must_index_rows():
+    from microimpact.engine.plan import AngleTables
+
+    with pytest.raises(ValueError, match="row_of_atom"):
+        AngleTables(np.zeros((2, 8)), np.array([0, 2], np.uint16), 0.0, True)
+
+
+@pytest.mark.parametrize(
+    ("value", "expect"),
+    [("numpy", None), ("", "compiled"), ("auto", "compiled"), ("COMPILED", "compiled")],
+)
+def test_kernel_choice_from_environment(value, expect, monkeypatch):
+    monkeypatch.setenv(kernel.KERNEL_ENV, value)
+    got = kernel._load_compiled()
+    assert (got is None) if expect is None else (got is kernel._COMPILED)
+
+
+def test_bad_kernel_choice_is_an_input_error(monkeypatch):
+    monkeypatch.setenv(kernel.KERNEL_ENV, "fortran")
+    with pytest.raises(InputError, match="MICROIMPACT_KERNEL='fortran'"):
+        kernel._load_compiled()
