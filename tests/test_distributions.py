@@ -453,3 +453,27 @@ def test_lognormal_truncated_moments_closed_form(min_um, max_um):
     )
     assert_allclose(dist.mean(), mean, rtol=1e-9)
     assert_allclose(dist.std(), math.sqrt(m2 - mean**2), rtol=1e-7)
+
+
+def test_table_is_evaluated_in_slices_with_unchanged_values():
+    # from_ppf calls the quantile function on slices (small temporaries); the
+    # atoms must be the values of one whole-array call
+    from scipy import stats
+
+    from microimpact._tables import (
+        PPF_SLICE,
+        TABLE_SIZE,
+        QuantileTable,
+        mid_probabilities,
+    )
+
+    dist = stats.truncnorm(-2.0, np.inf, loc=5e-6, scale=2e-6)
+    sizes = []
+
+    def ppf(q):
+        sizes.append(q.size)
+        return dist.ppf(q)
+
+    table = QuantileTable.from_ppf(ppf)
+    assert max(sizes) == PPF_SLICE and sum(sizes) == TABLE_SIZE
+    np.testing.assert_array_equal(table.values, dist.ppf(mid_probabilities()))
