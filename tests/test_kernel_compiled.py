@@ -170,3 +170,71 @@ def test_bad_kernel_choice_is_an_input_error(monkeypatch):
     monkeypatch.setenv(kernel.KERNEL_ENV, "fortran")
     with pytest.raises(InputError, match="MICROIMPACT_KERNEL='fortran'"):
         kernel._load_compiled()
+
+
+def _runnable_isas():
+    """The x86-64 levels this CPU runs (from /proc/cpuinfo; baseline elsewhere)."""
+    try:
+        with open("/proc/cpuinfo") as f:
+            flags = next((ln for ln in f if ln.startswith("flags")), "").split()
+    except OSError:
+        flags = []
+    levels = {
+        "x86-64-v4": {"avx512f", "avx512bw", "avx512cd", "avx512dq", "avx512vl"},
+        "x86-64-v3": {"avx2", "fma", "bmi2", "f16c", "movbe"},
+    }
+    return [isa for isa, need in levels.items() if need <= set(flags)] + ["x86-64"]
+
+
+def _build_for(isa, tmp_path):
+    """The kernel compiled for one instruction set only (no clones), or None."""
+    import importlib.util
+    import shutil
+    import subprocess
+    import sysconfig
+    from pathlib import Path
+
+    cc = shutil.which("cc") or shutil.which("gcc")
+    if cc is None:
+        return None
+    src = Path(kernel.__file__).with_name("_ckernel.c")
+    out = tmp_path / f"{isa}" / "_ckernel.so"
+    out.parent.mkdir()
+    cmd = [cc, "-shared", "-fPIC", "-O3", "-ffp-contract=off", "-std=c11"]
+    cmd += [f"-march={isa}", "-DMICROIMPACT_NO_CLONES"]
+    cmd += [f"-I{sysconfig.get_paths()['include']}", str(src), "-o", str(out)]
+    if subprocess.run(cmd, capture_output=True, check=False).returncode:
+        return None
+    spec = importlib.util.spec_from_file_location("_ckernel", out)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.mark.parametrize("p", [1.0, 1.3])
+def test_instruction_set_clones_give_the_same_bits(p, tmp_path, monkeypatch):
+    # the installed module picks an AVX-512, AVX2 or baseline clone at load time;
+    # each, built alone, must give the installed module's results bit for bit
+    # (which the tests above compare with the NumPy kernel)
+    import platform
+
+    if platform.machine() not in ("x86_64", "AMD64"):
+        pytest.skip("x86-64 clones only")
+    sc = scenario(
+        coefficients=PowerCoefficients(p=p, q=p, friction=0.2),
+        surfaces=(rough(15.0),),
+        speeds_m_s=(0.4,),
+        angles_deg=(35.0,),
+        shadowing="none",
+        speed_spread=0.1,
+    )
+    plan = build_plan(sc)
+    ref = kernel.simulate_block(plan, 0, 0, 1, 20_000).to_arrays()
+    for isa in _runnable_isas():
+        module = _build_for(isa, tmp_path)
+        if module is None:
+            pytest.skip("no C compiler for the test builds")
+        monkeypatch.setattr(kernel, "_COMPILED", module)
+        got = kernel.simulate_block(plan, 0, 0, 1, 20_000).to_arrays()
+        for key in ref:
+            assert_array_equal(got[key], ref[key], err_msg=f"{key} ({isa})")
