@@ -70,7 +70,7 @@ FRICTION = 0.15  # [1], Fig. 8 text
 SPEED = 1.0  # [m s-1]
 ANGLE_DEG = 30.0  # apparent incidence from the nominal plane [deg]
 CONTACT_LENGTH_UM = 20.0
-#: The engine's block (kernel.stream_indices draws one stream per block and variable).
+#: The engine's block (kernel.stream_raw draws one stream per block and variable).
 BLOCK = 1 << 15
 SEED = 20000376
 

@@ -380,9 +380,10 @@ def input_figures(result):
         from .plotting.roughness import plot_angle_pdf
     except ImportError:
         return out
+    from ._tables import mid_probabilities
     from .units import rad_to_deg
 
-    q = (np.arange(4096) + 0.5) / 4096  # deterministic: the quantile function
+    q = mid_probabilities(4096)  # deterministic: the quantile function
     for s in sc.surfaces:
         if getattr(s, "angles", None) is None or not hasattr(s.angles, "ppf"):
             continue

@@ -205,7 +205,7 @@ typedef struct {
     double sums[8];
 } block_args;
 
-/* The caller has checked every index (see indices_in_range). */
+/* The caller has checked every index (see draws_in_range). */
 static CLONES __attribute__((noinline)) void
 run_block(block_args *a, scratch_t *s)
 {
@@ -325,8 +325,8 @@ PyDoc_STRVAR(block_doc,
 "      e_hist, mu_hist) -> (counts, sums)\n\n"
 "One block of `n` impacts (table indices: the uint64 draws shifted right by\n"
 "`shift`). All arrays are C-contiguous: uint64 draws, float64 tables with\n"
-"`dstride`/`astride` columns, uint16 `amap`, float64 `hist` (8 values: e_m then\n"
-"mu_m lower edge, inverse bin width, bin count, then the two first spill slots)\n"
+"`dstride`/`astride` columns, uint16 `amap`, float64 `hist` (6 values: e_m then\n"
+"mu_m lower edge, inverse bin width, bin count)\n"
 "and int64 histogram arrays, which are added to (their last 8 slots are spill).\n"
 "Returns counts (shadowed, captured, reimpact, rolling, rebounds) and sums\n"
 "(K, S1, S2, S3 of e_m, then of mu_m; S_r = sum over rebounds of (x - K)^r).");
@@ -350,7 +350,7 @@ ck_block(PyObject *self, PyObject *args)
         goto done;
     }
     if (check_len(&bd, "i_d", 8, n) || check_len(&bdt, "dtab", 8, dstride) ||
-        check_len(&bat, "atab", 8, astride) || check_len(&bh, "hist", 8, 8) ||
+        check_len(&bat, "atab", 8, astride) || check_len(&bh, "hist", 8, 6) ||
         check_len(&bam, "amap", 2, 1) || check_len(&bsf, "sfac", 8, 1) ||
         (angle_random && check_len(&ba, "i_a", 8, n)) ||
         (speed_random && check_len(&bs, "i_s", 8, n)))
@@ -362,12 +362,12 @@ ck_block(PyObject *self, PyObject *args)
     a.hist.mu_lo = h[3];
     a.hist.mu_inv_w = h[4];
     a.hist.mu_nb = h[5];
+    /* slots: 0 below the range, 1..nb the bins, nb + 1 above, then SPILL */
     a.hist.e_top = (int64_t)h[2] + 1;
     a.hist.mu_top = (int64_t)h[5] + 1;
-    a.hist.e_spill = (int64_t)h[6];
-    a.hist.mu_spill = (int64_t)h[7];
-    if (h[2] < 1 || h[5] < 1 || a.hist.e_spill != a.hist.e_top + 1 ||
-        a.hist.mu_spill != a.hist.mu_top + 1 ||
+    a.hist.e_spill = a.hist.e_top + 1;
+    a.hist.mu_spill = a.hist.mu_top + 1;
+    if (h[2] < 1 || h[5] < 1 ||
         check_len(&beh, "e_hist", 8, a.hist.e_spill + SPILL) ||
         check_len(&bmh, "mu_hist", 8, a.hist.mu_spill + SPILL)) {
         if (!PyErr_Occurred())

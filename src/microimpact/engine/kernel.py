@@ -63,13 +63,6 @@ def stream_raw(entropy, point, block, var, n):
     return np.random.PCG64(ss).random_raw(n)
 
 
-def stream_indices(entropy, point, block, var, n, bits):
-    """Table indices: the top `bits` bits of each draw of :func:`stream_raw`."""
-    raw = stream_raw(entropy, point, block, var, n)
-    raw >>= np.uint64(64 - bits)
-    return raw.view(np.int64)
-
-
 def qmc_uniforms(entropy, point, rep, block, n, dim, block_size):
     """Scrambled Sobol points ``[block*B, block*B + n)`` of replicate `rep`."""
     from scipy.stats import qmc  # lazily: scipy.stats costs 0.6 s and ~80 MB
@@ -271,7 +264,7 @@ KERNEL = "numpy" if _COMPILED is None else "compiled"
 _NO_DRAW = np.zeros(1, dtype=np.uint64)  # index array for a variable not drawn
 _NO_SPREAD = np.ones(1)  # speed factor table without a speed spread
 #: The histogram layout for the compiled kernel: e_m then mu_m lower edge, inverse
-#: bin width, bin count; then the first spill slot of each histogram array.
+#: bin width, bin count.
 _HIST = np.array(
     [
         E_EDGES[0],
@@ -280,8 +273,6 @@ _HIST = np.array(
         MU_EDGES[0],
         (MU_EDGES.size - 1) / (MU_EDGES[-1] - MU_EDGES[0]),
         MU_EDGES.size - 1,
-        E_EDGES.size + 1,
-        MU_EDGES.size + 1,
     ]
 )
 _SPILL = 8  # spill slots appended to each histogram array (the C kernel's SPILL)

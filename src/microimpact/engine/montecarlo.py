@@ -163,7 +163,7 @@ class _Stream:
     """Driver-side state of one (point, replicate)."""
 
     target: int | None  # samples, None = until the precision target
-    max_samples: int
+    max_samples: int  # the target, or the cap of a precision target
     next_block: int = 0
     acc: PointAccumulator | None = None
     done: bool = False
@@ -172,12 +172,10 @@ class _Stream:
         return self.acc.n if self.acc is not None else 0
 
     def block_n(self, b, block_size):
-        cap = self.target if self.target is not None else self.max_samples
-        return min(block_size, cap - b * block_size)
+        return min(block_size, self.max_samples - b * block_size)
 
     def n_blocks(self, block_size):
-        cap = self.target if self.target is not None else self.max_samples
-        return math.ceil(cap / block_size)
+        return math.ceil(self.max_samples / block_size)
 
 
 def _converged(acc: PointAccumulator, precision, confidence) -> bool:

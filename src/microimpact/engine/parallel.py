@@ -92,8 +92,8 @@ class PoolRunner:
         from concurrent.futures import ProcessPoolExecutor
 
         self.workers = workers
-        # 'fork' starts workers instantly with the compiled kernel already loaded,
-        # but is unsafe once threads run; otherwise 'forkserver' (or 'spawn').
+        # 'fork' starts workers instantly with the tables already built, but is
+        # unsafe once threads run; otherwise 'forkserver' (or 'spawn').
         if os.name == "nt":
             method = "spawn"
         elif threading.active_count() == 1 and "fork" in mp.get_all_start_methods():

@@ -33,7 +33,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from .._tables import TABLE_SIZE, QuantileTable
+from .._tables import TABLE_SIZE, QuantileTable, mid_probabilities
 
 #: Samples per block: the engine's unit of randomness (an algorithm constant, never
 #: derived from the worker count or the memory).
@@ -217,7 +217,7 @@ def _speed_factor_atoms(relative_std: float, size: int) -> np.ndarray:
     from scipy.special import ndtr, ndtri
 
     lo, hi = ndtr(-1.0 / relative_std), ndtr(1.0 / relative_std)
-    q = (np.arange(size) + 0.5) / size
+    q = mid_probabilities(size)
     atoms = 1.0 + relative_std * ndtri(lo + q * (hi - lo))
     atoms.setflags(write=False)
     return atoms
