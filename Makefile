@@ -26,8 +26,8 @@ demo: $(VENV)/.installed
 	$(BIN)/microimpact reproduce --out out
 
 lint: $(VENV)/.installed-test
-	$(BIN)/ruff check src tests benchmarks docs/figures
-	$(BIN)/ruff format --check src tests benchmarks docs/figures
+	$(BIN)/ruff check setup.py src tests benchmarks docs/figures
+	$(BIN)/ruff format --check setup.py src tests benchmarks docs/figures
 
 test: lint
 	$(BIN)/python -m pytest -n 2 -q
@@ -36,4 +36,5 @@ bench: $(VENV)/.installed-test
 	$(BIN)/python benchmarks/run.py
 
 clean:
-	rm -rf $(VENV) out build *.egg-info
+	rm -rf $(VENV) out build *.egg-info src/*.egg-info src/microimpact/engine/*.so
+	find src tests benchmarks -name __pycache__ -prune -exec rm -rf {} +

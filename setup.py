@@ -2,7 +2,7 @@
 
 ``microimpact.engine._ckernel`` is one C file using only the CPython buffer protocol.
 It is ``optional``: without a C compiler the install still succeeds and the engine
-runs its NumPy kernel (same results, about ten times slower; see docs/performance.md).
+runs its NumPy kernel (same results, about seven times slower; see docs/performance.md).
 The flags keep the IEEE operation order that makes the two kernels agree bit for bit:
 no fast-math and no contraction into fused multiply-adds.
 """
