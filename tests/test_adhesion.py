@@ -146,6 +146,15 @@ def test_sticking_velocity_rejects_bad_parameters(kwargs, match):
         thornton_ning_sticking_velocity(50e-6, **args)
 
 
+def test_sticking_velocity_error_shows_the_bad_element():
+    for bad, shown in ((-0.2, r"-0\.2"), (np.inf, "inf")):
+        with pytest.raises(
+            ValueError, match=rf"`work_of_adhesion`.*got .*{shown}"
+        ) as ei:
+            thornton_ning_sticking_velocity(50e-6, RHO, E_STAR, [W, bad, W])
+        assert "array" not in str(ei.value)
+
+
 def test_contact_modulus_closed_forms():
     e, nu = 200e9, 0.3
     assert_allclose(contact_modulus(e, nu, e, nu), e / (2 * (1 - nu**2)), rtol=1e-14)
@@ -165,8 +174,13 @@ def test_contact_modulus_closed_forms():
 def test_geometric_mean_work_of_adhesion():
     assert_allclose(geometric_mean_work_of_adhesion(0.04, 0.04), 0.08, rtol=1e-14)
     assert_allclose(geometric_mean_work_of_adhesion(0.01, 0.04), 0.04, rtol=1e-14)
-    with pytest.raises(ValueError, match="`surface_energy_2`"):
+    with pytest.raises(ValueError, match=r"`surface_energy_2`.*got .*-1\.0"):
         geometric_mean_work_of_adhesion(0.04, -1.0)
+    # the message shows the bad element of an array, not the whole array
+    for bad in (np.inf, np.nan):
+        with pytest.raises(ValueError, match=rf"`surface_energy_1`.*got .*{bad}") as ei:
+            geometric_mean_work_of_adhesion([0.04, bad, 0.03], 0.04)
+        assert "0.04" not in str(ei.value) and "array" not in str(ei.value)
 
 
 @pytest.mark.parametrize("speed", [0.05, 1.0, -3.0])

@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pandas as pd
 import pytest
 from numpy.testing import assert_allclose
 
@@ -240,17 +241,33 @@ def test_from_dict_overrides_and_errors():
 
 
 # ------------------------------------------------------------------- fitting
+def _eq6(v, k1, k2, v_c, p=1.0, q=1.0):
+    """[Li 2000], Eqs. 4-6 written out here, with capture (e = 0) for |v| <= v_c."""
+    s = np.abs(np.asarray(v, dtype=float))
+    R = k1**p / (k1**p + s**p)  # Eq. 4
+    rho = k2**q / (k2**q + np.abs(s - v_c) ** q)  # Eq. 5
+    return np.where(s > v_c, R * (1.0 - rho), 0.0)  # Eq. 6
+
+
 def test_model_matches_paper_eq6():
     v = np.linspace(0.0, 3.0, 31)
     k1, k2, v_c = 4.0, 0.05, 0.2
     eq6 = k1 / (k1 + v) * (1 - k2 / (k2 + np.abs(v - v_c)))  # [Li 2000], Eq. 6
     eq6[v <= v_c] = 0.0
     assert_allclose(_restitution(v, k1, k2, v_c, 1.0, 1.0), eq6, rtol=1e-14, atol=0)
+    # general exponents p, q (Eqs. 4-5) and the sign of v ignored
+    for p, q in ((2.5, 0.6), (0.7, 1.8)):
+        assert_allclose(
+            _restitution(-v, k1, k2, v_c, p, q),
+            _eq6(v, k1, k2, v_c, p, q),
+            rtol=1e-13,
+            atol=1e-16,
+        )
 
 
 def test_fit_restitution_noiseless_recovers_exactly():
     v = np.linspace(0.05, 3.0, 40)
-    e = _restitution(v, 4.0, 0.05, 0.2, 1.0, 1.0)
+    e = _eq6(v, 4.0, 0.05, 0.2)
     fit = fit_restitution(v, e)
     assert_allclose([fit.k1, fit.k2, fit.v_c], [4.0, 0.05, 0.2], rtol=1e-5)
     assert fit.n == 40 and fit.residual_std < 1e-6
@@ -261,7 +278,7 @@ def test_fit_restitution_standard_errors_are_calibrated(rng):
     v = np.linspace(0.25, 3.0, 40)
     z = []
     for _ in range(40):
-        e = _restitution(v, *truth, 1.0, 1.0) + rng.normal(0, 0.01, v.size)
+        e = _eq6(v, *truth) + rng.normal(0, 0.01, v.size)
         f = fit_restitution(v, e)
         z.append((np.array([f.k1, f.k2, f.v_c]) - truth) / [f.k1_se, f.k2_se, f.v_c_se])
     z = np.array(z)
@@ -278,7 +295,7 @@ def _synthetic(rng, diameters_um, n=60, noise=0.01):
     for d_um in diameters_um:
         d = d_um * UM
         v = np.linspace(1.3 * v_c(d), 3.0, n)
-        e = _restitution(v, k1(d), k2(d), v_c(d), 1.0, 1.0) + rng.normal(0, noise, n)
+        e = _eq6(v, k1(d), k2(d), v_c(d)) + rng.normal(0, noise, n)
         d_all.append(np.full(n, d))
         v_all.append(v)
         e_all.append(e)
@@ -366,3 +383,49 @@ def test_fit_law_polynomial_and_constant():
 def test_fit_errors(call, match):
     with pytest.raises(ValueError, match=match):
         call()
+
+
+_D4, _V4 = np.array([20, 40, 60, 80]) * UM, np.array([0.4, 0.3, 0.25, 0.2])
+_VN, _E = np.linspace(0.3, 3.0, 8), np.linspace(0.1, 0.8, 8)
+_TABLE = pd.DataFrame(
+    {"diameter_um": [20.0, 40.0, 60.0, 80.0], "k1_m_s": 4.0, "k2_m_s": 0.05,
+     "v_c_m_s": [0.4, 0.3, 0.25, 0.2]}
+)  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("call", "exc", "match"),
+    [
+        (lambda: fit_law(_D4, _V4, form="polynomial", degree=1.5), ValueError,
+         "`degree`"),
+        (lambda: fit_law(_D4, _V4, form="polynomial", degree=-1), ValueError,
+         "`degree`"),
+        (lambda: fit_law(_D4, _V4, sigma=[0.1, 0.0, 0.1, 0.1]), ValueError,
+         "`sigma`.*0.0"),
+        (lambda: fit_law(_D4, _V4, sigma=np.inf), ValueError, "`sigma`"),
+        (lambda: fit_impact_coefficients(_D4, _V4, _V4, min_points=2.5),
+         ValueError, "`min_points`"),
+        (lambda: fit_impact_coefficients(_D4, _V4, _V4, min_points="5"),
+         ValueError, "`min_points`"),
+        (lambda: fit_restitution(_VN, _E, p0=1.0), TypeError, "`p0`"),
+        (lambda: fit_restitution(_VN, _E, p0=(1.0, 0.1)), ValueError,
+         r"`p0` must hold 3"),
+        (lambda: fit_restitution(_VN, _E, p0=(1.0, "x", 0.1)), TypeError,
+         r"`p0\[1\]`"),
+        (lambda: fit_restitution(_VN, _E, p0=(1.0, np.nan, 0.1)), ValueError,
+         r"`p0\[1\]`"),
+        (lambda: fit_coefficient_laws(_TABLE, form={"k1": "power", "vc": "power"}),
+         ValueError, "`form` has unknown key 'vc'.*did you mean 'v_c'"),
+    ],
+)  # fmt: skip
+def test_fit_argument_errors_name_the_argument(call, exc, match):
+    with pytest.raises(exc, match=match):
+        call()
+
+
+def test_fit_coefficient_laws_accepts_a_partial_form_dict(rng):
+    _, d, v, e = _synthetic(rng, [30, 50, 80], n=30)
+    table = fit_impact_coefficients(d, v, e)
+    coefs = fit_coefficient_laws(table, form={"k1": "constant"})
+    assert isinstance(coefs.k1, ConstantLaw)
+    assert isinstance(coefs.k2, PowerLaw) and isinstance(coefs.v_c, PowerLaw)

@@ -63,7 +63,8 @@ def _check(result, expected, fields, *, atol, skip=None):
             continue
         got = np.asarray(got)
         assert got.shape == want.shape, f
-        keep = np.ones(want.shape, bool) if skip is None else ~skip.get(f, False)
+        skipped = np.asarray((skip or {}).get(f, False), dtype=bool)
+        keep = ~np.broadcast_to(skipped, want.shape)
         if f in FLAGS:
             assert got.dtype == bool, f
             assert_array_equal(got[keep], want[keep], err_msg=f)
@@ -257,25 +258,48 @@ def test_eq9_paper_example_mu_0p3_on_minus_20_deg():
 
 
 def test_eqs_8_9_closed_forms():
-    """The package's e_m, mu_m equal Eqs. 8-9 evaluated on its own facet quantities."""
+    """The package's e_m, mu_m equal Eqs. 8-9 evaluated from the inputs alone.
+
+    The facet quantities (Eqs. 1-6 with p = q = 1 and Eq. 3) are written out here from
+    the speed and angles, independently of the package's outputs; the oracle, which
+    rotates vectors and never uses Eqs. 8-9, must agree with the same closed forms.
+    """
     rng = np.random.default_rng(20005)
     n = 3000
+    speed = rng.uniform(0.3, 3.0, n)
     theta = rng.uniform(1.0, 90.0, n)
     phi = rng.uniform(-70.0, 70.0, n)
+    friction = rng.uniform(0.0, 0.5, n)
+    k1, k2, v_c = 3.0, 0.05, 0.1
     res = mi.apparent_rebound(
-        rng.uniform(0.3, 3.0, n), theta, phi, k1=3.0, k2=0.05, v_c=0.1,
-        friction=rng.uniform(0.0, 0.5, n),
-    )  # fmt: skip
-    ok = ~res.shadowed & ~res.captured
+        speed, theta, phi, k1=k1, k2=k2, v_c=v_c, friction=friction
+    )
+    # facet frame, from the inputs only: theta' = theta - phi
+    true_angle = np.deg2rad(theta - phi)
+    shadowed = true_angle <= 0.0
+    v_n1 = -speed * np.sin(true_angle)
+    v_t1 = -speed * np.cos(true_angle)
+    captured = ~shadowed & (-v_n1 <= v_c)
+    assert_array_equal(res.shadowed, shadowed)
+    assert_array_equal(res.captured, captured)
+    ok = ~shadowed & ~captured
     assert ok.sum() > 1500
     tp = np.tan(np.deg2rad(phi))[ok]
-    e, mu = res.e[ok], res.mu[ok]
-    v_n1, v_t1 = res.v_n_true[ok], res.v_t_true[ok]
+    v_n1, v_t1, f = v_n1[ok], v_t1[ok], friction[ok]
+    s_n = -v_n1
+    e = k1 / (k1 + s_n) * (1.0 - k2 / (k2 + (s_n - v_c)))  # [1], Eqs. 4-6
+    mu0 = 2.0 * (v_t1 / v_n1) / (7.0 * (1.0 + e))  # [1], Eq. 3
+    mu = np.where(np.abs(mu0) <= f, mu0, np.sign(mu0) * f)
     V_t1 = v_t1 - mu * (1.0 + e) * v_n1  # [1], Eq. 2
-    eq8 = (e - tp * V_t1 / v_n1) / (1.0 + tp * v_t1 / v_n1)
-    eq9 = (mu - tp) / (mu * tp + 1.0)
+    eq8 = (e - tp * V_t1 / v_n1) / (1.0 + tp * v_t1 / v_n1)  # [1], Eq. 8
+    eq9 = (mu - tp) / (mu * tp + 1.0)  # [1], Eq. 9
     assert_allclose(res.e_m[ok], eq8, rtol=1e-9, atol=1e-12)
     assert_allclose(res.mu_m[ok], eq9, rtol=1e-9, atol=1e-12)
+    # the vector oracle (no Eqs. 8-9) agrees with the same closed forms
+    kw = {"k1": k1, "k2": k2, "v_c": v_c, "friction": friction}
+    want = _oracle(apparent_rebound_scalar, APPARENT_FIELDS, (speed, theta, phi), kw)
+    assert_allclose(want["e_m"][ok], eq8, rtol=1e-9, atol=1e-12)
+    assert_allclose(want["mu_m"][ok], eq9, rtol=1e-9, atol=1e-12)
 
 
 # -------------------------------------------------------------------- invariants

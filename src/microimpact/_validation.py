@@ -6,6 +6,7 @@ Messages backtick the parameter, show the bad value and say what is allowed.
 from __future__ import annotations
 
 import difflib
+import math
 import numbers
 
 import numpy as np
@@ -42,6 +43,26 @@ def check_positive(x, name: str, *, allow_inf: bool = False) -> np.ndarray:
         v = a[bad].flat[0] if a.ndim else a[()]
         raise ValueError(f"`{name}` must be a number > 0; got {v!r}.")
     return a
+
+
+def check_real_scalar(
+    x, name: str, *, minimum=None, strict: bool = False, allow_inf: bool = False
+) -> float:
+    """Return the real scalar `x` as a float, or raise naming `name`.
+
+    ``TypeError`` unless `x` is a real number (bool refused); ``ValueError`` for NaN,
+    for inf unless `allow_inf`, and below `minimum` (or at it if `strict`).
+    """
+    if isinstance(x, bool) or not isinstance(x, numbers.Real):
+        raise TypeError(f"`{name}` must be a real number; got {x!r}.")
+    x = float(x)
+    if math.isnan(x) or (math.isinf(x) and not allow_inf):
+        raise ValueError(f"`{name}` must be a finite number; got {x!r}.")
+    if minimum is not None and (x <= minimum if strict else x < minimum):
+        raise ValueError(
+            f"`{name}` must be {'>' if strict else '>='} {minimum}; got {x!r}."
+        )
+    return x
 
 
 def check_int(x, name: str, *, minimum: int = 1) -> int:

@@ -27,7 +27,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validation import as_float_array, check_positive, did_you_mean
+from .._validation import (
+    as_float_array,
+    check_nonnegative,
+    check_positive,
+    did_you_mean,
+)
 
 __all__ = [
     "MATERIALS",
@@ -51,15 +56,12 @@ THORNTON_NING_CONSTANT = math.sqrt(3.0 * JKR_SEPARATION_WORK_CONSTANT / (2.0 * m
 del _F
 
 
-_positive_param = check_positive  # one validator for the whole package
-
-
 def _diameter(diameter):
-    """Diameter as float array and a mask of valid (finite, > 0) entries."""
+    """Diameter as a float array, NaN where it is not finite and > 0."""
     d = as_float_array(diameter, "diameter")
     with np.errstate(invalid="ignore"):
         ok = np.isfinite(d) & (d > 0)
-    return np.where(ok, d, np.nan), ok
+    return np.where(ok, d, np.nan)
 
 
 def contact_modulus(
@@ -86,8 +88,8 @@ def contact_modulus(
     ----------
     Johnson (1985), *Contact Mechanics*, Eq. 4.22.
     """
-    e1 = _positive_param(youngs_modulus_1, "youngs_modulus_1", allow_inf=True)
-    e2 = _positive_param(youngs_modulus_2, "youngs_modulus_2", allow_inf=True)
+    e1 = check_positive(youngs_modulus_1, "youngs_modulus_1", allow_inf=True)
+    e2 = check_positive(youngs_modulus_2, "youngs_modulus_2", allow_inf=True)
     nus = []
     for name, nu in (
         ("poisson_ratio_1", poisson_ratio_1),
@@ -125,11 +127,8 @@ def geometric_mean_work_of_adhesion(surface_energy_1, surface_energy_2):
     work_of_adhesion : ndarray
         Dupré work of adhesion [J m⁻²].
     """
-    g1 = as_float_array(surface_energy_1, "surface_energy_1")
-    g2 = as_float_array(surface_energy_2, "surface_energy_2")
-    for name, g in (("surface_energy_1", g1), ("surface_energy_2", g2)):
-        if np.any(~(g >= 0) | np.isinf(g)):
-            raise ValueError(f"`{name}` must be a finite number >= 0; got {g!r}.")
+    g1 = check_nonnegative(surface_energy_1, "surface_energy_1", allow_inf=False)
+    g2 = check_nonnegative(surface_energy_2, "surface_energy_2", allow_inf=False)
     return np.asarray(2.0 * np.sqrt(g1 * g2))[()]
 
 
@@ -175,19 +174,27 @@ def thornton_ning_sticking_velocity(
     .. [3] K. L. Johnson, K. Kendall, A. D. Roberts, *Proc. R. Soc. Lond. A*
        324:301-313, 1971.
     """
-    d, _ = _diameter(diameter)
-    rho = _positive_param(density, "density")
-    e_star = _positive_param(contact_modulus, "contact_modulus")
-    w = as_float_array(work_of_adhesion, "work_of_adhesion")
-    if np.any(~(w >= 0) | np.isinf(w)):
-        raise ValueError(
-            f"`work_of_adhesion` must be a finite number >= 0 [J m^-2]; got {w!r}."
-        )
+    d = _diameter(diameter)
+    rho = check_positive(density, "density")
+    e_star = check_positive(contact_modulus, "contact_modulus")
+    w = check_nonnegative(work_of_adhesion, "work_of_adhesion", allow_inf=False)
     radius = 0.5 * d
     v_s = THORNTON_NING_CONSTANT * (w**5 / (rho**3 * e_star**2 * radius**5)) ** (
         1.0 / 6.0
     )  # [2], Eq. 54
     return np.asarray(v_s)[()]
+
+
+def _hertz(diameter, density, contact_modulus, normal_speed):
+    """Validate the inputs once; radius [m] and maximum compression [m] as ndarrays."""
+    d = _diameter(diameter)
+    rho = check_positive(density, "density")
+    e_star = check_positive(contact_modulus, "contact_modulus")
+    v = np.abs(as_float_array(normal_speed, "normal_speed"))
+    radius = 0.5 * d
+    mass = rho * np.pi * d**3 / 6.0
+    delta = (15.0 * mass * v**2 / (16.0 * e_star * np.sqrt(radius))) ** 0.4
+    return radius, delta
 
 
 def hertz_max_compression(diameter, density, contact_modulus, normal_speed):
@@ -216,13 +223,7 @@ def hertz_max_compression(diameter, density, contact_modulus, normal_speed):
     delta_max : ndarray
         Maximum mutual approach [m]; ``nan`` where ``diameter <= 0`` or ``nan``.
     """
-    d, _ = _diameter(diameter)
-    rho = _positive_param(density, "density")
-    e_star = _positive_param(contact_modulus, "contact_modulus")
-    v = np.abs(as_float_array(normal_speed, "normal_speed"))
-    radius = 0.5 * d
-    mass = rho * np.pi * d**3 / 6.0
-    delta = (15.0 * mass * v**2 / (16.0 * e_star * np.sqrt(radius))) ** 0.4
+    _, delta = _hertz(diameter, density, contact_modulus, normal_speed)
     return np.asarray(delta)[()]
 
 
@@ -243,9 +244,8 @@ def hertz_contact_radius(diameter, density, contact_modulus, normal_speed):
     a : ndarray
         Contact radius [m]; ``nan`` where ``diameter <= 0`` or ``nan``.
     """
-    delta = hertz_max_compression(diameter, density, contact_modulus, normal_speed)
-    d, _ = _diameter(diameter)
-    return np.asarray(np.sqrt(0.5 * d * delta))[()]  # [1], a^2 = r n
+    radius, delta = _hertz(diameter, density, contact_modulus, normal_speed)
+    return np.asarray(np.sqrt(radius * delta))[()]  # [1], a^2 = r n
 
 
 @dataclass(frozen=True)

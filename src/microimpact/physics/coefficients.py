@@ -36,7 +36,12 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from .._validation import as_float_array, did_you_mean
+from .._validation import (
+    as_float_array,
+    check_choice,
+    check_real_scalar,
+    did_you_mean,
+)
 from ..errors import ScenarioError
 from ..units import m_to_um, um_to_m
 from . import adhesion
@@ -57,19 +62,6 @@ __all__ = [
 
 
 # --------------------------------------------------------------------------- laws
-def _finite(x, name, *, minimum=None, strict=False, allow_inf=False) -> float:
-    if isinstance(x, bool) or not isinstance(x, numbers.Real):
-        raise TypeError(f"`{name}` must be a real number; got {x!r}.")
-    x = float(x)
-    if math.isnan(x) or (math.isinf(x) and not allow_inf):
-        raise ValueError(f"`{name}` must be a finite number; got {x!r}.")
-    if minimum is not None and (x <= minimum if strict else x < minimum):
-        raise ValueError(
-            f"`{name}` must be {'>' if strict else '>='} {minimum}; got {x!r}."
-        )
-    return x
-
-
 def _um(x) -> float:
     """Metres to micrometres for describe(), without binary noise (50e-6 -> 50.0)."""
     return float(f"{float(m_to_um(x)):.12g}")
@@ -110,10 +102,12 @@ class PowerLaw(_Law):
     d_ref: float = 1e-6
 
     def __post_init__(self):
-        object.__setattr__(self, "a", _finite(self.a, "a", minimum=0))
-        object.__setattr__(self, "b", _finite(self.b, "b"))
+        object.__setattr__(self, "a", check_real_scalar(self.a, "a", minimum=0))
+        object.__setattr__(self, "b", check_real_scalar(self.b, "b"))
         object.__setattr__(
-            self, "d_ref", _finite(self.d_ref, "d_ref", minimum=0, strict=True)
+            self,
+            "d_ref",
+            check_real_scalar(self.d_ref, "d_ref", minimum=0, strict=True),
         )
 
     def _evaluate(self, d):
@@ -156,10 +150,14 @@ class PolynomialLaw(_Law):
             ) from None
         if not coefs:
             raise ValueError("`coefficients` must hold at least one number; got ().")
-        coefs = tuple(_finite(c, f"coefficients[{i}]") for i, c in enumerate(coefs))
+        coefs = tuple(
+            check_real_scalar(c, f"coefficients[{i}]") for i, c in enumerate(coefs)
+        )
         object.__setattr__(self, "coefficients", coefs)
         object.__setattr__(
-            self, "d_ref", _finite(self.d_ref, "d_ref", minimum=0, strict=True)
+            self,
+            "d_ref",
+            check_real_scalar(self.d_ref, "d_ref", minimum=0, strict=True),
         )
 
     def _evaluate(self, d):
@@ -197,8 +195,8 @@ class TableLaw(_Law):
     extrapolation: str = "clamp"
 
     def __post_init__(self):
-        d = np.asarray(as_float_array(self.diameters, "diameters"), dtype=float).ravel()
-        v = np.asarray(as_float_array(self.values, "values"), dtype=float).ravel()
+        d = as_float_array(self.diameters, "diameters").ravel()
+        v = as_float_array(self.values, "values").ravel()
         if d.size < 2 or d.size != v.size:
             raise ValueError(
                 "`diameters` and `values` must have the same length >= 2; "
@@ -214,11 +212,7 @@ class TableLaw(_Law):
                 "`values` must be finite and > 0 (log interpolation); "
                 f"got {v.tolist()}."
             )
-        if self.extrapolation not in _EXTRAPOLATION:
-            raise ValueError(
-                f"`extrapolation` must be one of {_EXTRAPOLATION}; "
-                f"got {self.extrapolation!r}."
-            )
+        check_choice(self.extrapolation, "extrapolation", _EXTRAPOLATION)
         object.__setattr__(self, "diameters", tuple(d.tolist()))
         object.__setattr__(self, "values", tuple(v.tolist()))
 
@@ -255,7 +249,9 @@ class ConstantLaw(_Law):
 
     def __post_init__(self):
         object.__setattr__(
-            self, "value", _finite(self.value, "value", minimum=0, allow_inf=True)
+            self,
+            "value",
+            check_real_scalar(self.value, "value", minimum=0, allow_inf=True),
         )
 
     def _evaluate(self, d):
@@ -334,17 +330,21 @@ class ThorntonNingLaw(_Law):
 
     def __post_init__(self):
         object.__setattr__(
-            self, "density", _finite(self.density, "density", minimum=0, strict=True)
+            self,
+            "density",
+            check_real_scalar(self.density, "density", minimum=0, strict=True),
         )
         object.__setattr__(
             self,
             "contact_modulus",
-            _finite(self.contact_modulus, "contact_modulus", minimum=0, strict=True),
+            check_real_scalar(
+                self.contact_modulus, "contact_modulus", minimum=0, strict=True
+            ),
         )
         object.__setattr__(
             self,
             "work_of_adhesion",
-            _finite(self.work_of_adhesion, "work_of_adhesion", minimum=0),
+            check_real_scalar(self.work_of_adhesion, "work_of_adhesion", minimum=0),
         )
 
     def _evaluate(self, d):
@@ -412,12 +412,16 @@ class ImpactCoefficients:
     def __post_init__(self):
         for name in ("k1", "k2", "v_c"):
             object.__setattr__(self, name, _coerce_law(getattr(self, name), name))
-        object.__setattr__(self, "p", _finite(self.p, "p", minimum=0, strict=True))
-        object.__setattr__(self, "q", _finite(self.q, "q", minimum=0, strict=True))
+        object.__setattr__(
+            self, "p", check_real_scalar(self.p, "p", minimum=0, strict=True)
+        )
+        object.__setattr__(
+            self, "q", check_real_scalar(self.q, "q", minimum=0, strict=True)
+        )
         object.__setattr__(
             self,
             "friction",
-            _finite(self.friction, "friction", minimum=0, allow_inf=True),
+            check_real_scalar(self.friction, "friction", minimum=0, allow_inf=True),
         )
 
     def evaluate(self, diameter) -> CoefficientValues:
@@ -427,17 +431,11 @@ class ImpactCoefficients:
         )
 
     def describe(self) -> dict:
-        def desc(law):
-            return (
-                law.describe()
-                if hasattr(law, "describe")
-                else {"law": "callable", "func": repr(law)}
-            )
-
+        # __post_init__ coerces every law to one with describe() (_coerce_law)
         return {
-            "k1": desc(self.k1),
-            "k2": desc(self.k2),
-            "v_c": desc(self.v_c),
+            "k1": self.k1.describe(),
+            "k2": self.k2.describe(),
+            "v_c": self.v_c.describe(),
             "p": self.p,
             "q": self.q,
             "friction": self.friction,

@@ -22,15 +22,22 @@ from typing import Any
 
 import numpy as np
 
-from .._validation import as_float_array
+from .._validation import (
+    as_float_array,
+    check_choice,
+    check_int,
+    check_positive,
+    check_real_scalar,
+    did_you_mean,
+)
 from ..units import m_to_um, um_to_m
 from .coefficients import (
     ConstantLaw,
     ImpactCoefficients,
     PolynomialLaw,
     PowerLaw,
-    _finite,
 )
+from .impact import _ratio_law
 
 __all__ = [
     "LawFit",
@@ -46,8 +53,8 @@ __all__ = [
 def _restitution(v, k1, k2, v_c, p, q):
     """e(v) of [1], Eq. 6 generalised to exponents p, q; 0 where |v| <= v_c."""
     s = np.abs(v)
-    r = k1**p / (k1**p + s**p)  # [1], Eq. 4
-    rho = k2**q / (k2**q + np.abs(s - v_c) ** q)  # [1], Eq. 5
+    r = _ratio_law(k1, s, p)  # [1], Eq. 4
+    rho = _ratio_law(k2, s - v_c, q)  # [1], Eq. 5 (s > v_c where it is used)
     return np.where(s > v_c, r * (1.0 - rho), 0.0)  # [1], Eq. 6
 
 
@@ -140,12 +147,21 @@ def fit_restitution(v_n, e, *, p=1.0, q=1.0, p0=None) -> RestitutionFit:
             f"got {v.size}."
         )
     p, q = (
-        _finite(p, "p", minimum=0, strict=True),
-        _finite(q, "q", minimum=0, strict=True),
+        check_real_scalar(p, "p", minimum=0, strict=True),
+        check_real_scalar(q, "q", minimum=0, strict=True),
     )
-    start = _initial_guess(v, y) if p0 is None else tuple(_finite(x, "p0") for x in p0)
-    if len(start) != 3:
-        raise ValueError(f"`p0` must hold 3 numbers (k1, k2, v_c); got {p0!r}.")
+    if p0 is None:
+        start = _initial_guess(v, y)
+    else:
+        try:
+            start = tuple(p0)
+        except TypeError:
+            raise TypeError(
+                f"`p0` must be a sequence of 3 numbers (k1, k2, v_c); got {p0!r}."
+            ) from None
+        if len(start) != 3:
+            raise ValueError(f"`p0` must hold 3 numbers (k1, k2, v_c); got {p0!r}.")
+        start = tuple(check_real_scalar(x, f"p0[{i}]") for i, x in enumerate(start))
 
     def resid(theta):
         return _restitution(v, *theta, p, q) - y
@@ -216,6 +232,7 @@ def fit_impact_coefficients(
             "`diameter`, `v_n` and `e` must have equal lengths; "
             f"got {d.size}, {v.size}, {y.size}."
         )
+    min_points = check_int(min_points, "min_points", minimum=0)
     if groups is None:
         keys = np.unique(d, return_inverse=True)[1]
     else:
@@ -346,18 +363,15 @@ def fit_law(
         )
     if not (np.all(np.isfinite(d)) and np.all(d > 0) and np.all(np.isfinite(v))):
         raise ValueError("`diameter` must be finite and > 0 and `values` finite.")
-    forms = ("power", "polynomial", "constant")
-    if form not in forms:
-        raise ValueError(f"`form` must be one of {forms}; got {form!r}.")
+    check_choice(form, "form", ("power", "polynomial", "constant"))
+    degree = check_int(degree, "degree", minimum=0)
     absolute = sigma is not None
     if absolute:
-        s = np.broadcast_to(as_float_array(sigma, "sigma"), v.shape)
-        if not (np.all(np.isfinite(s)) and np.all(s > 0)):
-            raise ValueError(f"`sigma` must be finite and > 0; got {sigma!r}.")
+        s = np.broadcast_to(check_positive(sigma, "sigma"), v.shape)
     d_ref = (
         float(np.exp(np.log(d).mean()))
         if d_ref is None
-        else _finite(d_ref, "d_ref", minimum=0, strict=True)
+        else check_real_scalar(d_ref, "d_ref", minimum=0, strict=True)
     )
     x = d / d_ref
     if form == "power":
@@ -382,7 +396,7 @@ def fit_law(
             PowerLaw(a, b, d_ref),
         )
     else:
-        deg = 0 if form == "constant" else int(degree)
+        deg = 0 if form == "constant" else degree
         if v.size <= deg:
             raise ValueError(
                 f"need more than {deg} points for degree {deg}; got {v.size}."
@@ -426,6 +440,12 @@ def fit_coefficient_laws(
     """
     names = ("k1", "k2", "v_c")
     forms = form if isinstance(form, dict) else dict.fromkeys(names, form)
+    for key in forms:
+        if key not in names:
+            raise ValueError(
+                f"`form` has unknown key {key!r}; allowed: "
+                f"{', '.join(map(repr, names))}{did_you_mean(key, names)}."
+            )
     missing = [
         c
         for c in ("diameter_um", *(f"{n}_m_s" for n in names))

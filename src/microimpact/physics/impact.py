@@ -53,6 +53,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._validation import as_float_array, check_nonnegative, check_positive
+from ..units import deg_to_rad, rad_to_deg
 
 __all__ = [
     "ApparentReboundResult",
@@ -378,8 +379,8 @@ def apparent_rebound(
         & (theta_deg <= 90)
         & (np.abs(phi_deg) < 90)
     )
-    theta = np.deg2rad(theta_deg)
-    phi = np.deg2rad(phi_deg)
+    theta = deg_to_rad(theta_deg)
+    phi = deg_to_rad(phi_deg)
     true_angle = theta - phi  # theta' = theta - phi
     shadowed = in_domain & (true_angle <= 0)
     reachable = in_domain & ~shadowed
@@ -401,18 +402,17 @@ def apparent_rebound(
         radius=radius,
         spin=spin,
     )
-    shape = np.broadcast_shapes(np.shape(facet.e), speed.shape)
-    e = np.broadcast_to(facet.e, shape)
-    mu = np.broadcast_to(facet.mu, shape)
-    captured = np.broadcast_to(facet.captured, shape)
+    # rebound broadcasts v_n_true (of speed's shape) with the coefficients, so its
+    # outputs already have the full shape; only the geometry needs broadcasting
+    e, mu, captured = facet.e, facet.mu, facet.captured
+    V_n_true, V_t_true = facet.V_n, facet.V_t
+    shape = np.shape(e)
     phi_b = np.broadcast_to(phi, shape)
     v_n_true = np.broadcast_to(v_n_true, shape)
     v_t_true = np.broadcast_to(v_t_true, shape)
 
     cos_phi, sin_phi = np.cos(phi_b), np.sin(phi_b)
     tan_phi = np.tan(phi_b)
-    V_n_true = np.broadcast_to(facet.V_n, shape)
-    V_t_true = np.broadcast_to(facet.V_t, shape)
 
     with np.errstate(divide="ignore", invalid="ignore"):
         # [1], Eq. 7: nominal components from the facet (actual) components.
@@ -427,22 +427,21 @@ def apparent_rebound(
     e_m = np.where(captured, 0.0, e_m)
     reimpact = ~captured & (V_n < 0)  # NaN compares False
 
-    shadow_b = np.broadcast_to(shadowed, shape)
     return ApparentReboundResult(
         e_m=e_m[()],
         mu_m=mu_m[()],
-        e=np.array(e)[()],
-        mu=np.array(mu)[()],
-        captured=np.array(captured)[()],
-        shadowed=np.array(shadow_b)[()],
-        rolling=np.array(np.broadcast_to(facet.rolling, shape))[()],
+        e=e,
+        mu=mu,
+        captured=captured,
+        shadowed=np.array(np.broadcast_to(shadowed, shape))[()],
+        rolling=facet.rolling,
         reimpact=reimpact[()],
         V_n=V_n[()],
         V_t=V_t[()],
         v_n_true=np.array(v_n_true)[()],
         v_t_true=np.array(v_t_true)[()],
         true_incidence_angle_deg=np.where(
-            in_domain, np.broadcast_to(np.rad2deg(true_angle), shape), np.nan
+            in_domain, np.broadcast_to(rad_to_deg(true_angle), shape), np.nan
         )[()],
         spin=facet.spin,
     )

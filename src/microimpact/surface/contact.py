@@ -21,8 +21,6 @@ References
 
 from __future__ import annotations
 
-import numpy as np
-
 from ..physics.adhesion import hertz_contact_radius, hertz_max_compression
 
 __all__ = ["hertz_contact_diameter", "hertz_max_compression"]
@@ -64,10 +62,6 @@ def hertz_contact_diameter(diameter, density, contact_modulus, normal_speed):
     >>> round(float(hertz_contact_diameter(70e-6, 7900.0, 10e9, 1.0)) * 1e6, 2)
     5.54
     """
-    # [1]: a^2 = r n, computed once in microimpact.physics.adhesion
-    return (
-        2.0
-        * np.asarray(
-            hertz_contact_radius(diameter, density, contact_modulus, normal_speed)
-        )
-    )[()]
+    # [1]: a^2 = r n, computed once in microimpact.physics.adhesion; that returns a
+    # float64 scalar or an ndarray (never 0-d), and so does 2.0 * it
+    return 2.0 * hertz_contact_radius(diameter, density, contact_modulus, normal_speed)
