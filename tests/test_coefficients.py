@@ -416,6 +416,14 @@ _TABLE = pd.DataFrame(
          r"`p0\[1\]`"),
         (lambda: fit_coefficient_laws(_TABLE, form={"k1": "power", "vc": "power"}),
          ValueError, "`form` has unknown key 'vc'.*did you mean 'v_c'"),
+        (lambda: fit_law(_D4[:1].repeat(3), _V4[:3]), ValueError,
+         "form='power' needs at least 2 distinct diameters; got 1"),
+        (lambda: fit_law(_D4, _V4, form="polynomial", degree=4), ValueError,
+         "degree 4 needs at least 5 distinct diameters; got 4"),
+        (lambda: fit_law([], [], form="constant"), ValueError,
+         "needs at least 1 distinct diameters; got 0"),
+        (lambda: fit_coefficient_laws(_TABLE.iloc[:0]), ValueError,
+         "`table` has no rows.*min_points"),
     ],
 )  # fmt: skip
 def test_fit_argument_errors_name_the_argument(call, exc, match):

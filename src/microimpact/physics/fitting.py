@@ -365,6 +365,15 @@ def fit_law(
         raise ValueError("`diameter` must be finite and > 0 and `values` finite.")
     check_choice(form, "form", ("power", "polynomial", "constant"))
     degree = check_int(degree, "degree", minimum=0)
+    n_par = {"power": 2, "polynomial": degree + 1, "constant": 1}[form]
+    distinct = np.unique(d).size
+    if distinct < n_par:
+        raise ValueError(
+            f"form={form!r}"
+            + (f" of degree {degree}" if form == "polynomial" else "")
+            + f" needs at least {n_par} distinct diameters; got {distinct} "
+            f"({d.size} values)."
+        )
     absolute = sigma is not None
     if absolute:
         s = np.broadcast_to(check_positive(sigma, "sigma"), v.shape)
@@ -397,10 +406,6 @@ def fit_law(
         )
     else:
         deg = 0 if form == "constant" else degree
-        if v.size <= deg:
-            raise ValueError(
-                f"need more than {deg} points for degree {deg}; got {v.size}."
-            )
         w = 1.0 / s**2 if absolute else np.ones_like(v)
         cov_matrix = np.vander(x, deg + 1, increasing=True)
         params, cov, rstd = _wls(cov_matrix, v, w, absolute)
@@ -453,6 +458,12 @@ def fit_coefficient_laws(
     ]
     if missing:
         raise ValueError(f"`table` lacks columns {missing}; got {list(table.columns)}.")
+    if len(table) == 0:
+        raise ValueError(
+            "`table` has no rows: no diameter group was fitted "
+            "(fit_impact_coefficients skips groups with fewer than `min_points` "
+            "impacts)."
+        )
     d = um_to_m(np.asarray(table["diameter_um"], dtype=float))
     laws = {}
     for n in names:
