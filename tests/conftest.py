@@ -11,3 +11,16 @@ matplotlib.use("Agg")
 def rng():
     """A seeded generator (scipy's convention)."""
     return np.random.default_rng(1234)
+
+
+@pytest.fixture
+def write_file(tmp_path):
+    """``write_file(name, text)``: write `text` (UTF-8) to ``tmp_path / name``; the
+    path."""
+
+    def write(name, text):
+        path = tmp_path / name
+        path.write_text(text, encoding="utf-8")
+        return path
+
+    return write

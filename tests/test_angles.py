@@ -25,11 +25,6 @@ from microimpact.surface.synthetic import gaussian_profile
 HALF_PI = math.pi / 2
 
 
-@pytest.fixture
-def rng():
-    return np.random.default_rng(1234)
-
-
 def _truncnorm(mean_deg, std_deg):
     m, s = math.radians(mean_deg), math.radians(std_deg)
     return stats.truncnorm((-HALF_PI - m) / s, (HALF_PI - m) / s, loc=m, scale=s)
@@ -152,9 +147,14 @@ def test_angles_from_file_and_profile(tmp_path, rng):
     written = write_angle_file(path, rng.uniform(-40, 40, 300), n=1000, rng=rng)
     d = angles_from_file(path)
     assert d.params["source"] == str(path)
-    assert_allclose(
-        np.sort(np.degrees(d.table(1024).values)).max(), written.max(), atol=1e-6
-    )
+    # the atoms are the written angles (to the file's 6 decimals): each of the n
+    # sorted angles is the ppf at its mid-probability, and the table holds every
+    # distinct angle and nothing else
+    n = written.size
+    ppf = np.degrees(d.ppf((np.arange(n) + 0.5) / n))
+    assert_allclose(ppf, np.sort(written), rtol=0, atol=1e-6)
+    atoms = np.unique(np.degrees(d.table(1024).values))
+    assert_allclose(atoms, np.unique(written), rtol=0, atol=1e-6)
     p = gaussian_profile(
         4000, 0.5e-6, rms_height=5e-6, correlation_length=40e-6, rng=rng
     )
@@ -205,3 +205,26 @@ def test_smooth_surface(rng):
     assert d.mean() == 0.0 and d.std() == 0.0
     assert d.describe()["kind"] == "smooth" and d.median() == 0.0
     assert d.pdf(0.0) == np.inf and d.pdf(0.1) == 0.0
+
+
+def test_scalar_arguments_are_validated():
+    with pytest.raises(TypeError, match="`std_deg` must be numeric"):
+        normal_angles("x")
+    with pytest.raises(TypeError, match="`mean_deg` must be a scalar"):
+        normal_angles(10.0, mean_deg=[1.0, 2.0])
+    with pytest.raises(ValueError, match="`std_deg` must be a number >= 0"):
+        normal_angles(np.inf)
+    with pytest.raises(ValueError, match="`mean_deg`"):
+        normal_angles(10.0, mean_deg=np.nan)
+
+
+def test_angle_file_decimal_comma(tmp_path):
+    from microimpact.errors import DataFormatError
+
+    path = tmp_path / "phi.txt"
+    path.write_text("# angles\n1.5\n2,5\n", encoding="utf-8")
+    with pytest.raises(DataFormatError, match=r"decimal separator must be '\.'") as ei:
+        angles_from_file(path)
+    assert str(ei.value).startswith(f"{path}:3: ")
+    path.write_text("1.5 # a note\n-2.25\n", encoding="utf-8")
+    assert_allclose(angles_from_file(path).params["n"], 2)

@@ -20,11 +20,6 @@ TINY_UM = [
 ]  # fmt: skip
 
 
-@pytest.fixture
-def rng():
-    return np.random.default_rng(1234)
-
-
 def test_hand_computation_tiny_dataset():
     """Statistic from a pure-Python computation (math.erf), classes merged by hand."""
     x = TINY_UM

@@ -15,24 +15,18 @@ from microimpact.units import m_to_um
 UM = 1e-6
 
 
-def _write(tmp_path, name, text):
-    path = tmp_path / name
-    path.write_text(text, encoding="utf-8")
-    return path
-
-
 # -- read_diameters ----------------------------------------------------------------
-def test_single_column_no_header(tmp_path):
-    path = _write(tmp_path, "d.txt", "52.1\n48.0\n\n# a comment\n61.5\n")
+def test_single_column_no_header(write_file):
+    path = write_file("d.txt", "52.1\n48.0\n\n# a comment\n61.5\n")
     d, meta = read_diameters(path)
     assert_allclose(d, np.array([52.1, 48.0, 61.5]) * UM, rtol=1e-15)
     assert meta["n"] == 3 and meta["header"] is None and meta["unit"] == "um"
     assert meta["source"] == str(path)
 
 
-def test_header_and_auto_diameter_column(tmp_path):
+def test_header_and_auto_diameter_column(write_file):
     text = "# PDPA export\ntime_s,velocity_m_s,Diameter_um\n0.1,2.0,50.5\n0.2,2.1,48\n"
-    d, meta = read_diameters(_write(tmp_path, "pdpa.csv", text))
+    d, meta = read_diameters(write_file("pdpa.csv", text))
     assert_allclose(d, [50.5 * UM, 48 * UM], rtol=1e-15)
     assert meta["column"] == "Diameter_um" and meta["column_index"] == 2
     assert meta["delimiter"] == ","
@@ -41,24 +35,24 @@ def test_header_and_auto_diameter_column(tmp_path):
 @pytest.mark.parametrize(
     ("sep", "column"), [("\t", "size"), (";", 1), (" ", -1), ("\t", "SIZE")]
 )
-def test_choose_column_by_name_or_index(tmp_path, sep, column):
+def test_choose_column_by_name_or_index(write_file, sep, column):
     text = sep.join(["t", "size"]) + "\n" + sep.join(["1", "30"]) + "\n"
     text += sep.join(["2", "40.5"]) + "\n"
-    d, meta = read_diameters(_write(tmp_path, "d.txt", text), column=column)
+    d, meta = read_diameters(write_file("d.txt", text), column=column)
     assert_allclose(d, [30 * UM, 40.5 * UM], rtol=1e-15)
     assert meta["column_index"] == 1
 
 
-def test_unit_conversion_and_quotes(tmp_path):
-    path = _write(tmp_path, "mm.csv", '"d_mm"\n"0.05"\n0.0625\n')
+def test_unit_conversion_and_quotes(write_file):
+    path = write_file("mm.csv", '"d_mm"\n"0.05"\n0.0625\n')
     d, _ = read_diameters(path, unit="mm")
     assert_allclose(d, [50 * UM, 62.5 * UM], rtol=1e-14)
     with pytest.raises(ValueError, match="unknown length unit"):
         read_diameters(path, unit="inch")
 
 
-def test_whitespace_columns_without_header_by_index(tmp_path):
-    d, meta = read_diameters(_write(tmp_path, "w.dat", "1 2 3\n4 5 6\n"), column=2)
+def test_whitespace_columns_without_header_by_index(write_file):
+    d, meta = read_diameters(write_file("w.dat", "1 2 3\n4 5 6\n"), column=2)
     assert_allclose(d, [3 * UM, 6 * UM], rtol=1e-15)
     assert meta["column"] == 2 and meta["delimiter"] == "whitespace"
 
@@ -81,22 +75,22 @@ def test_whitespace_columns_without_header_by_index(tmp_path):
         ("1,2\n3,4\n", {"column": 5}, r"column index 5 out of range; allowed: 0\.\.1"),
     ],
 )
-def test_read_diameters_errors(tmp_path, text, kwargs, match):
-    path = _write(tmp_path, "d.txt", text)
+def test_read_diameters_errors(write_file, text, kwargs, match):
+    path = write_file("d.txt", text)
     with pytest.raises(DataFormatError, match=match):
         read_diameters(path, **kwargs)
 
 
-def test_read_diameters_missing_file_and_bad_column_type(tmp_path):
+def test_read_diameters_missing_file_and_bad_column_type(tmp_path, write_file):
     with pytest.raises(DataFormatError, match="cannot read file"):
         read_diameters(tmp_path / "nope.csv")
-    path = _write(tmp_path, "d.txt", "1\n")
+    path = write_file("d.txt", "1\n")
     with pytest.raises(TypeError, match="`column`"):
         read_diameters(path, column=1.5)
 
 
-def test_error_carries_fields(tmp_path):
-    path = _write(tmp_path, "d.txt", "d\n10\n-1\n")
+def test_error_carries_fields(write_file):
+    path = write_file("d.txt", "d\n10\n-1\n")
     with pytest.raises(DataFormatError) as info:
         read_diameters(path)
     err = info.value
@@ -118,8 +112,8 @@ def test_roundtrip_large_sample(tmp_path):
 COLUMNS = "lower_um,upper_um,count\n10,20,12\n20,30,40\n30,40,95\n40,55,33\n"
 
 
-def test_histogram_columns_layout(tmp_path):
-    edges, counts, meta = read_histogram(_write(tmp_path, "h.csv", COLUMNS))
+def test_histogram_columns_layout(write_file):
+    edges, counts, meta = read_histogram(write_file("h.csv", COLUMNS))
     assert_allclose(edges, np.array([10, 20, 30, 40, 55]) * UM, rtol=1e-15)
     assert_allclose(counts, [12, 40, 95, 33], rtol=0)
     assert meta["layout"] == "columns" and meta["n_bins"] == 4
@@ -134,15 +128,15 @@ def test_histogram_columns_layout(tmp_path):
         "edges_um;10;20;30;40\ncounts;0.1;0.5;0.4\n",
     ],
 )
-def test_histogram_rows_layout(tmp_path, text):
-    edges, counts, meta = read_histogram(_write(tmp_path, "h.txt", text))
+def test_histogram_rows_layout(write_file, text):
+    edges, counts, meta = read_histogram(write_file("h.txt", text))
     assert_allclose(edges, np.array([10, 20, 30, 40]) * UM, rtol=1e-15)
     assert_allclose(counts, [0.1, 0.5, 0.4], rtol=1e-15)
     assert meta["layout"] == "rows"
 
 
-def test_histogram_file_to_distribution_reproduces_counts(tmp_path):
-    edges, counts, _ = read_histogram(_write(tmp_path, "h.csv", COLUMNS))
+def test_histogram_file_to_distribution_reproduces_counts(write_file):
+    edges, counts, _ = read_histogram(write_file("h.csv", COLUMNS))
     dist = histogram_diameters(m_to_um(edges), counts)
     n = 20000
     sample = dist.table().sample(n, rng=np.random.default_rng(11))
@@ -169,6 +163,67 @@ def test_histogram_file_to_distribution_reproduces_counts(tmp_path):
         ("edges 10 20 30\ncounts 1 -1\n", r":2: column 2: bad value '-1'"),
     ],
 )
-def test_read_histogram_errors(tmp_path, text, match):
+def test_read_histogram_errors(write_file, text, match):
     with pytest.raises(DataFormatError, match=match):
-        read_histogram(_write(tmp_path, "h.csv", text))
+        read_histogram(write_file("h.csv", text))
+
+
+# -- delimited text: decimal commas, quotes, extra cells, duplicates, units ---------
+@pytest.mark.parametrize(
+    ("text", "kwargs", "match"),
+    [
+        # a decimal comma is never read as two cells (the old reader gave 52, 48)
+        ("diameter_um\n52,8\n48,1\n", {}, r":2: .*non-numeric value '52,8'.*'\.'"),
+        ("t,diameter\n1,52,8\n", {}, r":2: row has 3 cells, header has 2; the decimal"),
+        ("t,d\n1,50\n2,52,8\n", {"column": 1}, r":3: row has 3 cells, header has 2"),
+        ("1,50\n2,52,8\n", {"column": 1}, r":2: row has 3 cells, the first row has 2"),
+        ("t;d\n1;52,8\n", {"column": "d"}, r":2: column 'd': non-numeric .*'\.'"),
+        # a quoted cell is one cell: "5,2" is not 5
+        ('x,d\n1,"5,2"\n', {"column": "d"}, r"non-numeric value '5,2'"),
+        ("d,D\n1,2\n", {"column": 0}, r":1: duplicate column\(s\) \['d'\]"),
+        ("t,d\n1,5\n", {"column": "D "}, None),
+        ('x,d\n1,"5.2\n', {"column": "d"}, r":2: cannot parse line"),
+    ],
+)
+def test_read_diameters_delimited_text(write_file, text, kwargs, match):
+    path = write_file("d.csv", text)
+    if match is None:
+        read_diameters(path, **kwargs)  # well-formed
+        return
+    with pytest.raises(DataFormatError, match=match) as info:
+        read_diameters(path, **kwargs)
+    assert str(info.value).startswith(str(path)) and "\n" not in str(info.value)
+
+
+def test_headerless_decimal_commas_are_two_columns_not_a_misread(write_file):
+    # "52,8" in a headerless file is two columns: without `column` it is refused
+    with pytest.raises(DataFormatError, match="the file has 2 columns"):
+        read_diameters(write_file("d.csv", "52,8\n48,1\n"))
+
+
+def test_quoted_cells_and_sniffing_from_the_first_row(write_file):
+    d, meta = read_diameters(write_file("q.csv", 'x,d\n1,"5.25"\n2," 6"\n'), column=1)
+    assert_allclose(d, [5.25 * UM, 6 * UM], rtol=1e-15)
+    # the delimiter comes from the first row: a ',' inside a later cell does not win
+    text = 'd;note\n5.5;"a, b"\n7;c,d\n'
+    d, meta = read_diameters(write_file("s.csv", text), column="d")
+    assert meta["delimiter"] == ";"
+    assert_allclose(d, [5.5 * UM, 7 * UM], rtol=1e-15)
+    # trailing empty cells (a trailing delimiter) are not extra cells
+    d, _ = read_diameters(write_file("t.csv", "d,\n5,\n6,\n"), column="d")
+    assert_allclose(d, [5 * UM, 6 * UM], rtol=1e-15)
+
+
+def test_unknown_unit_names_the_file(write_file):
+    for reader in (read_diameters, read_histogram):
+        path = write_file("d.csv", "10\n20\n")
+        with pytest.raises(DataFormatError, match="unknown length unit") as info:
+            reader(path, unit="inch")
+        msg = str(info.value)
+        assert msg.startswith(f"{path}: unit: unknown length unit 'inch'; allowed:")
+        assert msg.count("µm") + msg.count("μm") == 1  # each spelling shown once
+
+
+def test_histogram_decimal_comma_hint(write_file):
+    with pytest.raises(DataFormatError, match=r":1: row has 5 cells.*'\.'"):
+        read_histogram(write_file("h.csv", "10,5,20,5,12\n20,5,30,5,3\n30,5,40,0,1\n"))

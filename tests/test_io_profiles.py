@@ -13,12 +13,6 @@ from microimpact.errors import ProfileFormatError
 from microimpact.io.profiles import Profile, ProfileSet, read_profile, read_profiles
 
 
-def _write(tmp_path, name, text):
-    p = tmp_path / name
-    p.write_text(text, encoding="utf-8")
-    return p
-
-
 def _one_line_error(excinfo, path, line=None):
     msg = str(excinfo.value)
     assert "\n" not in msg
@@ -31,15 +25,16 @@ def _one_line_error(excinfo, path, line=None):
 # ------------------------------------------------------------------ good input
 
 
-def test_csv_with_header_in_um(tmp_path):
-    p = _write(tmp_path, "a.csv", "# a comment\nx,z\n0,1.5\n0.5,-2\n1.0,3 # note\n")
+def test_csv_with_header_in_um(write_file):
+    p = write_file("a.csv", "# a comment\nx,z\n0,1.5\n0.5,-2\n1.0,3 # note\n")
     prof = read_profile(p)
     assert isinstance(prof, Profile)
     assert_allclose(prof.x, [0.0, 0.5e-6, 1.0e-6], rtol=0, atol=1e-18)
     assert_allclose(prof.z, [1.5e-6, -2e-6, 3e-6], rtol=1e-15)
     assert prof.metadata["source"] == str(p)
-    assert prof.metadata["n_points"] == 3
-    assert_allclose(prof.metadata["dx"], 0.5e-6, rtol=1e-12)
+    assert prof.n_points == 3
+    assert_allclose(prof.dx, 0.5e-6, rtol=1e-12)
+    assert "n_points" not in prof.metadata and "dx" not in prof.metadata
     assert prof.metadata["z_unit"] == "um"
 
 
@@ -52,8 +47,8 @@ def test_csv_with_header_in_um(tmp_path):
         ("0|10\n1|20\n2|30\n", "|"),
     ],
 )
-def test_delimiters(tmp_path, text, delimiter):
-    p = _write(tmp_path, "a.txt", text)
+def test_delimiters(write_file, text, delimiter):
+    p = write_file("a.txt", text)
     prof = read_profile(p, unit="mm", delimiter=delimiter)
     assert_allclose(prof.x, [0.0, 1e-3, 2e-3], rtol=1e-15)
     assert_allclose(prof.z, [10e-3, 20e-3, 30e-3], rtol=1e-15)
@@ -63,30 +58,30 @@ def test_delimiters(tmp_path, text, delimiter):
     ("unit", "factor"),
     [("m", 1.0), ("mm", 1e-3), ("um", 1e-6), ("µm", 1e-6), ("nm", 1e-9), ("A", 1e-10)],
 )
-def test_units(tmp_path, unit, factor):
-    p = _write(tmp_path, "a.csv", "0,2\n4,6\n")
+def test_units(write_file, unit, factor):
+    p = write_file("a.csv", "0,2\n4,6\n")
     prof = read_profile(p, unit=unit)
     assert_allclose(prof.x, [0.0, 4 * factor], rtol=1e-15)
     assert_allclose(prof.z, [2 * factor, 6 * factor], rtol=1e-15)
 
 
-def test_separate_units_paper_angstrom(tmp_path):
+def test_separate_units_paper_angstrom(write_file):
     # positions in µm, heights in Å as in the paper's H_bar [Å]
-    p = _write(tmp_path, "a.csv", "x,z\n0,200000\n0.5,-100000\n")
+    p = write_file("a.csv", "x,z\n0,200000\n0.5,-100000\n")
     prof = read_profile(p, x_unit="um", z_unit="Å")
     assert_allclose(prof.x, [0.0, 0.5e-6], rtol=1e-15)
     assert_allclose(prof.z, [20e-6, -10e-6], rtol=1e-15)
 
 
-def test_heights_only_with_dx(tmp_path):
-    p = _write(tmp_path, "h.txt", "# heights only\n1\n2\n3\n4\n")
+def test_heights_only_with_dx(write_file):
+    p = write_file("h.txt", "# heights only\n1\n2\n3\n4\n")
     prof = read_profile(p, dx_um=0.5)
     assert_allclose(prof.x, np.arange(4) * 0.5e-6, rtol=1e-15)
     assert_allclose(prof.z, [1e-6, 2e-6, 3e-6, 4e-6], rtol=1e-15)
 
 
-def test_named_columns(tmp_path):
-    p = _write(tmp_path, "a.csv", "t,height,pos\n9,1,0\n9,2,1\n9,3,2\n")
+def test_named_columns(write_file):
+    p = write_file("a.csv", "t,height,pos\n9,1,0\n9,2,1\n9,3,2\n")
     prof = read_profile(p, x_column="pos", z_column="Height")
     assert_allclose(prof.x, [0, 1e-6, 2e-6], rtol=1e-15)
     assert_allclose(prof.z, [1e-6, 2e-6, 3e-6], rtol=1e-15)
@@ -94,19 +89,19 @@ def test_named_columns(tmp_path):
     assert_allclose(prof2.z, prof.z, rtol=0)
 
 
-def test_decreasing_positions_are_reversed(tmp_path):
-    p = _write(tmp_path, "a.csv", "2,30\n1,20\n0,10\n")
+def test_decreasing_positions_are_reversed(write_file):
+    p = write_file("a.csv", "2,30\n1,20\n0,10\n")
     prof = read_profile(p)
     assert_allclose(prof.x, [0, 1e-6, 2e-6], rtol=1e-15)
     # (x, z) pairs are kept, so slopes keep their sign
     assert_allclose(prof.z, [10e-6, 20e-6, 30e-6], rtol=1e-15)
 
 
-def test_scan_column_gives_separate_scans(tmp_path):
+def test_scan_column_gives_separate_scans(write_file):
     rows = ["scan,x_um,z_um"]
     rows += [f"A,{i * 0.5},{i}" for i in range(5)]
     rows += [f"B,{i * 0.5},{-i}" for i in range(6)]
-    p = _write(tmp_path, "s.csv", "\n".join(rows) + "\n")
+    p = write_file("s.csv", "\n".join(rows) + "\n")
     ps = read_profiles(p)
     assert isinstance(ps, ProfileSet)
     assert len(ps) == 2
@@ -118,13 +113,13 @@ def test_scan_column_gives_separate_scans(tmp_path):
         read_profile(p)
 
 
-def test_several_files(tmp_path):
-    p1 = _write(tmp_path, "1.csv", "0,1\n1,2\n2,3\n")
-    p2 = _write(tmp_path, "2.csv", "0,4\n1,5\n")
+def test_several_files(write_file):
+    p1 = write_file("1.csv", "0,1\n1,2\n2,3\n")
+    p2 = write_file("2.csv", "0,4\n1,5\n")
     ps = read_profiles([p1, p2])
     assert len(ps) == 2
-    assert ps.metadata["sources"] == [str(p1), str(p2)]
-    assert ps.metadata["n_points"] == 5
+    assert ps.sources == [str(p1), str(p2)]
+    assert ps.n_points == 5
 
 
 # ------------------------------------------------------------------ bad input
@@ -142,15 +137,15 @@ def test_several_files(tmp_path):
         ("0,1\n1,2,3\n", 2, "expected 2 columns, found 3"),
     ],
 )
-def test_bad_cells_one_line_error(tmp_path, text, line, match):
-    p = _write(tmp_path, "bad.csv", text)
+def test_bad_cells_one_line_error(write_file, text, line, match):
+    p = write_file("bad.csv", text)
     with pytest.raises(ProfileFormatError, match=match) as excinfo:
         read_profile(p)
     _one_line_error(excinfo, p, line)
 
 
-def test_unknown_unit(tmp_path):
-    p = _write(tmp_path, "a.csv", "0,1\n1,2\n")
+def test_unknown_unit(write_file):
+    p = write_file("a.csv", "0,1\n1,2\n")
     with pytest.raises(ProfileFormatError, match="unknown length unit 'inch'") as ei:
         read_profile(p, unit="inch")
     _one_line_error(ei, p)
@@ -170,8 +165,8 @@ def test_unknown_unit(tmp_path):
         ("0,1\n1,2\n", {"dx_um": 0.5, "x_column": 0}, "not both"),
     ],
 )
-def test_structural_errors(tmp_path, text, kwargs, match):
-    p = _write(tmp_path, "bad.csv", text)
+def test_structural_errors(write_file, text, kwargs, match):
+    p = write_file("bad.csv", text)
     with pytest.raises(ProfileFormatError, match=match) as excinfo:
         read_profile(p, **kwargs)
     _one_line_error(excinfo, p)
@@ -186,8 +181,8 @@ def test_missing_file_and_binary(tmp_path):
         read_profile(p)
 
 
-def test_bad_dx(tmp_path):
-    p = _write(tmp_path, "h.txt", "1\n2\n")
+def test_bad_dx(write_file):
+    p = write_file("h.txt", "1\n2\n")
     with pytest.raises(ValueError, match="`dx_um` must be a number > 0"):
         read_profile(p, dx_um=-1)
 
@@ -275,3 +270,82 @@ def test_profile_validation():
     p = Profile([0.0, 1.0, 2.0], [0.0, 1.0, 0.0])
     with pytest.raises(ValueError):
         p.z[0] = 5.0  # read-only
+
+
+# ------------------------------------------------------------------ shared text rules
+
+
+def test_quoted_numbers_and_case_insensitive_names(write_file):
+    p = write_file("q.csv", '"X","Z"\n"0","1.5"\n"0.5", "-2"\n')
+    prof = read_profile(p, x_column="x", z_column="z")
+    assert_allclose(prof.z, [1.5e-6, -2e-6], rtol=1e-15)
+    assert prof.metadata["x_column"] == "X"
+
+
+@pytest.mark.parametrize(
+    ("text", "kwargs", "line", "match"),
+    [
+        ("x;z\n0,5;1,5\n1,0;2\n", {}, 2, r"column 'x': non-numeric .*'\.'"),
+        ("x,z\n0,5,1,5\n", {}, 2, r"first data row has 4; the decimal separator"),
+        ("x,z\n0,1\n1,2,5\n", {}, 3, r"expected 2 columns, found 3; the decimal"),
+        ("x,z\n0,1\n1,abc\n", {}, 3, r"column 'z': non-numeric value 'abc'; allowed"),
+        ("0,1\n1,inf\n", {}, 2, r"column 1: bad value 'inf'"),
+        ('x,z\n0,"1\n', {}, 2, "cannot parse line"),
+    ],
+)
+def test_bad_text_names_line_and_column(write_file, text, kwargs, line, match):
+    p = write_file("bad.csv", text)
+    with pytest.raises(ProfileFormatError, match=match) as excinfo:
+        read_profile(p, **kwargs)
+    _one_line_error(excinfo, p, line)
+
+
+@pytest.mark.parametrize(
+    ("text", "kwargs", "match"),
+    [
+        ("x,z\n0,1\n1,2\n", {"x_column": "z", "z_column": 1}, "are the same column"),
+        ("x,z\n0,1\n1,2\n", {"x_column": 0, "z_column": -2}, "are the same column"),
+        ("scan,x,z\na,0,1\na,1,2\n", {"z_column": "scan"}, "are the same column"),
+        ("x,X\n0,1\n1,2\n", {"z_column": "X"}, None),
+        ("x,X\n0,1\n1,2\n", {"x_column": 0, "z_column": "x"}, "are the same column"),
+        ("a,b\n0,1\n1,2\n", {"z_column": "B"}, None),
+    ],
+)
+def test_column_choice(write_file, text, kwargs, match):
+    p = write_file("c.csv", text)
+    if match is None:
+        read_profile(p, **{"x_column": 0, **kwargs})
+        return
+    with pytest.raises(ProfileFormatError, match=match) as excinfo:
+        read_profile(p, **kwargs)
+    _one_line_error(excinfo, p)
+
+
+def test_ambiguous_column_name(write_file):
+    p = write_file("c.csv", "t,Z,z\n0,1,2\n1,2,3\n")
+    with pytest.raises(ProfileFormatError, match="ambiguous") as excinfo:
+        read_profile(p, x_column=0, z_column="Z ")
+    _one_line_error(excinfo, p)
+
+
+def test_unknown_unit_lists_each_spelling_once(write_file):
+    p = write_file("a.csv", "0,1\n1,2\n")
+    with pytest.raises(ProfileFormatError, match="unknown length unit") as ei:
+        read_profile(p, x_unit="inch")
+    msg = _one_line_error(ei, p)
+    assert msg.startswith(f"{p}: x_unit: ")
+    assert msg.count("µm") + msg.count("μm") == 1
+
+
+def test_bad_delimiter_argument(write_file):
+    p = write_file("a.csv", "0|1\n1|2\n")
+    with pytest.raises(ValueError, match="`delimiter` must be one character"):
+        read_profile(p, delimiter="||")
+
+
+def test_profile_set_metadata_is_not_duplicated(write_file):
+    p1 = write_file("1.csv", "0,1\n1,2\n2,3\n")
+    ps = read_profiles([p1, p1])
+    assert ps.sources == [str(p1)] and ps.n_points == 6 and len(ps) == 2
+    assert ps.metadata == {}
+    assert ProfileSet((Profile([0.0, 1.0], [0.0, 1.0]),)).sources == []

@@ -20,11 +20,6 @@ from microimpact.surface.synthetic import (
 )
 
 
-@pytest.fixture
-def rng():
-    return np.random.default_rng(1234)
-
-
 def _within_k_se(values, expected, k=4.0):
     values = np.asarray(values)
     se = values.std(ddof=1) / math.sqrt(values.size)
@@ -151,3 +146,26 @@ def test_formica_slope_angles_tens_of_degrees():
     # slopes are a little smoother; their angle spread is "tens of degrees"
     assert 15 < math.degrees(res.std_angle) < 30
     assert abs(math.degrees(res.mean_angle)) < 2
+
+
+def test_weierstrass_mandelbrot_scalar_arguments():
+    x = np.linspace(0, 1e-3, 64)
+    with pytest.raises(TypeError, match="`fractal_dimension` must be numeric"):
+        weierstrass_mandelbrot_profile(x, fractal_dimension="x", G=1e-9)
+    with pytest.raises(TypeError, match="`G` must be a scalar"):
+        weierstrass_mandelbrot_profile(x, fractal_dimension=1.5, G=[1e-9, 2e-9])
+    with pytest.raises(ValueError, match="`gamma` must be a number > 0"):
+        weierstrass_mandelbrot_profile(x, fractal_dimension=1.5, G=1e-9, gamma=np.nan)
+    with pytest.raises(ValueError, match="`fractal_dimension` must be a number"):
+        weierstrass_mandelbrot_profile(x, fractal_dimension=np.inf, G=1e-9)
+
+
+def test_gaussian_profile_metadata_has_no_derivable_keys():
+    p = gaussian_profile(64, 0.5e-6, rms_height=1e-6, correlation_length=5e-6, rng=1)
+    assert p.metadata == {
+        "rms_height": 1e-6,
+        "correlation_length": 5e-6,
+        "synthetic": "gaussian_profile",
+    }
+    assert p.n_points == 64
+    assert_allclose(p.dx, 0.5e-6, rtol=1e-12)

@@ -132,7 +132,60 @@ class QuantileTable:
         return np.take(self.values, idx, out=out)
 
     def mean(self) -> float:
+        """Mean of the atoms."""
         return float(self.values.mean())
 
     def std(self) -> float:
+        """Standard deviation of the atoms (``ddof=0``)."""
         return float(self.values.std())
+
+
+class EqualAtoms:
+    """The discrete distribution with mass ``1/n`` on each of ``n`` atoms.
+
+    The one implementation behind the discrete kinds of the size and angle
+    distributions (an empirical sample, a monodisperse population). The methods take
+    and return plain arrays; the callers map ``q`` outside [0, 1] and NaN inputs to
+    NaN.
+
+    Attributes
+    ----------
+    atoms : ndarray
+        The atoms, sorted, read-only.
+    """
+
+    is_discrete = True
+
+    def __init__(self, atoms):
+        a = np.sort(np.asarray(atoms, dtype=float).ravel())
+        a.setflags(write=False)
+        self.atoms = a
+
+    def ppf(self, q):
+        """Left-continuous inverse of the CDF, ``atoms[ceil(q n) - 1]``."""
+        n = self.atoms.size
+        k = np.clip(np.ceil(q * n).astype(np.intp) - 1, 0, n - 1)
+        return self.atoms[k]
+
+    def cdf(self, x):
+        return np.searchsorted(self.atoms, x, side="right") / self.atoms.size
+
+    def pdf(self, x):
+        """``inf`` at the atoms (a Dirac delta), 0 elsewhere."""
+        return np.where(np.isin(x, self.atoms), np.inf, 0.0)
+
+    def rvs(self, size, rng):
+        return self.atoms[rng.integers(0, self.atoms.size, size=size)]
+
+    def mean(self) -> float:
+        return float(self.atoms.mean())
+
+    def std(self) -> float:
+        return float(self.atoms.std())
+
+    def support(self) -> tuple[float, float]:
+        return float(self.atoms[0]), float(self.atoms[-1])
+
+    def table(self, size: int = TABLE_SIZE) -> QuantileTable:
+        """:meth:`QuantileTable.from_sample`: the atoms are the sample's values."""
+        return QuantileTable.from_sample(self.atoms, size=size)

@@ -27,7 +27,7 @@ def check_nonnegative(x, name: str, *, allow_inf: bool = True) -> np.ndarray:
     if not allow_inf:
         bad |= np.isinf(a)
     if np.any(bad):
-        v = a[bad].flat[0] if a.ndim else a[()]
+        v = a[bad].flat[0].item() if a.ndim else a.item()  # no np.float64(...)
         allowed = "a number >= 0" + ("" if allow_inf else " (finite)")
         raise ValueError(f"`{name}` must be {allowed}; got {v!r}.")
     return a
@@ -40,7 +40,7 @@ def check_positive(x, name: str, *, allow_inf: bool = False) -> np.ndarray:
     if not allow_inf:
         bad |= np.isinf(a)
     if np.any(bad):
-        v = a[bad].flat[0] if a.ndim else a[()]
+        v = a[bad].flat[0].item() if a.ndim else a.item()  # no np.float64(...)
         raise ValueError(f"`{name}` must be a number > 0; got {v!r}.")
     return a
 

@@ -45,6 +45,17 @@ def rad_to_deg(x):
     return np.rad2deg(x)
 
 
+#: The spellings shown in the unknown-unit message (the Greek mu "μm" is accepted as
+#: well as the micro sign "µm", but not shown: the two look the same).
+_UNIT_SPELLINGS = (
+    ("m",),
+    ("mm",),
+    ("um", "µm", "micron"),
+    ("nm",),
+    ("A", "Å", "angstrom"),
+)
+
+
 def length_factor(unit: str) -> float:
     """Metres per `unit` (one of :data:`LENGTH_UNITS`).
 
@@ -52,17 +63,14 @@ def length_factor(unit: str) -> float:
     ------
     ValueError
         If `unit` is not a known length unit; the message lists the allowed ones.
+        The file readers re-raise it as an :class:`~microimpact.errors.InputError`
+        naming the file.
     """
     try:
         return LENGTH_UNITS[unit]
     except (KeyError, TypeError):
-        allowed = ", ".join(sorted({"m", "mm", "um", "nm", "A"}))
-        raise ValueError(
-            f"unknown length unit {unit!r}; allowed: {allowed} "
-            "(also 'µm', 'micron', 'Å', 'angstrom')"
-        ) from None
-
-
-def to_metres(x, unit: str):
-    """Convert lengths given in `unit` to metres."""
-    return np.multiply(x, length_factor(unit))
+        allowed = ", ".join(
+            repr(first) + (f" (or {', '.join(map(repr, rest))})" if rest else "")
+            for first, *rest in _UNIT_SPELLINGS
+        )
+        raise ValueError(f"unknown length unit {unit!r}; allowed: {allowed}") from None

@@ -3,8 +3,10 @@
 Accepted text formats
 ---------------------
 Both readers take plain text: comma-, tab-, semicolon- or whitespace-separated
-columns (the separator is detected from the file; the decimal separator is ``.``),
-blank lines and lines starting with ``#`` are ignored, and cells may be quoted.
+columns (the separator is detected from the first data row; the decimal separator is
+``.``), blank lines and lines starting with ``#`` are ignored, and cells may be quoted
+(``"5,2"`` is one cell). A row with more cells than the header (or than the first row)
+is an error, never cut short: it is usually a decimal comma.
 
 :func:`read_diameters` -- raw diameters, one per row (e.g. a Phase Doppler export).
     An optional header row (any non-numeric cell makes the first row a header). With
@@ -31,66 +33,49 @@ import os
 
 import numpy as np
 
-from .._files import data_lines, is_number, read_lines
+from .._files import (
+    SNIFF,
+    delimiter_name,
+    is_number,
+    looks_like_header,
+    parse_number,
+    read_rows,
+    read_table,
+    resolve_column,
+)
 from ..errors import DataFormatError
 from ..units import length_factor
 
 __all__ = ["read_diameters", "read_histogram"]
 
-_MISSING = {"", "nan", "na", "n/a", "null", "none", "-"}
 _LAYOUTS = (
     "columns 'lower, upper, count' (one row per bin) or two rows "
     "'edges' (k + 1 values) and 'counts' (k values)"
 )
+_HINT = "; expected delimited text"
 
 
-def _read_rows(path) -> tuple[list[tuple[int, list[str]]], str]:
-    """Non-blank, non-comment rows as (1-based line number, cells)."""
-    content = data_lines(
-        read_lines(path, error=DataFormatError, hint="; expected delimited text")
-    )
-    text = "\n".join(s for _, s in content)
-    delimiter = next((d for d in (",", "\t", ";") if d in text), None)
-    rows = []
-    for i, s in content:
-        cells = s.split(delimiter) if delimiter else s.split()
-        rows.append((i, [c.strip().strip("\"'").strip() for c in cells]))
-    return rows, {None: "whitespace", "\t": "tab"}.get(delimiter, delimiter)
+def _factor(unit, path) -> float:
+    """Metres per `unit`; an unknown unit raises DataFormatError naming the file."""
+    try:
+        return length_factor(unit)
+    except ValueError as exc:
+        raise DataFormatError(str(exc), source=path, field="unit") from None
 
 
 def _number(cell, *, path, line, field, allowed, minimum=None, strict=True) -> float:
     """Parse one cell; DataFormatError naming file, line, column, value, allowed."""
-    if cell.lower() in _MISSING:
-        raise DataFormatError(
-            f"missing value {cell!r}; allowed: {allowed}",
-            source=path,
-            line=line,
-            field=field,
-        )
-    try:
-        v = float(cell)
-    except ValueError:
-        raise DataFormatError(
-            f"non-numeric value {cell!r}; allowed: {allowed}",
-            source=path,
-            line=line,
-            field=field,
-        ) from None
-    if not math.isfinite(v) or (
-        minimum is not None and (v <= minimum if strict else v < minimum)
-    ):
-        raise DataFormatError(
-            f"bad value {cell!r}; allowed: {allowed}",
-            source=path,
-            line=line,
-            field=field,
-        )
-    return v
+    ok = None
+    if minimum is not None:
+        ok = (lambda v: v > minimum) if strict else (lambda v: v >= minimum)
+    return parse_number(
+        cell, source=path, line=line, field=field, allowed=allowed, ok=ok
+    )
 
 
 def _split_header(rows):
     """(header or None, data rows); the first row is a header if any cell is text."""
-    if rows and not all(is_number(c) or c.lower() in _MISSING for c in rows[0][1]):
+    if rows and looks_like_header(rows[0][1]):
         return rows[0][1], rows[1:]
     return None, rows
 
@@ -98,42 +83,23 @@ def _split_header(rows):
 def _choose_column(path, header, n_columns, column) -> tuple[int, str]:
     """Resolve `column` to (0-based index, display name)."""
     names = header or [str(j) for j in range(n_columns)]
-    listing = ", ".join(repr(h) for h in header) if header else f"0..{n_columns - 1}"
     if column is None:
         if n_columns == 1:
             return 0, names[0]
         hits = [j for j, h in enumerate(header or []) if "diam" in h.lower()]
         if len(hits) == 1:
             return hits[0], names[hits[0]]
+        listing = (
+            ", ".join(repr(h) for h in header) if header else f"0..{n_columns - 1}"
+        )
         raise DataFormatError(
             f"the file has {n_columns} columns; pass `column=` one of {listing} "
             "(a header name or a 0-based index)",
             source=path,
             field="column",
         )
-    if isinstance(column, str):
-        folded = [h.strip().lower() for h in header or []]
-        if column in (header or []):
-            j = header.index(column)
-        elif column.strip().lower() in folded:
-            j = folded.index(column.strip().lower())
-        else:
-            raise DataFormatError(
-                f"no column named {column!r}; allowed: {listing}",
-                source=path,
-                field="column",
-            )
-        return j, names[j]
-    if isinstance(column, int | np.integer) and not isinstance(column, bool):
-        if -n_columns <= column < n_columns:
-            j = int(column) % n_columns
-            return j, names[j]
-        raise DataFormatError(
-            f"column index {column!r} out of range; allowed: {listing}",
-            source=path,
-            field="column",
-        )
-    raise TypeError(f"`column` must be a str, an int or None; got {column!r}.")
+    j = resolve_column(column, header, n_columns, name="column", source=path)
+    return j, names[j]
 
 
 def read_diameters(path, *, column=None, unit="um"):
@@ -165,23 +131,23 @@ def read_diameters(path, *, column=None, unit="um"):
         non-numeric, non-finite, zero or negative diameters (naming file, line and
         column).
     """
-    factor = length_factor(unit)
     path = os.fspath(path)
-    rows, delimiter = _read_rows(path)
-    header, data = _split_header(rows)
-    if not data:
-        raise DataFormatError(
-            "no diameters found (the file is empty or has only a header); "
-            "expected one diameter per row",
-            source=path,
-        )
-    n_columns = len(header) if header else max(len(cells) for _, cells in data)
-    j, name = _choose_column(path, header, n_columns, column)
+    factor = _factor(unit, path)
+    table = read_table(
+        path,
+        header=None,
+        delimiter=SNIFF,
+        hint=_HINT,
+        empty="no diameters found (the file is empty or has only a header); "
+        "expected one diameter per row",
+    )
+    header, data = table.header, table.rows
+    j, name = _choose_column(path, header, table.width, column)
     field = f"column {name!r}" if header else f"column {j}"
     allowed = f"a diameter > 0 in {unit}"
     values = np.empty(len(data))
     for k, (line, cells) in enumerate(data):
-        cell = cells[j] if j < len(cells) else ""
+        cell = table.cell(cells, j)
         values[k] = _number(
             cell, path=path, line=line, field=field, allowed=allowed, minimum=0.0
         )
@@ -190,7 +156,7 @@ def read_diameters(path, *, column=None, unit="um"):
         "column": name if header else j,
         "column_index": j,
         "header": header,
-        "delimiter": delimiter,
+        "delimiter": delimiter_name(table.delimiter),
         "unit": unit,
         "n": int(values.size),
     }
@@ -223,9 +189,9 @@ def read_histogram(path, *, unit="um"):
         Empty file, unknown layout, missing or non-numeric cells, negative edges,
         non-increasing or non-contiguous edges, negative or all-zero counts.
     """
-    factor = length_factor(unit)
     path = os.fspath(path)
-    rows, _ = _read_rows(path)
+    factor = _factor(unit, path)
+    rows, _ = read_rows(path, delimiter=SNIFF, hint=_HINT)
     if not rows:
         raise DataFormatError(f"the file is empty; expected {_LAYOUTS}", source=path)
     as_rows = _rows_layout(rows)
@@ -315,8 +281,9 @@ def _parse_columns_layout(path, rows, unit):
     lower, upper, counts = (np.empty(len(data)) for _ in range(3))
     for k, (line, cells) in enumerate(data):
         if len(cells) != 3:
+            decimal = "; the decimal separator must be '.'" if len(cells) > 3 else ""
             raise DataFormatError(
-                f"row has {len(cells)} cells; expected {_LAYOUTS}",
+                f"row has {len(cells)} cells; expected {_LAYOUTS}{decimal}",
                 source=path,
                 line=line,
             )

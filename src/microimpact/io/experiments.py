@@ -41,11 +41,17 @@ from __future__ import annotations
 import math
 import os
 
-from .._files import csv_cells, data_lines, read_lines
+from .._files import Table, parse_number, read_table
 from .._validation import did_you_mean
 from ..errors import DataFormatError
 
-__all__ = ["COORDINATES", "STATISTICS", "combine_experiments", "read_experiments"]
+__all__ = [
+    "COORDINATES",
+    "STATISTICS",
+    "combine_experiments",
+    "read_experiments",
+    "scenario_experiments",
+]
 
 #: Statistics an experimental point may report.
 STATISTICS = ("e", "mu", "e_relative", "mu_relative", "capture_fraction")
@@ -68,64 +74,28 @@ _OUT_COLUMNS = (
 )
 
 
-def _header(source, lines):
-    if not lines:
-        raise DataFormatError(
-            "no header found; expected columns speed_m_s or angle_deg, statistic, "
-            "mean and an interval (ci_low, ci_high | half_width | std, n).",
-            source=source,
-        )
-    lineno, text = lines[0]
-    header = [h.strip() for h in csv_cells(text, source=source, line=lineno)]
-    dup = sorted({h for h in header if h and header.count(h) > 1})
-    if dup:
-        raise DataFormatError(
-            f"duplicate column(s) {dup}; each column may appear once.",
-            source=source,
-            line=lineno,
-        )
-
-    def missing(col, allowed):
-        raise DataFormatError(
-            f"required column missing; header has {header}, {allowed}"
-            f"{did_you_mean(col, header)}.",
-            source=source,
-            line=lineno,
-            field=col,
-        )
-
-    if not any(c in header for c in COORDINATES):
-        missing("speed_m_s", "need speed_m_s and/or angle_deg")
-    for col in ("statistic", "mean"):
-        if col not in header:
-            missing(col, "statistic and mean are required")
-    has_ci = "ci_low" in header and "ci_high" in header
-    if not (has_ci or "half_width" in header or {"std", "n"} <= set(header)):
-        missing(
+def _read_table(source):
+    """The file's table, with the columns and the interval form checked."""
+    table = read_table(
+        source,
+        ("statistic", "mean"),
+        optional=(*COORDINATES, "surface", *_NUMERIC),
+        expected="speed_m_s or angle_deg, statistic, mean and an interval "
+        "(ci_low, ci_high | half_width | std, n)",
+    )
+    have = table.index
+    if not any(c in have for c in COORDINATES):
+        raise table.missing_column("speed_m_s", "need speed_m_s and/or angle_deg")
+    if not (
+        {"ci_low", "ci_high"} <= have.keys()
+        or "half_width" in have
+        or {"std", "n"} <= have.keys()
+    ):
+        raise table.missing_column(
             "ci_low",
             "an interval needs ci_low and ci_high, or half_width, or std and n",
         )
-    return lineno, {h: i for i, h in enumerate(header) if h}
-
-
-def _number(cell, *, source, line, col, allowed, ok):
-    try:
-        value = float(cell)
-    except ValueError:
-        raise DataFormatError(
-            f"non-numeric value {cell!r}; {allowed} is required.",
-            source=source,
-            line=line,
-            field=col,
-        ) from None
-    if not (math.isfinite(value) and ok(value)):
-        raise DataFormatError(
-            f"bad value {cell!r}; {allowed} is required.",
-            source=source,
-            line=line,
-            field=col,
-        )
-    return value
+    return table
 
 
 _RULES = {
@@ -143,8 +113,7 @@ _RULES = {
 
 def _parse_row(cells, index, *, source, line):
     def cell(col):
-        k = index.get(col)
-        return cells[k].strip() if k is not None and k < len(cells) else ""
+        return Table.cell(cells, index.get(col))
 
     row = {"line": line}
     for col in (*COORDINATES, *_NUMERIC):
@@ -153,8 +122,8 @@ def _parse_row(cells, index, *, source, line):
             row[col] = math.nan
             continue
         allowed, ok = _RULES[col]
-        row[col] = _number(
-            text, source=source, line=line, col=col, allowed=allowed, ok=ok
+        row[col] = parse_number(
+            text, source=source, line=line, field=col, allowed=allowed, ok=ok
         )
     if all(math.isnan(row[c]) for c in COORDINATES):
         raise DataFormatError(
@@ -271,17 +240,11 @@ def read_experiments(path):
     import pandas as pd
 
     source = os.fspath(path)
-    lines = data_lines(read_lines(source, error=DataFormatError))
-    header_line, index = _header(source, lines)
-    body = lines[1:]
-    if not body:
-        raise DataFormatError(
-            "no data rows after the header.", source=source, line=header_line
-        )
-    rows = []
-    for lineno, text in body:
-        cells = csv_cells(text, source=source, line=lineno)
-        rows.append(_parse_row(cells, index, source=source, line=lineno))
+    table = _read_table(source)
+    rows = [
+        _parse_row(cells, table.index, source=source, line=lineno)
+        for lineno, cells in table.rows
+    ]
     table = pd.DataFrame(rows, columns=list(_OUT_COLUMNS))
     for col in ("speed_m_s", "angle_deg", "mean", "ci_low", "ci_high", "se", "n"):
         table[col] = table[col].astype(float)
@@ -333,3 +296,29 @@ def combine_experiments(experiments):
         if c not in out:
             out[c] = math.nan if c != "surface" else None
     return out
+
+
+def scenario_experiments(scenario, experiments=None):
+    """The experiments for `scenario` as one table: `experiments` if given, else
+    the scenario's own ``experiments`` files (``[outputs] experiments``).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        Anything with an ``experiments`` attribute (a sequence of paths) or none.
+    experiments : None, DataFrame, path-like or sequence of them, optional
+        As for :func:`combine_experiments`; None means the scenario's.
+
+    Returns
+    -------
+    pandas.DataFrame or None
+        :func:`combine_experiments` of them; None when there are none.
+
+    Raises
+    ------
+    DataFormatError
+        If a file cannot be read (naming file, line and column).
+    """
+    if experiments is None:
+        experiments = tuple(getattr(scenario, "experiments", ()) or ()) or None
+    return combine_experiments(experiments)

@@ -3,7 +3,9 @@
 File format: UTF-8 CSV, comma-separated, with one header row naming at least the
 columns ``diameter_um`` (particle diameter [µm]), ``v_n_m_s`` (normal impact
 speed [m s⁻¹], a positive magnitude) and ``e`` (coefficient of restitution [-],
-0 for a captured particle). Other columns are ignored. Blank lines and lines
+0 for a captured particle); column names are matched case-insensitively and may
+appear once. Other columns are ignored. Cells may be quoted; the decimal separator
+is ``.`` (a row with more cells than the header is an error). Blank lines and lines
 whose first non-blank character is ``#`` are skipped::
 
     # SST65 on silicon, Li et al. (1999)
@@ -14,13 +16,9 @@ whose first non-blank character is ``#`` are skipped::
 
 from __future__ import annotations
 
-import math
-import os
-
 import numpy as np
 
-from .._files import csv_cells, data_lines, read_lines
-from .._validation import did_you_mean
+from .._files import parse_number, read_table
 from ..errors import DataFormatError
 from ..units import um_to_m
 
@@ -31,6 +29,15 @@ REQUIRED_COLUMNS = ("diameter_um", "v_n_m_s", "e")
 #: Largest accepted restitution coefficient; values a little above 1 occur on
 #: rough surfaces (apparent e, [1] Eq. 8), larger ones are taken as typos.
 E_MAX = 1.5
+#: (allowed, test) per column, for the error messages.
+_RULES = {
+    "diameter_um": ("a finite diameter > 0 [um]", lambda v: v > 0),
+    "v_n_m_s": (
+        "a finite normal impact speed >= 0 [m/s] (a magnitude)",
+        lambda v: v >= 0,
+    ),
+    "e": (f"a finite e in [0, {E_MAX}]", lambda v: 0 <= v <= E_MAX),
+}
 
 
 def read_impact_data(path):
@@ -51,77 +58,28 @@ def read_impact_data(path):
     ------
     DataFormatError
         Naming file, line, column and value, if the file is missing or empty, a
-        required column is absent, or a cell is missing, non-numeric or not
+        required column is absent or a column duplicated, a row has more cells
+        than the header, or a cell is missing, non-numeric or not
         finite, a diameter is <= 0, a speed is negative, or ``e`` lies outside
         ``[0, 1.5]``.
     """
     import pandas as pd
 
-    source = os.fspath(path)
-    lines = data_lines(read_lines(source, error=DataFormatError))
-    if not lines:
-        raise DataFormatError(
-            "no header found; expected a header with columns "
-            f"{', '.join(REQUIRED_COLUMNS)}.",
-            source=source,
-        )
-    (header_line, header_text), body = lines[0], lines[1:]
-    cells = csv_cells(header_text, source=source, line=header_line)
-    header = [h.strip() for h in cells]
-    index = {}
-    for col in REQUIRED_COLUMNS:
-        if col not in header:
-            raise DataFormatError(
-                f"required column missing; header has {header}, required "
-                f"{list(REQUIRED_COLUMNS)}{did_you_mean(col, header)}.",
-                source=source,
-                line=header_line,
-                field=col,
-            )
-        index[col] = header.index(col)
-    if not body:
-        raise DataFormatError(
-            "no data rows after the header.", source=source, line=header_line
-        )
-
-    out = np.empty((len(body), 3))
-    for row_no, (lineno, text) in enumerate(body):
-        cells = csv_cells(text, source=source, line=lineno)
+    table = read_table(path, REQUIRED_COLUMNS, error=DataFormatError)
+    out = np.empty((len(table.rows), 3))
+    for row_no, (lineno, cells) in enumerate(table.rows):
         for j, col in enumerate(REQUIRED_COLUMNS):
-            k = index[col]
-            cell = cells[k].strip() if k < len(cells) else ""
-            if cell == "":
-                raise DataFormatError(
-                    "missing value; a number is required.",
-                    source=source,
-                    line=lineno,
-                    field=col,
-                )
-            try:
-                value = float(cell)
-            except ValueError:
-                raise DataFormatError(
-                    f"non-numeric value {cell!r}; a number is required.",
-                    source=source,
-                    line=lineno,
-                    field=col,
-                ) from None
-            if not math.isfinite(value):
-                problem = "a finite number is required"
-            elif col == "diameter_um" and value <= 0:
-                problem = "a diameter > 0 [um] is required"
-            elif col == "v_n_m_s" and value < 0:
-                problem = "the normal impact speed must be a magnitude >= 0 [m/s]"
-            elif col == "e" and not 0 <= value <= E_MAX:
-                problem = f"e must lie in [0, {E_MAX}]"
-            else:
-                out[row_no, j] = value
-                continue
-            raise DataFormatError(
-                f"bad value {cell!r}; {problem}.", source=source, line=lineno, field=col
+            allowed, ok = _RULES[col]
+            out[row_no, j] = parse_number(
+                table.cell(cells, table.index[col]),
+                source=table.source,
+                line=lineno,
+                field=col,
+                allowed=allowed,
+                ok=ok,
             )
-    table = pd.DataFrame(
+    frame = pd.DataFrame(
         {"diameter": um_to_m(out[:, 0]), "v_n": out[:, 1], "e": out[:, 2]}
     )
-    table.attrs["source"] = source
-    return table
+    frame.attrs["source"] = table.source
+    return frame

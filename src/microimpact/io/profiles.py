@@ -7,11 +7,12 @@ as the paper's ten 4 mm scans of 8,000 points each [1]_), with SI units inside.
 Supported inputs
 ----------------
 * Delimited text (CSV, TSV, semicolon or whitespace separated; the delimiter is
-  sniffed from the first row unless given). Lines starting with ``#`` are comments and
-  a trailing ``# ...`` on a data line is ignored. An optional header row names the
-  columns. Either a position and a height column, or heights alone with a sampling
-  interval ``dx_um``. An optional scan column (``scan`` or ``scan_id`` in the header,
-  or ``scan_column=``) splits one file into several scans.
+  sniffed from the first row unless given; cells may be quoted; the decimal separator
+  is ``.``). Lines starting with ``#`` are comments and a trailing ``# ...`` on a data
+  line is ignored. An optional header row names the columns (matched
+  case-insensitively). Either a position and a height column, or heights alone with a
+  sampling interval ``dx_um``. An optional scan column (``scan`` or ``scan_id`` in the
+  header, or ``scan_column=``) splits one file into several scans.
 * ISO 25178-72 / ISO 5436-2 ``.x3p`` files through the optional package ``x3pio``
   (``pip install x3pio``), imported only when such a file is read.
 
@@ -35,15 +36,22 @@ from pathlib import Path
 
 import numpy as np
 
-from .._files import is_number, read_lines
+from .._files import (
+    SNIFF,
+    is_number,
+    parse_number,
+    read_lines,
+    resolve_column,
+    split_rows,
+)
 from .._validation import as_float_array
 from ..errors import ProfileFormatError
-from ..units import LENGTH_UNITS, length_factor
+from ..units import length_factor
 
 __all__ = ["Profile", "ProfileSet", "read_profile", "read_profiles"]
 
 _SCAN_NAMES = ("scan", "scan_id", "scanid", "scan_no", "scan_number")
-_MISSING = {"", "nan", "na", "n/a", "none", "null", "-", "?"}
+_DECIMAL = "; the decimal separator must be '.'"
 
 
 def check_xz(x, z):
@@ -77,7 +85,8 @@ class Profile:
         Heights [m].
     metadata : dict
         Provenance: ``source`` (file), ``scan`` (scan id), ``x_unit`` and ``z_unit``
-        (units in the file), ``n_points``, ``dx`` (median sampling interval [m]).
+        (units in the file), ``format``, ... The number of points and the median
+        sampling interval [m] are the properties :attr:`n_points` and :attr:`dx`.
     """
 
     x: np.ndarray
@@ -90,10 +99,7 @@ class Profile:
         z.setflags(write=False)
         object.__setattr__(self, "x", x)
         object.__setattr__(self, "z", z)
-        meta = dict(self.metadata)
-        meta.setdefault("n_points", int(x.size))
-        meta.setdefault("dx", float(np.median(np.diff(x))))
-        object.__setattr__(self, "metadata", meta)
+        object.__setattr__(self, "metadata", dict(self.metadata))
 
     @property
     def n_points(self) -> int:
@@ -139,7 +145,8 @@ class ProfileSet:
     profiles : tuple of Profile
         The scans, in file order.
     metadata : dict
-        Provenance of the set (``sources``, ``n_scans``, ``n_points``).
+        Provenance of the set (empty unless given); the files, the number of scans
+        and of points are :attr:`sources`, ``len(set)`` and :attr:`n_points`.
     """
 
     profiles: tuple
@@ -153,15 +160,7 @@ class ProfileSet:
             if not isinstance(p, Profile):
                 raise TypeError(f"`profiles` must hold Profile objects; got {p!r}.")
         object.__setattr__(self, "profiles", profiles)
-        meta = dict(self.metadata)
-        meta.setdefault("n_scans", len(profiles))
-        meta.setdefault("n_points", sum(p.n_points for p in profiles))
-        srcs = []
-        for p in profiles:
-            if p.source is not None and p.source not in srcs:
-                srcs.append(p.source)
-        meta.setdefault("sources", srcs)
-        object.__setattr__(self, "metadata", meta)
+        object.__setattr__(self, "metadata", dict(self.metadata))
 
     def __len__(self) -> int:
         return len(self.profiles)
@@ -177,8 +176,22 @@ class ProfileSet:
         """Total number of points over all scans."""
         return sum(p.n_points for p in self.profiles)
 
+    @property
+    def sources(self) -> list:
+        """The files the scans were read from, each once, in order."""
+        return sources_of(self.profiles)
+
     def __repr__(self) -> str:
         return f"ProfileSet(n_scans={len(self)}, n_points={self.n_points})"
+
+
+def sources_of(profiles) -> list:
+    """The distinct non-``None`` sources of `profiles`, in order."""
+    out = []
+    for p in profiles:
+        if p.source is not None and p.source not in out:
+            out.append(p.source)
+    return out
 
 
 def as_profiles(profile_or_set) -> tuple[Profile, ...]:
@@ -205,113 +218,91 @@ def as_profiles(profile_or_set) -> tuple[Profile, ...]:
 def _unit_factor(unit, name: str, path) -> float:
     try:
         return length_factor(unit)
-    except ValueError:
-        allowed = ", ".join(repr(u) for u in LENGTH_UNITS)
-        raise ProfileFormatError(
-            f"unknown length unit {unit!r}; allowed: {allowed}",
-            source=path,
-            field=f"`{name}`",
-        ) from None
+    except ValueError as exc:
+        raise ProfileFormatError(str(exc), source=path, field=name) from None
 
 
 # --------------------------------------------------------------------------- text
 
 
-def _split(line: str, delimiter):
-    if delimiter is None:
-        return line.split()
-    return [c.strip() for c in line.split(delimiter)]
-
-
-def _sniff(line: str):
-    for d in (",", "\t", ";"):
-        if d in line:
-            return d
-    return None
-
-
 def _read_rows(path, delimiter):
-    """Header (list or None), rows [(lineno, cells)], comment lines of a text file."""
+    """Header ``(lineno, cells)`` or None, rows [(lineno, cells)], comment lines."""
     lines = read_lines(
         path,
         error=ProfileFormatError,
         hint=" (for .x3p files use the .x3p suffix)",
     )
+    comments = [
+        t.lstrip("#").strip() for t in (raw.strip() for raw in lines) if t[:1] == "#"
+    ]
+    rows, _ = split_rows(
+        lines,
+        source=path,
+        delimiter=SNIFF if delimiter is None else delimiter,
+        error=ProfileFormatError,
+        trailing_comments=True,
+    )
     header = None
-    rows = []
-    comments = []
-    for lineno, raw in enumerate(lines, start=1):
-        text = raw.strip()
-        if not text:
-            continue
-        if text.startswith("#"):
-            comments.append(text.lstrip("#").strip())
-            continue
-        text = text.split("#", 1)[0].strip()
-        if delimiter is None and not rows and header is None:
-            delimiter = _sniff(text)
-            if delimiter is None:
-                delimiter = ""  # whitespace
-        cells = _split(text, delimiter or None)
-        if header is None and not rows and not any(is_number(c) for c in cells):
-            header = (lineno, cells)
-            continue
-        rows.append((lineno, cells))
+    if rows and not any(is_number(c) for c in rows[0][1]):
+        header, rows = rows[0], rows[1:]
     if not rows:
         raise ProfileFormatError("no data rows", source=path)
     return header, rows, comments
 
 
-def _column_index(col, header, ncols, name, path, line):
-    if col is None:
-        return None
-    if isinstance(col, str):
-        if header is None:
-            raise ProfileFormatError(
-                f"column {col!r} requested by name but the file has no header row; "
-                "give a 0-based column number",
-                source=path,
-                field=f"`{name}`",
-            )
-        names = [h.lower() for h in header[1]]
-        if col.lower() not in names:
-            raise ProfileFormatError(
-                f"no column named {col!r}; columns are {header[1]}",
-                source=path,
-                line=header[0],
-                field=f"`{name}`",
-            )
-        return names.index(col.lower())
-    if isinstance(col, bool) or not isinstance(col, int) or not -ncols <= col < ncols:
-        raise ProfileFormatError(
-            f"column number {col!r} out of range for {ncols} columns",
-            source=path,
-            line=line,
-            field=f"`{name}`",
-        )
-    return col % ncols
-
-
-def _parse_text(path, *, x_column, z_column, scan_column, dx_um, delimiter):
+def _parse_text(path, *, x_column, z_column, scan_column, dx_um, delimiter, units):
     """Parse a delimited text file into [(scan_id, x_raw|None, z_raw, linenos)]."""
     header, rows, comments = _read_rows(path, delimiter)
     first_line, first = rows[0]
     ncols = len(first)
-    if header is not None and len(header[1]) != ncols:
+    names = header[1] if header is not None else None
+    if names is not None and len(names) != ncols:
         raise ProfileFormatError(
-            f"header has {len(header[1])} columns but the first data row has {ncols}",
+            f"header has {len(names)} columns but the first data row has {ncols}"
+            + (_DECIMAL if ncols > len(names) else ""),
             source=path,
             line=first_line,
         )
-    names = [h.lower() for h in header[1]] if header else []
-    if scan_column is None:
-        scan_idx = next((names.index(n) for n in _SCAN_NAMES if n in names), None)
-    else:
-        scan_idx = _column_index(
-            scan_column, header, ncols, "scan_column", path, first_line
+
+    def resolve(col, name):
+        return resolve_column(
+            col,
+            names,
+            ncols,
+            name=name,
+            source=path,
+            line=None if header is None else header[0],
+            error=ProfileFormatError,
         )
-    x_idx = _column_index(x_column, header, ncols, "x_column", path, first_line)
-    z_idx = _column_index(z_column, header, ncols, "z_column", path, first_line)
+
+    if scan_column is None:
+        folded = [h.lower() for h in names or []]
+        scan_idx = next((folded.index(n) for n in _SCAN_NAMES if n in folded), None)
+    else:
+        scan_idx = resolve(scan_column, "scan_column")
+    x_idx = resolve(x_column, "x_column")
+    z_idx = resolve(z_column, "z_column")
+    given = [
+        (n, i)
+        for n, i in (
+            (
+                "`scan_column`" if scan_column is not None else "the scan-id column",
+                scan_idx,
+            ),
+            ("`x_column`", x_idx),
+            ("`z_column`", z_idx),
+        )
+        if i is not None
+    ]
+    for k, (a, i) in enumerate(given):
+        for b, j in given[k + 1 :]:
+            if i == j:
+                raise ProfileFormatError(
+                    f"{a} and {b} are the same column ({_label(names, i)}); "
+                    "allowed: different columns",
+                    source=path,
+                    field=b.strip("`"),
+                )
     free = [i for i in range(ncols) if i not in (scan_idx, x_idx, z_idx)]
     if dx_um is not None:
         if x_idx is not None:
@@ -345,59 +336,67 @@ def _parse_text(path, *, x_column, z_column, scan_column, dx_um, delimiter):
                 )
             z_idx = free.pop(0)
 
-    def label(i):
-        return repr(header[1][i]) if header else f"column {i}"
-
+    wanted = [
+        (
+            i,
+            None if i is None else _label(names, i),
+            f"a finite {what} in {unit} (a profile cannot have "
+            "missing or infinite values)",
+        )
+        for i, what, unit in (
+            (x_idx, "position", units[0]),
+            (z_idx, "height", units[1]),
+        )
+    ]
     scans: dict = {}
     for lineno, cells in rows:
         if len(cells) != ncols:
             raise ProfileFormatError(
-                f"expected {ncols} columns, found {len(cells)}",
+                f"expected {ncols} columns, found {len(cells)}"
+                + (_DECIMAL if len(cells) > ncols else ""),
                 source=path,
                 line=lineno,
             )
-        vals = []
-        for i in (x_idx, z_idx):
-            if i is None:
-                vals.append(None)
-                continue
-            cell = cells[i]
-            try:
-                v = float(cell)
-            except ValueError:
-                if cell.lower() in _MISSING:
-                    raise ProfileFormatError(
-                        f"missing value in {label(i)}", source=path, line=lineno
-                    ) from None
-                raise ProfileFormatError(
-                    f"non-numeric value {cell!r} in {label(i)}; a number is required",
-                    source=path,
-                    line=lineno,
-                ) from None
-            if not math.isfinite(v):
-                raise ProfileFormatError(
-                    f"missing or infinite value {cell!r} in {label(i)}",
-                    source=path,
-                    line=lineno,
-                )
-            vals.append(v)
+        vals = [
+            None
+            if i is None
+            else parse_number(
+                cells[i],
+                source=path,
+                line=lineno,
+                field=label,
+                allowed=allowed,
+                error=ProfileFormatError,
+            )
+            for i, label, allowed in wanted
+        ]
         sid = cells[scan_idx] if scan_idx is not None else None
         if sid is not None and sid == "":
             raise ProfileFormatError(
-                f"missing scan id in {label(scan_idx)}", source=path, line=lineno
+                "missing scan id; allowed: a non-empty scan id",
+                source=path,
+                line=lineno,
+                field=_label(names, scan_idx),
             )
         entry = scans.setdefault(sid, ([], [], []))
         entry[0].append(vals[0])
         entry[1].append(vals[1])
         entry[2].append(lineno)
+
+    def name_of(i):
+        return None if i is None else (names[i] if names is not None else i)
+
     cols = {
-        "x_column": None if x_idx is None else (header[1][x_idx] if header else x_idx),
-        "z_column": header[1][z_idx] if header else z_idx,
-        "scan_column": None
-        if scan_idx is None
-        else (header[1][scan_idx] if header else scan_idx),
+        "x_column": name_of(x_idx),
+        "z_column": name_of(z_idx),
+        "scan_column": name_of(scan_idx),
     }
     return scans, cols, comments
+
+
+def _label(names, i) -> str:
+    """How a column is named in messages: ``column 'z'`` or ``column 1``."""
+    return f"column {names[i]!r}" if names is not None else f"column {i}"
 
 
 def _check_monotonic(x, linenos, path, scan):
@@ -423,7 +422,6 @@ def _build_profiles(path, scans, *, xf, zf, dx, meta):
         z = np.asarray(zs, dtype=float) * zf
         if dx is not None:
             x = np.arange(z.size, dtype=float) * dx
-            order = slice(None)
         else:
             xr = np.asarray(xs, dtype=float)
             xr, order = _check_monotonic(xr, linenos, path, sid)
@@ -435,9 +433,7 @@ def _build_profiles(path, scans, *, xf, zf, dx, meta):
                 source=path,
                 line=linenos[0],
             )
-        m = dict(meta)
-        m.update(scan=sid, n_points=int(z.size), dx=float(np.median(np.diff(x))))
-        out.append(Profile(x, z, m))
+        out.append(Profile(x, z, {**meta, "scan": sid}))
     return out
 
 
@@ -465,7 +461,7 @@ def _read_x3p(path, *, meta):
     if z.ndim == 1:
         zs = [z]
     else:
-        zs = list(np.atleast_2d(z))
+        zs = list(z)
         if x.ndim == 2:
             x = x[0]
     out = []
@@ -482,7 +478,6 @@ def _read_x3p(path, *, meta):
         m = dict(meta)
         m.update(
             scan=row if len(zs) > 1 else None,
-            n_points=int(zr.size),
             x_unit="m",
             z_unit="m",
             format="x3p",
@@ -514,6 +509,13 @@ def _read_any(
     zf = _unit_factor(
         *((z_unit, "z_unit") if z_unit is not None else (unit, "unit")), path
     )
+    if delimiter is not None and not (
+        isinstance(delimiter, str) and len(delimiter) <= 1 and delimiter not in '"#'
+    ):
+        raise ValueError(
+            "`delimiter` must be one character (not '\"' or '#'), '' or None "
+            f"(whitespace); got {delimiter!r}."
+        )
     dx = None
     if dx_um is not None:
         try:
@@ -530,6 +532,7 @@ def _read_any(
         scan_column=scan_column,
         dx_um=dx_um,
         delimiter=delimiter,
+        units=(x_unit or unit, z_unit or unit),
     )
     meta.update(
         format="text",
@@ -570,14 +573,15 @@ def read_profile(
     dx_um : float, optional
         Sampling interval [µm] for a file of heights alone.
     delimiter : str, optional
-        Column separator; sniffed from the first row (``,``, tab, ``;``, else
-        whitespace) when ``None``.
+        Column separator, one character (``""``: whitespace); sniffed from the first
+        row (``,``, tab, ``;``, else whitespace) when ``None``. Cells may be quoted
+        (``"1,5"`` is one cell).
 
     Returns
     -------
     Profile
-        ``x`` and ``z`` in metres; metadata with the source, units, ``n_points``,
-        ``dx`` [m] and the scan id.
+        ``x`` and ``z`` in metres; metadata with the source, units and the scan id
+        (``n_points`` and ``dx`` [m] are properties).
 
     Raises
     ------

@@ -34,11 +34,12 @@ import math
 import numbers
 import warnings
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 from scipy import integrate, stats
 
-from .._tables import TABLE_SIZE, QuantileTable
+from .._tables import TABLE_SIZE, EqualAtoms, QuantileTable
 from .._validation import as_float_array, check_choice
 from ..units import length_factor, m_to_um, um_to_m
 
@@ -106,29 +107,19 @@ class SizeDistribution:
         if (self.dist is None) == (self.atoms is None):
             raise ValueError("give exactly one of `dist` and `atoms`.")
         if self.atoms is not None:
-            a = np.sort(np.asarray(self.atoms, dtype=float).ravel())
+            impl = EqualAtoms(self.atoms)
+            a = impl.atoms
             if a.size == 0 or not np.all(np.isfinite(a) & (a > 0)):
                 raise ValueError("`atoms` must be a non-empty array of finite d > 0.")
-            a.setflags(write=False)
             object.__setattr__(self, "atoms", a)
+            object.__setattr__(self, "_discrete", impl)
             return
-        lo, hi = float(self.lower), float(self.upper)
-        fa, fb = float(self.dist.cdf(lo)), float(self.dist.cdf(hi))
-        sa, sb = float(self.dist.sf(lo)), float(self.dist.sf(hi))
-        upper_tail = fa > 0.5
-        kept = sa - sb if upper_tail else fb - fa
-        if not kept > 0:
-            raise ValueError(
-                f"truncation to [{m_to_um(lo):g}, {m_to_um(hi):g}] um cuts away all "
-                "of the probability; widen the limits."
-            )
-        generic = fa > 0 or sb > 0
+        t = _truncation(self.dist, self.lower, self.upper)
         for key, value in zip(
-            ("_fa", "_fb", "_sa", "_sb", "_kept", "_upper_tail", "_generic"),
-            (fa, fb, sa, sb, kept, upper_tail, generic),
-            strict=True,
+            ("_fa", "_fb", "_sa", "_sb", "_kept", "_upper_tail"), t[:6], strict=True
         ):
             object.__setattr__(self, key, value)
+        object.__setattr__(self, "_generic", t.fa > 0 or t.sb > 0)
 
     # -- the distribution ------------------------------------------------------------
     @property
@@ -146,9 +137,7 @@ class SizeDistribution:
         bad = ~((q >= 0) & (q <= 1))
         qq = np.where(bad, 0.5, q)
         if self.is_discrete:
-            n = self.atoms.size
-            k = np.clip(np.ceil(qq * n).astype(np.intp) - 1, 0, n - 1)
-            x = self.atoms[k]
+            x = self._discrete.ppf(qq)
         elif not self._generic:
             x = np.asarray(self.dist.ppf(qq), dtype=float)
         else:
@@ -163,7 +152,7 @@ class SizeDistribution:
         """Cumulative distribution function at diameter `d` [m]."""
         d = np.asarray(d, dtype=float)
         if self.is_discrete:
-            p = np.searchsorted(self.atoms, d, side="right") / self.atoms.size
+            p = self._discrete.cdf(d)
             return _out(np.where(np.isnan(d), np.nan, p))
         if not self._generic:
             return _out(self.dist.cdf(d))
@@ -178,8 +167,7 @@ class SizeDistribution:
         """Probability density [m⁻¹] at diameter `d` [m] (``inf`` at discrete atoms)."""
         d = np.asarray(d, dtype=float)
         if self.is_discrete:
-            at = np.isin(d, self.atoms)
-            return _out(np.where(np.isnan(d), np.nan, np.where(at, np.inf, 0.0)))
+            return _out(np.where(np.isnan(d), np.nan, self._discrete.pdf(d)))
         if not self._generic:
             return _out(self.dist.pdf(d))
         inside = (d >= self.lower) & (d <= self.upper)
@@ -190,7 +178,7 @@ class SizeDistribution:
         """Draw diameters [m] (SPEC 7 `rng`)."""
         rng = np.random.default_rng(rng)
         if self.is_discrete:
-            return _out(self.atoms[rng.integers(0, self.atoms.size, size=size)])
+            return _out(self._discrete.rvs(size, rng))
         if not self._generic:
             return _out(self.dist.rvs(size=size, random_state=rng))
         return _out(self.ppf(rng.random(size)))
@@ -198,7 +186,7 @@ class SizeDistribution:
     def mean(self) -> float:
         """Mean diameter [m] of the (truncated) distribution."""
         if self.is_discrete:
-            return float(self.atoms.mean())
+            return self._discrete.mean()
         if not self._generic:
             return float(self.dist.mean())
         return float(self._expect(lambda x: x))
@@ -206,7 +194,7 @@ class SizeDistribution:
     def std(self) -> float:
         """Standard deviation [m] of the (truncated) distribution (ddof=0)."""
         if self.is_discrete:
-            return float(self.atoms.std())
+            return self._discrete.std()
         if not self._generic:
             return float(self.dist.std())
         m = self.mean()
@@ -235,18 +223,19 @@ class SizeDistribution:
     def support(self) -> tuple[float, float]:
         """(lower, upper) limits of the diameter [m]."""
         if self.is_discrete:
-            return float(self.atoms[0]), float(self.atoms[-1])
+            return self._discrete.support()
         lo, hi = self.dist.support()
         return float(max(lo, self.lower)), float(min(hi, self.upper))
 
     def table(self, size: int = TABLE_SIZE) -> QuantileTable:
         """The equiprobable :class:`~microimpact._tables.QuantileTable` [m].
 
-        An empirical sample is tabulated with ``QuantileTable.from_sample`` (the atoms
-        are the measured diameters); every other kind with ``from_ppf(self.ppf)``.
+        A discrete kind is tabulated with ``QuantileTable.from_sample`` (the atoms
+        are the measured diameters, or the single diameter); every other kind with
+        ``from_ppf(self.ppf)``.
         """
-        if self.kind == "empirical":
-            return QuantileTable.from_sample(self.atoms, size=size)
+        if self.is_discrete:
+            return self._discrete.table(size)
         return QuantileTable.from_ppf(self.ppf, size=size)
 
     def describe(self) -> dict:
@@ -334,11 +323,44 @@ def _where(lower, upper) -> str:
     return f"[{m_to_um(lower):g}, {m_to_um(upper):g}] um"
 
 
+class _Truncation(NamedTuple):
+    """CDF and survival function of a distribution at the truncation limits."""
+
+    fa: float  # F(lower)
+    fb: float  # F(upper)
+    sa: float  # S(lower)
+    sb: float  # S(upper)
+    kept: float  # probability kept, from the more accurate tail
+    upper_tail: bool  # the kept interval lies in the upper tail: use sf/isf
+    cut: float  # probability cut away, F(lower) + S(upper), in [0, 1]
+
+
+def _truncation(dist, lower, upper, what="") -> _Truncation:
+    """Truncate `dist` to [lower, upper] [m]: the one computation of the kept and the
+    cut probability; ``ValueError`` if nothing is kept.
+
+    `what` names the distribution in the error message (e.g. ``"N(30 um, 1.7 um)"``).
+    """
+    lo, hi = float(lower), float(upper)
+    fa, fb = float(dist.cdf(lo)), float(dist.cdf(hi))
+    sa, sb = float(dist.sf(lo)), float(dist.sf(hi))
+    upper_tail = fa > 0.5
+    kept = sa - sb if upper_tail else fb - fa
+    if not kept > 0:
+        raise ValueError(
+            f"truncating {what or 'the distribution'} to {_where(lo, hi)} cuts away "
+            "all of the probability; widen `min_um`/`max_um`."
+        )
+    cut = max(0.0, min(1.0, fa + sb))
+    return _Truncation(fa, fb, sa, sb, kept, upper_tail, cut)
+
+
 def _continuous(kind, dist, lower, upper, params, stacklevel) -> SizeDistribution:
     """Truncate `dist` [m] to [lower, upper] through its CDF, report the cut."""
-    out = SizeDistribution(kind, dist=dist, lower=lower, upper=upper, params=params)
-    cut = max(0.0, min(1.0, out._fa + out._sb))
-    object.__setattr__(out, "truncated_mass", cut)
+    cut = _truncation(dist, lower, upper, what=f"the {kind} distribution").cut
+    out = SizeDistribution(
+        kind, dist=dist, lower=lower, upper=upper, params=params, truncated_mass=cut
+    )
     _warn_cut(cut, _where(lower, upper), stacklevel + 1)
     return out
 
@@ -350,18 +372,12 @@ def _normal(mean_um, std_um, min_um, max_um, stacklevel) -> SizeDistribution:
     lower, upper = _limits_iv(min_um, max_um)
     mu, sigma = float(um_to_m(mean_um)), float(um_to_m(std_um))
     a, b = (lower - mu) / sigma, (upper - mu) / sigma
-    if a > 0:
-        kept = stats.norm.sf(a) - stats.norm.sf(b)
-    elif b < 0:
-        kept = stats.norm.cdf(b) - stats.norm.cdf(a)
-    else:
-        kept = 1.0 - stats.norm.cdf(a) - stats.norm.sf(b)
-    if not kept > 0:
-        raise ValueError(
-            f"truncating N({mean_um:g} um, {std_um:g} um) to {_where(lower, upper)} "
-            "cuts away all of the probability; widen `min_um`/`max_um`."
-        )
-    cut = float(min(1.0, stats.norm.cdf(a) + stats.norm.sf(b)))
+    cut = _truncation(
+        stats.norm(loc=mu, scale=sigma),
+        lower,
+        upper,
+        what=f"N({mean_um:g} um, {std_um:g} um)",
+    ).cut
     params = {"mean_um": mean_um, "std_um": std_um, "min_um": min_um, "max_um": max_um}
     dist = stats.truncnorm(a, b, loc=mu, scale=sigma)
     out = SizeDistribution("normal", dist=dist, params=params, truncated_mass=cut)

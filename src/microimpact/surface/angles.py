@@ -38,8 +38,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._tables import TABLE_SIZE, QuantileTable
+from .._tables import TABLE_SIZE, EqualAtoms, QuantileTable
 from .._validation import as_float_array, check_choice
+from ..population.distributions import _scalar
 from ..units import deg_to_rad, rad_to_deg
 
 __all__ = [
@@ -55,42 +56,6 @@ __all__ = [
 _HALF_PI = 0.5 * math.pi
 #: Largest representable angle strictly inside (-pi/2, pi/2).
 _LIMIT = math.nextafter(_HALF_PI, 0.0)
-
-
-class _Empirical:
-    """Discrete distribution putting mass 1/n on each sorted sample value [rad]."""
-
-    is_discrete = True
-
-    def __init__(self, sample):
-        self.s = np.sort(sample)
-        self.s.setflags(write=False)
-
-    def ppf(self, q):
-        n = self.s.size
-        k = np.ceil(q * n).astype(np.intp) - 1  # inf{x : F(x) >= q}
-        return self.s[np.clip(k, 0, n - 1)]
-
-    def cdf(self, x):
-        return np.searchsorted(self.s, x, side="right") / self.s.size
-
-    def pdf(self, x):
-        return np.where(np.isin(x, self.s), np.inf, 0.0)
-
-    def support(self):
-        return float(self.s[0]), float(self.s[-1])
-
-    def rvs(self, size, rng):
-        return self.s[rng.integers(0, self.s.size, size=size)]
-
-    def mean(self):
-        return float(self.s.mean())
-
-    def std(self):
-        return float(self.s.std())
-
-    def table(self, size):
-        return QuantileTable.from_sample(self.s, size=size)
 
 
 class _Point:
@@ -288,8 +253,8 @@ class AngleDistribution:
             "support_deg": (float(rad_to_deg(lo)), float(rad_to_deg(hi))),
             "truncated_mass": float(self.truncated_mass),
         }
-        if isinstance(self._impl, _Empirical):
-            out["n_atoms"] = int(self._impl.s.size)
+        if isinstance(self._impl, EqualAtoms):
+            out["n_atoms"] = int(self._impl.atoms.size)
         return out
 
     def __repr__(self) -> str:
@@ -337,7 +302,7 @@ def angles_from_sample(angles_deg, *, source=None) -> AngleDistribution:
         params["source"] = str(source)
     rad = np.clip(deg_to_rad(a[keep]), -_LIMIT, _LIMIT)
     return AngleDistribution(
-        "empirical", params, float(1.0 - keep.mean()), _Empirical(rad)
+        "empirical", params, float(1.0 - keep.mean()), EqualAtoms(rad)
     )
 
 
@@ -402,11 +367,9 @@ def normal_angles(std_deg, *, mean_deg=0.0) -> AngleDistribution:
     mean_deg : float
         Its mean [deg], within (-90, 90).
     """
-    s = float(std_deg)
-    m = float(mean_deg)
-    if not (math.isfinite(s) and s >= 0):
-        raise ValueError(f"`std_deg` must be a finite number >= 0; got {std_deg!r}.")
-    if not (math.isfinite(m) and abs(m) < 90):
+    s = _scalar(std_deg, "std_deg", ">= 0")
+    m = _scalar(mean_deg, "mean_deg")
+    if not abs(m) < 90:
         raise ValueError(f"`mean_deg` must lie in (-90, 90); got {mean_deg!r}.")
     params = {"mean_deg": m, "std_deg": s}
     if s == 0:

@@ -51,10 +51,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .._files import atomic_write, read_lines
+from .._files import atomic_write, data_lines, parse_number, read_lines
 from .._validation import as_float_array, check_choice, check_int, check_positive
 from ..errors import DataFormatError, ProfileFormatError
-from ..io.profiles import Profile, ProfileSet, as_profiles, check_xz
+from ..io.profiles import Profile, ProfileSet, as_profiles, check_xz, sources_of
 from ..units import m_to_um, rad_to_deg, um_to_m
 
 __all__ = [
@@ -507,10 +507,6 @@ def characterise(
     with np.errstate(invalid="ignore", divide="ignore"):
         skew = float(stats.skew(phi)) if phi.size > 2 else float("nan")
         kurt = float(stats.kurtosis(phi, fisher=False)) if phi.size > 3 else np.nan
-    sources = []
-    for p in scans:
-        if p.source is not None and p.source not in sources:
-            sources.append(p.source)
     return RoughnessCharacterisation(
         angles=phi,
         method=method,
@@ -525,7 +521,7 @@ def characterise(
         n_scans=len(scans),
         n_segments=int(phi.size),
         conditioning={"detrend": detrend, "cutoff": cutoff},
-        sources=sources,
+        sources=sources_of(scans),
     )
 
 
@@ -619,29 +615,22 @@ def read_angle_file(path):
     path = os.fspath(path)
     lines = read_lines(path, error=DataFormatError)
     values = []
-    for lineno, raw in enumerate(lines, start=1):
-        text = raw.split("#", 1)[0].strip()
-        if not text:
-            continue
+    for lineno, text in data_lines(lines, trailing_comments=True):
         cells = text.replace(",", " ").split()
         if len(cells) != 1:
+            decimal = "; the decimal separator must be '.'" if "," in text else ""
             raise DataFormatError(
-                f"expected one angle per line, found {len(cells)} values",
+                f"expected one angle per line, found {len(cells)} values{decimal}",
                 source=path,
                 line=lineno,
             )
-        try:
-            v = float(cells[0])
-        except ValueError:
-            raise DataFormatError(
-                f"non-numeric angle {cells[0]!r}; a number of degrees is required",
-                source=path,
-                line=lineno,
-            ) from None
-        if math.isnan(v):
-            raise DataFormatError(
-                f"missing angle {cells[0]!r}", source=path, line=lineno
-            )
+        v = parse_number(
+            cells[0],
+            source=path,
+            line=lineno,
+            allowed="an angle in degrees, -90 < angle < 90",
+            what="angle",
+        )
         if not abs(v) < 90.0:
             raise DataFormatError(
                 f"angle {cells[0]} deg out of range; allowed -90 < angle < 90",

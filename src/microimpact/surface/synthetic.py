@@ -31,6 +31,7 @@ import numpy as np
 
 from .._validation import as_float_array, check_int, check_positive
 from ..io.profiles import Profile, ProfileSet, read_profiles
+from ..population.distributions import _scalar
 
 __all__ = ["formica_profile", "gaussian_profile", "weierstrass_mandelbrot_profile"]
 
@@ -105,7 +106,7 @@ def gaussian_profile(
     lam = np.clip(lam, 0.0, None)
     w = rng.standard_normal(n)
     z = np.fft.irfft(np.sqrt(lam) * np.fft.rfft(w), n=n)
-    meta.update(synthetic="gaussian_profile", dx=dx, n_points=n)
+    meta["synthetic"] = "gaussian_profile"
     return Profile(np.arange(n) * dx, z, meta)
 
 
@@ -145,12 +146,12 @@ def weierstrass_mandelbrot_profile(
         Heights [m], shaped like `x`.
     """
     x = as_float_array(x, "x")
-    d = float(fractal_dimension)
+    d = _scalar(fractal_dimension, "fractal_dimension")
     if not 1.0 < d < 2.0:
         raise ValueError(f"`fractal_dimension` must lie in (1, 2); got {d!r}.")
-    g = float(check_positive(G, "G"))
-    gamma = float(gamma)
-    if not (math.isfinite(gamma) and gamma > 1.0):
+    g = _scalar(G, "G", "> 0")
+    gamma = _scalar(gamma, "gamma", "> 0")
+    if not gamma > 1.0:
         raise ValueError(f"`gamma` must be > 1; got {gamma!r}.")
     rng = np.random.default_rng(rng)
     xs = np.sort(x.ravel())
