@@ -222,6 +222,38 @@ def test_fit_command(tmp_path, capsys):
     assert len(table) == 3
 
 
+@pytest.mark.parametrize(
+    ("verb", "text", "message"),
+    [
+        ("sizes", "d\n50\n", "needs at least 2 values; got 1"),
+        ("sizes", "d\n50\n50\n", "all equal"),
+        ("sizes", "d\n50\n60\n70\n", "too few diameters for the chi-squared test"),
+        (
+            "fit",
+            "diameter_um,v_n_m_s,e\n50,1,0.6\n50,2,0.5\n60,1,0.6\n",
+            "no diameter group was fitted",
+        ),
+    ],
+)
+def test_too_little_data_names_the_file(tmp_path, capsys, verb, text, message):
+    f = tmp_path / "few.csv"
+    f.write_text(text)
+    assert main([verb, str(f), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert f"{f}: " in err and message in err and "Traceback" not in err
+    assert not (tmp_path / "o").exists()
+
+
+def test_sizes_column_by_negative_index(tmp_path, capsys):
+    d = np.random.default_rng(6).normal(52.8, 15.3, 400)
+    f = tmp_path / "d.csv"
+    f.write_text(
+        "id,diameter_um\n" + "\n".join(f"{i},{v:.3f}" for i, v in enumerate(d))
+    )
+    assert main(["sizes", str(f), "--column", "-1"]) == 0
+    assert f"n = {d.size}" in capsys.readouterr().out
+
+
 def test_convergence_command(tmp_path, capsys):
     sc = _scenario(tmp_path, angles="90")
     assert (
@@ -323,3 +355,176 @@ def test_bad_checkpoint_interval_is_a_user_error(tmp_path, monkeypatch, capsys, 
     assert code == 2
     err = capsys.readouterr().err
     assert "MICROIMPACT_CHECKPOINT_INTERVAL" in err and repr(value) in err
+
+
+# ------------------------------------------------------------- review fixes
+def _one_line_error(capsys):
+    err = capsys.readouterr().err.strip()
+    assert err and "\n" not in err and "Traceback" not in err, err
+    return err
+
+
+@pytest.mark.parametrize("verb", ["run", "reproduce", "roughness", "sizes"])
+def test_out_that_is_a_file_is_a_user_error(tmp_path, capsys, verb):
+    f = tmp_path / "taken.txt"
+    f.write_text("not a folder\n")
+    args = {
+        "run": ["run", str(_scenario(tmp_path))],
+        "reproduce": ["reproduce", "--quick"],
+        "roughness": ["roughness", str(f)],
+        "sizes": ["sizes", str(f)],
+    }[verb]
+    for out in (f, f / "sub"):
+        assert main([*args, "--out", str(out)]) == 2
+        err = _one_line_error(capsys)
+        assert "--out" in err and str(f) in err and "not a folder" in err
+    assert f.read_text() == "not a folder\n"
+
+
+def test_svg_only_figures_are_drawn_into_the_report(tmp_path):
+    out = tmp_path / "out"
+    sc = str(_scenario(tmp_path))
+    assert main(["run", sc, "--out", str(out), "--quiet", "--formats", "svg"]) == 0
+    svgs = sorted(p.stem for p in out.glob("*.svg"))
+    assert svgs and not list(out.glob("*.png")) and not list(out.glob("*.pdf"))
+    html = (out / "report.html").read_text(encoding="utf-8")
+    imgs = re.findall(r"<img ", html)
+    assert len(imgs) == len(svgs)  # every figure saved is also in the report
+    assert html.count('src="data:image/png;base64,') == len(imgs)
+
+
+def test_png_figures_are_reused_in_the_report(tmp_path):
+    out = tmp_path / "out"
+    sc = str(_scenario(tmp_path))
+    assert main(["run", sc, "--out", str(out), "--quiet", "--formats", "png,svg"]) == 0
+    html = (out / "report.html").read_text(encoding="utf-8")
+    assert len(re.findall(r"<img ", html)) == len(list(out.glob("*.png")))
+
+
+def _with_outputs(tmp_path, outputs):
+    p = _scenario(tmp_path)
+    p.write_text(p.read_text() + "\n[outputs]\n" + outputs + "\n")
+    return p
+
+
+def test_scenario_figures_give_the_formats(tmp_path):
+    sc = _with_outputs(tmp_path, 'figures = ["svg"]')
+    out = tmp_path / "a"
+    assert main(["run", str(sc), "--out", str(out), "--quiet"]) == 0
+    assert list(out.glob("*.svg"))
+    assert not list(out.glob("*.png")) and not list(out.glob("*.pdf"))
+    out = tmp_path / "b"  # --formats wins
+    assert main(["run", str(sc), "--out", str(out), "--quiet", "--formats", "pdf"]) == 0
+    assert list(out.glob("*.pdf")) and not list(out.glob("*.svg"))
+
+
+def test_default_formats_without_scenario_figures(tmp_path):
+    out = tmp_path / "out"
+    assert main(["run", str(_scenario(tmp_path)), "--out", str(out), "--quiet"]) == 0
+    stems_png = {p.stem for p in out.glob("*.png")}
+    assert stems_png and stems_png == {p.stem for p in out.glob("*.pdf")}
+
+
+def test_malformed_experiments_fail_before_any_output(tmp_path, capsys):
+    (tmp_path / "exp.csv").write_text(
+        "speed_m_s,statistic,mean,half_width\n0.2,e,0.5,0.1\n0.5,e,abc,0.1\n"
+    )
+    sc = _with_outputs(tmp_path, 'experiments = "exp.csv"')
+    out = tmp_path / "out"
+    t0 = time.perf_counter()
+    assert main(["run", str(sc), "--out", str(out), "--quiet"]) == 2
+    err = _one_line_error(capsys)
+    assert "exp.csv:3" in err and "mean" in err and "'abc'" in err
+    assert not out.exists()  # nothing written, not even the folder
+    assert time.perf_counter() - t0 < 5  # and no simulation ran
+
+
+def test_experiments_are_read_once(tmp_path, monkeypatch):
+    import microimpact.io.experiments as ioe
+
+    (tmp_path / "exp.csv").write_text(
+        "speed_m_s,angle_deg,statistic,mean,half_width\n0.2,30,e,0.5,0.1\n"
+    )
+    sc = _with_outputs(tmp_path, 'experiments = "exp.csv"')
+    calls = []
+    read = ioe.read_experiments
+    monkeypatch.setattr(
+        ioe, "read_experiments", lambda p: calls.append(p) or read(p), raising=True
+    )
+    out = tmp_path / "out"
+    assert main(["run", str(sc), "--out", str(out), "--quiet"]) == 0
+    assert len(calls) == 1
+    html = (out / "report.html").read_text(encoding="utf-8")
+    assert "Comparison with experiments" in html
+    assert (out / "comparison.png").exists()
+
+
+def test_precision_flag_keeps_the_scenario_precision(tmp_path, monkeypatch):
+    import microimpact.cli as cli
+
+    p = _scenario(tmp_path)
+    p.write_text(
+        p.read_text()
+        + "\n[precision]\nstatistic = 'e_mean'\nmin_samples = 3000\n"
+        + "max_samples = 50000\n"
+    )
+    seen = []
+
+    def fake_run_one(scenario, *args, **kw):
+        seen.append(scenario)
+        raise cli.InputError("stop here")
+
+    monkeypatch.setattr(cli, "_run_one", fake_run_one)
+    args = ["run", str(p), "--out", str(tmp_path / "o"), "--precision", "0.02"]
+    assert main(args) == 2
+    (sc,) = seen
+    assert sc.precision.half_width == 0.02
+    assert (sc.precision.statistic, sc.precision.min_samples) == ("e_mean", 3000)
+    assert sc.precision.max_samples == 50000 and sc.sampling == "mc"
+
+
+def test_surface_names_do_not_escape_the_output_folder(tmp_path):
+    p = _scenario(tmp_path)
+    p.write_text(p.read_text().replace('name = "rough"', 'name = "/../../esc/ape"'))
+    out = tmp_path / "deep" / "out"
+    assert main(["run", str(p), "--out", str(out), "--quiet", "--formats", "png"]) == 0
+    assert (out / "angle_pdf________esc_ape.png").exists()
+    assert all(f.parent == out for f in out.rglob("*"))
+    assert sorted(f.name for f in tmp_path.iterdir()) == ["deep", "small.toml"]
+    assert [f.name for f in (tmp_path / "deep").iterdir()] == ["out"]
+
+
+def test_warnings_are_one_line(tmp_path, capsys):
+    p = _scenario(tmp_path, angles="90")
+    p.write_text(
+        p.read_text()
+        + "\n[precision]\nhalf_width = 0.0001\nmin_samples = 100\nmax_samples = 200\n"
+    )
+    out = tmp_path / "o"
+    assert main(["run", str(p), "--out", str(out), "--quiet", "--no-figures"]) == 0
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("microimpact run: warning: ")
+    assert "did not reach the precision target" in err
+    assert "\n" not in err and "warnings.warn" not in err
+
+
+def test_unknown_preset_suggests_a_name(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert main(["run", "sst65-silicon", "--out", "o"]) == 2
+    err = _one_line_error(capsys)
+    assert "did you mean 'sst65-silicon-normal'" in err
+    assert main(["run", "missing.toml", "--out", "o"]) == 2
+    assert "missing.toml" in _one_line_error(capsys)
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("verb", ["sizes", "roughness"])
+def test_unit_must_be_a_known_length_unit(tmp_path, capsys, verb):
+    f = tmp_path / "d.csv"
+    f.write_text("1\n2\n3\n")
+    argv = [verb, str(f), "--unit", "furlong"]
+    if verb == "roughness":
+        argv += ["--out", str(tmp_path / "r")]
+    assert main(argv) == 2
+    err = _one_line_error(capsys)
+    assert "--unit" in err and "'furlong'" in err and "'nm'" in err

@@ -167,3 +167,21 @@ def test_path_input_and_plot(summary, tmp_path):
     import matplotlib.pyplot as plt
 
     plt.close("all")
+
+
+def test_mc_summary_capture_se_is_the_wilson_width_over_2z():
+    from engine_helpers import scenario
+
+    from microimpact.engine.montecarlo import run
+
+    res = run(scenario(speeds_m_s=(0.15, 0.3), confidence=0.99), samples=3000)
+    s = res.summary
+    width = s["capture_ci_high"] - s["capture_ci_low"]
+    assert_allclose(s["capture_se"], width / (2 * Z99), rtol=1e-12)
+    assert (s["capture_se"] > 0).all()
+    exp = exp_table([("smooth", 0.15, 90.0, "capture_fraction", 0.5, 0.01)])
+    with_col = compare(res, exp)
+    without = compare(s.drop(columns="capture_se"), exp)  # e.g. an older summary.csv
+    assert_allclose(with_col["sim_se"], s["capture_se"].iloc[:1], rtol=1e-12)
+    # a table without attrs is taken at 95 %
+    assert_allclose(without["sim_se"], width.iloc[:1] / (2 * Z95), rtol=1e-12)

@@ -608,3 +608,94 @@ def test_examples_are_relative_symlinks_to_the_presets():
         assert link.resolve() == (PRESET_DIR / file).resolve()
         a, b = scenario_from_toml(link), scenario_from_toml(PRESET_DIR / file)
         assert_allclose(a.particles.table().values, b.particles.table().values, rtol=0)
+
+
+# --------------------------------------------------------------------- review fixes
+def test_precision_checks_itself():
+    from microimpact.scenario import Precision
+
+    for bad in (True, False):
+        with pytest.raises(ScenarioError, match=r"precision\.half_width: must be a"):
+            Precision(half_width=bad)
+    with pytest.raises(ScenarioError) as info:
+        Precision(min_samples=10, max_samples=5)
+    assert info.value.field == "precision.min_samples"
+    assert "must be <= max_samples (5); got 10" in str(info.value)
+    with pytest.raises(ScenarioError, match=r"got 1000 \(the default\)"):
+        Precision(max_samples=500)
+    assert Precision(max_samples=500, min_samples=500).max_samples == 500
+
+
+def test_precision_min_above_max_in_a_file():
+    err = check(
+        minimal(precision={"max_samples": 500}),
+        r"^s\.toml: precision\.min_samples: must be <= max_samples \(500\); "
+        r"got 1000 \(the default\)$",
+    )
+    assert err.source == "s.toml"
+
+
+def test_figure_formats_are_those_save_figure_writes():
+    from microimpact.plotting.results import FIGURE_FORMATS
+
+    assert FIGURE_FORMATS == ("png", "pdf", "svg")
+    sc = scenario_from_dict(minimal(outputs={"figures": list(FIGURE_FORMATS)}))
+    assert sc.config["outputs"]["figures"] == ["png", "pdf", "svg"]
+    for fmt in ("eps", "ps", "jpg", "tif"):
+        check(
+            minimal(outputs={"figures": ["png", fmt]}),
+            rf"outputs\.figures\[1\]: must be one of 'png', 'pdf', 'svg'; got '{fmt}'",
+        )
+
+
+def test_normal_surface_mean_angle_range():
+    for bad in (90, -90, 95, -120.5):
+        check(
+            minimal(
+                surfaces=[
+                    {"name": "g", "kind": "normal", "std_deg": 5, "mean_deg": bad}
+                ]
+            ),
+            rf"surfaces\[0\]\.mean_deg: must be in \(-90, 90\); got {bad}$",
+        )
+
+
+def test_column_keys_must_be_a_name_or_an_index(tmp_path):
+    (tmp_path / "d.csv").write_text("d_um\n10\n20\n30\n")
+    (tmp_path / "p.csv").write_text("x_um,z_um\n0,0\n1,1\n2,0\n")
+    particles = {"distribution": "empirical", "file": "d.csv", "column": True}
+    check(
+        minimal(particles=particles),
+        r"particles\.column: must be a column name or a 0-based index; got True",
+        base_dir=tmp_path,
+    )
+    surface = {
+        "kind": "profile",
+        "file": "p.csv",
+        "contact_length_um": 1.0,
+        "z_column": 1.5,
+    }
+    check(
+        minimal(surface=surface),
+        r"surface\.z_column: must be a column name or a 0-based index; got 1\.5",
+        base_dir=tmp_path,
+    )
+
+
+def test_missing_kind_names_the_choices():
+    check(
+        minimal(particles={"mean_um": 50.0}),
+        r"particles\.distribution: missing required key \(one of: normal, ",
+    )
+    check(
+        minimal(surfaces=[{"name": "a"}]),
+        r"surfaces\[0\]\.kind: missing required key \(one of: smooth, ",
+    )
+
+
+def test_input_errors_are_one_line():
+    from microimpact.errors import DataFormatError, InputError
+
+    err = InputError("bad\n  value;\tallowed:\n 1", source="f.csv", field="x", line=3)
+    assert str(err) == "f.csv:3: x: bad value; allowed: 1"
+    assert "\n" not in str(DataFormatError("a\nb", source="f\nname.csv"))

@@ -9,11 +9,10 @@ import numpy as np
 import pandas as pd
 import pytest
 from numpy.testing import assert_allclose
-from scipy import stats
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
-from engine_helpers import FrozenDist, PowerCoefficients
+from engine_helpers import PowerCoefficients, rough, scenario
 
 from microimpact.engine.montecarlo import run
 from microimpact.plotting.results import (
@@ -25,18 +24,14 @@ from microimpact.plotting.results import (
     rebin,
     save_figure,
 )
-from microimpact.scenario import Scenario, SurfaceVariant
-
-DIAM = FrozenDist(stats.truncnorm(-52.8 / 15.3, np.inf, loc=52.8e-6, scale=15.3e-6))
-ANGLES = FrozenDist(stats.norm(0, np.deg2rad(10)))
+from microimpact.scenario import SurfaceVariant
 
 
 @pytest.fixture(scope="module")
 def capture_result():
-    sc = Scenario(
-        "normal",
-        DIAM,
-        PowerCoefficients(friction=0.15),
+    sc = scenario(
+        name="normal",
+        coefficients=PowerCoefficients(friction=0.15),
         speeds_m_s=(0.1, 0.15, 0.2, 0.3, 0.5, 1.0),
         angles_deg=(90,),
         seed=11,
@@ -46,13 +41,12 @@ def capture_result():
 
 @pytest.fixture(scope="module")
 def angle_result():
-    sc = Scenario(
-        "oblique",
-        DIAM,
-        PowerCoefficients(friction=0.15),
+    sc = scenario(
+        name="oblique",
+        coefficients=PowerCoefficients(friction=0.15),
         speeds_m_s=(1.0,),
         angles_deg=(10, 30, 60, 85),
-        surfaces=(SurfaceVariant("rough", ANGLES), SurfaceVariant("smooth")),
+        surfaces=(rough(), SurfaceVariant("smooth")),
         seed=12,
     )
     return run(sc, samples=1500)
@@ -222,3 +216,47 @@ def test_plot_convergence():
     assert_allclose(ax.get_lines()[0].get_ydata(), [50, 45, 44], rtol=1e-12)
     with pytest.raises(TypeError, match="ConvergenceResult"):
         plot_convergence(object())
+
+
+def test_save_figures_closes_every_figure(tmp_path):
+    from microimpact.plotting.results import save_figures
+
+    def draw():
+        _, ax = plt.subplots()
+        ax.plot([0, 1], [1, 0])
+        return ax
+
+    fig, _ = plt.subplots()
+    paths = save_figures(
+        [("a", fig), ("b", draw), ("c", plt.subplots(1, 2)[1])], tmp_path, ("png",)
+    )
+    assert [p.name for p in paths] == ["a.png", "b.png", "c.png"]
+    assert plt.get_fignums() == []
+    # a failure closes the figure being saved and those not saved yet
+    figs = [plt.subplots()[0] for _ in range(3)]
+    with pytest.raises(ValueError, match="formats"):
+        save_figures([(str(k), f) for k, f in enumerate(figs)], tmp_path, ("jpg",))
+    assert plt.get_fignums() == []
+
+    def broken():
+        raise RuntimeError("cannot draw")
+
+    with pytest.raises(RuntimeError, match="cannot draw"):
+        save_figures([("x", broken), ("y", plt.subplots()[0])], tmp_path, ("png",))
+    assert plt.get_fignums() == []
+    assert not (tmp_path / "x.png").exists() and not (tmp_path / "y.png").exists()
+
+
+def test_result_figures_default_to_the_scenario_experiments(capture_result, tmp_path):
+    from microimpact.plotting.results import result_figures
+
+    exp = tmp_path / "exp.csv"
+    exp.write_text("speed_m_s,statistic,mean,half_width\n0.5,e,0.7,0.05\n")
+    res = SimpleNamespace(
+        summary=capture_result.summary,
+        scenario=capture_result.scenario.with_options(experiments=(exp,)),
+    )
+    stems = [stem for stem, _, _ in result_figures(res)]
+    assert stems == ["capture", "comparison"]
+    stems = [stem for stem, _, _ in result_figures(capture_result)]
+    assert stems == ["capture"]

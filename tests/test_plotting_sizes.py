@@ -24,11 +24,6 @@ from microimpact.population.distributions import (
 )
 
 
-@pytest.fixture
-def rng():
-    return np.random.default_rng(1234)
-
-
 @pytest.fixture(autouse=True)
 def _close_figures():
     yield

@@ -188,3 +188,12 @@ def test_lycopodium_preset(results):
     assert rough["e_relative"].notna().all()
     assert rough.loc[10, "e_relative"] > rough.loc[45, "e_relative"] > 0
     assert rough.loc[10, "mu_relative"] > rough.loc[45, "mu_relative"] > 0
+
+
+@pytest.mark.parametrize("name", list_presets())
+def test_preset_figure_formats(name):
+    from microimpact.plotting.results import FIGURE_FORMATS
+
+    figures = load_preset(name).config["outputs"]["figures"]
+    assert figures == ["png"]  # what `microimpact reproduce` (make demo) writes
+    assert set(figures) <= set(FIGURE_FORMATS)

@@ -10,44 +10,43 @@ import subprocess
 import matplotlib
 import numpy as np
 import pytest
-from scipy import stats
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
-from engine_helpers import FrozenDist, PowerCoefficients
+from engine_helpers import (
+    FrozenDist,
+    PowerCoefficients,
+    normal_diameters,
+    rough,
+    scenario,
+)
 
 from microimpact.engine.montecarlo import run
 from microimpact.plotting.results import figures_for_result
 from microimpact.report import summary_text, write_report
-from microimpact.scenario import Scenario, SurfaceVariant
+from microimpact.scenario import SurfaceVariant
 
-DIAM = FrozenDist(
-    stats.truncnorm(-52.8 / 15.3, np.inf, loc=52.8e-6, scale=15.3e-6),
-    label="test <b>bold</b>",
-)
+DIAM = FrozenDist(normal_diameters().dist, label="test <b>bold</b>")
 
 
 @pytest.fixture(scope="module")
 def results():
-    normal = Scenario(
-        "normal",
-        DIAM,
-        PowerCoefficients(friction=0.15),
+    normal = scenario(
+        name="normal",
+        particles=DIAM,
+        coefficients=PowerCoefficients(friction=0.15),
         speeds_m_s=(0.1, 0.2, 0.3, 1.0),
         angles_deg=(90,),
         seed=21,
         description="Normal impact & capture",
     )
-    oblique = Scenario(
-        "oblique",
-        DIAM,
-        PowerCoefficients(friction=0.15),
+    oblique = scenario(
+        name="oblique",
+        particles=DIAM,
+        coefficients=PowerCoefficients(friction=0.15),
         speeds_m_s=(1.0,),
         angles_deg=(10, 45, 85),
-        surfaces=(
-            SurfaceVariant("rough", FrozenDist(stats.norm(0, np.deg2rad(10)))),
-            SurfaceVariant("smooth"),
-        ),
+        surfaces=(rough(), SurfaceVariant("smooth")),
         seed=22,
     )
     return run(normal, samples=800), run(oblique, samples=800)
@@ -187,3 +186,36 @@ def test_report_renders_in_headless_chromium(report, tmp_path):
     grey = np.round(img[..., :3].mean(axis=2) * 255).astype(int)
     assert np.unique(grey).size > 50
     assert grey.std() > 10
+
+
+def test_figures_saved_without_png_are_drawn(results, tmp_path):
+    normal = results[0]
+    files = figures_for_result(normal, tmp_path / "figs", formats=("svg",))
+    assert files and all(p.suffix == ".svg" for p in files)
+    html = write_report(
+        [normal], tmp_path / "r.html", extra_figures={"normal": files}
+    ).read_text(encoding="utf-8")
+    imgs = re.findall(r'<img src="data:image/png;base64,', html)
+    assert len(imgs) == len(files)  # the capture figure, drawn by the report
+    # an empty group: no figures for that result (the CLI's --no-figures)
+    html = write_report(
+        [normal], tmp_path / "r.html", extra_figures={"normal": []}
+    ).read_text(encoding="utf-8")
+    assert "<img " not in html
+    assert plt.get_fignums() == []
+
+
+def test_input_figure_names_are_file_names(results):
+    from types import SimpleNamespace
+
+    from microimpact.report import input_figures
+
+    sc = results[1].scenario.with_options(
+        surfaces=(rough(name="x/y"), rough(name="x_y"), rough(name="../../esc"))
+    )
+    names = [name for name, _, _ in input_figures(SimpleNamespace(scenario=sc))]
+    assert names == [  # no size_distribution: a FrozenDist is not drawn
+        "angle_pdf_x_y",
+        "angle_pdf_x_y_2",
+        "angle_pdf_______esc",
+    ]

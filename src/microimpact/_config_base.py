@@ -11,7 +11,7 @@ import re
 from pathlib import Path
 
 from ._validation import did_you_mean
-from .errors import InputError, ScenarioError
+from .errors import InputError, ScenarioError, _one_line
 from .units import LENGTH_UNITS
 
 #: Folder of the shipped preset scenario files.
@@ -94,7 +94,6 @@ COEFFICIENT_KEYS = ("set", "k1", "k2", "v_c", "p", "q", "friction")
 SWEEP_KEYS = ("speed_m_s", "angle_deg", "speed_spread")
 PRECISION_KEYS = ("statistic", "half_width", "max_samples", "min_samples")
 OUTPUT_KEYS = ("figures", "experiments")
-FIGURE_FORMATS = ("png", "pdf", "svg", "eps", "ps", "jpg", "tif")
 ANGLE_METHODS = ("slope", "paper")
 DETREND = ("line", "mean", "none")
 SYNTHETIC_PROFILES = ("formica", "gaussian")
@@ -121,10 +120,6 @@ def _type_name(value) -> str:
         list: "an array",
         dict: "a table",
     }.get(type(value), type(value).__name__)
-
-
-def _one_line(text) -> str:
-    return " ".join(str(text).split())
 
 
 class _Ctx:
@@ -156,6 +151,20 @@ class _Ctx:
             if key not in table:
                 raise self.error(_join(where, key), "missing required key")
 
+    def kind(self, table, where, key, kinds, also=()):
+        """The value of `key` in `table`, one of the keys of `kinds` (kind ->
+        ``(required keys, optional keys)``), after checking the table's keys against
+        that kind (`also`: further keys every kind allows)."""
+        if key not in table:
+            raise self.error(
+                _join(where, key),
+                f"missing required key (one of: {', '.join(kinds)})",
+            )
+        kind = self.choice(table[key], _join(where, key), tuple(kinds))
+        required, optional = kinds[kind]
+        self.keys(table, where, {key, *also} | required | optional, required)
+        return kind
+
     # -- scalars ------------------------------------------------------------
     def number(self, value, key, *, low=None, strict=False, high=None, inf=False):
         ok = isinstance(value, numbers.Real) and not isinstance(value, bool)
@@ -173,6 +182,12 @@ class _Ctx:
         if high is not None and x > high:
             raise self.error(key, f"must be <= {high:g}; got {_show(value)}")
         return x
+
+    def get_number(self, table, where, key, **kw):
+        """:meth:`number` of ``table[key]`` (key path ``where.key``); None if absent."""
+        if key not in table:
+            return None
+        return self.number(table[key], _join(where, key), **kw)
 
     def integer(self, value, key, *, low=0):
         if isinstance(value, bool) or not isinstance(value, int) or value < low:
@@ -209,6 +224,14 @@ class _Ctx:
             self.number(v, f"{key}[{i}]", low=low, strict=strict)
             for i, v in enumerate(value)
         ]
+
+    def column(self, value, key):
+        """A column of a data file: its name or its 0-based index."""
+        if isinstance(value, bool) or not isinstance(value, str | int):
+            raise self.error(
+                key, f"must be a column name or a 0-based index; got {_show(value)}"
+            )
+        return value
 
     def unit(self, value, key):
         return self.choice(value, key, tuple(LENGTH_UNITS))

@@ -14,12 +14,8 @@ from ._config_base import (
     _join,
     _show,
 )
-
-#: Folder of the shipped preset scenario files.
 from ._validation import did_you_mean
-from .scenario import (
-    SurfaceVariant,
-)
+from .scenario import SurfaceVariant
 
 
 def _exactly_one(ctx, t, where, keys):
@@ -37,26 +33,19 @@ def _angles(ctx: _Ctx, t, where):
     """An angle distribution from a surface table, or None (molecularly smooth)."""
     from .surface import angles as ang
 
-    kind = t.get("kind")
-    if kind is None:
-        raise ctx.error(
-            _join(where, "kind"),
-            f"missing required key (one of: {', '.join(SURFACE_KEYS)})",
-        )
-    kind = ctx.choice(kind, _join(where, "kind"), tuple(SURFACE_KEYS))
-    required, optional = SURFACE_KEYS[kind]
-    ctx.keys(t, where, {"name", "kind"} | required | optional, required)
+    kind = ctx.kind(t, where, "kind", SURFACE_KEYS, also=("name",))
 
     def num(key, **kw):
-        return ctx.number(t[key], _join(where, key), **kw) if key in t else None
+        return ctx.get_number(t, where, key, **kw)
 
     if kind == "smooth":
         return None
     if kind == "normal":
-        mean = num("mean_deg", low=-90, high=90)
-        if mean is not None and abs(mean) >= 90:
+        mean = num("mean_deg")
+        if mean is not None and not -90 < mean < 90:
             raise ctx.error(
-                _join(where, "mean_deg"), f"must be in (-90, 90); got {mean}"
+                _join(where, "mean_deg"),
+                f"must be in (-90, 90); got {_show(t['mean_deg'])}",
             )
         return ctx.build(
             where,
@@ -128,13 +117,7 @@ def _read_profiles(ctx, t, where):
     kw = {}
     for col in ("x_column", "z_column", "scan_column"):
         if col in t:
-            v = t[col]
-            if isinstance(v, bool) or not isinstance(v, str | int):
-                raise ctx.error(
-                    _join(where, col),
-                    f"must be a column name or a 0-based index; got {_show(v)}",
-                )
-            kw[col] = v
+            kw[col] = ctx.column(t[col], _join(where, col))
     for u in ("unit", "x_unit", "z_unit"):
         if u in t:
             kw[u] = ctx.unit(t[u], _join(where, u))

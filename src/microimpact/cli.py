@@ -9,18 +9,23 @@ reported as one line without a traceback; 1 an internal error (set
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import os
 import sys
 import time
+import warnings
 from pathlib import Path
 
 from . import __version__
-from .errors import InputError
+from .errors import DataFormatError, InputError, _one_line
 
 EXIT_OK, EXIT_INTERNAL, EXIT_USER = 0, 1, 2
 CHECKPOINT_NAME = ".microimpact-checkpoint.npz"
+#: Figure formats of ``run``/``reproduce`` when neither ``--formats`` nor the
+#: scenario's ``[outputs] figures`` gives them.
+DEFAULT_FORMATS = ("png", "pdf")
 
 
 # ----------------------------------------------------------------- arg types
@@ -61,13 +66,29 @@ def _fraction(text):
 
 
 def _formats(text):
+    from .plotting.results import FIGURE_FORMATS
+
     fmts = [f.strip().lower() for f in text.split(",") if f.strip()]
-    bad = [f for f in fmts if f not in ("png", "pdf", "svg")]
+    bad = [f for f in fmts if f not in FIGURE_FORMATS]
     if bad or not fmts:
         raise argparse.ArgumentTypeError(
-            f"formats must be a comma list of png, pdf, svg; got {text!r}"
+            f"formats must be a comma list of {', '.join(FIGURE_FORMATS)}; got {text!r}"
         )
-    return tuple(fmts)
+    return tuple(dict.fromkeys(fmts))
+
+
+def _out_dir(text):
+    """An output folder: new (created when needed) or existing, never a file."""
+    path = Path(text)
+    for p in (path, *path.parents):  # the first part that exists must be a folder
+        if p.exists():
+            if not p.is_dir():
+                what = repr(text) if p == path else f"{str(p)!r} (in {text!r})"
+                raise argparse.ArgumentTypeError(
+                    f"{what} is a file, not a folder; give a new or existing folder"
+                )
+            break
+    return path
 
 
 class _Parser(argparse.ArgumentParser):
@@ -76,6 +97,10 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from .units import LENGTH_UNITS
+
+    units = tuple(LENGTH_UNITS)
+    unit_help = f"length unit of the data, one of {', '.join(units)} (default um)"
     p = _Parser(
         prog="microimpact",
         description="Monte Carlo analysis of polydisperse microparticle impacts "
@@ -105,13 +130,14 @@ def build_parser() -> argparse.ArgumentParser:
         sp.add_argument(
             "--formats",
             type=_formats,
-            default=("png", "pdf"),
-            help="figure formats, e.g. png,pdf (default png,pdf)",
+            default=None,
+            help="figure formats, e.g. png,pdf (default: the scenario's "
+            "[outputs] figures, else png,pdf)",
         )
 
     r = sub.add_parser("run", help="run a scenario file")
     r.add_argument("scenario", help="scenario TOML file or preset name")
-    r.add_argument("--out", required=True, type=Path, help="output folder")
+    r.add_argument("--out", required=True, type=_out_dir, help="output folder")
     r.add_argument("--samples", type=_positive_int, help="impacts per sweep point")
     r.add_argument(
         "--precision",
@@ -124,7 +150,7 @@ def build_parser() -> argparse.ArgumentParser:
     common_run(r)
 
     rp = sub.add_parser("reproduce", help="run the paper's four presets + report")
-    rp.add_argument("--out", type=Path, default=Path("out"))
+    rp.add_argument("--out", type=_out_dir, default="out")
     rp.add_argument("--quick", action="store_true", help="1,000 samples per point")
     rp.add_argument(
         "--samples",
@@ -135,10 +161,12 @@ def build_parser() -> argparse.ArgumentParser:
 
     rg = sub.add_parser("roughness", help="characterise a profilometer scan")
     rg.add_argument("profile", type=Path, nargs="+", help="profile file(s)")
-    rg.add_argument("--out", required=True, type=Path)
+    rg.add_argument("--out", required=True, type=_out_dir)
     rg.add_argument("--contact-length-um", type=_positive_float, default=20.0)
     rg.add_argument("--method", choices=("slope", "paper"), default="slope")
-    rg.add_argument("--unit", default="um", help="unit of x and z (um, nm, A, mm, m)")
+    rg.add_argument(
+        "--unit", default="um", choices=units, metavar="UNIT", help=unit_help
+    )
     rg.add_argument(
         "--dx-um",
         type=_positive_float,
@@ -154,21 +182,23 @@ def build_parser() -> argparse.ArgumentParser:
 
     sz = sub.add_parser("sizes", help="fit diameters, chi-squared test, plot")
     sz.add_argument("data", type=Path)
-    sz.add_argument("--out", type=Path, default=None)
+    sz.add_argument("--out", type=_out_dir, default=None)
     sz.add_argument("--column", default=None, help="column name or 0-based index")
-    sz.add_argument("--unit", default="um")
+    sz.add_argument(
+        "--unit", default="um", choices=units, metavar="UNIT", help=unit_help
+    )
     sz.add_argument("--alpha", type=_fraction, default=0.05)
 
     ft = sub.add_parser("fit", help="least-squares k1, k2, v_c from impact data")
     ft.add_argument("data", type=Path, help="CSV: diameter_um, v_n_m_s, e")
-    ft.add_argument("--out", type=Path, default=None)
+    ft.add_argument("--out", type=_out_dir, default=None)
     ft.add_argument(
         "--form", choices=("power", "polynomial", "constant"), default="power"
     )
 
     cv = sub.add_parser("convergence", help="the paper's convergence study")
     cv.add_argument("scenario", help="scenario TOML file or preset name")
-    cv.add_argument("--out", type=Path, default=None)
+    cv.add_argument("--out", type=_out_dir, default=None)
     cv.add_argument(
         "--point",
         type=_nonneg_int,
@@ -182,7 +212,7 @@ def build_parser() -> argparse.ArgumentParser:
     cp = sub.add_parser("compare", help="simulation vs experiment at 95 %% level")
     cp.add_argument("results", type=Path, help="summary.csv, results.nc or run folder")
     cp.add_argument("experiment", type=Path, help="experimental CSV")
-    cp.add_argument("--out", type=Path, default=None)
+    cp.add_argument("--out", type=_out_dir, default=None)
     cp.add_argument("--confidence", type=_fraction, default=0.95)
 
     sub.add_parser("presets", help="list the shipped presets")
@@ -191,20 +221,35 @@ def build_parser() -> argparse.ArgumentParser:
 
 # ----------------------------------------------------------------- helpers
 def _load_scenario(text):
-    from .config import PRESETS, load_preset
+    from .config import preset_path
     from .scenario import Scenario
 
     path = Path(text)
-    if path.suffix.lower() == ".toml" or path.exists():
-        if not path.exists():
-            raise InputError("no such scenario file", source=path)
-        return Scenario.from_toml(path)
-    if text in PRESETS:
-        return load_preset(text)
-    raise InputError(
-        f"not a scenario file or preset name; presets: {', '.join(sorted(PRESETS))}",
-        source=text,
-    )
+    if path.suffix.lower() != ".toml" and not path.exists():
+        try:
+            path = preset_path(text)
+        except ValueError as err:  # names the presets, with "did you mean"
+            msg = str(err).removeprefix("`name` ")
+            raise InputError(
+                f"not a scenario file; a preset name {msg}", source=text
+            ) from None
+    return Scenario.from_toml(path)  # a missing file: an error naming it
+
+
+def _figure_formats(args, scenario):
+    """``--formats``, else the scenario's ``[outputs] figures``, else png, pdf."""
+    if args.formats is not None:
+        return args.formats
+    config = getattr(scenario, "config", None) or {}
+    figures = config.get("outputs", {}).get("figures") or ()
+    return tuple(dict.fromkeys(figures)) or DEFAULT_FORMATS
+
+
+def _use_agg():
+    """Draw without a display (the CLI only writes files)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
 
 
 def _say(args, msg):
@@ -212,7 +257,11 @@ def _say(args, msg):
         print(msg)
 
 
-def _run_one(scenario, out_dir, args, samples=None):
+def _run_one(scenario, out_dir, args, samples=None, *, experiments=None, formats=None):
+    """Run `scenario` into `out_dir`: results, capture speeds and, unless
+    ``--no-figures``, the figures in `formats`. `experiments` is the scenario's
+    experiments table, read before the run (None: none)."""
+    from ._files import atomic_write
     from .engine.montecarlo import run
 
     if args.scheduler is not None and args.backend != "dask":
@@ -237,52 +286,28 @@ def _run_one(scenario, out_dir, args, samples=None):
             raise
         raise InputError(err.message, field="--scheduler") from None
     result.to_files(out_dir)
-    from .engine.result import atomic_write
-
     atomic_write(
         out_dir / "capture_speed.csv",
         lambda t: result.capture_speed().to_csv(t, index=False),
     )
     figures = []
     if not getattr(args, "no_figures", False):
-        from .plotting.results import figures_for_result
+        _use_agg()
+        from .plotting.results import figures_for_result, save_figures
+        from .report import input_figures
 
+        formats = formats or DEFAULT_FORMATS
         figures = figures_for_result(
-            result,
-            out_dir,
-            formats=args.formats,
-            experiments=_experiments(scenario),
+            result, out_dir, formats=formats, experiments=experiments
         )
-        figures += _write_input_figures(result, out_dir, args.formats)
+        # Fig. 2 (diameters) and Fig. 4 (roughness angles)
+        figures += save_figures(
+            [(name, fig) for name, _caption, fig in input_figures(result)],
+            out_dir,
+            formats,
+        )
     ck.unlink(missing_ok=True)
     return result, figures
-
-
-def _write_input_figures(result, out_dir, formats):
-    """Fig. 2 (diameters) and Fig. 4 (roughness angles) as files."""
-    import matplotlib.pyplot as plt
-
-    from .plotting.results import save_figure
-    from .report import input_figures
-
-    paths = []
-    for name, _caption, fig in input_figures(result):
-        try:
-            paths += save_figure(fig, out_dir / name, formats=formats)
-        finally:
-            plt.close(fig)
-    return paths
-
-
-def _experiments(scenario):
-    paths = list(getattr(scenario, "experiments", ()) or ())
-    if not paths:
-        return None
-    import pandas as pd
-
-    from .io.experiments import read_experiments
-
-    return pd.concat([read_experiments(p) for p in paths], ignore_index=True)
 
 
 def _print_capture(result):
@@ -302,7 +327,7 @@ def _write_outputs(out, *, tables=None, texts=None, figures=None):
     `figures` maps a file stem to a zero-argument function that draws and returns
     an Axes; matplotlib is imported (with the Agg backend) only when needed.
     """
-    from .engine.result import atomic_write
+    from ._files import atomic_write
 
     out.mkdir(parents=True, exist_ok=True)
     for name, table in (tables or {}).items():
@@ -310,45 +335,45 @@ def _write_outputs(out, *, tables=None, texts=None, figures=None):
     for name, text in (texts or {}).items():
         atomic_write(out / name, lambda t, x=text: Path(t).write_text(x))
     if figures:
-        import matplotlib
+        _use_agg()
+        from .plotting.results import save_figures
 
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        from .plotting.results import save_figure
-
-        for stem, draw in figures.items():
-            ax = draw()
-            try:
-                save_figure(ax.figure, out / stem, formats=("png", "pdf"))
-            finally:
-                plt.close(ax.figure)
+        save_figures(figures.items(), out, ("png", "pdf"))
     print(f"-> {out}")
 
 
 def cmd_run(args):
+    from dataclasses import replace
+
+    from .io.experiments import scenario_experiments
     from .report import write_report
     from .scenario import Precision
 
     scenario = _load_scenario(args.scenario)
     if args.precision is not None:
-        stat = (
-            scenario.precision.statistic if scenario.precision else "capture_fraction"
-        )
-        maxs = scenario.precision.max_samples if scenario.precision else 10_000_000
-        scenario = scenario.with_options(
-            precision=Precision(stat, args.precision, maxs), sampling="mc"
-        )
         if args.samples is not None:
             raise InputError(
                 "give either --samples or --precision, not both", field="--precision"
             )
+        precision = scenario.precision or Precision()
+        scenario = scenario.with_options(
+            precision=replace(precision, half_width=args.precision), sampling="mc"
+        )
+    experiments = scenario_experiments(scenario)  # checked before any output
     t0 = time.perf_counter()
-    result, figures = _run_one(scenario, args.out, args, samples=args.samples)
+    result, figures = _run_one(
+        scenario,
+        args.out,
+        args,
+        samples=args.samples,
+        experiments=experiments,
+        formats=_figure_formats(args, scenario),
+    )
     write_report(
         [result],
         args.out / "report.html",
         extra_figures={scenario.name: figures},
+        experiments={scenario.name: experiments},
         csv_paths=[args.out / "summary.csv"],
     )
     _say(
@@ -364,14 +389,25 @@ def cmd_run(args):
 
 def cmd_reproduce(args):
     from .config import PRESETS, load_preset
+    from .io.experiments import scenario_experiments
     from .report import write_report
 
     samples = args.samples or (1000 if args.quick else None)
     results, figures = [], {}
+    scenarios = {name: load_preset(name) for name in PRESETS}
+    experiments = {  # checked before any output
+        sc.name: scenario_experiments(sc) for sc in scenarios.values()
+    }
     t0 = time.perf_counter()
-    for name in PRESETS:
-        scenario = load_preset(name)
-        result, figs = _run_one(scenario, args.out / name, args, samples=samples)
+    for name, scenario in scenarios.items():
+        result, figs = _run_one(
+            scenario,
+            args.out / name,
+            args,
+            samples=samples,
+            experiments=experiments[scenario.name],
+            formats=_figure_formats(args, scenario),
+        )
         results.append(result)
         figures[scenario.name] = figs
         _say(
@@ -385,6 +421,7 @@ def cmd_reproduce(args):
         results,
         args.out / "report.html",
         extra_figures=figures,
+        experiments=experiments,
         csv_paths=[args.out / name / "summary.csv" for name in PRESETS],
         title="microimpact: reproducing Li, Dunn & Brach (2000)",
     )
@@ -393,7 +430,7 @@ def cmd_reproduce(args):
 
 
 def cmd_roughness(args):
-    from .engine.result import atomic_write
+    from ._files import atomic_write
     from .io.profiles import read_profile, read_profiles
     from .plotting.roughness import plot_angle_pdf, plot_profile
     from .surface.roughness import characterise, write_angle_file
@@ -429,19 +466,11 @@ def cmd_roughness(args):
             "method": args.method,
         },
     )
-    import matplotlib
+    _use_agg()
+    from .plotting.results import save_figures
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from .plotting.results import save_figure
-
-    ax = plot_angle_pdf(ch)
-    save_figure(ax.figure, out / "angle_pdf", formats=("png", "pdf"))
-    plt.close(ax.figure)
-    ax = plot_profile(profile)
-    save_figure(ax.figure, out / "profile", formats=("png",))
-    plt.close(ax.figure)
+    save_figures([("angle_pdf", lambda: plot_angle_pdf(ch))], out, ("png", "pdf"))
+    save_figures([("profile", lambda: plot_profile(profile))], out, ("png",))
     for k, v in stats.items():
         if isinstance(v, int | float):
             print(f"  {k:>24s} = {v:.6g}")
@@ -473,18 +502,29 @@ def _roughness_stats(ch, args):
     }
 
 
+@contextlib.contextmanager
+def _data_of(path):
+    """Report a ``ValueError`` raised while analysing the data of file `path` (too
+    few values, all equal, ...) as an error of that file."""
+    try:
+        yield
+    except ValueError as exc:
+        raise DataFormatError(str(exc), source=path) from None
+
+
 def cmd_sizes(args):
     from .io.diameters import read_diameters
     from .population.distributions import chi2_normality, fit_lognormal, fit_normal
     from .units import m_to_um
 
     column = args.column
-    if column is not None and column.isdigit():
-        column = int(column)
+    with contextlib.suppress(TypeError, ValueError):
+        column = int(column)  # a 0-based index (negative from the end), else a name
     diameters, _meta = read_diameters(args.data, column=column, unit=args.unit)
     d_um = m_to_um(diameters)
-    normal, lognormal = fit_normal(d_um), fit_lognormal(d_um)
-    chi = chi2_normality(d_um, alpha=args.alpha)
+    with _data_of(args.data):
+        normal, lognormal = fit_normal(d_um), fit_lognormal(d_um)
+        chi = chi2_normality(d_um, alpha=args.alpha)
     print(f"{args.data}: n = {d_um.size}")
     print(f"  normal fit     : {normal}")
     print(f"  log-normal fit : {lognormal}")
@@ -525,11 +565,12 @@ def cmd_fit(args):
     from .physics.fitting import fit_coefficient_laws, fit_impact_coefficients
 
     data = read_impact_data(args.data)
-    table = fit_impact_coefficients(
-        data["diameter"].to_numpy(), data["v_n"].to_numpy(), data["e"].to_numpy()
-    )
+    with _data_of(args.data):
+        table = fit_impact_coefficients(
+            data["diameter"].to_numpy(), data["v_n"].to_numpy(), data["e"].to_numpy()
+        )
+        laws = fit_coefficient_laws(table, form=args.form)
     print(table.to_string(index=False))
-    laws = fit_coefficient_laws(table, form=args.form)
     print(json.dumps(laws.describe(), indent=2, default=str))
     if args.out is not None:
         _write_outputs(
@@ -655,6 +696,15 @@ COMMANDS = {
 }
 
 
+def _warning_printer(command):
+    """A ``warnings.showwarning`` that prints one line, without the source line."""
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        print(f"microimpact {command}: warning: {_one_line(message)}", file=sys.stderr)
+
+    return show
+
+
 def main(argv=None) -> int:
     """Entry point of the ``microimpact`` command; returns the exit code."""
     parser = build_parser()
@@ -663,9 +713,11 @@ def main(argv=None) -> int:
     except SystemExit as exc:  # --help, --version, or a usage error
         return int(exc.code or 0)
     try:
-        return COMMANDS[args.command](args)
+        with warnings.catch_warnings():  # restores the default printer after
+            warnings.showwarning = _warning_printer(args.command)
+            return COMMANDS[args.command](args)
     except InputError as err:
-        print(f"microimpact {args.command}: error: {err}", file=sys.stderr)
+        print(f"microimpact {args.command}: error: {_one_line(err)}", file=sys.stderr)
         return EXIT_USER
     except (
         ValueError,
@@ -676,7 +728,7 @@ def main(argv=None) -> int:
     ) as err:
         if os.environ.get("MICROIMPACT_DEBUG"):
             raise
-        print(f"microimpact {args.command}: error: {err}", file=sys.stderr)
+        print(f"microimpact {args.command}: error: {_one_line(err)}", file=sys.stderr)
         return EXIT_USER
     except KeyboardInterrupt:
         print(
@@ -690,7 +742,7 @@ def main(argv=None) -> int:
             raise
         print(
             f"microimpact {args.command}: internal error: "
-            f"{type(err).__name__}: {err} (set MICROIMPACT_DEBUG=1 for the "
+            f"{type(err).__name__}: {_one_line(err)} (set MICROIMPACT_DEBUG=1 for the "
             "traceback and please report it)",
             file=sys.stderr,
         )

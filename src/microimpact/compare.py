@@ -22,11 +22,15 @@ import os
 
 import numpy as np
 
+from .engine.statistics import z_value
+
 __all__ = ["SIMULATED", "compare", "plot_comparison"]
 
 #: experimental statistic -> (summary column of the estimate, column of its SE).
-#: The capture fraction's SE is ``capture_se`` when present (QMC), else the Wilson
-#: interval's width over ``2 z``.
+#: The capture fraction's SE is the summary's ``capture_se``; a summary without it
+#: (built by hand, or written before the column existed) gets the Wilson interval's
+#: width over ``2 z`` (:func:`microimpact.engine.statistics.interval_se`, the
+#: definition the engine uses).
 SIMULATED = {
     "e": ("e_rebound_mean", "e_rebound_se"),
     "mu": ("mu_mean", "mu_se"),
@@ -37,12 +41,6 @@ SIMULATED = {
 
 _EXP_COLUMNS = ("statistic", "mean", "ci_low", "ci_high")
 _COORDS = ("speed_m_s", "angle_deg")
-
-
-def _z(confidence):
-    from scipy.special import ndtri
-
-    return float(ndtri(0.5 + confidence / 2.0))
 
 
 def _summary_iv(summary_or_result):
@@ -66,9 +64,11 @@ def _summary_iv(summary_or_result):
         )
     summary = summary.reset_index(drop=True).copy()
     if "capture_se" not in summary and "capture_ci_low" in summary:
-        summary["capture_se"] = (
-            summary["capture_ci_high"] - summary["capture_ci_low"]
-        ) / (2.0 * _z(sim_conf))
+        from .engine.statistics import interval_se
+
+        summary["capture_se"] = interval_se(
+            summary["capture_ci_low"], summary["capture_ci_high"], sim_conf
+        )
     return summary
 
 
@@ -100,7 +100,9 @@ def _experiments_iv(experiments):
         exp["line"] = np.arange(1, len(exp) + 1)
     # rows built by hand may lack a standard error: take the interval as 95 % normal
     no_se = exp["se"].isna()
-    exp.loc[no_se, "se"] = (exp["ci_high"] - exp["ci_low"])[no_se] / (2.0 * _z(0.95))
+    exp.loc[no_se, "se"] = (exp["ci_high"] - exp["ci_low"])[no_se] / (
+        2.0 * z_value(0.95)
+    )
     return exp
 
 
@@ -209,7 +211,7 @@ def compare(summary_or_result, experiments, *, confidence=0.95):
         raise ValueError(f"`confidence` must be in (0, 1); got {confidence!r}.")
     summary = _summary_iv(summary_or_result)
     exp = _experiments_iv(experiments)
-    zc = _z(confidence)
+    zc = z_value(confidence)
     rows = []
     for _, row in exp.iterrows():
         stat = row["statistic"]

@@ -55,12 +55,10 @@ __all__ = [
     "scenario_from_toml",
 ]
 
-#: Folder of the shipped preset scenario files.
 from ._config_base import (
     _TOML_EOF,
     _TOML_POSITION,
     COEFFICIENT_KEYS,
-    FIGURE_FORMATS,
     MAX_SWEEP_POINTS,
     OUTPUT_KEYS,
     PARTICLE_KEYS,
@@ -75,31 +73,17 @@ from ._config_base import (
     _show,
 )
 from ._config_surfaces import _angles, _exactly_one, _surfaces
+from .plotting.results import FIGURE_FORMATS  # matplotlib is imported lazily there
 
 
 def _particles(ctx: _Ctx, data, where="particles"):
     from .population import distributions as pd_
 
     t = ctx.table(data, where)
-    kind = (
-        ctx.choice(
-            t.get("distribution"),
-            _join(where, "distribution"),
-            tuple(PARTICLE_KEYS),
-        )
-        if "distribution" in t
-        else None
-    )
-    if kind is None:
-        raise ctx.error(
-            _join(where, "distribution"),
-            f"missing required key (one of: {', '.join(PARTICLE_KEYS)})",
-        )
-    required, optional = PARTICLE_KEYS[kind]
-    ctx.keys(t, where, {"distribution"} | required | optional, required)
+    kind = ctx.kind(t, where, "distribution", PARTICLE_KEYS)
 
     def num(key, **kw):
-        return ctx.number(t[key], _join(where, key), **kw) if key in t else None
+        return ctx.get_number(t, where, key, **kw)
 
     lim = {"min_um": num("min_um", low=0), "max_um": num("max_um", low=0, strict=True)}
     if kind == "normal":
@@ -141,13 +125,8 @@ def _particles(ctx: _Ctx, data, where="particles"):
 
             path = ctx.path(t["file"], _join(where, "file"))
             column = t.get("column")
-            if column is not None and (
-                isinstance(column, bool) or not isinstance(column, str | int)
-            ):
-                raise ctx.error(
-                    _join(where, "column"),
-                    f"must be a column name or a 0-based index; got {_show(column)}",
-                )
+            if column is not None:
+                column = ctx.column(column, _join(where, "column"))
             unit = ctx.unit(t.get("unit", "um"), _join(where, "unit"))
             d_m, _ = ctx.build(
                 _join(where, "file"), t, read_diameters, path, column=column, unit=unit
@@ -301,14 +280,8 @@ def _precision(ctx: _Ctx, data):
     for key in ("max_samples", "min_samples"):
         if key in t:
             kw[key] = ctx.integer(t[key], f"precision.{key}", low=1)
-    if kw.get("min_samples", 1) > kw.get("max_samples", 10_000_000):
-        raise ctx.error(
-            "precision.min_samples",
-            f"must be <= max_samples ({kw.get('max_samples')}); "
-            f"got {kw['min_samples']}",
-        )
     try:
-        return Precision(**kw)
+        return Precision(**kw)  # checks min_samples <= max_samples
     except ScenarioError as exc:
         raise ctx.error(exc.field, exc.message) from None
 

@@ -9,6 +9,11 @@ message and exit code 2, never a traceback.
 from __future__ import annotations
 
 
+def _one_line(text) -> str:
+    """`text` with every run of whitespace (newlines included) as one space."""
+    return " ".join(str(text).split())
+
+
 class InputError(ValueError):
     """A user-supplied input is invalid.
 
@@ -42,7 +47,7 @@ class InputError(ValueError):
             where = f"line {self.line}: "
         if self.field:
             where += f"{self.field}: "
-        return where + self.message
+        return _one_line(where + str(self.message))
 
 
 class ProfileFormatError(InputError):

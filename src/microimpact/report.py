@@ -21,6 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ._files import atomic_write
+
 __all__ = ["summary_text", "write_report"]
 
 _CSS = """
@@ -90,6 +92,8 @@ def _pm(m, se, digits=3) -> str:
 
 
 def _slug(name: str) -> str:
+    """`name` safe as (part of) a file name: characters other than letters, digits,
+    ``-`` and ``_`` (path separators, dots) become ``_``."""
     return "".join(c if c.isalnum() or c in "-_" else "_" for c in str(name))
 
 
@@ -132,12 +136,6 @@ def _short(v) -> str:
     if isinstance(v, float):
         return f"{v:.6g}"
     return str(v)
-
-
-def _write(path, write):
-    from ._files import atomic_write
-
-    return atomic_write(path, write)
 
 
 def _png_data_uri(fig) -> str:
@@ -356,7 +354,9 @@ def input_figures(result):
     the roughness-angle PDF of each rough surface (Fig. 4).
 
     Returns a list of ``(name, caption, figure)``; names are ``size_distribution``
-    and ``angle_pdf_<surface>``.
+    and ``angle_pdf_<surface>``, the surface name made safe for a file name
+    (characters other than letters, digits, ``-`` and ``_`` become ``_``; a name
+    that clashes with an earlier one gets ``_2``, ``_3``, ...).
     """
     out = []
     sc = result.scenario
@@ -365,8 +365,11 @@ def input_figures(result):
     except ImportError:
         plot_size_distribution = None
     if plot_size_distribution is not None:
-        try:
-            ax = plot_size_distribution(sc.particles)
+        ax = _try_draw(  # None: not a SizeDistribution this module can draw
+            lambda: plot_size_distribution(sc.particles),
+            (TypeError, ValueError, AttributeError, KeyError),
+        )
+        if ax is not None:
             out.append(
                 (
                     "size_distribution",
@@ -374,8 +377,6 @@ def input_figures(result):
                     ax.figure,
                 )
             )
-        except (TypeError, ValueError, AttributeError, KeyError):
-            pass  # not a SizeDistribution this module can draw
     try:
         from .plotting.roughness import plot_angle_pdf
     except ImportError:
@@ -384,32 +385,58 @@ def input_figures(result):
     from .units import rad_to_deg
 
     q = mid_probabilities(4096)  # deterministic: the quantile function
+    used = set()
     for s in sc.surfaces:
         if getattr(s, "angles", None) is None or not hasattr(s.angles, "ppf"):
             continue
-        try:
+
+        def draw(s=s):
             angles_deg = rad_to_deg(np.asarray(s.angles.ppf(q), dtype=float))
-            ax = plot_angle_pdf(angles_deg)
-            ax.set_title(f"Surface {s.name}")
-            out.append(
-                (
-                    f"angle_pdf_{s.name}",
-                    f"Roughness-angle probability density of surface {s.name!r} "
-                    "(paper Fig. 4), drawn from its quantile function.",
-                    ax.figure,
-                )
+            return plot_angle_pdf(angles_deg)
+
+        ax = _try_draw(draw, (TypeError, ValueError, AttributeError))
+        if ax is None:
+            continue
+        ax.set_title(f"Surface {s.name}")
+        name = stem = f"angle_pdf_{_slug(s.name)}"
+        k = 1
+        while name in used:  # e.g. surfaces "a/b" and "a_b"
+            k += 1
+            name = f"{stem}_{k}"
+        used.add(name)
+        out.append(
+            (
+                name,
+                f"Roughness-angle probability density of surface {s.name!r} "
+                "(paper Fig. 4), drawn from its quantile function.",
+                ax.figure,
             )
-        except (TypeError, ValueError, AttributeError):
-            pass
+        )
     return out
 
 
+def _try_draw(draw, errors):
+    """``draw()`` (an Axes), or None if it raises one of `errors`; then any figure it
+    opened is closed."""
+    import matplotlib.pyplot as plt
+
+    before = set(plt.get_fignums())
+    try:
+        return draw()
+    except errors:
+        for num in set(plt.get_fignums()) - before:
+            plt.close(num)
+        return None
+
+
 def _experiments_for(result, experiments):
+    """The experiments table of `result` (`experiments` may map scenario names to
+    experiments); default: the scenario's own experiment files."""
+    from .io.experiments import scenario_experiments
+
     if isinstance(experiments, dict):
         experiments = experiments.get(result.scenario.name)
-    if experiments is None:
-        experiments = tuple(getattr(result.scenario, "experiments", ()) or ()) or None
-    return experiments
+    return scenario_experiments(result.scenario, experiments)
 
 
 def _png_uri_from_file(path) -> str:
@@ -420,7 +447,6 @@ def _png_uri_from_file(path) -> str:
 def _result_section(result, k, csv_href, experiments, saved) -> str:
     import matplotlib.pyplot as plt
 
-    from .io.experiments import combine_experiments
     from .plotting.results import figure_caption, result_figures
 
     sc = result.scenario
@@ -432,7 +458,7 @@ def _result_section(result, k, csv_href, experiments, saved) -> str:
     parts += ["<h3>Provenance</h3>", _provenance(result)]
     parts += ["<h3>Capture speed</h3>", _capture_table(result)]
     parts += ["<h3>Summary</h3>", _summary_table(result, csv_href)]
-    exp = combine_experiments(_experiments_for(result, experiments))
+    exp = _experiments_for(result, experiments)
     if exp is not None and len(exp):
         from .compare import compare
 
@@ -440,8 +466,10 @@ def _result_section(result, k, csv_href, experiments, saved) -> str:
             "<h3>Comparison with experiments</h3>",
             _comparison_html(compare(result, exp)),
         ]
+    pngs = [Path(p) for p in saved or () if Path(p).suffix.lower() == ".png"]
+    if saved is not None and not pngs and len(saved):
+        saved = None  # figure files, but none a PNG (e.g. SVG only): draw them here
     if saved is not None:  # figure files already written for this result
-        pngs = [Path(p) for p in saved if Path(p).suffix.lower() == ".png"]
         figs = [(figure_caption(p.stem, result), p) for p in pngs]
     else:
         figs = [(c, f) for _, c, f in result_figures(result, experiments=exp)]
@@ -546,7 +574,9 @@ def write_report(
         embedded (other formats skipped). When the key of such a group is the name
         of a scenario in `results` (as ``{name: figures_for_result(...)}``), those
         files are that result's figures and are embedded in its section instead of
-        being drawn again.
+        being drawn again; if the group holds files but no PNG (e.g. SVG only),
+        the section draws its figures itself, and an empty group means no figures
+        for that result.
     notes : str or sequence of str, optional
         Paragraphs shown at the top (escaped; no HTML).
     experiments : dict, optional
@@ -588,7 +618,7 @@ def write_report(
     for k, r in enumerate(results):
         if csv_paths is None:
             csv = report_dir / f"{_slug(r.scenario.name)}_summary.csv"
-            _write(csv, lambda t, r=r: r.summary.to_csv(t, index=False))
+            atomic_write(csv, lambda t, r=r: r.summary.to_csv(t, index=False))
         else:
             csv = Path(csv_paths[k])
         rel = os.path.relpath(csv.resolve(), report_dir.resolve())
@@ -630,7 +660,7 @@ microimpact {_e(__version__)}; {_e(created)}.</p>
 {extra_html}
 </main></body></html>
 """
-    return _write(out_path, lambda t: Path(t).write_text(page, encoding="utf-8"))
+    return atomic_write(out_path, lambda t: Path(t).write_text(page, encoding="utf-8"))
 
 
 # ------------------------------------------------------------------ text
@@ -669,9 +699,6 @@ def summary_text(result) -> str:
         f"({p.get('backend', '?')}, {p.get('workers', '?')} worker(s))",
         "",
     ]
-    from scipy.special import ndtri
-
-    z = float(ndtri(0.5 + sc.confidence / 2.0))
     head = [
         "surface",
         "speed [m/s]",
@@ -683,18 +710,13 @@ def summary_text(result) -> str:
     ]
     rows = []
     for _, r in s.iterrows():
-        cap_se = (
-            float(r["capture_se"])
-            if "capture_se" in r
-            else (r["capture_ci_high"] - r["capture_ci_low"]) / (2 * z)
-        )
         rows.append(
             [
                 str(r["surface"]),
                 _fmt(r["speed_m_s"]),
                 _fmt(r["angle_deg"]),
                 f"{int(r['n'])}",
-                _pm(float(r["capture_fraction"]), cap_se),
+                _pm(float(r["capture_fraction"]), float(r["capture_se"])),
                 _pm(float(r["e_rebound_mean"]), float(r["e_rebound_se"])),
                 _pm(float(r["mu_mean"]), float(r["mu_se"])),
             ]

@@ -62,10 +62,10 @@ class Precision:
                 f"got {self.statistic!r}",
                 field="precision.statistic",
             )
-        if not (isinstance(self.half_width, int | float) and self.half_width > 0):
+        hw = self.half_width
+        if isinstance(hw, bool) or not (isinstance(hw, int | float) and hw > 0):
             raise ScenarioError(
-                f"must be a number > 0; got {self.half_width!r}",
-                field="precision.half_width",
+                f"must be a number > 0; got {hw!r}", field="precision.half_width"
             )
         for name in ("max_samples", "min_samples"):
             v = getattr(self, name)
@@ -73,6 +73,13 @@ class Precision:
                 raise ScenarioError(
                     f"must be an integer >= 1; got {v!r}", field=f"precision.{name}"
                 )
+        if self.min_samples > self.max_samples:
+            default = Precision.__dataclass_fields__["min_samples"].default
+            raise ScenarioError(
+                f"must be <= max_samples ({self.max_samples}); got {self.min_samples}"
+                + (" (the default)" if self.min_samples == default else ""),
+                field="precision.min_samples",
+            )
 
 
 def _positive_tuple(values, name, *, lo=0.0, hi=math.inf, hi_inclusive=False):

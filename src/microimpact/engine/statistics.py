@@ -1,7 +1,9 @@
 """Estimates, standard errors and confidence intervals from accumulators.
 
-Plain Monte Carlo: the capture fraction gets a Wilson score interval (binomial),
-means get normal-theory intervals ``mean +- z SE`` with ``SE = s/sqrt(n)``.
+Plain Monte Carlo: the capture fraction gets a Wilson score interval (binomial) and
+the standard error ``capture_se`` = the interval's width over ``2 z``
+(:func:`interval_se`); means get normal-theory intervals ``mean +- z SE`` with
+``SE = s/sqrt(n)``.
 
 Quasi-Monte Carlo: the ``R`` independently scrambled replicates give ``R`` independent
 estimates of every statistic; the point estimate pools all impacts and the interval
@@ -40,6 +42,18 @@ def wilson_interval(k, n, confidence=0.95):
         centre = (p + z2n / 2.0) / (1.0 + z2n)
         half = z / (1.0 + z2n) * np.sqrt(p * (1.0 - p) / n + z2n / (4.0 * n))
     return centre - half, centre + half
+
+
+def interval_se(low, high, confidence):
+    """The standard error implied by a two-sided interval: ``(high - low) / (2 z)``.
+
+    The definition of the plain Monte Carlo ``capture_se`` (from the Wilson
+    interval, so it stays > 0 at a capture fraction of 0 or 1); NaN where the
+    limits are NaN.
+    """
+    return (np.asarray(high, dtype=float) - np.asarray(low, dtype=float)) / (
+        2.0 * z_value(confidence)
+    )
 
 
 def _mean_ci(m, z):
@@ -93,6 +107,7 @@ def point_row(acc: PointAccumulator, confidence: float) -> dict:
         qs = histogram_quantile(hist, edges, QUANTILES)
         for qv, val in zip(QUANTILES, qs, strict=True):
             row[f"{name}_p{round(qv * 100):02d}"] = float(val)
+    row["capture_se"] = float(interval_se(low, high, confidence))
     return row
 
 

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..io.experiments import combine_experiments
+from ..io.experiments import combine_experiments, scenario_experiments
 
 __all__ = [
     "FIGURE_FORMATS",
@@ -31,6 +31,7 @@ __all__ = [
     "plot_distributions",
     "result_figures",
     "save_figure",
+    "save_figures",
 ]
 
 #: Okabe-Ito colours (distinguishable with colour-vision deficiency).
@@ -54,7 +55,8 @@ STYLE = {
     "savefig.dpi": 200,
     "pdf.fonttype": 42,
 }
-#: File formats :func:`save_figure` writes.
+#: File formats :func:`save_figure` writes: the one list of figure formats (the
+#: CLI's ``--formats`` and a scenario's ``[outputs] figures`` accept these).
 FIGURE_FORMATS = ("png", "pdf", "svg")
 _EXP_STYLE = {"fmt": "s", "ms": 5, "mfc": "white", "color": "black", "lw": 0.9}
 _BAND_ALPHA = 0.22
@@ -82,10 +84,9 @@ def _summary(result):
 
 
 def _z(result) -> float:
-    from scipy.special import ndtri
+    from ..engine.statistics import z_value
 
-    conf = float(getattr(result.scenario, "confidence", 0.95))
-    return float(ndtri(0.5 + conf / 2.0))
+    return z_value(float(getattr(result.scenario, "confidence", 0.95)))
 
 
 def _smooth(result, name) -> bool:
@@ -183,6 +184,8 @@ def plot_capture(result, *, surface=None, angle_deg=90, experiments=None, axes=N
     numpy.ndarray of matplotlib.axes.Axes
         The two panels.
     """
+    from ..engine.statistics import capture_speed
+
     mpl, _ = _mpl()
     summary = _summary(result)
     angle = _pick(summary["angle_deg"], angle_deg, "angle_deg")
@@ -190,8 +193,7 @@ def plot_capture(result, *, surface=None, angle_deg=90, experiments=None, axes=N
     exp = combine_experiments(experiments)
     if exp is not None:
         exp = exp[exp["angle_deg"].isna() | np.isclose(exp["angle_deg"], angle)]
-    z = _z(result)
-    cap = _capture_speeds(result, summary)
+    cap = capture_speed(summary, 0.5)
     with mpl.rc_context(STYLE):
         ax_e, ax_c = _new_axes(axes, 2, 1, (5.0, 5.6), sharex=True)
         for k, name in enumerate(names):
@@ -201,10 +203,16 @@ def plot_capture(result, *, surface=None, angle_deg=90, experiments=None, axes=N
             v = g["speed_m_s"].to_numpy(dtype=float)
             c = colour(k)
             label = "Monte Carlo" + (f" ({name})" if len(names) > 1 else "")
-            e = g["e_rebound_mean"].to_numpy(dtype=float)
-            lo = g.get("e_rebound_ci_low", g["e_rebound_mean"] - z * g["e_rebound_se"])
-            hi = g.get("e_rebound_ci_high", g["e_rebound_mean"] + z * g["e_rebound_se"])
-            _band(ax_e, v, e, lo, hi, color=c, label=label, marker="o")
+            _band(
+                ax_e,
+                v,
+                g["e_rebound_mean"].to_numpy(dtype=float),
+                g["e_rebound_ci_low"],
+                g["e_rebound_ci_high"],
+                color=c,
+                label=label,
+                marker="o",
+            )
             _band(
                 ax_c,
                 v,
@@ -263,12 +271,6 @@ def plot_capture(result, *, surface=None, angle_deg=90, experiments=None, axes=N
 
 def _conf_label(result) -> str:
     return f"{100 * float(getattr(result.scenario, 'confidence', 0.95)):g} %"
-
-
-def _capture_speeds(result, summary):
-    from ..engine.statistics import capture_speed
-
-    return capture_speed(summary, 0.5)
 
 
 # --------------------------------------------------------------------- angles
@@ -623,7 +625,7 @@ def save_figure(fig, path_without_ext, formats=("png", "pdf")):
     -------
     list of pathlib.Path
     """
-    from ..engine.result import atomic_write
+    from .._files import atomic_write
 
     if isinstance(formats, str):
         formats = (formats,)
@@ -646,6 +648,55 @@ def save_figure(fig, path_without_ext, formats=("png", "pdf")):
         )
         out.append(path)
     return out
+
+
+def _figure_of(obj):
+    """The Figure of a Figure, an Axes or an array of Axes."""
+    if hasattr(obj, "savefig"):
+        return obj
+    if not hasattr(obj, "figure"):
+        obj = np.ravel(np.asarray(obj, dtype=object))[0]
+    return obj.figure
+
+
+def save_figures(items, out_dir, formats=("png", "pdf")):
+    """Save each ``(stem, figure)`` of `items` as ``out_dir/<stem>.<format>`` and
+    close it (:func:`save_figure` for each).
+
+    A figure is a matplotlib Figure, an Axes or an array of Axes, or a function of
+    no arguments that draws and returns one (called just before it is saved). Every
+    figure is closed, also when saving fails (then the figures not yet saved are
+    closed too, and the error is raised).
+
+    Parameters
+    ----------
+    items : iterable of (str, figure)
+    out_dir : str or path-like
+        Folder for the files (created if needed).
+    formats : sequence of {"png", "pdf", "svg"}
+
+    Returns
+    -------
+    list of pathlib.Path
+        Every file written, in the order of `items`.
+    """
+    _, plt = _mpl()
+    out_dir = Path(out_dir)
+    pending = list(items)
+    paths = []
+    try:
+        while pending:
+            stem, fig = pending.pop(0)
+            fig = _figure_of(fig() if callable(fig) else fig)
+            try:
+                paths.extend(save_figure(fig, out_dir / stem, formats))
+            finally:
+                plt.close(fig)
+    finally:
+        for _stem, fig in pending:  # only after a failure
+            if not callable(fig):
+                plt.close(_figure_of(fig))
+    return paths
 
 
 def _angle_tag(a: float) -> str:
@@ -702,9 +753,7 @@ def result_figures(result, *, experiments=None):
     summary = _summary(result)
     speeds = np.unique(summary["speed_m_s"].to_numpy(dtype=float))
     angles = np.unique(summary["angle_deg"].to_numpy(dtype=float))
-    if experiments is None:
-        experiments = tuple(getattr(result.scenario, "experiments", ()) or ()) or None
-    exp = combine_experiments(experiments)
+    exp = scenario_experiments(result.scenario, experiments)
     out = []
 
     def add(stem, axes):
@@ -774,12 +823,5 @@ def figures_for_result(result, out_dir, *, formats=("png", "pdf"), experiments=N
     list of pathlib.Path
         Every file written, in the order of the table above.
     """
-    _, plt = _mpl()
-    out_dir = Path(out_dir)
-    paths = []
-    for stem, _caption, fig in result_figures(result, experiments=experiments):
-        try:
-            paths.extend(save_figure(fig, out_dir / stem, formats))
-        finally:
-            plt.close(fig)
-    return paths
+    figures = result_figures(result, experiments=experiments)
+    return save_figures([(stem, fig) for stem, _, fig in figures], out_dir, formats)
