@@ -11,7 +11,6 @@ and resumed from its checkpoint.
 
 from __future__ import annotations
 
-import itertools
 import math
 import os
 import sys
@@ -22,19 +21,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._tables import QuantileTable
 from .._validation import check_choice, check_int
-from ..errors import ConvergenceWarning, InputError, ScenarioError
+from ..errors import ConvergenceWarning, InputError
 from . import checkpoint as ckpt
 from .accumulators import PointAccumulator
 from .parallel import BACKENDS, make_runner
-from .plan import (
-    BLOCK_SIZE,
-    Plan,
-    SweepPoint,
-    _speed_factor_atoms,
-    convolve_angles,
-)
+from .plan import Plan, build_plan, resolve_entropy  # noqa: F401 (re-exported)
 from .statistics import wilson_interval, z_value
 
 #: Consecutive blocks per task (fixed-size runs): a worker merges them in order and
@@ -62,87 +54,6 @@ def checkpoint_interval() -> float:
             field="MICROIMPACT_CHECKPOINT_INTERVAL",
         )
     return value
-
-
-def resolve_entropy(seed) -> int:
-    """Root entropy: the seed itself, or fresh OS entropy when `seed` is None."""
-    if seed is None:
-        return int(np.random.SeedSequence().entropy)
-    if isinstance(seed, np.random.SeedSequence):
-        return int(seed.entropy)
-    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
-        raise ValueError(f"`seed` must be an integer >= 0 or None; got {seed!r}.")
-    return int(seed)
-
-
-def _surface_atoms(variant, particle_roughness):
-    if variant.angles is None and particle_roughness is None:
-        return None
-    if variant.angles is None:
-        table = particle_roughness.table()
-    else:
-        table = variant.angles.table()
-        if particle_roughness is not None:
-            table = convolve_angles(table, particle_roughness.table())
-    return table.values
-
-
-def build_plan(scenario, *, seed=None) -> Plan:
-    """Tabulate everything the kernel needs for `scenario` (see :mod:`.plan`)."""
-    entropy = resolve_entropy(scenario.seed if seed is None else seed)
-    table: QuantileTable = scenario.particles.table()
-    diameter = table.values
-    coeffs = scenario.coefficients
-    k1, k2, v_c = (
-        np.broadcast_to(np.asarray(a, dtype=float), diameter.shape)
-        for a in coeffs.evaluate(diameter)
-    )
-    for name, arr in (("k1", k1), ("k2", k2), ("v_c", v_c)):
-        bad = np.isnan(arr) | (arr < 0) | ((name == "v_c") & np.isinf(arr))
-        if np.any(bad):
-            i = int(np.argmax(bad))
-            raise ScenarioError(
-                f"the law gives {arr[i]!r} at diameter {diameter[i] * 1e6:.4g} µm; "
-                "coefficients must be >= 0 (k1, k2 may be inf) over the whole "
-                "particle distribution",
-                source=scenario.source,
-                field=f"coefficients.{name}",
-            )
-    coefficients = np.zeros((diameter.size, 4))  # interleaved: one row per atom
-    with np.errstate(divide="ignore"):
-        np.divide(1.0, k1, out=coefficients[:, 0])
-        np.divide(1.0, k2, out=coefficients[:, 1])
-    coefficients[:, 2] = v_c
-    points = tuple(
-        SweepPoint(i, s, variant.name, speed, angle)
-        for i, ((s, variant), speed, angle) in enumerate(
-            itertools.product(
-                enumerate(scenario.surfaces), scenario.speeds_m_s, scenario.angles_deg
-            )
-        )
-    )
-    surface_atoms = tuple(
-        _surface_atoms(v, scenario.particle_roughness) for v in scenario.surfaces
-    )
-    speed_factor = None
-    if scenario.speed_spread > 0:
-        speed_factor = _speed_factor_atoms(float(scenario.speed_spread), table.size)
-    return Plan(
-        entropy=entropy,
-        points=points,
-        diameter=diameter,
-        coefficients=coefficients,
-        p=float(coeffs.p),
-        q=float(coeffs.q),
-        friction=float(coeffs.friction),
-        speed_factor=speed_factor,
-        surface_atoms=surface_atoms,
-        shadowing=scenario.shadowing,
-        sampling=scenario.sampling,
-        replicates=scenario.qmc_replicates if scenario.sampling == "qmc" else 1,
-        block_size=BLOCK_SIZE,
-        table_bits=table.bits,
-    )
 
 
 @dataclass(frozen=True)

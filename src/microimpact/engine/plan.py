@@ -34,6 +34,8 @@ from functools import lru_cache
 import numpy as np
 
 from .._tables import TABLE_SIZE, QuantileTable, mid_probabilities
+from ..errors import ScenarioError
+from ..grid import GridPoint, SweepGrid
 
 #: Samples per block: the engine's unit of randomness (an algorithm constant, never
 #: derived from the worker count or the memory).
@@ -45,15 +47,8 @@ CONVOLUTION_ATOMS = 1024
 VAR_DIAMETER, VAR_ANGLE, VAR_SPEED = 0, 1, 2
 
 
-@dataclass(frozen=True)
-class SweepPoint:
-    """One sweep point: surface variant x incident speed x apparent angle."""
-
-    index: int
-    surface: int
-    surface_name: str
-    speed: float  # [m s-1]
-    angle_deg: float  # apparent incidence angle from the nominal plane [deg]
+#: One sweep point (the grid owns the numbering; see :mod:`microimpact.grid`).
+SweepPoint = GridPoint
 
 
 #: Columns of an angle-table row (one 64-byte row per distinct angle atom).
@@ -99,7 +94,7 @@ class AngleTables:
 @dataclass(frozen=True, eq=False)
 class Plan:
     """Picklable description of a run for the kernel (built by
-    :func:`~microimpact.engine.montecarlo.build_plan`)."""
+    :func:`build_plan`)."""
 
     entropy: int
     points: tuple[SweepPoint, ...]
@@ -221,3 +216,77 @@ def _speed_factor_atoms(relative_std: float, size: int) -> np.ndarray:
     atoms = 1.0 + relative_std * ndtri(lo + q * (hi - lo))
     atoms.setflags(write=False)
     return atoms
+
+
+def resolve_entropy(seed) -> int:
+    """Root entropy: the seed itself, or fresh OS entropy when `seed` is None."""
+    if seed is None:
+        return int(np.random.SeedSequence().entropy)
+    if isinstance(seed, np.random.SeedSequence):
+        return int(seed.entropy)
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
+        raise ValueError(f"`seed` must be an integer >= 0 or None; got {seed!r}.")
+    return int(seed)
+
+
+def _surface_atoms(variant, particle_roughness):
+    if variant.angles is None and particle_roughness is None:
+        return None
+    if variant.angles is None:
+        table = particle_roughness.table()
+    else:
+        table = variant.angles.table()
+        if particle_roughness is not None:
+            table = convolve_angles(table, particle_roughness.table())
+    return table.values
+
+
+def build_plan(scenario, *, seed=None) -> Plan:
+    """Tabulate everything the kernel needs for `scenario` (see :mod:`.plan`)."""
+    entropy = resolve_entropy(scenario.seed if seed is None else seed)
+    table: QuantileTable = scenario.particles.table()
+    diameter = table.values
+    coeffs = scenario.coefficients
+    k1, k2, v_c = (
+        np.broadcast_to(np.asarray(a, dtype=float), diameter.shape)
+        for a in coeffs.evaluate(diameter)
+    )
+    for name, arr in (("k1", k1), ("k2", k2), ("v_c", v_c)):
+        bad = np.isnan(arr) | (arr < 0) | ((name == "v_c") & np.isinf(arr))
+        if np.any(bad):
+            i = int(np.argmax(bad))
+            raise ScenarioError(
+                f"the law gives {arr[i]!r} at diameter {diameter[i] * 1e6:.4g} µm; "
+                "coefficients must be >= 0 (k1, k2 may be inf) over the whole "
+                "particle distribution",
+                source=scenario.source,
+                field=f"coefficients.{name}",
+            )
+    coefficients = np.zeros((diameter.size, 4))  # interleaved: one row per atom
+    with np.errstate(divide="ignore"):
+        np.divide(1.0, k1, out=coefficients[:, 0])
+        np.divide(1.0, k2, out=coefficients[:, 1])
+    coefficients[:, 2] = v_c
+    points = tuple(SweepGrid.from_scenario(scenario).points())
+    surface_atoms = tuple(
+        _surface_atoms(v, scenario.particle_roughness) for v in scenario.surfaces
+    )
+    speed_factor = None
+    if scenario.speed_spread > 0:
+        speed_factor = _speed_factor_atoms(float(scenario.speed_spread), table.size)
+    return Plan(
+        entropy=entropy,
+        points=points,
+        diameter=diameter,
+        coefficients=coefficients,
+        p=float(coeffs.p),
+        q=float(coeffs.q),
+        friction=float(coeffs.friction),
+        speed_factor=speed_factor,
+        surface_atoms=surface_atoms,
+        shadowing=scenario.shadowing,
+        sampling=scenario.sampling,
+        replicates=scenario.qmc_replicates if scenario.sampling == "qmc" else 1,
+        block_size=BLOCK_SIZE,
+        table_bits=table.bits,
+    )

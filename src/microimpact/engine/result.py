@@ -93,6 +93,7 @@ class SimulationResult:
         samples=None,
         workers=1,
         backend="process",
+        provenance=None,
     ):
         rows, pooled = [], {}
         for sp in plan.points:
@@ -140,6 +141,7 @@ class SimulationResult:
             "backend": backend,
             "elapsed_s": elapsed,
             "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
+            **(provenance or {}),
         }
         return cls(scenario, summary, pooled, plan.entropy, elapsed, provenance)
 
