@@ -323,3 +323,41 @@ class Scenario:
             "reference_angle_deg": self.reference_angle_deg,
             "source": self.source,
         }
+
+
+def as_scenario(scenario) -> Scenario:
+    """`scenario` as a :class:`Scenario`: a Scenario is returned as it is, a path to
+    a ``.toml`` file is loaded, and any other string names a shipped preset.
+
+    Raises
+    ------
+    ScenarioError
+        For a missing or invalid file, or an unknown preset (with a did-you-mean
+        hint).
+    TypeError
+        For anything else.
+    """
+    import os
+
+    if isinstance(scenario, Scenario):
+        return scenario
+    if isinstance(scenario, str | os.PathLike):
+        from .config import PRESETS, load_preset, preset_path  # noqa: F401
+
+        text = os.fspath(scenario)
+        path = Path(text)
+        if path.suffix.lower() == ".toml" or path.exists() or text not in PRESETS:
+            if path.suffix.lower() != ".toml" and not path.exists():
+                from ._validation import did_you_mean
+
+                raise ScenarioError(
+                    "not a scenario file and not a preset name; presets: "
+                    f"{', '.join(sorted(PRESETS))}{did_you_mean(text, PRESETS)}",
+                    source=text,
+                )
+            return Scenario.from_toml(path)
+        return load_preset(text)
+    raise TypeError(
+        "`scenario` must be a Scenario, a path to a scenario file or a preset name; "
+        f"got {type(scenario).__name__}."
+    )
