@@ -181,7 +181,12 @@ def test_mc_summary_capture_se_is_the_wilson_width_over_2z():
     assert (s["capture_se"] > 0).all()
     exp = exp_table([("smooth", 0.15, 90.0, "capture_fraction", 0.5, 0.01)])
     with_col = compare(res, exp)
-    without = compare(s.drop(columns="capture_se"), exp)  # e.g. an older summary.csv
+    older = s.drop(columns="capture_se")  # e.g. an older summary.csv
+    assert_allclose(
+        compare(older, exp)["sim_se"], width.iloc[:1] / (2 * Z99), rtol=1e-12
+    )  # the summary knows its confidence level
+    older.attrs = {}
+    without = compare(older, exp)
     assert_allclose(with_col["sim_se"], s["capture_se"].iloc[:1], rtol=1e-12)
     # a table without attrs is taken at 95 %
     assert_allclose(without["sim_se"], width.iloc[:1] / (2 * Z95), rtol=1e-12)

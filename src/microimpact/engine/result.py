@@ -1,47 +1,46 @@
-"""The result of a run: summary table, histograms, provenance, and output files."""
+"""The result of a run: one CF-1.10 Dataset, and what derives from it.
+
+:class:`SimulationResult` wraps the canonical :class:`xarray.Dataset` (see
+:mod:`.dataset`): the summary table, the histograms, the capture speed and the
+relative coefficients are all derived from it, so a result loaded back from
+``results.nc`` with :func:`open_result` behaves exactly like a fresh one.
+"""
 
 from __future__ import annotations
 
 import datetime as _dt
 import json
+import math
 import platform
 from dataclasses import dataclass, field
 from importlib import metadata
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from .._files import atomic_write
-from .accumulators import E_EDGES, MU_EDGES, PointAccumulator
-from .kernel import KERNEL
+from .._json import dumps as json_dumps
+from ..grid import SweepGrid
+from .accumulators import E_EDGES, MU_EDGES
+from .dataset import (
+    INPUT_QUANTILES,
+    SUMMARY_COLUMNS,
+    build_dataset,
+    encoding,
+    summary_frame,
+)
 from .plan import BLOCK_SIZE
-from .statistics import (
-    capture_speed,
-    point_row,
-    relative_coefficients,
-    replicate_row,
+from .summary import (
+    Stacked,
+    point_statistics,
+    relative_to_reference,
+    replicate_statistics,
 )
 
-#: Columns that lead the summary table, in this order (a public contract).
-SUMMARY_COLUMNS = (
-    "surface",
-    "speed_m_s",
-    "angle_deg",
-    "n",
-    "capture_fraction",
-    "capture_ci_low",
-    "capture_ci_high",
-    "e_mean",
-    "e_ci_low",
-    "e_ci_high",
-    "e_rebound_mean",
-    "mu_mean",
-    "mu_ci_low",
-    "mu_ci_high",
-    "shadowed_fraction",
-    "reimpact_fraction",
-)
+__all__ = ["SUMMARY_COLUMNS", "ScenarioRecord", "SimulationResult", "open_result"]
+
+#: Provenance keys stored as JSON text in the NetCDF attributes.
+_JSON_ATTRS = ("scenario", "versions")
 
 
 def versions() -> dict[str, str]:
@@ -55,33 +54,127 @@ def versions() -> dict[str, str]:
     return out
 
 
-@dataclass
+# ---------------------------------------------------------------- scenario record
+@dataclass(frozen=True)
+class SurfaceRecord:
+    """A surface of a saved result: its name, smoothness and stored description."""
+
+    name: str
+    smooth: bool
+    info: dict = field(default_factory=dict, compare=False)
+
+    def describe(self) -> dict:
+        return dict(self.info)
+
+
+@dataclass(frozen=True)
+class ScenarioRecord:
+    """What a saved result knows of its scenario (read from ``results.nc``).
+
+    It has the attributes the outputs use (the same names as
+    :class:`~microimpact.scenario.Scenario`), not the model objects: a result loaded
+    with :func:`open_result` can be summarised, plotted and reported, not re-run.
+    """
+
+    name: str
+    description: str
+    confidence: float
+    reference_angle_deg: float | None
+    capture_quantiles: tuple
+    speeds_m_s: tuple
+    angles_deg: tuple
+    surfaces: tuple
+    speed_spread: float = 0.0
+    samples: int | None = None
+    precision: dict | None = None
+    sampling: str = "mc"
+    shadowing: str = "reject"
+    seed: int | None = None
+    source: str | None = None
+    info: dict = field(default_factory=dict, compare=False, repr=False)
+
+    def describe(self) -> dict:
+        return dict(self.info)
+
+
+def _record_of(ds) -> ScenarioRecord:
+    attrs = ds.attrs
+    info = json.loads(attrs.get("scenario", "{}") or "{}")
+    smooth = (
+        ds["surface_is_smooth"].values.astype(bool)
+        if "surface_is_smooth" in ds
+        else np.zeros(ds.sizes["surface"], dtype=bool)
+    )
+    by_name = {
+        s.get("name"): s for s in info.get("surfaces", []) if isinstance(s, dict)
+    }
+    surfaces = tuple(
+        SurfaceRecord(str(n), bool(sm), by_name.get(str(n), {"name": str(n)}))
+        for n, sm in zip(ds["surface"].values, smooth, strict=True)
+    )
+    ref = attrs.get("reference_angle_deg", info.get("reference_angle_deg"))
+    ref = None if ref is None or (isinstance(ref, float) and math.isnan(ref)) else ref
+    quantiles = np.atleast_1d(
+        attrs.get("capture_quantiles", info.get("capture_quantiles", [0.5]))
+    )
+    return ScenarioRecord(
+        name=str(info.get("name") or attrs.get("scenario_name") or "result"),
+        description=str(info.get("description") or ""),
+        confidence=float(attrs.get("confidence", info.get("confidence", 0.95))),
+        reference_angle_deg=None if ref is None else float(ref),
+        capture_quantiles=tuple(float(q) for q in quantiles),
+        speeds_m_s=tuple(float(v) for v in ds["speed_m_s"].values),
+        angles_deg=tuple(float(v) for v in ds["angle_deg"].values),
+        surfaces=surfaces,
+        speed_spread=float(info.get("speed_spread") or 0.0),
+        samples=info.get("samples"),
+        precision=info.get("precision"),
+        sampling=str(info.get("sampling", attrs.get("sampling", "mc"))),
+        shadowing=str(info.get("shadowing", attrs.get("shadowing", "reject"))),
+        seed=info.get("seed"),
+        source=info.get("source"),
+        info=info,
+    )
+
+
+# ---------------------------------------------------------------- the result
+def _storable(value):
+    """A provenance value as a NetCDF attribute (str, number or number array)."""
+    if isinstance(value, bool | np.bool_):
+        return int(value)
+    if isinstance(value, int | float | str | np.integer | np.floating):
+        return value
+    if isinstance(value, list | tuple) and all(
+        isinstance(v, int | float) and not isinstance(v, bool) for v in value
+    ):
+        return np.asarray(value, dtype=float)
+    return json_dumps(value)
+
+
 class SimulationResult:
-    """Everything a run produced.
+    """Everything a run produced: the canonical Dataset and what derives from it.
 
     Attributes
     ----------
-    scenario : Scenario
-    summary : pandas.DataFrame
-        One row per sweep point; see :data:`SUMMARY_COLUMNS` and ``docs/engine.md``.
-    accumulators : dict
-        ``point index -> pooled PointAccumulator`` (histograms included).
-    seed_entropy : int
-        Root entropy of the run; pass it as ``seed`` to reproduce the run exactly.
-    elapsed_s : float
-        Wall time of the run [s].
-    provenance : dict
-        Scenario description, versions, seed entropy, sample counts, backend.
+    dataset : xarray.Dataset
+        The canonical result (CF-1.10): per-point statistics on the sweep grid
+        (``surface`` x ``speed_m_s`` x ``angle_deg``), the histograms of e_m and
+        mu_m, the accumulator state and the provenance in its attributes.
+    scenario : Scenario or ScenarioRecord
+        The scenario (a :class:`ScenarioRecord` for a result read from a file).
+    accumulators : dict or None
+        ``point index -> pooled PointAccumulator`` for a fresh run; None for a
+        result read from a file.
     """
 
-    scenario: object
-    summary: pd.DataFrame
-    accumulators: dict
-    seed_entropy: int
-    elapsed_s: float
-    provenance: dict = field(default_factory=dict)
-    _dataset: object = field(default=None, repr=False)
+    def __init__(self, dataset, scenario=None, accumulators=None, provenance=None):
+        self.dataset = dataset
+        self.scenario = _record_of(dataset) if scenario is None else scenario
+        self.accumulators = accumulators
+        self._provenance = provenance
+        self._summary = None
 
+    # -------------------------------------------------------------- builders
     @classmethod
     def from_accumulators(
         cls,
@@ -94,39 +187,67 @@ class SimulationResult:
         workers=1,
         backend="process",
         provenance=None,
-    ):
-        rows, pooled = [], {}
+    ) -> SimulationResult:
+        """Build the result of a run from its accumulators.
+
+        Parameters
+        ----------
+        scenario : Scenario
+        plan : Plan
+            The run's plan (points, tables, seed entropy).
+        totals : dict
+            ``(point, replicate) -> PointAccumulator``.
+        elapsed : float
+            Wall time [s].
+        samples, workers, backend :
+            As passed to :func:`~microimpact.run` (recorded in the provenance).
+        provenance : dict, optional
+            Further provenance (e.g. resumed blocks), merged in.
+        """
+        grid = SweepGrid.from_scenario(scenario)
+        R = plan.replicates
+        pooled = []
+        reps = []
         for sp in plan.points:
-            accs = [totals[(sp.index, r)] for r in range(plan.replicates)]
-            if plan.replicates > 1:
-                row = replicate_row(accs, scenario.confidence)
-            else:
-                row = point_row(accs[0], scenario.confidence)
+            accs = [totals[(sp.index, r)] for r in range(R)]
             acc = accs[0]
             for a in accs[1:]:
                 acc = acc.merge(a)
-            pooled[sp.index] = acc
-            if plan.shadowing != "none":
-                # the facets removed ('reject') or re-weighted ('weighted') were
-                # never sampled: report their exact probability from the table
-                row["shadowed_fraction"] = plan.angle_tables(
-                    sp.surface, sp.angle_deg
-                ).shadowed_mass
-            rows.append(
-                {
-                    "surface": sp.surface_name,
-                    "speed_m_s": sp.speed,
-                    "angle_deg": sp.angle_deg,
-                    **row,
-                }
+            pooled.append(acc)
+            reps.extend(accs)
+        stacked = Stacked.of(pooled)
+        confidence = float(scenario.confidence)
+        if R > 1:
+            columns = replicate_statistics(stacked, Stacked.of(reps), R, confidence)
+        else:
+            columns = point_statistics(stacked, confidence)
+        if plan.shadowing != "none":
+            # the facets removed ('reject') or re-weighted ('weighted') were never
+            # sampled: report their exact probability from the table
+            columns["shadowed_fraction"] = np.array(
+                [
+                    plan.angle_tables(sp.surface, sp.angle_deg).shadowed_mass
+                    for sp in plan.points
+                ]
             )
-        summary = pd.DataFrame(rows)
         ref = scenario.reference_angle_deg
-        if ref is not None and np.isclose(summary["angle_deg"], ref).any():
-            summary = relative_coefficients(summary, ref)
-        lead = [c for c in SUMMARY_COLUMNS if c in summary]
-        summary = summary[lead + [c for c in summary.columns if c not in lead]]
-        provenance = {
+        if ref is not None and np.isclose(grid.angles_deg, ref).any():
+            for stat, se, name in (
+                ("e_rebound_mean", "e_rebound_se", "e_relative"),
+                ("mu_mean", "mu_se", "mu_relative"),
+            ):
+                rel, rel_se = relative_to_reference(
+                    grid.reshape(columns[stat]),
+                    grid.reshape(columns[se]),
+                    grid.angles_deg,
+                    ref,
+                )
+                columns[name] = rel.ravel()
+                columns[f"{name}_se"] = rel_se.ravel()
+        kernel = getattr(plan, "kernel", None)
+        if kernel is None:
+            from .kernel import KERNEL as kernel
+        prov = {
             "scenario": scenario.describe(),
             "seed_entropy": str(plan.entropy),
             "versions": versions(),
@@ -136,139 +257,238 @@ class SimulationResult:
             "shadowing": plan.shadowing,
             "block_size": BLOCK_SIZE,
             "table_size": int(plan.diameter.size),
-            "kernel": KERNEL,
+            "kernel": kernel,
             "workers": workers,
             "backend": backend,
             "elapsed_s": elapsed,
             "created": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
             **(provenance or {}),
         }
-        return cls(scenario, summary, pooled, plan.entropy, elapsed, provenance)
+        attrs = {
+            "title": f"microimpact Monte Carlo results: {scenario.name}",
+            "institution": "",
+            "source": f"microimpact {versions().get('microimpact', '?')}",
+            "references": "Li, Dunn & Brach (2000), Aerosol Sci. Technol. 33:376-386",
+            "scenario_name": scenario.name,
+            "confidence": confidence,
+            "capture_quantiles": np.asarray(scenario.capture_quantiles, dtype=float),
+            "e_edges": f"{E_EDGES[0]}:{E_EDGES[-1]}:{E_EDGES.size - 1} bins",
+            "mu_edges": f"{MU_EDGES[0]}:{MU_EDGES[-1]}:{MU_EDGES.size - 1} bins",
+        }
+        if ref is not None:
+            attrs["reference_angle_deg"] = float(ref)
+        for key, value in prov.items():
+            if value is not None:
+                attrs[key] = _storable(value)
+        ds = build_dataset(
+            grid,
+            columns,
+            stacked,
+            attrs=attrs,
+            inputs=_input_quantiles(scenario),
+            smooth=[_is_smooth(s) for s in scenario.surfaces],
+        )
+        accumulators = dict(enumerate(pooled))
+        return cls(ds, scenario, accumulators, prov)
 
-    # ------------------------------------------------------------------ derived
-    def capture_speed(self, quantile: float | None = None) -> pd.DataFrame:
-        """Speed at a capture fraction (default: the scenario's quantiles)."""
+    @classmethod
+    def from_dataset(cls, dataset, scenario=None) -> SimulationResult:
+        """A result from its Dataset (e.g. ``xarray.open_dataset("results.nc")``)."""
+        if "capture_fraction" not in dataset:
+            raise ValueError(
+                "`dataset` is not a microimpact result (no `capture_fraction`)."
+            )
+        return cls(dataset, scenario)
+
+    # -------------------------------------------------------------- metadata
+    @property
+    def provenance(self) -> dict:
+        """Scenario description, versions, seed entropy, sample counts, backend."""
+        if self._provenance is None:
+            out = {}
+            skip = {"title", "institution", "source", "references", "Conventions"}
+            for key, value in self.dataset.attrs.items():
+                if key in skip:
+                    continue
+                if key in _JSON_ATTRS and isinstance(value, str):
+                    value = json.loads(value)
+                elif isinstance(value, np.ndarray):
+                    value = value.tolist()
+                elif isinstance(value, np.generic):
+                    value = value.item()
+                out[key] = value
+            self._provenance = out
+        return self._provenance
+
+    @property
+    def seed_entropy(self) -> int:
+        """Root entropy of the run; pass it as ``seed`` to reproduce it exactly."""
+        return int(self.dataset.attrs["seed_entropy"])
+
+    @property
+    def elapsed_s(self) -> float:
+        """Wall time of the run [s]."""
+        return float(self.dataset.attrs.get("elapsed_s", math.nan))
+
+    @property
+    def name(self) -> str:
+        return self.scenario.name
+
+    @property
+    def confidence(self) -> float:
+        """Confidence level of every interval."""
+        return float(self.dataset.attrs.get("confidence", self.scenario.confidence))
+
+    @property
+    def grid(self) -> SweepGrid:
+        """The sweep grid (coordinates and point order)."""
+        ds = self.dataset
+        return SweepGrid(
+            tuple(str(s) for s in ds["surface"].values),
+            tuple(float(v) for v in ds["speed_m_s"].values),
+            tuple(float(v) for v in ds["angle_deg"].values),
+        )
+
+    @property
+    def summary(self):
+        """One row per sweep point (grid order): derived from :attr:`dataset`."""
+        if self._summary is None:
+            df = summary_frame(self.dataset)
+            df.attrs["confidence"] = self.confidence
+            self._summary = df
+        return self._summary
+
+    def __repr__(self) -> str:
+        ds = self.dataset
+        n = ds["n"].values
+        shape = " x ".join(f"{ds.sizes[d]} {d}" for d in ds["capture_fraction"].dims)
+        return (
+            f"<SimulationResult {self.name!r}: {shape} points, "
+            f"{int(n.min()):,}-{int(n.max()):,} samples per point, "
+            f"seed entropy {self.seed_entropy}>"
+        )
+
+    # -------------------------------------------------------------- derived
+    def capture_speed(self, quantile: float | None = None):
+        """Speed at a capture fraction (default: the scenario's quantiles), with its
+        interval; see :func:`microimpact.engine.statistics.capture_speed`."""
+        import pandas as pd
+
+        from .statistics import capture_speed
+
         qs = self.scenario.capture_quantiles if quantile is None else (quantile,)
         return pd.concat(
             [capture_speed(self.summary, q) for q in qs], ignore_index=True
         )
 
-    def relative(self, reference_angle_deg: float = 85.0) -> pd.DataFrame:
+    def relative(self, reference_angle_deg: float = 85.0):
         """The paper's relative coefficients against `reference_angle_deg`."""
+        from .statistics import relative_coefficients
+
         return relative_coefficients(self.summary, reference_angle_deg)
 
     def histogram(self, point: int, name: str = "e"):
         """``(counts, edges)`` of e_m or mu_m over rebounds at sweep point `point`
         (in-range bins only; the under/overflow counts are in the dataset)."""
-        acc: PointAccumulator = self.accumulators[point]
-        if name == "e":
-            return acc.e_hist[1:-1], E_EDGES
-        if name == "mu":
-            return acc.mu_hist[1:-1], MU_EDGES
-        raise ValueError(f"`name` must be 'e' or 'mu'; got {name!r}.")
+        if name not in ("e", "mu"):
+            raise ValueError(f"`name` must be 'e' or 'mu'; got {name!r}.")
+        index = self.grid.unravel(int(point))
+        counts = self.dataset[f"{name}_hist"].values[index]
+        return counts, (E_EDGES if name == "e" else MU_EDGES)
 
-    # ------------------------------------------------------------------ dataset
-    @property
-    def dataset(self):
-        """xarray Dataset on a (surface, speed, angle) grid with the histograms and
-        the provenance in its attributes."""
-        if self._dataset is None:
-            self._dataset = self._build_dataset()
-        return self._dataset
-
-    def _build_dataset(self):
-        import xarray as xr
-
-        sc = self.scenario
-        surfaces = [s.name for s in sc.surfaces]
-        speeds = list(sc.speeds_m_s)
-        angles = list(sc.angles_deg)
-        shape = (len(surfaces), len(speeds), len(angles))
-        dims = ("surface", "speed_m_s", "angle_deg")
-        data_vars = {}
-        numeric = [
-            c
-            for c in self.summary.columns
-            if c not in dims and pd.api.types.is_numeric_dtype(self.summary[c])
-        ]
-        for c in numeric:
-            data_vars[c] = (dims, self.summary[c].to_numpy(dtype=float).reshape(shape))
-        e_h = np.stack([self.accumulators[i].e_hist for i in range(len(self.summary))])
-        mu_h = np.stack(
-            [self.accumulators[i].mu_hist for i in range(len(self.summary))]
+    # -------------------------------------------------------------- files
+    def to_netcdf(self, path) -> Path:
+        """Write the Dataset to `path` (NetCDF-4, compressed), atomically."""
+        ds = self.dataset
+        return atomic_write(
+            Path(path),
+            lambda t: ds.to_netcdf(t, engine="netcdf4", encoding=encoding(ds)),
         )
-        data_vars["e_hist"] = ((*dims, "e_bin"), e_h[:, 1:-1].reshape(*shape, -1))
-        data_vars["mu_hist"] = ((*dims, "mu_bin"), mu_h[:, 1:-1].reshape(*shape, -1))
-        for nm, h in (("e", e_h), ("mu", mu_h)):
-            data_vars[f"{nm}_hist_underflow"] = (dims, h[:, 0].reshape(shape))
-            data_vars[f"{nm}_hist_overflow"] = (dims, h[:, -1].reshape(shape))
-        coords = {
-            "surface": surfaces,
-            "speed_m_s": (
-                "speed_m_s",
-                speeds,
-                {"units": "m s-1", "long_name": "nominal incident speed"},
-            ),
-            "angle_deg": (
-                "angle_deg",
-                angles,
-                {
-                    "units": "degree",
-                    "long_name": "apparent incidence angle from the plane",
-                },
-            ),
-            "e_bin": (
-                "e_bin",
-                0.5 * (E_EDGES[1:] + E_EDGES[:-1]),
-                {"long_name": "e_m bin centre"},
-            ),
-            "mu_bin": (
-                "mu_bin",
-                0.5 * (MU_EDGES[1:] + MU_EDGES[:-1]),
-                {"long_name": "mu_m bin centre"},
-            ),
-        }
-        ds = xr.Dataset(data_vars, coords=coords)
-        ds["e_hist"].attrs["long_name"] = "histogram of e_m over rebounds"
-        ds["mu_hist"].attrs["long_name"] = "histogram of mu_m over rebounds"
-        p = self.provenance
-        ds.attrs.update(
-            {
-                "title": f"microimpact Monte Carlo results: {sc.name}",
-                "references": "Li, Dunn & Brach (2000), "
-                "Aerosol Sci. Technol. 33:376-386",
-                "scenario": json.dumps(p["scenario"], default=str),
-                "seed_entropy": p["seed_entropy"],
-                "versions": json.dumps(p["versions"]),
-                "sampling": p["sampling"],
-                "replicates": p["replicates"],
-                "shadowing": p["shadowing"],
-                "block_size": p["block_size"],
-                "table_size": p["table_size"],
-                "kernel": p["kernel"],
-                "elapsed_s": p["elapsed_s"],
-                "created": p["created"],
-                "e_edges": f"{E_EDGES[0]}:{E_EDGES[-1]}:{E_EDGES.size - 1} bins",
-                "mu_edges": f"{MU_EDGES[0]}:{MU_EDGES[-1]}:{MU_EDGES.size - 1} bins",
-            }
-        )
-        return ds
 
-    # ------------------------------------------------------------------ files
+    def to_csv(self, path) -> Path:
+        """Write the summary table to `path`, atomically."""
+        return atomic_write(Path(path), lambda t: self.summary.to_csv(t, index=False))
+
     def to_files(self, out_dir) -> dict[str, Path]:
         """Write ``summary.csv`` and ``results.nc`` (each atomically) to `out_dir`."""
         out_dir = Path(out_dir)
-        csv = atomic_write(
-            out_dir / "summary.csv", lambda t: self.summary.to_csv(t, index=False)
+        return {
+            "summary": self.to_csv(out_dir / "summary.csv"),
+            "results": self.to_netcdf(out_dir / "results.nc"),
+        }
+
+
+def _is_smooth(surface) -> bool:
+    """Molecularly smooth, recognised by structure: no angle distribution, or one
+    whose only atom is exactly 0."""
+    angles = getattr(surface, "angles", None)
+    if angles is None:
+        return True
+    flag = getattr(angles, "is_smooth", None)
+    if flag is not None:
+        return bool(flag)
+    try:
+        lo, hi = angles.support()
+    except (AttributeError, TypeError, ValueError):
+        return False
+    return lo == 0.0 and hi == 0.0
+
+
+def _input_quantiles(scenario) -> dict:
+    """The input distributions' quantile functions at :data:`INPUT_QUANTILES`
+    mid-probabilities (for the input figures of a saved result)."""
+    q = (np.arange(INPUT_QUANTILES) + 0.5) / INPUT_QUANTILES
+    out = {}
+    try:
+        out["diameter_quantile"] = np.asarray(scenario.particles.ppf(q), dtype=float)
+    except (AttributeError, TypeError, ValueError):
+        pass
+    rows = []
+    for s in scenario.surfaces:
+        angles = getattr(s, "angles", None)
+        try:
+            rows.append(
+                np.full(q.size, np.nan)
+                if angles is None or _is_smooth(s)
+                else np.asarray(angles.ppf(q), dtype=float)
+            )
+        except (AttributeError, TypeError, ValueError):
+            rows.append(np.full(q.size, np.nan))
+    out["roughness_angle_quantile"] = np.stack(rows)
+    return out
+
+
+def open_result(path) -> SimulationResult:
+    """Load a saved result (``results.nc``, or a run folder holding one).
+
+    The result has the full behaviour of a fresh one: summary, capture speed,
+    relative coefficients, histograms, figures and report.
+
+    Raises
+    ------
+    InputError
+        If the file is missing or is not a microimpact result.
+    """
+    import xarray as xr
+
+    from ..errors import InputError
+
+    path = Path(path)
+    if path.is_dir():
+        path = path / "results.nc"
+    if not path.is_file():
+        raise InputError(
+            "no results file here (give results.nc or the folder of a run)",
+            source=path,
         )
-        nc = atomic_write(
-            out_dir / "results.nc",
-            lambda t: self.dataset.to_netcdf(
-                t,
-                engine="netcdf4",
-                encoding={
-                    v: {"zlib": True, "complevel": 4} for v in self.dataset.data_vars
-                },
-            ),
+    try:
+        with xr.open_dataset(path, engine="netcdf4") as ds:
+            ds = ds.load()
+    except (OSError, ValueError) as exc:
+        raise InputError(f"not a readable NetCDF file ({exc})", source=path) from None
+    if "capture_fraction" not in ds or "seed_entropy" not in ds.attrs:
+        raise InputError(
+            "not a microimpact results file (no capture_fraction or seed_entropy)",
+            source=path,
         )
-        return {"summary": csv, "results": nc}
+    return SimulationResult.from_dataset(ds)

@@ -1,0 +1,267 @@
+"""The canonical result: one CF-1.10 :class:`xarray.Dataset` built from accumulators.
+
+Dimensions are those of the sweep grid (:class:`microimpact.grid.SweepGrid`:
+``surface`` x ``speed_m_s`` x ``angle_deg``) plus the histogram bins. Every variable
+carries ``units`` and ``long_name``; counts are integers; the global attributes hold
+the provenance. ``summary.csv`` is derived from this Dataset
+(:func:`summary_frame`), never the other way round.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .accumulators import E_EDGES, MU_EDGES
+
+#: CF conventions version the files follow.
+CONVENTIONS = "CF-1.10"
+
+#: Per-point variables: name -> (units, long_name). Dimensionless: "1".
+VARIABLES: dict[str, tuple[str, str]] = {
+    "n": ("1", "number of samples drawn"),
+    "n_impacts": ("1", "number of samples that struck a facet"),
+    "n_rebounds": ("1", "number of impacts not captured"),
+    "capture_fraction": ("1", "fraction of impacts captured"),
+    "capture_ci_low": ("1", "lower confidence limit of the capture fraction"),
+    "capture_ci_high": ("1", "upper confidence limit of the capture fraction"),
+    "capture_se": ("1", "standard error of the capture fraction"),
+    "e_mean": ("1", "mean apparent restitution e_m over all impacts (captured = 0)"),
+    "e_std": ("1", "standard deviation of e_m over all impacts"),
+    "e_se": ("1", "standard error of e_mean"),
+    "e_ci_low": ("1", "lower confidence limit of e_mean"),
+    "e_ci_high": ("1", "upper confidence limit of e_mean"),
+    "e_rebound_mean": ("1", "mean apparent restitution e_m over rebounds"),
+    "e_rebound_std": ("1", "standard deviation of e_m over rebounds"),
+    "e_rebound_se": ("1", "standard error of e_rebound_mean"),
+    "e_rebound_ci_low": ("1", "lower confidence limit of e_rebound_mean"),
+    "e_rebound_ci_high": ("1", "upper confidence limit of e_rebound_mean"),
+    "e_skewness": ("1", "sample skewness of e_m over rebounds"),
+    "mu_mean": ("1", "mean apparent impulse ratio mu_m over rebounds"),
+    "mu_std": ("1", "standard deviation of mu_m over rebounds"),
+    "mu_se": ("1", "standard error of mu_mean"),
+    "mu_ci_low": ("1", "lower confidence limit of mu_mean"),
+    "mu_ci_high": ("1", "upper confidence limit of mu_mean"),
+    "mu_skewness": ("1", "sample skewness of mu_m over rebounds"),
+    "shadowed_fraction": ("1", "fraction of facets the particle cannot reach"),
+    "reimpact_fraction": ("1", "fraction of rebounds heading into the nominal plane"),
+    "rolling_fraction": ("1", "fraction of rebounds leaving the facet rolling"),
+    "e_p05": ("1", "5 % quantile of e_m over rebounds (histogram)"),
+    "e_p50": ("1", "median of e_m over rebounds (histogram)"),
+    "e_p95": ("1", "95 % quantile of e_m over rebounds (histogram)"),
+    "mu_p05": ("1", "5 % quantile of mu_m over rebounds (histogram)"),
+    "mu_p50": ("1", "median of mu_m over rebounds (histogram)"),
+    "mu_p95": ("1", "95 % quantile of mu_m over rebounds (histogram)"),
+    "replicates": ("1", "independent QMC scrambles behind the intervals"),
+    "e_relative": ("1", "relative restitution e - e(reference angle), rebounds"),
+    "e_relative_se": ("1", "standard error of e_relative"),
+    "mu_relative": ("1", "relative impulse ratio mu - mu(reference angle)"),
+    "mu_relative_se": ("1", "standard error of mu_relative"),
+}
+#: The state of the pooled accumulators not already in the summary (so that a saved
+#: result can be merged with more samples): counts and central moment sums.
+STATE: dict[str, tuple[str, str]] = {
+    "n_shadowed": ("1", "number of shadowed samples"),
+    "n_captured": ("1", "number of captured impacts"),
+    "n_reimpact": ("1", "number of rebounds heading into the nominal plane"),
+    "n_rolling": ("1", "number of rebounds leaving the facet rolling"),
+    "e_m2": ("1", "sum of squared deviations of e_m over rebounds"),
+    "e_m3": ("1", "sum of cubed deviations of e_m over rebounds"),
+    "mu_m2": ("1", "sum of squared deviations of mu_m over rebounds"),
+    "mu_m3": ("1", "sum of cubed deviations of mu_m over rebounds"),
+}
+#: Integer (count) variables.
+INTEGER = frozenset(
+    {"n", "n_impacts", "n_rebounds", "replicates"}
+    | {k for k in STATE if k.startswith("n_")}
+)
+#: Columns that lead the summary table, in this order (a public contract).
+SUMMARY_COLUMNS = (
+    "surface",
+    "speed_m_s",
+    "angle_deg",
+    "n",
+    "capture_fraction",
+    "capture_ci_low",
+    "capture_ci_high",
+    "e_mean",
+    "e_ci_low",
+    "e_ci_high",
+    "e_rebound_mean",
+    "mu_mean",
+    "mu_ci_low",
+    "mu_ci_high",
+    "shadowed_fraction",
+    "reimpact_fraction",
+)
+#: Probabilities at which the input distributions' quantile functions are stored
+#: (the input figures, paper Figs. 2 and 4, are drawn from them).
+INPUT_QUANTILES = 4096
+_COORD_ATTRS = {
+    "surface": {"long_name": "surface variant"},
+    "speed_m_s": {"units": "m s-1", "long_name": "nominal incident speed"},
+    "angle_deg": {
+        "units": "degree",
+        "long_name": "apparent incidence angle from the nominal plane",
+    },
+}
+
+
+def _edges_attrs(edges) -> dict:
+    return {"first_edge": float(edges[0]), "last_edge": float(edges[-1])}
+
+
+def build_dataset(grid, columns, stacked, *, attrs, inputs=None, smooth=None):
+    """The result Dataset.
+
+    Parameters
+    ----------
+    grid : SweepGrid
+        Owns the dimensions, coordinates and point order.
+    columns : dict of str -> ndarray
+        Per-point statistics (point order), see :data:`VARIABLES`.
+    stacked : Stacked
+        The pooled accumulators (histograms and state).
+    attrs : dict
+        Global attributes (provenance); values must be NetCDF-storable.
+    inputs : dict, optional
+        ``{"diameter_quantile": array (INPUT_QUANTILES,) [m],
+        "roughness_angle_quantile": array (surfaces, INPUT_QUANTILES) [rad]}``.
+    smooth : sequence of bool, optional
+        Per surface: molecularly smooth (phi = 0 exactly).
+    """
+    import xarray as xr
+
+    dims = grid.dims
+    data_vars = {}
+    for name, values in columns.items():
+        units, long_name = VARIABLES[name]
+        dtype = np.int64 if name in INTEGER else float
+        data_vars[name] = (
+            dims,
+            grid.reshape(np.asarray(values, dtype=dtype)),
+            {"units": units, "long_name": long_name},
+        )
+    c, e, mu = stacked.counts, stacked.e, stacked.mu
+    state = {
+        "n_shadowed": c[:, 1],
+        "n_captured": c[:, 2],
+        "n_reimpact": c[:, 3],
+        "n_rolling": c[:, 4],
+        "e_m2": e[:, 2],
+        "e_m3": e[:, 3],
+        "mu_m2": mu[:, 2],
+        "mu_m3": mu[:, 3],
+    }
+    for name, values in state.items():
+        units, long_name = STATE[name]
+        data_vars[name] = (
+            dims,
+            grid.reshape(values),
+            {"units": units, "long_name": long_name},
+        )
+    for nm, h, edges in (
+        ("e", stacked.e_hist, E_EDGES),
+        ("mu", stacked.mu_hist, MU_EDGES),
+    ):
+        data_vars[f"{nm}_hist"] = (
+            (*dims, f"{nm}_bin"),
+            grid.reshape(h[:, 1:-1]),
+            {
+                "units": "1",
+                "long_name": f"histogram of {nm}_m over rebounds (counts per bin)",
+                **_edges_attrs(edges),
+            },
+        )
+        data_vars[f"{nm}_hist_underflow"] = (
+            dims,
+            grid.reshape(h[:, 0]),
+            {"units": "1", "long_name": f"rebounds with {nm}_m below {edges[0]:g}"},
+        )
+        data_vars[f"{nm}_hist_overflow"] = (
+            dims,
+            grid.reshape(h[:, -1]),
+            {"units": "1", "long_name": f"rebounds with {nm}_m above {edges[-1]:g}"},
+        )
+    coords = {
+        dim: (dim, list(values), _COORD_ATTRS[dim])
+        for dim, values in grid.coordinates().items()
+    }
+    for nm, edges in (("e", E_EDGES), ("mu", MU_EDGES)):
+        coords[f"{nm}_bin"] = (
+            f"{nm}_bin",
+            0.5 * (edges[1:] + edges[:-1]),
+            {
+                "units": "1",
+                "long_name": f"{nm}_m bin centre",
+                "bounds": f"{nm}_bin_bounds",
+            },
+        )
+        data_vars[f"{nm}_bin_bounds"] = (
+            (f"{nm}_bin", "nv"),
+            np.stack([edges[:-1], edges[1:]], axis=1),
+            {"units": "1", "long_name": f"{nm}_m bin edges"},
+        )
+    if smooth is not None:
+        data_vars["surface_is_smooth"] = (
+            ("surface",),
+            np.asarray(smooth, dtype=np.int8),
+            {
+                "long_name": "molecularly smooth surface (roughness angle 0)",
+                "flag_values": np.array([0, 1], dtype=np.int8),
+                "flag_meanings": "rough smooth",
+            },
+        )
+    if inputs:
+        prob = (np.arange(INPUT_QUANTILES) + 0.5) / INPUT_QUANTILES
+        coords["probability"] = (
+            "probability",
+            prob,
+            {"units": "1", "long_name": "cumulative probability"},
+        )
+        if inputs.get("diameter_quantile") is not None:
+            data_vars["diameter_quantile"] = (
+                ("probability",),
+                np.asarray(inputs["diameter_quantile"], dtype=float),
+                {"units": "m", "long_name": "quantile function of particle diameter"},
+            )
+        if inputs.get("roughness_angle_quantile") is not None:
+            data_vars["roughness_angle_quantile"] = (
+                ("surface", "probability"),
+                np.asarray(inputs["roughness_angle_quantile"], dtype=float),
+                {
+                    "units": "radian",
+                    "long_name": "quantile function of the roughness angle "
+                    "(NaN for a smooth surface)",
+                },
+            )
+    ds = xr.Dataset(data_vars, coords=coords)
+    ds.attrs.update({"Conventions": CONVENTIONS, **attrs})
+    return ds
+
+
+def scalar_variables(ds) -> list[str]:
+    """The per-point summary variables of `ds`, in summary-column order."""
+    dims = set(ds["capture_fraction"].dims)
+    names = [v for v in VARIABLES if v in ds.data_vars and set(ds[v].dims) == dims]
+    lead = [c for c in SUMMARY_COLUMNS if c in names]
+    return lead + [c for c in names if c not in lead]
+
+
+def summary_frame(ds):
+    """``summary.csv``'s table: one row per sweep point (grid order), derived from the
+    Dataset."""
+    import pandas as pd
+
+    names = scalar_variables(ds)
+    dims = list(ds["capture_fraction"].dims)
+    df = ds[names].to_dataframe().reset_index()
+    df = df[dims + names]
+    lead = [c for c in SUMMARY_COLUMNS if c in df.columns]
+    df = df[lead + [c for c in df.columns if c not in lead]]
+    df["surface"] = df["surface"].astype(str)
+    return pd.DataFrame(df).reset_index(drop=True)
+
+
+def encoding(ds) -> dict:
+    """NetCDF encoding: zlib-compressed data variables."""
+    return {v: {"zlib": True, "complevel": 4} for v in ds.data_vars}
