@@ -156,6 +156,10 @@ class _Ctx:
         ``(required keys, optional keys)``), after checking the table's keys against
         that kind (`also`: further keys every kind allows)."""
         if key not in table:
+            # a misspelt key is reported as unknown (with did-you-mean) before the
+            # missing key it probably is
+            known = {key, *also}.union(*(r | o for r, o in kinds.values()))
+            self.keys(table, where, known)
             raise self.error(
                 _join(where, key),
                 f"missing required key (one of: {', '.join(kinds)})",

@@ -51,6 +51,8 @@ __all__ = [
     "PRESET_DIR",
     "list_presets",
     "load_preset",
+    "outputs_from_dict",
+    "outputs_from_toml",
     "scenario_from_dict",
     "scenario_from_toml",
 ]
@@ -73,7 +75,7 @@ from ._config_base import (
     _show,
 )
 from ._config_surfaces import _angles, _exactly_one, _surfaces
-from .plotting.results import FIGURE_FORMATS  # matplotlib is imported lazily there
+from ._formats import FIGURE_FORMATS
 
 
 def _particles(ctx: _Ctx, data, where="particles"):
@@ -286,33 +288,62 @@ def _precision(ctx: _Ctx, data):
         raise ctx.error(exc.field, exc.message) from None
 
 
-def _outputs(ctx: _Ctx, data) -> tuple[dict, tuple]:
+def _outputs(ctx: _Ctx, data):
+    """The ``[outputs]`` table as :class:`~microimpact.study.Outputs`."""
+    from .study import Outputs
+
     t = ctx.table(data.get("outputs", {}), "outputs")
     ctx.keys(t, "outputs", OUTPUT_KEYS)
-    figures = t.get("figures", [])
-    if isinstance(figures, str):
-        figures = [figures]
-    if not isinstance(figures, list):
-        raise ctx.error("outputs.figures", "must be an array of formats, e.g. ['png']")
-    figures = [
-        ctx.choice(f, f"outputs.figures[{i}]", FIGURE_FORMATS)
-        for i, f in enumerate(figures)
-    ]
+    kw = {}
+    if "figures" in t:
+        figures = t["figures"]
+        if isinstance(figures, str):
+            figures = [figures]
+        if not isinstance(figures, list):
+            raise ctx.error(
+                "outputs.figures", "must be an array of formats, e.g. ['png']"
+            )
+        kw["figures"] = tuple(
+            ctx.choice(f, f"outputs.figures[{i}]", FIGURE_FORMATS)
+            for i, f in enumerate(figures)
+        )
+    if "report" in t:
+        if not isinstance(t["report"], bool):
+            raise ctx.error(
+                "outputs.report", f"must be true or false; got {_show(t['report'])}"
+            )
+        kw["report"] = t["report"]
     exp = t.get("experiments", [])
     if isinstance(exp, str):
-        experiments = (ctx.path(exp, "outputs.experiments"),)
+        kw["experiments"] = (ctx.path(exp, "outputs.experiments"),)
     elif isinstance(exp, list):
-        experiments = tuple(
+        kw["experiments"] = tuple(
             ctx.path(e, f"outputs.experiments[{i}]") for i, e in enumerate(exp)
         )
     else:
         raise ctx.error(
             "outputs.experiments", "must be a CSV file name or an array of them"
         )
-    return {
-        "figures": figures,
-        "experiments": [str(p) for p in experiments],
-    }, experiments
+    return Outputs(**kw)
+
+
+def outputs_from_dict(data: dict, *, source=None, base_dir=None):
+    """The :class:`~microimpact.study.Outputs` of parsed scenario data (its
+    ``[outputs]`` table; defaults where absent). Relative experiment paths resolve
+    from `base_dir` (default: the folder of `source`)."""
+    if base_dir is None and source is not None:
+        base_dir = Path(source).resolve().parent
+    ctx = _Ctx(source, base_dir)
+    ctx.table(data, "(top level)")
+    return _outputs(ctx, data)
+
+
+def outputs_from_toml(path):
+    """The :class:`~microimpact.study.Outputs` of a scenario file."""
+    path = Path(path)
+    return outputs_from_dict(
+        _load_toml(path), source=path, base_dir=path.resolve().parent
+    )
 
 
 def scenario_from_dict(data: dict, *, source=None, base_dir=None) -> Scenario:
@@ -332,8 +363,9 @@ def scenario_from_dict(data: dict, *, source=None, base_dir=None) -> Scenario:
     Returns
     -------
     Scenario
-        With ``config = {"outputs": {...}, "source": ..., "base_dir": ...,
-        "raw": data}`` and ``experiments`` the resolved experiment CSV paths.
+        The physics of the study. The ``[outputs]`` table is validated here and
+        read by :func:`outputs_from_dict` (output settings belong to
+        :class:`~microimpact.study.Study`, not to the Scenario).
 
     Raises
     ------
@@ -401,14 +433,7 @@ def scenario_from_dict(data: dict, *, source=None, base_dir=None) -> Scenario:
             )
         kw["particle_roughness"] = _angles(ctx, t, "particle_roughness")
     kw.update(_sweep(ctx, data))
-    outputs, experiments = _outputs(ctx, data)
-    kw["config"] = {
-        "outputs": outputs,
-        "source": ctx.source,
-        "base_dir": str(ctx.base_dir),
-        "raw": data,
-    }
-    kw["experiments"] = experiments
+    _outputs(ctx, data)  # validated with the file; kept by microimpact.Study
     kw["source"] = ctx.source
     try:
         return Scenario(**kw)
@@ -427,6 +452,13 @@ def scenario_from_toml(path) -> Scenario:
         File not found or unreadable, TOML syntax errors (with line and column), and
         every invalid key or value (naming the key path).
     """
+    path = Path(path)
+    data = _load_toml(path)
+    return scenario_from_dict(data, source=path, base_dir=path.resolve().parent)
+
+
+def _load_toml(path: Path) -> dict:
+    """Parse a TOML file; every problem is a ScenarioError naming the file."""
     path = Path(path)
     try:
         raw = path.read_bytes()
@@ -458,7 +490,7 @@ def scenario_from_toml(path) -> Scenario:
         raise ScenarioError(
             f"TOML syntax error: {_one_line(msg)}", source=path, line=line
         ) from None
-    return scenario_from_dict(data, source=path, base_dir=path.resolve().parent)
+    return data
 
 
 # ---------------------------------------------------------------------- presets

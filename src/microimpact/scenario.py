@@ -11,12 +11,13 @@ is allowed.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from ._validation import check_real_scalar
 from .errors import ScenarioError
 
 SHADOWING_OPTIONS = ("reject", "weighted", "none")
@@ -34,7 +35,17 @@ class SurfaceVariant:
 
     @property
     def smooth(self) -> bool:
-        return self.angles is None
+        """Molecularly smooth, by structure: no angle distribution, or one whose
+        only value is exactly 0 (never by name)."""
+        if self.angles is None:
+            return True
+        flag = getattr(self.angles, "is_smooth", None)
+        if flag is not None:
+            return bool(flag)
+        try:
+            return tuple(self.angles.support()) == (0.0, 0.0)
+        except (AttributeError, TypeError, ValueError):
+            return False
 
     def describe(self) -> dict:
         if self.angles is None:
@@ -95,6 +106,41 @@ def _positive_tuple(values, name, *, lo=0.0, hi=math.inf, hi_inclusive=False):
             rng = f"({lo}, {hi}{']' if hi_inclusive else ')'}"
             raise ScenarioError(f"value {v!r} is outside {rng}", field=name)
     return tuple(float(v) for v in arr)
+
+
+def _choice(value, field, options):
+    if value not in options:
+        raise ScenarioError(
+            f"must be one of {', '.join(repr(o) for o in options)}; got {value!r}",
+            field=field,
+        )
+    return value
+
+
+def _integer(value, field, low):
+    if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        raise ScenarioError(f"must be an integer >= {low}; got {value!r}", field=field)
+    if value < low:
+        raise ScenarioError(f"must be an integer >= {low}; got {value!r}", field=field)
+    return int(value)
+
+
+def _number(value, field, *, low, high, open_=False, open_low=False):
+    """A real number in [low, high] ((low, high) if `open_`, (low, high] if
+    `open_low`), else ScenarioError naming `field`."""
+    try:
+        x = check_real_scalar(value, field)
+    except (TypeError, ValueError):
+        raise ScenarioError(f"must be a number; got {value!r}", field=field) from None
+    lo_ok = x > low if (open_ or open_low) else x >= low
+    hi_ok = x < high if open_ else x <= high
+    if not (lo_ok and hi_ok):
+        left = "(" if (open_ or open_low) else "["
+        right = ")" if open_ else "]"
+        raise ScenarioError(
+            f"must be in {left}{low:g}, {high:g}{right}; got {value!r}", field=field
+        )
+    return x
 
 
 @dataclass(frozen=True)
@@ -161,16 +207,19 @@ class Scenario:
     capture_quantiles: tuple = (0.5,)
     description: str = ""
     source: str | None = None
-    config: dict = field(default_factory=dict, compare=False, repr=False)
-    experiments: tuple = field(default=(), compare=False, repr=False)
 
     def __post_init__(self):
+        # Every check raises ScenarioError(field=...) without a file: the TOML layer
+        # (microimpact.config) adds the file and the key path; an edit in Python
+        # (with_options) is never blamed on the file the scenario came from.
         set_ = object.__setattr__
         if not isinstance(self.name, str) or not self.name.strip():
             raise ScenarioError(
-                f"must be a non-empty string; got {self.name!r}",
-                source=self.source,
-                field="name",
+                f"must be a non-empty string; got {self.name!r}", field="name"
+            )
+        if not isinstance(self.description, str):
+            raise ScenarioError(
+                f"must be a string; got {self.description!r}", field="description"
             )
         for obj, attr, needs in (
             (self.particles, "particles", ("table", "describe")),
@@ -179,107 +228,84 @@ class Scenario:
             missing = [m for m in needs if not hasattr(obj, m)]
             if missing:
                 raise ScenarioError(
-                    f"{type(obj).__name__} lacks {', '.join(missing)}",
-                    source=self.source,
-                    field=attr,
+                    f"{type(obj).__name__} lacks {', '.join(missing)}", field=attr
                 )
-        try:
-            set_(self, "speeds_m_s", _positive_tuple(self.speeds_m_s, "speed_m_s"))
-            set_(
-                self,
-                "angles_deg",
-                _positive_tuple(
-                    self.angles_deg, "angle_deg", hi=90.0, hi_inclusive=True
-                ),
-            )
-        except ScenarioError as err:
-            raise ScenarioError(
-                err.message, source=self.source, field=f"sweep.{err.field}"
-            ) from None
+        set_(self, "speeds_m_s", _positive_tuple(self.speeds_m_s, "sweep.speed_m_s"))
+        set_(
+            self,
+            "angles_deg",
+            _positive_tuple(
+                self.angles_deg, "sweep.angle_deg", hi=90.0, hi_inclusive=True
+            ),
+        )
         surfaces = tuple(self.surfaces)
         if not surfaces or not all(isinstance(s, SurfaceVariant) for s in surfaces):
             raise ScenarioError(
-                "must be a non-empty sequence of SurfaceVariant",
-                source=self.source,
-                field="surfaces",
+                "must be a non-empty sequence of SurfaceVariant", field="surfaces"
             )
         names = [s.name for s in surfaces]
         if len(set(names)) != len(names):
             raise ScenarioError(
-                f"surface names must be unique; got {names}",
-                source=self.source,
-                field="surfaces",
+                f"surface names must be unique; got {names}", field="surfaces"
             )
         set_(self, "surfaces", surfaces)
-        checks = [
-            (
-                "shadowing",
-                self.shadowing in SHADOWING_OPTIONS,
-                f"one of {', '.join(SHADOWING_OPTIONS)}",
-            ),
-            (
-                "sampling",
-                self.sampling in SAMPLING_OPTIONS,
-                f"one of {', '.join(SAMPLING_OPTIONS)}",
-            ),
-            (
-                "samples",
-                isinstance(self.samples, int)
-                and not isinstance(self.samples, bool)
-                and self.samples >= 1,
-                "an integer >= 1",
-            ),
-            (
-                "qmc_replicates",
-                isinstance(self.qmc_replicates, int)
-                and not isinstance(self.qmc_replicates, bool)
-                and self.qmc_replicates >= 2,
-                "an integer >= 2",
-            ),
-            (
-                "speed_spread",
-                isinstance(self.speed_spread, int | float)
-                and 0 <= self.speed_spread <= 0.5,
-                "a number in [0, 0.5]",
-            ),
-            (
-                "confidence",
-                isinstance(self.confidence, float) and 0 < self.confidence < 1,
-                "a number in (0, 1)",
-            ),
-            (
-                "seed",
-                self.seed is None
-                or (
-                    isinstance(self.seed, int)
-                    and not isinstance(self.seed, bool)
-                    and self.seed >= 0
+        _choice(self.shadowing, "shadowing", SHADOWING_OPTIONS)
+        _choice(self.sampling, "sampling", SAMPLING_OPTIONS)
+        _integer(self.samples, "samples", 1)
+        _integer(self.qmc_replicates, "qmc_replicates", 2)
+        if self.seed is not None:
+            _integer(self.seed, "seed", 0)
+        set_(
+            self,
+            "speed_spread",
+            _number(self.speed_spread, "sweep.speed_spread", low=0.0, high=0.5),
+        )
+        set_(
+            self,
+            "confidence",
+            _number(self.confidence, "confidence", low=0.0, high=1.0, open_=True),
+        )
+        if self.reference_angle_deg is not None:
+            set_(
+                self,
+                "reference_angle_deg",
+                _number(
+                    self.reference_angle_deg,
+                    "reference_angle_deg",
+                    low=0.0,
+                    high=90.0,
+                    open_low=True,
                 ),
-                "an integer >= 0 or omitted",
-            ),
-        ]
-        for key, ok, allowed in checks:
-            if not ok:
-                raise ScenarioError(
-                    f"must be {allowed}; got {getattr(self, key)!r}",
-                    source=self.source,
-                    field=key,
-                )
+            )
+        if self.precision is not None and not isinstance(self.precision, Precision):
+            raise ScenarioError(
+                f"must be a Precision or None; got {self.precision!r}",
+                field="precision",
+            )
         if self.precision is not None and self.sampling == "qmc":
             raise ScenarioError(
                 "a precision target needs sampling = 'mc' (QMC error bars come from a "
                 "fixed number of replicates)",
-                source=self.source,
                 field="precision",
             )
-        qs = tuple(float(q) for q in np.atleast_1d(self.capture_quantiles))
-        if not all(0 < q < 1 for q in qs):
+        qs = self.capture_quantiles
+        qs = (qs,) if isinstance(qs, int | float) else qs
+        try:
+            qs = tuple(qs)
+        except TypeError:
             raise ScenarioError(
-                f"must be in (0, 1); got {list(qs)}",
-                source=self.source,
-                field="capture_quantiles",
-            )
-        set_(self, "capture_quantiles", qs)
+                f"must be numbers in (0, 1); got {qs!r}", field="capture_quantiles"
+            ) from None
+        if not qs:
+            raise ScenarioError("must not be empty", field="capture_quantiles")
+        set_(
+            self,
+            "capture_quantiles",
+            tuple(
+                _number(q, "capture_quantiles", low=0.0, high=1.0, open_=True)
+                for q in qs
+            ),
+        )
 
     @classmethod
     def from_toml(cls, path) -> Scenario:
@@ -321,6 +347,7 @@ class Scenario:
             "qmc_replicates": self.qmc_replicates,
             "confidence": self.confidence,
             "reference_angle_deg": self.reference_angle_deg,
+            "capture_quantiles": list(self.capture_quantiles),
             "source": self.source,
         }
 

@@ -1,0 +1,233 @@
+"""What every verb shares: argument types, run options, output helpers.
+
+Exit codes (documented in docs/cli.md):
+
+==== ===========================================================================
+0    success
+1    an internal error (a bug of ours): one line, the traceback saved to a file
+2    the user's input: a bad flag, file, scenario key or value (one line naming
+     the file, key or line); also a folder another run is writing to
+3    the environment: an output folder that cannot be written (permissions, disk
+     full, read-only), a closed output pipe, out of memory
+130  interrupted (Ctrl-C); finished work is kept in the checkpoint
+143  terminated (SIGTERM); finished work is kept in the checkpoint
+==== ===========================================================================
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+
+EXIT_OK, EXIT_INTERNAL, EXIT_USER, EXIT_ENVIRONMENT = 0, 1, 2, 3
+EXIT_INTERRUPTED, EXIT_TERMINATED = 130, 143
+
+
+def int_at_least(minimum):
+    """An argparse type: a whole number >= `minimum`."""
+
+    def parse(text):
+        try:
+            v = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"expected a whole number; got {text!r}"
+            ) from None
+        if v < minimum:
+            raise argparse.ArgumentTypeError(f"must be >= {minimum}; got {v}")
+        return v
+
+    return parse
+
+
+positive_int = int_at_least(1)
+nonneg_int = int_at_least(0)
+
+
+def count(text):
+    """A positive whole number, also written as 1e7 or 10_000_000."""
+    try:
+        v = float(text.replace("_", ""))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number; got {text!r}") from None
+    if not (math.isfinite(v) and v >= 1 and v == int(v)):
+        raise argparse.ArgumentTypeError(f"must be a whole number >= 1; got {text}")
+    return int(v)
+
+
+def positive_float(text):
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number; got {text!r}") from None
+    if not (v > 0 and math.isfinite(v)):
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0; got {text}")
+    return v
+
+
+def fraction(text):
+    v = positive_float(text)
+    if not v < 1:
+        raise argparse.ArgumentTypeError(f"must be in (0, 1); got {text}")
+    return v
+
+
+def formats(text):
+    from .._formats import FIGURE_FORMATS
+
+    fmts = [f.strip().lower() for f in text.split(",") if f.strip()]
+    bad = [f for f in fmts if f not in FIGURE_FORMATS]
+    if bad or not fmts:
+        raise argparse.ArgumentTypeError(
+            f"formats must be a comma list of {', '.join(FIGURE_FORMATS)}; got {text!r}"
+        )
+    return tuple(dict.fromkeys(fmts))
+
+
+def out_dir(text):
+    """An output folder: new (created when needed) or existing, never a file."""
+    path = Path(text)
+    for p in (path, *path.parents):  # the first part that exists must be a folder
+        if p.exists():
+            if not p.is_dir():
+                what = repr(text) if p == path else f"{str(p)!r} (in {text!r})"
+                raise argparse.ArgumentTypeError(
+                    f"{what} is a file, not a folder; give a new or existing folder"
+                )
+            break
+    return path
+
+
+def add_run_options(sp, *, seed_help="root seed (overrides the file)"):
+    """The options of the verbs that run simulations."""
+    sp.add_argument("--seed", type=nonneg_int, help=seed_help)
+    sp.add_argument(
+        "--workers",
+        type=positive_int,
+        default=1,
+        help="worker processes (default 1; capped at the number of cores)",
+    )
+    sp.add_argument("--backend", choices=("process", "dask"), default="process")
+    sp.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="Dask scheduler address (default: a LocalCluster)",
+    )
+    sp.add_argument("--quiet", action="store_true", help="no progress bar or summary")
+    sp.add_argument(
+        "--formats",
+        type=formats,
+        default=None,
+        help="figure formats, e.g. png,pdf (default: the scenario's "
+        "[outputs] figures, else png,pdf)",
+    )
+
+
+def run_options(args) -> dict:
+    """Keyword arguments of :func:`microimpact.run` from the common options."""
+    from ..errors import InputError
+
+    if args.scheduler is not None and args.backend != "dask":
+        raise InputError(
+            f"{args.scheduler!r} needs --backend dask", field="--scheduler"
+        )
+    return {
+        "seed": args.seed,
+        "workers": args.workers,
+        "backend": args.backend,
+        "address": args.scheduler,
+        "progress": False if args.quiet else None,
+    }
+
+
+def say(args, msg):
+    """Print `msg` unless ``--quiet``."""
+    if not getattr(args, "quiet", False):
+        print(msg)
+
+
+def use_agg():
+    """Draw without a display (the CLI only writes files)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+
+
+def write_outputs(out, *, tables=None, texts=None, figures=None):
+    """Write tables (CSV), texts and figures (PNG + PDF) to `out`, each atomically.
+
+    `figures` maps a file stem to a zero-argument function that draws and returns
+    an Axes; matplotlib is imported (with the Agg backend) only when needed.
+    """
+    from .._files import atomic_write
+
+    out.mkdir(parents=True, exist_ok=True)
+    for name, table in (tables or {}).items():
+        atomic_write(out / name, lambda t, df=table: df.to_csv(t, index=False))
+    for name, text in (texts or {}).items():
+        atomic_write(out / name, lambda t, x=text: Path(t).write_text(x))
+    if figures:
+        use_agg()
+        from ..plotting.results import save_figures
+
+        save_figures(figures.items(), out, ("png", "pdf"))
+    print(f"-> {out}")
+
+
+def print_capture(result):
+    """Every capture-speed row, estimated or not (a refused estimate says why)."""
+    import math as _m
+
+    cs = result.capture_speed()
+
+    def num(x):
+        return "open" if x is None or not _m.isfinite(float(x)) else f"{float(x):.3f}"
+
+    for _, r in cs.iterrows():
+        where = f"  {r['surface']}, {r['angle_deg']:g} deg: {r['quantile']:.0%} capture"
+        if _m.isfinite(float(r["speed_m_s"])):
+            print(
+                f"{where} at {float(r['speed_m_s']):.3f} m/s "
+                f"[{num(r['speed_ci_low'])}, {num(r['speed_ci_high'])}]"
+            )
+        else:
+            note = str(r.get("note", "") or "not bracketed by the speed sweep")
+            print(f"{where}: not estimated ({note})")
+
+
+#: A run expected to take longer than this [s] says so at the start.
+ANNOUNCE_AFTER_S = 120.0
+
+
+def announce(args, scenario, *, samples=None):
+    """Say at the start when a run is expected to take more than a few minutes
+    (impacts / measured throughput)."""
+    import sys
+
+    try:
+        from ..engine.montecarlo import estimate_duration
+    except ImportError:  # pragma: no cover - older engine
+        return
+    seconds = estimate_duration(scenario, samples=samples, workers=args.workers)
+    if seconds is not None and seconds > ANNOUNCE_AFTER_S:
+        print(
+            f"microimpact: this run is expected to take about {seconds / 60:.0f} min "
+            f"on {args.workers} worker(s); progress is kept in the output folder, so "
+            "an interrupted run resumes",
+            file=sys.stderr,
+        )
+
+
+def report_resume(result, out):
+    """Say on stderr how much of a run was restored from its checkpoint."""
+    import sys
+
+    p = result.provenance
+    restored = int(p.get("resumed_blocks", 0) or 0)
+    if restored:
+        print(
+            f"microimpact: resumed {restored} of {int(p.get('total_blocks', 0))} "
+            f"blocks from the checkpoint in {out}",
+            file=sys.stderr,
+        )

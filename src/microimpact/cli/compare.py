@@ -1,0 +1,58 @@
+"""``microimpact compare RESULTS EXPERIMENT``: simulation against experiment."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from . import _common as c
+
+HELP = "compare a run with experimental means at the 95 %% level"
+
+
+def cli_parse(sp):
+    sp.add_argument("results", type=Path, help="summary.csv, results.nc or run folder")
+    sp.add_argument("experiment", type=Path, help="experimental CSV")
+    sp.add_argument("--out", type=c.out_dir, default=None)
+    sp.add_argument("--confidence", type=c.fraction, default=0.95)
+
+
+def cli_action(args) -> int:
+    from ..compare import compare, plot_comparison
+    from ..io.experiments import read_experiments
+
+    summary = _read_results(args.results)
+    exp = read_experiments(args.experiment)
+    table = compare(summary, exp, confidence=args.confidence)
+    print(table.to_string(index=False))
+    n_agree = int(table["agree"].sum())
+    print(
+        f"{n_agree} of {len(table)} points agree at the "
+        f"{args.confidence:.0%} confidence level"
+    )
+    if args.out is not None:
+        c.write_outputs(
+            args.out,
+            tables={"comparison.csv": table},
+            figures={"comparison": lambda: plot_comparison(table)},
+        )
+    return c.EXIT_OK
+
+
+def _read_results(path: Path):
+    """The summary table of a run folder, results.nc or summary.csv."""
+    import pandas as pd
+
+    from ..engine.result import open_result
+    from ..errors import InputError
+
+    if path.is_dir() or path.suffix == ".nc":
+        return open_result(path).summary
+    if not path.exists():
+        raise InputError(
+            "no such results file (give summary.csv, results.nc or a run folder)",
+            source=path,
+        )
+    try:
+        return pd.read_csv(path)
+    except (OSError, ValueError, pd.errors.ParserError) as err:
+        raise InputError(f"cannot read results: {err}", source=path) from None

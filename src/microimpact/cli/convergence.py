@@ -1,0 +1,67 @@
+"""``microimpact convergence SCENARIO``: the paper's convergence study."""
+
+from __future__ import annotations
+
+from . import _common as c
+
+HELP = "the paper's convergence study: running capture fraction against N"
+
+
+def cli_parse(sp):
+    sp.add_argument("scenario", help="scenario TOML file or preset name")
+    sp.add_argument("--out", type=c.out_dir, default=None)
+    sp.add_argument(
+        "--point",
+        type=c.nonneg_int,
+        default=None,
+        help="sweep-point index (default: the one nearest 50 %% capture)",
+    )
+    sp.add_argument("--n-max", type=c.count, default=20_000)
+    sp.add_argument("--tolerance", type=c.fraction, default=0.03)
+    sp.add_argument("--seed", type=c.nonneg_int)
+
+
+def cli_action(args) -> int:
+    from ..engine.convergence import convergence_study
+    from ..engine.montecarlo import run
+    from ..errors import InputError
+    from ..grid import SweepGrid
+    from ..scenario import as_scenario
+
+    scenario = as_scenario(args.scenario)
+    point = args.point
+    n_points = SweepGrid.from_scenario(scenario).size
+    if point is None:  # the point nearest 50 % capture in a quick pilot
+        pilot = run(scenario, samples=1000, seed=args.seed, progress=False).summary
+        point = int((pilot["capture_fraction"] - 0.5).abs().to_numpy().argmin())
+    elif point >= n_points:
+        raise InputError(
+            f"must be < {n_points} (the number of sweep points)", field="--point"
+        )
+    res = convergence_study(
+        scenario,
+        point=point,
+        n_max=args.n_max,
+        tolerance=args.tolerance,
+        seed=args.seed,
+    )
+    pt = res.point
+    print(
+        f"{scenario.name}: point {point} ({pt['surface']}, {pt['speed_m_s']} m/s, "
+        f"{pt['angle_deg']} deg)"
+    )
+    print(f"  capture fraction after {args.n_max} impacts: {res.final:.4f}")
+    print(f"  settled within +-{res.tolerance:.3f} after N = {res.n_settled}")
+    print(
+        f"  N for a {res.confidence:.0%} half-width of {res.tolerance:.3f}: "
+        f"{res.n_required} (worst case {res.n_required_worst_case})"
+    )
+    if args.out is not None:
+        from ..plotting.results import plot_convergence
+
+        c.write_outputs(
+            args.out,
+            tables={"convergence.csv": res.table},
+            figures={"convergence": lambda: plot_convergence(res)},
+        )
+    return c.EXIT_OK

@@ -1,0 +1,39 @@
+"""``microimpact report OUT``: figures and report.html again, from results.nc."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from . import _common as c
+
+HELP = "rebuild the figures and report.html of a run folder from its results.nc"
+
+
+def cli_parse(sp):
+    sp.add_argument("out", type=Path, help="run folder (holding results.nc)")
+    sp.add_argument(
+        "--formats", type=c.formats, default=None, help="figure formats (png,pdf)"
+    )
+    sp.add_argument("--no-figures", action="store_true", help="report only")
+    sp.add_argument(
+        "--experiments",
+        type=Path,
+        nargs="+",
+        default=(),
+        metavar="CSV",
+        help="experiment files to draw and compare with",
+    )
+
+
+def cli_action(args) -> int:
+    from .._formats import DEFAULT_FIGURE_FORMATS
+    from ..engine.result import open_result
+    from ..study import Outputs, Study
+
+    figures = () if args.no_figures else (args.formats or DEFAULT_FIGURE_FORMATS)
+    outputs = Outputs(figures=figures, experiments=tuple(args.experiments))
+    study = Study.from_result(open_result(args.out), outputs=outputs)
+    folder = args.out if args.out.is_dir() else args.out.parent
+    study.write(folder, parts=("figures", "report"))
+    print(f"-> {folder / 'report.html'}")
+    return c.EXIT_OK

@@ -1,0 +1,71 @@
+"""``microimpact run SCENARIO --out DIR``: one study, every output."""
+
+from __future__ import annotations
+
+import sys
+import time
+
+from . import _common as c
+
+HELP = "run a scenario file (or a preset) and write every output"
+
+
+def cli_parse(sp):
+    sp.add_argument("scenario", help="scenario TOML file or preset name")
+    sp.add_argument("--out", required=True, type=c.out_dir, help="output folder")
+    sp.add_argument("--samples", type=c.count, help="impacts per sweep point")
+    sp.add_argument(
+        "--precision",
+        type=c.positive_float,
+        metavar="X",
+        help="stop each point at this CI half-width of the scenario's "
+        "precision statistic (default capture_fraction)",
+    )
+    sp.add_argument("--no-figures", action="store_true", help="write no figures")
+    c.add_run_options(sp)
+
+
+def cli_action(args) -> int:
+    from ..study import Study
+
+    t0 = time.perf_counter()
+    study = Study(args.scenario)
+    study.scenario, study.outputs = _apply_flags(args, study)
+    c.announce(args, study.scenario, samples=args.samples)
+    study.execute(args.out, samples=args.samples, **c.run_options(args))
+    result = study.result
+    c.report_resume(result, args.out)
+    c.say(
+        args,
+        f"{study.scenario.name}: {len(result.summary)} sweep points, "
+        f"seed entropy {result.seed_entropy}, "
+        f"{time.perf_counter() - t0:.1f} s -> {args.out}",
+    )
+    if not args.quiet:
+        c.print_capture(result)
+        sys.stdout.flush()
+    return c.EXIT_OK
+
+
+def _apply_flags(args, study):
+    """The scenario and outputs after --precision, --formats, --no-figures."""
+    from dataclasses import replace
+
+    from ..errors import InputError
+    from ..scenario import Precision
+
+    scenario, outputs = study.scenario, study.outputs
+    if args.precision is not None:
+        if args.samples is not None:
+            raise InputError(
+                "give either --samples or --precision, not both", field="--precision"
+            )
+        precision = scenario.precision or Precision()
+        scenario = scenario.with_options(
+            precision=replace(precision, half_width=args.precision), sampling="mc"
+        )
+    if args.formats is not None:
+        outputs = replace(outputs, figures=args.formats)
+    if args.no_figures:
+        outputs = replace(outputs, figures=())
+    return scenario, outputs

@@ -1,0 +1,334 @@
+"""The pipeline: run -> files -> figures -> report, as one library object.
+
+In the spirit of pvlib's ``ModelChain``, :class:`Study` sequences the steps that
+``microimpact run`` performs and owns the output settings (:class:`Outputs`), which
+are not part of the physics (:class:`~microimpact.scenario.Scenario`). Each step is a
+method that returns the study, so they chain::
+
+    import microimpact as mi
+
+    study = mi.Study("my-study.toml", outputs=mi.Outputs(figures=("png",)))
+    study.run(workers=2).write("out/")          # summary.csv, results.nc, figures,
+                                                # capture_speed.csv, report.html
+    mi.Study.from_result(mi.open_result("out/")).write("out/", parts=("figures",
+                                                 "report"))  # no simulation
+
+:meth:`Study.execute` is the whole of ``microimpact run``: it owns the output folder
+for the duration (a lock refuses a second run into it), keeps a checkpoint there so
+an interrupted run resumes, writes every output atomically, and removes the files an
+earlier run wrote there that this one does not (a manifest); files the user put in
+the folder are never touched.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+from ._formats import DEFAULT_FIGURE_FORMATS, FIGURE_FORMATS
+from ._outdir import OutputFolder
+
+__all__ = ["CHECKPOINT_NAME", "Outputs", "Study", "reproduce"]
+
+#: The checkpoint file a study keeps in its output folder while it runs.
+CHECKPOINT_NAME = ".microimpact-checkpoint.npz"
+#: The parts :meth:`Study.write` can write.
+PARTS = ("tables", "figures", "report")
+
+
+@dataclass(frozen=True)
+class Outputs:
+    """What a study writes, besides the results themselves.
+
+    Parameters
+    ----------
+    figures : sequence of {"png", "pdf", "svg"}
+        Figure formats; empty for no figures.
+    report : bool
+        Write ``report.html``.
+    experiments : sequence of path
+        Experiment CSV files (``microimpact.io.experiments.read_experiments``
+        format) to draw in the figures and compare with in the report.
+    """
+
+    figures: tuple = DEFAULT_FIGURE_FORMATS
+    report: bool = True
+    experiments: tuple = ()
+
+    def __post_init__(self):
+        figures = self.figures
+        if isinstance(figures, str):
+            figures = (figures,)
+        try:
+            figures = tuple(dict.fromkeys(figures))
+        except TypeError:
+            raise ValueError(
+                f"`figures` must be a sequence of {FIGURE_FORMATS}; got {figures!r}."
+            ) from None
+        bad = [f for f in figures if f not in FIGURE_FORMATS]
+        if bad:
+            raise ValueError(
+                f"`figures` must be a subset of {FIGURE_FORMATS}; got {bad[0]!r}."
+            )
+        if not isinstance(self.report, bool):
+            raise TypeError(f"`report` must be True or False; got {self.report!r}.")
+        exps = self.experiments
+        if isinstance(exps, str | os.PathLike):
+            exps = (exps,)
+        object.__setattr__(self, "figures", figures)
+        object.__setattr__(self, "experiments", tuple(Path(e) for e in exps))
+
+    @classmethod
+    def from_toml(cls, path) -> Outputs:
+        """The ``[outputs]`` table of a scenario file (defaults where absent)."""
+        from .config import outputs_from_toml
+
+        return outputs_from_toml(path)
+
+
+class Study:
+    """One study: a scenario, its output settings, and (after :meth:`run`) its
+    result.
+
+    Parameters
+    ----------
+    scenario : Scenario, path or str
+        A :class:`~microimpact.scenario.Scenario`, a scenario TOML file (its
+        ``[outputs]`` table gives the default `outputs`), or a preset name.
+    outputs : Outputs, optional
+        Output settings; default: the file's ``[outputs]`` table, else
+        :class:`Outputs()`.
+
+    Attributes
+    ----------
+    scenario : Scenario or ScenarioRecord
+    outputs : Outputs
+    result : SimulationResult or None
+        Set by :meth:`run` (or given to :meth:`from_result`).
+    files : list of pathlib.Path
+        Every file the last :meth:`write` wrote.
+    """
+
+    def __init__(self, scenario, *, outputs: Outputs | None = None):
+        from .scenario import as_scenario
+
+        if outputs is None and isinstance(scenario, str | os.PathLike):
+            path = Path(scenario)
+            if path.suffix.lower() == ".toml" or path.exists():
+                outputs = Outputs.from_toml(path)
+            else:
+                from .config import PRESETS, preset_path
+
+                if os.fspath(scenario) in PRESETS:
+                    outputs = Outputs.from_toml(preset_path(os.fspath(scenario)))
+        if outputs is not None and not isinstance(outputs, Outputs):
+            raise TypeError(f"`outputs` must be an Outputs; got {outputs!r}.")
+        self.scenario = as_scenario(scenario)
+        self.outputs = Outputs() if outputs is None else outputs
+        self.result = None
+        self.files: list[Path] = []
+        self._experiments = None
+
+    @classmethod
+    def from_result(cls, result, *, outputs: Outputs | None = None) -> Study:
+        """A study around an existing result (e.g. :func:`open_result`), to write its
+        files, figures and report without running anything."""
+        study = cls.__new__(cls)
+        study.scenario = result.scenario
+        study.outputs = Outputs() if outputs is None else outputs
+        study.result = result
+        study.files = []
+        study._experiments = None
+        return study
+
+    def __repr__(self) -> str:
+        state = "not run" if self.result is None else repr(self.result)
+        return f"<Study {self.scenario.name!r}: {state}>"
+
+    # ------------------------------------------------------------ steps
+    def experiments(self):
+        """The experiments table (read once, before any output), or None."""
+        if self._experiments is None and self.outputs.experiments:
+            from .io.experiments import combine_experiments
+
+            self._experiments = combine_experiments(list(self.outputs.experiments))
+        return self._experiments
+
+    def run(self, **options) -> Study:
+        """Run the simulation (:func:`microimpact.run` with `options`: samples,
+        seed, workers, backend, executor, address, checkpoint, progress)."""
+        from .engine.montecarlo import run
+
+        self.experiments()  # a bad experiments file fails before the simulation
+        self.result = run(self.scenario, **options)
+        return self
+
+    def write(self, out_dir, *, parts=PARTS) -> Study:
+        """Write the outputs of :attr:`result` into `out_dir`.
+
+        Parameters
+        ----------
+        out_dir : path
+            Folder (created if needed). While writing, the folder is locked
+            against other studies; files that an earlier study wrote there and
+            this one does not are removed (see the module notes).
+        parts : sequence of {"tables", "figures", "report"}
+            ``tables``: ``summary.csv``, ``results.nc``, ``capture_speed.csv``;
+            ``figures``: the figures in :attr:`Outputs.figures`;
+            ``report``: ``report.html`` (if :attr:`Outputs.report`).
+        """
+        self._need_result()
+        parts = _parts_iv(parts)
+        with OutputFolder(out_dir) as folder:
+            self._write(folder, parts)
+        return self
+
+    def report(self, path=None) -> Path:
+        """Write ``report.html`` (default: in the folder of the last :meth:`write`)
+        and return its path."""
+        self._need_result()
+        if path is None:
+            if not self.files:
+                raise ValueError("give `path`: nothing has been written yet.")
+            path = self.files[0].parent / "report.html"
+        return self._report(Path(path), figures=None)
+
+    def execute(self, out_dir, **options) -> Study:
+        """Run and write everything into `out_dir`: the whole of ``microimpact run``.
+
+        The folder is locked for the whole run; a checkpoint kept there
+        (:data:`CHECKPOINT_NAME`) lets an interrupted run resume with the same
+        command; it is removed once every output is written.
+        """
+        self.experiments()
+        with OutputFolder(out_dir) as folder:
+            checkpoint = folder.path / CHECKPOINT_NAME
+            options.setdefault("checkpoint", checkpoint)
+            self.run(**options)
+            self._write(folder, PARTS)
+            Path(options["checkpoint"]).unlink(missing_ok=True)
+        return self
+
+    # ------------------------------------------------------------ internals
+    def _need_result(self):
+        if self.result is None:
+            raise ValueError("the study has no result yet: call run() first.")
+
+    def _write(self, folder, parts):
+        written = []
+        result = self.result
+        if "tables" in parts:
+            written += [
+                folder.write(
+                    "summary.csv", lambda t: result.summary.to_csv(t, index=False)
+                ),
+                folder.write("results.nc", result.to_netcdf),
+                folder.write(
+                    "capture_speed.csv",
+                    lambda t: result.capture_speed().to_csv(t, index=False),
+                ),
+            ]
+        figures = []
+        if "figures" in parts and self.outputs.figures:
+            figures = self._figures(folder)
+            written += figures
+        if "report" in parts and self.outputs.report:
+            written.append(
+                self._report(
+                    folder.path / "report.html",
+                    figures=figures if "figures" in parts else None,
+                    folder=folder,
+                )
+            )
+        folder.record(written, parts)
+        self.files = written
+
+    def _figures(self, folder):
+        from .plotting.results import figures_for_result, save_figures
+        from .report import input_figures
+
+        _use_agg()
+        exp = self.experiments()
+        paths = figures_for_result(
+            self.result, folder.path, formats=self.outputs.figures, experiments=exp
+        )
+        paths += save_figures(
+            [(name, fig) for name, _caption, fig in input_figures(self.result)],
+            folder.path,
+            self.outputs.figures,
+        )
+        return [Path(p) for p in paths]
+
+    def _report(self, path, *, figures, folder=None):
+        from .report import write_report
+
+        _use_agg()
+        name = self.result.scenario.name
+        csv = path.parent / "summary.csv"
+        return Path(
+            write_report(
+                [self.result],
+                path,
+                extra_figures={name: figures} if figures is not None else None,
+                experiments={name: self.experiments()},
+                csv_paths=[csv] if csv.exists() else None,
+            )
+        )
+
+
+def _parts_iv(parts):
+    if isinstance(parts, str):
+        parts = (parts,)
+    parts = tuple(parts)
+    bad = [p for p in parts if p not in PARTS]
+    if bad or not parts:
+        raise ValueError(
+            f"`parts` must be a non-empty subset of {PARTS}; got {parts!r}."
+        )
+    return parts
+
+
+def _use_agg():
+    """Draw without a display when no backend was chosen (files only)."""
+    import matplotlib
+
+    if "matplotlib.pyplot" not in __import__("sys").modules:
+        matplotlib.use("Agg")
+
+
+def reproduce(out_dir="out", *, samples=None, **options) -> list[Study]:
+    """Reproduce the paper: run its four presets into ``out_dir/<preset>/`` and
+    write one report of them all to ``out_dir/report.html``.
+
+    Parameters
+    ----------
+    out_dir : path
+    samples : int, optional
+        Impacts per sweep point (default: each preset's, 4,000).
+    **options
+        As for :meth:`Study.run` (seed, workers, backend, ...).
+    """
+    from .config import PRESETS
+    from .report import write_report
+
+    out = Path(out_dir)
+    studies = [Study(name) for name in PRESETS]
+    for study in studies:  # every experiments file is read before any output
+        study.experiments()
+    for study in studies:
+        study.execute(out / study.scenario.name, samples=samples, **options)
+    with OutputFolder(out) as folder:
+        path = write_report(
+            [s.result for s in studies],
+            folder.path / "report.html",
+            extra_figures={
+                s.scenario.name: [f for f in s.files if f.suffix != ".html"]
+                for s in studies
+            },
+            experiments={s.scenario.name: s.experiments() for s in studies},
+            csv_paths=[out / s.scenario.name / "summary.csv" for s in studies],
+            title="microimpact: reproducing Li, Dunn & Brach (2000)",
+        )
+        folder.record([Path(path)], ("report",))
+    return studies
