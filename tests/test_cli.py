@@ -460,7 +460,8 @@ def test_experiments_are_read_once(tmp_path, monkeypatch):
 
 
 def test_precision_flag_keeps_the_scenario_precision(tmp_path, monkeypatch):
-    import microimpact.cli as cli
+    import microimpact.study as study
+    from microimpact.errors import InputError
 
     p = _scenario(tmp_path)
     p.write_text(
@@ -470,11 +471,11 @@ def test_precision_flag_keeps_the_scenario_precision(tmp_path, monkeypatch):
     )
     seen = []
 
-    def fake_run_one(scenario, *args, **kw):
-        seen.append(scenario)
-        raise cli.InputError("stop here")
+    def fake_execute(self, out_dir, **kw):
+        seen.append(self.scenario)
+        raise InputError("stop here")
 
-    monkeypatch.setattr(cli, "_run_one", fake_run_one)
+    monkeypatch.setattr(study.Study, "execute", fake_execute)
     args = ["run", str(p), "--out", str(tmp_path / "o"), "--precision", "0.02"]
     assert main(args) == 2
     (sc,) = seen

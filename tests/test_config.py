@@ -21,11 +21,13 @@ from microimpact.config import (
     PRESETS,
     list_presets,
     load_preset,
+    outputs_from_dict,
     scenario_from_dict,
     scenario_from_toml,
 )
 from microimpact.errors import ScenarioError
 from microimpact.scenario import Scenario
+from microimpact.study import Outputs
 from microimpact.units import deg_to_rad, um_to_m
 
 BAD_DIR = Path(__file__).parent / "data" / "bad_scenarios"
@@ -85,9 +87,9 @@ def test_minimal_file_and_defaults(tmp_path):
     assert_allclose(sc.angles_deg, [90.0], rtol=0)
     assert [s.name for s in sc.surfaces] == ["smooth"]
     assert sc.surfaces[0].smooth
-    assert sc.experiments == ()
-    assert sc.config["outputs"] == {"figures": [], "experiments": []}
-    assert sc.config["raw"]["particles"]["mean_um"] == 50.0
+    # output settings are not physics: they are the Study's (default Outputs)
+    assert not hasattr(sc, "experiments") and not hasattr(sc, "config")
+    assert outputs_from_dict(minimal()) == Outputs()
     # coefficients: numbers are constant laws [m/s]; paper's p = q = 1 by default
     k1, k2, v_c = sc.coefficients.evaluate(np.array([um_to_m(30.0), um_to_m(70.0)]))
     assert_allclose(k1, 4.0, rtol=1e-15)
@@ -245,11 +247,9 @@ experiments = "exp.csv"
     sc = scenario_from_toml(Path("study") / "scenario.toml")
     atoms = sc.surfaces[0].angles.table().values
     assert_allclose(np.unique(atoms), deg_to_rad([-10.0, 0.0, 10.0, 20.0]), rtol=1e-9)
-    assert sc.experiments == ((sub / "exp.csv").resolve(),) or sc.experiments == (
-        sub.resolve() / "exp.csv",
-    )
-    assert sc.config["outputs"]["figures"] == ["png", "pdf"]
-    assert Path(sc.config["base_dir"]) == path.resolve().parent
+    outputs = Outputs.from_toml(Path("study") / "scenario.toml")
+    assert outputs.experiments == (path.resolve().parent / "exp.csv",)
+    assert outputs.figures == ("png", "pdf")
 
 
 def test_base_dir_for_dicts(tmp_path):
@@ -636,11 +636,13 @@ def test_precision_min_above_max_in_a_file():
 
 
 def test_figure_formats_are_those_save_figure_writes():
-    from microimpact.plotting.results import FIGURE_FORMATS
+    from microimpact._formats import FIGURE_FORMATS
+    from microimpact.plotting.results import FIGURE_FORMATS as PLOTTED
 
-    assert FIGURE_FORMATS == ("png", "pdf", "svg")
-    sc = scenario_from_dict(minimal(outputs={"figures": list(FIGURE_FORMATS)}))
-    assert sc.config["outputs"]["figures"] == ["png", "pdf", "svg"]
+    assert FIGURE_FORMATS == PLOTTED == ("png", "pdf", "svg")
+    data = minimal(outputs={"figures": list(FIGURE_FORMATS)})
+    scenario_from_dict(data)  # the [outputs] table is validated with the file
+    assert outputs_from_dict(data).figures == ("png", "pdf", "svg")
     for fmt in ("eps", "ps", "jpg", "tif"):
         check(
             minimal(outputs={"figures": ["png", fmt]}),
