@@ -176,9 +176,13 @@ def write_outputs(out, *, tables=None, texts=None, figures=None):
 
 
 def print_capture(result):
-    """Every capture-speed row, estimated or not (a refused estimate says why)."""
+    """Every capture-speed row, estimated or not (a refused estimate says why);
+    with a single speed, one line saying that there is none."""
     import math as _m
 
+    if len(result.grid.speeds_m_s) < 2:
+        print("  capture speed: one speed was simulated, so none is estimated")
+        return
     cs = result.capture_speed()
 
     def num(x):
