@@ -336,3 +336,32 @@ def test_no_plotting_on_import_of_the_core():
         [sys.executable, "-c", code], capture_output=True, text=True, check=True
     )
     assert out.stdout.strip() == "False"
+
+
+def test_public_api_is_curated():
+    import inspect
+    import typing
+
+    names = set(mi.__all__) - {"__version__"}
+    for name in names:
+        obj = getattr(mi, name)
+        assert not isinstance(obj, dict | list | set), f"{name}: a mutable registry"
+    # every type a public function or method returns is public too
+    for name in sorted(names):
+        obj = getattr(mi, name)
+        funcs = [obj] if inspect.isfunction(obj) else []
+        if inspect.isclass(obj):
+            funcs += [
+                f
+                for k, f in vars(obj).items()
+                if not k.startswith("_") and inspect.isfunction(f)
+            ]
+        for f in funcs:
+            try:
+                hints = typing.get_type_hints(f)
+            except Exception:  # annotations naming optional packages
+                continue
+            ret = hints.get("return")
+            for t in typing.get_args(ret) or (ret,):
+                if inspect.isclass(t) and t.__module__.startswith("microimpact"):
+                    assert t.__name__ in names, f"{name} returns {t.__name__}"

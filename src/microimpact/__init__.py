@@ -11,7 +11,9 @@ import importlib
 
 __version__ = "0.1.0"
 
-# public name -> module that defines it (relative to this package)
+# public name -> module that defines it (relative to this package). This is the
+# curated public API (see docs/architecture.md); engine internals and mutable
+# registries stay in their modules (e.g. microimpact.physics.adhesion.MATERIALS).
 _EXPORTS: dict[str, str] = {
     # physics: one impact (paper Eqs. 1-9)
     "rebound": "physics.impact",
@@ -26,31 +28,21 @@ _EXPORTS: dict[str, str] = {
     "CallableLaw": "physics.coefficients",
     "ThorntonNingLaw": "physics.coefficients",
     "ImpactCoefficients": "physics.coefficients",
-    "COEFFICIENT_SETS": "physics.coefficients",
-    "LAWS": "physics.coefficients",
     "law_from_dict": "physics.coefficients",
+    "CoefficientValues": "physics.coefficients",
     "fit_restitution": "physics.fitting",
     "fit_impact_coefficients": "physics.fitting",
     "fit_law": "physics.fitting",
     "fit_coefficient_laws": "physics.fitting",
+    "RestitutionFit": "physics.fitting",
+    "LawFit": "physics.fitting",
     "contact_modulus": "physics.adhesion",
     "thornton_ning_sticking_velocity": "physics.adhesion",
     "hertz_max_compression": "physics.adhesion",
     "hertz_contact_radius": "physics.adhesion",
-    "MATERIALS": "physics.adhesion",
     "material": "physics.adhesion",
+    "Material": "physics.adhesion",
     "read_impact_data": "io.impact_data",
-    # the Monte Carlo engine
-    "Scenario": "scenario",
-    "SurfaceVariant": "scenario",
-    "Precision": "scenario",
-    "run": "engine.montecarlo",
-    "iter_blocks": "engine.montecarlo",
-    "sample_point": "engine.montecarlo",
-    "SimulationResult": "engine.result",
-    "wilson_interval": "engine.statistics",
-    "capture_speed": "engine.statistics",
-    "relative_coefficients": "engine.statistics",
     # particle populations
     "SizeDistribution": "population.distributions",
     "normal_diameters": "population.distributions",
@@ -67,9 +59,6 @@ _EXPORTS: dict[str, str] = {
     "Chi2NormalityResult": "population.distributions",
     "read_diameters": "io.diameters",
     "read_histogram": "io.diameters",
-    "plot_size_distribution": "plotting.sizes",
-    "convergence_study": "engine.convergence",
-    "ConvergenceResult": "engine.convergence",
     # surface roughness
     "read_profile": "io.profiles",
     "read_profiles": "io.profiles",
@@ -95,20 +84,46 @@ _EXPORTS: dict[str, str] = {
     "weierstrass_mandelbrot_profile": "surface.synthetic",
     "formica_profile": "surface.synthetic",
     "hertz_contact_diameter": "surface.contact",
+    # a study: scenario, sweep grid, engine, results
+    "Scenario": "scenario",
+    "SurfaceVariant": "scenario",
+    "Precision": "scenario",
+    "scenario_from_dict": "config",
+    "list_presets": "config",
+    "SweepGrid": "grid",
+    "GridPoint": "grid",
+    "QuantileTable": "_tables",
+    "run": "engine.montecarlo",
+    "iter_blocks": "engine.montecarlo",
+    "BlockResult": "engine.montecarlo",
+    "sample_point": "engine.montecarlo",
+    "SimulationResult": "engine.result",
+    "ScenarioRecord": "engine.result",
+    "open_result": "engine.result",
+    "wilson_interval": "engine.statistics",
+    "capture_speed": "engine.statistics",
+    "relative_coefficients": "engine.statistics",
+    "convergence_study": "engine.convergence",
+    "ConvergenceResult": "engine.convergence",
+    # the pipeline: run -> files -> figures -> report
+    "Study": "study",
+    "Outputs": "study",
+    "reproduce": "study",
+    # figures
+    "plot_capture": "plotting.results",
+    "plot_coefficients_vs_angle": "plotting.results",
+    "plot_distributions": "plotting.results",
+    "plot_convergence": "plotting.results",
+    "plot_size_distribution": "plotting.sizes",
     "plot_angle_pdf": "plotting.roughness",
     "plot_profile": "plotting.roughness",
-    # scenario files and presets
-    "scenario_from_toml": "config",
-    "scenario_from_dict": "config",
-    "load_preset": "config",
-    "list_presets": "config",
-    "PRESETS": "config",
-    # errors
+    # errors and warnings
     "InputError": "errors",
     "ScenarioError": "errors",
     "ProfileFormatError": "errors",
     "DataFormatError": "errors",
     "ConvergenceWarning": "errors",
+    "OutputFolderBusy": "_outdir",
 }
 
 
