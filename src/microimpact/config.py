@@ -40,8 +40,6 @@ from ._validation import did_you_mean
 from .errors import ScenarioError
 from .scenario import (
     PRECISION_STATISTICS,
-    SAMPLING_OPTIONS,
-    SHADOWING_OPTIONS,
     Precision,
     Scenario,
 )
@@ -388,39 +386,22 @@ def scenario_from_dict(data: dict, *, source=None, base_dir=None) -> Scenario:
                 "description", f"must be a string; got {_show(data['description'])}"
             )
         kw["description"] = data["description"]
-    if "seed" in data:
-        kw["seed"] = ctx.integer(data["seed"], "seed", low=0)
-    if "samples" in data:
-        kw["samples"] = ctx.integer(data["samples"], "samples", low=1)
-    if "qmc_replicates" in data:
-        kw["qmc_replicates"] = ctx.integer(
-            data["qmc_replicates"], "qmc_replicates", low=2
-        )
-    if "shadowing" in data:
-        kw["shadowing"] = ctx.choice(data["shadowing"], "shadowing", SHADOWING_OPTIONS)
-    if "sampling" in data:
-        kw["sampling"] = ctx.choice(data["sampling"], "sampling", SAMPLING_OPTIONS)
-    if "confidence" in data:
-        c = ctx.number(data["confidence"], "confidence", low=0, strict=True)
-        if not c < 1:
-            raise ctx.error(
-                "confidence", f"must be in (0, 1); got {_show(data['confidence'])}"
-            )
-        kw["confidence"] = c
+    # plain values go to the Scenario as they are: it validates itself, and its
+    # errors are mapped onto this file's key paths below (one validation layer)
+    for key in (
+        "seed",
+        "samples",
+        "qmc_replicates",
+        "shadowing",
+        "sampling",
+        "confidence",
+        "capture_quantiles",
+    ):
+        if key in data:
+            kw[key] = data[key]
     if "reference_angle_deg" in data:
         ref = data["reference_angle_deg"]
-        if ref is False:
-            kw["reference_angle_deg"] = None
-        else:
-            r = ctx.number(ref, "reference_angle_deg", low=0, strict=True, high=90)
-            kw["reference_angle_deg"] = r
-    if "capture_quantiles" in data:
-        q = data["capture_quantiles"]
-        qs = ctx.numbers(q if isinstance(q, list) else [q], "capture_quantiles")
-        for v in qs:
-            if not 0 < v < 1:
-                raise ctx.error("capture_quantiles", f"must be in (0, 1); got {v:g}")
-        kw["capture_quantiles"] = tuple(qs)
+        kw["reference_angle_deg"] = None if ref is False else ref
     kw["precision"] = _precision(ctx, data)
     kw["particles"] = _particles(ctx, data["particles"])
     kw["coefficients"] = _coefficients(ctx, data)
