@@ -22,12 +22,13 @@ from microimpact.config import (
     list_presets,
     load_preset,
     outputs_from_dict,
+    outputs_from_toml,
     scenario_from_dict,
     scenario_from_toml,
 )
 from microimpact.errors import ScenarioError
+from microimpact.outputs import Outputs
 from microimpact.scenario import Scenario
-from microimpact.study import Outputs
 from microimpact.units import deg_to_rad, um_to_m
 
 BAD_DIR = Path(__file__).parent / "data" / "bad_scenarios"
@@ -247,7 +248,7 @@ experiments = "exp.csv"
     sc = scenario_from_toml(Path("study") / "scenario.toml")
     atoms = sc.surfaces[0].angles.table().values
     assert_allclose(np.unique(atoms), deg_to_rad([-10.0, 0.0, 10.0, 20.0]), rtol=1e-9)
-    outputs = Outputs.from_toml(Path("study") / "scenario.toml")
+    outputs = outputs_from_toml(Path("study") / "scenario.toml")
     assert outputs.experiments == (path.resolve().parent / "exp.csv",)
     assert outputs.figures == ("png", "pdf")
 

@@ -107,7 +107,7 @@ _EXPORTS: dict[str, str] = {
     "ConvergenceResult": "engine.convergence",
     # the pipeline: run -> files -> figures -> report
     "Study": "study",
-    "Outputs": "study",
+    "Outputs": "outputs",
     "reproduce": "study",
     # figures
     "plot_capture": "plotting.results",

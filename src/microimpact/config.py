@@ -74,6 +74,7 @@ from ._config_base import (
 )
 from ._config_surfaces import _angles, _exactly_one, _surfaces
 from ._formats import FIGURE_FORMATS
+from .outputs import Outputs
 
 
 def _particles(ctx: _Ctx, data, where="particles"):
@@ -287,9 +288,7 @@ def _precision(ctx: _Ctx, data):
 
 
 def _outputs(ctx: _Ctx, data):
-    """The ``[outputs]`` table as :class:`~microimpact.study.Outputs`."""
-    from .study import Outputs
-
+    """The ``[outputs]`` table as :class:`~microimpact.outputs.Outputs`."""
     t = ctx.table(data.get("outputs", {}), "outputs")
     ctx.keys(t, "outputs", OUTPUT_KEYS)
     kw = {}

@@ -23,11 +23,10 @@ the folder are never touched.
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
 from pathlib import Path
 
-from ._formats import DEFAULT_FIGURE_FORMATS, FIGURE_FORMATS
 from ._outdir import OutputFolder
+from .outputs import Outputs
 
 __all__ = ["CHECKPOINT_NAME", "Outputs", "Study", "reproduce"]
 
@@ -35,56 +34,6 @@ __all__ = ["CHECKPOINT_NAME", "Outputs", "Study", "reproduce"]
 CHECKPOINT_NAME = ".microimpact-checkpoint.npz"
 #: The parts :meth:`Study.write` can write.
 PARTS = ("tables", "figures", "report")
-
-
-@dataclass(frozen=True)
-class Outputs:
-    """What a study writes, besides the results themselves.
-
-    Parameters
-    ----------
-    figures : sequence of {"png", "pdf", "svg"}
-        Figure formats; empty for no figures.
-    report : bool
-        Write ``report.html``.
-    experiments : sequence of path
-        Experiment CSV files (``microimpact.io.experiments.read_experiments``
-        format) to draw in the figures and compare with in the report.
-    """
-
-    figures: tuple = DEFAULT_FIGURE_FORMATS
-    report: bool = True
-    experiments: tuple = ()
-
-    def __post_init__(self):
-        figures = self.figures
-        if isinstance(figures, str):
-            figures = (figures,)
-        try:
-            figures = tuple(dict.fromkeys(figures))
-        except TypeError:
-            raise ValueError(
-                f"`figures` must be a sequence of {FIGURE_FORMATS}; got {figures!r}."
-            ) from None
-        bad = [f for f in figures if f not in FIGURE_FORMATS]
-        if bad:
-            raise ValueError(
-                f"`figures` must be a subset of {FIGURE_FORMATS}; got {bad[0]!r}."
-            )
-        if not isinstance(self.report, bool):
-            raise TypeError(f"`report` must be True or False; got {self.report!r}.")
-        exps = self.experiments
-        if isinstance(exps, str | os.PathLike):
-            exps = (exps,)
-        object.__setattr__(self, "figures", figures)
-        object.__setattr__(self, "experiments", tuple(Path(e) for e in exps))
-
-    @classmethod
-    def from_toml(cls, path) -> Outputs:
-        """The ``[outputs]`` table of a scenario file (defaults where absent)."""
-        from .config import outputs_from_toml
-
-        return outputs_from_toml(path)
 
 
 class Study:
@@ -111,17 +60,18 @@ class Study:
     """
 
     def __init__(self, scenario, *, outputs: Outputs | None = None):
+        from .config import outputs_from_toml
         from .scenario import as_scenario
 
         if outputs is None and isinstance(scenario, str | os.PathLike):
             path = Path(scenario)
             if path.suffix.lower() == ".toml" or path.exists():
-                outputs = Outputs.from_toml(path)
+                outputs = outputs_from_toml(path)
             else:
                 from .config import PRESETS, preset_path
 
                 if os.fspath(scenario) in PRESETS:
-                    outputs = Outputs.from_toml(preset_path(os.fspath(scenario)))
+                    outputs = outputs_from_toml(preset_path(os.fspath(scenario)))
         if outputs is not None and not isinstance(outputs, Outputs):
             raise TypeError(f"`outputs` must be an Outputs; got {outputs!r}.")
         self.scenario = as_scenario(scenario)

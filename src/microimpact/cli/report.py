@@ -28,7 +28,8 @@ def cli_parse(sp):
 def cli_action(args) -> int:
     from .._formats import DEFAULT_FIGURE_FORMATS
     from ..engine.result import open_result
-    from ..study import Outputs, Study
+    from ..outputs import Outputs
+    from ..study import Study
 
     figures = () if args.no_figures else (args.formats or DEFAULT_FIGURE_FORMATS)
     outputs = Outputs(figures=figures, experiments=tuple(args.experiments))

@@ -1,0 +1,59 @@
+"""Output settings of a study: what is written besides the results themselves.
+
+They are not physics, so they are not part of :class:`~microimpact.scenario.Scenario`;
+:class:`~microimpact.study.Study` owns them. A scenario file's ``[outputs]`` table is
+read into this object by :func:`microimpact.config.outputs_from_toml`.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+from ._formats import DEFAULT_FIGURE_FORMATS, FIGURE_FORMATS
+
+__all__ = ["Outputs"]
+
+
+@dataclass(frozen=True)
+class Outputs:
+    """What a study writes, besides the results themselves.
+
+    Parameters
+    ----------
+    figures : sequence of {"png", "pdf", "svg"}
+        Figure formats; empty for no figures.
+    report : bool
+        Write ``report.html``.
+    experiments : sequence of path
+        Experiment CSV files (``microimpact.io.experiments.read_experiments``
+        format) to draw in the figures and compare with in the report.
+    """
+
+    figures: tuple = DEFAULT_FIGURE_FORMATS
+    report: bool = True
+    experiments: tuple = ()
+
+    def __post_init__(self):
+        figures = self.figures
+        if isinstance(figures, str):
+            figures = (figures,)
+        try:
+            figures = tuple(dict.fromkeys(figures))
+        except TypeError:
+            raise ValueError(
+                f"`figures` must be a sequence of {FIGURE_FORMATS}; got {figures!r}."
+            ) from None
+        bad = [f for f in figures if f not in FIGURE_FORMATS]
+        if bad:
+            raise ValueError(
+                f"`figures` must be a subset of {FIGURE_FORMATS}; got {bad[0]!r}."
+            )
+        if not isinstance(self.report, bool):
+            raise TypeError(f"`report` must be True or False; got {self.report!r}.")
+        exps = self.experiments
+        if isinstance(exps, str | os.PathLike):
+            exps = (exps,)
+        object.__setattr__(self, "figures", figures)
+        object.__setattr__(self, "experiments", tuple(Path(e) for e in exps))
