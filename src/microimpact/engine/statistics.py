@@ -143,58 +143,108 @@ def replicate_row(accs: list[PointAccumulator], confidence: float) -> dict:
     return row
 
 
-def capture_speed(summary, quantile: float = 0.5):
-    """Speed at which a given fraction of particles is captured.
+def capture_speed(summary, quantile: float = 0.5, *, confidence=None, by=None):
+    """Speed at which a fraction `quantile` of the particles is captured.
 
-    For each surface and apparent angle, the capture fraction and its confidence
-    limits are interpolated linearly against the incident speed (the capture fraction
-    falls as the speed rises). The estimate crosses the `quantile`; the interval is
-    where the upper and lower confidence curves cross it. NaN where the sweep does
-    not bracket the quantile.
+    For each capture curve (by default each surface and angle) a binomial probit in
+    log speed is fitted to the sweep points around the crossing; the estimate is its
+    inverse prediction and the interval its profile-likelihood interval, widened on
+    a lack of fit. See :func:`microimpact.engine.capture.estimate_capture_speed` and
+    ``docs/capture-speed.md``.
 
-    Returns a DataFrame with ``surface``, ``angle_deg``, ``quantile``, ``speed_m_s``,
-    ``speed_ci_low``, ``speed_ci_high``.
+    Parameters
+    ----------
+    summary : DataFrame
+        The summary table: ``speed_m_s``, ``n_impacts``, ``capture_fraction`` and the
+        `by` columns; with a ``replicates`` column (QMC) also ``capture_se``, from
+        which effective binomial counts are derived (``capture_se_df`` =
+        replicates - 1). Captured counts are ``round(capture_fraction * n_impacts)``.
+    quantile : float
+        Captured fraction in (0, 1).
+    confidence : float, optional, keyword-only
+        Confidence level; default ``summary.attrs["confidence"]``, else 0.95.
+    by : sequence of str, optional, keyword-only
+        Columns that identify one curve; default every sweep axis of
+        :data:`microimpact.grid.DIMS` present in `summary` except ``speed_m_s``
+        (today ``surface`` and ``angle_deg``), so a new sweep axis is grouped by
+        without a change here.
+
+    Returns
+    -------
+    DataFrame
+        One row per curve, in order of first appearance: the `by` columns,
+        ``quantile``, ``speed_m_s``, ``speed_ci_low``, ``speed_ci_high`` [m s⁻¹],
+        ``method`` and ``note``. NaN ``speed_m_s`` means no estimate (then both
+        limits are NaN; ``note`` says why); a NaN limit beside a finite estimate is
+        an open side of the interval. Finite values satisfy
+        ``speed_ci_low <= speed_m_s <= speed_ci_high``.
+
+    Raises
+    ------
+    ValueError
+        If a needed column is missing, or `quantile`/`confidence` is outside (0, 1).
     """
     import pandas as pd
 
-    rows = []
-    for (surface, angle), g in summary.groupby(["surface", "angle_deg"], sort=False):
-        g = g.sort_values("speed_m_s")
-        v = g["speed_m_s"].to_numpy()
-        rows.append(
-            {
-                "surface": surface,
-                "angle_deg": angle,
-                "quantile": quantile,
-                "speed_m_s": _crossing(v, g["capture_fraction"].to_numpy(), quantile),
-                # the high curve crosses later (faster), the low curve earlier
-                "speed_ci_low": _crossing(v, g["capture_ci_low"].to_numpy(), quantile),
-                "speed_ci_high": _crossing(
-                    v, g["capture_ci_high"].to_numpy(), quantile
-                ),
-            }
+    from ..grid import DIMS
+    from .capture import estimate_capture_speed
+
+    if confidence is None:
+        confidence = summary.attrs.get("confidence", 0.95)
+    if by is None:
+        by = [c for c in DIMS if c != "speed_m_s" and c in summary.columns]
+    else:
+        by = [by] if isinstance(by, str) else list(by)
+    qmc = "replicates" in summary.columns
+    need = [*by, "speed_m_s", "n_impacts", "capture_fraction"]
+    need += ["capture_se"] if qmc else []
+    missing = [c for c in need if c not in summary.columns]
+    if missing:
+        raise ValueError(
+            f"`summary` lacks the column(s) {missing} needed for the capture speed."
         )
-    out = pd.DataFrame(rows)
-    # the interval is reported low <= high whatever the curve orientation
-    lo = out[["speed_ci_low", "speed_ci_high"]].min(axis=1)
-    hi = out[["speed_ci_low", "speed_ci_high"]].max(axis=1)
-    out["speed_ci_low"], out["speed_ci_high"] = lo, hi
-    return out
-
-
-def _crossing(v, f, level):
-    """First speed where the piecewise-linear curve f(v) crosses `level`."""
-    d = f - level
-    for i in range(len(v) - 1):
-        if np.isnan(d[i]) or np.isnan(d[i + 1]):
-            continue
-        if d[i] == 0:
-            return float(v[i])
-        if d[i] * d[i + 1] < 0:
-            return float(v[i] + (v[i + 1] - v[i]) * d[i] / (d[i] - d[i + 1]))
-    if len(v) and d[-1] == 0:
-        return float(v[-1])
-    return math.nan
+    if not 0.0 < float(quantile) < 1.0:
+        raise ValueError(f"`quantile` must be in (0, 1); got {quantile!r}.")
+    columns = [
+        *by,
+        "quantile",
+        "speed_m_s",
+        "speed_ci_low",
+        "speed_ci_high",
+        "method",
+        "note",
+    ]
+    rows = []
+    groups = summary.groupby(by, sort=False, dropna=False) if by else [((), summary)]
+    for key, g in groups:
+        key = key if isinstance(key, tuple) else (key,)
+        n = g["n_impacts"].to_numpy(dtype=float)
+        frac = g["capture_fraction"].to_numpy(dtype=float)
+        y = np.where(n > 0, np.round(np.nan_to_num(frac) * n), 0.0)
+        se = g["capture_se"].to_numpy(dtype=float) if qmc else None
+        reps = g["replicates"].to_numpy(dtype=float) if qmc else None
+        se_df = float(np.nanmin(reps)) - 1.0 if qmc and np.any(reps > 1) else None
+        est = estimate_capture_speed(
+            g["speed_m_s"].to_numpy(dtype=float),
+            y,
+            n,
+            quantile,
+            confidence=confidence,
+            capture_se=se,
+            capture_se_df=se_df,
+        )
+        rows.append(
+            [
+                *key,
+                float(quantile),
+                est.speed_m_s,
+                est.ci_low,
+                est.ci_high,
+                est.method,
+                est.note,
+            ]
+        )
+    return pd.DataFrame(rows, columns=columns)
 
 
 def relative_coefficients(summary, reference_angle_deg: float = 85.0):

@@ -1,0 +1,524 @@
+r"""The speed at which a given fraction of the particles is captured, with its interval.
+
+Model
+-----
+At one surface and angle the engine reports, per incident speed :math:`v_i`, the
+number of impacts :math:`n_i` and of captured particles :math:`y_i`. The capture
+probability is modelled as a binomial dose-response curve, a probit in log speed,
+
+.. math:: P(\text{capture} \mid v) = \Phi(\alpha + \beta \ln v),
+
+and the :math:`q`-capture speed is its inverse prediction
+:math:`\ln v_q = (\Phi^{-1}(q) - \alpha)/\beta`.
+
+The probit is not an approximation for the reference case: at normal incidence on a
+smooth surface a particle of diameter :math:`d` is captured iff
+:math:`v \le v_c(d) = a (d/d_{ref})^b`. With :math:`b < 0` that is
+:math:`d \le d^*(v) = d_{ref} (v/a)^{1/b}`, so for log-normal diameters (median
+:math:`m`, geometric standard deviation :math:`g`)
+
+.. math:: P(\text{capture} \mid v) = \Phi\Big(\frac{\ln d^*(v) - \ln m}{\ln g}\Big)
+          = \Phi\Big(\frac{\ln d_{ref} - \ln m - \ln a / b}{\ln g}
+          + \frac{\ln v}{b \ln g}\Big),
+
+exactly linear in :math:`\ln v` on the probit scale, and :math:`v_q = v_c(d_q)` with
+:math:`d_q = m g^{\Phi^{-1}(q)}` the :math:`q`-quantile of the diameter.
+
+Elsewhere (rough surfaces, oblique angles, other size distributions) the probit is a
+local description, so it is fitted only to a *window* of the sweep around the
+crossing (see :func:`crossing_window`), and a lack of fit is caught by the residual
+deviance and widens the interval (Finney's heterogeneity factor).
+
+Interval
+--------
+The interval is the profile-likelihood interval of :math:`\theta = \ln v_q` in the
+reparametrisation :math:`\eta_i = \Phi^{-1}(q) + \beta(\ln v_i - \theta)`:
+:math:`\{\theta : 2[\ell(\hat\alpha, \hat\beta) - \max_\beta \ell(\theta, \beta)] \le
+\chi^2_{1}(c)\}`. Unlike the delta method it is asymmetric where the data are, and it
+widens when the swept speeds lie far from the crossing (a coarse sweep): the
+resolution of the sweep enters through the likelihood, not only the counts. With
+lack of fit (residual deviance :math:`G^2` on :math:`m - 2` degrees of freedom
+significant at the 5 % level) the criterion becomes
+:math:`\Delta D / h \le F_{1, m-2}(c)` with :math:`h = G^2/(m - 2)` [1]_.
+
+The interval is searched only inside the window's speed range: a side that the
+profile likelihood does not close there is *open* and reported as NaN. The estimate
+lies inside the interval by construction; a NaN estimate always comes with a NaN
+interval.
+
+References
+----------
+.. [1] D. J. Finney, *Probit Analysis*, 3rd ed., Cambridge University Press, 1971,
+   ch. 4 (heterogeneity factor) and §4.6 (fiducial limits of the ED50).
+.. [2] D. A. Williams, "Interval estimation of the median lethal dose,"
+   *Biometrics* 42:641-645, 1986 (likelihood-ratio limits for the ED50).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+from scipy import optimize, special, stats
+
+__all__ = [
+    "LACK_OF_FIT_LEVEL",
+    "WINDOW_MARGIN",
+    "CaptureSpeedEstimate",
+    "crossing_window",
+    "estimate_capture_speed",
+]
+
+#: Significance level of the residual-deviance test above which the interval is
+#: widened by the heterogeneity factor (Finney's rule).
+LACK_OF_FIT_LEVEL = 0.05
+
+#: Sweep points added to the fitted window on each side of the crossing region.
+WINDOW_MARGIN = 2
+
+#: ``method`` values (see ``docs/capture-speed.md``).
+METHOD_PROFILE = "probit-profile"
+METHOD_SCALED = "probit-profile-scaled"
+METHOD_NONE = "none"
+
+_LOG_SQRT_2PI = 0.5 * math.log(2.0 * math.pi)
+
+
+@dataclass(frozen=True)
+class CaptureSpeedEstimate:
+    """The ``q``-capture speed of one capture curve.
+
+    Attributes
+    ----------
+    speed_m_s : float
+        Estimated speed at which the fraction ``q`` is captured [m s⁻¹]; NaN when the
+        sweep cannot support an estimate (see `note`).
+    ci_low, ci_high : float
+        Confidence limits [m s⁻¹]; NaN for a side the data do not bound ("open"),
+        and both NaN when `speed_m_s` is NaN. When finite,
+        ``ci_low <= speed_m_s <= ci_high``.
+    method : str
+        ``"probit-profile"``, ``"probit-profile-scaled"`` (interval widened for lack
+        of fit) or ``"none"`` (no estimate).
+    note : str
+        Why a value is NaN, or what the estimate rests on; ``""`` when there is
+        nothing to add.
+    """
+
+    speed_m_s: float
+    ci_low: float
+    ci_high: float
+    method: str
+    note: str
+
+
+# ----------------------------------------------------------------- validation
+def _estimate_capture_speed_iv(
+    speed_m_s, captured, impacts, quantile, confidence, capture_se
+):
+    arrays = {}
+    for name, x in (
+        ("speed_m_s", speed_m_s),
+        ("captured", captured),
+        ("impacts", impacts),
+    ):
+        try:
+            a = np.asarray(x, dtype=float)
+        except (TypeError, ValueError):
+            raise ValueError(
+                f"`{name}` must be numeric (array_like); got {x!r}."
+            ) from None
+        if a.ndim > 1:
+            raise ValueError(f"`{name}` must be 1-d; got shape {a.shape}.")
+        arrays[name] = np.atleast_1d(a)
+    v, y, n = arrays["speed_m_s"], arrays["captured"], arrays["impacts"]
+    if not v.size == y.size == n.size:
+        raise ValueError(
+            "`speed_m_s`, `captured` and `impacts` must have the same length; got "
+            f"{v.size}, {y.size} and {n.size}."
+        )
+    if not np.all(np.isfinite(v) & (v > 0)):
+        raise ValueError(f"`speed_m_s` must be finite and > 0; got {v.tolist()!r}.")
+    if not np.all(np.isfinite(n) & (n >= 0)):
+        raise ValueError(f"`impacts` must be finite and >= 0; got {n.tolist()!r}.")
+    # round-off from fraction * impacts is tolerated
+    tol = 1e-9 * np.maximum(n, 1.0)
+    if not np.all(np.isfinite(y) & (y >= -tol) & (y <= n + tol)):
+        raise ValueError(
+            f"`captured` must be finite and in [0, impacts]; got {y.tolist()!r}."
+        )
+    y = np.clip(y, 0.0, n)
+    for name, x in (("quantile", quantile), ("confidence", confidence)):
+        if isinstance(x, bool) or not isinstance(x, int | float | np.floating):
+            raise ValueError(f"`{name}` must be a number in (0, 1); got {x!r}.")
+        if not 0.0 < float(x) < 1.0:
+            raise ValueError(f"`{name}` must be in (0, 1); got {x!r}.")
+    se = None
+    if capture_se is not None:
+        try:
+            se = np.atleast_1d(np.asarray(capture_se, dtype=float))
+        except (TypeError, ValueError):
+            raise ValueError(
+                "`capture_se` must be numeric (array_like) or None; "
+                f"got {capture_se!r}."
+            ) from None
+        if se.shape != v.shape:
+            raise ValueError(
+                f"`capture_se` must have the length of `speed_m_s` ({v.size}); "
+                f"got shape {se.shape}."
+            )
+        if np.any(se < 0):
+            raise ValueError(
+                f"`capture_se` must be >= 0 (NaN allowed); got {se.tolist()!r}."
+            )
+    return v, y, n, float(quantile), float(confidence), se
+
+
+# ----------------------------------------------------------------- probit maths
+def _loglik(eta, y, n):
+    """Binomial log-likelihood (without the constant) of a probit predictor."""
+    return float(np.sum(y * special.log_ndtr(eta) + (n - y) * special.log_ndtr(-eta)))
+
+
+def _score_weights(eta, y, n):
+    """d loglik / d eta and the Fisher weights of a probit predictor."""
+    log_pdf = -0.5 * eta * eta - _LOG_SQRT_2PI
+    r_lo = np.exp(log_pdf - special.log_ndtr(eta))  # phi / Phi
+    r_hi = np.exp(log_pdf - special.log_ndtr(-eta))  # phi / (1 - Phi)
+    score = y * r_lo - (n - y) * r_hi
+    weight = n * r_lo * r_hi  # n phi^2 / (Phi (1 - Phi))
+    return score, weight
+
+
+def _fit_probit(x, y, n):
+    """Maximum-likelihood probit ``(alpha, beta)`` by Fisher scoring with
+    step halving; the data must not be separated (checked by the caller)."""
+    p = (y + 0.5) / (n + 1.0)
+    z = special.ndtri(p)
+    w = n * p * (1 - p) + 1e-12
+    design = np.column_stack([np.ones_like(x), x])
+    coef = np.linalg.lstsq(design * np.sqrt(w)[:, None], z * np.sqrt(w), rcond=None)[0]
+    ll = _loglik(design @ coef, y, n)
+    for _ in range(200):
+        eta = design @ coef
+        score, weight = _score_weights(eta, y, n)
+        grad = design.T @ score
+        info = design.T @ (design * weight[:, None])
+        try:
+            step = np.linalg.solve(info, grad)
+        except np.linalg.LinAlgError:
+            step = np.linalg.lstsq(info, grad, rcond=None)[0]
+        t = 1.0
+        while True:
+            new = coef + t * step
+            ll_new = _loglik(design @ new, y, n)
+            if ll_new >= ll - 1e-12 or t < 1e-10:
+                break
+            t /= 2.0
+        done = abs(ll_new - ll) < 1e-11 * (1.0 + abs(ll))
+        coef, ll = new, ll_new
+        if done and np.max(np.abs(t * step)) < 1e-9 * (1.0 + np.max(np.abs(coef))):
+            break
+    return float(coef[0]), float(coef[1]), ll
+
+
+def _profile_loglik(theta, x, y, n, z_q, beta0):
+    """``max_beta loglik(eta = z_q + beta (x - theta))`` (concave in beta)."""
+    u = x - theta
+    beta = beta0
+    ll = _loglik(z_q + beta * u, y, n)
+    for _ in range(200):
+        score, weight = _score_weights(z_q + beta * u, y, n)
+        g = float(np.sum(score * u))
+        info = float(np.sum(weight * u * u))
+        if info <= 0 or not np.isfinite(info):
+            break
+        step = g / info
+        t = 1.0
+        while True:
+            b_new = beta + t * step
+            ll_new = _loglik(z_q + b_new * u, y, n)
+            if ll_new >= ll - 1e-12 or t < 1e-10:
+                break
+            t /= 2.0
+        done = abs(ll_new - ll) < 1e-12 * (1.0 + abs(ll)) and abs(t * step) < 1e-10 * (
+            1.0 + abs(b_new)
+        )
+        beta, ll = b_new, ll_new
+        if done:
+            break
+    return ll
+
+
+def _separated(y, n):
+    """Whether sorted grouped binomial data are (quasi-)completely separated in x:
+    all trials captured below some speed and none above it (or the reverse), ties
+    allowed at one speed. The probit MLE then does not exist [Albert & Anderson
+    1984]: the slope runs off to infinity."""
+    full = y >= n
+    empty = y <= 0
+    m = y.size
+    for j in range(m):
+        if (np.all(full[:j]) and np.all(empty[j + 1 :])) or (
+            np.all(empty[:j]) and np.all(full[j + 1 :])
+        ):
+            return True
+    return False
+
+
+def crossing_window(fraction: ArrayLike, quantile: float) -> tuple[int, int] | None:
+    """Indices ``(first, last)`` of the sweep points fitted around a crossing.
+
+    `fraction` is the observed capture fraction at increasing speeds. The crossing
+    region runs from the first to the last pair of neighbouring points between which
+    ``fraction - quantile`` changes sign (or is 0), so that a noisy, non-monotone
+    curve is fitted across all its crossings; the window adds
+    :data:`WINDOW_MARGIN` (2) more points on each side where the sweep has them. That
+    gives (for a single crossing) three points on each side: enough to fit two
+    parameters and keep four degrees of freedom to detect a lack of fit (with two,
+    Finney's widening :math:`h F_{1,2}` is erratic), few enough that the probit need
+    only hold locally.
+
+    Returns ``None`` when `fraction` does not bracket `quantile`.
+    """
+    f = np.asarray(fraction, dtype=float)
+    s = np.sign(f - quantile)
+    idx = [i for i in range(f.size - 1) if s[i] == 0 or s[i] != s[i + 1]]
+    if f.size and s[-1] == 0:
+        idx.append(f.size - 1)
+    if not idx or (np.all(s > 0) or np.all(s < 0)):
+        return None
+    lo, hi = min(idx), min(max(idx) + 1, f.size - 1)
+    return max(lo - WINDOW_MARGIN, 0), min(hi + WINDOW_MARGIN, f.size - 1)
+
+
+def _fmt(v):
+    return f"{v:.4g}"
+
+
+def _none(note):
+    return CaptureSpeedEstimate(math.nan, math.nan, math.nan, METHOD_NONE, note)
+
+
+# ----------------------------------------------------------------- public
+def estimate_capture_speed(
+    speed_m_s: ArrayLike,
+    captured: ArrayLike,
+    impacts: ArrayLike,
+    quantile: float = 0.5,
+    *,
+    confidence: float = 0.95,
+    capture_se: ArrayLike | None = None,
+    capture_se_df: float | None = None,
+) -> CaptureSpeedEstimate:
+    r"""Speed at which a fraction `quantile` of the particles is captured.
+
+    One capture curve (one surface and angle). A binomial probit GLM in log speed is
+    fitted to the sweep points around the crossing (:func:`crossing_window`); the
+    estimate is its inverse prediction and the interval the profile-likelihood
+    interval, widened by the heterogeneity factor on a significant lack of fit (see
+    the module notes and ``docs/capture-speed.md``).
+
+    Parameters
+    ----------
+    speed_m_s : array_like, shape (k,)
+        Incident speeds [m s⁻¹], > 0, any order; repeated speeds are pooled.
+    captured : array_like, shape (k,)
+        Captured particles at each speed, in ``[0, impacts]``.
+    impacts : array_like, shape (k,)
+        Impacts at each speed, >= 0; speeds with no impacts (fully shadowed) carry
+        no information and are ignored.
+    quantile : float
+        Captured fraction ``q`` in (0, 1).
+    confidence : float, keyword-only
+        Confidence level of the interval, in (0, 1).
+    capture_se : array_like, shape (k,), optional, keyword-only
+        Standard error of each capture fraction when it is not binomial (QMC
+        replicates). Each point then enters with the effective binomial count
+        :math:`n_{eff} = \hat p (1 - \hat p)/SE^2` and :math:`y = \hat p\,n_{eff}`;
+        points with :math:`\hat p \in \{0, 1\}` or a zero or NaN SE keep `impacts`.
+    capture_se_df : float, optional, keyword-only
+        Degrees of freedom of `capture_se` (``R - 1`` for ``R`` QMC replicates). The
+        likelihood-ratio criterion then uses :math:`F_{1,\nu}(c)` instead of
+        :math:`\chi^2_1(c)`, as a t interval does for an estimated SE. Ignored
+        without `capture_se`.
+
+    Returns
+    -------
+    CaptureSpeedEstimate
+        ``speed_m_s``, ``ci_low``, ``ci_high`` [m s⁻¹], ``method``, ``note``. Never
+        an extrapolation: NaN estimate (and interval) when the capture fraction does
+        not cross `quantile` within the swept speeds, when fewer than two speeds have
+        impacts, or when the crossing is not resolved (at most one speed with partial
+        capture between full and no capture: the data are separated). A side of the
+        interval that the data do not bound within the fitted window is NaN
+        ("open").
+
+    Raises
+    ------
+    ValueError
+        For arrays of different lengths, non-positive or non-finite speeds, negative
+        impacts, `captured` outside ``[0, impacts]``, a negative `capture_se`, a
+        `capture_se_df` that is not > 0, or `quantile`/`confidence` outside (0, 1).
+    """
+    v, y, n, q, conf, se = _estimate_capture_speed_iv(
+        speed_m_s, captured, impacts, quantile, confidence, capture_se
+    )
+    se_df = None
+    if capture_se_df is not None and se is not None:
+        se_df = float(capture_se_df)
+        if not (math.isfinite(se_df) and se_df > 0):
+            raise ValueError(
+                f"`capture_se_df` must be a finite number > 0; got {capture_se_df!r}."
+            )
+    notes = []
+    if se is not None:
+        with np.errstate(invalid="ignore", divide="ignore"):
+            p = np.where(n > 0, y / np.where(n > 0, n, 1.0), np.nan)
+            n_eff = p * (1.0 - p) / (se * se)
+        use = np.isfinite(n_eff) & (n_eff > 0) & (p > 0) & (p < 1)
+        n = np.where(use, n_eff, n)
+        y = np.where(use, p * n_eff, y)
+        if not np.any(use):
+            se_df = None
+        else:
+            notes.append("effective counts from capture_se")
+    has = n > 0
+    if not np.all(has):
+        notes.append(f"{int(np.sum(~has))} speed(s) without impacts ignored")
+    v, y, n = v[has], y[has], n[has]
+    if v.size == 0:
+        return _none("; ".join(["no impacts at any speed", *notes[:-1]]))
+    # pool repeated speeds, sort by speed
+    v, inv = np.unique(v, return_inverse=True)
+    y = np.bincount(inv, weights=y)
+    n = np.bincount(inv, weights=n)
+    if v.size == 1:
+        return _none(
+            "; ".join(
+                [
+                    f"one speed only ({_fmt(v[0])} m/s, capture "
+                    f"{y[0] / n[0]:.3g}): a capture speed needs a sweep that "
+                    "brackets the quantile",
+                    *notes,
+                ]
+            )
+        )
+    frac = y / n
+    window = crossing_window(frac, q)
+    if window is None:
+        if np.all(frac > q):
+            msg = (
+                f"capture stays above {q:g} up to the fastest speed "
+                f"({_fmt(v[-1])} m/s, capture {frac[-1]:.3g}): the {q:g}-capture "
+                f"speed is above the sweep; extend the sweep upwards"
+            )
+        else:
+            msg = (
+                f"capture stays below {q:g} down to the slowest speed "
+                f"({_fmt(v[0])} m/s, capture {frac[0]:.3g}): the {q:g}-capture "
+                f"speed is below the sweep; extend the sweep downwards"
+            )
+        return _none("; ".join([msg, *notes]))
+    i0, i1 = window
+    xw, yw, nw = np.log(v[i0 : i1 + 1]), y[i0 : i1 + 1], n[i0 : i1 + 1]
+    if _separated(yw, nw):
+        partial = np.flatnonzero((yw > 0) & (yw < nw))
+        s = np.sign(frac[i0 : i1 + 1] - q)
+        k = next(j for j in range(s.size - 1) if s[j] == 0 or s[j] != s[j + 1])
+        lo_v, hi_v = v[i0 + k], v[i0 + k + 1]
+        return _none(
+            "; ".join(
+                [
+                    f"not resolved: capture falls from {frac[i0 + k]:.3g} to "
+                    f"{frac[i0 + k + 1]:.3g} between {_fmt(lo_v)} and {_fmt(hi_v)} "
+                    f"m/s with {partial.size} partially captured speed(s) in the "
+                    f"window; the {q:g}-capture speed lies between them; refine the "
+                    "sweep there",
+                    *notes,
+                ]
+            )
+        )
+    z_q = float(special.ndtri(q))
+    alpha, beta, ll_hat = _fit_probit(xw, yw, nw)
+    theta = (z_q - alpha) / beta if beta != 0 else math.nan
+    x_lo, x_hi = float(xw[0]), float(xw[-1])
+    if not (np.isfinite(theta) and x_lo <= theta <= x_hi):
+        where = (
+            f"at {_fmt(math.exp(theta))} m/s, outside"
+            if np.isfinite(theta)
+            else "nowhere (flat fit) within"
+        )
+        return _none(
+            "; ".join(
+                [
+                    f"the fitted curve crosses {q:g} {where} the fitted speeds "
+                    f"{_fmt(v[i0])}-{_fmt(v[i1])} m/s: not extrapolated; extend or "
+                    "refine the sweep",
+                    *notes,
+                ]
+            )
+        )
+    if beta > 0:
+        notes.append("capture rises with speed in the fitted window")
+    m = xw.size
+    df = m - 2
+    # residual deviance against the saturated model
+    with np.errstate(divide="ignore", invalid="ignore"):
+        pw = yw / nw
+        sat = np.where(yw > 0, yw * np.log(pw), 0.0) + np.where(
+            yw < nw, (nw - yw) * np.log1p(-pw), 0.0
+        )
+    g2 = max(2.0 * (float(np.sum(sat)) - ll_hat), 0.0)
+    method = METHOD_PROFILE
+    crit = float(
+        stats.chi2.ppf(conf, 1) if se_df is None else stats.f.ppf(conf, 1, se_df)
+    )
+    if df == 0:
+        notes.append(
+            "two speeds in the window: the probit shape is assumed, not checked"
+        )
+    elif stats.chi2.sf(g2, df) < LACK_OF_FIT_LEVEL:
+        h = g2 / df
+        crit = float(stats.f.ppf(conf, 1, df)) * h
+        if se_df is not None:  # the more conservative of the two corrections
+            crit = max(crit, float(stats.f.ppf(conf, 1, se_df)) * h)
+        method = METHOD_SCALED
+        notes.append(
+            f"lack of fit (deviance {g2:.3g} on {df} df): interval widened by the "
+            f"heterogeneity factor {h:.3g}"
+        )
+
+    def excess(t):
+        return 2.0 * (ll_hat - _profile_loglik(t, xw, yw, nw, z_q, beta)) - crit
+
+    limits = []
+    for bound, side in ((x_lo, "below"), (x_hi, "above")):
+        limit = math.nan
+        prev = theta
+        # walk outwards (fine steps first), then refine the first crossing
+        for frac_step in (1 / 256, 1 / 64, 1 / 16, 1 / 4, 1 / 2, 1.0):
+            t = theta + (bound - theta) * frac_step
+            if t == prev:
+                continue
+            if excess(t) > 0:
+                limit = optimize.brentq(excess, prev, t, xtol=1e-12, rtol=1e-10)
+                break
+            prev = t
+        if math.isnan(limit):
+            notes.append(
+                f"open {side}: not bounded by the data within "
+                f"{_fmt(math.exp(bound))} m/s"
+            )
+        limits.append(limit)
+    lo, hi = limits
+    # the interval holds the estimate by construction (the walk starts at theta)
+    return CaptureSpeedEstimate(
+        float(math.exp(theta)),
+        float(math.exp(lo)) if np.isfinite(lo) else math.nan,
+        float(math.exp(hi)) if np.isfinite(hi) else math.nan,
+        method,
+        "; ".join(notes),
+    )
