@@ -69,14 +69,25 @@ def test_half_capture_speed_from_summary_csv(results, tmp_path, name, low, high)
     files = res.to_files(tmp_path)
     v50 = half_capture_speed(files["summary"])
     assert low <= v50 <= high
-    # the engine's own estimate agrees with the CSV read-back
-    cs = res.capture_speed()
-    assert_allclose(cs["speed_m_s"].iloc[0], v50, rtol=1e-9)
+    # the engine's own estimate (a local probit fit, docs/capture-speed.md) agrees
+    # with the CSV read-back (linear interpolation) within its interval
+    cs = res.capture_speed().iloc[0]
+    assert cs["speed_ci_low"] <= v50 <= cs["speed_ci_high"]
+    assert_allclose(cs["speed_m_s"], v50, rtol=5e-3)
+
+
+def _raw(res):
+    """The preset's scenario file as parsed TOML (read independently of config)."""
+    import tomllib
+
+    from microimpact.config import PRESETS
+
+    return tomllib.loads((PRESET_DIR / PRESETS[res.scenario.name]).read_text())
 
 
 def _closed_form_check(res, cdf_um):
     """Capture fraction within 4 standard errors of F_D(v_c^{-1}(v))."""
-    law = res.scenario.config["raw"]["coefficients"]["v_c"]
+    law = _raw(res)["coefficients"]["v_c"]
     s = res.summary
     v = s["speed_m_s"].to_numpy()
     exact = cdf_um(power_law_inverse(v, law))
@@ -91,13 +102,13 @@ def _closed_form_check(res, cdf_um):
 
 def test_sst65_matches_closed_form(results):
     res = results[0]["sst65-silicon-normal"]
-    raw = res.scenario.config["raw"]["particles"]
+    raw = _raw(res)["particles"]
     m, sd = raw["mean_um"], raw["std_um"]
     # the paper's Gaussian fit, truncated to d > 0 as the engine does
     dist = stats.truncnorm(-m / sd, np.inf, loc=m, scale=sd)
     _closed_form_check(res, dist.cdf)
     # and the paper's 0.20 m/s is v_c at the median diameter
-    law = res.scenario.config["raw"]["coefficients"]["v_c"]
+    law = _raw(res)["coefficients"]["v_c"]
     v_med = law["a_m_s"] * (dist.median() / law["d_ref_um"]) ** law["b"]
     assert_allclose(v_med, 0.20, atol=0.005)
 
@@ -192,8 +203,9 @@ def test_lycopodium_preset(results):
 
 @pytest.mark.parametrize("name", list_presets())
 def test_preset_figure_formats(name):
+    from microimpact.config import outputs_from_toml, preset_path
     from microimpact.plotting.results import FIGURE_FORMATS
 
-    figures = load_preset(name).config["outputs"]["figures"]
-    assert figures == ["png"]  # what `microimpact reproduce` (make demo) writes
+    figures = outputs_from_toml(preset_path(name)).figures
+    assert figures == ("png",)  # what `microimpact reproduce` (make demo) writes
     assert set(figures) <= set(FIGURE_FORMATS)

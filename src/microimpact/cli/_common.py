@@ -190,14 +190,15 @@ def print_capture(result):
 
     for _, r in cs.iterrows():
         where = f"  {r['surface']}, {r['angle_deg']:g} deg: {r['quantile']:.0%} capture"
+        note = str(r.get("note", "") or "")
         if _m.isfinite(float(r["speed_m_s"])):
             print(
                 f"{where} at {float(r['speed_m_s']):.3f} m/s "
                 f"[{num(r['speed_ci_low'])}, {num(r['speed_ci_high'])}]"
+                + (f" ({note})" if note else "")
             )
         else:
-            note = str(r.get("note", "") or "not bracketed by the speed sweep")
-            print(f"{where}: not estimated ({note})")
+            print(f"{where}: not estimated ({note or 'no estimate'})")
 
 
 #: A run expected to take longer than this [s] says so at the start.
