@@ -365,3 +365,12 @@ def test_public_api_is_curated():
             for t in typing.get_args(ret) or (ret,):
                 if inspect.isclass(t) and t.__module__.startswith("microimpact"):
                     assert t.__name__ in names, f"{name} returns {t.__name__}"
+
+
+def test_relative_function_agrees_with_the_dataset(rough_result):
+    """`result.relative(ref)` (a DataFrame computation) and the Dataset's relative
+    coefficients (a grid computation) agree, including 0 +- 0 at the reference."""
+    table = rough_result.relative(85.0)
+    s = rough_result.summary
+    for col in ("e_relative", "e_relative_se", "mu_relative", "mu_relative_se"):
+        assert_allclose(table[col].to_numpy(), s[col].to_numpy(), rtol=1e-12)

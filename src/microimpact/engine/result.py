@@ -378,7 +378,8 @@ class SimulationResult:
 
         qs = self.scenario.capture_quantiles if quantile is None else (quantile,)
         return pd.concat(
-            [capture_speed(self.summary, q) for q in qs], ignore_index=True
+            [capture_speed(self.summary, q, confidence=self.confidence) for q in qs],
+            ignore_index=True,
         )
 
     def relative(self, reference_angle_deg: float = 85.0):

@@ -253,7 +253,8 @@ def relative_coefficients(summary, reference_angle_deg: float = 85.0):
     Adds ``e_relative``, ``e_relative_se``, ``mu_relative``, ``mu_relative_se`` to a
     copy of `summary`: each point's mean minus the mean at the reference angle for the
     same surface and speed, with the standard errors of the two independent estimates
-    combined in quadrature. NaN where the reference angle is not in the sweep.
+    combined in quadrature; at the reference angle itself the difference is exactly 0
+    with standard error 0. NaN where the reference angle is not in the sweep.
     """
     out = summary.copy()
     ref = summary[np.isclose(summary["angle_deg"], reference_angle_deg)]
@@ -263,7 +264,10 @@ def relative_coefficients(summary, reference_angle_deg: float = 85.0):
         vals, ses = [], []
         for _, r in out.iterrows():
             key = (r["surface"], r["speed_m_s"])
-            if key in ref.index:
+            if key in ref.index and math.isclose(r["angle_deg"], reference_angle_deg):
+                vals.append(0.0 if not math.isnan(r[stat]) else math.nan)
+                ses.append(0.0 if not math.isnan(r[stat]) else math.nan)
+            elif key in ref.index:
                 vals.append(r[stat] - ref.loc[key, stat])
                 ses.append(math.hypot(r[se], ref.loc[key, se]))
             else:
