@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 import pytest
-from engine_helpers import PowerCoefficients, scenario
+from engine_helpers import PowerCoefficients, rough, scenario
 from numpy.testing import assert_allclose
 from scipy import stats
 
@@ -53,3 +53,80 @@ def test_bad_arguments():
         convergence_study(scenario(), tolerance=0.7)
     with pytest.raises(ValueError, match="`n_max`"):
         convergence_study(scenario(), n_max=3)
+
+
+def _stored_sample_study(sc, n_max, tolerance, grid=200, point=0):
+    """The study computed from every draw held in memory (the implementation before
+    streaming): the oracle of the streamed one."""
+    s = sample_point(sc, point, n_max)
+    hit = ~s["shadowed"]
+    captured = np.cumsum(s["captured"] & hit)
+    impacts = np.cumsum(hit)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        running = captured / impacts
+    final = float(running[-1])
+    outside = np.abs(running - final) > tolerance
+    bad = np.flatnonzero(outside)
+    n_settled = None if outside[-1] else (int(bad[-1]) + 2 if bad.size else 1)
+    ns = np.unique(np.geomspace(1, n_max, grid).astype(int))
+    lo, hi = wilson_interval(captured[ns - 1], impacts[ns - 1])
+    return final, n_settled, ns, running[ns - 1], lo, hi
+
+
+@pytest.mark.parametrize(
+    "kw, n_max, tolerance",
+    [
+        (dict(speeds_m_s=(0.2,)), 5000, 0.03),
+        # several blocks, the last one partial; a tight band settles late
+        (dict(speeds_m_s=(0.21,)), 100_001, 0.002),
+        # shadowed draws (impacts < n, running fraction NaN at first) on a rough
+        # surface, second sweep point
+        (
+            dict(
+                surfaces=(rough(15.0),),
+                speeds_m_s=(0.1, 0.3),
+                angles_deg=(12.0,),
+                shadowing="none",
+            ),
+            70_000,
+            0.01,
+        ),
+    ],
+)
+def test_streamed_study_equals_the_stored_sample_study(kw, n_max, tolerance):
+    sc = scenario(**kw)
+    point = len(kw.get("speeds_m_s", (0,))) - 1
+    res = convergence_study(
+        sc, point=point, n_max=n_max, tolerance=tolerance, confidence=0.95
+    )
+    final, n_settled, ns, running, lo, hi = _stored_sample_study(
+        sc, n_max, tolerance, point=point
+    )
+    assert res.final == final
+    assert res.n_settled == n_settled
+    assert n_settled is not None and n_settled > 1
+    np.testing.assert_array_equal(res.table["n"], ns)
+    np.testing.assert_array_equal(res.table["capture_fraction"], running)
+    np.testing.assert_array_equal(res.table["ci_low"], lo)
+    np.testing.assert_array_equal(res.table["ci_high"], hi)
+
+
+def test_streamed_study_keeps_no_per_draw_arrays(monkeypatch):
+    """Memory flat in N: the study never asks for more than one block of draws at
+    once (the kernel is called block by block)."""
+    from microimpact.engine import convergence, plan
+
+    sizes = []
+    real = convergence.simulate_block
+
+    def spy(*args, **kw):
+        sizes.append(args[4])
+        return real(*args, **kw)
+
+    monkeypatch.setattr(convergence, "simulate_block", spy)
+    from microimpact.engine import kernel
+
+    monkeypatch.setattr(kernel, "simulate_block", spy)
+    convergence_study(scenario(speeds_m_s=(0.2,)), n_max=200_000, tolerance=0.001)
+    assert sizes and max(sizes) <= plan.BLOCK_SIZE
+    assert sum(sizes) <= 200_000 + plan.BLOCK_SIZE  # one pass plus one block

@@ -13,7 +13,7 @@ kernel never computes them separately.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -24,7 +24,7 @@ E_EDGES = np.linspace(-2.0, 10.0, 1201)
 MU_EDGES = np.linspace(-10.0, 10.0, 2001)
 
 
-@dataclass
+@dataclass(slots=True)
 class Moments:
     """Count, mean and central moment sums M2, M3 of a stream of values."""
 
@@ -121,9 +121,52 @@ def histogram_counts(x: np.ndarray, edges: np.ndarray) -> np.ndarray:
     return np.bincount(idx.astype(np.intp) + 1, minlength=nb + 2)
 
 
-@dataclass
+#: Bins of the dense histograms (edges plus the under- and overflow bins).
+E_BINS = E_EDGES.size + 1
+MU_BINS = MU_EDGES.size + 1
+_EMPTY = np.zeros(0, dtype=np.int64)
+_EMPTY.setflags(write=False)
+
+
+def _span(dense) -> tuple[int, np.ndarray]:
+    """``(offset, counts)``: the occupied span of a dense histogram (a copy)."""
+    nz = np.flatnonzero(dense)
+    if nz.size == 0:
+        return 0, _EMPTY
+    lo, hi = int(nz[0]), int(nz[-1]) + 1
+    return lo, np.array(dense[lo:hi], dtype=np.int64)
+
+
+def _add_spans(lo_a, a, lo_b, b) -> tuple[int, np.ndarray]:
+    """The sum of two histogram spans, as a span covering both."""
+    if b.size == 0:
+        return lo_a, a
+    if a.size == 0:
+        return lo_b, b
+    lo = min(lo_a, lo_b)
+    hi = max(lo_a + a.size, lo_b + b.size)
+    if lo == lo_a and hi == lo_a + a.size:
+        out = a.copy()
+    else:
+        out = np.zeros(hi - lo, dtype=np.int64)
+        out[lo_a - lo : lo_a - lo + a.size] = a
+    out[lo_b - lo : lo_b - lo + b.size] += b
+    return lo, out
+
+
+def _dense(lo, counts, size) -> np.ndarray:
+    out = np.zeros(size, dtype=np.int64)
+    out[lo : lo + counts.size] = counts
+    return out
+
+
 class PointAccumulator:
     """Everything the engine keeps of the impacts at one sweep point.
+
+    The histograms are held compactly, as the occupied span of bins (an offset and
+    the counts from the first to the last nonzero bin): a point whose ``e_m`` all
+    fall in a few bins costs a few bytes, not the 26 kB of the two dense arrays.
+    :attr:`e_hist` and :attr:`mu_hist` give the dense arrays on access.
 
     Attributes
     ----------
@@ -141,22 +184,72 @@ class PointAccumulator:
         Moments of ``e_m`` and ``mu_m`` over rebounds.
     e_hist, mu_hist : ndarray of int64
         Histograms of ``e_m`` and ``mu_m`` over rebounds on :data:`E_EDGES`,
-        :data:`MU_EDGES` with under- and overflow bins.
+        :data:`MU_EDGES` with under- and overflow bins (dense copies, built on
+        access: length ``len(edges) + 1``).
+    e_span, mu_span : (int, ndarray of int64)
+        The same histograms as ``(offset, counts)``: bins ``offset ..
+        offset + len(counts) - 1`` of the dense array (read-only views).
     """
 
-    n: int = 0
-    shadowed: int = 0
-    captured: int = 0
-    reimpact: int = 0
-    rolling: int = 0
-    e: Moments = field(default_factory=Moments)
-    mu: Moments = field(default_factory=Moments)
-    e_hist: np.ndarray = field(
-        default_factory=lambda: np.zeros(E_EDGES.size + 1, dtype=np.int64)
+    __slots__ = (
+        "_e_counts",
+        "_e_lo",
+        "_mu_counts",
+        "_mu_lo",
+        "captured",
+        "e",
+        "mu",
+        "n",
+        "reimpact",
+        "rolling",
+        "shadowed",
     )
-    mu_hist: np.ndarray = field(
-        default_factory=lambda: np.zeros(MU_EDGES.size + 1, dtype=np.int64)
-    )
+
+    def __init__(
+        self,
+        n=0,
+        shadowed=0,
+        captured=0,
+        reimpact=0,
+        rolling=0,
+        e=None,
+        mu=None,
+        e_hist=None,
+        mu_hist=None,
+        *,
+        e_span=None,
+        mu_span=None,
+    ):
+        self.n = int(n)
+        self.shadowed = int(shadowed)
+        self.captured = int(captured)
+        self.reimpact = int(reimpact)
+        self.rolling = int(rolling)
+        self.e = Moments() if e is None else e
+        self.mu = Moments() if mu is None else mu
+        self._e_lo, self._e_counts = _span_arg(e_hist, e_span, E_BINS, "e_hist")
+        self._mu_lo, self._mu_counts = _span_arg(mu_hist, mu_span, MU_BINS, "mu_hist")
+
+    @property
+    def e_hist(self) -> np.ndarray:
+        return _dense(self._e_lo, self._e_counts, E_BINS)
+
+    @property
+    def mu_hist(self) -> np.ndarray:
+        return _dense(self._mu_lo, self._mu_counts, MU_BINS)
+
+    @property
+    def e_span(self) -> tuple[int, np.ndarray]:
+        return self._e_lo, _readonly(self._e_counts)
+
+    @property
+    def mu_span(self) -> tuple[int, np.ndarray]:
+        return self._mu_lo, _readonly(self._mu_counts)
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes held by the histogram spans."""
+        return self._e_counts.nbytes + self._mu_counts.nbytes
 
     def merge(self, other: PointAccumulator) -> PointAccumulator:
         """A new accumulator for the union of two disjoint sets of impacts."""
@@ -168,8 +261,10 @@ class PointAccumulator:
             rolling=self.rolling + other.rolling,
             e=self.e.merge(other.e),
             mu=self.mu.merge(other.mu),
-            e_hist=np.add(self.e_hist, other.e_hist, dtype=np.int64),
-            mu_hist=np.add(self.mu_hist, other.mu_hist, dtype=np.int64),
+            e_span=_add_spans(self._e_lo, self._e_counts, other._e_lo, other._e_counts),
+            mu_span=_add_spans(
+                self._mu_lo, self._mu_counts, other._mu_lo, other._mu_counts
+            ),
         )
 
     @property
@@ -185,14 +280,46 @@ class PointAccumulator:
         """Moments of e_m over all impacts, captured counted as 0 (exact merge)."""
         return Moments(self.captured, 0.0, 0.0, 0.0).merge(self.e)
 
-    # serialisation for checkpoints and worker transport
-    def to_arrays(self) -> dict[str, np.ndarray]:
-        counts = np.array(
+    def counts_array(self) -> np.ndarray:
+        """``[n, shadowed, captured, reimpact, rolling]`` as int64."""
+        return np.array(
             [self.n, self.shadowed, self.captured, self.reimpact, self.rolling],
             dtype=np.int64,
         )
+
+    def __eq__(self, other):
+        if not isinstance(other, PointAccumulator):
+            return NotImplemented
+        return (
+            np.array_equal(self.counts_array(), other.counts_array())
+            and self.e == other.e
+            and self.mu == other.mu
+            and self._e_lo == other._e_lo
+            and np.array_equal(self._e_counts, other._e_counts)
+            and self._mu_lo == other._mu_lo
+            and np.array_equal(self._mu_counts, other._mu_counts)
+        )
+
+    __hash__ = None
+
+    def __repr__(self):
+        return (
+            f"PointAccumulator(n={self.n}, shadowed={self.shadowed}, "
+            f"captured={self.captured}, reimpact={self.reimpact}, "
+            f"rolling={self.rolling}, e={self.e!r}, mu={self.mu!r})"
+        )
+
+    def __getstate__(self):
+        return tuple(getattr(self, k) for k in self.__slots__)
+
+    def __setstate__(self, state):
+        for k, v in zip(self.__slots__, state, strict=True):
+            setattr(self, k, v)
+
+    # serialisation (dense arrays; the checkpoint stores the spans itself)
+    def to_arrays(self) -> dict[str, np.ndarray]:
         return {
-            "counts": counts,
+            "counts": self.counts_array(),
             "e": self.e.as_array(),
             "mu": self.mu.as_array(),
             "e_hist": self.e_hist,
@@ -210,9 +337,34 @@ class PointAccumulator:
             rolling=c[4],
             e=Moments.from_array(d["e"]),
             mu=Moments.from_array(d["mu"]),
-            e_hist=np.asarray(d["e_hist"], dtype=np.int64).copy(),
-            mu_hist=np.asarray(d["mu_hist"], dtype=np.int64).copy(),
+            e_hist=np.asarray(d["e_hist"], dtype=np.int64),
+            mu_hist=np.asarray(d["mu_hist"], dtype=np.int64),
         )
+
+
+def _readonly(a):
+    v = a.view()
+    v.setflags(write=False)
+    return v
+
+
+def _span_arg(dense, span, size, name):
+    """The stored ``(offset, counts)`` from a dense histogram or a span."""
+    if dense is not None and span is not None:
+        raise TypeError(f"give `{name}` or its span, not both")
+    if span is not None:
+        lo, counts = span
+        counts = np.asarray(counts, dtype=np.int64)
+        lo = int(lo)
+        if counts.ndim != 1 or lo < 0 or lo + counts.size > size:
+            raise ValueError(f"`{name}` span ({lo}, {counts.size} bins) exceeds {size}")
+        return (lo, counts) if counts.size else (0, _EMPTY)
+    if dense is None:
+        return 0, _EMPTY
+    dense = np.asarray(dense)
+    if dense.shape != (size,):
+        raise ValueError(f"`{name}` must have {size} bins; got shape {dense.shape}")
+    return _span(dense)
 
 
 def histogram_quantile(counts: np.ndarray, edges: np.ndarray, q) -> np.ndarray:

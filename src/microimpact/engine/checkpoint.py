@@ -1,87 +1,313 @@
-"""Checkpoints: finished work survives a killed run.
+"""Checkpoints: finished work survives a killed run, and a resume can be inspected.
 
 The driver merges per-block accumulators in key order, so the state of a sweep point
 is fully described by "blocks ``[0, k)`` are merged into this accumulator". A
 checkpoint stores that prefix for every (point, replicate), plus a fingerprint of the
-plan. It is written to a temporary file in the same folder and renamed over the old
-one, so at any instant (even under SIGKILL) the file on disk is a complete earlier
-checkpoint. Re-running the same command loads it, checks the fingerprint and skips
-the finished blocks: the final result is bit-identical to an uninterrupted run.
+run in three parts (seed, sample counts, scenario and tables), so that a checkpoint
+that does not match can be reported with its cause.
+
+The file is a compressed ``.npz`` of flat arrays (format 2): per (point, replicate)
+its next block, its counts and moments, and each histogram as its occupied span of
+bins (offset, length, counts as int32 when they fit), all spans concatenated. Its size
+is proportional to what is kept, not to the number of histogram bins. It is written to
+a temporary file in the same folder (``.<name>.<random>.tmp``), flushed to disk and
+renamed over the old one, so at any instant (even under SIGKILL) the file on disk is a
+complete earlier checkpoint; temporary files left by a killed run are removed when
+the next run starts.
+
+:class:`Checkpoint` is the object a run uses (in the spirit of emcee's backends): it
+loads, says what it restored (:attr:`Checkpoint.restored_blocks` of
+:attr:`Checkpoint.total_blocks`) or why it restored nothing
+(:attr:`Checkpoint.rejected`), and decides when to write.
 """
 
 from __future__ import annotations
 
 import hashlib
 import os
+import time
+import warnings
+import zipfile
 from pathlib import Path
 
 import numpy as np
 
 from .._files import atomic_write
-from .accumulators import PointAccumulator
+from .accumulators import E_BINS, MU_BINS, Moments, PointAccumulator
 
-FORMAT_VERSION = 1
+#: Version of the file layout; a file of another version is reported, not read.
+FORMAT_VERSION = 2
+#: The parts of the fingerprint, in the order a mismatch is reported.
+FINGERPRINT_PARTS = ("seed", "samples", "scenario")
+#: Reasons a checkpoint file is not used (:attr:`Checkpoint.rejected`).
+REASONS = ("corrupt", "format", *FINGERPRINT_PARTS)
+#: Checkpoint writes take at most this fraction of the run time: the interval between
+#: writes is at least ``last write time / WRITE_FRACTION``.
+WRITE_FRACTION = 0.05
+_CAUSES = {
+    "corrupt": "it cannot be read",
+    "format": "it was written in another file format",
+    "seed": "it was written with a different seed",
+    "samples": "it was written for different sample counts or precision target",
+    "scenario": "it was written for a different scenario or input tables",
+}
 
 
-def plan_fingerprint(plan, targets) -> str:
-    """Hash of everything that determines the result of a run."""
+class CheckpointWarning(UserWarning):
+    """A checkpoint file exists but is not used to resume (see the message)."""
+
+
+class CheckpointMismatch(Exception):
+    """Raised by :func:`load` when `path` is not a checkpoint of this run."""
+
+    def __init__(self, reason: str, detail: str = ""):
+        self.reason = reason
+        self.detail = detail
+        super().__init__(f"{reason}: {detail}" if detail else reason)
+
+
+def plan_fingerprint(plan, targets) -> dict[str, str]:
+    """``{"seed", "samples", "scenario"}``: hashes of everything that determines the
+    result of a run (`targets`: the sample counts or precision target)."""
     h = hashlib.sha256()
     h.update(
-        f"v{FORMAT_VERSION}|{plan.entropy}|{plan.shadowing}|{plan.sampling}|"
-        f"{plan.replicates}|{plan.block_size}|{plan.table_bits}|"
-        f"{plan.p}|{plan.q}|{plan.friction}|".encode()
+        f"{plan.shadowing}|{plan.sampling}|{plan.replicates}|{plan.block_size}|"
+        f"{plan.table_bits}|{plan.p}|{plan.q}|{plan.friction}|".encode()
     )
-    for sp in plan.points:
-        h.update(repr((sp.surface, sp.speed, sp.angle_deg)).encode())
-    for arr in (plan.diameter, plan.inv_k1, plan.inv_k2, plan.v_c, plan.speed_factor):
+    h.update(
+        repr([(sp.surface, sp.speed, sp.angle_deg) for sp in plan.points]).encode()
+    )
+    for arr in (plan.diameter, plan.coefficients, plan.speed_factor):
         h.update(b"|" if arr is None else np.ascontiguousarray(arr).tobytes())
     for atoms in plan.surface_atoms:
         h.update(b"|" if atoms is None else np.ascontiguousarray(atoms).tobytes())
-    h.update(repr(targets).encode())
-    return h.hexdigest()
+    return {
+        "seed": str(plan.entropy),
+        "samples": hashlib.sha256(repr(targets).encode()).hexdigest(),
+        "scenario": h.hexdigest(),
+    }
 
 
-def save(path, fingerprint: str, state: dict) -> None:
-    """Atomically write `state` = {(point, rep): (next_block, accumulator)}."""
+def save(path, fingerprint: dict, state: dict) -> int:
+    """Atomically write `state` = {(point, rep): (next_block, accumulator)}; returns
+    the size of the file [bytes]."""
     path = Path(path)
-    arrays = {"fingerprint": np.array(fingerprint)}
-    for (point, rep), (nxt, acc) in state.items():
-        prefix = f"p{point}_r{rep}_"
-        arrays[prefix + "next"] = np.array(nxt)
-        for k, v in acc.to_arrays().items():
-            arrays[prefix + k] = v
+    keys = sorted(state)
+    accs = [state[k][1] for k in keys]
+    arrays = {
+        "format_version": np.array(FORMAT_VERSION),
+        **{f"fingerprint_{k}": np.array(fingerprint[k]) for k in FINGERPRINT_PARTS},
+        "keys": np.array(keys, dtype=np.int64).reshape(-1, 2),
+        "next_block": np.array([state[k][0] for k in keys], dtype=np.int64),
+        "counts": np.array([a.counts_array() for a in accs], dtype=np.int64).reshape(
+            -1, 5
+        ),
+        "moments": np.array(
+            [(*a.e.as_array(), *a.mu.as_array()) for a in accs], dtype=float
+        ).reshape(-1, 8),
+    }
+    for name in ("e", "mu"):
+        spans = [getattr(a, f"{name}_span") for a in accs]
+        arrays[f"{name}_lo"] = np.array([lo for lo, _ in spans], dtype=np.int32)
+        arrays[f"{name}_len"] = np.array([c.size for _, c in spans], dtype=np.int32)
+        flat = np.concatenate([c for _, c in spans] or [np.zeros(0, np.int64)])
+        if flat.size and flat.max() < np.iinfo(np.int32).max:
+            flat = flat.astype(np.int32)
+        arrays[f"{name}_counts"] = flat
 
     def write(tmp):
         with open(tmp, "wb") as f:
-            np.savez(f, **arrays)
+            np.savez_compressed(f, **arrays)
             f.flush()
             os.fsync(f.fileno())  # durable before the rename: survives SIGKILL
 
     atomic_write(path, write)
+    return path.stat().st_size
 
 
-def load(path, fingerprint: str) -> dict | None:
-    """The saved state if `path` holds a checkpoint of the same run, else None."""
+def load(path, fingerprint: dict) -> dict | None:
+    """The state saved in `path`: ``{(point, rep): (next_block, accumulator)}``.
+
+    Returns None if there is no file. Raises :class:`CheckpointMismatch` (with the
+    reason, one of :data:`REASONS`) if the file is unreadable, of another format, or
+    a checkpoint of another run.
+    """
     path = Path(path)
     if not path.exists():
         return None
     try:
         with np.load(path) as z:
-            if str(z["fingerprint"]) != fingerprint:
-                return None
-            state = {}
-            for key in z.files:
-                if not key.endswith("_next"):
-                    continue
-                prefix = key[: -len("next")]
-                point, rep = prefix.strip("_").split("_")
-                acc = PointAccumulator.from_arrays(
-                    {
-                        k: z[prefix + k]
-                        for k in ("counts", "e", "mu", "e_hist", "mu_hist")
-                    }
+            if "format_version" not in z.files:
+                raise CheckpointMismatch("format", "format 1 (an older microimpact)")
+            version = int(z["format_version"])
+            if version != FORMAT_VERSION:
+                raise CheckpointMismatch(
+                    "format", f"format {version}, this version reads {FORMAT_VERSION}"
                 )
-                state[(int(point[1:]), int(rep[1:]))] = (int(z[key]), acc)
-            return state
-    except (OSError, ValueError, KeyError):
-        return None  # unreadable: start afresh rather than trust it
+            for part in FINGERPRINT_PARTS:
+                saved = str(z[f"fingerprint_{part}"])
+                if saved != fingerprint[part]:
+                    detail = ""
+                    if part == "seed":
+                        detail = f"seed entropy {saved}, this run {fingerprint[part]}"
+                    raise CheckpointMismatch(part, detail)
+            return _unpack({k: z[k] for k in z.files})
+    except CheckpointMismatch:
+        raise
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
+        raise CheckpointMismatch("corrupt", f"{type(exc).__name__}: {exc}") from None
+
+
+def _unpack(z) -> dict:
+    keys, nxt = z["keys"], z["next_block"]
+    counts, moments = z["counts"], z["moments"]
+    spans = {}
+    for name, size in (("e", E_BINS), ("mu", MU_BINS)):
+        lo, length = z[f"{name}_lo"], z[f"{name}_len"]
+        flat = z[f"{name}_counts"].astype(np.int64)
+        ends = np.cumsum(length)
+        if (
+            not len(lo) == len(length) == len(keys)
+            or (ends[-1] if len(ends) else 0) != flat.size
+            or np.any(lo < 0)
+            or np.any(lo.astype(np.int64) + length > size)
+        ):
+            raise ValueError(f"inconsistent {name} histogram spans")
+        starts = ends - length
+        spans[name] = [
+            (int(lo[i]), flat[starts[i] : ends[i]]) for i in range(len(keys))
+        ]
+    if not len(keys) == len(nxt) == len(counts) == len(moments):
+        raise ValueError("inconsistent array lengths")
+    state = {}
+    for i, (point, rep) in enumerate(keys.tolist()):
+        c = counts[i].tolist()
+        acc = PointAccumulator(
+            *c,
+            e=Moments.from_array(moments[i, :4]),
+            mu=Moments.from_array(moments[i, 4:]),
+            e_span=spans["e"][i],
+            mu_span=spans["mu"][i],
+        )
+        state[(point, rep)] = (int(nxt[i]), acc)
+    return state
+
+
+class Checkpoint:
+    """The checkpoint file of a run, and what the run did with it.
+
+    Pass one as ``checkpoint=`` to :func:`microimpact.run` (a plain path makes
+    one) and read it afterwards, or in `on_load` before any block is simulated.
+
+    Parameters
+    ----------
+    path : path-like
+        The checkpoint file.
+    interval : float, optional
+        Least number of seconds between writes; default: the engine's
+        (``MICROIMPACT_CHECKPOINT_INTERVAL``, else 2 s). Writes are further spaced so
+        that they take at most :data:`WRITE_FRACTION` of the run time.
+    on_load : callable, optional
+        Called with this object once the file was examined (restored or not), before
+        the run starts; e.g. to print "resumed N of M blocks".
+
+    Attributes
+    ----------
+    restored_blocks : int
+        Blocks restored from the file (0 for a fresh start).
+    total_blocks : int
+        Blocks of the whole run (for a precision target: at the sample cap).
+    rejected : str or None
+        Why an existing file was not used: ``"corrupt"``, ``"format"``, ``"seed"``,
+        ``"samples"`` or ``"scenario"``; None if it was used or there was none.
+    message : str or None
+        The warning issued for a rejected file.
+    stale_path : Path or None
+        Where the rejected file was moved (``<path>.stale``).
+    writes, bytes_written, write_seconds : int, int, float
+        Number of writes, size of the last file [bytes], total time writing [s].
+    """
+
+    def __init__(self, path, *, interval=None, on_load=None):
+        self.path = Path(path)
+        self.interval = interval
+        self.on_load = on_load
+        self._reset()
+
+    def _reset(self):
+        self.restored_blocks = 0
+        self.total_blocks = 0
+        self.rejected = None
+        self.message = None
+        self.stale_path = None
+        self.writes = 0
+        self.bytes_written = 0
+        self.write_seconds = 0.0
+        self._last_write = None  # monotonic time of the last write
+        self._last_cost = 0.0
+
+    @property
+    def resumed(self) -> bool:
+        """True if the run continued from the file."""
+        return self.restored_blocks > 0
+
+    def __repr__(self):
+        return (
+            f"Checkpoint({str(self.path)!r}, restored_blocks={self.restored_blocks}, "
+            f"total_blocks={self.total_blocks}, rejected={self.rejected!r})"
+        )
+
+    def open(self, fingerprint: dict, *, interval: float) -> dict:
+        """Start a run: remove stale temporary files, load the file if it belongs to
+        this run (else warn and move it aside) and return the restored state."""
+        self._reset()
+        if self.interval is None:
+            self.interval = interval
+        self._fingerprint = fingerprint
+        self._remove_temporaries()
+        try:
+            state = load(self.path, fingerprint) or {}
+        except CheckpointMismatch as exc:
+            self._reject(exc)
+            state = {}
+        self._last_write = time.monotonic()
+        return state
+
+    def started(self, restored_blocks: int, total_blocks: int) -> None:
+        """Record what was restored and call `on_load`."""
+        self.restored_blocks = int(restored_blocks)
+        self.total_blocks = int(total_blocks)
+        if self.on_load is not None:
+            self.on_load(self)
+
+    def due(self) -> bool:
+        """True when the next write is due: at least `interval` seconds and
+        ``last write time / WRITE_FRACTION`` after the last write."""
+        wait = max(self.interval, self._last_cost / WRITE_FRACTION)
+        return time.monotonic() - self._last_write >= wait
+
+    def write(self, state: dict) -> None:
+        """Write `state` = {(point, rep): (next_block, accumulator)} now."""
+        t0 = time.monotonic()
+        self.bytes_written = save(self.path, self._fingerprint, state)
+        self._last_write = time.monotonic()
+        self._last_cost = self._last_write - t0
+        self.write_seconds += self._last_cost
+        self.writes += 1
+
+    def _remove_temporaries(self):
+        # atomic_write's temporary files: '.<name>.<random>.tmp' next to the file,
+        # left behind only by a killed process (a live one renames or removes them)
+        for tmp in self.path.parent.glob(f".{self.path.name}.*.tmp"):
+            tmp.unlink(missing_ok=True)
+
+    def _reject(self, exc: CheckpointMismatch):
+        self.rejected = exc.reason
+        self.stale_path = self.path.with_name(self.path.name + ".stale")
+        os.replace(self.path, self.stale_path)
+        detail = f" ({exc.detail})" if exc.detail else ""
+        self.message = (
+            f"checkpoint {self.path} was not used: {_CAUSES[exc.reason]}{detail}; "
+            f"it was moved to {self.stale_path} and this run starts afresh"
+        )
+        warnings.warn(self.message, CheckpointWarning, stacklevel=3)

@@ -12,6 +12,10 @@ with its Wilson confidence band at every N, and two answers to "how many samples
   worst case over all fractions, ``z^2 / (4 tolerance^2)``.
 
 The draws are exactly those of :func:`microimpact.run` for the same seed and point.
+They are streamed block by block, so memory does not grow with N: one pass keeps the
+counts at the table's N and, per block of 32,768 draws, the extremes of the running
+fraction; the block holding the last N outside the band is then simulated again to
+find that N exactly.
 """
 
 from __future__ import annotations
@@ -23,7 +27,9 @@ import numpy as np
 import pandas as pd
 
 from .._validation import check_int
-from .montecarlo import sample_point
+from ..grid import SweepGrid
+from .kernel import simulate_block
+from .montecarlo import build_plan, iter_point_samples
 from .statistics import wilson_interval, z_value
 
 
@@ -86,29 +92,29 @@ def convergence_study(
     grid : int
         Number of log-spaced N values in the returned table.
     """
+    from ..scenario import as_scenario
+
+    scenario = as_scenario(scenario)
     n_max = check_int(n_max, "n_max", minimum=10)
     if not 0 < tolerance < 0.5:
         raise ValueError(f"`tolerance` must be in (0, 0.5); got {tolerance!r}.")
     confidence = scenario.confidence if confidence is None else confidence
-    s = sample_point(scenario, point, n_max, seed=seed)
-    hit = ~s["shadowed"]
-    captured = np.cumsum(s["captured"] & hit)
-    impacts = np.cumsum(hit)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        running = captured / impacts
-    final = float(running[-1])
-    outside = np.abs(running - final) > tolerance
-    bad = np.flatnonzero(outside)
-    n_settled = None if outside[-1] else (int(bad[-1]) + 2 if bad.size else 1)
+    plan = build_plan(scenario, seed=seed)
+    if not 0 <= point < len(plan.points):
+        raise ValueError(f"`point` must be in [0, {len(plan.points)}); got {point!r}.")
     ns = np.unique(np.geomspace(1, n_max, grid).astype(int))
-    lo, hi = wilson_interval(captured[ns - 1], impacts[ns - 1], confidence)
+    run = _stream_running_fraction(plan, point, n_max, ns)
+    final = run.final
+    n_settled = _settled(plan, point, n_max, run, tolerance)
+    lo, hi = wilson_interval(run.captured_at, run.impacts_at, confidence)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        fraction = run.captured_at / run.impacts_at
     table = pd.DataFrame(
-        {"n": ns, "capture_fraction": running[ns - 1], "ci_low": lo, "ci_high": hi}
+        {"n": ns, "capture_fraction": fraction, "ci_low": lo, "ci_high": hi}
     )
     z = z_value(confidence)
     p = min(max(final, 1e-12), 1 - 1e-12)
     n_req = _wilson_n(p, tolerance, z)
-    sp = _point_info(scenario, point)
     return ConvergenceResult(
         table,
         final,
@@ -117,8 +123,79 @@ def convergence_study(
         n_settled,
         n_req,
         math.ceil(z * z / (4 * tolerance * tolerance)),
-        sp,
+        SweepGrid.from_scenario(scenario).coords(point),
     )
+
+
+@dataclass
+class _Running:
+    """What one pass over the draws keeps: counts at the table's N, per block the
+    extremes of the running fraction and the counts before it."""
+
+    captured_at: np.ndarray
+    impacts_at: np.ndarray
+    block_min: list
+    block_max: list
+    before: list  # (captured, impacts) before each block
+    final: float
+
+
+def _block_running(block, captured0, impacts0):
+    """Cumulative captured and impacts counts, and the running fraction, over one
+    block of per-impact arrays, continuing from the counts before it."""
+    hit = ~block["shadowed"]
+    captured = np.cumsum(block["captured"] & hit) + captured0
+    impacts = np.cumsum(hit) + impacts0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        running = captured / impacts
+    return captured, impacts, running
+
+
+def _stream_running_fraction(plan, point, n_max, ns) -> _Running:
+    """One pass over the first `n_max` draws at `point`, block by block (memory
+    flat in `n_max`)."""
+    out = _Running(np.zeros(ns.size), np.zeros(ns.size), [], [], [], math.nan)
+    captured0 = impacts0 = 0
+    start = 0
+    for block in iter_point_samples(plan, point, n_max):
+        captured, impacts, running = _block_running(block, captured0, impacts0)
+        stop = start + running.size
+        sel = (ns > start) & (ns <= stop)
+        idx = ns[sel] - 1 - start
+        out.captured_at[sel] = captured[idx]
+        out.impacts_at[sel] = impacts[idx]
+        out.before.append((captured0, impacts0))
+        finite = running[~np.isnan(running)]
+        out.block_min.append(finite.min() if finite.size else math.nan)
+        out.block_max.append(finite.max() if finite.size else math.nan)
+        captured0, impacts0 = int(captured[-1]), int(impacts[-1])
+        out.final = float(running[-1])
+        start = stop
+    return out
+
+
+def _settled(plan, point, n_max, run: _Running, tolerance):
+    """Smallest N after which the running fraction stays within `tolerance` of the
+    final value: the last N outside, plus one (None if outside at the end).
+
+    The block extremes tell which blocks hold an N outside the band exactly
+    (``|x - final|`` rounds monotonically in x on either side of `final`); the last
+    such block is simulated again to find the N.
+    """
+    final = run.final
+    B = plan.block_size
+    for b in range(len(run.before) - 1, -1, -1):
+        lo, hi = run.block_min[b], run.block_max[b]
+        if not (abs(hi - final) > tolerance or abs(lo - final) > tolerance):
+            continue
+        m = min(B, n_max - b * B)
+        block = simulate_block(plan, point, 0, b, m, store=True)
+        _c, _i, running = _block_running(block, *run.before[b])
+        outside = np.abs(running - final) > tolerance
+        if outside[-1] and b == len(run.before) - 1:
+            return None
+        return b * B + int(np.flatnonzero(outside)[-1]) + 2
+    return 1
 
 
 def _wilson_n(p, tol, z):
@@ -142,17 +219,3 @@ def _half(p, n, z):
 
 def _phi(z):
     return 0.5 * (1 + math.erf(z / math.sqrt(2)))
-
-
-def _point_info(scenario, point):
-    import itertools
-
-    combos = list(
-        itertools.product(
-            [s.name for s in scenario.surfaces],
-            scenario.speeds_m_s,
-            scenario.angles_deg,
-        )
-    )
-    surface, speed, angle = combos[point]
-    return {"surface": surface, "speed_m_s": speed, "angle_deg": angle}

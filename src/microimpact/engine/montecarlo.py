@@ -7,10 +7,22 @@ workers and their accumulators are merged on the driver in (point, replicate, bl
 order. Hence one seed reproduces a run bit for bit, serially, on a process pool or on
 a Dask cluster, whatever the worker count, and whether or not the run was interrupted
 and resumed from its checkpoint.
+
+The driver is made of small pieces with one job each:
+
+* :class:`_Streams` holds the merged prefix of every (point, replicate) and merges
+  the next group of blocks (the only place results are combined);
+* :func:`_fixed_tasks` and :func:`_precision_wave` schedule the remaining blocks
+  into tasks (:func:`_pack`);
+* :class:`~microimpact.engine.checkpoint.Checkpoint` restores, and decides when to
+  write;
+* :class:`_Progress` drives the progress bar;
+* :class:`_Job` wires them together for :func:`iter_blocks` and :func:`run`.
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 import os
 import sys
@@ -23,23 +35,42 @@ import numpy as np
 
 from .._validation import check_choice, check_int
 from ..errors import ConvergenceWarning, InputError
-from . import checkpoint as ckpt
 from .accumulators import PointAccumulator
-from .parallel import BACKENDS, make_runner
-from .plan import Plan, build_plan, resolve_entropy  # noqa: F401 (re-exported)
+from .checkpoint import Checkpoint, CheckpointWarning, plan_fingerprint
+from .parallel import BACKENDS, available_cores, cap_workers, make_runner
+from .plan import BLOCK_SIZE, Plan, build_plan, resolve_entropy  # noqa: F401
 from .statistics import wilson_interval, z_value
 
-#: Consecutive blocks per task (fixed-size runs): a worker merges them in order and
-#: returns one accumulator. An algorithm constant like the block size: it fixes the
-#: merge order, so the bits depend on it, never on the workers or the backend.
+__all__ = [
+    "BlockResult",
+    "Checkpoint",
+    "CheckpointWarning",
+    "estimate_duration",
+    "iter_blocks",
+    "run",
+    "sample_point",
+]
+
+#: Consecutive blocks merged into one group in a worker (aligned on multiples of it):
+#: an algorithm constant like the block size. It fixes the merge order, so the bits
+#: depend on it, never on the workers or the backend.
 BLOCKS_PER_TASK = 64
-#: Seconds between checkpoint writes (override: MICROIMPACT_CHECKPOINT_INTERVAL).
+#: A task packs consecutive groups (of any points) until it holds this many impacts
+#: or :data:`TASK_GROUPS` groups, so a sweep of many small points costs one task per
+#: ~2 million impacts, not one per point. The packing does not change any bit: each
+#: group's accumulator is returned and merged on the driver in key order.
+TASK_IMPACTS = BLOCKS_PER_TASK * BLOCK_SIZE
+#: Most groups per task (bounds a task's result when points have very few samples).
+TASK_GROUPS = 2048
+#: Least seconds between checkpoint writes (override:
+#: MICROIMPACT_CHECKPOINT_INTERVAL); writes are further spaced to take at most
+#: ``checkpoint.WRITE_FRACTION`` of the run time.
 CHECKPOINT_INTERVAL = 2.0
 
 
 def checkpoint_interval() -> float:
-    """Seconds between checkpoint writes: ``MICROIMPACT_CHECKPOINT_INTERVAL`` if set
-    (a positive number), else :data:`CHECKPOINT_INTERVAL`."""
+    """Least seconds between checkpoint writes: ``MICROIMPACT_CHECKPOINT_INTERVAL``
+    if set (a positive number), else :data:`CHECKPOINT_INTERVAL`."""
     raw = os.environ.get("MICROIMPACT_CHECKPOINT_INTERVAL")
     if raw is None or not raw.strip():
         return CHECKPOINT_INTERVAL
@@ -58,7 +89,7 @@ def checkpoint_interval() -> float:
 
 @dataclass(frozen=True)
 class BlockResult:
-    """One merged task, as yielded by :func:`iter_blocks`: a block, or (fixed-size
+    """One merged group, as yielded by :func:`iter_blocks`: a block, or (fixed-size
     runs) a group of up to ``BLOCKS_PER_TASK`` consecutive blocks."""
 
     point: int
@@ -69,24 +100,21 @@ class BlockResult:
     done: bool  # no more blocks will follow for (point, replicate)
 
 
-@dataclass
+# ----------------------------------------------------------------- driver state
 class _Stream:
-    """Driver-side state of one (point, replicate)."""
+    """Driver-side state of one (point, replicate): blocks ``[0, next_block)`` are
+    merged into `acc`."""
 
-    target: int | None  # samples, None = until the precision target
-    max_samples: int  # the target, or the cap of a precision target
-    next_block: int = 0
-    acc: PointAccumulator | None = None
-    done: bool = False
+    __slots__ = ("acc", "done", "max_samples", "next_block")
 
-    def samples_done(self):
+    def __init__(self, max_samples: int):
+        self.max_samples = max_samples  # the target, or the cap of a precision target
+        self.next_block = 0
+        self.acc: PointAccumulator | None = None
+        self.done = False
+
+    def samples_done(self) -> int:
         return self.acc.n if self.acc is not None else 0
-
-    def block_n(self, b, block_size):
-        return min(block_size, self.max_samples - b * block_size)
-
-    def n_blocks(self, block_size):
-        return math.ceil(self.max_samples / block_size)
 
 
 def _converged(acc: PointAccumulator, precision, confidence) -> bool:
@@ -102,6 +130,328 @@ def _converged(acc: PointAccumulator, precision, confidence) -> bool:
     return hw <= precision.half_width
 
 
+class _Streams:
+    """The merged prefix of every (point, replicate), in key order; merges groups.
+
+    Merging is the only place results are combined, always in block order, so the
+    bits depend on the plan alone.
+    """
+
+    def __init__(self, plan: Plan, n_target, precision, confidence):
+        self.block_size = plan.block_size
+        self.precision = precision
+        self.confidence = confidence
+        self.by_key = {
+            key: _Stream(cap) for key, cap in _caps(plan, n_target, precision).items()
+        }
+
+    def n_blocks(self, st: _Stream) -> int:
+        return -(-st.max_samples // self.block_size)
+
+    def specs(self, key, start: int, stop: int) -> tuple:
+        """Block specifications ``(point, rep, block, n)`` for blocks start..stop-1."""
+        cap, B = self.by_key[key].max_samples, self.block_size
+        return tuple((*key, b, min(B, cap - b * B)) for b in range(start, stop))
+
+    @property
+    def total_blocks(self) -> int:
+        return sum(self.n_blocks(st) for st in self.by_key.values())
+
+    @property
+    def merged_blocks(self) -> int:
+        return sum(st.next_block for st in self.by_key.values())
+
+    def samples_done(self) -> int:
+        return sum(st.samples_done() for st in self.by_key.values())
+
+    def active(self) -> list:
+        return [k for k, st in self.by_key.items() if not st.done]
+
+    def restore(self, saved: dict) -> None:
+        """Take the prefixes of a checkpoint (keys of this run only)."""
+        for key, (nxt, acc) in saved.items():
+            st = self.by_key.get(key)
+            if st is None:
+                continue
+            st.next_block, st.acc = nxt, acc
+            st.done = self._finished(st)
+
+    def _finished(self, st: _Stream) -> bool:
+        if st.next_block >= self.n_blocks(st):
+            return True
+        return self.precision is not None and _converged(
+            st.acc, self.precision, self.confidence
+        )
+
+    def finished_results(self) -> Iterator[BlockResult]:
+        """The (point, replicate) already done (restored), as they were."""
+        for (p, r), st in self.by_key.items():
+            if st.done:
+                yield BlockResult(p, r, st.next_block - 1, None, st.acc, True)
+
+    def merge(self, group: tuple, acc: PointAccumulator) -> BlockResult | None:
+        """Merge `group` (its accumulator `acc`) if its first block is the next one
+        of its stream; None if the stream is done or the group is not next (blocks
+        run after convergence: discarded, deterministically)."""
+        point, rep, first, _n = group[0]
+        st = self.by_key[(point, rep)]
+        if st.done or first != st.next_block:
+            return None
+        st.acc = acc if st.acc is None else st.acc.merge(acc)
+        st.next_block = group[-1][2] + 1
+        st.done = self._finished(st)
+        return BlockResult(point, rep, group[-1][2], acc, st.acc, st.done)
+
+    def state(self) -> dict:
+        """``{(point, rep): (next_block, accumulator)}`` for the checkpoint."""
+        return {
+            k: (st.next_block, st.acc)
+            for k, st in self.by_key.items()
+            if st.acc is not None
+        }
+
+    def unconverged(self) -> list:
+        return [
+            p
+            for (p, _r), st in self.by_key.items()
+            if st.acc is None or not _converged(st.acc, self.precision, self.confidence)
+        ]
+
+
+def _caps(plan, n_target, precision) -> dict:
+    """Samples (or the cap of a precision target) of every (point, replicate)."""
+    if precision is not None:
+        cap = precision.max_samples
+    else:
+        cap = math.ceil(n_target / plan.replicates)
+    return {
+        (sp.index, rep): cap for sp in plan.points for rep in range(plan.replicates)
+    }
+
+
+# ------------------------------------------------------------------- scheduling
+def _pack(groups) -> Iterator[tuple]:
+    """Consecutive `groups` packed into tasks of up to :data:`TASK_IMPACTS` impacts
+    or :data:`TASK_GROUPS` groups (a larger group is a task alone)."""
+    task, impacts = [], 0
+    for group in groups:
+        task.append(group)
+        impacts += sum(spec[3] for spec in group)
+        if impacts >= TASK_IMPACTS or len(task) >= TASK_GROUPS:
+            yield tuple(task)
+            task, impacts = [], 0
+    if task:
+        yield tuple(task)
+
+
+def _fixed_tasks(streams: _Streams) -> Iterator[tuple]:
+    """The remaining blocks of a fixed-size run, in key order: groups of
+    :data:`BLOCKS_PER_TASK` blocks aligned on multiples of it (so a resumed run groups
+    as an uninterrupted one), packed into tasks."""
+    T = BLOCKS_PER_TASK
+
+    def groups():
+        for key in sorted(streams.by_key):
+            st = streams.by_key[key]
+            if st.done:
+                continue
+            stop = streams.n_blocks(st)
+            start = st.next_block
+            while start < stop:
+                end = min((start // T + 1) * T, stop)
+                yield streams.specs(key, start, end)
+                start = end
+
+    return _pack(groups())
+
+
+def _precision_wave(streams: _Streams, per_key: int) -> list[tuple]:
+    """The next `per_key` blocks of every unfinished stream, one block per group
+    (convergence is decided block by block), packed into tasks."""
+    groups = []
+    for key in streams.active():
+        st = streams.by_key[key]
+        stop = min(st.next_block + per_key, streams.n_blocks(st))
+        groups.extend((spec,) for spec in streams.specs(key, st.next_block, stop))
+    return list(_pack(groups))
+
+
+class _Progress:
+    """A tqdm bar over impacts, or nothing."""
+
+    def __init__(self, enabled, *, total, desc, initial):
+        self.bar = None
+        if enabled is None:
+            enabled = sys.stderr.isatty()
+        if enabled:
+            from tqdm.auto import tqdm
+
+            self.bar = tqdm(
+                total=total,
+                unit="impacts",
+                unit_scale=True,
+                delay=1.0,
+                desc=desc,
+                leave=False,
+            )
+            self.bar.update(initial)
+
+    def update(self, n):
+        if self.bar is not None:
+            self.bar.update(n)
+
+    def close(self):
+        if self.bar is not None:
+            self.bar.close()
+
+
+# ------------------------------------------------------------------- one run
+class _Job:
+    """One run: validated arguments, the plan, the streams, the checkpoint."""
+
+    def __init__(
+        self,
+        scenario,
+        *,
+        samples,
+        seed,
+        workers,
+        backend,
+        executor,
+        address,
+        checkpoint,
+        progress,
+        plan,
+    ):
+        from ..scenario import as_scenario
+
+        self.scenario = scenario = as_scenario(scenario)
+        if samples is not None:
+            samples = check_int(samples, "samples")
+        self.workers_requested = check_int(workers, "workers")
+        check_choice(backend, "backend", BACKENDS)
+        self.backend, self.executor, self.address = backend, executor, address
+        self.workers = self.workers_requested
+        if executor is None:
+            self.workers = cap_workers(
+                self.workers_requested, backend=backend, address=address
+            )
+        self.samples = samples
+        self.plan = build_plan(scenario, seed=seed) if plan is None else plan
+        self.precision = scenario.precision if samples is None else None
+        n_target = samples if samples is not None else scenario.samples
+        self.streams = _Streams(
+            self.plan, n_target, self.precision, scenario.confidence
+        )
+        self.checkpoint = None
+        if checkpoint is not None:
+            self.checkpoint = (
+                checkpoint
+                if isinstance(checkpoint, Checkpoint)
+                else Checkpoint(checkpoint)
+            )
+            self._fingerprint = plan_fingerprint(
+                self.plan,
+                (
+                    n_target,
+                    self.plan.replicates,
+                    None if self.precision is None else vars(self.precision),
+                ),
+            )
+        self.progress = progress
+        self.resumed_blocks = 0
+
+    def provenance(self) -> dict:
+        out = {
+            "resumed_blocks": self.resumed_blocks,
+            "total_blocks": self.streams.total_blocks,
+        }
+        if self.workers != self.workers_requested:
+            out["workers_requested"] = self.workers_requested
+        return out
+
+    def blocks(self) -> Iterator[BlockResult]:
+        """Run the remaining blocks, yielding each merged group in key order."""
+        streams, ck = self.streams, self.checkpoint
+        if ck is not None:
+            streams.restore(ck.open(self._fingerprint, interval=checkpoint_interval()))
+            self.resumed_blocks = streams.merged_blocks
+            ck.started(self.resumed_blocks, streams.total_blocks)
+        yield from streams.finished_results()
+        if not streams.active():
+            return  # everything was restored from the checkpoint: no workers needed
+        fixed = self.precision is None
+        bar = _Progress(
+            self.progress,
+            total=sum(st.max_samples for st in streams.by_key.values())
+            if fixed
+            else None,
+            desc=self.scenario.name,
+            initial=streams.samples_done(),
+        )
+        runner = make_runner(
+            self.plan,
+            workers=self.workers,
+            backend=self.backend,
+            executor=self.executor,
+            address=self.address,
+        )
+        try:
+            if fixed:
+                tasks, todo = itertools.tee(_fixed_tasks(streams))
+                for task, accs in zip(todo, runner.imap(tasks), strict=True):
+                    yield from self._merge(task, accs, bar)
+            else:
+                per_key = max(1, runner.workers * 2)
+                while streams.active():
+                    wave = _precision_wave(streams, per_key)
+                    results = runner.map(wave)
+                    done = dict(zip(_groups(wave), _groups(results), strict=True))
+                    yield from self._merge(
+                        sorted(done), [done[g] for g in sorted(done)], bar
+                    )
+        finally:
+            # normal end, an exception, Ctrl-C or the caller closing the generator:
+            # keep everything merged so far (the state is consistent between yields)
+            if ck is not None:
+                ck.write(streams.state())
+            runner.close()
+            bar.close()
+        if not fixed:
+            self._warn_unconverged()
+
+    def _merge(self, groups, accs, bar) -> Iterator[BlockResult]:
+        for group, acc in zip(groups, accs, strict=True):
+            br = self.streams.merge(group, acc)
+            if br is not None:
+                bar.update(acc.n)
+                yield br
+        ck = self.checkpoint
+        if ck is not None and ck.due():
+            ck.write(self.streams.state())
+
+    def _warn_unconverged(self):
+        short = self.streams.unconverged()
+        if not short:
+            return
+        pts = ", ".join(
+            f"({sp.surface_name}, {sp.speed} m/s, {sp.angle_deg} deg)"
+            for sp in (self.plan.points[p] for p in short[:5])
+        )
+        precision = self.precision
+        warnings.warn(
+            f"{len(short)} sweep point(s) did not reach the precision target "
+            f"{precision.half_width} on {precision.statistic} within "
+            f"max_samples={precision.max_samples}: {pts}",
+            ConvergenceWarning,
+            stacklevel=3,
+        )
+
+
+def _groups(tasks):
+    return [g for task in tasks for g in task]
+
+
 def iter_blocks(
     scenario,
     *,
@@ -115,164 +465,24 @@ def iter_blocks(
     progress=None,
     plan=None,
 ) -> Iterator[BlockResult]:
-    """Run the simulation block by block, yielding each merged block in key order.
+    """Run the simulation block by block, yielding each merged group in key order.
 
     Arguments are those of :func:`run`. Stopping the iteration early leaves the
     checkpoint (if any) holding everything merged so far.
     """
-    if samples is not None:
-        samples = check_int(samples, "samples")
-    workers = check_int(workers, "workers")
-    check_choice(backend, "backend", BACKENDS)
-    interval = checkpoint_interval() if checkpoint is not None else math.inf
-    plan = build_plan(scenario, seed=seed) if plan is None else plan
-    B = plan.block_size
-    precision = scenario.precision if samples is None else None
-    n_target = samples if samples is not None else scenario.samples
-    streams = {
-        key: _Stream(target, cap)
-        for key, (target, cap) in _targets(plan, n_target, precision).items()
-    }
-    fingerprint = _fingerprint(plan, n_target, precision)
-    if checkpoint is not None:
-        saved = ckpt.load(checkpoint, fingerprint) or {}
-        for key, (nxt, acc) in saved.items():
-            if key in streams:
-                st = streams[key]
-                st.next_block, st.acc = nxt, acc
-                st.done = nxt >= st.n_blocks(B) or (
-                    precision is not None
-                    and _converged(acc, precision, scenario.confidence)
-                )
-    for key, st in streams.items():
-        if st.done:  # finished before the interruption: report it as it was
-            yield BlockResult(key[0], key[1], st.next_block - 1, None, st.acc, True)
-    total = None if precision is not None else sum(s.target for s in streams.values())
-    if progress is None:
-        progress = sys.stderr.isatty()
-    bar = None
-    if progress:
-        from tqdm.auto import tqdm
-
-        bar = tqdm(
-            total=total,
-            unit="impacts",
-            unit_scale=True,
-            delay=1.0,
-            desc=scenario.name,
-            leave=False,
-        )
-        bar.update(sum(s.samples_done() for s in streams.values()))
-
-    if all(st.done for st in streams.values()):
-        if bar is not None:
-            bar.close()
-        return  # everything was restored from the checkpoint: no workers needed
-    runner = make_runner(
-        plan, workers=workers, backend=backend, executor=executor, address=address
+    job = _Job(
+        scenario,
+        samples=samples,
+        seed=seed,
+        workers=workers,
+        backend=backend,
+        executor=executor,
+        address=address,
+        checkpoint=checkpoint,
+        progress=progress,
+        plan=plan,
     )
-    last_save = time.monotonic()
-
-    def specs(key, start, stop):
-        """Block specifications of (point, rep) for blocks start..stop-1."""
-        st = streams[key]
-        return tuple((key[0], key[1], b, st.block_n(b, B)) for b in range(start, stop))
-
-    def merge(task, acc):
-        """Merge the blocks of `task` if the first is the next one; else None."""
-        point, rep, first, _n = task[0]
-        last = task[-1][2]
-        st = streams[(point, rep)]
-        if st.done or first != st.next_block:
-            return None  # after convergence: discarded, deterministically
-        st.acc = acc if st.acc is None else st.acc.merge(acc)
-        st.next_block = last + 1
-        if st.next_block >= st.n_blocks(B):
-            st.done = True
-        elif precision is not None and _converged(
-            st.acc, precision, scenario.confidence
-        ):
-            st.done = True
-        if bar is not None:
-            bar.update(acc.n)
-        return BlockResult(point, rep, last, acc, st.acc, st.done)
-
-    def save_now_and_then():
-        nonlocal last_save
-        if checkpoint is not None and time.monotonic() - last_save > interval:
-            _save(checkpoint, fingerprint, streams)
-            last_save = time.monotonic()
-
-    try:
-        if precision is None:
-            # fixed sizes: stream the remaining tasks (groups of BLOCKS_PER_TASK
-            # blocks aligned on multiples of it, so a resumed run groups as an
-            # uninterrupted one) in key order through the runner with bounded
-            # look-ahead; results come back in the same order
-            T = BLOCKS_PER_TASK
-            tasks = [
-                specs(key, start, min((start // T + 1) * T, st.n_blocks(B)))
-                for key, st in sorted(streams.items())
-                if not st.done
-                for start in (
-                    st.next_block,
-                    *range((st.next_block // T + 1) * T, st.n_blocks(B), T),
-                )
-            ]
-            for task, acc in zip(tasks, runner.imap(tasks), strict=True):
-                yield merge(task, acc)
-                save_now_and_then()
-        else:
-            # precision targets: waves of blocks, convergence checked block by block
-            per_key = max(1, runner.workers * 2)
-            while active := [k for k, st in streams.items() if not st.done]:
-                # one block per task: convergence is decided block by block
-                wave = [
-                    (spec,)
-                    for k in active
-                    for spec in specs(
-                        k,
-                        streams[k].next_block,
-                        min(streams[k].next_block + per_key, streams[k].n_blocks(B)),
-                    )
-                ]
-                done = dict(zip(wave, runner.map(wave), strict=True))
-                for task in sorted(done):
-                    br = merge(task, done[task])
-                    if br is not None:
-                        yield br
-                save_now_and_then()
-    finally:
-        # normal end, an exception, Ctrl-C or the caller closing the generator: keep
-        # everything merged so far (the state is consistent between two yields)
-        if checkpoint is not None:
-            _save(checkpoint, fingerprint, streams)
-        runner.close()
-        if bar is not None:
-            bar.close()
-    if precision is not None:
-        short = [
-            plan.points[p]
-            for (p, _r), s in streams.items()
-            if not _converged(s.acc, precision, scenario.confidence)
-        ]
-        if short:
-            pts = ", ".join(
-                f"({sp.surface_name}, {sp.speed} m/s, {sp.angle_deg} deg)"
-                for sp in short[:5]
-            )
-            warnings.warn(
-                f"{len(short)} sweep point(s) did not reach the precision target "
-                f"{precision.half_width} on {precision.statistic} within "
-                f"max_samples={precision.max_samples}: {pts}",
-                ConvergenceWarning,
-                stacklevel=2,
-            )
-
-
-def _save(path, fingerprint, streams):
-    state = {k: (s.next_block, s.acc) for k, s in streams.items() if s.acc is not None}
-    ckpt.save(path, fingerprint, state)
+    yield from job.blocks()
 
 
 def run(
@@ -291,8 +501,9 @@ def run(
 
     Parameters
     ----------
-    scenario : Scenario
-        The study (see :class:`microimpact.Scenario`).
+    scenario : Scenario, path or str
+        The study (see :class:`microimpact.Scenario`), a scenario file or a preset
+        name.
     samples : int, optional
         Impacts per sweep point; overrides the scenario's count and its precision
         target.
@@ -301,70 +512,104 @@ def run(
         entropy, which is recorded in the result.
     workers : int, default 1
         Worker processes (``backend="process"``) or Dask workers for a local
-        cluster (``backend="dask"``).
+        cluster (``backend="dask"``); more than the available cores is capped with
+        a ``RuntimeWarning``.
     backend : {"process", "dask"}
     executor : object with ``map``, optional
         Any pool (``concurrent.futures`` executor, ``multiprocessing.Pool``,
         emcee-style pool); overrides `workers` and `backend`.
     address : str, optional
         Dask scheduler address; None starts a ``LocalCluster``.
-    checkpoint : path, optional
+    checkpoint : path or Checkpoint, optional
         File that keeps finished work; re-running with the same arguments resumes.
+        Pass a :class:`~microimpact.engine.checkpoint.Checkpoint` to learn what was
+        restored (``restored_blocks``, ``total_blocks``, ``rejected``). A file of
+        another run is moved aside with a ``CheckpointWarning``.
     progress : bool, optional
         Show a progress bar; default: only when stderr is a terminal.
 
     Returns
     -------
     SimulationResult
+        Its provenance records ``resumed_blocks`` (0 for a fresh run),
+        ``total_blocks`` and the effective ``workers``.
     """
     from .result import SimulationResult
 
-    plan = build_plan(scenario, seed=seed)
     t0 = time.perf_counter()
-    totals: dict[tuple[int, int], PointAccumulator] = {}
-    for br in iter_blocks(
+    job = _Job(
         scenario,
         samples=samples,
+        seed=seed,
         workers=workers,
         backend=backend,
         executor=executor,
         address=address,
         checkpoint=checkpoint,
         progress=progress,
-        plan=plan,
-    ):
+        plan=None,
+    )
+    totals: dict[tuple[int, int], PointAccumulator] = {}
+    for br in job.blocks():
         if br.done:
             totals[(br.point, br.replicate)] = br.total
     elapsed = time.perf_counter() - t0
     return SimulationResult.from_accumulators(
-        scenario,
-        plan,
+        job.scenario,
+        job.plan,
         totals,
         elapsed=elapsed,
         samples=samples,
-        workers=workers,
+        workers=job.workers,
         backend=backend if executor is None else "executor",
+        provenance=job.provenance(),
     )
 
 
-def _targets(plan, n_target, precision):
-    """(target samples or None, cap) for every (point, replicate)."""
-    out = {}
-    for sp in plan.points:
-        for rep in range(plan.replicates):
-            if precision is not None:
-                out[(sp.index, rep)] = (None, precision.max_samples)
-            else:
-                per_rep = math.ceil(n_target / plan.replicates)
-                out[(sp.index, rep)] = (per_rep, per_rep)
-    return out
+# ------------------------------------------------------------------ estimate
+def estimate_duration(scenario, *, samples=None, workers=1, seed=None, plan=None):
+    """Rough wall time of :func:`run` [s], from a few timed blocks.
 
+    Times, in this process, a block of one impact at the last sweep point (new
+    tables: the fixed cost of a point), then one impact and one block of up to a
+    full block size at the first point (the per-block cost and the per-impact
+    cost), and scales them to the whole run, divided by the effective worker count
+    (capped at the available cores). A precision target is costed at its
+    ``max_samples`` (an upper bound). Costs about the time of two blocks plus the
+    plan (pass `plan` to reuse one). Accurate to a factor of about 2: meant to warn
+    that a run will take minutes or hours, not to schedule it.
+    """
+    from ..scenario import as_scenario
+    from .parallel import _simulate
 
-def _fingerprint(plan, n_target, precision):
-    targets = _targets(plan, n_target, precision)
-    return ckpt.plan_fingerprint(
-        plan, (targets, None if precision is None else vars(precision))
-    )
+    scenario = as_scenario(scenario)
+    workers = min(check_int(workers, "workers"), available_cores())
+    plan = build_plan(scenario, seed=seed) if plan is None else plan
+    if samples is None:
+        precision = scenario.precision
+        n = precision.max_samples if precision is not None else scenario.samples
+    else:
+        n = check_int(samples, "samples")
+    per_rep = math.ceil(n / plan.replicates)
+    streams = len(plan.points) * plan.replicates
+    blocks = math.ceil(per_rep / plan.block_size)
+    probe = min(per_rep, plan.block_size)
+
+    def timed(point, m, repeat=1):
+        best = math.inf
+        for _ in range(repeat):
+            t = time.perf_counter()
+            _simulate(plan, [(point, 0, 0, m)])
+            best = min(best, time.perf_counter() - t)
+        return best
+
+    cold = timed(len(plan.points) - 1, 1)  # a point not seen before: its tables
+    one = timed(0, 1, repeat=3)
+    per_impact = max(timed(0, probe, repeat=2) - one, 0.0) / max(probe - 1, 1)
+    per_block = max(one - per_impact, 0.0)
+    per_point = max(cold - one, 0.0)
+    total = streams * (per_point + blocks * per_block + per_rep * per_impact)
+    return total / workers
 
 
 def sample_point(scenario, point=0, n=4000, *, seed=None, replicate=0):
@@ -374,14 +619,22 @@ def sample_point(scenario, point=0, n=4000, *, seed=None, replicate=0):
     ``speed`` [m s-1], ``e_m``, ``mu_m``, ``captured``, ``shadowed``, ``reimpact``).
     The draws are exactly those :func:`run` makes for the same seed and point.
     """
-    from .kernel import simulate_block
+    from ..scenario import as_scenario
 
+    scenario = as_scenario(scenario)
     plan = build_plan(scenario, seed=seed)
     n = check_int(n, "n")
     if not 0 <= point < len(plan.points):
         raise ValueError(f"`point` must be in [0, {len(plan.points)}); got {point!r}.")
-    parts = []
+    parts = list(iter_point_samples(plan, point, n, replicate=replicate))
+    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+
+
+def iter_point_samples(plan, point, n, *, replicate=0) -> Iterator[dict]:
+    """Per-impact arrays of the first `n` draws at `point`, one dict per block (the
+    blocks :func:`run` simulates, in order): bounded memory for any `n`."""
+    from .kernel import simulate_block
+
     for b in range(math.ceil(n / plan.block_size)):
         m = min(plan.block_size, n - b * plan.block_size)
-        parts.append(simulate_block(plan, point, replicate, b, m, store=True))
-    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+        yield simulate_block(plan, point, replicate, b, m, store=True)

@@ -1,12 +1,15 @@
 """Serial, process-pool and Dask adapters for the engine (lazy imports).
 
-A *runner* takes a list of tasks and returns their results in the same order. Each
-task is a tuple of block specifications ``(point, rep, block, n)`` of consecutive
-blocks of one (point, replicate); its result is their accumulator, merged in block
-order in the worker, so the driver handles one small object per task and merges the
-tasks in key order. Tasks are fixed by the plan (``montecarlo.BLOCKS_PER_TASK``),
-never by the number of workers, so the merge order - and every bit of the result -
-is the same on one core, a process pool or a Dask cluster.
+A *runner* takes a list of tasks and returns their results in the same order. A task
+is a tuple of *groups*; a group is a tuple of block specifications ``(point, rep,
+block, n)`` of consecutive blocks of one (point, replicate). The result of a task is
+one accumulator per group, the group's blocks merged in block order in the worker.
+The groups are fixed by the plan (``montecarlo.BLOCKS_PER_TASK`` blocks, aligned),
+and a task packs consecutive groups up to a fixed number of impacts
+(``montecarlo.TASK_IMPACTS``), never by the number of workers; the driver merges the
+groups in key order, so the merge order - and every bit of the result - is the same
+on one core, a process pool or a Dask cluster, and does not even depend on how the
+groups are packed into tasks.
 
 The plan (tables of ~2 MB) is sent to each worker once: through the pool initializer
 for processes, and by ``Client.scatter(..., broadcast=True)`` for Dask.
@@ -15,26 +18,70 @@ for processes, and by ``Client.scatter(..., broadcast=True)`` for Dask.
 from __future__ import annotations
 
 import os
+import warnings
 
 from ..errors import InputError
-from .kernel import simulate_block
+from . import kernel
 
 _WORKER_PLAN = None
 #: Seconds to wait for a Dask scheduler given by address.
 DASK_CONNECT_TIMEOUT = 10
 
 
-def run_task(plan, task):
-    """Run the blocks of one task with `plan`; returns their merged accumulator.
+def available_cores() -> int:
+    """Cores this process may run on (its CPU affinity where the OS tells)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):  # pragma: no cover - macOS, Windows
+        return max(1, os.cpu_count() or 1)
 
-    Merging here, in block order, rather than on the driver keeps the driver's share
-    of the cores to a few microseconds per task.
+
+def cap_workers(workers: int, *, backend="process", address=None) -> int:
+    """`workers`, capped at :func:`available_cores` for the local backends.
+
+    More processes than cores only slow a run down (the kernel is compute-bound),
+    so a larger request is reduced with a ``RuntimeWarning`` naming both counts. A
+    remote Dask cluster (`address` given) is not capped: its size is its own.
     """
-    acc = None
-    for spec in task:
-        block = simulate_block(plan, *spec)
-        acc = block if acc is None else acc.merge(block)
-    return acc
+    if backend == "dask" and address is not None:
+        return workers
+    cores = available_cores()
+    if workers > cores:
+        warnings.warn(
+            f"workers={workers} exceeds the {cores} core(s) available to this "
+            f"process; using {cores}",
+            RuntimeWarning,
+            stacklevel=3,
+        )
+        return cores
+    return workers
+
+
+def _simulate(plan, specs):
+    """One accumulator per block spec: ``kernel.simulate_specs`` when the kernel
+    has it (one call for many small blocks), else one ``simulate_block`` each."""
+    many = getattr(kernel, "simulate_specs", None)
+    if many is not None:
+        return many(plan, specs)
+    return [kernel.simulate_block(plan, *spec) for spec in specs]
+
+
+def run_task(plan, task):
+    """Run the groups of one task with `plan`: one accumulator per group, its blocks
+    merged in block order.
+
+    Merging here rather than on the driver keeps the driver's share of the cores to
+    a few microseconds per group.
+    """
+    flat = [spec for group in task for spec in group]
+    accs = iter(_simulate(plan, flat))
+    out = []
+    for group in task:
+        acc = next(accs)
+        for _ in range(len(group) - 1):
+            acc = acc.merge(next(accs))
+        out.append(acc)
+    return out
 
 
 def _init_worker(plan):
@@ -104,7 +151,7 @@ class PoolRunner:
         if method == "fork":
             # build the first angle table and touch the kernel here, once, so that
             # forked workers inherit them instead of each building them per run
-            simulate_block(plan, 0, 0, 0, 1)
+            kernel.simulate_block(plan, 0, 0, 0, 1)
         self._pool = ProcessPoolExecutor(
             max_workers=workers,
             mp_context=ctx,
@@ -210,9 +257,11 @@ BACKENDS = ("process", "dask")
 
 
 def make_runner(plan, *, workers=1, backend="process", executor=None, address=None):
-    """The runner for the requested parallelism."""
+    """The runner for the requested parallelism (`workers` capped by
+    :func:`cap_workers`)."""
     if executor is not None:
         return ExecutorRunner(plan, executor)
+    workers = cap_workers(workers, backend=backend, address=address)
     if backend == "dask":
         return DaskRunner(plan, address=address, workers=workers)
     if workers == 1:

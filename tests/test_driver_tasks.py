@@ -1,0 +1,206 @@
+"""The driver's tasks, worker cap and duration estimate: wiring and invariants."""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+from engine_helpers import rough, scenario
+from numpy.testing import assert_array_equal
+
+from microimpact.engine import kernel, montecarlo, parallel
+from microimpact.engine.montecarlo import estimate_duration, iter_blocks, run
+from microimpact.engine.plan import BLOCK_SIZE
+
+
+def _grid(**kw):
+    base = dict(
+        surfaces=(rough(8.0),),
+        speeds_m_s=tuple(np.linspace(0.1, 1.0, 12)),
+        angles_deg=(20.0, 50.0, 80.0),
+        samples=3000,
+    )
+    base.update(kw)
+    return scenario(**base)
+
+
+def _same(a, b):
+    cols = [c for c in a.summary.columns if c != "surface"]
+    assert_array_equal(a.summary[cols].to_numpy(), b.summary[cols].to_numpy())
+    for k in a.accumulators:
+        assert a.accumulators[k] == b.accumulators[k]
+
+
+class Recorder:
+    """Records the tasks a runner is given."""
+
+    def __init__(self, monkeypatch):
+        self.tasks = []
+        real = parallel.run_task
+
+        def record(plan, task):
+            self.tasks.append(task)
+            return real(plan, task)
+
+        monkeypatch.setattr(parallel, "run_task", record)
+
+
+def test_small_points_share_a_task(monkeypatch):
+    """36 points of 3,000 impacts: one task, not one per point."""
+    rec = Recorder(monkeypatch)
+    run(_grid())
+    assert len(rec.tasks) == 1
+    assert [g[0][:3] for g in rec.tasks[0]] == [(p, 0, 0) for p in range(36)]
+
+
+def test_tasks_hold_a_fixed_number_of_impacts(monkeypatch):
+    monkeypatch.setattr(montecarlo, "TASK_IMPACTS", 10_000)
+    rec = Recorder(monkeypatch)
+    run(_grid())
+    assert len(rec.tasks) == 9  # 4 groups of 3,000 reach 10,000
+    assert all(len(t) == 4 for t in rec.tasks)
+    monkeypatch.setattr(montecarlo, "TASK_GROUPS", 5)
+    monkeypatch.setattr(montecarlo, "TASK_IMPACTS", 10**9)
+    rec.tasks.clear()
+    run(_grid())
+    assert [len(t) for t in rec.tasks] == [5] * 7 + [1]
+
+
+def test_large_groups_are_tasks_of_their_own(monkeypatch):
+    monkeypatch.setattr(montecarlo, "BLOCKS_PER_TASK", 2)
+    rec = Recorder(monkeypatch)
+    run(scenario(speeds_m_s=(0.2, 0.3), samples=5 * BLOCK_SIZE))
+    assert all(sum(s[3] for g in t for s in g) <= 64 * BLOCK_SIZE for t in rec.tasks)
+    groups = [g for t in rec.tasks for g in t]
+    assert [[s[2] for s in g] for g in groups] == [[0, 1], [2, 3], [4]] * 2
+
+
+@pytest.mark.parametrize("impacts", [1, 5_000, 10**9])
+def test_packing_changes_no_bit(monkeypatch, impacts):
+    """Tasks are transport: any packing gives the same bits, on 1 or 2 workers."""
+    sc = _grid(speeds_m_s=(0.1, 0.4), samples=70_000)
+    ref = run(sc)
+    monkeypatch.setattr(montecarlo, "TASK_IMPACTS", impacts)
+    _same(ref, run(sc))
+    _same(ref, run(sc, workers=2))
+
+
+def test_simulate_specs_is_used_when_the_kernel_has_it(monkeypatch):
+    """One kernel call per task with all its block specs, and the same bits as
+    simulate_block per spec."""
+    sc = _grid()
+    ref = run(sc)
+    calls = []
+
+    def simulate_specs(plan, specs):
+        calls.append(list(specs))
+        return [kernel.simulate_block(plan, *s) for s in specs]
+
+    monkeypatch.setattr(kernel, "simulate_specs", simulate_specs, raising=False)
+    _same(ref, run(sc))
+    assert len(calls) == 1 and len(calls[0]) == 36
+
+
+def test_merge_in_a_task_follows_block_order(monkeypatch):
+    """A worker merges a group's blocks in block order: reversing them changes the
+    moments' last bits (so the bit-identity tests can see a wrong order)."""
+    monkeypatch.setattr(montecarlo, "BLOCKS_PER_TASK", 8)
+    sc = scenario(
+        surfaces=(rough(10.0),),
+        speeds_m_s=(0.5,),
+        angles_deg=(40.0,),
+        samples=8 * BLOCK_SIZE,
+    )
+    ref = run(sc).accumulators[0]
+    real = parallel._simulate
+    monkeypatch.setattr(parallel, "_simulate", lambda p, s: real(p, s[::-1])[::-1])
+    assert run(sc).accumulators[0] == ref  # same specs, same order of merging
+    monkeypatch.setattr(parallel, "_simulate", lambda p, s: real(p, s)[::-1])
+    bad = run(sc).accumulators[0]
+    assert bad.n == ref.n and bad.e != ref.e
+
+
+# ---------------------------------------------------------------- worker cap
+def test_workers_above_the_cores_are_capped(monkeypatch):
+    monkeypatch.setattr(parallel, "available_cores", lambda: 1)
+    sc = scenario(samples=1000)
+    with pytest.warns(RuntimeWarning, match=r"workers=3 exceeds the 1 core"):
+        res = run(sc, workers=3)
+    assert res.provenance["workers"] == 1
+    assert res.provenance["workers_requested"] == 3
+    _same(run(sc), res)
+
+
+def test_workers_within_the_cores_are_not_capped(monkeypatch):
+    monkeypatch.setattr(parallel, "available_cores", lambda: 2)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        res = run(scenario(samples=1000), workers=2)
+    assert res.provenance["workers"] == 2
+    assert "workers_requested" not in res.provenance
+    assert parallel.cap_workers(8, backend="dask", address="tcp://h:1") == 8
+
+
+def test_available_cores_is_the_affinity():
+    import os
+
+    if hasattr(os, "sched_getaffinity"):
+        assert parallel.available_cores() == len(os.sched_getaffinity(0))
+
+
+# ------------------------------------------------------------------ estimate
+def test_estimate_scales_the_timed_blocks(monkeypatch):
+    """With a fake clock where a block of n impacts costs c + r n (and c0 more at a
+    point not seen before), the estimate is exactly the run's cost."""
+    c, r, c0 = 1e-3, 2e-8, 5e-3
+    clock = [0.0]
+    seen = set()
+
+    def fake(plan, specs):
+        for point, _rep, _b, n in specs:
+            clock[0] += c + r * n + (c0 if point not in seen else 0.0)
+            seen.add(point)
+        return [None] * len(specs)
+
+    monkeypatch.setattr(parallel, "_simulate", fake)
+    monkeypatch.setattr(montecarlo.time, "perf_counter", lambda: clock[0])
+    sc = _grid(samples=100_000)  # 4 blocks per point, 36 points
+    est = estimate_duration(sc)
+    blocks = math.ceil(100_000 / BLOCK_SIZE)
+    exact = 36 * (c0 + blocks * c + r * 100_000)
+    assert est == pytest.approx(exact, rel=1e-9)
+    monkeypatch.setattr(parallel, "available_cores", lambda: 2)
+    seen.clear()
+    assert estimate_duration(sc, workers=4) == pytest.approx(exact / 2, rel=1e-9)
+    seen.clear()
+    assert estimate_duration(sc, samples=10) == pytest.approx(
+        36 * (c0 + c + r * 10), rel=1e-9
+    )
+
+
+def test_estimate_is_the_right_order_of_magnitude():
+    sc = scenario(surfaces=(rough(10.0),), angles_deg=(30.0, 60.0), samples=400_000)
+    est = estimate_duration(sc)
+    import time
+
+    t = time.perf_counter()
+    run(sc)
+    actual = time.perf_counter() - t
+    assert actual / 10 < est < actual * 10
+
+
+def test_estimate_accepts_a_preset_name_and_a_precision_target():
+    import microimpact as mi
+
+    sc = scenario(precision=mi.scenario.Precision("capture_fraction", 0.01, 200_000))
+    assert 0 < estimate_duration(sc) < 60
+    with pytest.raises(ValueError, match="`workers`"):
+        estimate_duration(sc, workers=0)
+
+
+def test_iter_blocks_yields_every_group_in_key_order():
+    monkey = _grid(speeds_m_s=(0.1, 0.2), angles_deg=(30.0,), samples=3 * BLOCK_SIZE)
+    seen = [(br.point, br.block, br.done) for br in iter_blocks(monkey)]
+    assert seen == [(0, 2, True), (1, 2, True)]
