@@ -227,3 +227,93 @@ def test_unknown_unit_names_the_file(write_file):
 def test_histogram_decimal_comma_hint(write_file):
     with pytest.raises(DataFormatError, match=r":1: row has 5 cells.*'\.'"):
         read_histogram(write_file("h.csv", "10,5,20,5,12\n20,5,30,5,3\n30,5,40,0,1\n"))
+
+
+# ------------------------------------------------- one file, every reader, same rules
+
+#: A messy export: byte-order mark, comment lines, a trailing comment, quoted header
+#: and text cells (one holding ';' and '#'), ';' delimiters padded with tabs.
+MESSY = (
+    "\ufeff# exported by PDA v2; units in the header\n"
+    "\n"
+    '"speed_m_s";\t"diameter_um";\t"v_n_m_s";\t"e";\t"statistic";\t"mean";'
+    '\t"ci_low";\t"ci_high";\t"note"\n'
+    '0.5;\t40.0;\t0.5;\t0.60;\t"e";\t0.60;\t0.50;\t0.70;\t"run #1; a"  # first\n'
+    "# a comment between rows\n"
+    '1.0;\t50.0;\t1.0;\t0.70;\t"e";\t0.70;\t0.60;\t0.80;\t"b"\n'
+    '2.0;\t60.0;\t2.0;\t0.80;\t"e";\t0.80;\t0.70;\t0.90;\t"c"\n'
+)
+
+
+def test_every_reader_reads_the_same_messy_file(write_file):
+    from microimpact.io.experiments import read_experiments
+    from microimpact.io.impact_data import read_impact_data
+    from microimpact.io.profiles import read_profile
+
+    path = write_file("messy.csv", MESSY)
+    d, meta = read_diameters(path, column="diameter_um")
+    assert_allclose(d, [40e-6, 50e-6, 60e-6], rtol=1e-12)
+    assert meta["delimiter"] == ";"
+    impacts = read_impact_data(path)
+    assert_allclose(impacts["v_n"], [0.5, 1.0, 2.0], rtol=0)
+    assert_allclose(impacts["e"], [0.6, 0.7, 0.8], rtol=0)
+    exp = read_experiments(path)
+    assert_allclose(exp["mean"], [0.6, 0.7, 0.8], rtol=0)
+    prof = read_profile(path, x_column="speed_m_s", z_column="diameter_um")
+    assert_allclose(prof.z, [40e-6, 50e-6, 60e-6], rtol=1e-12)  # header unit: um
+    assert prof.metadata["z_unit_from"] == "header"
+
+
+def test_histogram_reads_the_same_messy_style(write_file):
+    text = (
+        "\ufeff# bins\n"
+        '"lower_um";\t"upper_um";\t"count"\n'
+        "10;\t20;\t4  # first bin\n"
+        "# between\n"
+        '20;\t30;\t"9"\n'
+    )
+    edges, counts, _ = read_histogram(write_file("h.csv", text))
+    assert_allclose(edges, [10e-6, 20e-6, 30e-6], rtol=1e-12)
+    assert_allclose(counts, [4, 9], rtol=0)
+
+
+@pytest.mark.parametrize(
+    ("line", "expected"),
+    [
+        ("a,b,c", ","),
+        ("a\tb\tc", "\t"),
+        ("a;b;c", ";"),
+        ("a b c", None),
+        ("a;\tb;\tc", ";"),  # tabs padding a ';' are not the delimiter
+        ("1,5;2,5", ";"),  # ';' with decimal commas
+        ('"a;b",c', ","),  # quoted text is ignored
+        ('"x, um"\t"z"', "\t"),
+    ],
+)
+def test_sniff_delimiter(line, expected):
+    from microimpact._files import sniff_delimiter
+
+    assert sniff_delimiter(line) == expected
+
+
+def test_semicolon_file_with_decimal_commas_names_the_cell(write_file):
+    path = write_file("d.csv", "diameter_um\n52,8\n")
+    with pytest.raises(DataFormatError, match=r"d\.csv:2: .*decimal separator"):
+        read_diameters(path)
+    path = write_file("d2.csv", "diameter_um;n\n52,8;1\n")
+    with pytest.raises(DataFormatError, match=r"d2\.csv:2: .*'52,8'.*decimal"):
+        read_diameters(path, column="diameter_um")
+
+
+@pytest.mark.parametrize(
+    ("text", "delimiter", "cells"),
+    [
+        ("a\t\tb", "\t", ["a", "", "b"]),  # an empty tab-separated cell stays
+        ('1;\t"x;y" ;2', ";", ["1", "x;y", "2"]),  # padding around a quoted cell
+        ("1 ; ; 2", ";", ["1", "", "2"]),
+    ],
+)
+def test_csv_cells_padding(text, delimiter, cells):
+    from microimpact._files import csv_cells
+
+    assert csv_cells(text, source="f", line=1, delimiter=delimiter) == cells

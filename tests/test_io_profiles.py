@@ -349,3 +349,101 @@ def test_profile_set_metadata_is_not_duplicated(write_file):
     assert ps.sources == [str(p1)] and ps.n_points == 6 and len(ps) == 2
     assert ps.metadata == {}
     assert ProfileSet((Profile([0.0, 1.0], [0.0, 1.0]),)).sources == []
+
+
+# ------------------------------------------------------------------ header units
+
+
+@pytest.mark.parametrize(
+    ("cell", "unit"),
+    [
+        ("x_um", "um"),
+        ("z_nm", "nm"),
+        ("height [nm]", "nm"),
+        ("x (mm)", "mm"),
+        ("z_A", "A"),
+        ("height_µm", "µm"),
+        ("z / nm", "nm"),
+        ("Z_NM", "nm"),
+        ("x_m", "m"),
+        ("x", None),
+        ("scan_id", None),
+        ("speed_m_s", None),  # a suffix that is no length unit is part of the name
+        ("z_a", None),  # only the capital A is the angstrom
+    ],
+)
+def test_header_unit(cell, unit):
+    from microimpact.io.profiles import header_unit
+
+    assert header_unit(cell) == (unit, None)
+
+
+def test_nm_heights_give_ra_in_metres_from_a_sine(write_file):
+    # z = A sin(2 pi x / lam) over whole periods: Ra = 2 A / pi (independent of the
+    # reader); read as um (the old behaviour) it would be 1000 times too large
+    from microimpact.surface.roughness import profile_parameters
+
+    amp_nm, lam_um, n = 150.0, 40.0, 4000
+    x_um = np.arange(n) * (4 * lam_um / n)  # 4 whole periods
+    z_nm = amp_nm * np.sin(2 * np.pi * x_um / lam_um)
+    text = "x_um,z_nm\n" + "".join(
+        f"{a:.17g},{b:.17g}\n" for a, b in zip(x_um, z_nm, strict=True)
+    )
+    prof = read_profile(write_file("sine.csv", text))
+    ra = profile_parameters(prof, detrend=None).Ra
+    assert_allclose(ra, 2 * amp_nm * 1e-9 / np.pi, rtol=1e-3)
+    assert prof.metadata["z_unit"] == "nm"
+    assert prof.metadata["z_unit_from"] == "header"
+    assert prof.metadata["x_unit_from"] == "header"
+
+
+def test_hand_computed_ra_of_a_bracketed_nm_header(write_file):
+    # heights 0, 10, -10, 20 nm: mean 5, |deviations| 5, 5, 15, 15 -> Ra = 10 nm
+    from microimpact.surface.roughness import profile_parameters
+
+    p = write_file("h.csv", "x (mm);height [nm]\n0;0\n0.001;10\n0.002;-10\n0.003;20\n")
+    prof = read_profile(p)
+    assert_allclose(prof.x, [0.0, 1e-6, 2e-6, 3e-6], rtol=1e-12, atol=1e-20)
+    assert_allclose(profile_parameters(prof, detrend=None).Ra, 10e-9, rtol=1e-12)
+
+
+def test_header_unit_and_a_different_explicit_unit_is_an_error(write_file):
+    p = write_file("a.csv", "x_um,z_nm\n0,1\n1,2\n2,3\n")
+    for kw, arg in (({"z_unit": "um"}, "z_unit"), ({"unit": "um"}, "unit")):
+        with pytest.raises(ProfileFormatError) as info:
+            read_profile(p, **kw)
+        msg = _one_line_error(info, p)
+        assert f"{arg}:" in msg and "'z_nm'" in msg
+        assert "'nm'" in msg and "'um'" in msg
+    # the same unit, however spelt, is no conflict
+    prof = read_profile(p, x_unit="µm", z_unit="nm")
+    assert prof.metadata["z_unit_from"] == "argument"
+    assert_allclose(prof.z, [1e-9, 2e-9, 3e-9], rtol=1e-12)
+
+
+def test_unknown_bracketed_unit_needs_an_explicit_one(write_file):
+    p = write_file("a.csv", "x_um,z [au]\n0,1\n1,2\n2,3\n")
+    with pytest.raises(ProfileFormatError, match=r"unknown length unit 'au'.*z_unit"):
+        read_profile(p)
+    assert_allclose(read_profile(p, z_unit="nm").z, [1e-9, 2e-9, 3e-9], rtol=1e-12)
+
+
+def test_without_header_units_the_default_is_um_and_recorded(write_file):
+    p = write_file("a.csv", "x,z\n0,1\n1,2\n")
+    prof = read_profile(p)
+    assert prof.metadata["x_unit"] == "um" and prof.metadata["z_unit"] == "um"
+    assert prof.metadata["x_unit_from"] == prof.metadata["z_unit_from"] == "default"
+    assert_allclose(prof.z, [1e-6, 2e-6], rtol=1e-12)
+    prof = read_profile(write_file("b.csv", "z_nm\n1\n2\n"), dx_um=0.5)
+    assert prof.metadata["x_unit_from"] == "dx_um"
+    assert_allclose(prof.z, [1e-9, 2e-9], rtol=1e-12)
+
+
+def test_scan_column_file_with_header_units_through_read_profiles(write_file):
+    text = "scan,x_um,z_nm\n" + "".join(
+        f"{s},{i * 0.5},{(-1) ** i * 10 * s}\n" for s in (1, 2) for i in range(6)
+    )
+    ps = read_profiles(write_file("scans.csv", text))
+    assert len(ps) == 2 and [p.scan for p in ps] == ["1", "2"]
+    assert_allclose(np.abs(ps[1].z), 20e-9, rtol=1e-12)
+    assert ps[0].metadata["scan_column"] == "scan"

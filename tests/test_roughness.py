@@ -351,3 +351,31 @@ def test_plots(rng):
     _fig, ax3 = plt.subplots()
     assert plot_angle_pdf(res.angles_deg, ax=ax3) is ax3
     plt.close("all")
+
+
+def test_roughness_json_is_standard_with_the_documented_keys():
+    import json
+
+    from microimpact.io.profiles import Profile
+    from microimpact.surface.roughness import characterise
+
+    x = np.arange(2000) * 0.5e-6
+    z = 1e-6 * np.sin(2 * np.pi * x / 50e-6)  # 20 whole periods
+    ch = characterise(Profile(x, z), contact_length=20e-6)
+    units = {"x_unit": "um", "x_unit_from": "header"}
+    out = json.loads(ch.to_json(units=units))
+    assert out["schema"] == "microimpact.roughness/1" and out["units"] == units
+    assert set(out["angles"]) == {
+        "mean_deg", "std_deg", "skewness", "kurtosis", "min_deg", "max_deg",
+        "pdf_edges_deg", "pdf_density_per_deg",
+    }  # fmt: skip
+    assert (
+        len(out["angles"]["pdf_edges_deg"])
+        == len(out["angles"]["pdf_density_per_deg"]) + 1
+    )
+    # Ra of a sine of amplitude 1 um over whole periods: 2/pi um
+    np.testing.assert_allclose(out["profile"]["Ra_um"], 2 / np.pi, rtol=2e-3)
+    # one angle only: skewness and kurtosis are NaN -> null, never NaN in the text
+    short = characterise(Profile(x[:80], z[:80]), contact_length=20e-6)
+    text = short.to_json()
+    assert "NaN" not in text and json.loads(text)["angles"]["kurtosis"] is None

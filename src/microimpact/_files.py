@@ -5,8 +5,12 @@ folder, a binary file or an unreadable file gives the same one-line error, namin
 file, whichever reader is used. Every writer goes through :func:`atomic_write`, so no
 output file is ever left half-written.
 
-The delimited-text readers share the rest: :func:`data_lines` (blank lines and ``#``
-comments), :func:`sniff_delimiter` and :func:`csv_cells` (cells, quotes allowed),
+The delimited-text readers (profiles, diameters, histograms, impact data,
+experiments) share the rest, so one file is read the same way by each:
+:func:`data_lines` (blank lines, ``#`` comment lines and trailing ``# ...`` comments
+outside quotes), :func:`sniff_delimiter` (``;``, else tab, else ``,``, else
+whitespace, judged from the first data line outside quotes) and :func:`csv_cells`
+(cells, quotes allowed), :func:`looks_like_header` (a first row without numbers),
 :func:`read_table` (a table with a header row: duplicate, missing-column and
 row-width checks), :func:`resolve_column` (a column chosen by name or index) and
 :func:`parse_number` (one numeric cell, with the error naming the file, line, field,
@@ -18,6 +22,7 @@ from __future__ import annotations
 import csv
 import math
 import os
+import re
 import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -31,7 +36,7 @@ from .errors import DataFormatError
 #: Cells that mean "no value" (compared case-insensitively, after stripping).
 MISSING = frozenset({"", "nan", "na", "n/a", "null", "none", "-", "?"})
 #: Delimiters :func:`sniff_delimiter` looks for, in order of preference.
-DELIMITERS = (",", "\t", ";")
+DELIMITERS = (";", "\t", ",")
 #: Readers ask :func:`read_rows` / :func:`read_table` to sniff with this value.
 SNIFF = "sniff"
 
@@ -56,12 +61,24 @@ def read_lines(path, *, error=DataFormatError, hint: str = "") -> list[str]:
         raise error(f"cannot read file: {exc.strerror}", source=path) from None
 
 
-def data_lines(lines, *, trailing_comments: bool = False) -> list[tuple[int, str]]:
+def strip_comment(text: str) -> str:
+    """`text` without a trailing ``# ...`` comment; a ``#`` inside double quotes is
+    kept (``"run #3"`` is one cell)."""
+    inside = False
+    for i, ch in enumerate(text):
+        if ch == '"':
+            inside = not inside
+        elif ch == "#" and not inside:
+            return text[:i]
+    return text
+
+
+def data_lines(lines, *, trailing_comments: bool = True) -> list[tuple[int, str]]:
     """``(1-based line number, line)`` of the lines that are neither blank nor a
     ``#`` comment.
 
-    With ``trailing_comments=True`` a ``# ...`` after the data on a line is cut off
-    too (the returned text is then stripped).
+    A ``# ...`` after the data on a line is cut off too (outside quotes), and the
+    returned text stripped; ``trailing_comments=False`` keeps it.
     """
     out = []
     for lineno, line in enumerate(lines, start=1):
@@ -69,15 +86,44 @@ def data_lines(lines, *, trailing_comments: bool = False) -> list[tuple[int, str
         if not stripped or stripped.startswith("#"):
             continue
         if trailing_comments:
-            line = stripped.split("#", 1)[0].strip()
+            line = strip_comment(stripped).strip()
+            if not line:
+                continue
         out.append((lineno, line))
     return out
 
 
+#: A double-quoted part of a line (an unclosed one runs to the end).
+_QUOTED = re.compile(r'("[^"]*(?:"|$))')
+
+
+def _unquoted(text: str) -> str:
+    """`text` with every double-quoted part replaced by ``x``."""
+    return "".join("x" if k % 2 else part for k, part in enumerate(_QUOTED.split(text)))
+
+
+def _unpad(text: str, delimiter: str) -> str:
+    """`text` without the whitespace around each `delimiter` outside quotes, so a
+    quoted cell after ``;<tab>`` is still read as quoted."""
+    d = re.escape(delimiter)
+    pad = re.compile(rf"[^\S{d}]*{d}[^\S{d}]*")  # whitespace other than `delimiter`
+    return "".join(
+        part if k % 2 else pad.sub(delimiter, part)
+        for k, part in enumerate(_QUOTED.split(text))
+    )
+
+
 def sniff_delimiter(first_line: str) -> str | None:
-    """The delimiter of a file from its first data line: ``,``, tab or ``;`` (the
-    first of them found), else ``None`` (runs of whitespace)."""
-    return next((d for d in DELIMITERS if d in first_line), None)
+    """The delimiter of a file from its first data line, or ``None`` (runs of
+    whitespace).
+
+    Quoted text is ignored, and so is whitespace next to a ``;`` or ``,`` (padding,
+    as in ``1.0;<tab>2.0``). Then ``;`` wins over a tab, and a tab over ``,``: a
+    file that holds both ``;`` and ``,`` is a semicolon file (the comma is its
+    decimal separator, which the number parser then reports).
+    """
+    bare = re.sub(r"\s*([,;])\s*", r"\1", _unquoted(first_line).strip())
+    return next((d for d in DELIMITERS if d in bare), None)
 
 
 def delimiter_name(delimiter: str | None) -> str:
@@ -96,6 +142,8 @@ def csv_cells(
     """
     if delimiter is None:
         text, delimiter = " ".join(text.split()), " "
+    else:
+        text = _unpad(text, delimiter)
     try:
         cells = next(
             csv.reader([text], delimiter=delimiter, skipinitialspace=True, strict=True),
@@ -163,7 +211,7 @@ def split_rows(
     source,
     delimiter: str | None = SNIFF,
     error=DataFormatError,
-    trailing_comments: bool = False,
+    trailing_comments: bool = True,
 ) -> tuple[list[tuple[int, list[str]]], str | None]:
     """``([(line number, cells)], delimiter)`` of the data lines among `lines`.
 
@@ -187,7 +235,7 @@ def read_rows(
     delimiter: str | None = SNIFF,
     error=DataFormatError,
     hint: str = "",
-    trailing_comments: bool = False,
+    trailing_comments: bool = True,
 ) -> tuple[list[tuple[int, list[str]]], str | None]:
     """:func:`split_rows` of the lines of the file `path` (see :func:`read_lines`)."""
     return split_rows(
@@ -356,8 +404,11 @@ class Table:
 
 
 def looks_like_header(cells) -> bool:
-    """True if any cell is neither a number nor a missing-value marker."""
-    return not all(is_number(c) or c.lower() in MISSING for c in cells)
+    """True if no cell is a number and some cell is text other than a missing-value
+    marker: the rule every reader uses to tell a header row from a data row."""
+    return not any(is_number(c) for c in cells) and any(
+        c.lower() not in MISSING for c in cells
+    )
 
 
 def read_table(
@@ -366,7 +417,7 @@ def read_table(
     *,
     optional=(),
     header: bool | None = True,
-    delimiter: str | None = ",",
+    delimiter: str | None = SNIFF,
     error=DataFormatError,
     hint: str = "",
     expected: str | None = None,
@@ -384,7 +435,8 @@ def read_table(
         ``True``: the first data line is the header. ``None``: it is a header if
         any of its cells is neither a number nor a missing-value marker.
     delimiter : str or None
-        The delimiter, ``None`` for whitespace, or :data:`SNIFF`.
+        The delimiter, ``None`` for whitespace, or :data:`SNIFF` (the default: the
+        rules of :func:`sniff_delimiter`, as every reader).
     error : type
         The :class:`~microimpact.errors.InputError` subclass to raise.
     hint : str

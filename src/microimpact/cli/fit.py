@@ -1,8 +1,16 @@
-"""``microimpact fit DATA``: least-squares k1, k2, v_c from impact data."""
+"""``microimpact fit DATA``: least-squares k1, k2, v_c from impact data.
+
+Refuses (exit 2, one line) when the data cannot identify the coefficients (e.g.
+every impact at one speed); a coefficient not identified at some diameters is
+reported as NaN with a ``*_identified`` flag and a warning, and its law is fitted
+on the other diameters. With ``--out`` writes ``coefficients_by_diameter.csv``,
+``coefficient_laws.json`` (standard JSON, schema in docs/adhesion.md) and
+``coefficients.toml`` (the ``[coefficients]`` table, ready to paste into a
+scenario).
+"""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 from . import _common as c
@@ -21,24 +29,35 @@ def cli_parse(sp):
 
 def cli_action(args) -> int:
     from ..io.impact_data import read_impact_data
-    from ..physics.fitting import fit_coefficient_laws, fit_impact_coefficients
+    from ..physics.fitting import (
+        IdentifiabilityError,
+        coefficient_laws_fit,
+        fit_impact_coefficients,
+    )
 
     data = read_impact_data(args.data)
-    with _data_of(args.data):
-        table = fit_impact_coefficients(
-            data["diameter"].to_numpy(), data["v_n"].to_numpy(), data["e"].to_numpy()
-        )
-        laws = fit_coefficient_laws(table, form=args.form)
-    print(table.to_string(index=False))
-    print(json.dumps(laws.describe(), indent=2, default=str))
+    try:
+        with _data_of(args.data):
+            table = fit_impact_coefficients(
+                data["diameter"].to_numpy(),
+                data["v_n"].to_numpy(),
+                data["e"].to_numpy(),
+            )
+            result = coefficient_laws_fit(table, form=args.form)
+    except IdentifiabilityError as exc:
+        raise IdentifiabilityError(
+            exc.message, source=args.data, field=exc.field
+        ) from None
+    print(table.to_string(index=False, na_rep="not identified"))
+    print()
+    print(result.toml(), end="")
     if args.out is not None:
         c.write_outputs(
             args.out,
             tables={"coefficients_by_diameter.csv": table},
             texts={
-                "coefficient_laws.json": json.dumps(
-                    laws.describe(), indent=2, default=str
-                )
+                "coefficient_laws.json": result.to_json(),
+                "coefficients.toml": result.toml(),
             },
         )
     return c.EXIT_OK

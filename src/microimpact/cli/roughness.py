@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 from . import _common as c
+from .sizes import column_arg
 
 HELP = "characterise a profilometer scan (roughness angles, statistics, Fig. 4)"
 
@@ -18,12 +18,24 @@ def cli_parse(sp):
     sp.add_argument("--out", required=True, type=c.out_dir)
     sp.add_argument("--contact-length-um", type=c.positive_float, default=20.0)
     sp.add_argument("--method", choices=("slope", "paper"), default="slope")
+    for flag, what in (
+        ("--unit", "both columns"),
+        ("--x-unit", "the positions"),
+        ("--z-unit", "the heights"),
+    ):
+        sp.add_argument(
+            flag,
+            default=None,
+            choices=units,
+            metavar="UNIT",
+            help=f"length unit of {what}, one of {', '.join(units)} (default: the "
+            "unit in the column header, e.g. z_nm or 'height [nm]', else um; an "
+            "explicit unit that contradicts the header is an error)",
+        )
     sp.add_argument(
-        "--unit",
-        default="um",
-        choices=units,
-        metavar="UNIT",
-        help=f"length unit of the data, one of {', '.join(units)} (default um)",
+        "--scan-column",
+        default=None,
+        help="column holding the scan id (default: a column named scan or scan_id)",
     )
     sp.add_argument(
         "--dx-um",
@@ -41,18 +53,19 @@ def cli_parse(sp):
 
 def cli_action(args) -> int:
     from .._files import atomic_write
-    from ..io.profiles import read_profile, read_profiles
+    from ..io.profiles import read_profiles
     from ..plotting.roughness import plot_angle_pdf, plot_profile
+    from ..snippets import surface_snippet
     from ..surface.roughness import characterise, write_angle_file
     from ..units import um_to_m
 
-    kw = {"unit": args.unit}
+    kw = {"unit": args.unit, "x_unit": args.x_unit, "z_unit": args.z_unit}
     if args.dx_um is not None:
         kw["dx_um"] = args.dx_um
-    if len(args.profile) == 1:
-        profile = read_profile(args.profile[0], **kw)
-    else:
-        profile = read_profiles(args.profile, **kw)
+    if args.scan_column is not None:
+        kw["scan_column"] = column_arg(args.scan_column)
+    profiles = read_profiles(args.profile, **kw)  # a file may hold several scans
+    profile = profiles[0] if len(profiles) == 1 else profiles
     ch = characterise(
         profile,
         contact_length=float(um_to_m(args.contact_length_um)),
@@ -60,11 +73,12 @@ def cli_action(args) -> int:
     )
     out = args.out
     out.mkdir(parents=True, exist_ok=True)
-    stats = _roughness_stats(ch, args)
-    atomic_write(
-        out / "roughness.json",
-        lambda t: Path(t).write_text(json.dumps(stats, indent=2, default=str)),
-    )
+    first = profiles[0].metadata
+    units = {
+        k: first.get(k) for k in ("x_unit", "x_unit_from", "z_unit", "z_unit_from")
+    }
+    text = ch.to_json(units=units)
+    atomic_write(out / "roughness.json", lambda t: Path(t).write_text(text))
     write_angle_file(
         out / "angles.txt",
         ch.angles_deg,
@@ -76,37 +90,23 @@ def cli_action(args) -> int:
             "method": args.method,
         },
     )
+    snippet = surface_snippet(
+        "angles.txt",
+        name="measured",
+        comment=f"roughness angles of {', '.join(map(str, args.profile))} "
+        f"({args.method}, contact length {args.contact_length_um:g} um); the path "
+        "is relative to the scenario file: copy angles.txt next to it",
+    )
+    atomic_write(out / "surface.toml", lambda t: Path(t).write_text(snippet))
     c.use_agg()
     from ..plotting.results import save_figures
 
     save_figures([("angle_pdf", lambda: plot_angle_pdf(ch))], out, ("png", "pdf"))
     save_figures([("profile", lambda: plot_profile(profile))], out, ("png",))
-    for k, v in stats.items():
-        if isinstance(v, int | float):
-            print(f"  {k:>24s} = {v:.6g}")
+    print(ch.summary())
+    print(
+        f"  units: x in {units['x_unit']} ({units['x_unit_from']}), z in "
+        f"{units['z_unit']} ({units['z_unit_from']})"
+    )
     print(f"-> {out}")
     return c.EXIT_OK
-
-
-def _roughness_stats(ch, args):
-    """Interface-unit (µm, degrees) statistics of a RoughnessCharacterisation."""
-    from ..units import m_to_um, rad_to_deg
-
-    p = ch.profile
-    return {
-        "sources": [str(s) for s in args.profile],
-        "method": ch.method,
-        "contact_length_um": float(m_to_um(ch.contact_length)),
-        "n_scans": int(ch.n_scans),
-        "n_angles": int(ch.n_segments),
-        "angle_mean_deg": float(rad_to_deg(ch.mean_angle)),
-        "angle_std_deg": float(rad_to_deg(ch.std_angle)),
-        "angle_skewness": float(ch.skewness_angle),
-        "angle_kurtosis": float(ch.kurtosis_angle),
-        "Ra_um": float(m_to_um(p.Ra)),
-        "Rq_um": float(m_to_um(p.Rq)),
-        "Rsk": float(p.Rsk),
-        "Rku": float(p.Rku),
-        "Rdq": float(p.Rdq),
-        "conditioning": ch.conditioning,
-    }

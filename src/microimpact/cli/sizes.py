@@ -1,9 +1,14 @@
-"""``microimpact sizes DATA``: fit diameters, the chi-squared test, Fig. 2."""
+"""``microimpact sizes DATA``: fit diameters, the chi-squared tests, Fig. 2.
+
+Prints which of the normal and log-normal populations fits better (AIC) and what
+the paper's chi-squared test says of each; with ``--out`` writes ``sizes.json``
+(standard JSON, schema in docs/populations.md), ``particles.toml`` (the recommended
+``[particles]`` table, ready to paste into a scenario) and the figure.
+"""
 
 from __future__ import annotations
 
 import contextlib
-import json
 from pathlib import Path
 
 from ..errors import DataFormatError
@@ -29,58 +34,55 @@ def cli_parse(sp):
     sp.add_argument("--alpha", type=c.fraction, default=0.05)
 
 
+def column_arg(text):
+    """A ``--column`` value: a 0-based index (negative from the end), else a name."""
+    with contextlib.suppress(TypeError, ValueError):
+        return int(text)
+    return text
+
+
 @contextlib.contextmanager
 def _data_of(path):
     """Report a ``ValueError`` raised while analysing the data of file `path` (too
     few values, all equal, ...) as an error of that file."""
     try:
         yield
+    except DataFormatError:
+        raise
     except ValueError as exc:
         raise DataFormatError(str(exc), source=path) from None
 
 
 def cli_action(args) -> int:
     from ..io.diameters import read_diameters
-    from ..population.distributions import chi2_normality, fit_lognormal, fit_normal
+    from ..population.sizes_report import describe_sizes
     from ..units import m_to_um
 
-    column = args.column
-    with contextlib.suppress(TypeError, ValueError):
-        column = int(column)  # a 0-based index (negative from the end), else a name
-    diameters, _meta = read_diameters(args.data, column=column, unit=args.unit)
+    column = column_arg(args.column) if args.column is not None else None
+    diameters, meta = read_diameters(args.data, column=column, unit=args.unit)
     d_um = m_to_um(diameters)
     with _data_of(args.data):
-        normal, lognormal = fit_normal(d_um), fit_lognormal(d_um)
-        chi = chi2_normality(d_um, alpha=args.alpha)
-    print(f"{args.data}: n = {d_um.size}")
-    print(f"  normal fit     : {normal}")
-    print(f"  log-normal fit : {lognormal}")
-    print(
-        f"  chi-squared    : statistic {chi.statistic:.3f}, dof {chi.dof}, "
-        f"p = {chi.pvalue:.4g} -> {chi.decision} (alpha {args.alpha})"
-    )
+        report = describe_sizes(d_um, alpha=args.alpha, source=args.data)
+    print(f"{args.data}: {report.summary()}")
     if args.out is not None:
         from ..plotting.sizes import plot_size_distribution
 
-        report = {
-            "n": int(d_um.size),
-            "normal": str(normal),
-            "lognormal": str(lognormal),
-            "chi2": {
-                "statistic": chi.statistic,
-                "dof": chi.dof,
-                "pvalue": chi.pvalue,
-                "reject": bool(chi.reject),
-                "decision": chi.decision,
-                "alpha": args.alpha,
-            },
-        }
+        ref = {"file": str(Path(args.data).resolve()), "unit": args.unit}
+        if column is not None:
+            ref["column"] = meta["column"]
+        snippet = report.particles_toml(**ref)
         c.write_outputs(
             args.out,
-            texts={"sizes.json": json.dumps(report, indent=2, default=str)},
+            texts={
+                "sizes.json": report.to_json(**ref),
+                "particles.toml": snippet,
+            },
             figures={
                 "size_distribution": lambda: plot_size_distribution(
-                    d_um, fit=getattr(normal, "distribution", None)
+                    d_um,
+                    fit=report.better_fit
+                    if report.recommended == "empirical"
+                    else report.recommended,
                 )
             },
         )

@@ -1,12 +1,14 @@
 """Read impact measurements (diameter, normal impact speed, restitution) from CSV.
 
-File format: UTF-8 CSV, comma-separated, with one header row naming at least the
+File format: UTF-8 delimited text with one header row naming at least the
 columns ``diameter_um`` (particle diameter [µm]), ``v_n_m_s`` (normal impact
 speed [m s⁻¹], a positive magnitude) and ``e`` (coefficient of restitution [-],
 0 for a captured particle); column names are matched case-insensitively and may
-appear once. Other columns are ignored. Cells may be quoted; the decimal separator
-is ``.`` (a row with more cells than the header is an error). Blank lines and lines
-whose first non-blank character is ``#`` are skipped::
+appear once. Other columns are ignored. The delimiter rules are those of every reader
+of the package (:mod:`microimpact._files`): ``;``, tab, ``,`` or whitespace, sniffed
+from the header line outside quotes. Cells may be quoted; the decimal separator is
+``.`` (a row with more cells than the header is an error). Blank lines, lines whose
+first non-blank character is ``#`` and trailing ``# ...`` comments are skipped::
 
     # SST65 on silicon, Li et al. (1999)
     diameter_um,v_n_m_s,e,run

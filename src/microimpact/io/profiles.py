@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -38,7 +39,7 @@ import numpy as np
 
 from .._files import (
     SNIFF,
-    is_number,
+    looks_like_header,
     parse_number,
     read_lines,
     resolve_column,
@@ -46,7 +47,7 @@ from .._files import (
 )
 from .._validation import as_float_array
 from ..errors import ProfileFormatError
-from ..units import length_factor
+from ..units import LENGTH_UNITS, length_factor
 
 __all__ = ["Profile", "ProfileSet", "read_profile", "read_profiles"]
 
@@ -222,6 +223,88 @@ def _unit_factor(unit, name: str, path) -> float:
         raise ProfileFormatError(str(exc), source=path, field=name) from None
 
 
+#: ``height [nm]``, ``x (mm)``, ``z / um``: a unit in brackets or after a slash.
+_BRACKETED = re.compile(
+    r"^(?P<name>.*?)\s*(?:\[(?P<b>[^\]]*)\]|\((?P<p>[^)]*)\)|/\s*(?P<s>\S+))$"
+)
+#: ``x_um``, ``z_nm``, ``height_µm``, ``z A``: a unit after the last ``_`` or space.
+_SUFFIXED = re.compile(r"^(?P<name>.+?)[_\s]+(?P<u>[^_\s]+)$")
+#: Case-folded spellings accepted in headers (``Z_NM``); ``A`` (ångström) only as is.
+_FOLDED_UNITS = {k.lower(): k for k in LENGTH_UNITS if k != "A"}
+
+
+def _known_unit(text: str) -> str | None:
+    text = text.strip()
+    if text in LENGTH_UNITS:
+        return text
+    return _FOLDED_UNITS.get(text.lower())
+
+
+def header_unit(cell: str) -> tuple[str | None, str | None]:
+    """The length unit a header cell names, and the text of a unit it names but
+    which is not a known length unit.
+
+    ``"z_nm"``, ``"height [nm]"``, ``"x (mm)"``, ``"z / um"``, ``"z_A"`` and
+    ``"height_µm"`` name a unit of :data:`~microimpact.units.LENGTH_UNITS` (matched
+    as written, else case-insensitively except ``A``): ``(unit, None)``. A suffix
+    that is not a length unit (``x_pos``, ``speed_m_s``) is part of the name:
+    ``(None, None)``. A bracketed unit that is not a length unit (``z [au]``):
+    ``(None, "au")``.
+    """
+    cell = cell.strip()
+    m = _BRACKETED.match(cell)
+    if m and m.group("name"):
+        text = next(
+            g for g in (m.group("b"), m.group("p"), m.group("s")) if g is not None
+        )
+        unit = _known_unit(text)
+        return (unit, None) if unit else (None, text.strip())
+    m = _SUFFIXED.match(cell)
+    if m:
+        return _known_unit(m.group("u")), None
+    return None, None
+
+
+def _same_unit(a: str, b: str) -> bool:
+    return LENGTH_UNITS[a] == LENGTH_UNITS[b]
+
+
+def _column_unit(path, names, idx, axis, explicit):
+    """``(unit, where it came from)`` of the x or z column `idx`.
+
+    The header's unit is honoured; an explicit unit (`explicit`: ``(value, argument
+    name)`` or ``None``) must agree with it, else ProfileFormatError naming the file,
+    the column and both units. Without either: µm, recorded as the default.
+    """
+    from_header = bad = None
+    if names is not None and idx is not None:
+        from_header, bad = header_unit(names[idx])
+    label = None if idx is None or names is None else _label(names, idx)
+    if explicit is not None:
+        value, arg = explicit
+        _unit_factor(value, arg, path)
+        if from_header is not None and not _same_unit(from_header, value):
+            raise ProfileFormatError(
+                f"the header of {label} gives the unit {from_header!r} but "
+                f"`{arg}` is {value!r}; allowed: the same unit, or leave `{arg}` out "
+                "to use the header's",
+                source=path,
+                field=arg,
+            )
+        return value, "argument"
+    if bad is not None:
+        allowed = ", ".join(repr(u) for u in ("m", "mm", "um", "µm", "nm", "A", "Å"))
+        raise ProfileFormatError(
+            f"unknown length unit {bad!r} in the header of {label}; allowed: "
+            f"{allowed}, or give the {axis} unit explicitly (`{axis}_unit`)",
+            source=path,
+            field=names[idx],
+        )
+    if from_header is not None:
+        return from_header, "header"
+    return "um", "default"
+
+
 # --------------------------------------------------------------------------- text
 
 
@@ -243,14 +326,14 @@ def _read_rows(path, delimiter):
         trailing_comments=True,
     )
     header = None
-    if rows and not any(is_number(c) for c in rows[0][1]):
+    if rows and looks_like_header(rows[0][1]):
         header, rows = rows[0], rows[1:]
     if not rows:
         raise ProfileFormatError("no data rows", source=path)
     return header, rows, comments
 
 
-def _parse_text(path, *, x_column, z_column, scan_column, dx_um, delimiter, units):
+def _parse_text(path, *, x_column, z_column, scan_column, dx_um, delimiter, explicit):
     """Parse a delimited text file into [(scan_id, x_raw|None, z_raw, linenos)]."""
     header, rows, comments = _read_rows(path, delimiter)
     first_line, first = rows[0]
@@ -336,6 +419,13 @@ def _parse_text(path, *, x_column, z_column, scan_column, dx_um, delimiter, unit
                 )
             z_idx = free.pop(0)
 
+    x_unit, x_from = (
+        ("um", "dx_um")
+        if dx_um is not None
+        else _column_unit(path, names, x_idx, "x", explicit[0])
+    )
+    z_unit, z_from = _column_unit(path, names, z_idx, "z", explicit[1])
+    units = (x_unit, z_unit)
     wanted = [
         (
             i,
@@ -390,6 +480,10 @@ def _parse_text(path, *, x_column, z_column, scan_column, dx_um, delimiter, unit
         "x_column": name_of(x_idx),
         "z_column": name_of(z_idx),
         "scan_column": name_of(scan_idx),
+        "x_unit": x_unit,
+        "x_unit_from": x_from,
+        "z_unit": z_unit,
+        "z_unit_from": z_from,
     }
     return scans, cols, comments
 
@@ -503,12 +597,13 @@ def _read_any(
     meta = {"source": path}
     if Path(path).suffix.lower() == ".x3p":
         return _read_x3p(path, meta=meta)
-    xf = _unit_factor(
-        *((x_unit, "x_unit") if x_unit is not None else (unit, "unit")), path
-    )
-    zf = _unit_factor(
-        *((z_unit, "z_unit") if z_unit is not None else (unit, "unit")), path
-    )
+    explicit = [
+        (u, name) if u is not None else ((unit, "unit") if unit is not None else None)
+        for u, name in ((x_unit, "x_unit"), (z_unit, "z_unit"))
+    ]
+    for e in explicit:
+        if e is not None:
+            _unit_factor(*e, path)
     if delimiter is not None and not (
         isinstance(delimiter, str) and len(delimiter) <= 1 and delimiter not in '"#'
     ):
@@ -532,15 +627,11 @@ def _read_any(
         scan_column=scan_column,
         dx_um=dx_um,
         delimiter=delimiter,
-        units=(x_unit or unit, z_unit or unit),
+        explicit=explicit,
     )
-    meta.update(
-        format="text",
-        x_unit=(x_unit or unit) if dx is None else "um (dx_um)",
-        z_unit=z_unit or unit,
-        comments=comments,
-        **cols,
-    )
+    meta.update(format="text", comments=comments, **cols)
+    xf = length_factor(cols["x_unit"])
+    zf = length_factor(cols["z_unit"])
     return _build_profiles(path, scans, xf=xf, zf=zf, dx=dx, meta=meta)
 
 
@@ -549,7 +640,7 @@ def read_profile(
     *,
     x_column=None,
     z_column=None,
-    unit="um",
+    unit=None,
     x_unit=None,
     z_unit=None,
     dx_um=None,
@@ -567,28 +658,43 @@ def read_profile(
         the only column is z.
     unit : str, optional
         Length unit of both columns: ``'m'``, ``'mm'``, ``'um'`` (``'µm'``),
-        ``'nm'``, ``'A'`` (``'Å'``). Default ``'um'``.
+        ``'nm'``, ``'A'`` (``'Å'``).
     x_unit, z_unit : str, optional
         Override `unit` for one column (e.g. ``x_unit='um', z_unit='A'``).
     dx_um : float, optional
         Sampling interval [µm] for a file of heights alone.
     delimiter : str, optional
         Column separator, one character (``""``: whitespace); sniffed from the first
-        row (``,``, tab, ``;``, else whitespace) when ``None``. Cells may be quoted
+        data row when ``None`` (``;``, else tab, else ``,``, else whitespace; quoted
+        text ignored), as by every reader of the package. Cells may be quoted
         (``"1,5"`` is one cell).
 
     Returns
     -------
     Profile
-        ``x`` and ``z`` in metres; metadata with the source, units and the scan id
-        (``n_points`` and ``dx`` [m] are properties).
+        ``x`` and ``z`` in metres; metadata with the source, the scan id, the
+        columns, and the units: ``x_unit``, ``z_unit`` and where each came from,
+        ``x_unit_from`` / ``z_unit_from`` (``"header"``, ``"argument"``,
+        ``"default"`` or, for x, ``"dx_um"``). ``n_points`` and ``dx`` [m] are
+        properties.
 
     Raises
     ------
     ProfileFormatError
         One line naming the file, the line and the problem: non-numeric cells,
         missing values, positions that are not strictly monotonic, an unknown unit,
-        or a file holding several scans (use :func:`read_profiles`).
+        a header unit that contradicts an explicit one, or a file holding several
+        scans (use :func:`read_profiles`).
+
+    Notes
+    -----
+    **Units.** A header cell may name its unit: ``x_um``, ``z_nm``,
+    ``height [nm]``, ``x (mm)``, ``z / um``, ``z_A``, ``height_µm``
+    (:func:`header_unit`). That unit is used. An explicit `unit`, `x_unit` or
+    `z_unit` must agree with it (``ProfileFormatError`` naming the file, the column
+    and both units otherwise: the reader never guesses between them). With neither
+    a header unit nor an explicit one, the unit is µm (``*_unit_from`` is then
+    ``"default"``).
     """
     profiles = _read_any(
         path,
@@ -615,7 +721,7 @@ def read_profiles(
     x_column=None,
     z_column=None,
     scan_column=None,
-    unit="um",
+    unit=None,
     x_unit=None,
     z_unit=None,
     dx_um=None,

@@ -30,6 +30,7 @@ from .._validation import (
     check_real_scalar,
     did_you_mean,
 )
+from ..errors import InputError
 from ..units import m_to_um, um_to_m
 from .coefficients import (
     ConstantLaw,
@@ -40,13 +41,81 @@ from .coefficients import (
 from .impact import _ratio_law
 
 __all__ = [
+    "CoefficientLawsFit",
+    "IdentifiabilityError",
+    "IdentifiabilityWarning",
     "LawFit",
     "RestitutionFit",
+    "coefficient_laws_fit",
     "fit_coefficient_laws",
     "fit_impact_coefficients",
     "fit_law",
     "fit_restitution",
 ]
+
+
+# ------------------------------------------------------------------ identifiability
+class IdentifiabilityError(InputError):
+    """The data cannot identify the parameters asked for (e.g. every impact at one
+    speed: k1, k2 and v_c cannot be told apart from e at one v_n). A user error:
+    the CLI reports it in one line with exit code 2."""
+
+
+class IdentifiabilityWarning(UserWarning):
+    """Some parameters are not identified by the data; they are reported as NaN
+    with a ``*_identified = False`` flag, never as a number with a NaN error."""
+
+
+#: A parameter whose standard error exceeds this multiple of its magnitude is
+#: taken as not identified by the data.
+MAX_RELATIVE_SE = 1.0
+#: Singular values of the scaled Jacobian below this fraction of the largest mark
+#: directions of parameter space the data do not constrain.
+RANK_TOLERANCE = 1e-8
+_NAMES = ("k1", "k2", "v_c")
+
+
+def _identify(jac, theta, s2, max_relative_se):
+    """``(covariance, standard errors, {name: reason})`` of a fit.
+
+    Directions of parameter space the scaled Jacobian does not constrain (singular
+    values below :data:`RANK_TOLERANCE` of the largest) mark their parameters as
+    not identified; the covariance of the others is computed with those held
+    fixed. A parameter whose standard error is not finite or exceeds
+    `max_relative_se` times its value is not identified either.
+    """
+    k = theta.size
+    notes = {}
+    scaled = jac * np.where(theta > 0, theta, 1.0)  # relative sensitivities
+    try:
+        _, sv, vt = np.linalg.svd(scaled, full_matrices=False)
+        weak = sv <= RANK_TOLERANCE * (sv.max() if sv.max() > 0 else 1.0)
+    except np.linalg.LinAlgError:
+        vt, weak = np.eye(k), np.ones(k, dtype=bool)
+    for i, name in enumerate(_NAMES):
+        if np.any(np.abs(vt[weak, i]) > 0.1):
+            notes[name] = "the data do not constrain it (singular Jacobian)"
+    keep = [i for i, name in enumerate(_NAMES) if name not in notes]
+    cov = np.full((k, k), np.nan)
+    if keep:
+        sub = jac[:, keep]
+        try:
+            cov[np.ix_(keep, keep)] = np.linalg.inv(sub.T @ sub) * s2
+        except np.linalg.LinAlgError:
+            pass
+    with np.errstate(invalid="ignore"):
+        diag = np.diag(cov)
+        se = np.sqrt(np.where(diag >= 0, diag, np.nan))
+    for i in keep:
+        name = _NAMES[i]
+        if not np.isfinite(se[i]):
+            notes[name] = "its standard error is not finite"
+        elif se[i] > max_relative_se * abs(theta[i]):
+            notes[name] = (
+                f"its standard error {se[i]:.3g} m/s exceeds {max_relative_se:g} x "
+                f"its value {theta[i]:.3g} m/s"
+            )
+    return cov, se, notes
 
 
 # ------------------------------------------------------------------------ fitting
@@ -78,6 +147,11 @@ class RestitutionFit:
         Exponents held fixed.
     success : bool
     message : str
+    identified : dict
+        ``{"k1": bool, "k2": bool, "v_c": bool}``; a parameter not identified by
+        the data has value and standard error NaN (see :func:`fit_restitution`).
+    notes : dict
+        Why each unidentified parameter is not identified.
     """
 
     k1: float
@@ -93,6 +167,8 @@ class RestitutionFit:
     q: float
     success: bool
     message: str
+    identified: dict = field(default_factory=lambda: dict.fromkeys(_NAMES, True))
+    notes: dict = field(default_factory=dict)
 
 
 def _initial_guess(v, e):
@@ -110,7 +186,9 @@ def _initial_guess(v, e):
     return max(k1, 1e-6), max(0.1 * (np.median(v) - v_c), 1e-6), max(v_c, 0.0)
 
 
-def fit_restitution(v_n, e, *, p=1.0, q=1.0, p0=None) -> RestitutionFit:
+def fit_restitution(
+    v_n, e, *, p=1.0, q=1.0, p0=None, max_relative_se=MAX_RELATIVE_SE
+) -> RestitutionFit:
     """Fit k1, k2 and v_c of [1], Eq. 6 to (normal impact speed, e) at one diameter.
 
     Nonlinear least squares (``scipy.optimize.least_squares``, bounds k1, k2 > 0,
@@ -126,10 +204,24 @@ def fit_restitution(v_n, e, *, p=1.0, q=1.0, p0=None) -> RestitutionFit:
         Exponents of Eqs. 4-5, held fixed.
     p0 : sequence of 3 floats, optional
         Starting (k1, k2, v_c) [m s⁻¹].
+    max_relative_se : float
+        A parameter whose standard error exceeds this multiple of its value is
+        not identified.
 
     Returns
     -------
     RestitutionFit
+        A parameter the data do not identify (its direction of the scaled Jacobian
+        is singular, its standard error not finite or above `max_relative_se`
+        times its value) is NaN with a NaN standard error and ``identified[name]``
+        False, and an :class:`IdentifiabilityWarning` names it.
+
+    Raises
+    ------
+    IdentifiabilityError
+        Fewer than 3 distinct speeds, or fewer than 2 distinct speeds with
+        ``e > 0``: three parameters cannot be identified (e.g. every impact at
+        one speed).
     """
     from scipy.optimize import least_squares
 
@@ -150,6 +242,19 @@ def fit_restitution(v_n, e, *, p=1.0, q=1.0, p0=None) -> RestitutionFit:
         check_real_scalar(p, "p", minimum=0, strict=True),
         check_real_scalar(q, "q", minimum=0, strict=True),
     )
+    max_relative_se = check_real_scalar(
+        max_relative_se, "max_relative_se", minimum=0, strict=True
+    )
+    speeds, rebound = np.unique(v).size, np.unique(v[y > 0]).size
+    if speeds < 3 or rebound < 2:
+        listing = ", ".join(f"{x:g}" for x in np.unique(v)[:6])
+        raise IdentifiabilityError(
+            f"k1, k2 and v_c cannot be identified from {v.size} impacts at "
+            f"{speeds} distinct speed(s) ({listing} m/s), {rebound} of them with "
+            "e > 0; allowed: at least 3 distinct normal speeds, 2 or more of them "
+            "with rebounds (e > 0)",
+            field="v_n_m_s",
+        )
     if p0 is None:
         start = _initial_guess(v, y)
     else:
@@ -175,13 +280,19 @@ def fit_restitution(v_n, e, *, p=1.0, q=1.0, p0=None) -> RestitutionFit:
             best = r
     dof = v.size - 3
     s2 = 2.0 * best.cost / dof
-    jtj = best.jac.T @ best.jac
-    try:
-        cov = np.linalg.inv(jtj) * s2
-    except np.linalg.LinAlgError:
-        cov = np.full((3, 3), np.nan)
-    se = np.sqrt(np.where(np.diag(cov) >= 0, np.diag(cov), np.nan))
-    k1, k2, v_c = (float(x) for x in best.x)
+    theta = np.array(best.x, dtype=float)
+    cov, se, notes = _identify(best.jac, theta, s2, max_relative_se)
+    if notes:
+        warnings.warn(
+            "not identified by the data, reported as NaN: "
+            + "; ".join(f"{k} ({why})" for k, why in notes.items()),
+            IdentifiabilityWarning,
+            stacklevel=2,
+        )
+        for i, name in enumerate(_NAMES):
+            if name in notes:
+                theta[i] = se[i] = np.nan
+    k1, k2, v_c = (float(x) for x in theta)
     return RestitutionFit(
         k1,
         k2,
@@ -194,6 +305,8 @@ def fit_restitution(v_n, e, *, p=1.0, q=1.0, p0=None) -> RestitutionFit:
         q,
         bool(best.success),
         best.message,
+        {name: name not in notes for name in _NAMES},
+        notes,
     )
 
 
@@ -220,7 +333,18 @@ def fit_impact_coefficients(
     -------
     pandas.DataFrame
         One row per group: ``diameter_um, n, k1_m_s, k1_se, k2_m_s, k2_se,
-        v_c_m_s, v_c_se, rmse``; ``attrs`` holds ``p`` and ``q``.
+        v_c_m_s, v_c_se, rmse, k1_identified, k2_identified, v_c_identified``;
+        ``attrs`` holds ``p`` and ``q``. A parameter the group's data do not
+        identify is NaN (value and standard error) with its ``*_identified`` flag
+        False (:func:`fit_restitution`; an :class:`IdentifiabilityWarning` says
+        so).
+
+    Raises
+    ------
+    IdentifiabilityError
+        If no group can identify k1, k2 and v_c (e.g. every impact at one speed);
+        a group that cannot, among others that can, is skipped with an
+        :class:`IdentifiabilityWarning`.
     """
     import pandas as pd
 
@@ -245,7 +369,7 @@ def fit_impact_coefficients(
         keys = np.where(
             (d >= edges[0]) & (d <= edges[-1]), np.minimum(keys, edges.size - 2), -1
         )
-    rows = []
+    rows, refused = [], []
     for k in np.unique(keys[keys >= 0]):
         sel = keys == k
         dk = float(d[sel].mean())
@@ -257,7 +381,21 @@ def fit_impact_coefficients(
                 stacklevel=2,
             )
             continue
-        f = fit_restitution(v[sel], y[sel], p=p, q=q)
+        try:
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always", IdentifiabilityWarning)
+                f = fit_restitution(v[sel], y[sel], p=p, q=q)
+        except IdentifiabilityError as exc:
+            refused.append((dk, exc))
+            continue
+        for w in caught:
+            if issubclass(w.category, IdentifiabilityWarning):
+                msg = f"diameter group {m_to_um(dk):.4g} um: {w.message}"
+                warnings.warn(msg, IdentifiabilityWarning, stacklevel=2)
+            else:
+                warnings.warn_explicit(
+                    w.message, w.category, w.filename, w.lineno, source=w.source
+                )
         rows.append(
             (
                 float(m_to_um(dk)),
@@ -269,7 +407,21 @@ def fit_impact_coefficients(
                 f.v_c,
                 f.v_c_se,
                 f.residual_std,
+                *(bool(f.identified[name]) for name in _NAMES),
             )
+        )
+    if refused and not rows:
+        dk, exc = refused[0]
+        raise IdentifiabilityError(
+            f"no diameter group identifies k1, k2 and v_c; e.g. at "
+            f"{m_to_um(dk):.4g} um: {exc.message}",
+            field=exc.field,
+        )
+    for dk, exc in refused:
+        warnings.warn(
+            f"skipping diameter group {m_to_um(dk):.4g} um: {exc.message}",
+            IdentifiabilityWarning,
+            stacklevel=2,
         )
     cols = [
         "diameter_um",
@@ -281,6 +433,9 @@ def fit_impact_coefficients(
         "v_c_m_s",
         "v_c_se",
         "rmse",
+        "k1_identified",
+        "k2_identified",
+        "v_c_identified",
     ]
     table = pd.DataFrame(rows, columns=cols)
     table.attrs.update(p=float(p), q=float(q))
@@ -421,39 +576,139 @@ def fit_law(
     )
 
 
-def fit_coefficient_laws(
+@dataclass(frozen=True, eq=False)
+class CoefficientLawsFit:
+    """Result of :func:`coefficient_laws_fit`: the laws and how they were fitted.
+
+    Attributes
+    ----------
+    laws : ImpactCoefficients
+        The fitted laws (as :func:`fit_coefficient_laws` returns).
+    fits : dict
+        ``{"k1": LawFit, "k2": LawFit, "v_c": LawFit}``.
+    forms : dict
+        The law form of each coefficient.
+    used : dict
+        Number of diameter groups each law was fitted on (those where the
+        coefficient is identified).
+    weighted : dict
+        Whether each fit was weighted by the per-diameter standard errors.
+    table : pandas.DataFrame
+        The per-diameter table fitted.
+    """
+
+    laws: ImpactCoefficients
+    fits: dict
+    forms: dict
+    used: dict
+    weighted: dict
+    table: Any = field(repr=False)
+
+    def to_dict(self) -> dict:
+        """Plain data in the layout of ``coefficient_laws.json`` (documented in
+        ``docs/adhesion.md``, :data:`LAWS_SCHEMA`)."""
+        coefficients = {}
+        for name in _NAMES:
+            f = self.fits[name]
+            coefficients[name] = {
+                "law": f.law.describe(),
+                "form": self.forms[name],
+                "parameters": dict(
+                    zip(f.parameter_names, map(float, f.parameters), strict=True)
+                ),
+                "standard_errors": dict(
+                    zip(f.parameter_names, map(float, f.standard_errors), strict=True)
+                ),
+                "residual_std": float(f.residual_std),
+                "n_diameters": int(self.used[name]),
+                "weighted": bool(self.weighted[name]),
+            }
+        return {
+            "schema": LAWS_SCHEMA,
+            "coefficients": coefficients,
+            "p": self.laws.p,
+            "q": self.laws.q,
+            "friction": self.laws.friction,
+            "by_diameter": [
+                {k: _plain_cell(v) for k, v in row.items()}
+                for row in self.table.to_dict(orient="records")
+            ],
+            "scenario_toml": self.toml(),
+        }
+
+    def to_json(self, *, indent=2) -> str:
+        """:meth:`to_dict` as standard JSON (NaN and infinities as ``null``)."""
+        from .._json import dumps
+
+        return dumps(self.to_dict(), indent=indent)
+
+    def toml(self) -> str:
+        """The ``[coefficients]`` table to paste into a scenario file."""
+        from ..snippets import coefficients_snippet
+
+        return coefficients_snippet(
+            self.laws,
+            comment="fitted by microimpact fit: laws of diameter, "
+            + ", ".join(
+                f"{n} ({self.forms[n]}, {self.used[n]} diameters)" for n in _NAMES
+            ),
+        )
+
+
+#: Identifies the layout of :meth:`CoefficientLawsFit.to_dict`.
+LAWS_SCHEMA = "microimpact.coefficient_laws/1"
+
+
+def _plain_cell(v):
+    if isinstance(v, np.bool_ | bool):
+        return bool(v)
+    if isinstance(v, np.integer):
+        return int(v)
+    if isinstance(v, np.floating | float):
+        return float(v)
+    return v
+
+
+def coefficient_laws_fit(
     table, *, form="power", friction=math.inf
-) -> ImpactCoefficients:
-    """Regress the per-diameter table of :func:`fit_impact_coefficients` on diameter.
+) -> CoefficientLawsFit:
+    """Regress the per-diameter table of :func:`fit_impact_coefficients` on diameter,
+    keeping the law fits (standard errors) and the identifiability bookkeeping.
+
+    Each coefficient's law is fitted on the diameter groups where it is identified
+    (``*_identified``; every group when the table has no such column); the
+    standard errors weight the fit when all of them are finite and > 0.
 
     Parameters
     ----------
-    table : pandas.DataFrame
-        With columns ``diameter_um, k1_m_s, k1_se, k2_m_s, k2_se, v_c_m_s, v_c_se``;
-        ``table.attrs`` may give ``p`` and ``q`` (default 1).
-    form : str or dict
-        Law form for all three (see :func:`fit_law`) or a dict per coefficient,
-        e.g. ``{"k1": "constant", "k2": "power", "v_c": "power"}``.
-    friction : float
-        Coulomb friction coefficient to store.
+    table, form, friction
+        As for :func:`fit_coefficient_laws`.
 
     Returns
     -------
-    ImpactCoefficients
-        Its laws are the fitted ones; standard errors weight each fit where they
-        are finite and > 0.
+    CoefficientLawsFit
+
+    Raises
+    ------
+    IdentifiabilityError
+        If a coefficient is identified at fewer distinct diameters than its law
+        has parameters (e.g. a power law from one diameter).
+    ValueError
+        Missing columns, an empty table or an unknown form.
     """
-    names = ("k1", "k2", "v_c")
-    forms = form if isinstance(form, dict) else dict.fromkeys(names, form)
+    forms = form if isinstance(form, dict) else dict.fromkeys(_NAMES, form)
     for key in forms:
-        if key not in names:
+        if key not in _NAMES:
             raise ValueError(
                 f"`form` has unknown key {key!r}; allowed: "
-                f"{', '.join(map(repr, names))}{did_you_mean(key, names)}."
+                f"{', '.join(map(repr, _NAMES))}{did_you_mean(key, _NAMES)}."
             )
+    forms = {n: forms.get(n, "power") for n in _NAMES}
+    for n in _NAMES:
+        check_choice(forms[n], f"form[{n!r}]", ("power", "polynomial", "constant"))
     missing = [
         c
-        for c in ("diameter_um", *(f"{n}_m_s" for n in names))
+        for c in ("diameter_um", *(f"{n}_m_s" for n in _NAMES))
         if c not in table.columns
     ]
     if missing:
@@ -464,20 +719,78 @@ def fit_coefficient_laws(
             "(fit_impact_coefficients skips groups with fewer than `min_points` "
             "impacts)."
         )
-    d = um_to_m(np.asarray(table["diameter_um"], dtype=float))
-    laws = {}
-    for n in names:
+    d_all = um_to_m(np.asarray(table["diameter_um"], dtype=float))
+    fits, used, weighted = {}, {}, {}
+    for n in _NAMES:
         vals = np.asarray(table[f"{n}_m_s"], dtype=float)
+        flag = f"{n}_identified"
+        ok = np.isfinite(vals)
+        if flag in table.columns:
+            ok &= np.asarray(table[flag], dtype=bool)
+        need = {"power": 2, "constant": 1, "polynomial": 2}[forms[n]]
+        distinct = np.unique(d_all[ok]).size
+        if distinct < need:
+            raise IdentifiabilityError(
+                f"{n} is identified at {distinct} distinct diameter(s) of "
+                f"{len(table)}; a {forms[n]!r} law needs at least {need}; allowed: "
+                "impacts at more diameters, each over at least 3 speeds, or "
+                "form 'constant'",
+                field=n,
+            )
         se = (
-            np.asarray(table[f"{n}_se"], dtype=float)
+            np.asarray(table[f"{n}_se"], dtype=float)[ok]
             if f"{n}_se" in table.columns
             else None
         )
         use_se = se is not None and np.all(np.isfinite(se)) and np.all(se > 0)
-        laws[n] = fit_law(
-            d, vals, form=forms.get(n, "power"), sigma=se if use_se else None
-        ).law
+        fit = fit_law(d_all[ok], vals[ok], form=forms[n], sigma=se if use_se else None)
+        if not np.all(np.isfinite(fit.standard_errors)):
+            warnings.warn(
+                f"the {forms[n]} law of {n} is fitted on {int(ok.sum())} diameter(s) "
+                "with no residual degrees of freedom and no usable standard errors: "
+                "its parameters have no error estimate (null in the JSON)",
+                IdentifiabilityWarning,
+                stacklevel=2,
+            )
+        fits[n], used[n], weighted[n] = fit, int(ok.sum()), bool(use_se)
     attrs = getattr(table, "attrs", {})
-    return ImpactCoefficients(
-        **laws, p=attrs.get("p", 1.0), q=attrs.get("q", 1.0), friction=friction
+    laws = ImpactCoefficients(
+        **{n: fits[n].law for n in _NAMES},
+        p=attrs.get("p", 1.0),
+        q=attrs.get("q", 1.0),
+        friction=friction,
     )
+    return CoefficientLawsFit(laws, fits, forms, used, weighted, table)
+
+
+def fit_coefficient_laws(
+    table, *, form="power", friction=math.inf
+) -> ImpactCoefficients:
+    """Regress the per-diameter table of :func:`fit_impact_coefficients` on diameter.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        With columns ``diameter_um, k1_m_s, k1_se, k2_m_s, k2_se, v_c_m_s, v_c_se``
+        and optionally ``k1_identified, k2_identified, v_c_identified``;
+        ``table.attrs`` may give ``p`` and ``q`` (default 1).
+    form : str or dict
+        Law form for all three (see :func:`fit_law`) or a dict per coefficient,
+        e.g. ``{"k1": "constant", "k2": "power", "v_c": "power"}``.
+    friction : float
+        Coulomb friction coefficient to store.
+
+    Returns
+    -------
+    ImpactCoefficients
+        Its laws are the fitted ones; each is fitted on the groups where its
+        coefficient is identified, and standard errors weight each fit where they
+        are finite and > 0. :func:`coefficient_laws_fit` returns the law fits
+        (standard errors) as well.
+
+    Raises
+    ------
+    IdentifiabilityError
+        A coefficient identified at too few diameters for its law.
+    """
+    return coefficient_laws_fit(table, form=form, friction=friction).laws

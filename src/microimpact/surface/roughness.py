@@ -70,6 +70,8 @@ __all__ = [
     "write_angle_file",
 ]
 
+#: Identifies the layout of :meth:`RoughnessCharacterisation.to_dict`.
+ROUGHNESS_SCHEMA = "microimpact.roughness/1"
 #: ISO 16610-21 Gaussian weighting constant, sqrt(ln 2 / pi).
 GAUSSIAN_ALPHA = math.sqrt(math.log(2.0) / math.pi)
 ANGLE_METHODS = ("slope", "paper")
@@ -448,6 +450,53 @@ class RoughnessCharacterisation:
     def pdf_density_per_deg(self) -> np.ndarray:
         """Empirical PDF [deg⁻¹]."""
         return self.pdf_density * (np.pi / 180.0)
+
+    def to_dict(self, *, units=None) -> dict:
+        """Plain data in interface units (µm, degrees), the layout of
+        ``roughness.json`` (:data:`ROUGHNESS_SCHEMA`, documented in
+        ``docs/roughness.md``). `units` (e.g. ``{"x_unit": ..., "z_unit": ...,
+        "x_unit_from": ..., "z_unit_from": ...}`` from the profile metadata) is
+        recorded as given."""
+        p = self.profile
+        cutoff = self.conditioning.get("cutoff")
+        return {
+            "schema": ROUGHNESS_SCHEMA,
+            "sources": [str(x) for x in self.sources],
+            "units": dict(units or {}),
+            "method": self.method,
+            "contact_length_um": float(m_to_um(self.contact_length)),
+            "n_scans": int(self.n_scans),
+            "n_angles": int(self.n_segments),
+            "angles": {
+                "mean_deg": float(rad_to_deg(self.mean_angle)),
+                "std_deg": float(rad_to_deg(self.std_angle)),
+                "skewness": float(self.skewness_angle),
+                "kurtosis": float(self.kurtosis_angle),
+                "min_deg": float(rad_to_deg(self.angles.min())),
+                "max_deg": float(rad_to_deg(self.angles.max())),
+                "pdf_edges_deg": [float(x) for x in self.pdf_edges_deg],
+                "pdf_density_per_deg": [float(x) for x in self.pdf_density_per_deg],
+            },
+            "profile": {
+                "Ra_um": float(m_to_um(p.Ra)),
+                "Rq_um": float(m_to_um(p.Rq)),
+                "Rsk": float(p.Rsk),
+                "Rku": float(p.Rku),
+                "Rdq": float(p.Rdq),
+                "Rdq_deg": float(rad_to_deg(np.arctan(p.Rdq))),
+            },
+            "conditioning": {
+                "detrend": self.conditioning.get("detrend"),
+                "cutoff_um": None if cutoff is None else float(m_to_um(cutoff)),
+            },
+        }
+
+    def to_json(self, *, units=None, indent=2) -> str:
+        """:meth:`to_dict` as standard JSON (NaN, e.g. the skewness of too few
+        angles, is ``null``)."""
+        from .._json import dumps
+
+        return dumps(self.to_dict(units=units), indent=indent)
 
     def summary(self) -> str:
         """A short text report in interface units (µm, degrees)."""
