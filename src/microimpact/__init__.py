@@ -123,6 +123,7 @@ _EXPORTS: dict[str, str] = {
     "ProfileFormatError": "errors",
     "DataFormatError": "errors",
     "ConvergenceWarning": "errors",
+    "CheckpointWarning": "engine.checkpoint",
     "OutputFolderBusy": "_outdir",
 }
 
