@@ -174,7 +174,9 @@ def test_combine_experiments(tmp_path):
         combine_experiments([pd.DataFrame({"x": [1]})])
 
 
-def test_scenario_experiments(tmp_path):
+def test_scenario_experiments_are_explicit(tmp_path):
+    """Experiments are passed explicitly: None means none, and the scenario's own
+    ``experiments`` attribute (being removed from Scenario) is never read."""
     from types import SimpleNamespace
 
     from microimpact.io.experiments import scenario_experiments
@@ -182,12 +184,13 @@ def test_scenario_experiments(tmp_path):
     a = write(tmp_path, "speed_m_s,statistic,mean,half_width\n1,e,0.5,0.1\n", "a.csv")
     b = write(tmp_path, "angle_deg,statistic,mean,half_width\n10,mu,0.3,0.1\n", "b.csv")
     sc = SimpleNamespace(experiments=(a, b))
-    t = scenario_experiments(sc)
-    assert list(t["statistic"]) == ["e", "mu"]
-    given = scenario_experiments(sc, b)  # given experiments win
-    assert list(given["statistic"]) == ["mu"]
-    assert scenario_experiments(SimpleNamespace(experiments=())) is None
+    assert scenario_experiments(sc) is None
+    assert scenario_experiments(sc, None) is None
     assert scenario_experiments(object()) is None
+    t = scenario_experiments(sc, [a, b])
+    assert list(t["statistic"]) == ["e", "mu"]
+    given = scenario_experiments(sc, b)
+    assert list(given["statistic"]) == ["mu"]
     bad = write(tmp_path, "speed_m_s,statistic,mean,half_width\n1,e,x,0.1\n", "c.csv")
     with pytest.raises(DataFormatError, match=r"c\.csv:2: mean: non-numeric"):
-        scenario_experiments(SimpleNamespace(experiments=(a, bad)))
+        scenario_experiments(None, (a, bad))

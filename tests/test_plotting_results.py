@@ -247,16 +247,20 @@ def test_save_figures_closes_every_figure(tmp_path):
     assert not (tmp_path / "x.png").exists() and not (tmp_path / "y.png").exists()
 
 
-def test_result_figures_default_to_the_scenario_experiments(capture_result, tmp_path):
+def test_result_figures_take_experiments_explicitly(capture_result, tmp_path):
+    """Experiments are an argument; a scenario's own ``experiments`` are never read."""
     from microimpact.plotting.results import result_figures
 
     exp = tmp_path / "exp.csv"
     exp.write_text("speed_m_s,statistic,mean,half_width\n0.5,e,0.7,0.05\n")
     res = SimpleNamespace(
         summary=capture_result.summary,
-        scenario=capture_result.scenario.with_options(experiments=(exp,)),
+        dataset=capture_result.dataset,
+        scenario=SimpleNamespace(
+            name="x", confidence=0.95, reference_angle_deg=None, experiments=(exp,)
+        ),
     )
     stems = [stem for stem, _, _ in result_figures(res)]
-    assert stems == ["capture", "comparison"]
-    stems = [stem for stem, _, _ in result_figures(capture_result)]
     assert stems == ["capture"]
+    stems = [stem for stem, _, _ in result_figures(capture_result, experiments=exp)]
+    assert stems == ["capture", "comparison"]

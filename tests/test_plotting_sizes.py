@@ -91,3 +91,24 @@ def test_errors(rng):
         plot_size_distribution(lognormal_diameters(30, 1.5), fit="normal")
     with pytest.raises(ValueError, match="`data`"):
         plot_size_distribution([])
+
+
+def test_size_quantiles_density_and_monodisperse():
+    from scipy import stats
+
+    from microimpact.plotting.sizes import plot_size_quantiles
+
+    p = (np.arange(4096) + 0.5) / 4096
+    q = stats.norm(50, 5).ppf(p)
+    ax = plot_size_quantiles(np.append(q, np.nan), bins=40)
+    (steps,) = ax.patches
+    density, edges = steps.get_data().values, steps.get_data().edges
+    assert_allclose(np.sum(density * np.diff(edges)), 1.0, rtol=1e-12)
+    mid = 0.5 * (edges[1:] + edges[:-1])
+    assert_allclose(density[20], stats.norm(50, 5).pdf(mid[20]), rtol=0.05)
+    ax = plot_size_quantiles(np.full(4096, 12.5))
+    assert "monodisperse, 12.5 µm" in ax.get_legend().get_texts()[0].get_text()
+    with pytest.raises(ValueError, match="no finite"):
+        plot_size_quantiles([np.nan])
+    with pytest.raises(ValueError, match="bins"):
+        plot_size_quantiles(q, bins=0)

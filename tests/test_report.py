@@ -196,7 +196,8 @@ def test_figures_saved_without_png_are_drawn(results, tmp_path):
         [normal], tmp_path / "r.html", extra_figures={"normal": files}
     ).read_text(encoding="utf-8")
     imgs = re.findall(r'<img src="data:image/png;base64,', html)
-    assert len(imgs) == len(files)  # the capture figure, drawn by the report
+    # the capture figure and the diameter distribution, drawn by the report
+    assert len(imgs) == len(files) + 1 and "Particle diameter distribution" in html
     # an empty group: no figures for that result (the CLI's --no-figures)
     html = write_report(
         [normal], tmp_path / "r.html", extra_figures={"normal": []}
@@ -206,16 +207,31 @@ def test_figures_saved_without_png_are_drawn(results, tmp_path):
 
 
 def test_input_figure_names_are_file_names(results):
+    """Input figures come from the Dataset alone: one per rough surface (by the
+    ``surface_is_smooth`` flag, not the name), names safe for files."""
     from types import SimpleNamespace
 
     from microimpact.report import input_figures
 
-    sc = results[1].scenario.with_options(
-        surfaces=(rough(name="x/y"), rough(name="x_y"), rough(name="../../esc"))
+    ds = results[1].dataset
+    q = ds["roughness_angle_quantile"].values
+    rough_row = q[~ds["surface_is_smooth"].values.astype(bool)][0]
+    names = ["x/y", "x_y", "../../esc", "smooth-looking", "rough"]
+    fake = ds.isel(surface=[0] * len(names)).assign_coords(surface=names)
+    fake["roughness_angle_quantile"] = (
+        ("surface", "probability"),
+        np.stack([rough_row] * 4 + [np.full_like(rough_row, np.nan)]),
     )
-    names = [name for name, _, _ in input_figures(SimpleNamespace(scenario=sc))]
-    assert names == [  # no size_distribution: a FrozenDist is not drawn
+    # "rough" is flagged smooth (structure wins over the name): no figure
+    fake["surface_is_smooth"] = ("surface", np.array([0, 0, 0, 0, 1], dtype=np.int8))
+    fake = fake.drop_vars("diameter_quantile")
+    out = input_figures(SimpleNamespace(dataset=fake, scenario=results[1].scenario))
+    assert [name for name, _, _ in out] == [
         "angle_pdf_x_y",
         "angle_pdf_x_y_2",
         "angle_pdf_______esc",
+        "angle_pdf_smooth-looking",
     ]
+    # without the input variables (an old file): no input figures, no error
+    bare = ds.drop_vars(["diameter_quantile", "roughness_angle_quantile"])
+    assert input_figures(SimpleNamespace(dataset=bare, scenario=None)) == []

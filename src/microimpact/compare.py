@@ -13,6 +13,9 @@ The rule, for one experimental point (see ``docs/outputs.md``):
   quantile of `confidence` (1.96 at 95 %): the difference lies inside the combined
   interval, i.e. a two-sided z-test does not reject equality at level
   ``1 - confidence``.
+
+The parity figure of the table is :func:`microimpact.plotting.comparison.
+plot_comparison` (also importable from here, loaded on first use).
 """
 
 from __future__ import annotations
@@ -24,7 +27,7 @@ import numpy as np
 
 from .engine.statistics import z_value
 
-__all__ = ["SIMULATED", "compare", "plot_comparison"]
+__all__ = ["SIMULATED", "compare"]
 
 #: experimental statistic -> (summary column of the estimate, column of its SE).
 #: The capture fraction's SE is the summary's ``capture_se``; a summary without it
@@ -51,7 +54,7 @@ def _summary_iv(summary_or_result):
         sim_conf = float(summary.attrs.get("confidence", 0.95))
     elif hasattr(summary_or_result, "summary"):
         summary = summary_or_result.summary
-        sim_conf = float(getattr(summary_or_result.scenario, "confidence", 0.95))
+        sim_conf = float(getattr(summary_or_result, "confidence", 0.95))
     else:
         raise TypeError(
             "`summary_or_result` must be a SimulationResult or a summary DataFrame; "
@@ -293,79 +296,11 @@ def compare(summary_or_result, experiments, *, confidence=0.95):
     return table
 
 
-_STAT_LABELS = {
-    "e": "e",
-    "mu": "μ",
-    "e_relative": "e relative",
-    "mu_relative": "μ relative",
-    "capture_fraction": "capture fraction",
-}
+def __getattr__(name):
+    """``plot_comparison`` lives in :mod:`microimpact.plotting.comparison`; it is
+    imported on first use (no import cycle between comparing and plotting)."""
+    if name == "plot_comparison":
+        from .plotting.comparison import plot_comparison
 
-
-def plot_comparison(table, *, ax=None):
-    """Simulated against experimental means with their intervals (parity plot).
-
-    Parameters
-    ----------
-    table : pandas.DataFrame
-        Output of :func:`compare`.
-    ax : matplotlib.axes.Axes, optional
-        Axes to draw on; a new figure is made if omitted.
-
-    Returns
-    -------
-    matplotlib.axes.Axes
-        Each point has horizontal (experimental) and vertical (simulated) interval
-        bars; filled markers agree, open markers do not. The dashed line is
-        simulated = experimental.
-    """
-    import matplotlib as mpl
-    import matplotlib.pyplot as plt
-
-    from .plotting.results import STYLE, colour
-
-    need = {"statistic", "exp_mean", "sim_mean", "agree"}
-    if not hasattr(table, "columns") or not need <= set(table.columns):
-        raise ValueError(f"`table` must be the output of compare(); got {table!r}.")
-    with mpl.rc_context(STYLE):
-        if ax is None:
-            _, ax = plt.subplots(figsize=(4.2, 4.0), layout="constrained")
-        ok = table.dropna(subset=["sim_mean"])
-        for k, (stat, g) in enumerate(ok.groupby("statistic", sort=False)):
-            c = colour(k)
-            for agree, h in g.groupby("agree"):
-                ax.errorbar(
-                    h["exp_mean"],
-                    h["sim_mean"],
-                    xerr=[
-                        h["exp_mean"] - h["exp_ci_low"],
-                        h["exp_ci_high"] - h["exp_mean"],
-                    ],
-                    yerr=[
-                        h["sim_mean"] - h["sim_ci_low"],
-                        h["sim_ci_high"] - h["sim_mean"],
-                    ],
-                    fmt="o" if agree else "s",
-                    ms=5,
-                    color=c,
-                    mfc=c if agree else "white",
-                    capsize=2,
-                    lw=0.9,
-                    label=f"{_STAT_LABELS.get(stat, stat)}"
-                    + ("" if agree else " (disagree)"),
-                )
-        if len(ok):
-            lo = float(np.nanmin(ok[["exp_ci_low", "sim_ci_low"]].to_numpy()))
-            hi = float(np.nanmax(ok[["exp_ci_high", "sim_ci_high"]].to_numpy()))
-            pad = 0.05 * (hi - lo or 1.0)
-            ax.plot([lo - pad, hi + pad], [lo - pad, hi + pad], "k--", lw=0.8)
-            ax.set_xlim(lo - pad, hi + pad)
-            ax.set_ylim(lo - pad, hi + pad)
-            ax.set_aspect("equal", adjustable="box")
-        n_ok, n = int(table["agree"].sum()), len(table)
-        conf = table.attrs.get("confidence", 0.95)
-        ax.set_title(f"{n_ok} of {n} points agree at the {conf:.0%} level")
-        ax.set_xlabel("Experimental mean [–]")
-        ax.set_ylabel("Simulated mean [–]")
-        ax.legend(loc="upper left", fontsize="small")
-    return ax
+        return plot_comparison
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -211,44 +211,72 @@ def _provenance(result) -> str:
     return _kv(pairs)
 
 
+def _confidence(result) -> float:
+    from .plotting.results import _confidence
+
+    return _confidence(result)
+
+
+def _num(x) -> float:
+    try:
+        return float(x)
+    except (TypeError, ValueError):
+        return math.nan
+
+
+def _speed_interval(m, lo, hi, digits=3) -> str:
+    """``m [lo, hi]`` of a capture speed: a NaN limit is an open side ("open");
+    a NaN estimate is "no estimate". Never drops a finite limit."""
+    m, lo, hi = _num(m), _num(lo), _num(hi)
+    if not math.isfinite(m):
+        return "no estimate"
+
+    def side(x):
+        return f"{x:.{digits}g}" if math.isfinite(x) else "open"
+
+    return f"{m:.{digits}g} [{side(lo)}, {side(hi)}]"
+
+
 def _capture_table(result) -> str:
     try:
         cs = result.capture_speed()
-    except (KeyError, ValueError):
-        return "<p>No capture speed (no capture fractions in the summary).</p>"
-    cs = cs[np.isfinite(cs["speed_m_s"].to_numpy(dtype=float))]
-    if len(result.scenario.speeds_m_s) < 2:
-        return "<p>One speed was simulated, so there is no capture speed.</p>"
+    except (KeyError, ValueError) as err:
+        return f"<p>No capture speed: {_e(err)}</p>"
     if cs.empty:
-        return (
-            "<p>The capture speed is not bracketed by the speed sweep at any angle "
-            "(the capture fraction never crosses the quantile).</p>"
-        )
-    rows = [
-        [
+        return "<p>No capture speed (no capture curves in the summary).</p>"
+    has_note = "note" in cs and cs["note"].fillna("").astype(str).str.strip().any()
+    rows = []
+    for _, r in cs.iterrows():
+        row = [
             _e(r["surface"]),
             _e(_fmt(r["angle_deg"])),
-            _e(f"{100 * r['quantile']:g} %"),
-            _e(_ci(r["speed_m_s"], r["speed_ci_low"], r["speed_ci_high"], digits=3)),
+            _e(f"{100 * _num(r['quantile']):g} %"),
+            _e(_speed_interval(r["speed_m_s"], r["speed_ci_low"], r["speed_ci_high"])),
         ]
-        for _, r in cs.iterrows()
+        if has_note:
+            note = r.get("note")
+            row.append(_e("" if note is None or note != note else note))
+        rows.append(row)
+    conf = f"{100 * _confidence(result):g} %"
+    header = [
+        "surface",
+        "angle [deg]",
+        "captured",
+        f"capture speed [m s⁻¹] [{conf} CI]",
     ]
-    conf = f"{100 * result.scenario.confidence:g} %"
-    return _table(
-        [
-            "surface",
-            "angle [deg]",
-            "captured",
-            f"capture speed [m s⁻¹] [{conf} CI]",
-        ],
-        rows,
+    if has_note:
+        header.append("note")
+    legend = (
+        "<p>“open”: the simulated speeds do not bound that side of the interval; "
+        "“no estimate”: the note says why.</p>"
     )
+    return _table(header, rows, left=(0, 4)) + legend
 
 
 def _summary_table(result, csv_href) -> str:
     s = result.summary
     has_rel = "e_relative" in s
-    conf = f"{100 * result.scenario.confidence:g} %"
+    conf = f"{100 * _confidence(result):g} %"
     header = [
         "surface",
         "speed [m s⁻¹]",
@@ -353,61 +381,60 @@ def input_figures(result):
     """The input figures of a result: its diameter distribution (paper Fig. 2) and
     the roughness-angle PDF of each rough surface (Fig. 4).
 
+    Both are drawn from the result's Dataset only, so a result opened from
+    ``results.nc`` gets the same figures as a fresh one: ``diameter_quantile``
+    (probability) [m] and ``roughness_angle_quantile`` (surface, probability)
+    [rad], the quantile functions at equally spaced mid-probabilities. Smooth
+    surfaces (``surface_is_smooth``) and rows without a finite quantile have no
+    figure; a result without these variables has none.
+
     Returns a list of ``(name, caption, figure)``; names are ``size_distribution``
     and ``angle_pdf_<surface>``, the surface name made safe for a file name
     (characters other than letters, digits, ``-`` and ``_`` become ``_``; a name
     that clashes with an earlier one gets ``_2``, ``_3``, ...).
     """
+    from .plotting.results import smooth_surfaces
+    from .plotting.roughness import plot_angle_pdf
+    from .plotting.sizes import plot_size_quantiles
+    from .units import m_to_um, rad_to_deg
+
     out = []
-    sc = result.scenario
-    try:
-        from .plotting.sizes import plot_size_distribution
-    except ImportError:
-        plot_size_distribution = None
-    if plot_size_distribution is not None:
-        ax = _try_draw(  # None: not a SizeDistribution this module can draw
-            lambda: plot_size_distribution(sc.particles),
-            (TypeError, ValueError, AttributeError, KeyError),
-        )
-        if ax is not None:
+    ds = getattr(result, "dataset", None)
+    if ds is None:
+        return out
+    if "diameter_quantile" in ds:
+        d_um = m_to_um(np.asarray(ds["diameter_quantile"].values, dtype=float))
+        if np.isfinite(d_um).any():
+            ax = plot_size_quantiles(d_um)
             out.append(
                 (
                     "size_distribution",
-                    "Particle diameter distribution (paper Fig. 2).",
+                    "Particle diameter distribution (paper Fig. 2), drawn from its "
+                    "quantile function.",
                     ax.figure,
                 )
             )
-    try:
-        from .plotting.roughness import plot_angle_pdf
-    except ImportError:
+    if "roughness_angle_quantile" not in ds:
         return out
-    from ._tables import mid_probabilities
-    from .units import rad_to_deg
-
-    q = mid_probabilities(4096)  # deterministic: the quantile function
+    smooth = smooth_surfaces(result)
+    quantiles = np.asarray(ds["roughness_angle_quantile"].values, dtype=float)
     used = set()
-    for s in sc.surfaces:
-        if getattr(s, "angles", None) is None or not hasattr(s.angles, "ppf"):
+    for name, row in zip(ds["surface"].values, quantiles, strict=True):
+        name = str(name)
+        if smooth.get(name, False) or not np.isfinite(row).any():
             continue
-
-        def draw(s=s):
-            angles_deg = rad_to_deg(np.asarray(s.angles.ppf(q), dtype=float))
-            return plot_angle_pdf(angles_deg)
-
-        ax = _try_draw(draw, (TypeError, ValueError, AttributeError))
-        if ax is None:
-            continue
-        ax.set_title(f"Surface {s.name}")
-        name = stem = f"angle_pdf_{_slug(s.name)}"
+        ax = plot_angle_pdf(rad_to_deg(row[np.isfinite(row)]))
+        ax.set_title(f"Surface {name}")
+        fname = stem = f"angle_pdf_{_slug(name)}"
         k = 1
-        while name in used:  # e.g. surfaces "a/b" and "a_b"
+        while fname in used:  # e.g. surfaces "a/b" and "a_b"
             k += 1
-            name = f"{stem}_{k}"
-        used.add(name)
+            fname = f"{stem}_{k}"
+        used.add(fname)
         out.append(
             (
-                name,
-                f"Roughness-angle probability density of surface {s.name!r} "
+                fname,
+                f"Roughness-angle probability density of surface {name!r} "
                 "(paper Fig. 4), drawn from its quantile function.",
                 ax.figure,
             )
@@ -431,12 +458,12 @@ def _try_draw(draw, errors):
 
 def _experiments_for(result, experiments):
     """The experiments table of `result` (`experiments` may map scenario names to
-    experiments); default: the scenario's own experiment files."""
-    from .io.experiments import scenario_experiments
+    experiments); None: none (the scenario's files are not read here)."""
+    from .io.experiments import combine_experiments
 
     if isinstance(experiments, dict):
         experiments = experiments.get(result.scenario.name)
-    return scenario_experiments(result.scenario, experiments)
+    return combine_experiments(experiments)
 
 
 def _png_uri_from_file(path) -> str:
@@ -581,7 +608,7 @@ def write_report(
         Paragraphs shown at the top (escaped; no HTML).
     experiments : dict, optional
         ``{scenario name: experiments}`` (DataFrame, path or list of them), for
-        the comparison table and figure; default: each scenario's ``experiments``.
+        the comparison table and figure; default: none.
     csv_paths : sequence of path-like, optional
         One per result: the full summary CSV to link to (e.g. the ``summary.csv``
         written by :meth:`SimulationResult.to_files`). By default the summary is
@@ -694,7 +721,7 @@ def summary_text(result) -> str:
         "- versions: "
         + ", ".join(f"{k} {v}" for k, v in p.get("versions", {}).items()),
         f"- sampling: {p.get('sampling', sc.sampling)}, shadowing: {sc.shadowing}, "
-        f"confidence: {sc.confidence:g}",
+        f"confidence: {_confidence(result):g}",
         f"- sweep: {len(s)} points; run time {float(result.elapsed_s):.3g} s "
         f"({p.get('backend', '?')}, {p.get('workers', '?')} worker(s))",
         "",
@@ -734,15 +761,20 @@ def summary_text(result) -> str:
         )
     try:
         cs = result.capture_speed()
-        cs = cs[np.isfinite(cs["speed_m_s"].to_numpy(dtype=float))]
-    except (KeyError, ValueError):
+    except (KeyError, ValueError, AttributeError):
         cs = []
     if len(cs):
         lines.append("")
         for _, r in cs.iterrows():
-            lines.append(
-                f"- {100 * r['quantile']:g} % capture speed, {r['surface']} at "
-                f"{r['angle_deg']:g} deg: {r['speed_m_s']:.4g} m/s "
-                f"[{r['speed_ci_low']:.4g}, {r['speed_ci_high']:.4g}]"
+            line = (
+                f"- {100 * _num(r['quantile']):g} % capture speed, {r['surface']} at "
+                f"{_num(r['angle_deg']):g} deg: "
+                + _speed_interval(
+                    r["speed_m_s"], r["speed_ci_low"], r["speed_ci_high"], 4
+                ).replace(" [", " m/s [", 1)
             )
+            note = r.get("note")
+            if isinstance(note, str) and note.strip():
+                line += f" ({note.strip()})"
+            lines.append(line)
     return "\n".join(lines) + "\n"

@@ -299,15 +299,19 @@ def combine_experiments(experiments):
 
 
 def scenario_experiments(scenario, experiments=None):
-    """The experiments for `scenario` as one table: `experiments` if given, else
-    the scenario's own ``experiments`` files (``[outputs] experiments``).
+    """The experiments for `scenario` as one table: exactly `experiments`.
+
+    Experiments are passed explicitly (they are output settings, not part of the
+    simulated scenario): ``None`` means no experiments, and the scenario is never
+    consulted for files of its own. `scenario` is kept so that callers can name
+    the study the experiments belong to; it is not read.
 
     Parameters
     ----------
-    scenario : Scenario
-        Anything with an ``experiments`` attribute (a sequence of paths) or none.
+    scenario : object
+        The study (not read).
     experiments : None, DataFrame, path-like or sequence of them, optional
-        As for :func:`combine_experiments`; None means the scenario's.
+        As for :func:`combine_experiments`.
 
     Returns
     -------
@@ -319,6 +323,5 @@ def scenario_experiments(scenario, experiments=None):
     DataFormatError
         If a file cannot be read (naming file, line and column).
     """
-    if experiments is None:
-        experiments = tuple(getattr(scenario, "experiments", ()) or ()) or None
+    del scenario  # not read: experiments are explicit
     return combine_experiments(experiments)

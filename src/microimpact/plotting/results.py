@@ -15,11 +15,13 @@ References
 from __future__ import annotations
 
 import math
+import textwrap
 from pathlib import Path
 
 import numpy as np
 
-from ..io.experiments import combine_experiments, scenario_experiments
+from .._formats import FIGURE_FORMATS
+from ..io.experiments import combine_experiments
 
 __all__ = [
     "FIGURE_FORMATS",
@@ -32,6 +34,7 @@ __all__ = [
     "result_figures",
     "save_figure",
     "save_figures",
+    "smooth_surfaces",
 ]
 
 #: Okabe-Ito colours (distinguishable with colour-vision deficiency).
@@ -55,9 +58,6 @@ STYLE = {
     "savefig.dpi": 200,
     "pdf.fonttype": 42,
 }
-#: File formats :func:`save_figure` writes: the one list of figure formats (the
-#: CLI's ``--formats`` and a scenario's ``[outputs] figures`` accept these).
-FIGURE_FORMATS = ("png", "pdf", "svg")
 _EXP_STYLE = {"fmt": "s", "ms": 5, "mfc": "white", "color": "black", "lw": 0.9}
 _BAND_ALPHA = 0.22
 
@@ -83,17 +83,41 @@ def _summary(result):
     return result.summary.reset_index(drop=True)
 
 
+def _confidence(result) -> float:
+    """Confidence level of the result's intervals (the Dataset's, else the
+    scenario's, else 0.95)."""
+    conf = getattr(result, "confidence", None)
+    if conf is None:
+        conf = getattr(result.scenario, "confidence", 0.95)
+    return float(conf)
+
+
 def _z(result) -> float:
     from ..engine.statistics import z_value
 
-    return z_value(float(getattr(result.scenario, "confidence", 0.95)))
+    return z_value(_confidence(result))
+
+
+def smooth_surfaces(result) -> dict[str, bool]:
+    """``{surface name: molecularly smooth}``, recognised by structure, never by
+    name: the Dataset's ``surface_is_smooth`` flag, else the scenario surfaces'
+    ``smooth`` attribute; a surface with neither counts as rough."""
+    ds = getattr(result, "dataset", None)
+    if ds is not None and "surface_is_smooth" in ds:
+        return {
+            str(n): bool(v)
+            for n, v in zip(
+                ds["surface"].values, ds["surface_is_smooth"].values, strict=True
+            )
+        }
+    return {
+        str(s.name): bool(getattr(s, "smooth", False))
+        for s in getattr(result.scenario, "surfaces", ())
+    }
 
 
 def _smooth(result, name) -> bool:
-    for s in getattr(result.scenario, "surfaces", ()):
-        if s.name == name:
-            return bool(getattr(s, "smooth", False))
-    return "smooth" in str(name).lower()
+    return smooth_surfaces(result).get(str(name), False)
 
 
 def _pick(values, wanted, name):
@@ -193,7 +217,10 @@ def plot_capture(result, *, surface=None, angle_deg=90, experiments=None, axes=N
     exp = combine_experiments(experiments)
     if exp is not None:
         exp = exp[exp["angle_deg"].isna() | np.isclose(exp["angle_deg"], angle)]
-    cap = capture_speed(summary, 0.5)
+    if hasattr(result, "capture_speed"):  # a SimulationResult: its own confidence
+        cap = result.capture_speed(0.5)
+    else:
+        cap = capture_speed(summary, 0.5)
     with mpl.rc_context(STYLE):
         ax_e, ax_c = _new_axes(axes, 2, 1, (5.0, 5.6), sharex=True)
         for k, name in enumerate(names):
@@ -224,21 +251,9 @@ def plot_capture(result, *, surface=None, angle_deg=90, experiments=None, axes=N
                 marker="o",
             )
             row = cap[(cap["surface"] == name) & np.isclose(cap["angle_deg"], angle)]
-            if len(row) and np.isfinite(row["speed_m_s"].iloc[0]):
-                v50 = float(row["speed_m_s"].iloc[0])
-                lo50 = float(row["speed_ci_low"].iloc[0])
-                hi50 = float(row["speed_ci_high"].iloc[0])
-                ax_c.errorbar(
-                    [v50],
-                    [50.0],
-                    xerr=[[v50 - lo50], [hi50 - v50]],
-                    fmt="D",
-                    ms=6,
-                    color=c,
-                    mec="black",
-                    mew=0.6,
-                    zorder=6,
-                    label=f"50 % capture: {v50:.3g} m s⁻¹ [{lo50:.3g}, {hi50:.3g}]",
+            for _, r in row.iterrows():
+                _capture_marker(
+                    ax_c, r, v, color=c, name=name if len(names) > 1 else None
                 )
         _draw_experiments(ax_e, exp, "e", "speed_m_s")
         _draw_experiments(ax_c, exp, "capture_fraction", "speed_m_s", scale=100.0)
@@ -260,7 +275,8 @@ def plot_capture(result, *, surface=None, angle_deg=90, experiments=None, axes=N
         ax_e.set_ylabel("Coefficient of restitution $e$ [–]")
         ax_c.set_ylabel("Capture [%]")
         ax_c.set_ylim(-3, 103)
-        ax_e.set_ylim(bottom=0)
+        if np.isfinite(summary["e_rebound_mean"].to_numpy(dtype=float)).any():
+            ax_e.set_ylim(bottom=0)
         ax_e.set_title(
             f"{result.scenario.name}: mean of rebounds, {_conf_label(result)} band"
         )
@@ -269,8 +285,74 @@ def plot_capture(result, *, surface=None, angle_deg=90, experiments=None, axes=N
     return np.array([ax_e, ax_c], dtype=object)
 
 
+def _capture_marker(ax, row, speeds, *, color, name=None):
+    """The capture-speed estimate of one curve and its interval, at the quantile.
+
+    `row` is a row of :func:`~microimpact.engine.statistics.capture_speed`. The
+    interval is drawn from its own limits (never as offsets from the estimate, so
+    no limit can make a negative bar); an open side (NaN limit) is a dotted line
+    to the end of the simulated speeds with an arrow head; a refused estimate (NaN)
+    has no marker, and its ``note`` is stated in the legend instead.
+    """
+    q = float(row.get("quantile", 0.5))
+    y = 100.0 * q
+    where = f" ({name})" if name else ""
+    v = _finite(row.get("speed_m_s"))
+    lo, hi = _finite(row.get("speed_ci_low")), _finite(row.get("speed_ci_high"))
+    if v is None:
+        note = str(row.get("note") or "").strip() or "the sweep does not support one"
+        label = textwrap.fill(
+            f"{100 * q:g} % capture{where}: no estimate; {note}", width=48
+        )
+        ax.plot([], [], ls="none", marker="D", mfc="white", color=color, label=label)
+        return
+    speeds = np.asarray(speeds, dtype=float)
+    speeds = speeds[np.isfinite(speeds)]
+    left = lo if lo is not None else min(v, float(speeds.min(initial=v)))
+    right = hi if hi is not None else max(v, float(speeds.max(initial=v)))
+    for a, b, closed, head in (
+        (left, v, lo is not None, "<"),
+        (v, right, hi is not None, ">"),
+    ):
+        a, b = min(a, b), max(a, b)
+        ax.plot(
+            [a, b], [y, y], color=color, lw=1.2, ls="-" if closed else ":", zorder=6
+        )
+        end = a if head == "<" else b
+        if closed:
+            ax.plot([end], [y], marker="|", ms=7, color=color, zorder=6)
+        else:
+            ax.plot([end], [y], marker=head, ms=5, color=color, zorder=6)
+    text = f"[{_g3(lo)}, {_g3(hi)}]"
+    ax.plot(
+        [v],
+        [y],
+        ls="none",
+        marker="D",
+        ms=6,
+        color=color,
+        mec="black",
+        mew=0.6,
+        zorder=7,
+        label=f"{100 * q:g} % capture{where}: {v:.3g} m s⁻¹ {text}",
+    )
+
+
+def _finite(x):
+    """`x` as a float, or None when it is missing or not finite."""
+    try:
+        x = float(x)
+    except (TypeError, ValueError):
+        return None
+    return x if math.isfinite(x) else None
+
+
+def _g3(x) -> str:
+    return "open" if x is None else f"{x:.3g}"
+
+
 def _conf_label(result) -> str:
-    return f"{100 * float(getattr(result.scenario, 'confidence', 0.95)):g} %"
+    return f"{100 * _confidence(result):g} %"
 
 
 # --------------------------------------------------------------------- angles
@@ -708,13 +790,15 @@ def figure_caption(stem, result) -> str:
     sc = result.scenario
     conf = _conf_label(result)
     ref = getattr(sc, "reference_angle_deg", None)
-    speeds = getattr(sc, "speeds_m_s", (math.nan,))
+    speeds = np.unique(_summary(result)["speed_m_s"].to_numpy(dtype=float))
     if stem == "capture":
         return (
             "Normal (90°) impact against speed (paper Figs. 5, 6). Upper: mean "
             "coefficient of restitution of the rebounding particles; lower: "
             f"percentage captured. Bands: {conf} confidence intervals; diamond: "
-            "speed of 50 % capture with its interval; squares: experiments."
+            "speed of 50 % capture with its interval (dotted with an arrow: a side "
+            "the data do not bound; no diamond: no estimate, the legend says "
+            "why); squares: experiments."
         )
     if stem == "coefficients_relative":
         return (
@@ -748,12 +832,14 @@ def result_figures(result, *, experiments=None):
     """The figures that apply to `result`, made in memory.
 
     Returns a list of ``(stem, caption, Figure)``; see :func:`figures_for_result`
-    for the rules and names. The caller closes the figures.
+    for the rules and names. Only `result` and `experiments` are used (a fresh
+    result and one opened from ``results.nc`` give the same figures). The caller
+    closes the figures.
     """
     summary = _summary(result)
     speeds = np.unique(summary["speed_m_s"].to_numpy(dtype=float))
     angles = np.unique(summary["angle_deg"].to_numpy(dtype=float))
-    exp = scenario_experiments(result.scenario, experiments)
+    exp = combine_experiments(experiments)
     out = []
 
     def add(stem, axes):
@@ -786,7 +872,8 @@ def result_figures(result, *, experiments=None):
                 ),
             )
     if exp is not None and len(exp):
-        from ..compare import compare, plot_comparison
+        from ..compare import compare
+        from .comparison import plot_comparison
 
         add("comparison", plot_comparison(compare(result, exp)))
     return out
@@ -806,7 +893,7 @@ def figures_for_result(result, out_dir, *, formats=("png", "pdf"), experiments=N
                                      reference angle (the largest if it is not
                                      swept), first speed, rough surfaces only if
                                      any: Figs. 9/10 (``12p5deg`` for 12.5°)
-    ``comparison``                   experiments given (or in the scenario)
+    ``comparison``                   experiments given
     ===============================  =============================================
 
     Parameters
@@ -816,7 +903,7 @@ def figures_for_result(result, out_dir, *, formats=("png", "pdf"), experiments=N
         Folder for the files (created if needed).
     formats : sequence of {"png", "pdf", "svg"}
     experiments : DataFrame, path or sequence of them, optional
-        Default: the scenario's ``experiments``.
+        Experimental points to overlay and compare (default: none).
 
     Returns
     -------
