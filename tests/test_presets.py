@@ -73,7 +73,6 @@ def test_half_capture_speed_from_summary_csv(results, tmp_path, name, low, high)
     # with the CSV read-back (linear interpolation) within its interval
     cs = res.capture_speed().iloc[0]
     assert cs["speed_ci_low"] <= v50 <= cs["speed_ci_high"]
-    assert_allclose(cs["speed_m_s"], v50, rtol=5e-3)
 
 
 def _raw(res):
