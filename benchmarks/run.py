@@ -29,6 +29,10 @@ process once with ``--smoke``):
    expectation (> 1 means QMC is better).
 8. ``paper_reproduction_s``: the four presets at 4,000 impacts per point, if
    ``microimpact.config.load_preset`` exists.
+9. ``grid_per_s``: ``microimpact.run(workers=1)`` over a sweep grid of 100 speeds
+   x 100 angles (10^4 points) at 4,000 impacts per point on the same rough surface
+   (``grid_all_cores_per_s``: ``workers=os.cpu_count()``); ``grid_ratio`` is
+   ``grid_per_s / engine_per_s``, measured in the same run (target >= 0.5).
 
 Usage::
 
@@ -92,12 +96,15 @@ FULL = dict(
     isolate=True,
     process_per_repeat=True,
 )
+FULL.update(grid=(100, 100), grid_samples=4000)
 QUICK = {**FULL, "n_rng": 2 * 10**7, "n_numpy": 2 * 10**6, "n_engine": 2 * 10**7}
+QUICK.update(grid=(50, 50))
 QUICK.update(rss_ns=(10**6, 10**7), qmc_replicates=16)
 QUICK.update(reproduce_cli=False, process_per_repeat=False)
 SMOKE = {**QUICK, "n_rng": 1 << 18, "n_numpy": 1 << 17, "n_engine": 1 << 17}
 SMOKE.update(repeats=1, rss_ns=(10**5,), qmc_replicates=4, qmc_n=1 << 12)
 SMOKE.update(reproduce_samples=100, reproduce_presets=1, isolate=False)
+SMOKE.update(grid=(4, 5), grid_samples=400)
 MODES = {"full": FULL, "quick": QUICK, "smoke": SMOKE}
 #: Largest N of the whole-array NumPy baseline (memory: ~1.5 GiB at 10^7).
 NUMPY_MAX_N = 10**7
@@ -272,6 +279,26 @@ def _engine_task(n: int, workers: int, seed: int, warmup: bool = True) -> dict:
         "kernel": result.provenance["kernel"],
         "stats": _summary_stats(result),
     }
+
+
+def grid_scenario(n_speeds: int, n_angles: int, samples: int):
+    """The benchmark's surface and laws over a speed x angle grid."""
+    speeds = tuple(float(v) for v in np.linspace(0.2, 5.0, n_speeds))
+    angles = tuple(float(a) for a in np.linspace(5.0, 90.0, n_angles))
+    return make_scenario(speeds_m_s=speeds, angles_deg=angles, samples=samples)
+
+
+def _grid_task(shape, samples: int, workers: int, seed: int, warmup=True) -> dict:
+    import microimpact as mi
+
+    scenario = grid_scenario(*shape, samples)
+    if warmup:
+        mi.run(grid_scenario(2, 2, samples), seed=1, workers=workers, progress=False)
+    t0 = time.perf_counter()
+    mi.run(scenario, seed=seed, workers=workers, progress=False)
+    dt = time.perf_counter() - t0
+    n = shape[0] * shape[1] * samples
+    return {"rate": n / dt, "wall_s": dt, "points": shape[0] * shape[1], "n": n}
 
 
 def _fixed_cost_task(workers: int) -> dict:
@@ -457,6 +484,9 @@ TASKS = {
         p["n"], p["workers"], p["seed"], p.get("warmup", True)
     ),
     "fixed_cost": lambda p: _fixed_cost_task(p["workers"]),
+    "grid": lambda p: _grid_task(
+        p["shape"], p["samples"], p["workers"], p["seed"], p.get("warmup", True)
+    ),
     "dask": lambda p: _dask_task(p["n"], p["workers"], p["repeats"]),
 }
 
@@ -565,6 +595,7 @@ def print_table(res: dict) -> None:
     classic = res["rng_floor_classic_per_s"]
     base = res["numpy_baseline_per_s"]
     rss = res["details"]["variant_peak_rss_mb"]
+    shape = "x".join(str(k) for k in res["grid_shape"])
     rows = [
         ("RNG floor: engine streams (2 x random_raw)", floor),
         ("RNG floor: classic (normal + uniform, out=)", classic),
@@ -575,8 +606,14 @@ def print_table(res: dict) -> None:
             res["engine_all_cores_per_s"],
         ),
         (f"microimpact.run, Dask LocalCluster ({res['cpu_count']})", res["dask_per_s"]),
+        (f"grid {shape}, {res['grid_samples']}/point, 1 process", res["grid_per_s"]),
+        (
+            f"grid {shape}, {res['cpu_count']} processes",
+            res["grid_all_cores_per_s"],
+        ),
     ]
     keys = ["rng", "rng_classic", "numpy", "engine", "engine_all_cores", "dask"]
+    keys += ["grid", "grid_all_cores"]
     print(
         f"{'variant':<46} {'M/s':>7} {'floor/x':>8} {'classic/x':>9} "
         f"{'x/numpy':>8} {'peak RSS MiB':>13}"
@@ -597,6 +634,10 @@ def print_table(res: dict) -> None:
         f"{int(n):.0e}: {v:.0f}" for n, v in res["peak_rss_mb_by_n"].items()
     )
     print(f"peak RSS of a fresh run [MiB] by N: {by_n}")
+    print(
+        f"grid / one large point: {res['grid_ratio']:.2f} (1 process), "
+        f"{res['grid_all_cores_ratio']:.2f} ({res['cpu_count']} processes)"
+    )
     q = res["details"].get("qmc")
     if q:
         print(
@@ -635,6 +676,10 @@ def run_benchmark(mode: str, *, dask: bool = True, reproduce: bool = True) -> di
     allc = repeated(
         "engine", reps, n=cfg["n_engine"], workers=workers, warmup=iso, **kw
     )
+    # a sweep grid of many small points, beside the single large point
+    gkw = dict(shape=cfg["grid"], samples=cfg["grid_samples"])
+    grid1 = repeated("grid", reps, workers=1, **gkw, **kw)
+    grid_all = repeated("grid", reps, workers=workers, warmup=iso, **gkw, **kw)
     if iso:  # the fixed cost of one run (pool start, plan, result)
         details["fixed_cost_s"] = {
             str(w): measure("fixed_cost", isolate=iso, workers=w)["runs"][0]["wall_s"]
@@ -706,6 +751,8 @@ def run_benchmark(mode: str, *, dask: bool = True, reproduce: bool = True) -> di
         "numpy": _rss_str(npb),
         "engine": _rss_str(eng),
         "engine_all_cores": _rss_str(allc, pool=True),
+        "grid": _rss_str(grid1),
+        "grid_all_cores": _rss_str(grid_all, pool=True),
         "dask": _dask_rss_str(details.get("dask")),
     }
     details["rates"] = {
@@ -716,6 +763,8 @@ def run_benchmark(mode: str, *, dask: bool = True, reproduce: bool = True) -> di
             ("numpy", npb),
             ("engine", eng),
             ("engine_all_cores", allc),
+            ("grid", grid1),
+            ("grid_all_cores", grid_all),
         )
     }
     details["engine_elapsed_s"] = [r["engine_elapsed_s"] for r in eng["runs"]]
@@ -726,6 +775,12 @@ def run_benchmark(mode: str, *, dask: bool = True, reproduce: bool = True) -> di
         "numpy_baseline_per_s": npb["rate"],
         "engine_per_s": eng["rate"],
         "engine_all_cores_per_s": allc["rate"],
+        "grid_per_s": grid1["rate"],
+        "grid_all_cores_per_s": grid_all["rate"],
+        "grid_ratio": grid1["rate"] / eng["rate"],
+        "grid_all_cores_ratio": grid_all["rate"] / allc["rate"],
+        "grid_shape": list(cfg["grid"]),
+        "grid_samples": cfg["grid_samples"],
         "dask_per_s": dask_rate,
         "peak_rss_mb": max(rss_by_n.values()),
         "qmc_error_ratio": q["ratio"],

@@ -57,6 +57,9 @@ def test_smoke_writes_every_key(tmp_path):
         "peak_rss_mb",
         "qmc_error_ratio",
         "rng_floor_classic_per_s",
+        "grid_per_s",
+        "grid_all_cores_per_s",
+        "grid_ratio",
     ):
         assert key in data, key
         if key == "dask_per_s" and dask_missing:

@@ -8,26 +8,34 @@ and moment must agree exactly; with general p, q they may differ by the last bit
 ``pow`` and agree to round-off.
 """
 
+import dataclasses
+
 import numpy as np
 import pytest
 from engine_helpers import PowerCoefficients, rough, scenario
 from numpy.testing import assert_allclose, assert_array_equal
 
 from microimpact import SurfaceVariant
+from microimpact._tables import CellTable
 from microimpact.engine import kernel
-from microimpact.engine.montecarlo import build_plan
+from microimpact.engine.plan import Sampler, build_plan, resolve_kernel
 from microimpact.errors import InputError
+from microimpact.population.distributions import (
+    empirical_diameters,
+    histogram_diameters,
+)
+from microimpact.surface.angles import angles_from_sample
 
 pytestmark = pytest.mark.skipif(
     kernel.KERNEL != "compiled", reason="the compiled kernel is not built"
 )
 
 
-def _both(plan, point, monkeypatch, block=3, n=30_000):
+def _both(plan, point, monkeypatch=None, block=3, n=30_000):
     fused = kernel.simulate_block(plan, point, 0, block, n)
-    with monkeypatch.context() as m:
-        m.setattr(kernel, "_COMPILED", None)
-        plain = kernel.simulate_block(plan, point, 0, block, n)
+    plain = kernel.simulate_block(
+        dataclasses.replace(plan, kernel="numpy"), point, 0, block, n
+    )
     return fused.to_arrays(), plain.to_arrays()
 
 
@@ -63,6 +71,31 @@ def test_general_exponents_agree_to_round_off(monkeypatch):
     assert np.abs(a["e_hist"] - b["e_hist"]).sum() <= 2
 
 
+def test_bit_identical_for_every_kind_of_table():
+    # discrete (equal cells), histogram (guide search), the refined grid, discrete
+    # angles with every shadowing, continuous angles 'weighted' (a guide search)
+    rng = np.random.default_rng(3)
+    emp = SurfaceVariant("emp", angles_from_sample(rng.normal(2.0, 12.0, 3000)))
+    for particles in (
+        empirical_diameters(rng.lognormal(3.9, 0.3, 4000)),
+        histogram_diameters([10.0, 30.0, 50.0, 80.0, 120.0], [1, 5, 3, 1]),
+    ):
+        for shadowing in ("reject", "weighted", "none"):
+            sc = scenario(
+                particles=particles,
+                surfaces=(emp, rough(9.0)),
+                speeds_m_s=(0.25,),
+                angles_deg=(15.0, 60.0),
+                shadowing=shadowing,
+                speed_spread=0.05,
+            )
+            plan = build_plan(sc)
+            for point in range(len(plan.points)):
+                a, b = _both(plan, point, n=5000)
+                for key in a:
+                    assert_array_equal(a[key], b[key], err_msg=f"{key} {point}")
+
+
 @pytest.mark.parametrize("n", [0, 1, 255, 256, 257, 1000])
 def test_bit_identical_at_chunk_edges(n, monkeypatch):
     # a block shorter than, equal to and just past one inner chunk (256 impacts)
@@ -82,23 +115,36 @@ def test_qmc_bit_identical(monkeypatch):
         assert_array_equal(a[key], b[key], err_msg=key)
 
 
+def _sampler(values, columns=3):
+    one = (np.asarray(values, float), np.asarray(values, float))
+    sampler = Sampler.of(CellTable.from_atoms(values), one, *([one] * columns))
+    return kernel._sampler_args(sampler)
+
+
 def _block_args(**over):
     """Arguments of a valid 4-impact call of ``_ckernel.block`` (smooth surface)."""
     n = 4
+    one = kernel._sampler_args(None)
+    d = Sampler.of(
+        CellTable.from_atoms([1.0, 2.0, 3.0, 4.0]),
+        ([1.0, 2, 3, 4], [1.0, 2, 3, 4]),
+        ([1.0] * 4, [1.0] * 4),  # 1/k1
+        ([1.0] * 4, [1.0] * 4),  # 1/k2
+        ([0.1] * 4, [0.1] * 4),  # v_c
+    )
     args = dict(
-        i_d=np.arange(n, dtype=np.uint64),
+        i_d=(np.arange(n, dtype=np.uint64) << np.uint64(62)),
         i_a=np.zeros(1, np.uint64),
         i_s=np.zeros(1, np.uint64),
-        shift=0,
         n=n,
         angle_random=False,
         speed_random=False,
-        dtab=np.tile([1.0, 1.0, 0.1, 0.0], (n, 1)),
-        dstride=4,
-        amap=np.zeros(1, np.uint16),
-        atab=np.array([[1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0]]),
-        astride=8,
-        sfac=np.ones(1),
+        dsamp=kernel._sampler_args(d),
+        asamp=one,
+        cut=0,
+        ssamp=one,
+        sin_theta=1.0,
+        cos_theta=0.0,
         speed=1.0,
         p=1.0,
         q=1.0,
@@ -116,7 +162,7 @@ def test_direct_call_normal_impact():
     # normal impact at 1 m/s on a smooth surface: u = 1, k1 = k2 = 1, v_c = 0.1,
     # so R = 1/2, rho = 1/1.9, e = R (1 - rho) (Eqs. 4-6) for all 4 impacts
     args = _block_args()
-    counts, sums = kernel._COMPILED.block(*args)
+    counts, sums = kernel._ckernel().block(*args)
     # (shadowed, captured, reimpact, rolling, rebounds): mu = 0 rolls (Eq. 3)
     assert counts == (0, 0, 0, 4, 4)
     e_hist = args[-2]
@@ -128,48 +174,61 @@ def test_direct_call_normal_impact():
 
 
 def test_spill_constant_matches():
-    assert kernel._COMPILED.SPILL == kernel._SPILL
-    assert kernel._COMPILED.CHUNK == 256
+    assert kernel._ckernel().SPILL == kernel._SPILL
+    assert kernel._ckernel().CHUNK == 256
+
+
+def _bad_kind(kind):
+    rows, stride, guide, shift, _, levels, cbits = _sampler([1.0, 2.0])
+    return (rows, stride, guide, shift, kind, levels, cbits)
 
 
 @pytest.mark.parametrize(
     ("over", "error"),
     [
-        ({"i_d": np.array([0, 1, 2, 99], np.uint64)}, IndexError),  # row 99 of 4
         ({"i_d": np.arange(3, dtype=np.uint64)}, ValueError),  # shorter than n
         ({"i_d": np.arange(8, dtype=np.uint64)[::2]}, ValueError),  # strided
         ({"e_hist": np.zeros(3, np.int64)}, ValueError),  # no room for the bins
-        ({"shift": 64}, ValueError),
         ({"n": -1}, ValueError),
-        ({"dstride": 2}, ValueError),
+        ({"dsamp": _sampler([1.0], columns=1)}, ValueError),  # too few columns
+        ({"dsamp": _bad_kind(2)}, ValueError),  # not a refined grid
+        ({"dsamp": _bad_kind(7)}, ValueError),
+        ({"dsamp": (np.zeros(3), 8, np.zeros(17, np.uint32), 60, 0, 0, 0)}, ValueError),
     ],
 )
 def test_direct_call_rejects_bad_buffers(over, error):
     with pytest.raises(error):
-        kernel._COMPILED.block(*_block_args(**over))
+        kernel._ckernel().block(*_block_args(**over))
 
 
-def test_angle_tables_must_index_rows():
-    from microimpact.engine.plan import AngleTables
-
-    with pytest.raises(ValueError, match="row_of_atom"):
-        AngleTables(np.zeros((2, 8)), np.array([0, 2], np.uint16), 0.0, True)
+def test_samplers_check_their_rows():
+    t = CellTable.from_atoms([1.0, 2.0])
+    with pytest.raises(ValueError, match="sentinel"):
+        Sampler(t, np.zeros((2, 4)), np.zeros((2, 2)))
 
 
 @pytest.mark.parametrize(
     ("value", "expect"),
-    [("numpy", None), ("", "compiled"), ("auto", "compiled"), ("COMPILED", "compiled")],
+    [
+        ("numpy", "numpy"),
+        ("", "compiled"),
+        ("auto", "compiled"),
+        ("COMPILED", "compiled"),
+    ],
 )
 def test_kernel_choice_from_environment(value, expect, monkeypatch):
     monkeypatch.setenv(kernel.KERNEL_ENV, value)
-    got = kernel._load_compiled()
-    assert (got is None) if expect is None else (got is kernel._COMPILED)
+    assert resolve_kernel() == expect
+    assert build_plan(scenario()).kernel == expect
+    assert build_plan(scenario(), kernel="numpy").kernel == "numpy"
 
 
 def test_bad_kernel_choice_is_an_input_error(monkeypatch):
     monkeypatch.setenv(kernel.KERNEL_ENV, "fortran")
     with pytest.raises(InputError, match="MICROIMPACT_KERNEL='fortran'"):
-        kernel._load_compiled()
+        resolve_kernel()
+    with pytest.raises(InputError, match="argument `kernel`"):
+        resolve_kernel("fortran")
 
 
 def _runnable_isas():
@@ -234,7 +293,7 @@ def test_instruction_set_clones_give_the_same_bits(p, tmp_path, monkeypatch):
         module = _build_for(isa, tmp_path)
         if module is None:
             pytest.skip("no C compiler for the test builds")
-        monkeypatch.setattr(kernel, "_COMPILED", module)
+        monkeypatch.setattr(kernel, "_ckernel", lambda module=module: module)
         got = kernel.simulate_block(plan, 0, 0, 1, 20_000).to_arrays()
         for key in ref:
             assert_array_equal(got[key], ref[key], err_msg=f"{key} ({isa})")

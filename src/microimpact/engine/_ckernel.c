@@ -8,10 +8,18 @@
  * It exists only for speed; the physics (Eqs. 3-9 of Li, Dunn & Brach 2000) is
  * documented in kernel.py and docs/engine.md.
  *
+ * Every random variable is a cell table (plan.Sampler, _tables.CellTable): a
+ * 64-bit draw r selects the cell j with cum[j] <= r < cum[j+1] (a guide table
+ * indexed by the top bits of r, then a short search) and the fraction
+ * f = (r - cum[j]) * inv_width[j]; a quantity is read as lo + f * span from the
+ * cell's row.
+ *
  * A block is processed in chunks of CHUNK impacts, each in three loops over
  * L1-resident scratch:
- *   1. gather (scalar): the table rows of the drawn diameter and angle atoms are
- *      copied into one contiguous array per quantity;
+ *   1. gather (scalar): the cells of the drawn diameter, angle and speed are
+ *      located and their quantities interpolated into one contiguous array per
+ *      quantity, with sin(theta - phi) and cos(theta - phi) from the
+ *      angle-difference formulas;
  *   2. physics (branch-free, vectorised by the compiler): Eqs. 3-9 for every
  *      impact, the counts, both histogram slots and the shifted powers (x - K)^r
  *      of the rebound moments (the shift K is the block's first rebound).
@@ -36,7 +44,7 @@
 #define SPILL 8   /* rotating spill slots appended to each histogram array */
 
 /* rows of the float scratch: gathered inputs, outputs, shifted powers */
-enum { W_U, W_COT, W_TAN, W_IK1, W_IK2, W_VC, W_EM, W_MUM,
+enum { W_U, W_SIN, W_COT, W_TAN, W_IK1, W_IK2, W_VC, W_EM, W_MUM,
        W_D1, W_D2, W_D3, W_G1, W_G2, W_G3, W_ROWS };
 /* rows of the integer scratch: rebound (0/1), e_m slot, mu_m slot */
 enum { I_CODE, I_BE, I_BM, I_ROWS };
@@ -44,6 +52,8 @@ enum { I_CODE, I_BE, I_BM, I_ROWS };
 typedef struct {
     double ws[W_ROWS * CHUNK];
     int64_t iws[I_ROWS * CHUNK];
+    uint64_t ra[CHUNK];          /* angle draws (scaled for "reject") */
+    uint32_t g[3][CHUNK];        /* guide entry per variable */
 } scratch_t;
 
 typedef struct {
@@ -116,7 +126,8 @@ physics(double *restrict ws, int64_t *restrict iws, int64_t c, double p,
         double e = 1.0 - rho;
         e = e * R; /* Eq. 6 */
         double one_e = e + 1.0;
-        double cot = ws[W_COT * CHUNK + k];
+        /* W_COT holds cos(theta - phi) until here */
+        double cot = ws[W_COT * CHUNK + k] / ws[W_SIN * CHUNK + k];
         double mu = cot * two_sevenths;
         mu = mu / one_e; /* Eq. 3 */
         int64_t rolling = fabs(mu) <= friction;
@@ -124,7 +135,7 @@ physics(double *restrict ws, int64_t *restrict iws, int64_t c, double p,
         mu = mu > friction ? friction : mu;
         double tp = ws[W_TAN * CHUNK + k];
         /* tan(phi) cot(theta - phi) and the Eq. 8 gain, computed exactly as the
-         * plan tabulates them (same bits) rather than gathered */
+         * NumPy kernel computes them (same bits) */
         double tancot = tp * cot;
         double gain = tancot + 1.0;
         gain = 1.0 / gain;
@@ -183,20 +194,107 @@ physics(double *restrict ws, int64_t *restrict iws, int64_t c, double p,
     cnt->reb += m;
 }
 
+/* One cell table (see plan.Sampler): row j holds the cell's start (uint64 bits),
+ * 1/width and (lo, span) pairs; row n is a sentinel whose start is 2^64 - 1. The
+ * guide (entries <= n - 1 and non-decreasing by construction: the plan builds it)
+ * gives the first cell of every top-bits slot of a draw. */
+typedef struct {
+    const double *rows;
+    Py_ssize_t stride, n;
+    const uint32_t *guide;
+    int gshift;
+    int kind;        /* 0 general (guide), 1 equal cells, 2 dyadic grid */
+    int levels, cbits; /* dyadic: levels per half, log2 cells per level */
+} sampler_t;
+
+#define GUIDE_SEARCH 0x80000000u /* _tables.GUIDE_SEARCH */
+#define GUIDE_CELL 0x7FFFFFFFu
+
+/* floor(a * b / 2^64), exactly (the NumPy kernel: _tables.mulhi64) */
+ALWAYS_INLINE uint64_t
+mulhi64(uint64_t a, uint64_t b)
+{
+#if defined(__SIZEOF_INT128__)
+    return (uint64_t)(((unsigned __int128)a * b) >> 64);
+#else
+    const uint64_t m = 0xFFFFFFFFu;
+    uint64_t a_lo = a & m, a_hi = a >> 32, b_lo = b & m, b_hi = b >> 32;
+    uint64_t cross = ((a_lo * b_lo) >> 32) + ((a_hi * b_lo) & m) + a_lo * b_hi;
+    return ((a_hi * b_lo) >> 32) + (cross >> 32) + a_hi * b_hi;
+#endif
+}
+
+ALWAYS_INLINE uint64_t
+cell_start(const sampler_t *s, Py_ssize_t i)
+{
+    uint64_t c;
+    memcpy(&c, s->rows + i * s->stride, sizeof c);
+    return c;
+}
+
+/* First pass of a lookup: the cell of draw r where arithmetic gives it (kinds 1
+ * and 2, see _tables.CellTable), else its guide entry; and a prefetch of the row
+ * it names (the second pass, locate, then finds the row in cache). */
+ALWAYS_INLINE uint32_t
+guide_entry(const sampler_t *s, uint64_t r)
+{
+    uint32_t g;
+    if (s->kind == 1) { /* n equal cells: floor(r n / 2^64) */
+        g = (uint32_t)mulhi64(r, (uint64_t)s->n);
+    } else if (s->kind == 2) { /* the refined grid, mirrored in the upper half */
+        uint64_t up = r >> 63;
+        uint64_t R = up ? ~r : r; /* < 2^63 */
+        Py_ssize_t L = 0;         /* the outermost cell */
+        if (R >> (63 - s->levels)) {
+            int k = __builtin_clzll(R) - 1; /* level: R in [2^(62-k), 2^(63-k)) */
+            Py_ssize_t j = (Py_ssize_t)(R >> (62 - k - s->cbits)) &
+                           (((Py_ssize_t)1 << s->cbits) - 1);
+            L = 1 + ((Py_ssize_t)(s->levels - 1 - k) << s->cbits) + j;
+        }
+        g = (uint32_t)(up ? s->n - 1 - L : L);
+    } else {
+        g = s->guide[r >> s->gshift];
+    }
+    return g;
+}
+
+/* The cell of draw r (the last cell starting at or below r) and its fraction;
+ * returns the cell's row. `g` is the guide entry of r: most draws fall in a slot
+ * of one cell and need no search (the flag is clear); the others search the
+ * guide range [g, next entry], one step branch-free, then by bisection (slots
+ * deep in a tail hold many cells). */
+ALWAYS_INLINE const double *
+locate(const sampler_t *s, uint64_t r, uint32_t g, double *f)
+{
+    Py_ssize_t i = g & GUIDE_CELL;
+    if (g & GUIDE_SEARCH) {
+        Py_ssize_t hi = s->guide[(r >> s->gshift) + 1] & GUIDE_CELL;
+        i += (Py_ssize_t)((i < hi) & (cell_start(s, i + 1) <= r));
+        if (i < hi && cell_start(s, i + 1) <= r) {
+            Py_ssize_t lo = i + 1; /* cell_start(lo) <= r: the answer is in [lo, hi] */
+            while (lo < hi) {
+                Py_ssize_t mid = lo + (hi - lo + 1) / 2;
+                if (cell_start(s, mid) <= r)
+                    lo = mid;
+                else
+                    hi = mid - 1;
+            }
+            i = lo;
+        }
+    }
+    const double *row = s->rows + i * s->stride;
+    *f = (double)(r - cell_start(s, i)) * row[1];
+    return row;
+}
+
 typedef struct {
     const uint64_t *i_d, *i_a, *i_s;
-    int shift;
     Py_ssize_t n;
     int angle_random, speed_random;
-    const double *dtab;  /* rows of (1/k1, 1/k2, v_c, ...) per diameter atom */
-    Py_ssize_t dstride, drows;
-    const uint16_t *amap; /* angle atom -> row of atab (< arows: the caller
-                             checks this once per table, see plan.AngleTables) */
-    Py_ssize_t amap_len;
-    const double *atab;  /* rows of (sin, cot, tan, ...) per angle row */
-    Py_ssize_t astride, arows;
-    const double *sfac;  /* speed factor atoms */
-    Py_ssize_t sfac_len;
+    sampler_t d, a, s; /* diameter: 1/k1, 1/k2, v_c; angle: sin, cos, tan phi;
+                          speed factor */
+    uint64_t cut;      /* angle draws scaled to [0, cut) ("reject"); 0: not */
+    double sin_theta, cos_theta;
     double speed, p, q, friction;
     int shadow_none;
     hist_t hist;
@@ -205,6 +303,36 @@ typedef struct {
     double sums[8];
 } block_args;
 
+/* Locate the cells of draws r[0:c] (kinds: see guide_entry) and write the first
+ * `one ? 1 : 3` interpolated columns of their rows to out0..out2; `g` is
+ * scratch. Past c the outputs are left as they were (finite: the physics loop
+ * recomputes stale values there and counts nothing). */
+ALWAYS_INLINE void
+fetch(const sampler_t *s, const uint64_t *restrict r, int one, int c,
+      uint32_t *restrict g, double *restrict out0, double *restrict out1,
+      double *restrict out2)
+{
+    if (s->kind == 1) {
+        for (int k = 0; k < c; k++)
+            g[k] = (uint32_t)mulhi64(r[k], (uint64_t)s->n);
+    } else if (s->kind == 2) {
+        for (int k = 0; k < c; k++)
+            g[k] = guide_entry(s, r[k]);
+    } else {
+        for (int k = 0; k < c; k++)
+            g[k] = s->guide[r[k] >> s->gshift];
+    }
+    for (int k = 0; k < c; k++) {
+        double f;
+        const double *row = locate(s, r[k], g[k], &f);
+        out0[k] = row[2] + f * row[3];
+        if (!one) {
+            out1[k] = row[4] + f * row[5];
+            out2[k] = row[6] + f * row[7];
+        }
+    }
+}
+
 /* The caller has checked every index (see draws_in_range). */
 static CLONES __attribute__((noinline)) void
 run_block(block_args *a, scratch_t *s)
@@ -212,29 +340,47 @@ run_block(block_args *a, scratch_t *s)
     double *restrict ws = s->ws;
     int64_t *restrict iws = s->iws;
     const int pq_one = a->p == 1.0 && a->q == 1.0;
-    const int shift = a->shift;
+    const double st = a->sin_theta, ct = a->cos_theta;
     counts_t cnt = {0, 0, 0, 0, 0};
     double ke = 0.0, km = 0.0;
     double se1 = 0.0, se2 = 0.0, se3 = 0.0, sm1 = 0.0, sm2 = 0.0, sm3 = 0.0;
     for (Py_ssize_t start = 0; start < a->n; start += CHUNK) {
         int c = (int)(a->n - start < CHUNK ? a->n - start : CHUNK);
-        /* 1. gather the table rows of the drawn atoms */
-        for (int k = 0; k < c; k++) {
-            Py_ssize_t ja = 0;
-            double u = a->speed;
-            if (a->angle_random)
-                ja = a->amap[a->i_a[start + k] >> shift];
-            if (a->speed_random)
-                u = a->speed * a->sfac[a->i_s[start + k] >> shift];
-            uint64_t jd = a->i_d[start + k] >> shift;
-            const double *ar = a->atab + ja * a->astride;
-            const double *dr = a->dtab + jd * a->dstride;
-            ws[W_U * CHUNK + k] = u * ar[0]; /* true normal speed |v_n'| */
-            ws[W_COT * CHUNK + k] = ar[1];
-            ws[W_TAN * CHUNK + k] = ar[2];
-            ws[W_IK1 * CHUNK + k] = dr[0];
-            ws[W_IK2 * CHUNK + k] = dr[1];
-            ws[W_VC * CHUNK + k] = dr[2];
+        /* 1. locate the drawn cells and interpolate their quantities, one
+         * variable at a time (a loop specialised for each kind of table) */
+        fetch(&a->d, a->i_d + start, 0, c, s->g[0], ws + W_IK1 * CHUNK,
+              ws + W_IK2 * CHUNK, ws + W_VC * CHUNK);
+        if (a->angle_random) {
+            const uint64_t *ra = a->i_a + start;
+            if (a->cut) {
+                for (int k = 0; k < c; k++)
+                    s->ra[k] = mulhi64(ra[k], a->cut);
+                ra = s->ra;
+            }
+            fetch(&a->a, ra, 0, c, s->g[1], ws + W_SIN * CHUNK, ws + W_COT * CHUNK,
+                  ws + W_TAN * CHUNK);
+            for (int k = 0; k < CHUNK; k++) {
+                double sp = ws[W_SIN * CHUNK + k], cp = ws[W_COT * CHUNK + k];
+                ws[W_SIN * CHUNK + k] = st * cp - ct * sp; /* sin(theta - phi) */
+                ws[W_COT * CHUNK + k] = ct * cp + st * sp; /* cos(theta - phi) */
+            }
+        } else { /* smooth: phi = 0 exactly */
+            for (int k = 0; k < CHUNK; k++) {
+                ws[W_SIN * CHUNK + k] = st * 1.0 - ct * 0.0;
+                ws[W_COT * CHUNK + k] = ct * 1.0 + st * 0.0;
+                ws[W_TAN * CHUNK + k] = 0.0;
+            }
+        }
+        if (a->speed_random) {
+            fetch(&a->s, a->i_s + start, 1, c, s->g[2], ws + W_U * CHUNK, NULL,
+                  NULL);
+            for (int k = 0; k < CHUNK; k++) {
+                double spd = a->speed * ws[W_U * CHUNK + k];
+                ws[W_U * CHUNK + k] = spd * ws[W_SIN * CHUNK + k];
+            }
+        } else {
+            for (int k = 0; k < CHUNK; k++)
+                ws[W_U * CHUNK + k] = a->speed * ws[W_SIN * CHUNK + k];
         }
         /* 2. the physics, branch-free (the shifted powers too once the shift is
          * known, i.e. after the block's first rebound) */
@@ -292,19 +438,6 @@ run_block(block_args *a, scratch_t *s)
     a->sums[7] = sm3;
 }
 
-/* Whether every draw of `x[0:n]`, shifted right by `shift`, is below `len`
- * (free when the shift alone guarantees it, as for Monte Carlo draws). */
-static int
-draws_in_range(const uint64_t *x, Py_ssize_t n, int shift, Py_ssize_t len)
-{
-    if ((UINT64_MAX >> shift) < (uint64_t)len)
-        return 1;
-    uint64_t top = 0;
-    for (Py_ssize_t i = 0; i < n; i++)
-        top = x[i] > top ? x[i] : top;
-    return n == 0 || (top >> shift) < (uint64_t)len;
-}
-
 /* ------------------------------------------------------------ Python binding */
 
 static int
@@ -319,39 +452,86 @@ check_len(Py_buffer *b, const char *name, Py_ssize_t itemsize, Py_ssize_t need)
     return 0;
 }
 
+/* Parse one sampler tuple (rows, stride, guide, guide_shift, kind, levels,
+ * log2 cells per level); `bufs` receives the 2 buffers to release. */
+static int
+parse_sampler(PyObject *tup, const char *name, sampler_t *s, Py_ssize_t min_stride,
+              Py_buffer *bufs, int *held)
+{
+    if (!PyArg_ParseTuple(tup, "y*ny*iiii", &bufs[0], &s->stride, &bufs[1],
+                          &s->gshift, &s->kind, &s->levels, &s->cbits))
+        return -1;
+    *held = 1;
+    s->rows = bufs[0].buf;
+    s->guide = bufs[1].buf;
+    if (s->gshift < 1 || s->gshift > 63 || s->stride < min_stride) {
+        PyErr_Format(PyExc_ValueError, "_ckernel.block: bad %s sampler", name);
+        return -1;
+    }
+    s->n = bufs[0].len / 8 / s->stride - 1;
+    Py_ssize_t guide_len = ((Py_ssize_t)1 << (64 - s->gshift)) + 1;
+    if (s->n < 1) {
+        PyErr_Format(PyExc_ValueError, "_ckernel.block: %s sampler has no cell",
+                     name);
+        return -1;
+    }
+    if (check_len(&bufs[0], name, 8, (s->n + 1) * s->stride) ||
+        check_len(&bufs[1], name, 4, guide_len))
+        return -1;
+    /* the arithmetic kinds must describe exactly these n cells */
+    if (s->n >= 0x7FFFFFFF || s->kind < 0 || s->kind > 2 ||
+        (s->kind == 2 &&
+         (s->levels < 1 || s->cbits < 0 || s->levels - 1 + s->cbits > 62 ||
+          s->n != 2 * (((Py_ssize_t)s->levels << s->cbits) + 1)))) {
+        PyErr_Format(PyExc_ValueError, "_ckernel.block: bad %s sampler kind", name);
+        return -1;
+    }
+    return 0;
+}
+
 PyDoc_STRVAR(block_doc,
-"block(i_d, i_a, i_s, shift, n, angle_random, speed_random, dtab, dstride,\n"
-"      amap, atab, astride, sfac, speed, p, q, friction, shadow_none, hist,\n"
+"block(i_d, i_a, i_s, n, angle_random, speed_random, dsamp, asamp, cut, ssamp,\n"
+"      sin_theta, cos_theta, speed, p, q, friction, shadow_none, hist,\n"
 "      e_hist, mu_hist) -> (counts, sums)\n\n"
-"One block of `n` impacts (table indices: the uint64 draws shifted right by\n"
-"`shift`). All arrays are C-contiguous: uint64 draws, float64 tables with\n"
-"`dstride`/`astride` columns, uint16 `amap`, float64 `hist` (6 values: e_m then\n"
-"mu_m lower edge, inverse bin width, bin count)\n"
-"and int64 histogram arrays, which are added to (their last 8 slots are spill).\n"
-"Returns counts (shadowed, captured, reimpact, rolling, rebounds) and sums\n"
-"(K, S1, S2, S3 of e_m, then of mu_m; S_r = sum over rebounds of (x - K)^r).");
+"One block of `n` impacts from the uint64 draws i_d, i_a, i_s. Each sampler is a\n"
+"tuple (rows float64[(n+1)*stride], stride, guide uint32[2^g+1], 64-g, kind,\n"
+"levels, log2 cells per level) of a\n"
+"cell table (see plan.Sampler): each row starts with the cell start (uint64\n"
+"bits) and 1/width; then diameter rows hold (lo, span) of 1/k1, 1/k2, v_c,\n"
+"angle rows of sin, cos, tan phi, speed rows of the factor. Angle draws are scaled to [0, cut) when\n"
+"cut > 0. `hist` holds 6 float64 values (e_m then mu_m lower edge, inverse bin\n"
+"width, bin count); the int64 histogram arrays are added to (their last 8 slots\n"
+"are spill). Returns counts (shadowed, captured, reimpact, rolling, rebounds) and\n"
+"sums (K, S1, S2, S3 of e_m, then of mu_m; S_r = sum over rebounds of\n"
+"(x - K)^r).");
 
 static PyObject *
 ck_block(PyObject *self, PyObject *args)
 {
-    Py_buffer bd, ba, bs, bdt, bam, bat, bsf, bh, beh, bmh;
-    int shift, angle_random, speed_random, shadow_none;
-    Py_ssize_t n, dstride, astride;
+    Py_buffer bd, ba, bs, bh, beh, bmh;
+    Py_buffer sb[3][2];
+    int held[3] = {0, 0, 0};
+    PyObject *samp[3];
+    int angle_random, speed_random, shadow_none;
+    unsigned long long cut;
+    Py_ssize_t n;
     block_args a;
-    if (!PyArg_ParseTuple(args, "y*y*y*inppy*ny*y*ny*ddddpy*w*w*:block", &bd,
-                          &ba, &bs, &shift, &n, &angle_random, &speed_random,
-                          &bdt, &dstride, &bam, &bat, &astride, &bsf, &a.speed,
+    if (!PyArg_ParseTuple(args, "y*y*y*nppOOKOddddddpy*w*w*:block", &bd, &ba, &bs,
+                          &n, &angle_random, &speed_random, &samp[0], &samp[1],
+                          &cut, &samp[2], &a.sin_theta, &a.cos_theta, &a.speed,
                           &a.p, &a.q, &a.friction, &shadow_none, &bh, &beh, &bmh))
         return NULL;
     PyObject *result = NULL;
     memset(&a.counts, 0, sizeof a.counts);
-    if (shift < 0 || shift > 63 || n < 0 || dstride < 3 || astride < 3) {
-        PyErr_SetString(PyExc_ValueError, "_ckernel.block: bad shift, n or stride");
+    if (parse_sampler(samp[0], "diameter", &a.d, 8, sb[0], &held[0]) ||
+        parse_sampler(samp[1], "angle", &a.a, 8, sb[1], &held[1]) ||
+        parse_sampler(samp[2], "speed", &a.s, 4, sb[2], &held[2]))
+        goto done;
+    if (n < 0) {
+        PyErr_SetString(PyExc_ValueError, "_ckernel.block: bad n or stride");
         goto done;
     }
-    if (check_len(&bd, "i_d", 8, n) || check_len(&bdt, "dtab", 8, dstride) ||
-        check_len(&bat, "atab", 8, astride) || check_len(&bh, "hist", 8, 6) ||
-        check_len(&bam, "amap", 2, 1) || check_len(&bsf, "sfac", 8, 1) ||
+    if (check_len(&bd, "i_d", 8, n) || check_len(&bh, "hist", 8, 6) ||
         (angle_random && check_len(&ba, "i_a", 8, n)) ||
         (speed_random && check_len(&bs, "i_s", 8, n)))
         goto done;
@@ -377,32 +557,13 @@ ck_block(PyObject *self, PyObject *args)
     a.i_d = bd.buf;
     a.i_a = ba.buf;
     a.i_s = bs.buf;
-    a.shift = shift;
     a.n = n;
     a.angle_random = angle_random;
     a.speed_random = speed_random;
-    a.dtab = bdt.buf;
-    a.dstride = dstride;
-    a.drows = bdt.len / 8 / dstride;
-    a.amap = bam.buf;
-    a.amap_len = bam.len / 2;
-    a.atab = bat.buf;
-    a.astride = astride;
-    a.arows = bat.len / 8 / astride;
-    a.sfac = bsf.buf;
-    a.sfac_len = bsf.len / 8;
+    a.cut = (uint64_t)cut;
     a.shadow_none = shadow_none;
     a.e_hist = beh.buf;
     a.mu_hist = bmh.buf;
-
-    if (a.drows < 1 || a.arows < 1 ||
-        !draws_in_range(a.i_d, n, shift, a.drows) ||
-        (angle_random && !draws_in_range(a.i_a, n, shift, a.amap_len)) ||
-        (speed_random && !draws_in_range(a.i_s, n, shift, a.sfac_len))) {
-        PyErr_SetString(PyExc_IndexError,
-                        "_ckernel.block: a drawn index falls outside its table");
-        goto done;
-    }
     scratch_t *s = PyMem_RawMalloc(sizeof(scratch_t));
     if (s == NULL) {
         PyErr_NoMemory();
@@ -421,13 +582,13 @@ done:
     PyBuffer_Release(&bd);
     PyBuffer_Release(&ba);
     PyBuffer_Release(&bs);
-    PyBuffer_Release(&bdt);
-    PyBuffer_Release(&bam);
-    PyBuffer_Release(&bat);
-    PyBuffer_Release(&bsf);
     PyBuffer_Release(&bh);
     PyBuffer_Release(&beh);
     PyBuffer_Release(&bmh);
+    for (int i = 0; i < 3; i++)
+        if (held[i])
+            for (int j = 0; j < 2; j++)
+                PyBuffer_Release(&sb[i][j]);
     return result;
 }
 

@@ -1,14 +1,15 @@
 r"""The Monte Carlo kernel: one block of impacts at one sweep point.
 
-This is the paper's model (Eqs. 1-9) fused for speed on tabulated atoms (see
+This is the paper's model (Eqs. 1-9) fused for speed on tabulated cells (see
 :mod:`microimpact.engine.plan`); :func:`microimpact.apparent_rebound` is the reference
-it is tested against. Per impact, with ``s`` the incident speed, ``j`` the angle atom
-and ``i`` the diameter atom:
+it is tested against. Per impact, with ``s`` the incident speed, the angle read from
+its cell as ``sin(phi)``, ``cos(phi)``, ``tan(phi)`` and the diameter cell giving
+``1/k1``, ``1/k2``, ``v_c``:
 
 .. math::
 
-    u &= s\,\sin(\theta-\phi_j) = |v_{n'}|, \qquad
-    c = \cot(\theta-\phi_j) = v_{t'}/v_{n'} \\
+    u &= s\,\sin(\theta-\phi) = |v_{n'}|, \qquad
+    c = \cot(\theta-\phi) = v_{t'}/v_{n'} \\
     R &= 1/(1 + (u/k_1)^p)                                  && \text{Eq. 4} \\
     \rho &= 1/(1 + ((u - v_c)/k_2)^q), \quad
         \text{captured if } u \le v_c                       && \text{Eq. 5} \\
@@ -19,15 +20,15 @@ and ``i`` the diameter atom:
 
 where Eq. 8 uses :math:`V_{t'}/v_{n'} = c - \mu(1+e)` from Eq. 2, and the rebound
 re-impacts the nominal surface when :math:`e_m < 0` (nominal :math:`V_n < 0`).
+``sin(theta - phi)`` and ``cos(theta - phi)`` come from the angle-difference
+formulas, so one angle table serves every apparent angle.
 """
 
 from __future__ import annotations
 
-import os
-
 import numpy as np
 
-from ..errors import InputError
+from .._tables import mulhi64
 from .accumulators import (
     E_EDGES,
     MU_EDGES,
@@ -36,20 +37,26 @@ from .accumulators import (
     histogram_counts,
 )
 from .plan import (
-    A_COT,
-    A_GAIN,
-    A_PHI,
+    A_COS,
     A_SIN,
     A_TAN,
-    A_TANCOT,
+    D_IK1,
+    D_IK2,
+    D_VC,
+    KERNEL_CHOICES,  # noqa: F401 (re-exported)
+    KERNEL_ENV,  # noqa: F401 (re-exported)
+    S_FACTOR,
     VAR_ANGLE,
     VAR_DIAMETER,
     VAR_SPEED,
     Plan,
+    resolve_kernel,
 )
 
 #: spawn-key slot that separates QMC scrambles from MC block streams
 QMC_TAG = 0xFFFF_FFFF
+_TWO64 = 2.0**64
+_TOP = np.nextafter(_TWO64, 0.0)
 
 
 def stream_raw(entropy, point, block, var, n):
@@ -78,21 +85,30 @@ def qmc_uniforms(entropy, point, rep, block, n, dim, block_size):
         return engine.random(n)
 
 
+def uniform_to_raw(u) -> np.ndarray:
+    """Uniforms in [0, 1) as the 64-bit integers the tables read (``u * 2^64``; a
+    double has 53 bits, so this keeps every bit of a QMC point)."""
+    return np.minimum(np.asarray(u, dtype=float) * _TWO64, _TOP).astype(np.uint64)
+
+
 def _draw(plan: Plan, point, rep, block, n, variables):
-    """``(arrays, shift)``: per listed variable a uint64 array whose values shifted
-    right by `shift` are the table indices, MC (raw draws) or QMC."""
-    bits = plan.table_bits
+    """Per listed variable a uint64 array of draws, MC (raw 64-bit outputs) or QMC
+    (the uniforms scaled to 64-bit integers)."""
     if plan.sampling == "qmc":
         u = qmc_uniforms(
             plan.entropy, point, rep, block, n, len(variables), plan.block_size
         )
-        scale = float(1 << bits)
-        return [
-            np.minimum((u[:, k] * scale).astype(np.uint64), (1 << bits) - 1)
-            for k in range(len(variables))
-        ], 0
-    raws = [stream_raw(plan.entropy, point, block, v, n) for v in variables]
-    return raws, 64 - bits
+        return [uniform_to_raw(u[:, k]) for k in range(len(variables))]
+    return [stream_raw(plan.entropy, point, block, v, n) for v in variables]
+
+
+def _variables(plan: Plan, tables) -> list[int]:
+    variables = [VAR_DIAMETER]
+    if tables.random:
+        variables.append(VAR_ANGLE)
+    if plan.speeds is not None:
+        variables.append(VAR_SPEED)
+    return variables
 
 
 def simulate_block(
@@ -102,41 +118,57 @@ def simulate_block(
 
     Returns a :class:`PointAccumulator`, or with ``store=True`` a dict of per-impact
     arrays (``diameter``, ``roughness_angle``, ``speed``, ``e_m``, ``mu_m``,
-    ``captured``, ``shadowed``, ``reimpact``) for inspection and small studies.
+    ``captured``, ``shadowed``, ``reimpact``, and the coefficients ``k1``, ``k2``,
+    ``v_c`` the kernel used) for inspection and small studies. In a continuous
+    distribution's cell the coefficients and the angle's sine, cosine and tangent
+    are interpolated like the diameter and the angle themselves, so they equal the
+    laws and the trigonometric functions of the reported values to second order in
+    the cell width (exactly for discrete distributions).
+    The kernel is ``plan.kernel`` (``store=True`` always runs the NumPy kernel).
     """
+    return _simulate_block(plan, point, rep, block, n, store)
+
+
+def _simulate_block(plan: Plan, point, rep, block, n, store=False):
     sp = plan.points[point]
     tables = plan.angle_tables(sp.surface, sp.angle_deg)
-    variables = [VAR_DIAMETER]
-    if tables.random:
-        variables.append(VAR_ANGLE)
-    if plan.speed_factor is not None:
-        variables.append(VAR_SPEED)
-    draws, shift = _draw(plan, point, rep, block, n, variables)
+    variables = _variables(plan, tables)
+    draws = _draw(plan, point, rep, block, n, variables)
     raw = dict(zip(variables, draws, strict=True))
-    if not store and _COMPILED is not None:  # the kernel shifts as it reads
-        return _simulate_compiled(plan, sp, tables, raw, shift, n)
-    for a in draws:
-        a >>= np.uint64(shift)
-    idx = {v: a.view(np.int64) for v, a in zip(variables, draws, strict=True)}
+    if not store and plan.kernel == "compiled":
+        return _simulate_compiled(plan, sp, tables, raw, n)
 
-    i_d = idx[VAR_DIAMETER]
-    coef = plan.coefficients[i_d]
-    inv_k1, inv_k2, v_c = coef[:, 0], coef[:, 1], coef[:, 2]
-    # one row per impact (or the single row of a smooth surface: scalars)
-    row = (
-        tables.rows[tables.row_of_atom[idx[VAR_ANGLE]]]
-        if tables.random
-        else (tables.rows[0])
-    )
-    sin_true, cot = row[..., A_SIN], row[..., A_COT]
-    tan_phi, tan_cot, gain = row[..., A_TAN], row[..., A_TANCOT], row[..., A_GAIN]
+    j_d, f_d = plan.diameters.table.locate(raw[VAR_DIAMETER])
+    dr = plan.diameters.rows
+    inv_k1 = dr[j_d, D_IK1] + f_d * dr[j_d, D_IK1 + 1]
+    inv_k2 = dr[j_d, D_IK2] + f_d * dr[j_d, D_IK2 + 1]
+    v_c = dr[j_d, D_VC] + f_d * dr[j_d, D_VC + 1]
+    st, ct = tables.sin_theta, tables.cos_theta
+    if tables.random:
+        r_a = raw[VAR_ANGLE]
+        if tables.cut:
+            r_a = mulhi64(r_a, tables.cut)  # 'reject': reachable facets only
+        j_a, f_a = tables.sampler.table.locate(r_a)
+        ar = tables.sampler.rows
+        s_phi = ar[j_a, A_SIN] + f_a * ar[j_a, A_SIN + 1]
+        c_phi = ar[j_a, A_COS] + f_a * ar[j_a, A_COS + 1]
+        tan_phi = ar[j_a, A_TAN] + f_a * ar[j_a, A_TAN + 1]
+        sin_true = st * c_phi - ct * s_phi  # sin(theta - phi)
+        cos_true = ct * c_phi + st * s_phi  # cos(theta - phi)
+    else:  # smooth: phi = 0 exactly
+        sin_true, cos_true, tan_phi = st, ct, np.zeros(n)
 
     speed = sp.speed
-    if plan.speed_factor is not None:
-        speed = speed * plan.speed_factor[idx[VAR_SPEED]]
-    u = speed * sin_true  # true normal speed |v_n'|
+    if plan.speeds is not None:
+        j_s, f_s = plan.speeds.table.locate(raw[VAR_SPEED])
+        sr = plan.speeds.rows
+        speed = speed * (sr[j_s, S_FACTOR] + f_s * sr[j_s, S_FACTOR + 1])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u = speed * sin_true  # true normal speed |v_n'|
+        cot = cos_true / sin_true
     if not isinstance(u, np.ndarray):
         u = np.full(n, u)
+    cot = np.broadcast_to(cot, (n,))
 
     shadowed = None
     n_shadowed = 0
@@ -148,9 +180,11 @@ def simulate_block(
             u = u[reach]
             inv_k1, inv_k2, v_c = inv_k1[reach], inv_k2[reach], v_c[reach]
             cot, tan_phi = cot[reach], tan_phi[reach]
-            tan_cot, gain = tan_cot[reach], gain[reach]
 
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        tan_cot = tan_phi * cot
+        gain = tan_cot + 1.0
+        gain = np.reciprocal(gain, out=gain)  # the Eq. 8 denominator
         captured = u <= v_c  # capture rule (see physics.impact)
         x = u * inv_k1
         if plan.p != 1.0:
@@ -201,8 +235,19 @@ def simulate_block(
                 full[k] = a
             out = full
         out["shadowed"] = shadowed if shadowed is not None else np.zeros(n, bool)
-        out["diameter"] = plan.diameter[i_d]
-        out["roughness_angle"] = row[:, A_PHI].copy() if tables.random else np.zeros(n)
+        dv = plan.diameters.values
+        out["diameter"] = dv[j_d, 0] + f_d * dv[j_d, 1]
+        # the coefficients the kernel used: interpolated in the diameter's cell like
+        # the diameter itself (equal to the laws at the diameter to second order)
+        with np.errstate(divide="ignore"):
+            out["k1"] = 1.0 / (dr[j_d, D_IK1] + f_d * dr[j_d, D_IK1 + 1])
+            out["k2"] = 1.0 / (dr[j_d, D_IK2] + f_d * dr[j_d, D_IK2 + 1])
+        out["v_c"] = dr[j_d, D_VC] + f_d * dr[j_d, D_VC + 1]
+        if tables.random:
+            av = tables.sampler.values
+            out["roughness_angle"] = av[j_a, 0] + f_a * av[j_a, 1]
+        else:
+            out["roughness_angle"] = np.zeros(n)
         out["speed"] = np.broadcast_to(speed, (n,)).copy()
         return out
 
@@ -227,42 +272,18 @@ def simulate_block(
     )
 
 
+def simulate_specs(plan: Plan, specs) -> list[PointAccumulator]:
+    """One accumulator per block spec ``(point, rep, block, n)``, each exactly what
+    ``simulate_block(plan, *spec)`` returns (same draws, same bits), in order."""
+    return [_simulate_block(plan, *spec) for spec in specs]
+
+
 # ------------------------------------------------------------------ compiled path
-#: Environment variable choosing the kernel: ``numpy`` forces the NumPy kernel,
-#: ``compiled`` requires the compiled one, unset or ``auto`` takes the compiled
-#: kernel when it was built at install time.
-KERNEL_ENV = "MICROIMPACT_KERNEL"
-_KERNEL_CHOICES = ("auto", "compiled", "numpy")
-
-
-def _load_compiled():
-    """The compiled kernel module ``_ckernel``, or None for the NumPy kernel."""
-    choice = os.environ.get(KERNEL_ENV, "").strip().lower() or "auto"
-    if choice not in _KERNEL_CHOICES:
-        raise InputError(
-            f"environment variable {KERNEL_ENV}={os.environ[KERNEL_ENV]!r}: "
-            f"expected one of {', '.join(_KERNEL_CHOICES)}"
-        )
-    if choice == "numpy":
-        return None
-    try:
-        from . import _ckernel
-    except ImportError as exc:
-        if choice == "compiled":
-            raise InputError(
-                f"{KERNEL_ENV}=compiled, but the compiled kernel is not installed "
-                f"({exc}); reinstall microimpact on a machine with a C compiler"
-            ) from exc
-        return None
-    return _ckernel
-
-
-_COMPILED = _load_compiled()
-#: Which kernel this process runs: ``"compiled"`` or ``"numpy"`` (recorded in the
-#: provenance of every result).
-KERNEL = "numpy" if _COMPILED is None else "compiled"
-_NO_DRAW = np.zeros(1, dtype=np.uint64)  # index array for a variable not drawn
-_NO_SPREAD = np.ones(1)  # speed factor table without a speed spread
+#: What ``auto`` resolves to in this process: ``"compiled"`` when the compiled kernel
+#: is installed, else ``"numpy"`` (``MICROIMPACT_KERNEL`` aside). A run's kernel is
+#: ``plan.kernel``, fixed when the plan is built (recorded in the provenance).
+KERNEL = resolve_kernel("auto")
+_NO_DRAW = np.zeros(1, dtype=np.uint64)  # draw array for a variable not drawn
 #: The histogram layout for the compiled kernel: e_m then mu_m lower edge, inverse
 #: bin width, bin count.
 _HIST = np.array(
@@ -276,27 +297,58 @@ _HIST = np.array(
     ]
 )
 _SPILL = 8  # spill slots appended to each histogram array (the C kernel's SPILL)
+#: A one-cell sampler for a variable that is not drawn (never read).
+_NO_SAMPLER = None
 
 
-def _simulate_compiled(plan, sp, tables, raw, shift, n):
+def _ckernel():
+    from . import _ckernel
+
+    return _ckernel
+
+
+def _sampler_args(sampler):
+    """The ``(rows, stride, guide, guide_shift, kind, levels, cells_log2)`` tuple of
+    the C kernel."""
+    global _NO_SAMPLER
+    if sampler is None:
+        if _NO_SAMPLER is None:
+            from .._tables import CellTable
+            from .plan import Sampler
+
+            one = ([1.0], [1.0])
+            _NO_SAMPLER = Sampler.of(CellTable.from_atoms([1.0]), one, one, one, one)
+        sampler = _NO_SAMPLER
+    t = sampler.table
+    return (
+        sampler.rows,
+        sampler.rows.shape[1],
+        t.guide,
+        t.guide_shift,
+        t.kind,
+        t.levels,
+        t.cells_log2,
+    )
+
+
+def _simulate_compiled(plan, sp, tables, raw, n):
     """The same block through the compiled kernel (``_ckernel.c``)."""
-    spread = plan.speed_factor is not None
+    spread = plan.speeds is not None
     e_hist = np.zeros(E_EDGES.size + 1 + _SPILL, dtype=np.int64)
     mu_hist = np.zeros(MU_EDGES.size + 1 + _SPILL, dtype=np.int64)
-    counts, sums = _COMPILED.block(
+    counts, sums = _ckernel().block(
         raw[VAR_DIAMETER],
         raw.get(VAR_ANGLE, _NO_DRAW),
         raw.get(VAR_SPEED, _NO_DRAW),
-        shift,
         n,
         tables.random,
         spread,
-        plan.coefficients,
-        plan.coefficients.shape[1],
-        tables.row_of_atom,
-        tables.rows,
-        tables.rows.shape[1],
-        plan.speed_factor if spread else _NO_SPREAD,
+        _sampler_args(plan.diameters),
+        _sampler_args(tables.sampler),
+        int(tables.cut),
+        _sampler_args(plan.speeds),
+        tables.sin_theta,
+        tables.cos_theta,
         float(sp.speed),
         plan.p,
         plan.q,

@@ -1,40 +1,65 @@
 """The engine's plan: everything a worker needs, precomputed once.
 
-Every random input is an equiprobable :class:`~microimpact._tables.QuantileTable`
-(``M = 2**16`` atoms), so a draw is one table index taken from the high bits of a
-64-bit random integer, and everything that depends only on the drawn value is
-tabulated on the same atoms:
+Every random input is a :class:`~microimpact._tables.CellTable`: cells whose
+probabilities are 64-bit integers (exact to ``2^-64``) and whose values are linear
+inside the cell. A draw is one 64-bit integer ``r``: it selects the cell ``j`` with
+``cum[j] <= r < cum[j+1]`` and the fraction ``f = (r - cum[j]) / width_j`` in [0, 1),
+and every tabulated quantity is read as ``lo_j + f * span_j``:
 
-* the diameter atoms ``d_j`` give ``1/k1(d_j)``, ``1/k2(d_j)``, ``v_c(d_j)``
-  (the coefficient laws are evaluated 65,536 times per run, not once per impact);
-* the roughness-angle atoms ``phi_j`` give, for each apparent angle ``theta`` of the
-  sweep, ``sin(theta - phi_j)``, ``cot(theta - phi_j)`` and ``tan(phi_j)``, so the
-  kernel computes no trigonometric function at all.
+* a continuous distribution (normal, truncated normal, lognormal, uniform, a SciPy
+  distribution, the speed-spread factor) is its quantile function on a grid that is
+  uniform in the body and refined geometrically into both tails
+  (:func:`~microimpact._tables.refined_probabilities`), interpolated linearly; a
+  histogram has a node at every bin edge as well, so it is sampled exactly;
+* a discrete distribution (an empirical sample, a monodisperse population, measured
+  angles) has one zero-length cell per distinct atom: its atoms are drawn with their
+  exact probabilities, and nothing is interpolated.
 
-Shadowing is applied to the angle table of each sweep angle, exactly and without
-rejection loops (which keeps quasi-Monte Carlo structure intact):
+Derived quantities are tabulated at the cell ends and interpolated with the same
+fraction: ``1/k1(d)``, ``1/k2(d)``, ``v_c(d)`` per diameter cell (the coefficient laws
+are evaluated once per node, never per impact), and ``sin(phi)``, ``cos(phi)``,
+``tan(phi)`` per angle cell. The angle tables do not depend on the apparent angle
+``theta``: the kernel forms ``sin(theta - phi)`` and ``cos(theta - phi)`` per impact
+from them, so one table per surface serves the whole sweep.
 
-* ``"reject"``: the atoms with ``phi >= theta`` are removed and the rest re-weighted
-  equally: the angle distribution conditioned on the facet being reachable. This is the
-  paper's situation (every simulated impact strikes a reachable facet).
-* ``"weighted"``: each atom is weighted by ``sin(theta - phi)_+ / sin(theta)``, the
-  Sommerfeld & Huber (1999) effective PDF of the facets a particle actually hits.
+Shadowing acts on the draw, exactly and without rejection loops (which keeps
+quasi-Monte Carlo structure intact); ``reachable`` means ``sin(theta - phi) > 0`` as
+the table computes it:
+
+* ``"reject"``: the angle distribution conditioned on the facet being reachable. The
+  reachable facets are a prefix of the table (``phi`` increases with the draw), so
+  the draw ``r`` is mapped to ``floor(r * cut / 2^64)``, ``cut`` the integer
+  probability where the table's ``sin(theta - phi)`` reaches 0 (solved in its cell).
+  This is the paper's situation (every simulated impact strikes a reachable facet).
+* ``"weighted"``: each cell is weighted by the integral of ``sin(theta - phi)_+``
+  over it, the Sommerfeld & Huber (1999) effective PDF of the facets a particle
+  actually hits: a table of integer probabilities per apparent angle (the values
+  are shared).
 * ``"none"``: the table is used as it is and unreachable facets are counted as
   ``shadowed``.
 
-In the first two cases the removed probability ``P(phi >= theta)`` is reported as the
-shadowed fraction (exact, from the table).
+In the first two cases the removed probability ``P(phi >= theta)`` of the table is
+reported as the shadowed fraction.
 """
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
 from functools import lru_cache
 
 import numpy as np
 
-from .._tables import TABLE_SIZE, QuantileTable, mid_probabilities
-from ..errors import ScenarioError
+from .._tables import (
+    CellTable,
+    QuantileTable,
+    fraction_to_integer,
+    linear_columns,
+    mid_probabilities,
+    mulhi64,
+    nonempty_cells,
+)
+from ..errors import InputError, ScenarioError
 from ..grid import GridPoint, SweepGrid
 
 #: Samples per block: the engine's unit of randomness (an algorithm constant, never
@@ -42,6 +67,11 @@ from ..grid import GridPoint, SweepGrid
 BLOCK_SIZE = 1 << 15
 #: Atoms per one-dimensional table used when convolving two angle distributions.
 CONVOLUTION_ATOMS = 1024
+#: Bits of each draw the sampler reads (all of a 64-bit integer).
+DRAW_BITS = 64
+#: Bytes of weighted-shadowing angle tables kept per plan (each has its own cell
+#: probabilities, so its own rows).
+WEIGHTED_CACHE_BYTES = 64 << 20
 
 # Variable ids in the stream keys (fixed: adding a variable never shifts the others).
 VAR_DIAMETER, VAR_ANGLE, VAR_SPEED = 0, 1, 2
@@ -50,45 +80,118 @@ VAR_DIAMETER, VAR_ANGLE, VAR_SPEED = 0, 1, 2
 #: One sweep point (the grid owns the numbering; see :mod:`microimpact.grid`).
 SweepPoint = GridPoint
 
+#: Every kernel row starts with the cell's start (its uint64 bits) and 1/width.
+R_CUM, R_INVW = 0, 1
+#: Columns of a diameter row: (lo, span) pairs of 1/k1, 1/k2, v_c.
+D_IK1, D_IK2, D_VC = 2, 4, 6
+#: Columns of an angle row: (lo, span) pairs of sin(phi), cos(phi), tan(phi).
+A_SIN, A_COS, A_TAN = 2, 4, 6
+#: Column of a speed row: (lo, span) of the relative speed factor.
+S_FACTOR = 2
 
-#: Columns of an angle-table row (one 64-byte row per distinct angle atom).
-A_SIN, A_COT, A_TAN, A_TANCOT, A_GAIN, A_PHI = range(6)
+#: Environment variable choosing the kernel: ``numpy`` forces the NumPy kernel,
+#: ``compiled`` requires the compiled one, unset or ``auto`` takes the compiled
+#: kernel when it was built at install time.
+KERNEL_ENV = "MICROIMPACT_KERNEL"
+KERNEL_CHOICES = ("auto", "compiled", "numpy")
+
+
+@dataclass(frozen=True, eq=False)
+class Sampler:
+    """A :class:`~microimpact._tables.CellTable` laid out for the kernels.
+
+    ``rows`` has one row per cell plus a sentinel row: the cell's start (the bits of
+    its uint64 ``cum``), ``1/width``, then ``(lo, span)`` pairs of the quantities the
+    kernel reads, so that one draw touches one guide entry and one row (and the
+    next row's start). ``values`` holds ``(lo, span)`` of the sampled variable itself
+    (diameter, angle, speed factor), which only inspection reads.
+    """
+
+    table: CellTable
+    rows: np.ndarray  # (n + 1, stride) float64, C-contiguous
+    values: np.ndarray  # (n, 2)
+
+    def __post_init__(self):
+        r, n = self.rows, self.table.size
+        if not (
+            r.dtype == np.float64
+            and r.ndim == 2
+            and r.flags.c_contiguous
+            and r.shape[0] == n + 1
+            and r.shape[1] >= 2
+            and np.array_equal(r[:, R_CUM].view(np.uint64), self.table.cum)
+            and self.values.shape == (n, 2)
+        ):
+            raise ValueError("Sampler: one row per cell and a sentinel (internal)")
+        r.setflags(write=False)
+        self.values.setflags(write=False)
+
+    @classmethod
+    def of(cls, table: CellTable, value, *columns) -> Sampler:
+        """`value` and each of `columns` given as ``(left, right)`` at the cell
+        ends."""
+        n = table.size
+        rows = np.zeros((n + 1, 2 + 2 * len(columns)))
+        rows[:, R_CUM] = table.cum.view(np.float64)
+        rows[:n, R_INVW] = table.inv_width
+        for k, (left, right) in enumerate(columns):
+            rows[:n, 2 + 2 * k], rows[:n, 3 + 2 * k] = linear_columns(left, right)
+        values = np.column_stack(linear_columns(*value))
+        return cls(table, rows, values)
+
+    @property
+    def nbytes(self) -> int:
+        t = self.table
+        return self.rows.nbytes + self.values.nbytes + t.cum.nbytes * 4
+
+    def column(self, k: int, r) -> np.ndarray:
+        """Kernel column pair `k` (its ``lo`` index) at the draws `r`."""
+        j, f = self.table.locate(r)
+        return self.rows[j, k] + f * self.rows[j, k + 1]
+
+    def value(self, r) -> np.ndarray:
+        """The sampled variable at the draws `r`."""
+        j, f = self.table.locate(r)
+        return self.values[j, 0] + f * self.values[j, 1]
+
+    def subset(self, table: CellTable, cells) -> Sampler:
+        """The same cell values with other probabilities (`table`, whose cells are
+        ``cells`` of this one)."""
+        n = table.size
+        rows = np.zeros((n + 1, self.rows.shape[1]))
+        rows[:n, 2:] = self.rows[cells, 2:]
+        rows[:, R_CUM] = table.cum.view(np.float64)
+        rows[:n, R_INVW] = table.inv_width
+        return Sampler(table, rows, np.ascontiguousarray(self.values[cells]))
 
 
 @dataclass(frozen=True, eq=False)
 class AngleTables:
-    """Per-atom quantities for one (surface, apparent angle) pair.
+    """What the kernel needs for one (surface, apparent angle) pair.
 
-    ``rows[row_of_atom[j]]`` holds, for angle atom ``j``: ``sin(theta - phi)`` (so
-    ``|v_n'| = speed * sin``), ``cot(theta - phi) = v_t'/v_n'``, ``tan(phi)``,
-    ``tan(phi) cot(theta - phi)``, ``1 / (1 + tan(phi) cot(theta - phi))`` (the Eq. 8
-    denominator) and ``phi`` itself, padded to 8 columns. Measured angle sets have far
-    fewer distinct atoms than the 65,536 equiprobable ones, so the distinct rows and
-    the 16-bit map stay in the L2 cache. A molecularly smooth surface has one row
-    (phi = 0 exactly) and needs no angle draw.
+    ``sampler`` draws the angle cell (for ``"weighted"`` shadowing, a table of its own
+    probabilities over the surface's cells); ``cut`` is 0, or the integer
+    probability the draws are scaled to (``"reject"``: only reachable facets).
+    A molecularly smooth surface has no angle draw (``random`` False).
     """
 
-    rows: np.ndarray
-    row_of_atom: np.ndarray
-    shadowed_mass: float  # P(phi >= theta) under the surface's own distribution
+    sampler: Sampler | None
+    cut: int  # 0: no scaling; else draws r -> floor(r * cut / 2^64)
+    sin_theta: float
+    cos_theta: float
+    shadowed_mass: float  # P(phi >= theta) under the surface's own table
     random: bool  # False for a smooth surface
-
-    def __post_init__(self):
-        # the layout the compiled kernel reads without checking each row number
-        if not (
-            self.rows.dtype == np.float64
-            and self.rows.ndim == 2
-            and self.rows.flags.c_contiguous
-            and self.row_of_atom.dtype == np.uint16
-            and self.row_of_atom.size
-            and int(self.row_of_atom.max()) < self.rows.shape[0]
-        ):
-            raise ValueError("AngleTables: row_of_atom must index rows (internal)")
 
     @property
     def phi(self) -> np.ndarray:
-        """The equiprobable angle atoms [rad]."""
-        return self.rows[self.row_of_atom, A_PHI]
+        """2^16 equiprobable angles [rad] of the sampled (conditional or re-weighted)
+        distribution: the table's quantile function at mid-probabilities."""
+        if not self.random:
+            return np.zeros(1 << 16)
+        r = (mid_probabilities(1 << 16) * 2.0**64).astype(np.uint64)
+        if self.cut:
+            r = mulhi64(r, self.cut)
+        return self.sampler.value(r)
 
 
 @dataclass(frozen=True, eq=False)
@@ -98,45 +201,73 @@ class Plan:
 
     entropy: int
     points: tuple[SweepPoint, ...]
-    diameter: np.ndarray  # atoms [m]
-    coefficients: np.ndarray  # (M, 4) rows (1/k1, 1/k2, v_c, 0) per diameter atom
+    diameters: Sampler  # rows: 1/k1, 1/k2, v_c, d
     p: float
     q: float
     friction: float
-    speed_factor: np.ndarray | None  # atoms of the relative speed factor, or None
-    surface_atoms: tuple[np.ndarray | None, ...]  # per surface variant [rad]
+    speeds: Sampler | None  # the relative speed factor, or None
+    surfaces: tuple[Sampler | None, ...]  # per surface variant (None: smooth)
     shadowing: str
     sampling: str = "mc"
     replicates: int = 1
     block_size: int = BLOCK_SIZE
-    table_bits: int = 16
+    kernel: str = "numpy"  # "compiled" or "numpy" (see resolve_kernel)
     _cache: dict = field(default_factory=dict, repr=False, compare=False)
+
+    #: Bits of a draw the tables read (recorded in checkpoint fingerprints).
+    table_bits = DRAW_BITS
+
+    @property
+    def diameter(self) -> np.ndarray:
+        """Diameter at the start of each cell [m]."""
+        return self.diameters.values[:, 0]
+
+    @property
+    def coefficients(self) -> np.ndarray:
+        """Per diameter cell: start, 1/width, (lo, span) of 1/k1, 1/k2, v_c (the
+        kernel rows, sentinel row included)."""
+        return self.diameters.rows
 
     @property
     def inv_k1(self) -> np.ndarray:
-        """1/k1 per diameter atom [s m-1]."""
-        return self.coefficients[:, 0]
+        """1/k1 at the start of each diameter cell [s m-1]."""
+        return self.diameters.rows[:-1, D_IK1]
 
     @property
     def inv_k2(self) -> np.ndarray:
-        """1/k2 per diameter atom [s m-1]."""
-        return self.coefficients[:, 1]
+        """1/k2 at the start of each diameter cell [s m-1]."""
+        return self.diameters.rows[:-1, D_IK2]
 
     @property
     def v_c(self) -> np.ndarray:
-        """Capture velocity per diameter atom [m s-1]."""
-        return self.coefficients[:, 2]
+        """Capture velocity at the start of each diameter cell [m s-1]."""
+        return self.diameters.rows[:-1, D_VC]
+
+    @property
+    def speed_factor(self) -> np.ndarray | None:
+        """Relative speed factor at the start of each cell, or None."""
+        return None if self.speeds is None else self.speeds.values[:, 0]
+
+    @property
+    def surface_atoms(self) -> tuple[np.ndarray | None, ...]:
+        """Roughness angle at the start of each cell [rad], per surface (None for a
+        smooth one)."""
+        return tuple(None if s is None else s.values[:, 0] for s in self.surfaces)
 
     def angle_tables(self, surface: int, angle_deg: float) -> AngleTables:
-        """Tables of one (surface, angle), cached (a sweep revisits each angle once
-        per speed)."""
+        """Tables of one (surface, angle), cached for the life of the plan: for
+        ``"reject"`` and ``"none"`` they are a few scalars, for ``"weighted"`` one
+        table of rows per apparent angle (at most :data:`WEIGHTED_CACHE_BYTES`
+        kept)."""
         key = (surface, float(angle_deg))
         tables = self._cache.get(key)
         if tables is None:
-            if len(self._cache) >= 16:
-                self._cache.clear()
+            if self.shadowing == "weighted" and self.surfaces[surface] is not None:
+                size = self.surfaces[surface].nbytes
+                if size * (len(self._cache) + 1) > WEIGHTED_CACHE_BYTES:
+                    self._cache.clear()
             tables = self._cache[key] = _angle_tables(
-                self.surface_atoms[surface], float(angle_deg), self.shadowing
+                self.surfaces[surface], float(angle_deg), self.shadowing
             )
         return tables
 
@@ -149,73 +280,181 @@ class Plan:
         self.__dict__.update(state)
 
 
-def _angle_tables(atoms, angle_deg: float, shadowing: str) -> AngleTables:
+def _reach(s_theta, c_theta, rows, f):
+    """``sin(theta - phi)`` as the kernels compute it, at fraction `f` of each cell."""
+    s = rows[:-1, A_SIN] + f * rows[:-1, A_SIN + 1]
+    c = rows[:-1, A_COS] + f * rows[:-1, A_COS + 1]
+    return s_theta * c - c_theta * s
+
+
+def _angle_tables(sampler, angle_deg: float, shadowing: str) -> AngleTables:
     theta = np.deg2rad(angle_deg)
-    if atoms is None:  # molecularly smooth: phi = 0 exactly
-        s, c = np.sin(theta), np.cos(theta)
-        rows = np.zeros((1, 8))
-        rows[0, [A_SIN, A_COT, A_GAIN]] = s, c / s, 1.0
-        return AngleTables(rows, np.zeros(1, dtype=np.uint16), 0.0, False)
-    phi = atoms
-    reachable = phi < theta
-    shadowed_mass = 1.0 - float(np.count_nonzero(reachable)) / phi.size
-    if shadowing != "none" and shadowed_mass > 0.0:
-        if shadowed_mass >= 1.0:
+    st, ct = float(np.sin(theta)), float(np.cos(theta))
+    if sampler is None:  # molecularly smooth: phi = 0 exactly
+        return AngleTables(None, 0, st, ct, 0.0, False)
+    table, rows = sampler.table, sampler.rows
+    a = _reach(st, ct, rows, 0.0)  # at the start of each cell
+    b = _reach(st, ct, rows, 1.0)  # at its end
+    # reachable facets are a prefix: the first cell whose end is not reachable
+    ends = np.where(rows[:-1, A_SIN + 1] == 0.0, a, b)
+    blocked = np.flatnonzero(~(ends > 0.0))
+    widths = table.widths()
+    if blocked.size == 0:
+        cut, shadowed = 0, 0.0
+    else:
+        j = int(blocked[0])
+        start = int(table.cum[j])
+        if a[j] > 0.0:  # the crossing inside cell j: sin(theta - phi) linear in f
+            width = (int(table.cum[j + 1]) if j + 1 < table.size else 2**64) - start
+            f_star = a[j] / (a[j] - b[j])
+            start += min(width, int(f_star * width))
+        cut = start
+        shadowed = 1.0 - cut / 2.0**64
+    if shadowing == "none":
+        return AngleTables(sampler, 0, st, ct, shadowed, True)
+    if shadowing == "reject":
+        if cut == 0 and blocked.size:  # cut at 0 would be no scaling
             raise ValueError(
                 f"every roughness angle shadows the facet at the apparent angle "
                 f"{angle_deg} deg: no facet can be reached."
             )
-        if shadowing == "reject":
-            weights = reachable.astype(float)
-        else:
-            weights = np.where(reachable, np.sin(theta - phi), 0.0)
-        phi = QuantileTable.from_weights(phi, weights, size=phi.size).values
-    elif shadowing == "weighted":
-        weights = np.sin(theta - phi)
-        phi = QuantileTable.from_weights(phi, weights, size=phi.size).values
-    # the atoms are sorted, so equal atoms are adjacent: an O(M) run-length map
-    starts = np.empty(phi.size, dtype=bool)
-    starts[0] = True
-    np.not_equal(phi[1:], phi[:-1], out=starts[1:])
-    row_of_atom = (np.cumsum(starts) - 1).astype(np.uint16)
-    distinct = phi[starts]
-    true = theta - distinct
-    rows = np.zeros((distinct.size, 8))
+        return AngleTables(sampler, cut, st, ct, shadowed, True)
+    # "weighted": each cell's mass times the mean of sin(theta - phi)_+ over it
+    # (linear in the fraction, so the integral is exact for the table)
     with np.errstate(divide="ignore", invalid="ignore"):
-        rows[:, A_SIN] = np.sin(true)
-        rows[:, A_COT] = np.where(true > 0, np.cos(true) / rows[:, A_SIN], 0.0)
-        rows[:, A_TAN] = np.tan(distinct)
-        rows[:, A_TANCOT] = rows[:, A_TAN] * rows[:, A_COT]
-        rows[:, A_GAIN] = 1.0 / (1.0 + rows[:, A_TANCOT])
-    rows[:, A_PHI] = distinct
-    return AngleTables(rows, row_of_atom, shadowed_mass, True)
+        # the mean over the cell of (a + (b - a) f)_+: a trapezium, or a triangle
+        # where the cell straddles theta
+        tri_a = np.where(b > 0, 0.5 * b * b / (b - a), 0.0)
+        pos = np.where(
+            (a > 0) & (b >= 0),
+            0.5 * (a + b),
+            np.where(a > 0, 0.5 * a * a / (a - b), tri_a),
+        )
+        f_end = np.where((a > 0) & (b < 0), a / (a - b), 1.0)
+    mass = widths * pos
+    if not mass.sum() > 0:
+        raise ValueError(
+            f"every roughness angle shadows the facet at the apparent angle "
+            f"{angle_deg} deg: no facet can be reached."
+        )
+    keep = np.flatnonzero(mass > 0)
+    last = int(keep[-1]) + 1
+    first = int(keep[0])
+    m = mass[first:last]
+    c = np.cumsum(m)
+    cum = fraction_to_integer(np.r_[0.0, c[:-1]] / c[-1])
+    sub = CellTable.from_cells(
+        cum, table.left[first:last], table.right[first:last], scale=f_end[first:last]
+    )
+    # from_cells drops cells that round to zero probability: keep their rows out too
+    cells = np.arange(first, last)[nonempty_cells(cum)]
+    return AngleTables(sampler.subset(sub, cells), 0, st, ct, shadowed, True)
 
 
-def convolve_angles(a: QuantileTable, b: QuantileTable, *, size: int = TABLE_SIZE):
+def _exact_atoms(dist):
+    """The atoms of a discrete distribution object, or None."""
+    for obj in (dist, getattr(dist, "_impl", None), getattr(dist, "_discrete", None)):
+        if obj is None:
+            continue
+        atoms = getattr(obj, "atoms", None)
+        if atoms is not None:
+            return np.asarray(atoms, dtype=float)
+        v = getattr(obj, "v", None)
+        if isinstance(v, float):
+            return np.array([v])
+    return None
+
+
+def _histogram_breaks(dist):
+    """Probabilities of the bin edges of a histogram distribution (kinks of its
+    quantile function), or ()."""
+    inner = getattr(dist, "dist", None)
+    bins = getattr(inner, "_hbins", None)
+    if bins is None or not hasattr(dist, "cdf"):
+        return ()
+    return np.asarray(dist.cdf(np.asarray(bins, dtype=float)), dtype=float)
+
+
+def cell_table(dist) -> CellTable:
+    """The :class:`~microimpact._tables.CellTable` of a size or angle distribution.
+
+    Discrete distributions (``is_discrete`` with their atoms) give one cell per
+    atom, continuous ones (``ppf``, and ``isf`` when it has one) the refined grid;
+    an object with only ``table()`` gives its equiprobable atoms (a step table).
+    """
+    discrete = bool(getattr(dist, "is_discrete", False))
+    if discrete:
+        atoms = _exact_atoms(dist)
+        if atoms is not None:
+            w = getattr(dist, "weights", None)
+            if w is not None and atoms.size > 1 and np.any(w != w[0]):
+                return CellTable.from_atoms(atoms, w)
+            return CellTable.from_atoms(atoms)
+    if not discrete and hasattr(dist, "ppf"):
+        # the upper half from the inverse survival function where the object has
+        # one; else ppf(1 - s), exact to ~1e-16 in probability
+        isf = getattr(dist, "isf", None)
+        return CellTable.from_quantile(dist.ppf, isf, breaks=_histogram_breaks(dist))
+    table: QuantileTable = dist.table()
+    return CellTable.from_atoms(table.values)
+
+
+#: Largest angle strictly inside (-pi/2, pi/2) [rad].
+_LIMIT = float(np.nextafter(np.pi / 2, 0.0))
+
+
+def _angle_sampler(table: CellTable) -> Sampler:
+    # angles outside (-90, 90) deg are not facets (an untruncated distribution):
+    # clipped, so that the reachable facets are a prefix of the table
+    lo = np.clip(table.left, -_LIMIT, _LIMIT)
+    hi = np.clip(table.right, -_LIMIT, _LIMIT)
+    return Sampler.of(
+        table,
+        (lo, hi),
+        (np.sin(lo), np.sin(hi)),
+        (np.cos(lo), np.cos(hi)),
+        (np.tan(lo), np.tan(hi)),
+    )
+
+
+def convolve_angles(a, b) -> CellTable:
     """Table of the sum of two independent angles (surface + particle roughness).
 
-    Each table is reduced to :data:`CONVOLUTION_ATOMS` equiprobable atoms, all pairs are
-    summed (an exact discrete convolution of the reduced tables), and the result is
-    re-tabulated; the Kolmogorov distance to the exact convolution is at most
-    ``1/CONVOLUTION_ATOMS``.
+    Each distribution is reduced to :data:`CONVOLUTION_ATOMS` equiprobable atoms
+    (its table's quantiles at the mid-probabilities), all pairs are summed (an exact
+    discrete convolution of the reduced tables), and the sums' quantile function is
+    tabulated on the refined grid; the Kolmogorov distance to the exact convolution
+    is at most about ``1/CONVOLUTION_ATOMS`` (the reductions).
     """
     m = CONVOLUTION_ATOMS
-    ia = ((np.arange(m) + 0.5) * a.size / m).astype(np.intp)
-    ib = ((np.arange(m) + 0.5) * b.size / m).astype(np.intp)
-    sums = (a.values[ia][:, None] + b.values[ib][None, :]).ravel()
-    return QuantileTable.from_sample(sums, size=size)
+    q = mid_probabilities(m)
+    xa, xb = cell_table(a).quantile(q), cell_table(b).quantile(q)
+    sums = np.sort((xa[:, None] + xb[None, :]).ravel())
+    n = sums.size
+
+    def ppf(p):  # the empirical quantile, linear between order statistics
+        k = np.clip(np.asarray(p) * n - 0.5, 0.0, n - 1.0)
+        i = np.minimum(k.astype(np.intp), n - 2)
+        return sums[i] + (k - i) * (sums[i + 1] - sums[i])
+
+    return CellTable.from_quantile(ppf)
 
 
 @lru_cache(maxsize=8)
-def _speed_factor_atoms(relative_std: float, size: int) -> np.ndarray:
-    """Atoms of a normal speed factor N(1, relative_std) truncated to (0, 2)."""
+def _speed_factor_table(relative_std: float) -> CellTable:
+    """Normal speed factor N(1, relative_std) truncated to (0, 2) (symmetric, so the
+    upper half is ``2 - ppf(s)``)."""
     from scipy.special import ndtr, ndtri
 
     lo, hi = ndtr(-1.0 / relative_std), ndtr(1.0 / relative_std)
-    q = mid_probabilities(size)
-    atoms = 1.0 + relative_std * ndtri(lo + q * (hi - lo))
-    atoms.setflags(write=False)
-    return atoms
+
+    def ppf(q):
+        return 1.0 + relative_std * ndtri(lo + q * (hi - lo))
+
+    def isf(s):
+        return 1.0 - relative_std * ndtri(lo + s * (hi - lo))
+
+    return CellTable.from_quantile(ppf, isf)
 
 
 def resolve_entropy(seed) -> int:
@@ -229,64 +468,95 @@ def resolve_entropy(seed) -> int:
     return int(seed)
 
 
-def _surface_atoms(variant, particle_roughness):
+def resolve_kernel(kernel=None) -> str:
+    """``"compiled"`` or ``"numpy"``: `kernel` (one of :data:`KERNEL_CHOICES` or
+    None), where None reads the environment variable :data:`KERNEL_ENV`; ``auto``
+    takes the compiled kernel when it is installed."""
+    source = "argument `kernel`"
+    if kernel is None:
+        raw = os.environ.get(KERNEL_ENV, "")
+        kernel = raw.strip().lower() or "auto"
+        source = f"environment variable {KERNEL_ENV}={raw!r}"
+    if kernel not in KERNEL_CHOICES:
+        raise InputError(f"{source}: expected one of {', '.join(KERNEL_CHOICES)}")
+    if kernel == "numpy":
+        return "numpy"
+    try:
+        from . import _ckernel  # noqa: F401
+    except ImportError as exc:
+        if kernel == "compiled":
+            raise InputError(
+                f"{source} asks for the compiled kernel, but it is not installed "
+                f"({exc}); reinstall microimpact on a machine with a C compiler"
+            ) from exc
+        return "numpy"
+    return "compiled"
+
+
+def _surface_sampler(variant, particle_roughness):
     if variant.angles is None and particle_roughness is None:
         return None
     if variant.angles is None:
-        table = particle_roughness.table()
+        table = cell_table(particle_roughness)
+    elif particle_roughness is None:
+        table = cell_table(variant.angles)
     else:
-        table = variant.angles.table()
-        if particle_roughness is not None:
-            table = convolve_angles(table, particle_roughness.table())
-    return table.values
+        table = convolve_angles(variant.angles, particle_roughness)
+    return _angle_sampler(table)
 
 
-def build_plan(scenario, *, seed=None) -> Plan:
-    """Tabulate everything the kernel needs for `scenario` (see :mod:`.plan`)."""
+def build_plan(scenario, *, seed=None, kernel=None) -> Plan:
+    """Tabulate everything the kernel needs for `scenario` (see :mod:`.plan`).
+
+    `kernel` is ``"compiled"``, ``"numpy"``, ``"auto"`` or None (the environment
+    variable ``MICROIMPACT_KERNEL``, else auto); the choice is ``plan.kernel``.
+    """
+    kernel = resolve_kernel(kernel)
     entropy = resolve_entropy(scenario.seed if seed is None else seed)
-    table: QuantileTable = scenario.particles.table()
-    diameter = table.values
+    table = cell_table(scenario.particles)
     coeffs = scenario.coefficients
-    k1, k2, v_c = (
-        np.broadcast_to(np.asarray(a, dtype=float), diameter.shape)
-        for a in coeffs.evaluate(diameter)
+    columns = []
+    for end in (table.left, table.right):
+        k1, k2, v_c = (
+            np.broadcast_to(np.asarray(a, dtype=float), end.shape)
+            for a in coeffs.evaluate(end)
+        )
+        for name, arr in (("k1", k1), ("k2", k2), ("v_c", v_c)):
+            bad = np.isnan(arr) | (arr < 0) | ((name == "v_c") & np.isinf(arr))
+            if np.any(bad):
+                i = int(np.argmax(bad))
+                raise ScenarioError(
+                    f"the law gives {arr[i]!r} at diameter {end[i] * 1e6:.4g} µm; "
+                    "coefficients must be >= 0 (k1, k2 may be inf) over the whole "
+                    "particle distribution",
+                    source=scenario.source,
+                    field=f"coefficients.{name}",
+                )
+        with np.errstate(divide="ignore"):
+            columns.append((1.0 / k1, 1.0 / k2, v_c))
+    diameters = Sampler.of(
+        table, (table.left, table.right), *zip(columns[0], columns[1], strict=True)
     )
-    for name, arr in (("k1", k1), ("k2", k2), ("v_c", v_c)):
-        bad = np.isnan(arr) | (arr < 0) | ((name == "v_c") & np.isinf(arr))
-        if np.any(bad):
-            i = int(np.argmax(bad))
-            raise ScenarioError(
-                f"the law gives {arr[i]!r} at diameter {diameter[i] * 1e6:.4g} µm; "
-                "coefficients must be >= 0 (k1, k2 may be inf) over the whole "
-                "particle distribution",
-                source=scenario.source,
-                field=f"coefficients.{name}",
-            )
-    coefficients = np.zeros((diameter.size, 4))  # interleaved: one row per atom
-    with np.errstate(divide="ignore"):
-        np.divide(1.0, k1, out=coefficients[:, 0])
-        np.divide(1.0, k2, out=coefficients[:, 1])
-    coefficients[:, 2] = v_c
     points = tuple(SweepGrid.from_scenario(scenario).points())
-    surface_atoms = tuple(
-        _surface_atoms(v, scenario.particle_roughness) for v in scenario.surfaces
+    surfaces = tuple(
+        _surface_sampler(v, scenario.particle_roughness) for v in scenario.surfaces
     )
-    speed_factor = None
+    speeds = None
     if scenario.speed_spread > 0:
-        speed_factor = _speed_factor_atoms(float(scenario.speed_spread), table.size)
+        st = _speed_factor_table(float(scenario.speed_spread))
+        speeds = Sampler.of(st, (st.left, st.right), (st.left, st.right))
     return Plan(
         entropy=entropy,
         points=points,
-        diameter=diameter,
-        coefficients=coefficients,
+        diameters=diameters,
         p=float(coeffs.p),
         q=float(coeffs.q),
         friction=float(coeffs.friction),
-        speed_factor=speed_factor,
-        surface_atoms=surface_atoms,
+        speeds=speeds,
+        surfaces=surfaces,
         shadowing=scenario.shadowing,
         sampling=scenario.sampling,
         replicates=scenario.qmc_replicates if scenario.sampling == "qmc" else 1,
         block_size=BLOCK_SIZE,
-        table_bits=table.bits,
+        kernel=kernel,
     )
