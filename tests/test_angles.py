@@ -205,6 +205,11 @@ def test_smooth_surface(rng):
     assert d.mean() == 0.0 and d.std() == 0.0
     assert d.describe()["kind"] == "smooth" and d.median() == 0.0
     assert d.pdf(0.0) == np.inf and d.pdf(0.1) == 0.0
+    # recognised by structure: a single atom at 0 (the engine samples its atoms)
+    assert d.is_smooth and d.is_discrete and d.describe()["n_atoms"] == 1
+    assert d.atoms.tolist() == [0.0] and d.weights.tolist() == [1.0]
+    assert d.isf(1e-9) == 0.0 and d.sf(0.0) == 0.0
+    assert not normal_angles(5.0).is_smooth
 
 
 def test_scalar_arguments_are_validated():
@@ -216,6 +221,8 @@ def test_scalar_arguments_are_validated():
         normal_angles(np.inf)
     with pytest.raises(ValueError, match="`mean_deg`"):
         normal_angles(10.0, mean_deg=np.nan)
+    with pytest.raises(TypeError, match=r"`std_deg` must be numeric.*'10'"):
+        normal_angles("10")  # numeric strings are refused
 
 
 def test_angle_file_decimal_comma(tmp_path):

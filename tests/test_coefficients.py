@@ -169,6 +169,14 @@ def test_law_from_dict_thornton_ning():
         ({"law": "power", "b": 0}, "k1.a_m_s", "missing required key"),
         ({"law": "power", "a_m_s": "x", "b": 0}, "k1.a_m_s", "'x'"),
         ({"law": "constant", "value_m_s": -1}, "k1.value_m_s", ">= 0"),
+        ({"law": "constant", "value_m_s": True}, "k1.value_m_s", "numeric.*True"),
+        ({"law": "constant", "value_m_s": "0.2"}, "k1.value_m_s", "numeric"),
+        ({"law": "power", "a_m_s": 1, "b": math.nan}, "k1.b", r"\(finite\)"),
+        (
+            {"law": "table", "diameter_um": [1, [2]], "value_m_s": [1, 1]},
+            "k1.diameter_um",
+            "must be a scalar",
+        ),
         (
             {"law": "table", "diameter_um": [2, 1], "value_m_s": [1, 1]},
             "k1.diameter_um",

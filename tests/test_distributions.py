@@ -374,6 +374,29 @@ def test_validation(factory, match):
         factory()
 
 
+@pytest.mark.parametrize(
+    ("factory", "match"),
+    [
+        (lambda: normal_diameters("52.8", 15.3), "`mean_um` must be numeric.*'52.8'"),
+        (lambda: lognormal_diameters(30, "1.5"), "`geometric_std` must be numeric"),
+        (lambda: monodisperse(True), "`diameter_um` must be numeric.*True"),
+        (lambda: uniform_diameters(10, b"65"), "`max_um` must be numeric"),
+        (lambda: normal_diameters(50, 5, min_um="1"), "`min_um` must be numeric"),
+    ],
+)
+def test_strings_and_bools_are_refused(factory, match):
+    """Numeric strings were accepted before 0.x; every factory now refuses them."""
+    with pytest.raises(TypeError, match=match):
+        factory()
+
+
+def test_numpy_scalars_and_0d_arrays_are_accepted():
+    a = normal_diameters(np.float32(52.8), np.array(15.3), max_um=np.int64(200))
+    b = normal_diameters(52.8, 15.3, max_um=200)
+    assert_allclose(a.ppf([0.1, 0.9]), b.ppf([0.1, 0.9]), rtol=1e-7)
+    assert a.params["max_um"] == 200
+
+
 # -- fits ----------------------------------------------------------------------
 def _numerical_se(nll, theta, rel=1e-4):
     """Standard errors from a central-difference Hessian of the negative log-lik."""

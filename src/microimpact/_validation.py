@@ -84,3 +84,37 @@ def check_choice(x, name: str, choices) -> str:
         allowed = ", ".join(repr(c) for c in choices)
         raise ValueError(f"`{name}` must be one of {allowed}; got {x!r}.")
     return x
+
+
+def check_scalar(
+    x, name: str, *, minimum=None, strict: bool = False, allow_inf: bool = False
+) -> float:
+    """Return the real scalar `x` as a float, or raise naming `name`.
+
+    The scalar validator of the distribution factories and the coefficient-law
+    builders; it takes the keywords of :func:`check_real_scalar`. A Python or NumPy
+    real number, or a 0-d numeric array, is accepted. ``TypeError`` for a string
+    (numeric strings included), a bool, any other non-number, or an array or
+    sequence (naming its shape); ``ValueError`` for NaN, for inf unless
+    `allow_inf`, and below `minimum` (or at it if `strict`).
+    """
+    if isinstance(x, np.ndarray) and x.ndim == 0 and x.dtype.kind in "iuf":
+        x = x.item()
+    if isinstance(x, bool | np.bool_) or not isinstance(x, numbers.Real):
+        if isinstance(x, list | tuple | np.ndarray):
+            shape = x.shape if isinstance(x, np.ndarray) else (len(x),)
+            raise TypeError(
+                f"`{name}` must be a scalar (a real number); got an array of shape "
+                f"{shape}."
+            )
+        raise TypeError(f"`{name}` must be numeric (a real number); got {x!r}.")
+    shown = int(x) if isinstance(x, numbers.Integral) else float(x)
+    v = float(x)
+    ok = not math.isnan(v) and (allow_inf or not math.isinf(v))
+    if ok and minimum is not None:
+        ok = v > minimum if strict else v >= minimum
+    if not ok:
+        bound = "" if minimum is None else f" {'>' if strict else '>='} {minimum:g}"
+        finite = "" if allow_inf else " (finite)"
+        raise ValueError(f"`{name}` must be a number{bound}{finite}; got {shown!r}.")
+    return v

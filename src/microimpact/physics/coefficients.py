@@ -40,6 +40,7 @@ from .._validation import (
     as_float_array,
     check_choice,
     check_real_scalar,
+    check_scalar,
     did_you_mean,
 )
 from ..errors import ScenarioError
@@ -536,16 +537,14 @@ def _check_keys(params, required, optional, source=None, where=None):
 
 
 def _num(params, key, *, low=None, strict=False, default=None):
+    """``params[key]`` checked by :func:`check_scalar` (`default` if absent); an
+    error names the key (:class:`_SpecError`)."""
     if key not in params:
         return default
-    x = params[key]
-    ok = isinstance(x, numbers.Real) and not isinstance(x, bool) and math.isfinite(x)
-    if ok and low is not None:
-        ok = x > low if strict else x >= low
-    if not ok:
-        bound = "" if low is None else f" {'>' if strict else '>='} {low}"
-        raise _SpecError(key, f"must be a finite number{bound}; got {x!r}")
-    return float(x)
+    try:
+        return check_scalar(params[key], key, minimum=low, strict=strict)
+    except (TypeError, ValueError) as exc:
+        raise _SpecError(key, str(exc)) from None
 
 
 def _num_list(params, key, *, low=None, strict=False):

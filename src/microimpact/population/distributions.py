@@ -1,11 +1,15 @@
 """Particle size distributions: the diameter population of a Monte Carlo run.
 
-A :class:`SizeDistribution` wraps a distribution of particle **diameter in metres**:
-a SciPy frozen distribution (``norm``/``truncnorm``, ``lognorm``, ``uniform``,
-``rv_histogram`` or one supplied by the user) or, for the discrete kinds
-(``empirical``, ``monodisperse``), the sorted atoms themselves. Its vectorised
-:meth:`SizeDistribution.ppf` is what the Monte Carlo engine tabulates into a
-:class:`~microimpact._tables.QuantileTable`.
+A :class:`SizeDistribution` is a distribution of particle **diameter in metres**, a
+thin wrapper over the package's one distribution core
+(:mod:`microimpact._distributions`, shared with the roughness-angle distributions):
+a SciPy frozen distribution (``norm``,
+``lognorm``, ``uniform``, ``rv_histogram`` or one supplied by the user) truncated
+through its CDF, or, for the discrete kinds (``empirical``, ``monodisperse``), the
+sorted atoms themselves. Its vectorised :meth:`~SizeDistribution.ppf` and
+:meth:`~SizeDistribution.isf` (``ppf(1 - q)``, accurate in the upper tail) are what
+the Monte Carlo engine tabulates; a discrete kind is sampled from its
+:attr:`~SizeDistribution.atoms` and :attr:`~SizeDistribution.weights`.
 
 The paper [1]_ lets the diameter be normal, log-normal, uniform or empirical (a Phase
 Doppler sample) and chooses between Gaussian and empirical with a chi-squared test;
@@ -16,7 +20,8 @@ Truncation (see ``docs/populations.md``): every distribution is restricted to
 ``F_t^{-1}(q) = F^{-1}(F(a) + q [F(b) - F(a)])`` (via ``sf``/``isf`` in an upper tail);
 the cut probability is ``truncated_mass``. Cutting more than
 :data:`CUT_WARN_THRESHOLD` warns (``UserWarning``); cutting everything raises
-``ValueError``. The normal kind uses ``scipy.stats.truncnorm``.
+``ValueError``. The normal kind is ``scipy.stats.norm`` truncated this way (the
+truncated normal, as ``scipy.stats.truncnorm``, with an accurate upper tail).
 
 References
 ----------
@@ -34,13 +39,12 @@ import math
 import numbers
 import warnings
 from dataclasses import dataclass, field
-from typing import NamedTuple
 
 import numpy as np
-from scipy import integrate, stats
+from scipy import stats
 
-from .._tables import TABLE_SIZE, EqualAtoms, QuantileTable
-from .._validation import as_float_array, check_choice
+from .._distributions import CoreMethods, DiscreteAtoms, TruncatedContinuous, truncation
+from .._validation import as_float_array, check_choice, check_scalar
 from ..units import length_factor, m_to_um, um_to_m
 
 #: The distribution kinds.
@@ -58,33 +62,42 @@ CUT_WARN_THRESHOLD = 1e-3
 #: Minimum expected count per class in :func:`chi2_normality` ([2], ch. 12).
 MIN_EXPECTED = 5.0
 
-
-def _out(x):
-    """ndarray result, 0-d arrays as NumPy scalars."""
-    return np.asarray(x, dtype=float)[()]
+_WIDEN = "; widen `min_um`/`max_um`"
 
 
 @dataclass(frozen=True, eq=False)
-class SizeDistribution:
+class SizeDistribution(CoreMethods):
     """A distribution of particle diameter [m].
 
     Build it with a factory (:func:`normal_diameters`, :func:`lognormal_diameters`,
     :func:`uniform_diameters`, :func:`monodisperse`, :func:`empirical_diameters`,
     :func:`histogram_diameters`, :func:`scipy_diameters`), not directly.
 
+    The methods (``ppf``, ``isf``, ``cdf``, ``sf``, ``pdf``, ``rvs``, ``mean``,
+    ``std``, ``median``, ``support``, ``table``) take and return diameters in metres;
+    they are those of :class:`microimpact._distributions.CoreMethods`, shared with
+    :class:`~microimpact.surface.angles.AngleDistribution`.
+
     Attributes
     ----------
     kind : str
         One of :data:`KINDS`.
     dist : scipy.stats frozen distribution or rv_histogram, or None
-        The continuous distribution of diameter [m]; ``None`` for the discrete kinds.
+        The untruncated continuous distribution of diameter [m]; ``None`` for the
+        discrete kinds.
     atoms : ndarray or None
         Sorted atoms [m] of a discrete kind (the kept measured diameters of an
-        empirical sample; the single diameter of a monodisperse population).
+        empirical sample; the single diameter of a monodisperse population), each
+        with probability ``1/n``; ``None`` for the continuous kinds.
+    weights : ndarray or None
+        Probabilities of `atoms` (``1/n`` each); ``None`` for the continuous kinds.
+    is_discrete : bool
+        True for the empirical and monodisperse kinds.
     lower, upper : float
         Truncation limits [m] applied to `dist` through its CDF.
     truncated_mass : float
-        Probability cut away by truncation (0.0 if none).
+        Probability cut away by truncation (0.0 if none); by default the cut of
+        `dist` on ``[lower, upper]``.
     params : dict
         The defining parameters in interface units (``mean_um``, ...), for provenance.
 
@@ -99,7 +112,7 @@ class SizeDistribution:
     atoms: np.ndarray | None = None
     lower: float = 0.0
     upper: float = math.inf
-    truncated_mass: float = 0.0
+    truncated_mass: float | None = None
     params: dict = field(default_factory=dict)
 
     def __post_init__(self):
@@ -107,136 +120,23 @@ class SizeDistribution:
         if (self.dist is None) == (self.atoms is None):
             raise ValueError("give exactly one of `dist` and `atoms`.")
         if self.atoms is not None:
-            impl = EqualAtoms(self.atoms)
-            a = impl.atoms
-            if a.size == 0 or not np.all(np.isfinite(a) & (a > 0)):
+            core = DiscreteAtoms(self.atoms)
+            a = core.atoms
+            if not np.all(a > 0):
                 raise ValueError("`atoms` must be a non-empty array of finite d > 0.")
             object.__setattr__(self, "atoms", a)
-            object.__setattr__(self, "_discrete", impl)
-            return
-        t = _truncation(self.dist, self.lower, self.upper)
-        for key, value in zip(
-            ("_fa", "_fb", "_sa", "_sb", "_kept", "_upper_tail"), t[:6], strict=True
-        ):
-            object.__setattr__(self, key, value)
-        object.__setattr__(self, "_generic", t.fa > 0 or t.sb > 0)
-
-    # -- the distribution ------------------------------------------------------------
-    @property
-    def is_discrete(self) -> bool:
-        """True for the empirical and monodisperse kinds."""
-        return self.atoms is not None
-
-    def ppf(self, q):
-        """Quantile function: diameter [m] at probability `q`; ``nan`` outside [0, 1].
-
-        For the discrete kinds this is the left-continuous inverse of the CDF,
-        ``atoms[ceil(q n) - 1]``.
-        """
-        q = np.asarray(q, dtype=float)
-        bad = ~((q >= 0) & (q <= 1))
-        qq = np.where(bad, 0.5, q)
-        if self.is_discrete:
-            x = self._discrete.ppf(qq)
-        elif not self._generic:
-            x = np.asarray(self.dist.ppf(qq), dtype=float)
         else:
-            if self._upper_tail:  # F_t^-1(q) through the survival function
-                x = self.dist.isf(self._sa - qq * (self._sa - self._sb))
-            else:
-                x = self.dist.ppf(self._fa + qq * (self._fb - self._fa))
-            x = np.clip(x, self.lower, self.upper)
-        return _out(np.where(bad, np.nan, x))
-
-    def cdf(self, d):
-        """Cumulative distribution function at diameter `d` [m]."""
-        d = np.asarray(d, dtype=float)
-        if self.is_discrete:
-            p = self._discrete.cdf(d)
-            return _out(np.where(np.isnan(d), np.nan, p))
-        if not self._generic:
-            return _out(self.dist.cdf(d))
-        dc = np.clip(d, self.lower, self.upper)
-        if self._upper_tail:
-            p = (self._sa - self.dist.sf(dc)) / self._kept
-        else:
-            p = (self.dist.cdf(dc) - self._fa) / self._kept
-        return _out(np.clip(p, 0.0, 1.0))
-
-    def pdf(self, d):
-        """Probability density [m⁻¹] at diameter `d` [m] (``inf`` at discrete atoms)."""
-        d = np.asarray(d, dtype=float)
-        if self.is_discrete:
-            return _out(np.where(np.isnan(d), np.nan, self._discrete.pdf(d)))
-        if not self._generic:
-            return _out(self.dist.pdf(d))
-        inside = (d >= self.lower) & (d <= self.upper)
-        f = np.where(inside, self.dist.pdf(d) / self._kept, 0.0)
-        return _out(np.where(np.isnan(d), np.nan, f))
-
-    def rvs(self, size=None, *, rng=None):
-        """Draw diameters [m] (SPEC 7 `rng`)."""
-        rng = np.random.default_rng(rng)
-        if self.is_discrete:
-            return _out(self._discrete.rvs(size, rng))
-        if not self._generic:
-            return _out(self.dist.rvs(size=size, random_state=rng))
-        return _out(self.ppf(rng.random(size)))
-
-    def mean(self) -> float:
-        """Mean diameter [m] of the (truncated) distribution."""
-        if self.is_discrete:
-            return self._discrete.mean()
-        if not self._generic:
-            return float(self.dist.mean())
-        return float(self._expect(lambda x: x))
-
-    def std(self) -> float:
-        """Standard deviation [m] of the (truncated) distribution (ddof=0)."""
-        if self.is_discrete:
-            return self._discrete.std()
-        if not self._generic:
-            return float(self.dist.std())
-        m = self.mean()
-        return float(math.sqrt(self._expect(lambda x: (x - m) ** 2)))
-
-    def _expect(self, func):
-        """E[func(d)] by quadrature in ``y = d / median`` (scale 1 for ``quad``)."""
-        lo, hi = self.support()
-        c = self.median()
-        pdf = self.dist.pdf
-
-        def integrand(y):
-            return func(c * y) * pdf(c * y) * c
-
-        parts = (
-            integrate.quad(integrand, a, b, limit=200)[0]
-            for a, b in ((lo / c, 1.0), (1.0, hi / c))
-            if b > a
-        )
-        return sum(parts) / self._kept
-
-    def median(self) -> float:
-        """Median diameter [m]."""
-        return float(self.ppf(0.5))
-
-    def support(self) -> tuple[float, float]:
-        """(lower, upper) limits of the diameter [m]."""
-        if self.is_discrete:
-            return self._discrete.support()
-        lo, hi = self.dist.support()
-        return float(max(lo, self.lower)), float(min(hi, self.upper))
-
-    def table(self, size: int = TABLE_SIZE) -> QuantileTable:
-        """The equiprobable :class:`~microimpact._tables.QuantileTable` [m].
-
-        A discrete kind is tabulated with ``QuantileTable.from_sample`` (the atoms
-        are the measured diameters, or the single diameter); every other kind with
-        ``from_ppf(self.ppf)``.
-        """
-        if self.is_discrete:
-            return self._discrete.table(size)
-        return QuantileTable.from_ppf(self.ppf, size=size)
+            core = TruncatedContinuous(
+                self.dist,
+                self.lower,
+                self.upper,
+                what=f"the {self.kind} distribution",
+                where=_where(self.lower, self.upper),
+                hint=_WIDEN,
+            )
+        object.__setattr__(self, "_core", core)
+        if self.truncated_mass is None:
+            object.__setattr__(self, "truncated_mass", float(core.truncated_mass))
 
     def describe(self) -> dict:
         """Summary in interface units (µm) for reports and provenance."""
@@ -268,23 +168,24 @@ class SizeDistribution:
 
 # -- validation helpers ----------------------------------------------------------------
 def _scalar(x, name, rule="finite", *, allow_inf=False) -> float:
-    """`x` as a float obeying `rule` ("finite", "> 0" or ">= 0"), else ValueError."""
-    a = as_float_array(x, name)
-    if a.ndim != 0:
-        raise TypeError(f"`{name}` must be a scalar; got an array of shape {a.shape}.")
-    v = float(a)
-    ok = {"finite": True, "> 0": v > 0, ">= 0": v >= 0}[rule]
-    if not (ok and (math.isfinite(v) or (allow_inf and v == math.inf))):
-        fin = "" if allow_inf else " (finite)"
-        raise ValueError(f"`{name}` must be a number {rule}{fin}; got {x!r}.")
-    return v
+    """Deprecated: use :func:`microimpact._validation.check_scalar`.
+
+    Kept for :mod:`microimpact.surface.synthetic` until it imports ``check_scalar``;
+    `rule` is "finite", "> 0" or ">= 0". Strings are refused (``TypeError``).
+    """
+    minimum, strict = {"finite": (None, False), "> 0": (0, True), ">= 0": (0, False)}[
+        rule
+    ]
+    return check_scalar(x, name, minimum=minimum, strict=strict, allow_inf=allow_inf)
 
 
 def _limits_iv(min_um, max_um) -> tuple[float, float]:
     """User limits [µm] -> (lower, upper) [m]; diameters are always > 0."""
-    lo = 0.0 if min_um is None else _scalar(min_um, "min_um", ">= 0")
+    lo = 0.0 if min_um is None else check_scalar(min_um, "min_um", minimum=0)
     hi = (
-        math.inf if max_um is None else _scalar(max_um, "max_um", "> 0", allow_inf=True)
+        math.inf
+        if max_um is None
+        else check_scalar(max_um, "max_um", minimum=0, strict=True, allow_inf=True)
     )
     if not hi > lo:
         raise ValueError(
@@ -323,66 +224,27 @@ def _where(lower, upper) -> str:
     return f"[{m_to_um(lower):g}, {m_to_um(upper):g}] um"
 
 
-class _Truncation(NamedTuple):
-    """CDF and survival function of a distribution at the truncation limits."""
-
-    fa: float  # F(lower)
-    fb: float  # F(upper)
-    sa: float  # S(lower)
-    sb: float  # S(upper)
-    kept: float  # probability kept, from the more accurate tail
-    upper_tail: bool  # the kept interval lies in the upper tail: use sf/isf
-    cut: float  # probability cut away, F(lower) + S(upper), in [0, 1]
-
-
-def _truncation(dist, lower, upper, what="") -> _Truncation:
-    """Truncate `dist` to [lower, upper] [m]: the one computation of the kept and the
-    cut probability; ``ValueError`` if nothing is kept.
-
-    `what` names the distribution in the error message (e.g. ``"N(30 um, 1.7 um)"``).
-    """
-    lo, hi = float(lower), float(upper)
-    fa, fb = float(dist.cdf(lo)), float(dist.cdf(hi))
-    sa, sb = float(dist.sf(lo)), float(dist.sf(hi))
-    upper_tail = fa > 0.5
-    kept = sa - sb if upper_tail else fb - fa
-    if not kept > 0:
-        raise ValueError(
-            f"truncating {what or 'the distribution'} to {_where(lo, hi)} cuts away "
-            "all of the probability; widen `min_um`/`max_um`."
-        )
-    cut = max(0.0, min(1.0, fa + sb))
-    return _Truncation(fa, fb, sa, sb, kept, upper_tail, cut)
-
-
-def _continuous(kind, dist, lower, upper, params, stacklevel) -> SizeDistribution:
+def _continuous(
+    kind, dist, lower, upper, params, stacklevel, what=None
+) -> SizeDistribution:
     """Truncate `dist` [m] to [lower, upper] through its CDF, report the cut."""
-    cut = _truncation(dist, lower, upper, what=f"the {kind} distribution").cut
-    out = SizeDistribution(
-        kind, dist=dist, lower=lower, upper=upper, params=params, truncated_mass=cut
-    )
-    _warn_cut(cut, _where(lower, upper), stacklevel + 1)
+    where = _where(lower, upper)
+    what = what or f"the {kind} distribution"
+    truncation(dist, lower, upper, what=what, where=where, hint=_WIDEN)  # the error
+    out = SizeDistribution(kind, dist=dist, lower=lower, upper=upper, params=params)
+    _warn_cut(out.truncated_mass, where, stacklevel + 1)
     return out
 
 
 # -- factories -------------------------------------------------------------------------
 def _normal(mean_um, std_um, min_um, max_um, stacklevel) -> SizeDistribution:
-    mean_um = _scalar(mean_um, "mean_um")
-    std_um = _scalar(std_um, "std_um", "> 0")
+    mean_um = check_scalar(mean_um, "mean_um")
+    std_um = check_scalar(std_um, "std_um", minimum=0, strict=True)
     lower, upper = _limits_iv(min_um, max_um)
-    mu, sigma = float(um_to_m(mean_um)), float(um_to_m(std_um))
-    a, b = (lower - mu) / sigma, (upper - mu) / sigma
-    cut = _truncation(
-        stats.norm(loc=mu, scale=sigma),
-        lower,
-        upper,
-        what=f"N({mean_um:g} um, {std_um:g} um)",
-    ).cut
+    dist = stats.norm(loc=float(um_to_m(mean_um)), scale=float(um_to_m(std_um)))
     params = {"mean_um": mean_um, "std_um": std_um, "min_um": min_um, "max_um": max_um}
-    dist = stats.truncnorm(a, b, loc=mu, scale=sigma)
-    out = SizeDistribution("normal", dist=dist, params=params, truncated_mass=cut)
-    _warn_cut(cut, _where(lower, upper), stacklevel + 1)
-    return out
+    what = f"N({mean_um:g} um, {std_um:g} um)"
+    return _continuous("normal", dist, lower, upper, params, stacklevel + 1, what)
 
 
 def normal_diameters(mean_um, std_um, *, min_um=None, max_um=None) -> SizeDistribution:
@@ -399,9 +261,12 @@ def normal_diameters(mean_um, std_um, *, min_um=None, max_um=None) -> SizeDistri
     Returns
     -------
     SizeDistribution
-        Wraps ``scipy.stats.truncnorm(a, b, loc=mean, scale=std)`` with
-        ``a = (lower - mean)/std``, ``b = (upper - mean)/std`` (SI). ``mean()`` is the
-        truncated mean; ``params`` keeps the given values.
+        ``dist`` is ``scipy.stats.norm(loc=mean, scale=std)`` (SI), truncated to
+        ``[lower, upper]`` through its CDF: the distribution of
+        ``scipy.stats.truncnorm(a, b, loc=mean, scale=std)`` with
+        ``a = (lower - mean)/std``, ``b = (upper - mean)/std``, with an accurate
+        :meth:`~SizeDistribution.isf`. ``mean()`` is the truncated mean; ``params``
+        keeps the given values.
 
     Warns
     -----
@@ -425,8 +290,8 @@ def lognormal_diameters(
     min_um, max_um : float, optional
         Truncation limits [µm], applied through the CDF (see module notes).
     """
-    median_um = _scalar(median_um, "median_um", "> 0")
-    gsd = _scalar(geometric_std, "geometric_std", "> 0")
+    median_um = check_scalar(median_um, "median_um", minimum=0, strict=True)
+    gsd = check_scalar(geometric_std, "geometric_std", minimum=0, strict=True)
     if not gsd > 1:
         raise ValueError(
             f"`geometric_std` must be > 1; got {geometric_std!r} "
@@ -445,8 +310,8 @@ def lognormal_diameters(
 
 def uniform_diameters(min_um, max_um) -> SizeDistribution:
     """Diameters uniform on ``[min_um, max_um]`` [µm] (``scipy.stats.uniform``)."""
-    lo = _scalar(min_um, "min_um", ">= 0")
-    hi = _scalar(max_um, "max_um", "> 0")
+    lo = check_scalar(min_um, "min_um", minimum=0)
+    hi = check_scalar(max_um, "max_um", minimum=0, strict=True)
     if not hi > lo:
         raise ValueError(
             f"`max_um` must be > `min_um`; got min_um={min_um!r}, max_um={max_um!r}."
@@ -459,7 +324,7 @@ def uniform_diameters(min_um, max_um) -> SizeDistribution:
 
 def monodisperse(diameter_um) -> SizeDistribution:
     """A single diameter [µm]: the degenerate distribution (``ppf`` is constant)."""
-    d = _scalar(diameter_um, "diameter_um", "> 0")
+    d = check_scalar(diameter_um, "diameter_um", minimum=0, strict=True)
     return SizeDistribution(
         "monodisperse", atoms=np.array([um_to_m(d)]), params={"diameter_um": d}
     )
@@ -769,7 +634,7 @@ def chi2_normality(
     the test is slightly liberal, as in the textbook procedure the paper follows.
     """
     x = _diameters_iv(diameters_um, minimum=2)
-    alpha = _scalar(alpha, "alpha", "> 0")
+    alpha = check_scalar(alpha, "alpha", minimum=0, strict=True)
     if not alpha < 1:
         raise ValueError(f"`alpha` must be in (0, 1); got {alpha!r}.")
     check_choice(classes, "classes", ("equal-width", "equiprobable"))

@@ -3,15 +3,18 @@ r"""Distributions of the local roughness angle for the Monte Carlo engine.
 An :class:`AngleDistribution` is the distribution of the roughness angle
 :math:`\phi` in **radians** (the convention of
 :mod:`microimpact.surface.roughness`: :math:`\phi = \arctan(dz/dx)`, positive for
-facets tilted away from particles travelling in :math:`-x`). It offers the same
-protocol as the population module's size distribution: vectorised ``ppf``, ``cdf``,
-``pdf`` (where a density exists), ``rvs``, ``mean``, ``std``, ``kind``, ``params``
-(interface units, degrees), ``describe()`` (a dict in degrees), ``median``,
-``support``, ``is_discrete`` and ``table()``, which the engine turns
-into a :class:`~microimpact._tables.QuantileTable`.
+facets tilted away from particles travelling in :math:`-x`). Like the population
+module's size distribution it is a thin wrapper (``kind``, ``params`` in degrees,
+``describe()`` in degrees) over the package's one distribution core
+(:mod:`microimpact._distributions`): a truncated continuous distribution or discrete
+atoms, with the same vectorised protocol in SI units, ``ppf``, ``isf`` (accurate in
+the upper tail), ``cdf``, ``sf``, ``pdf`` (``inf`` at discrete atoms), ``rvs``,
+``mean``, ``std``, ``median``, ``support``, ``is_discrete``, ``atoms``, ``weights``
+and ``table()``. A molecularly smooth surface is recognised structurally by
+:attr:`AngleDistribution.is_smooth` (a single atom at 0), never by its name.
 
-Every distribution is restricted to the open interval :math:`(-90°, 90°)`; the
-probability mass cut off is reported in
+Every distribution is restricted to the open interval :math:`(-90°, 90°)` through
+its CDF; the probability mass cut off is reported in
 :attr:`AngleDistribution.truncated_mass` (alias ``cut_mass``).
 
 Factories
@@ -38,9 +41,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._tables import TABLE_SIZE, EqualAtoms, QuantileTable
-from .._validation import as_float_array, check_choice
-from ..population.distributions import _scalar
+from .._distributions import (
+    CONTINUOUS_METHODS,
+    CoreMethods,
+    DiscreteAtoms,
+    Rescaled,
+    TruncatedContinuous,
+)
+from .._validation import as_float_array, check_choice, check_scalar
 from ..units import deg_to_rad, rad_to_deg
 
 __all__ = [
@@ -58,188 +66,85 @@ _HALF_PI = 0.5 * math.pi
 _LIMIT = math.nextafter(_HALF_PI, 0.0)
 
 
-class _Point:
-    """All mass at one angle [rad]."""
-
-    is_discrete = True
-
-    def __init__(self, value):
-        self.v = float(value)
-
-    def ppf(self, q):
-        return np.full(np.shape(q), self.v)
-
-    def cdf(self, x):
-        return (np.asarray(x) >= self.v).astype(float)
-
-    def pdf(self, x):
-        return np.where(np.asarray(x) == self.v, np.inf, 0.0)
-
-    def support(self):
-        return self.v, self.v
-
-    def rvs(self, size, rng):
-        return np.full(size, self.v)
-
-    def mean(self):
-        return self.v
-
-    def std(self):
-        return 0.0
-
-    def table(self, size):
-        return QuantileTable(np.full(size, self.v))
-
-
-class _Continuous:
-    """A frozen scipy distribution of ``phi / scale``, truncated to (-pi/2, pi/2).
-
-    ``scale`` converts the distribution's unit to radians (pi/180 for degrees).
-    """
-
-    is_discrete = False
-
-    def __init__(self, dist, scale):
-        self.dist = dist
-        self.scale = float(scale)
-        lo, hi = -_HALF_PI / self.scale, _HALF_PI / self.scale
-        self.lo, self.hi = lo, hi
-        self.f_lo = float(dist.cdf(lo))
-        self.f_hi = float(dist.cdf(hi))
-        self.mass = self.f_hi - self.f_lo
-
-    def ppf(self, q):
-        u = self.f_lo + q * self.mass
-        x = self.dist.ppf(u) * self.scale
-        return np.clip(x, -_LIMIT, _LIMIT)
-
-    def cdf(self, x):
-        c = (self.dist.cdf(np.asarray(x) / self.scale) - self.f_lo) / self.mass
-        return np.clip(c, 0.0, 1.0)
-
-    def pdf(self, x):
-        x = np.asarray(x, dtype=float)
-        inside = np.abs(x) < _HALF_PI
-        d = self.dist.pdf(x / self.scale) / (self.scale * self.mass)
-        return np.where(inside, d, 0.0)
-
-    def rvs(self, size, rng):
-        return self.ppf(rng.random(size))
-
-    def _moment(self, k):
-        f = lambda t: t**k  # noqa: E731
-        return float(self.dist.expect(f, lb=self.lo, ub=self.hi, conditional=True))
-
-    def mean(self):
-        return self._moment(1) * self.scale
-
-    def std(self):
-        m1 = self._moment(1)
-        var = max(self._moment(2) - m1 * m1, 0.0)
-        return math.sqrt(var) * self.scale
-
-    def table(self, size):
-        return QuantileTable.from_ppf(self.ppf, size=size)
-
-    def support(self):
-        lo, hi = self.dist.support()
-        return (
-            float(max(lo * self.scale, -_LIMIT)),
-            float(min(hi * self.scale, _LIMIT)),
-        )
+def _continuous(dist, what) -> TruncatedContinuous:
+    """`dist` [rad] truncated to the open interval (-pi/2, pi/2)."""
+    return TruncatedContinuous(
+        dist,
+        -_HALF_PI,
+        _HALF_PI,
+        open_interval=True,
+        what=what,
+        where="(-90, 90) deg",
+    )
 
 
 @dataclass(frozen=True, eq=False)
-class AngleDistribution:
+class AngleDistribution(CoreMethods):
     """Distribution of the local roughness angle [rad] on (-π/2, π/2).
 
     Build it with a factory (:func:`angles_from_sample`, :func:`normal_angles`, ...).
+    The methods (``ppf``, ``isf``, ``cdf``, ``sf``, ``pdf``, ``rvs``, ``mean``,
+    ``std``, ``median``, ``support``, ``table``) take and return angles in radians;
+    they are those of :class:`microimpact._distributions.CoreMethods`, shared with
+    :class:`~microimpact.population.distributions.SizeDistribution`.
 
     Attributes
     ----------
     kind : str
-        ``'empirical'``, ``'normal'``, ``'scipy'`` or ``'smooth'``.
+        ``'empirical'``, ``'normal'``, ``'scipy'`` or ``'smooth'``: a label for
+        reports. Use :attr:`is_smooth`, never the kind or a name, to recognise a
+        molecularly smooth surface.
     params : dict
         The defining parameters in interface units (degrees) and provenance.
     truncated_mass : float
         Probability mass of the source distribution outside (-90°, 90°) that was
         cut off (the fraction of sample angles dropped, for empirical ones); also
-        available as :attr:`cut_mass`.
+        available as :attr:`cut_mass`. By default the cut of the core.
+    atoms, weights : ndarray or None
+        Sorted atoms [rad] of a discrete distribution and their probabilities;
+        ``None`` for a continuous one.
+    is_discrete : bool
+        True for a discrete distribution (empirical, smooth, zero-std normal).
+    is_smooth : bool
+        All the probability at exactly 0 rad.
 
     Notes
     -----
     The discrete kinds (empirical, smooth) have no density: :meth:`pdf` returns
-    ``inf`` at the atoms (a Dirac delta) and 0 elsewhere, as the population
-    module's ``SizeDistribution`` does.
+    ``inf`` at the atoms (a Dirac delta) and 0 elsewhere, as
+    ``SizeDistribution.pdf`` does.
     """
 
     kind: str
     params: dict = field(default_factory=dict)
-    truncated_mass: float = 0.0
-    _impl: object = field(default=None, repr=False)
+    truncated_mass: float | None = None
+    _core: object = field(default=None, repr=False)
+
+    def __post_init__(self):
+        if not isinstance(self._core, TruncatedContinuous | DiscreteAtoms):
+            raise TypeError(
+                "build an AngleDistribution with a factory (normal_angles, ...); "
+                f"got core {self._core!r}."
+            )
+        if self.truncated_mass is None:
+            object.__setattr__(self, "truncated_mass", float(self._core.truncated_mass))
 
     @property
     def cut_mass(self) -> float:
         """Alias of :attr:`truncated_mass`."""
         return self.truncated_mass
 
-    # -- protocol ---------------------------------------------------------------
-    def ppf(self, q):
-        """Quantile function: angle [rad] at probability `q`; ``nan`` outside [0, 1].
-
-        For the discrete kinds this is the left-continuous inverse of the CDF.
-        """
-        q = as_float_array(q, "q")
-        bad = ~((q >= 0) & (q <= 1))
-        out = np.asarray(self._impl.ppf(np.where(bad, 0.5, q)), dtype=float)
-        return np.where(bad, np.nan, out)[()]
-
-    def cdf(self, x):
-        """P(phi <= x) for angles `x` [rad]."""
-        x = as_float_array(x, "x")
-        out = np.asarray(self._impl.cdf(x), dtype=float)
-        return np.where(np.isnan(x), np.nan, out)[()]
-
-    def pdf(self, x):
-        """Probability density [rad⁻¹] at `x` [rad] (``inf`` at discrete atoms)."""
-        x = as_float_array(x, "x")
-        out = np.asarray(self._impl.pdf(x), dtype=float)
-        return np.where(np.isnan(x), np.nan, out)[()]
+    @property
+    def atoms(self):
+        """Sorted atoms [rad] of a discrete distribution, else ``None``."""
+        return self._core.atoms
 
     @property
-    def is_discrete(self) -> bool:
-        """True for the empirical and smooth kinds (no density)."""
-        return bool(self._impl.is_discrete)
-
-    def rvs(self, size=None, *, rng=None):
-        """Draw angles [rad] with the generator `rng` (SPEC 7)."""
-        rng = np.random.default_rng(rng)
-        out = np.asarray(self._impl.rvs(() if size is None else size, rng), float)
-        return out[()]
-
-    def mean(self) -> float:
-        """Mean angle [rad]."""
-        return self._impl.mean()
-
-    def std(self) -> float:
-        """Standard deviation of the angle [rad] (population, ``ddof=0``)."""
-        return self._impl.std()
-
-    def median(self) -> float:
-        """Median angle [rad]."""
-        return float(self.ppf(0.5))
-
-    def support(self) -> tuple[float, float]:
-        """(lower, upper) limits of the angle [rad]."""
-        return self._impl.support()
-
-    def table(self, size: int = TABLE_SIZE) -> QuantileTable:
-        """Equiprobable atoms [rad] for the engine's sampler.
-
-        Empirical distributions use :meth:`QuantileTable.from_sample`, so the atoms
-        are the measured angles themselves; the others tabulate :meth:`ppf`.
-        """
-        return self._impl.table(size)
+    def is_smooth(self) -> bool:
+        """True if the angle is exactly 0 with probability one (a molecularly smooth
+        surface): a discrete distribution whose only atom is 0. Recognised from the
+        distribution itself, whatever its kind or name."""
+        return self.is_discrete and self.support() == (0.0, 0.0)
 
     def describe(self) -> dict:
         """Summary in interface units (degrees) for reports and provenance."""
@@ -253,8 +158,8 @@ class AngleDistribution:
             "support_deg": (float(rad_to_deg(lo)), float(rad_to_deg(hi))),
             "truncated_mass": float(self.truncated_mass),
         }
-        if isinstance(self._impl, EqualAtoms):
-            out["n_atoms"] = int(self._impl.atoms.size)
+        if self.is_discrete:
+            out["n_atoms"] = int(self.atoms.size)
         return out
 
     def __repr__(self) -> str:
@@ -302,7 +207,7 @@ def angles_from_sample(angles_deg, *, source=None) -> AngleDistribution:
         params["source"] = str(source)
     rad = np.clip(deg_to_rad(a[keep]), -_LIMIT, _LIMIT)
     return AngleDistribution(
-        "empirical", params, float(1.0 - keep.mean()), EqualAtoms(rad)
+        "empirical", params, float(1.0 - keep.mean()), DiscreteAtoms(rad)
     )
 
 
@@ -350,7 +255,7 @@ def angles_from_profile(
     dist = angles_from_sample(rad_to_deg(phi))
     params = dict(dist.params)
     params.update(method=method, contact_length_um=float(contact_length_um))
-    return AngleDistribution("empirical", params, dist.truncated_mass, dist._impl)
+    return AngleDistribution("empirical", params, dist.truncated_mass, dist._core)
 
 
 def normal_angles(std_deg, *, mean_deg=0.0) -> AngleDistribution:
@@ -367,17 +272,19 @@ def normal_angles(std_deg, *, mean_deg=0.0) -> AngleDistribution:
     mean_deg : float
         Its mean [deg], within (-90, 90).
     """
-    s = _scalar(std_deg, "std_deg", ">= 0")
-    m = _scalar(mean_deg, "mean_deg")
+    s = check_scalar(std_deg, "std_deg", minimum=0)
+    m = check_scalar(mean_deg, "mean_deg")
     if not abs(m) < 90:
         raise ValueError(f"`mean_deg` must lie in (-90, 90); got {mean_deg!r}.")
     params = {"mean_deg": m, "std_deg": s}
     if s == 0:
-        return AngleDistribution("normal", params, 0.0, _Point(deg_to_rad(m)))
+        return AngleDistribution("normal", params, 0.0, DiscreteAtoms([deg_to_rad(m)]))
     from scipy import stats
 
-    impl = _Continuous(stats.norm(loc=deg_to_rad(m), scale=deg_to_rad(s)), 1.0)
-    return AngleDistribution("normal", params, 1.0 - impl.mass, impl)
+    dist = stats.norm(loc=deg_to_rad(m), scale=deg_to_rad(s))
+    return AngleDistribution(
+        "normal", params, None, _continuous(dist, "the normal distribution")
+    )
 
 
 def scipy_angles(frozen_dist, *, unit="deg") -> AngleDistribution:
@@ -392,15 +299,14 @@ def scipy_angles(frozen_dist, *, unit="deg") -> AngleDistribution:
         Unit of `frozen_dist`'s variable.
     """
     check_choice(unit, "unit", ("deg", "rad"))
-    for attr in ("ppf", "cdf", "pdf", "expect"):
+    for attr in CONTINUOUS_METHODS:
         if not callable(getattr(frozen_dist, attr, None)):
             raise TypeError(
                 "`frozen_dist` must be a frozen continuous scipy.stats distribution "
                 f"(with .{attr}); got {frozen_dist!r}."
             )
-    impl = _Continuous(frozen_dist, math.pi / 180.0 if unit == "deg" else 1.0)
-    if not impl.mass > 0:
-        raise ValueError("`frozen_dist` has no probability inside (-90, 90) deg.")
+    dist = frozen_dist if unit == "rad" else Rescaled(frozen_dist, math.pi / 180.0)
+    core = _continuous(dist, "`frozen_dist`")
     name = getattr(getattr(frozen_dist, "dist", None), "name", "?")
     params = {
         "distribution": name,
@@ -408,9 +314,14 @@ def scipy_angles(frozen_dist, *, unit="deg") -> AngleDistribution:
         "kwds": dict(getattr(frozen_dist, "kwds", {})),
         "unit": unit,
     }
-    return AngleDistribution("scipy", params, 1.0 - impl.mass, impl)
+    return AngleDistribution("scipy", params, None, core)
 
 
 def smooth_surface() -> AngleDistribution:
-    """A molecularly smooth surface: the roughness angle is exactly 0."""
-    return AngleDistribution("smooth", {}, 0.0, _Point(0.0))
+    """A molecularly smooth surface: the roughness angle is exactly 0.
+
+    The discrete distribution with a single atom at 0 rad; its
+    :attr:`~AngleDistribution.is_smooth` is True, as is that of any distribution
+    with all its probability at 0 (an all-zero sample, a zero-std normal).
+    """
+    return AngleDistribution("smooth", {}, 0.0, DiscreteAtoms([0.0]))
