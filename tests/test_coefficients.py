@@ -328,6 +328,9 @@ def test_fit_impact_coefficients_then_laws_recover_power_laws(rng):
         "v_c_m_s",
         "v_c_se",
         "rmse",
+        "k1_identified",
+        "k2_identified",
+        "v_c_identified",
     ]
     assert_allclose(table["diameter_um"], [30, 40, 50, 65, 80], rtol=1e-12)
     dd = table["diameter_um"].to_numpy() * UM

@@ -45,26 +45,6 @@ def check_positive(x, name: str, *, allow_inf: bool = False) -> np.ndarray:
     return a
 
 
-def check_real_scalar(
-    x, name: str, *, minimum=None, strict: bool = False, allow_inf: bool = False
-) -> float:
-    """Return the real scalar `x` as a float, or raise naming `name`.
-
-    ``TypeError`` unless `x` is a real number (bool refused); ``ValueError`` for NaN,
-    for inf unless `allow_inf`, and below `minimum` (or at it if `strict`).
-    """
-    if isinstance(x, bool) or not isinstance(x, numbers.Real):
-        raise TypeError(f"`{name}` must be a real number; got {x!r}.")
-    x = float(x)
-    if math.isnan(x) or (math.isinf(x) and not allow_inf):
-        raise ValueError(f"`{name}` must be a finite number; got {x!r}.")
-    if minimum is not None and (x <= minimum if strict else x < minimum):
-        raise ValueError(
-            f"`{name}` must be {'>' if strict else '>='} {minimum}; got {x!r}."
-        )
-    return x
-
-
 def check_int(x, name: str, *, minimum: int = 1) -> int:
     """Return `x` as int, or raise ``ValueError`` unless it is an integer >= minimum."""
     if isinstance(x, bool) or not isinstance(x, numbers.Integral) or x < minimum:
@@ -92,7 +72,7 @@ def check_scalar(
     """Return the real scalar `x` as a float, or raise naming `name`.
 
     The scalar validator of the distribution factories and the coefficient-law
-    builders; it takes the keywords of :func:`check_real_scalar`. A Python or NumPy
+    builders, the laws and the scenario (the one scalar validator). A Python or NumPy
     real number, or a 0-d numeric array, is accepted. ``TypeError`` for a string
     (numeric strings included), a bool, any other non-number, or an array or
     sequence (naming its shape); ``ValueError`` for NaN, for inf unless

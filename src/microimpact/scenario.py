@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from ._validation import check_real_scalar
+from ._validation import check_scalar
 from .errors import ScenarioError
 
 SHADOWING_OPTIONS = ("reject", "weighted", "none")
@@ -129,7 +129,7 @@ def _number(value, field, *, low, high, open_=False, open_low=False):
     """A real number in [low, high] ((low, high) if `open_`, (low, high] if
     `open_low`), else ScenarioError naming `field`."""
     try:
-        x = check_real_scalar(value, field)
+        x = check_scalar(value, field)
     except (TypeError, ValueError):
         raise ScenarioError(f"must be a number; got {value!r}", field=field) from None
     lo_ok = x > low if (open_ or open_low) else x >= low

@@ -39,7 +39,6 @@ import numpy as np
 from .._validation import (
     as_float_array,
     check_choice,
-    check_real_scalar,
     check_scalar,
     did_you_mean,
 )
@@ -103,12 +102,12 @@ class PowerLaw(_Law):
     d_ref: float = 1e-6
 
     def __post_init__(self):
-        object.__setattr__(self, "a", check_real_scalar(self.a, "a", minimum=0))
-        object.__setattr__(self, "b", check_real_scalar(self.b, "b"))
+        object.__setattr__(self, "a", check_scalar(self.a, "a", minimum=0))
+        object.__setattr__(self, "b", check_scalar(self.b, "b"))
         object.__setattr__(
             self,
             "d_ref",
-            check_real_scalar(self.d_ref, "d_ref", minimum=0, strict=True),
+            check_scalar(self.d_ref, "d_ref", minimum=0, strict=True),
         )
 
     def _evaluate(self, d):
@@ -152,13 +151,13 @@ class PolynomialLaw(_Law):
         if not coefs:
             raise ValueError("`coefficients` must hold at least one number; got ().")
         coefs = tuple(
-            check_real_scalar(c, f"coefficients[{i}]") for i, c in enumerate(coefs)
+            check_scalar(c, f"coefficients[{i}]") for i, c in enumerate(coefs)
         )
         object.__setattr__(self, "coefficients", coefs)
         object.__setattr__(
             self,
             "d_ref",
-            check_real_scalar(self.d_ref, "d_ref", minimum=0, strict=True),
+            check_scalar(self.d_ref, "d_ref", minimum=0, strict=True),
         )
 
     def _evaluate(self, d):
@@ -252,7 +251,7 @@ class ConstantLaw(_Law):
         object.__setattr__(
             self,
             "value",
-            check_real_scalar(self.value, "value", minimum=0, allow_inf=True),
+            check_scalar(self.value, "value", minimum=0, allow_inf=True),
         )
 
     def _evaluate(self, d):
@@ -333,19 +332,19 @@ class ThorntonNingLaw(_Law):
         object.__setattr__(
             self,
             "density",
-            check_real_scalar(self.density, "density", minimum=0, strict=True),
+            check_scalar(self.density, "density", minimum=0, strict=True),
         )
         object.__setattr__(
             self,
             "contact_modulus",
-            check_real_scalar(
+            check_scalar(
                 self.contact_modulus, "contact_modulus", minimum=0, strict=True
             ),
         )
         object.__setattr__(
             self,
             "work_of_adhesion",
-            check_real_scalar(self.work_of_adhesion, "work_of_adhesion", minimum=0),
+            check_scalar(self.work_of_adhesion, "work_of_adhesion", minimum=0),
         )
 
     def _evaluate(self, d):
@@ -413,16 +412,12 @@ class ImpactCoefficients:
     def __post_init__(self):
         for name in ("k1", "k2", "v_c"):
             object.__setattr__(self, name, _coerce_law(getattr(self, name), name))
-        object.__setattr__(
-            self, "p", check_real_scalar(self.p, "p", minimum=0, strict=True)
-        )
-        object.__setattr__(
-            self, "q", check_real_scalar(self.q, "q", minimum=0, strict=True)
-        )
+        object.__setattr__(self, "p", check_scalar(self.p, "p", minimum=0, strict=True))
+        object.__setattr__(self, "q", check_scalar(self.q, "q", minimum=0, strict=True))
         object.__setattr__(
             self,
             "friction",
-            check_real_scalar(self.friction, "friction", minimum=0, allow_inf=True),
+            check_scalar(self.friction, "friction", minimum=0, allow_inf=True),
         )
 
     def evaluate(self, diameter) -> CoefficientValues:

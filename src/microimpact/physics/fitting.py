@@ -27,7 +27,7 @@ from .._validation import (
     check_choice,
     check_int,
     check_positive,
-    check_real_scalar,
+    check_scalar,
     did_you_mean,
 )
 from ..errors import InputError
@@ -239,10 +239,10 @@ def fit_restitution(
             f"got {v.size}."
         )
     p, q = (
-        check_real_scalar(p, "p", minimum=0, strict=True),
-        check_real_scalar(q, "q", minimum=0, strict=True),
+        check_scalar(p, "p", minimum=0, strict=True),
+        check_scalar(q, "q", minimum=0, strict=True),
     )
-    max_relative_se = check_real_scalar(
+    max_relative_se = check_scalar(
         max_relative_se, "max_relative_se", minimum=0, strict=True
     )
     speeds, rebound = np.unique(v).size, np.unique(v[y > 0]).size
@@ -266,7 +266,7 @@ def fit_restitution(
             ) from None
         if len(start) != 3:
             raise ValueError(f"`p0` must hold 3 numbers (k1, k2, v_c); got {p0!r}.")
-        start = tuple(check_real_scalar(x, f"p0[{i}]") for i, x in enumerate(start))
+        start = tuple(check_scalar(x, f"p0[{i}]") for i, x in enumerate(start))
 
     def resid(theta):
         return _restitution(v, *theta, p, q) - y
@@ -535,7 +535,7 @@ def fit_law(
     d_ref = (
         float(np.exp(np.log(d).mean()))
         if d_ref is None
-        else check_real_scalar(d_ref, "d_ref", minimum=0, strict=True)
+        else check_scalar(d_ref, "d_ref", minimum=0, strict=True)
     )
     x = d / d_ref
     if form == "power":

@@ -167,18 +167,6 @@ class SizeDistribution(CoreMethods):
 
 
 # -- validation helpers ----------------------------------------------------------------
-def _scalar(x, name, rule="finite", *, allow_inf=False) -> float:
-    """Deprecated: use :func:`microimpact._validation.check_scalar`.
-
-    Kept for :mod:`microimpact.surface.synthetic` until it imports ``check_scalar``;
-    `rule` is "finite", "> 0" or ">= 0". Strings are refused (``TypeError``).
-    """
-    minimum, strict = {"finite": (None, False), "> 0": (0, True), ">= 0": (0, False)}[
-        rule
-    ]
-    return check_scalar(x, name, minimum=minimum, strict=strict, allow_inf=allow_inf)
-
-
 def _limits_iv(min_um, max_um) -> tuple[float, float]:
     """User limits [µm] -> (lower, upper) [m]; diameters are always > 0."""
     lo = 0.0 if min_um is None else check_scalar(min_um, "min_um", minimum=0)

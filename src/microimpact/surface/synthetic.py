@@ -29,9 +29,8 @@ from importlib import resources
 
 import numpy as np
 
-from .._validation import as_float_array, check_int, check_positive
+from .._validation import as_float_array, check_int, check_positive, check_scalar
 from ..io.profiles import Profile, ProfileSet, read_profiles
-from ..population.distributions import _scalar
 
 __all__ = ["formica_profile", "gaussian_profile", "weierstrass_mandelbrot_profile"]
 
@@ -146,11 +145,11 @@ def weierstrass_mandelbrot_profile(
         Heights [m], shaped like `x`.
     """
     x = as_float_array(x, "x")
-    d = _scalar(fractal_dimension, "fractal_dimension")
+    d = check_scalar(fractal_dimension, "fractal_dimension")
     if not 1.0 < d < 2.0:
         raise ValueError(f"`fractal_dimension` must lie in (1, 2); got {d!r}.")
-    g = _scalar(G, "G", "> 0")
-    gamma = _scalar(gamma, "gamma", "> 0")
+    g = check_scalar(G, "G", minimum=0, strict=True)
+    gamma = check_scalar(gamma, "gamma", minimum=0, strict=True)
     if not gamma > 1.0:
         raise ValueError(f"`gamma` must be > 1; got {gamma!r}.")
     rng = np.random.default_rng(rng)
