@@ -333,3 +333,20 @@ def test_kernels_agree_on_the_capture_counts():
     b = kernel.simulate_block(other, 0, 0, 0, 20_000).to_arrays()
     for key in a:
         np.testing.assert_array_equal(a[key], b[key])
+
+
+def test_simulate_specs_equals_simulate_block_per_spec():
+    sc = scenario(
+        surfaces=(SurfaceVariant("n", normal_angles(8.0)),),
+        speeds_m_s=(0.2, 0.6),
+        angles_deg=(30.0, 70.0),
+        speed_spread=0.05,
+    )
+    plan = build_plan(sc)
+    specs = [(p, 0, b, n) for p in range(4) for b, n in ((0, 4000), (3, 1))]
+    got = kernel.simulate_specs(plan, specs)
+    assert len(got) == len(specs)
+    for acc, spec in zip(got, specs, strict=True):
+        want = kernel.simulate_block(plan, *spec).to_arrays()
+        for key, value in acc.to_arrays().items():
+            np.testing.assert_array_equal(value, want[key], err_msg=f"{key} {spec}")

@@ -328,7 +328,12 @@ class CellTable:
         iw = 1.0 / w
         if scale is not None:
             iw *= scale
-        bits = int(min(GUIDE_BITS_MAX, max(4, np.ceil(np.log2(max(n, 1))) + 4)))
+        if kind and not keep.all():
+            kind = levels = cells_log2 = 0  # cells dropped: search the guide
+        # the arithmetic kinds need no guide (a minimal one keeps the layout)
+        bits = 4
+        if not kind:
+            bits = int(min(GUIDE_BITS_MAX, max(4, np.ceil(np.log2(n)) + 4)))
         t = np.arange(1 << bits, dtype=np.uint64) << np.uint64(64 - bits)
         first = np.searchsorted(cum, t, side="right") - 1
         last = np.searchsorted(cum, t | np.uint64(2 ** (64 - bits) - 1), "right") - 1
@@ -341,8 +346,6 @@ class CellTable:
         full[-1] = np.uint64(2**64 - 1)
         for a in (full, iw, left, right, guide):
             a.setflags(write=False)
-        if kind and not keep.all():
-            kind = levels = cells_log2 = 0  # cells dropped: search the guide
         return cls(full, iw, left, right, guide, 64 - bits, kind, levels, cells_log2)
 
     @classmethod
