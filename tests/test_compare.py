@@ -15,7 +15,8 @@ import pandas as pd
 import pytest
 from numpy.testing import assert_allclose
 
-from microimpact.compare import compare, plot_comparison
+from microimpact.compare import compare
+from microimpact.plotting.comparison import plot_comparison
 
 matplotlib.use("Agg")
 

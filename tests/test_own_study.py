@@ -285,12 +285,6 @@ def test_opened_result_gives_the_same_figures_and_report(tmp_path):
     assert tables[0][1] == tables[1][1]
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="bug (engine/result + _json): results.nc stores the scenario description "
-    "with infinities as null, so an opened result reports friction = None and a "
-    "support of [0, None] where the fresh one says inf",
-)
 def test_opened_settings_keep_infinities(tmp_path):
     from microimpact.engine.montecarlo import run
     from microimpact.engine.result import open_result
@@ -362,11 +356,6 @@ def test_capture_marker_and_table_handle_open_and_refused(tmp_path):
     _ = summary_text  # the text version is checked through the CLI runs
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="bug (engine/statistics.wilson_interval): the upper Wilson limit of an "
-    "all-captured point is 1.0000000000000002, outside [0, 1]",
-)
 def test_wilson_limits_stay_in_unit_interval():
     from microimpact.engine.statistics import wilson_interval
 

@@ -114,6 +114,8 @@ _EXPORTS: dict[str, str] = {
     "plot_coefficients_vs_angle": "plotting.results",
     "plot_distributions": "plotting.results",
     "plot_convergence": "plotting.results",
+    "plot_comparison": "plotting.comparison",
+    "compare": "compare",
     "plot_size_distribution": "plotting.sizes",
     "plot_angle_pdf": "plotting.roughness",
     "plot_profile": "plotting.roughness",

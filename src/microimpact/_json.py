@@ -16,11 +16,24 @@ from collections.abc import Mapping
 
 import numpy as np
 
-__all__ = ["dumps", "plain"]
+__all__ = ["dumps", "plain", "restore_nonfinite"]
 
 
-def plain(obj):
-    """`obj` as plain JSON-able Python data (non-finite floats become None)."""
+#: How :func:`dumps` writes a non-finite float when asked to keep it.
+NONFINITE = {"inf": math.inf, "-inf": -math.inf, "nan": math.nan}
+
+
+def _nonfinite_text(x: float) -> str:
+    return "nan" if math.isnan(x) else ("inf" if x > 0 else "-inf")
+
+
+def plain(obj, *, keep_nonfinite: bool = False):
+    """`obj` as plain JSON-able Python data.
+
+    Non-finite floats become None, or with `keep_nonfinite` the strings ``"inf"``,
+    ``"-inf"``, ``"nan"`` (standard JSON that :func:`restore_nonfinite` reads back).
+    """
+    kw = {"keep_nonfinite": keep_nonfinite}
     if obj is None or isinstance(obj, bool | str):
         return obj
     if isinstance(obj, np.bool_):
@@ -29,20 +42,38 @@ def plain(obj):
         return int(obj)
     if isinstance(obj, float | np.floating):
         x = float(obj)
-        return x if math.isfinite(x) else None
+        if math.isfinite(x):
+            return x
+        return _nonfinite_text(x) if keep_nonfinite else None
     if isinstance(obj, np.ndarray):
-        return [plain(v) for v in obj.tolist()]
+        return [plain(v, **kw) for v in obj.tolist()]
     if isinstance(obj, Mapping):
-        return {str(k): plain(v) for k, v in obj.items()}
+        return {str(k): plain(v, **kw) for k, v in obj.items()}
     if isinstance(obj, list | tuple | set | frozenset):
-        return [plain(v) for v in obj]
+        return [plain(v, **kw) for v in obj]
     if isinstance(obj, os.PathLike):
         return os.fspath(obj)
     if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
-        return {f.name: plain(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
+        return {
+            f.name: plain(getattr(obj, f.name), **kw) for f in dataclasses.fields(obj)
+        }
     raise TypeError(f"cannot write a {type(obj).__name__} as JSON.")
 
 
-def dumps(obj, *, indent=None) -> str:
-    """Standard JSON text of `obj` (see the module notes)."""
-    return json.dumps(plain(obj), indent=indent, allow_nan=False)
+def dumps(obj, *, indent=None, keep_nonfinite: bool = False) -> str:
+    """Standard JSON text of `obj` (see the module notes and :func:`plain`)."""
+    return json.dumps(
+        plain(obj, keep_nonfinite=keep_nonfinite), indent=indent, allow_nan=False
+    )
+
+
+def restore_nonfinite(obj):
+    """Undo ``keep_nonfinite``: the values ``"inf"``, ``"-inf"`` and ``"nan"`` (not
+    keys) become floats again, recursively."""
+    if isinstance(obj, str):
+        return NONFINITE.get(obj, obj)
+    if isinstance(obj, list):
+        return [restore_nonfinite(v) for v in obj]
+    if isinstance(obj, dict):
+        return {k: restore_nonfinite(v) for k, v in obj.items()}
+    return obj

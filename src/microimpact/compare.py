@@ -15,7 +15,7 @@ The rule, for one experimental point (see ``docs/outputs.md``):
   ``1 - confidence``.
 
 The parity figure of the table is :func:`microimpact.plotting.comparison.
-plot_comparison` (also importable from here, loaded on first use).
+plot_comparison`.
 """
 
 from __future__ import annotations
@@ -294,13 +294,3 @@ def compare(summary_or_result, experiments, *, confidence=0.95):
     if "source" in exp.attrs:
         table.attrs["source"] = exp.attrs["source"]
     return table
-
-
-def __getattr__(name):
-    """``plot_comparison`` lives in :mod:`microimpact.plotting.comparison`; it is
-    imported on first use (no import cycle between comparing and plotting)."""
-    if name == "plot_comparison":
-        from .plotting.comparison import plot_comparison
-
-        return plot_comparison
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

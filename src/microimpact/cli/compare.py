@@ -17,8 +17,9 @@ def cli_parse(sp):
 
 
 def cli_action(args) -> int:
-    from ..compare import compare, plot_comparison
+    from ..compare import compare
     from ..io.experiments import read_experiments
+    from ..plotting.comparison import plot_comparison
 
     summary = _read_results(args.results)
     exp = read_experiments(args.experiment)

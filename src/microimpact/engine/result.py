@@ -20,6 +20,7 @@ import numpy as np
 
 from .._files import atomic_write
 from .._json import dumps as json_dumps
+from .._json import restore_nonfinite
 from ..grid import SweepGrid
 from .accumulators import E_EDGES, MU_EDGES
 from .dataset import (
@@ -99,7 +100,7 @@ class ScenarioRecord:
 
 def _record_of(ds) -> ScenarioRecord:
     attrs = ds.attrs
-    info = json.loads(attrs.get("scenario", "{}") or "{}")
+    info = restore_nonfinite(json.loads(attrs.get("scenario", "{}") or "{}"))
     smooth = (
         ds["surface_is_smooth"].values.astype(bool)
         if "surface_is_smooth" in ds
@@ -148,7 +149,7 @@ def _storable(value):
         isinstance(v, int | float) and not isinstance(v, bool) for v in value
     ):
         return np.asarray(value, dtype=float)
-    return json_dumps(value)
+    return json_dumps(value, keep_nonfinite=True)
 
 
 class SimulationResult:
@@ -311,7 +312,7 @@ class SimulationResult:
                 if key in skip:
                     continue
                 if key in _JSON_ATTRS and isinstance(value, str):
-                    value = json.loads(value)
+                    value = restore_nonfinite(json.loads(value))
                 elif isinstance(value, np.ndarray):
                     value = value.tolist()
                 elif isinstance(value, np.generic):

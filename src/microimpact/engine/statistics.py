@@ -41,7 +41,8 @@ def wilson_interval(k, n, confidence=0.95):
         z2n = z * z / n
         centre = (p + z2n / 2.0) / (1.0 + z2n)
         half = z / (1.0 + z2n) * np.sqrt(p * (1.0 - p) / n + z2n / (4.0 * n))
-    return centre - half, centre + half
+    # the exact limits lie in [0, 1]; round-off must not push them out
+    return np.clip(centre - half, 0.0, 1.0), np.clip(centre + half, 0.0, 1.0)
 
 
 def interval_se(low, high, confidence):

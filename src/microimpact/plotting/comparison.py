@@ -41,7 +41,7 @@ def plot_comparison(table, *, ax=None):
     import matplotlib as mpl
     import matplotlib.pyplot as plt
 
-    from .results import STYLE, colour
+    from ._style import STYLE, colour
 
     need = {"statistic", "exp_mean", "sim_mean", "agree"}
     if not hasattr(table, "columns") or not need <= set(table.columns):

@@ -1,0 +1,28 @@
+"""The house style of every figure: palette and local rcParams (a leaf module)."""
+
+#: Okabe-Ito colours (distinguishable with colour-vision deficiency).
+PALETTE = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#000000")
+#: Local rcParams of every figure made here.
+STYLE = {
+    "font.size": 9.0,
+    "axes.labelsize": 9.0,
+    "axes.titlesize": 9.5,
+    "legend.fontsize": 8.0,
+    "xtick.labelsize": 8.0,
+    "ytick.labelsize": 8.0,
+    "axes.spines.top": False,
+    "axes.spines.right": False,
+    "axes.grid": True,
+    "grid.alpha": 0.3,
+    "grid.linewidth": 0.5,
+    "lines.linewidth": 1.5,
+    "legend.frameon": False,
+    "errorbar.capsize": 2.5,
+    "savefig.dpi": 200,
+    "pdf.fonttype": 42,
+}
+
+
+def colour(k: int) -> str:
+    """The `k`-th colour of the palette (cycled)."""
+    return PALETTE[k % len(PALETTE)]
