@@ -142,6 +142,9 @@ def _block_args(**over):
         dsamp=kernel._sampler_args(d),
         asamp=one,
         cut=0,
+        psamp=one,
+        pair_total=0,
+        pair_shift=0,
         ssamp=one,
         sin_theta=1.0,
         cos_theta=0.0,
@@ -193,6 +196,7 @@ def _bad_kind(kind):
         ({"dsamp": _sampler([1.0], columns=1)}, ValueError),  # too few columns
         ({"dsamp": _bad_kind(2)}, ValueError),  # not a refined grid
         ({"dsamp": _bad_kind(7)}, ValueError),
+        ({"pair_total": 2**30, "pair_shift": 40}, ValueError),  # ranks overflow
         ({"dsamp": (np.zeros(3), 8, np.zeros(17, np.uint32), 60, 0, 0, 0)}, ValueError),
     ],
 )
@@ -297,3 +301,22 @@ def test_instruction_set_clones_give_the_same_bits(p, tmp_path, monkeypatch):
         got = kernel.simulate_block(plan, 0, 0, 1, 20_000).to_arrays()
         for key in ref:
             assert_array_equal(got[key], ref[key], err_msg=f"{key} ({isa})")
+
+
+@pytest.mark.parametrize("shadowing", ["reject", "none", "weighted"])
+def test_bit_identical_with_a_rough_particle(shadowing):
+    # both discrete: exact pairs ('reject', 'none'); 'weighted': the convolution
+    rng = np.random.default_rng(4)
+    sc = scenario(
+        surfaces=(SurfaceVariant("s", angles_from_sample(rng.normal(0, 12, 900))),),
+        particle_roughness=angles_from_sample(rng.normal(0, 8, 600)),
+        speeds_m_s=(0.3,),
+        angles_deg=(15.0, 80.0),
+        shadowing=shadowing,
+        speed_spread=0.05,
+    )
+    plan = build_plan(sc)
+    for point in range(len(plan.points)):
+        a, b = _both(plan, point, n=5000)
+        for key in a:
+            assert_array_equal(a[key], b[key], err_msg=f"{key} {point}")

@@ -40,7 +40,7 @@ from microimpact.population.distributions import (
     lognormal_diameters,
     normal_diameters,
 )
-from microimpact.surface.angles import normal_angles
+from microimpact.surface.angles import angles_from_sample, normal_angles
 
 K = 4.0  # simulated estimates sit within K standard errors
 N_MAX = 1e9  # the largest N the bias criterion covers
@@ -350,3 +350,66 @@ def test_simulate_specs_equals_simulate_block_per_spec():
         want = kernel.simulate_block(plan, *spec).to_arrays()
         for key, value in acc.to_arrays().items():
             np.testing.assert_array_equal(value, want[key], err_msg=f"{key} {spec}")
+
+
+# ------------------------------------------- rough particles on discrete surfaces
+def _pair_scenario(shadowing, angles=(15.0, 60.0)):
+    rng = np.random.default_rng(2)
+    surf = angles_from_sample(rng.normal(0.0, 12.0, 1500))
+    part = angles_from_sample(rng.normal(0.0, 8.0, 700))
+    sc = scenario(
+        coefficients=PowerCoefficients(friction=0.15),
+        surfaces=(SurfaceVariant("s", surf),),
+        particle_roughness=part,
+        speeds_m_s=(0.3,),
+        angles_deg=angles,
+        shadowing=shadowing,
+    )
+    return sc, np.sort(surf.atoms), np.sort(part.atoms)
+
+
+@pytest.mark.parametrize("shadowing", ["reject", "none"])
+def test_rough_particle_pairs_are_drawn_exactly(shadowing):
+    """Both angle distributions discrete: the pair (a_i, b_j) is drawn among the
+    n_a n_b equiprobable pairs (the reachable ones for 'reject'), no convolution."""
+    sc, a, b = _pair_scenario(shadowing)
+    plan = build_plan(sc)
+    assert isinstance(plan.surfaces[0], plan_module.PairSampler)
+    theta = np.deg2rad(15.0)
+    tables = plan.angle_tables(0, 15.0)
+    reach = np.searchsorted(b, theta - a, side="left")  # b_j < theta - a_i
+    assert abs(tables.shadowed_mass - (1 - reach.sum() / (a.size * b.size))) < 1e-12
+    # each surface atom's cell holds exactly its reachable (or all) partner atoms
+    starts = tables.sampler.table.starts >> np.uint64(tables.pair_shift)
+    counts = np.diff(np.append(starts.astype(np.int64), tables.pair_total))
+    want = reach if shadowing == "reject" else np.full(a.size, b.size)
+    assert np.array_equal(counts, want[want > 0])
+    # the draws: pair ranks uniform, the angle is a_i + b_j
+    r = np.random.default_rng(0).integers(0, 2**64 - 1, 20_000, np.uint64, True)
+    _, i, j = tables.pair_draws(r)
+    phi = tables.sampler.values[i, 0] + tables.pair.values[j, 0]
+    if shadowing == "reject":
+        assert np.all(phi < theta)
+
+
+def test_rough_particle_pairs_match_the_reference_physics():
+    from microimpact import apparent_rebound
+    from microimpact.engine.montecarlo import sample_point
+
+    sc, _, _ = _pair_scenario("reject", angles=(40.0,))
+    s = sample_point(sc, 0, 20_000)
+    ref = apparent_rebound(
+        s["speed"],
+        40.0,
+        np.rad2deg(s["roughness_angle"]),
+        k1=s["k1"],
+        k2=s["k2"],
+        v_c=s["v_c"],
+        friction=0.15,
+    )
+    assert_array_equal_or_close = np.testing.assert_allclose
+    np.testing.assert_array_equal(s["captured"], ref.captured)
+    assert_array_equal_or_close(s["e_m"], ref.e_m, rtol=1e-9, atol=1e-12)
+    assert_array_equal_or_close(
+        s["mu_m"], ref.mu_m, rtol=1e-9, atol=1e-12, equal_nan=True
+    )

@@ -291,9 +291,11 @@ typedef struct {
     const uint64_t *i_d, *i_a, *i_s;
     Py_ssize_t n;
     int angle_random, speed_random;
-    sampler_t d, a, s; /* diameter: 1/k1, 1/k2, v_c; angle: sin, cos, tan phi;
-                          speed factor */
+    sampler_t d, a, s, b; /* diameter: 1/k1, 1/k2, v_c; angle: sin, cos, tan
+                             phi; speed factor; particle angle atoms (pairs) */
     uint64_t cut;      /* angle draws scaled to [0, cut) ("reject"); 0: not */
+    uint64_t pair_total; /* pairs (surface atom, particle atom) drawn from */
+    int pair_shift;      /* > 0: pair tables (plan.PairSampler) */
     double sin_theta, cos_theta;
     double speed, p, q, friction;
     int shadow_none;
@@ -304,8 +306,8 @@ typedef struct {
 } block_args;
 
 /* Locate the cells of draws r[0:c] (kinds: see guide_entry) and write the first
- * `one ? 1 : 3` interpolated columns of their rows to out0..out2; `g` is
- * scratch. Past c the outputs are left as they were (finite: the physics loop
+ * `one ? 1 : 3` interpolated columns of their rows to out0..out2; `g` receives
+ * the cells. Past c the outputs are left as they were (finite: the physics loop
  * recomputes stale values there and counts nothing). */
 ALWAYS_INLINE void
 fetch(const sampler_t *s, const uint64_t *restrict r, int one, int c,
@@ -325,6 +327,7 @@ fetch(const sampler_t *s, const uint64_t *restrict r, int one, int c,
     for (int k = 0; k < c; k++) {
         double f;
         const double *row = locate(s, r[k], g[k], &f);
+        g[k] = (uint32_t)((row - s->rows) / s->stride); /* the cell, for pairs */
         out0[k] = row[2] + f * row[3];
         if (!one) {
             out1[k] = row[4] + f * row[5];
@@ -350,7 +353,31 @@ run_block(block_args *a, scratch_t *s)
          * variable at a time (a loop specialised for each kind of table) */
         fetch(&a->d, a->i_d + start, 0, c, s->g[0], ws + W_IK1 * CHUNK,
               ws + W_IK2 * CHUNK, ws + W_VC * CHUNK);
-        if (a->angle_random) {
+        if (a->angle_random && a->pair_shift) {
+            /* a pair: its rank k among the pairs, placed in the top bits, gives
+             * the surface cell i (a table with a start per surface atom) and the
+             * particle atom j = rank - start(i) */
+            const uint64_t *ra = a->i_a + start;
+            for (int k = 0; k < c; k++)
+                s->ra[k] = mulhi64(ra[k], a->pair_total) << a->pair_shift;
+            fetch(&a->a, s->ra, 0, c, s->g[1], ws + W_SIN * CHUNK, ws + W_COT * CHUNK,
+                  ws + W_TAN * CHUNK);
+            for (int k = 0; k < c; k++) {
+                uint64_t j = (s->ra[k] - cell_start(&a->a, s->g[1][k])) >>
+                             a->pair_shift;
+                /* below b.n for any plan's tables; the clamp keeps a malformed
+                 * call inside the buffer */
+                j = j < (uint64_t)a->b.n ? j : (uint64_t)a->b.n - 1;
+                const double *rb = a->b.rows + (Py_ssize_t)j * a->b.stride;
+                double sa = ws[W_SIN * CHUNK + k], ca = ws[W_COT * CHUNK + k];
+                double ta = ws[W_TAN * CHUNK + k];
+                double s1 = st * ca - ct * sa; /* sin(theta - a) */
+                double c1 = ct * ca + st * sa;
+                ws[W_SIN * CHUNK + k] = s1 * rb[4] - c1 * rb[2];
+                ws[W_COT * CHUNK + k] = c1 * rb[4] + s1 * rb[2];
+                ws[W_TAN * CHUNK + k] = (ta + rb[6]) / (1.0 - ta * rb[6]);
+            }
+        } else if (a->angle_random) {
             const uint64_t *ra = a->i_a + start;
             if (a->cut) {
                 for (int k = 0; k < c; k++)
@@ -490,7 +517,8 @@ parse_sampler(PyObject *tup, const char *name, sampler_t *s, Py_ssize_t min_stri
 }
 
 PyDoc_STRVAR(block_doc,
-"block(i_d, i_a, i_s, n, angle_random, speed_random, dsamp, asamp, cut, ssamp,\n"
+"block(i_d, i_a, i_s, n, angle_random, speed_random, dsamp, asamp, cut,\n"
+"      psamp, pair_total, pair_shift, ssamp,\n"
 "      sin_theta, cos_theta, speed, p, q, friction, shadow_none, hist,\n"
 "      e_hist, mu_hist) -> (counts, sums)\n\n"
 "One block of `n` impacts from the uint64 draws i_d, i_a, i_s. Each sampler is a\n"
@@ -509,24 +537,37 @@ static PyObject *
 ck_block(PyObject *self, PyObject *args)
 {
     Py_buffer bd, ba, bs, bh, beh, bmh;
-    Py_buffer sb[3][2];
-    int held[3] = {0, 0, 0};
-    PyObject *samp[3];
+    Py_buffer sb[4][2];
+    int held[4] = {0, 0, 0, 0};
+    PyObject *samp[4];
     int angle_random, speed_random, shadow_none;
     unsigned long long cut;
     Py_ssize_t n;
     block_args a;
-    if (!PyArg_ParseTuple(args, "y*y*y*nppOOKOddddddpy*w*w*:block", &bd, &ba, &bs,
-                          &n, &angle_random, &speed_random, &samp[0], &samp[1],
-                          &cut, &samp[2], &a.sin_theta, &a.cos_theta, &a.speed,
-                          &a.p, &a.q, &a.friction, &shadow_none, &bh, &beh, &bmh))
+    unsigned long long pair_total;
+    if (!PyArg_ParseTuple(args, "y*y*y*nppOOKOKiOddddddpy*w*w*:block", &bd, &ba,
+                          &bs, &n, &angle_random, &speed_random, &samp[0],
+                          &samp[1], &cut, &samp[3], &pair_total, &a.pair_shift,
+                          &samp[2], &a.sin_theta, &a.cos_theta, &a.speed, &a.p,
+                          &a.q, &a.friction, &shadow_none, &bh, &beh, &bmh))
         return NULL;
     PyObject *result = NULL;
     memset(&a.counts, 0, sizeof a.counts);
     if (parse_sampler(samp[0], "diameter", &a.d, 8, sb[0], &held[0]) ||
         parse_sampler(samp[1], "angle", &a.a, 8, sb[1], &held[1]) ||
-        parse_sampler(samp[2], "speed", &a.s, 4, sb[2], &held[2]))
+        parse_sampler(samp[2], "speed", &a.s, 4, sb[2], &held[2]) ||
+        parse_sampler(samp[3], "particle", &a.b, 8, sb[3], &held[3]))
         goto done;
+    /* pairs: every rank < pair_total, shifted, must stay below 2^64, and every
+     * particle atom index (rank - start, at most pair_total - 1) must have a row */
+    if (a.pair_shift < 0 || a.pair_shift > 63 ||
+        (a.pair_shift &&
+         (pair_total < 1 || (((uint64_t)pair_total - 1) >> (64 - a.pair_shift)) ||
+          a.a.kind != 0))) {
+        PyErr_SetString(PyExc_ValueError, "_ckernel.block: bad pair layout");
+        goto done;
+    }
+    a.pair_total = (uint64_t)pair_total;
     if (n < 0) {
         PyErr_SetString(PyExc_ValueError, "_ckernel.block: bad n or stride");
         goto done;
@@ -585,7 +626,7 @@ done:
     PyBuffer_Release(&bh);
     PyBuffer_Release(&beh);
     PyBuffer_Release(&bmh);
-    for (int i = 0; i < 3; i++)
+    for (int i = 0; i < 4; i++)
         if (held[i])
             for (int j = 0; j < 2; j++)
                 PyBuffer_Release(&sb[i][j]);

@@ -144,7 +144,19 @@ def _simulate_block(plan: Plan, point, rep, block, n, store=False):
     inv_k2 = dr[j_d, D_IK2] + f_d * dr[j_d, D_IK2 + 1]
     v_c = dr[j_d, D_VC] + f_d * dr[j_d, D_VC + 1]
     st, ct = tables.sin_theta, tables.cos_theta
-    if tables.random:
+    if tables.pair_shift:  # rough particle on a discrete surface: an exact pair
+        _, j_a, j_b = tables.pair_draws(raw[VAR_ANGLE])
+        f_a = np.zeros(n)
+        ar, br = tables.sampler.rows, tables.pair.rows
+        s_a, c_a, t_a = ar[j_a, A_SIN], ar[j_a, A_COS], ar[j_a, A_TAN]
+        s_b, c_b, t_b = br[j_b, A_SIN], br[j_b, A_COS], br[j_b, A_TAN]
+        s1 = st * c_a - ct * s_a  # sin(theta - a)
+        c1 = ct * c_a + st * s_a
+        sin_true = s1 * c_b - c1 * s_b  # sin(theta - a - b)
+        cos_true = c1 * c_b + s1 * s_b
+        with np.errstate(divide="ignore", invalid="ignore"):
+            tan_phi = (t_a + t_b) / (1.0 - t_a * t_b)  # tan(a + b)
+    elif tables.random:
         r_a = raw[VAR_ANGLE]
         if tables.cut:
             r_a = mulhi64(r_a, tables.cut)  # 'reject': reachable facets only
@@ -243,7 +255,11 @@ def _simulate_block(plan: Plan, point, rep, block, n, store=False):
             out["k1"] = 1.0 / (dr[j_d, D_IK1] + f_d * dr[j_d, D_IK1 + 1])
             out["k2"] = 1.0 / (dr[j_d, D_IK2] + f_d * dr[j_d, D_IK2 + 1])
         out["v_c"] = dr[j_d, D_VC] + f_d * dr[j_d, D_VC + 1]
-        if tables.random:
+        if tables.pair_shift:
+            out["roughness_angle"] = (
+                tables.sampler.values[j_a, 0] + tables.pair.values[j_b, 0]
+            )
+        elif tables.random:
             av = tables.sampler.values
             out["roughness_angle"] = av[j_a, 0] + f_a * av[j_a, 1]
         else:
@@ -346,6 +362,9 @@ def _simulate_compiled(plan, sp, tables, raw, n):
         _sampler_args(plan.diameters),
         _sampler_args(tables.sampler),
         int(tables.cut),
+        _sampler_args(tables.pair),
+        int(tables.pair_total),
+        int(tables.pair_shift),
         _sampler_args(plan.speeds),
         tables.sin_theta,
         tables.cos_theta,

@@ -181,6 +181,19 @@ class AngleTables:
     cos_theta: float
     shadowed_mass: float  # P(phi >= theta) under the surface's own table
     random: bool  # False for a smooth surface
+    #: Rough particle on a discrete surface (see :class:`PairSampler`): the
+    #: particle's atoms, the number of (surface, particle) pairs drawn from and the
+    #: shift that places a pair rank in the top bits (0: not a pair table).
+    pair: Sampler | None = None
+    pair_total: int = 0
+    pair_shift: int = 0
+
+    def pair_draws(self, r):
+        """``(surface cell, particle atom)`` of angle draws `r` (pair tables)."""
+        k = mulhi64(r, self.pair_total) << np.uint64(self.pair_shift)
+        i, _ = self.sampler.table.locate(k)
+        j = (k - self.sampler.table.cum[i]) >> np.uint64(self.pair_shift)
+        return k, i, j.astype(np.intp)
 
     @property
     def phi(self) -> np.ndarray:
@@ -189,9 +202,33 @@ class AngleTables:
         if not self.random:
             return np.zeros(1 << 16)
         r = (mid_probabilities(1 << 16) * 2.0**64).astype(np.uint64)
+        if self.pair_shift:
+            _, i, j = self.pair_draws(r)
+            return self.sampler.values[i, 0] + self.pair.values[j, 0]
         if self.cut:
             r = mulhi64(r, self.cut)
         return self.sampler.value(r)
+
+
+@dataclass(frozen=True, eq=False)
+class PairSampler:
+    """A rough particle on a surface whose angle distributions are both discrete
+    with equal masses (the paper's *Lycopodium* on Formica): the roughness angle is
+    ``a_i + b_j`` for a pair drawn exactly, from one 64-bit draw, among the
+    ``n_a n_b`` equiprobable pairs (``"reject"``: among the reachable ones; for each
+    ``i`` they are a prefix of the sorted ``b``). The kernels combine the two angles
+    with the angle-addition formulas, so nothing is convolved or re-tabulated."""
+
+    surface: Sampler
+    particle: Sampler
+
+    @property
+    def values(self) -> np.ndarray:
+        return np.concatenate([self.surface.values, self.particle.values])
+
+    @property
+    def nbytes(self) -> int:
+        return self.surface.nbytes + self.particle.nbytes
 
 
 @dataclass(frozen=True, eq=False)
@@ -206,7 +243,7 @@ class Plan:
     q: float
     friction: float
     speeds: Sampler | None  # the relative speed factor, or None
-    surfaces: tuple[Sampler | None, ...]  # per surface variant (None: smooth)
+    surfaces: tuple[Sampler | PairSampler | None, ...]  # per variant (None: smooth)
     shadowing: str
     sampling: str = "mc"
     replicates: int = 1
@@ -262,7 +299,10 @@ class Plan:
         key = (surface, float(angle_deg))
         tables = self._cache.get(key)
         if tables is None:
-            if self.shadowing == "weighted" and self.surfaces[surface] is not None:
+            own = self.shadowing == "weighted" or isinstance(
+                self.surfaces[surface], PairSampler
+            )  # tables with rows of their own per apparent angle
+            if own and self.surfaces[surface] is not None:
                 size = self.surfaces[surface].nbytes
                 if size * (len(self._cache) + 1) > WEIGHTED_CACHE_BYTES:
                     self._cache.clear()
@@ -287,11 +327,56 @@ def _reach(s_theta, c_theta, rows, f):
     return s_theta * c - c_theta * s
 
 
+def pair_sin(st, ct, sa, ca, sb, cb):
+    """``sin`` and ``cos`` of ``theta - a - b`` as the kernels compute them."""
+    s1 = st * ca - ct * sa
+    c1 = ct * ca + st * sa
+    return s1 * cb - c1 * sb, c1 * cb + s1 * sb
+
+
+def _pair_tables(pair: PairSampler, st, ct, angle_deg, shadowing) -> AngleTables:
+    a, b = pair.surface, pair.particle
+    n_a, n_b = a.table.size, b.table.size
+    ra, rb = a.rows[:-1], b.rows[:-1]
+    # the reachable particle atoms of each surface atom: a prefix of the sorted b
+    theta = np.deg2rad(angle_deg)
+    bv = b.values[:, 0]
+    counts = np.searchsorted(bv, theta - a.values[:, 0], side="left")
+    for _ in range(3):  # agree with the kernels' own sign at the boundary
+        jm = np.clip(counts - 1, 0, n_b - 1)
+        s_lo = pair_sin(
+            st, ct, ra[:, A_SIN], ra[:, A_COS], rb[jm, A_SIN], rb[jm, A_COS]
+        )[0]
+        counts = np.where((counts > 0) & ~(s_lo > 0), counts - 1, counts)
+        jp = np.clip(counts, 0, n_b - 1)
+        s_hi = pair_sin(
+            st, ct, ra[:, A_SIN], ra[:, A_COS], rb[jp, A_SIN], rb[jp, A_COS]
+        )[0]
+        counts = np.where((counts < n_b) & (s_hi > 0), counts + 1, counts)
+    shadowed = 1.0 - int(counts.sum()) / (n_a * n_b)
+    if shadowing == "none":  # every pair; the unreachable ones are counted
+        counts = np.full(n_a, n_b, dtype=np.int64)
+    total = int(counts.sum())
+    if total == 0:
+        raise ValueError(
+            f"every roughness angle shadows the facet at the apparent angle "
+            f"{angle_deg} deg: no facet can be reached."
+        )
+    shift = 64 - (total - 1).bit_length() if total > 1 else 63
+    starts = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.uint64)
+    cum = starts << np.uint64(shift)
+    sub = CellTable.from_cells(cum, a.table.left, a.table.right)
+    cells = np.flatnonzero(nonempty_cells(cum))
+    return AngleTables(a.subset(sub, cells), 0, st, ct, shadowed, True, b, total, shift)
+
+
 def _angle_tables(sampler, angle_deg: float, shadowing: str) -> AngleTables:
     theta = np.deg2rad(angle_deg)
     st, ct = float(np.sin(theta)), float(np.cos(theta))
     if sampler is None:  # molecularly smooth: phi = 0 exactly
         return AngleTables(None, 0, st, ct, 0.0, False)
+    if isinstance(sampler, PairSampler):
+        return _pair_tables(sampler, st, ct, angle_deg, shadowing)
     table, rows = sampler.table, sampler.rows
     a = _reach(st, ct, rows, 0.0)  # at the start of each cell
     b = _reach(st, ct, rows, 1.0)  # at its end
@@ -493,7 +578,11 @@ def resolve_kernel(kernel=None) -> str:
     return "compiled"
 
 
-def _surface_sampler(variant, particle_roughness):
+#: Largest number of (surface, particle) angle pairs drawn exactly.
+MAX_PAIRS = 1 << 40
+
+
+def _surface_sampler(variant, particle_roughness, shadowing):
     if variant.angles is None and particle_roughness is None:
         return None
     if variant.angles is None:
@@ -501,6 +590,13 @@ def _surface_sampler(variant, particle_roughness):
     elif particle_roughness is None:
         table = cell_table(variant.angles)
     else:
+        ta, tb = cell_table(variant.angles), cell_table(particle_roughness)
+        if (
+            shadowing != "weighted"
+            and ta.kind == tb.kind == CellTable.EQUAL
+            and ta.size * tb.size <= MAX_PAIRS
+        ):
+            return PairSampler(_angle_sampler(ta), _angle_sampler(tb))
         table = convolve_angles(variant.angles, particle_roughness)
     return _angle_sampler(table)
 
@@ -539,7 +635,8 @@ def build_plan(scenario, *, seed=None, kernel=None) -> Plan:
     )
     points = tuple(SweepGrid.from_scenario(scenario).points())
     surfaces = tuple(
-        _surface_sampler(v, scenario.particle_roughness) for v in scenario.surfaces
+        _surface_sampler(v, scenario.particle_roughness, scenario.shadowing)
+        for v in scenario.surfaces
     )
     speeds = None
     if scenario.speed_spread > 0:
