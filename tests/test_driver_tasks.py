@@ -122,6 +122,34 @@ def test_merge_in_a_task_follows_block_order(monkeypatch):
     assert bad.n == ref.n and bad.e != ref.e
 
 
+def test_merge_order_is_the_documented_one():
+    """Oracle for the merge order: blocks merged in order within groups of
+    BLOCKS_PER_TASK (aligned), the groups merged in order, on 1 and 2 workers."""
+    from microimpact.engine.montecarlo import build_plan
+
+    sc = scenario(
+        surfaces=(rough(10.0),), speeds_m_s=(0.5,), angles_deg=(40.0,), samples=140_000
+    )
+    plan = build_plan(sc)
+    for T in (montecarlo.BLOCKS_PER_TASK, 2):
+        blocks = [
+            kernel.simulate_block(
+                plan, 0, 0, b, min(BLOCK_SIZE, 140_000 - b * BLOCK_SIZE)
+            )
+            for b in range(5)
+        ]
+        expect = None
+        for g in range(0, 5, T):
+            acc = blocks[g]
+            for b in blocks[g + 1 : g + T]:
+                acc = acc.merge(b)
+            expect = acc if expect is None else expect.merge(acc)
+        with pytest.MonkeyPatch.context() as m:
+            m.setattr(montecarlo, "BLOCKS_PER_TASK", T)
+            assert run(sc).accumulators[0] == expect
+            assert run(sc, workers=2).accumulators[0] == expect
+
+
 # ---------------------------------------------------------------- worker cap
 def test_workers_above_the_cores_are_capped(monkeypatch):
     monkeypatch.setattr(parallel, "available_cores", lambda: 1)

@@ -21,6 +21,19 @@ K = 4.0  # statistical assertions sit within K standard errors
 
 
 # --------------------------------------------------------------------- kernel
+def _kernel_coefficients(s, coeffs):
+    """The k1, k2, v_c the kernel used for each impact (interpolated in the
+    diameter's table cell, as the diameter is), checked against the laws at the
+    drawn diameter; older kernels evaluate the laws themselves."""
+    laws = coeffs.evaluate(s["diameter"])
+    if "v_c" not in s:
+        return laws
+    used = s["k1"], s["k2"], s["v_c"]
+    for u, law in zip(used, laws, strict=True):
+        assert_allclose(u, law, rtol=1e-4)
+    return used
+
+
 @pytest.mark.parametrize(
     "coeffs, shadowing, angle",
     [
@@ -41,7 +54,7 @@ def test_kernel_matches_reference_physics(coeffs, shadowing, angle):
         speed_spread=0.1,
     )
     s = sample_point(sc, 0, 40_000)
-    k1, k2, v_c = coeffs.evaluate(s["diameter"])
+    k1, k2, v_c = _kernel_coefficients(s, coeffs)
     ref = mi.apparent_rebound(
         s["speed"],
         angle,
@@ -56,8 +69,13 @@ def test_kernel_matches_reference_physics(coeffs, shadowing, angle):
     assert_array_equal(s["shadowed"], ref.shadowed)
     assert_array_equal(s["captured"], ref.captured)
     assert_array_equal(s["reimpact"], ref.reimpact)
-    assert_allclose(s["e_m"], ref.e_m, rtol=1e-11, atol=1e-13, equal_nan=True)
-    assert_allclose(s["mu_m"], ref.mu_m, rtol=1e-11, atol=1e-13, equal_nan=True)
+    # the kernel interpolates sin and cos of the angle within its table cell while
+    # the angle it reports is interpolated linearly: the two agree to second order
+    # in the cell width (measured up to 4e-5 relative); exact before the
+    # bias-free tables
+    rtol, atol = (1e-11, 1e-13) if "v_c" not in s else (1e-4, 1e-7)
+    assert_allclose(s["e_m"], ref.e_m, rtol=rtol, atol=atol, equal_nan=True)
+    assert_allclose(s["mu_m"], ref.mu_m, rtol=rtol, atol=atol, equal_nan=True)
     if shadowing != "none":
         assert not s["shadowed"].any()
     else:
@@ -70,7 +88,7 @@ def test_smooth_surface_gives_the_smooth_model():
     coeffs = PowerCoefficients(friction=0.2)
     sc = scenario(coefficients=coeffs, speeds_m_s=(0.5,), angles_deg=(40.0,))
     s = sample_point(sc, 0, 20_000)
-    k1, k2, v_c = coeffs.evaluate(s["diameter"])
+    k1, k2, v_c = _kernel_coefficients(s, coeffs)
     th = np.deg2rad(40.0)
     ref = mi.rebound(
         -0.5 * np.sin(th), -0.5 * np.cos(th), k1=k1, k2=k2, v_c=v_c, friction=0.2
