@@ -242,15 +242,18 @@ guide_entry(const sampler_t *s, uint64_t r)
     if (s->kind == 1) { /* n equal cells: floor(r n / 2^64) */
         g = (uint32_t)mulhi64(r, (uint64_t)s->n);
     } else if (s->kind == 2) { /* the refined grid, mirrored in the upper half */
+        /* branch-free: the upper half mirrored (R = ~r), the level from the
+         * leading bit, the outermost cell where R has no bit at or above level
+         * `levels` */
         uint64_t up = r >> 63;
-        uint64_t R = up ? ~r : r; /* < 2^63 */
-        Py_ssize_t L = 0;         /* the outermost cell */
-        if (R >> (63 - s->levels)) {
-            int k = __builtin_clzll(R) - 1; /* level: R in [2^(62-k), 2^(63-k)) */
-            Py_ssize_t j = (Py_ssize_t)(R >> (62 - k - s->cbits)) &
-                           (((Py_ssize_t)1 << s->cbits) - 1);
-            L = 1 + ((Py_ssize_t)(s->levels - 1 - k) << s->cbits) + j;
-        }
+        uint64_t R = r ^ (0 - up); /* < 2^63 */
+        int k = __builtin_clzll(R | 1) - 1; /* R in [2^(62-k), 2^(63-k)) */
+        int deep = (R >> (63 - s->levels)) == 0;
+        k = k < s->levels - 1 ? k : s->levels - 1;
+        Py_ssize_t j = (Py_ssize_t)(R >> (62 - k - s->cbits)) &
+                       (((Py_ssize_t)1 << s->cbits) - 1);
+        Py_ssize_t L = 1 + ((Py_ssize_t)(s->levels - 1 - k) << s->cbits) + j;
+        L = deep ? 0 : L;
         g = (uint32_t)(up ? s->n - 1 - L : L);
     } else {
         g = s->guide[r >> s->gshift];
@@ -263,7 +266,7 @@ guide_entry(const sampler_t *s, uint64_t r)
  * of one cell and need no search (the flag is clear); the others search the
  * guide range [g, next entry], one step branch-free, then by bisection (slots
  * deep in a tail hold many cells). */
-ALWAYS_INLINE const double *
+ALWAYS_INLINE Py_ssize_t
 locate(const sampler_t *s, uint64_t r, uint32_t g, double *f)
 {
     Py_ssize_t i = g & GUIDE_CELL;
@@ -282,9 +285,8 @@ locate(const sampler_t *s, uint64_t r, uint32_t g, double *f)
             i = lo;
         }
     }
-    const double *row = s->rows + i * s->stride;
-    *f = (double)(r - cell_start(s, i)) * row[1];
-    return row;
+    *f = (double)(r - cell_start(s, i)) * s->rows[i * s->stride + 1];
+    return i;
 }
 
 typedef struct {
@@ -324,10 +326,38 @@ fetch(const sampler_t *s, const uint64_t *restrict r, int one, int c,
         for (int k = 0; k < c; k++)
             g[k] = s->guide[r[k] >> s->gshift];
     }
+    if (s->kind == 1) { /* atoms: nothing to interpolate (nor does NumPy) */
+        for (int k = 0; k < c; k++) {
+            const double *row = s->rows + (Py_ssize_t)g[k] * s->stride;
+            out0[k] = row[2];
+            if (!one) {
+                out1[k] = row[4];
+                out2[k] = row[6];
+            }
+        }
+        return;
+    }
+    if (s->kind == 2) { /* the cell is known: no search (a gather loop) */
+        const double *restrict rows = s->rows;
+        const Py_ssize_t stride = s->stride;
+        for (int k = 0; k < c; k++) {
+            const double *row = rows + (Py_ssize_t)g[k] * stride;
+            uint64_t start;
+            memcpy(&start, row, sizeof start);
+            double f = (double)(r[k] - start) * row[1];
+            out0[k] = row[2] + f * row[3];
+            if (!one) {
+                out1[k] = row[4] + f * row[5];
+                out2[k] = row[6] + f * row[7];
+            }
+        }
+        return;
+    }
     for (int k = 0; k < c; k++) {
         double f;
-        const double *row = locate(s, r[k], g[k], &f);
-        g[k] = (uint32_t)((row - s->rows) / s->stride); /* the cell, for pairs */
+        Py_ssize_t i = locate(s, r[k], g[k], &f);
+        const double *row = s->rows + i * s->stride;
+        g[k] = (uint32_t)i; /* the cell, for pairs */
         out0[k] = row[2] + f * row[3];
         if (!one) {
             out1[k] = row[4] + f * row[5];

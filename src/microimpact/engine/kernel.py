@@ -102,6 +102,22 @@ def _draw(plan: Plan, point, rep, block, n, variables):
     return [stream_raw(plan.entropy, point, block, v, n) for v in variables]
 
 
+def _locate(sampler, r):
+    """``(cell, fraction)`` of draws `r`; the fraction is None for a table of atoms
+    (equal cells: nothing to interpolate, and neither kernel does)."""
+    t = sampler.table
+    if t.kind == t.EQUAL:
+        return mulhi64(r, t.size).astype(np.intp), None
+    return t.locate(r)
+
+
+def _col(rows, j, f, k):
+    """Column pair `k` of `rows` at cells `j`, fractions `f` (``lo + f * span``)."""
+    if f is None:
+        return rows[j, k]
+    return rows[j, k] + f * rows[j, k + 1]
+
+
 def _variables(plan: Plan, tables) -> list[int]:
     variables = [VAR_DIAMETER]
     if tables.random:
@@ -138,15 +154,14 @@ def _simulate_block(plan: Plan, point, rep, block, n, store=False):
     if not store and plan.kernel == "compiled":
         return _simulate_compiled(plan, sp, tables, raw, n)
 
-    j_d, f_d = plan.diameters.table.locate(raw[VAR_DIAMETER])
+    j_d, f_d = _locate(plan.diameters, raw[VAR_DIAMETER])
     dr = plan.diameters.rows
-    inv_k1 = dr[j_d, D_IK1] + f_d * dr[j_d, D_IK1 + 1]
-    inv_k2 = dr[j_d, D_IK2] + f_d * dr[j_d, D_IK2 + 1]
-    v_c = dr[j_d, D_VC] + f_d * dr[j_d, D_VC + 1]
+    inv_k1 = _col(dr, j_d, f_d, D_IK1)
+    inv_k2 = _col(dr, j_d, f_d, D_IK2)
+    v_c = _col(dr, j_d, f_d, D_VC)
     st, ct = tables.sin_theta, tables.cos_theta
     if tables.pair_shift:  # rough particle on a discrete surface: an exact pair
         _, j_a, j_b = tables.pair_draws(raw[VAR_ANGLE])
-        f_a = np.zeros(n)
         ar, br = tables.sampler.rows, tables.pair.rows
         s_a, c_a, t_a = ar[j_a, A_SIN], ar[j_a, A_COS], ar[j_a, A_TAN]
         s_b, c_b, t_b = br[j_b, A_SIN], br[j_b, A_COS], br[j_b, A_TAN]
@@ -160,11 +175,11 @@ def _simulate_block(plan: Plan, point, rep, block, n, store=False):
         r_a = raw[VAR_ANGLE]
         if tables.cut:
             r_a = mulhi64(r_a, tables.cut)  # 'reject': reachable facets only
-        j_a, f_a = tables.sampler.table.locate(r_a)
+        j_a, f_a = _locate(tables.sampler, r_a)
         ar = tables.sampler.rows
-        s_phi = ar[j_a, A_SIN] + f_a * ar[j_a, A_SIN + 1]
-        c_phi = ar[j_a, A_COS] + f_a * ar[j_a, A_COS + 1]
-        tan_phi = ar[j_a, A_TAN] + f_a * ar[j_a, A_TAN + 1]
+        s_phi = _col(ar, j_a, f_a, A_SIN)
+        c_phi = _col(ar, j_a, f_a, A_COS)
+        tan_phi = _col(ar, j_a, f_a, A_TAN)
         sin_true = st * c_phi - ct * s_phi  # sin(theta - phi)
         cos_true = ct * c_phi + st * s_phi  # cos(theta - phi)
     else:  # smooth: phi = 0 exactly
@@ -172,9 +187,8 @@ def _simulate_block(plan: Plan, point, rep, block, n, store=False):
 
     speed = sp.speed
     if plan.speeds is not None:
-        j_s, f_s = plan.speeds.table.locate(raw[VAR_SPEED])
-        sr = plan.speeds.rows
-        speed = speed * (sr[j_s, S_FACTOR] + f_s * sr[j_s, S_FACTOR + 1])
+        j_s, f_s = _locate(plan.speeds, raw[VAR_SPEED])
+        speed = speed * _col(plan.speeds.rows, j_s, f_s, S_FACTOR)
     with np.errstate(divide="ignore", invalid="ignore"):
         u = speed * sin_true  # true normal speed |v_n'|
         cot = cos_true / sin_true
@@ -248,20 +262,20 @@ def _simulate_block(plan: Plan, point, rep, block, n, store=False):
             out = full
         out["shadowed"] = shadowed if shadowed is not None else np.zeros(n, bool)
         dv = plan.diameters.values
-        out["diameter"] = dv[j_d, 0] + f_d * dv[j_d, 1]
+        out["diameter"] = _col(dv, j_d, f_d, 0)
         # the coefficients the kernel used: interpolated in the diameter's cell like
         # the diameter itself (equal to the laws at the diameter to second order)
         with np.errstate(divide="ignore"):
-            out["k1"] = 1.0 / (dr[j_d, D_IK1] + f_d * dr[j_d, D_IK1 + 1])
-            out["k2"] = 1.0 / (dr[j_d, D_IK2] + f_d * dr[j_d, D_IK2 + 1])
-        out["v_c"] = dr[j_d, D_VC] + f_d * dr[j_d, D_VC + 1]
+            out["k1"] = 1.0 / _col(dr, j_d, f_d, D_IK1)
+            out["k2"] = 1.0 / _col(dr, j_d, f_d, D_IK2)
+        out["v_c"] = _col(dr, j_d, f_d, D_VC)
         if tables.pair_shift:
             out["roughness_angle"] = (
                 tables.sampler.values[j_a, 0] + tables.pair.values[j_b, 0]
             )
         elif tables.random:
             av = tables.sampler.values
-            out["roughness_angle"] = av[j_a, 0] + f_a * av[j_a, 1]
+            out["roughness_angle"] = _col(av, j_a, f_a, 0)
         else:
             out["roughness_angle"] = np.zeros(n)
         out["speed"] = np.broadcast_to(speed, (n,)).copy()
