@@ -344,3 +344,13 @@ def test_default_interval_comes_from_the_environment(tmp_path, monkeypatch):
     run(scenario(samples=100), checkpoint=ck)
     assert ck.interval == 7.5
     assert os.path.exists(tmp_path / "c.npz")
+
+
+def test_run_closed_before_its_first_merge_resumes_from_nothing(tmp_path):
+    path = tmp_path / "run.npz"
+    gen = iter_blocks(scenario(samples=1000), checkpoint=path)
+    gen.close()  # never started: no file
+    assert not path.exists()
+    fp = {"seed": "1", "samples": "s", "scenario": "x"}
+    ckpt.save(path, fp, {})
+    assert ckpt.load(path, fp) == {}

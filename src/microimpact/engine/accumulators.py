@@ -130,7 +130,7 @@ _EMPTY.setflags(write=False)
 
 def _span(dense) -> tuple[int, np.ndarray]:
     """``(offset, counts)``: the occupied span of a dense histogram (a copy)."""
-    nz = np.flatnonzero(dense)
+    nz = (dense != 0).nonzero()[0]  # faster than flatnonzero on int64
     if nz.size == 0:
         return 0, _EMPTY
     lo, hi = int(nz[0]), int(nz[-1]) + 1
@@ -245,6 +245,13 @@ class PointAccumulator:
     @property
     def mu_span(self) -> tuple[int, np.ndarray]:
         return self._mu_lo, _readonly(self._mu_counts)
+
+    def span_of(self, name: str) -> tuple[int, np.ndarray]:
+        """``(offset, counts)`` of histogram `name` (``"e"`` or ``"mu"``), without
+        a read-only view (for serialisation; do not modify the counts)."""
+        if name == "e":
+            return self._e_lo, self._e_counts
+        return self._mu_lo, self._mu_counts
 
     @property
     def nbytes(self) -> int:
