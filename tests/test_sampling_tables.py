@@ -296,6 +296,18 @@ def test_cells_are_located_exactly():
     assert np.array_equal(j, mulhi64(r, 37).astype(np.intp))
     g = CellTable.from_quantile(stats.norm.ppf, stats.norm.isf)
     assert g.kind == CellTable.DYADIC
+    # the refined grid's arithmetic cells are the cells a search finds, also at
+    # every cell start, next to it and at the powers of two
+    one = np.uint64(1)
+    powers = np.array(
+        [(2**b + d) % 2**64 for b in range(64) for d in (-1, 0, 1)], dtype=np.uint64
+    )
+    with np.errstate(over="ignore"):
+        edges = np.concatenate([g.starts, g.starts - one, g.starts + one, powers])
+    for x in (r, edges, ~edges, r >> np.uint64(40), ~(r >> np.uint64(40))):
+        x = np.asarray(x, dtype=np.uint64)
+        search = np.searchsorted(g.starts, x, side="right") - 1
+        assert np.array_equal(g.cells(x), search)
     j, f = g.locate(r)
     assert np.all((f >= 0) & (f < 1))
     assert np.all((g.starts[j] <= r) & ((j == g.size - 1) | (g.cum[j + 1] > r)))

@@ -450,10 +450,36 @@ class CellTable:
         return cls.from_cells(cum, v, v)
 
     # -- evaluation -----------------------------------------------------------------
+    def cells(self, r) -> np.ndarray:
+        """The cell of each 64-bit draw `r`: ``cum[j] <= r < cum[j+1]``."""
+        r = np.asarray(r, dtype=np.uint64)
+        if self.kind == self.EQUAL:
+            return mulhi64(r, self.size).astype(np.intp)
+        if self.kind == self.DYADIC:
+            return self._dyadic_cells(r)
+        return np.searchsorted(self.starts, r, side="right") - 1
+
+    def _dyadic_cells(self, r) -> np.ndarray:
+        """The refined grid's cell from the draw's leading bit (what the compiled
+        kernel does; the same cells as a search of ``cum``)."""
+        up = (r >> np.uint64(63)).astype(bool)
+        big = np.where(up, ~r, r)  # the upper half mirrored: < 2^63
+        levels, cbits = self.levels, self.cells_log2
+        # the leading bit: from the float exponent, corrected where it rounded up
+        lead = np.frexp(big.astype(float))[1].astype(np.int64) - 1
+        lead = np.maximum(lead, 0)
+        lead -= (big >> lead.astype(np.uint64)) == 0
+        lead = np.maximum(lead, 0)
+        k = np.minimum(62 - lead, levels - 1)  # the level
+        sub = (big >> (62 - k - cbits).astype(np.uint64)) & np.uint64((1 << cbits) - 1)
+        cell = 1 + ((levels - 1 - k) << cbits) + sub.astype(np.int64)
+        cell[(big >> np.uint64(63 - levels)) == 0] = 0  # the outermost cell
+        return np.where(up, self.size - 1 - cell, cell).astype(np.intp)
+
     def locate(self, r) -> tuple[np.ndarray, np.ndarray]:
         """``(cell, fraction)`` of 64-bit uniform integers `r` (what the kernels do)."""
         r = np.asarray(r, dtype=np.uint64)
-        j = np.searchsorted(self.starts, r, side="right") - 1
+        j = self.cells(r)
         f = (r - self.cum[j]).astype(float)
         f *= self.inv_width[j]
         return j, f
