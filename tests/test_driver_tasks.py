@@ -219,7 +219,7 @@ def test_estimate_is_the_right_order_of_magnitude():
     assert actual / 10 < est < actual * 10
 
 
-def test_estimate_accepts_a_preset_name_and_a_precision_target():
+def test_estimate_handles_a_precision_target():
     import microimpact as mi
 
     sc = scenario(precision=mi.scenario.Precision("capture_fraction", 0.01, 200_000))
@@ -232,3 +232,19 @@ def test_iter_blocks_yields_every_group_in_key_order():
     monkey = _grid(speeds_m_s=(0.1, 0.2), angles_deg=(30.0,), samples=3 * BLOCK_SIZE)
     seen = [(br.point, br.block, br.done) for br in iter_blocks(monkey)]
     assert seen == [(0, 2, True), (1, 2, True)]
+
+
+def test_entry_points_take_a_preset_name_or_a_scenario_file(tmp_path):
+    """run, iter_blocks, sample_point, estimate_duration and convergence_study all
+    normalise their scenario (a Scenario, a TOML path or a preset name)."""
+    import microimpact as mi
+    from microimpact.config import preset_path
+
+    name = "sst65-silicon-normal"
+    by_name = run(name, samples=300, seed=1)
+    by_path = run(preset_path(name), samples=300, seed=1)
+    _same(by_name, by_path)
+    assert next(iter_blocks(name, samples=300, seed=1)).total.n == 300
+    assert montecarlo.sample_point(name, 0, 50, seed=1)["e_m"].shape == (50,)
+    assert estimate_duration(name, samples=300) > 0
+    assert mi.convergence_study(name, n_max=100, seed=1).table["n"].iloc[-1] == 100
