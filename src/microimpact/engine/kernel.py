@@ -198,7 +198,7 @@ def _simulate_block(plan: Plan, point, rep, block, n, store=False):
 
     shadowed = None
     n_shadowed = 0
-    if tables.random and plan.shadowing == "none":
+    if tables.random and tables.count_shadowed:
         reach = u > 0.0
         n_shadowed = n - int(np.count_nonzero(reach))
         if n_shadowed:
@@ -386,7 +386,7 @@ def _simulate_compiled(plan, sp, tables, raw, n):
         plan.p,
         plan.q,
         plan.friction,
-        bool(tables.random and plan.shadowing == "none"),
+        bool(tables.random and tables.count_shadowed),
         _HIST,
         e_hist,
         mu_hist,

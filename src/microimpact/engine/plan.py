@@ -187,6 +187,9 @@ class AngleTables:
     pair: Sampler | None = None
     pair_total: int = 0
     pair_shift: int = 0
+    #: Draw from the whole table and count the unreachable facets as shadowed
+    #: (``"none"``, and any point at which no facet can be reached at all).
+    count_shadowed: bool = False
 
     def pair_draws(self, r):
         """``(surface cell, particle atom)`` of angle draws `r` (pair tables)."""
@@ -354,20 +357,18 @@ def _pair_tables(pair: PairSampler, st, ct, angle_deg, shadowing) -> AngleTables
         )[0]
         counts = np.where((counts < n_b) & (s_hi > 0), counts + 1, counts)
     shadowed = 1.0 - int(counts.sum()) / (n_a * n_b)
-    if shadowing == "none":  # every pair; the unreachable ones are counted
+    count = shadowing == "none" or not counts.any()  # nothing reachable: count
+    if count:  # every pair; the unreachable ones are counted as shadowed
         counts = np.full(n_a, n_b, dtype=np.int64)
     total = int(counts.sum())
-    if total == 0:
-        raise ValueError(
-            f"every roughness angle shadows the facet at the apparent angle "
-            f"{angle_deg} deg: no facet can be reached."
-        )
     shift = 64 - (total - 1).bit_length() if total > 1 else 63
     starts = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.uint64)
     cum = starts << np.uint64(shift)
     sub = CellTable.from_cells(cum, a.table.left, a.table.right)
     cells = np.flatnonzero(nonempty_cells(cum))
-    return AngleTables(a.subset(sub, cells), 0, st, ct, shadowed, True, b, total, shift)
+    return AngleTables(
+        a.subset(sub, cells), 0, st, ct, shadowed, True, b, total, shift, count
+    )
 
 
 def _angle_tables(sampler, angle_deg: float, shadowing: str) -> AngleTables:
@@ -395,14 +396,11 @@ def _angle_tables(sampler, angle_deg: float, shadowing: str) -> AngleTables:
             start += min(width, int(f_star * width))
         cut = start
         shadowed = 1.0 - cut / 2.0**64
-    if shadowing == "none":
-        return AngleTables(sampler, 0, st, ct, shadowed, True)
+    if shadowing == "none" or (cut == 0 and blocked.size):
+        # "none"; or no facet at all can be reached at this angle, which every
+        # option reports the same way: each sample is shadowed, none impacts
+        return AngleTables(sampler, 0, st, ct, shadowed, True, count_shadowed=True)
     if shadowing == "reject":
-        if cut == 0 and blocked.size:  # cut at 0 would be no scaling
-            raise ValueError(
-                f"every roughness angle shadows the facet at the apparent angle "
-                f"{angle_deg} deg: no facet can be reached."
-            )
         return AngleTables(sampler, cut, st, ct, shadowed, True)
     # "weighted": each cell's mass times the mean of sin(theta - phi)_+ over it
     # (linear in the fraction, so the integral is exact for the table)
@@ -417,11 +415,8 @@ def _angle_tables(sampler, angle_deg: float, shadowing: str) -> AngleTables:
         )
         f_end = np.where((a > 0) & (b < 0), a / (a - b), 1.0)
     mass = widths * pos
-    if not mass.sum() > 0:
-        raise ValueError(
-            f"every roughness angle shadows the facet at the apparent angle "
-            f"{angle_deg} deg: no facet can be reached."
-        )
+    if not mass.sum() > 0:  # round-off: reachable by a hair, with zero weight
+        return AngleTables(sampler, 0, st, ct, 1.0, True, count_shadowed=True)
     keep = np.flatnonzero(mass > 0)
     last = int(keep[-1]) + 1
     first = int(keep[0])

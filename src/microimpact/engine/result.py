@@ -224,7 +224,8 @@ class SimulationResult:
             columns = point_statistics(stacked, confidence)
         if plan.shadowing != "none":
             # the facets removed ('reject') or re-weighted ('weighted') were never
-            # sampled: report their exact probability from the table
+            # sampled: report their exact probability from the table (1 where no
+            # facet can be reached: then every sample was counted as shadowed)
             columns["shadowed_fraction"] = np.array(
                 [
                     plan.angle_tables(sp.surface, sp.angle_deg).shadowed_mass
