@@ -351,6 +351,21 @@ def test_accumulator_merge_adds_the_dense_histograms(rng, spans):
     assert counts.size <= E_BINS and not counts.flags.writeable
 
 
+def test_accumulators_hold_only_the_occupied_span():
+    """Memory proportional to what is kept: a point's histograms are stored from
+    their first to their last occupied bin, not as 3,202 dense int64 bins."""
+    from microimpact.engine.accumulators import E_BINS, MU_BINS
+
+    sc = scenario(surfaces=(rough(5.0),), angles_deg=(60.0,), speeds_m_s=(0.5,))
+    acc = run(sc, samples=300).accumulators[0]
+    for name in ("e", "mu"):
+        dense = getattr(acc, f"{name}_hist")
+        nz = np.flatnonzero(dense)
+        lo, counts = getattr(acc, f"{name}_span")
+        assert lo == nz[0] and lo + counts.size == nz[-1] + 1
+    assert acc.nbytes < (E_BINS + MU_BINS) * 8 / 10
+
+
 def test_bad_coefficients_are_named():
     sc = scenario(coefficients=PowerCoefficients(k1=-1.0))
     with pytest.raises(ScenarioError, match=r"coefficients\.k1"):

@@ -301,10 +301,8 @@ class PointAccumulator:
             np.array_equal(self.counts_array(), other.counts_array())
             and self.e == other.e
             and self.mu == other.mu
-            and self._e_lo == other._e_lo
-            and np.array_equal(self._e_counts, other._e_counts)
-            and self._mu_lo == other._mu_lo
-            and np.array_equal(self._mu_counts, other._mu_counts)
+            and np.array_equal(self.e_hist, other.e_hist)
+            and np.array_equal(self.mu_hist, other.mu_hist)
         )
 
     __hash__ = None
