@@ -248,3 +248,19 @@ def test_entry_points_take_a_preset_name_or_a_scenario_file(tmp_path):
     assert montecarlo.sample_point(name, 0, 50, seed=1)["e_m"].shape == (50,)
     assert estimate_duration(name, samples=300) > 0
     assert mi.convergence_study(name, n_max=100, seed=1).table["n"].iloc[-1] == 100
+
+
+def test_a_precision_wave_gives_every_worker_a_task():
+    """Waves of a precision target are short: their blocks are spread over tasks
+    (transport only: the bits do not depend on it)."""
+    import microimpact as mi
+    from microimpact.engine.montecarlo import _precision_wave, _Streams, build_plan
+
+    sc = scenario(precision=mi.scenario.Precision("capture_fraction", 0.001, 10**7))
+    plan = build_plan(sc)
+    streams = _Streams(plan, None, sc.precision, sc.confidence)
+    wave = _precision_wave(streams, 4, 2)
+    assert [[g[0][2] for g in t] for t in wave] == [[0], [1], [2], [3]]
+    many = _Streams(build_plan(_grid(precision=sc.precision)), None, sc.precision, 0.95)
+    wave = _precision_wave(many, 4, 2)
+    assert len(wave) == 8 and sum(len(t) for t in wave) == 36 * 4

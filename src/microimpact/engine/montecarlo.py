@@ -230,14 +230,16 @@ def _caps(plan, n_target, precision) -> dict:
 
 
 # ------------------------------------------------------------------- scheduling
-def _pack(groups) -> Iterator[tuple]:
+def _pack(groups, max_groups=None) -> Iterator[tuple]:
     """Consecutive `groups` packed into tasks of up to :data:`TASK_IMPACTS` impacts
-    or :data:`TASK_GROUPS` groups (a larger group is a task alone)."""
+    or `max_groups` (default :data:`TASK_GROUPS`) groups; a larger group is a task
+    alone. Packing is transport only: it changes no bit."""
+    max_groups = TASK_GROUPS if max_groups is None else min(max_groups, TASK_GROUPS)
     task, impacts = [], 0
     for group in groups:
         task.append(group)
         impacts += sum(spec[3] for spec in group)
-        if impacts >= TASK_IMPACTS or len(task) >= TASK_GROUPS:
+        if impacts >= TASK_IMPACTS or len(task) >= max_groups:
             yield tuple(task)
             task, impacts = [], 0
     if task:
@@ -265,15 +267,16 @@ def _fixed_tasks(streams: _Streams) -> Iterator[tuple]:
     return _pack(groups())
 
 
-def _precision_wave(streams: _Streams, per_key: int) -> list[tuple]:
+def _precision_wave(streams: _Streams, per_key: int, workers: int) -> list[tuple]:
     """The next `per_key` blocks of every unfinished stream, one block per group
-    (convergence is decided block by block), packed into tasks."""
+    (convergence is decided block by block), packed into at least ``4 workers``
+    tasks when there are enough blocks (a wave is short: every worker gets some)."""
     groups = []
     for key in streams.active():
         st = streams.by_key[key]
         stop = min(st.next_block + per_key, streams.n_blocks(st))
         groups.extend((spec,) for spec in streams.specs(key, st.next_block, stop))
-    return list(_pack(groups))
+    return list(_pack(groups, max(1, len(groups) // (4 * workers))))
 
 
 class _Progress:
@@ -404,7 +407,7 @@ class _Job:
             else:
                 per_key = max(1, runner.workers * 2)
                 while streams.active():
-                    wave = _precision_wave(streams, per_key)
+                    wave = _precision_wave(streams, per_key, runner.workers)
                     results = runner.map(wave)
                     done = dict(zip(_groups(wave), _groups(results), strict=True))
                     yield from self._merge(
