@@ -159,10 +159,11 @@ def build_dataset(grid, columns, stacked, *, attrs, inputs=None, smooth=None):
             grid.reshape(values),
             {"units": units, "long_name": long_name},
         )
-    for nm, h, edges in (
-        ("e", stacked.e_hist, E_EDGES),
-        ("mu", stacked.mu_hist, MU_EDGES),
+    for nm, spans, edges in (
+        ("e", stacked.e_spans, E_EDGES),
+        ("mu", stacked.mu_spans, MU_EDGES),
     ):
+        h = spans.dense()  # int32 where every count fits (memory: points x bins)
         data_vars[f"{nm}_hist"] = (
             (*dims, f"{nm}_bin"),
             grid.reshape(h[:, 1:-1]),

@@ -27,8 +27,70 @@ from .statistics import wilson_interval, z_value
 
 #: Histogram quantiles reported per point (``e_p05`` ...).
 QUANTILES = (0.05, 0.5, 0.95)
-#: Points per slice when histogram quantiles are computed (bounds the temporaries).
-_SLICE = 2048
+
+
+@dataclass(frozen=True)
+class Spans:
+    """The histograms of ``P`` points as occupied spans, stored flat.
+
+    Row ``i`` is bins ``offset[i] .. offset[i] + length[i] - 1`` of a dense
+    histogram of ``size`` bins (under/overflow at the ends); its counts are
+    ``counts[start[i]:start[i] + length[i]]``.
+    """
+
+    offset: np.ndarray  # (P,) int64
+    length: np.ndarray  # (P,) int64
+    counts: np.ndarray  # (sum(length),) int64
+    size: int
+
+    @property
+    def start(self) -> np.ndarray:
+        return np.concatenate([[0], np.cumsum(self.length)[:-1]]).astype(np.int64)
+
+    @property
+    def rows(self) -> int:
+        return self.offset.size
+
+    def dense(self, dtype=None) -> np.ndarray:
+        """The ``(P, size)`` dense histograms (int32 where every count fits)."""
+        if dtype is None:
+            big = self.counts.size and int(self.counts.max()) >= 2**31
+            dtype = np.int64 if big else np.int32
+        out = np.zeros((self.rows, self.size), dtype=dtype)
+        for i, (o, st, n) in enumerate(
+            zip(
+                self.offset.tolist(),
+                self.start.tolist(),
+                self.length.tolist(),
+                strict=True,
+            )
+        ):
+            out[i, o : o + n] = self.counts[st : st + n]
+        return out
+
+    @classmethod
+    def of(cls, spans, size) -> Spans:
+        """From a sequence of ``(offset, counts)``."""
+        spans = list(spans)
+        offset = np.array([o for o, _ in spans], dtype=np.int64)
+        length = np.array([c.size for _, c in spans], dtype=np.int64)
+        flat = (
+            np.concatenate([c for _, c in spans]).astype(np.int64, copy=False)
+            if spans
+            else np.zeros(0, dtype=np.int64)
+        )
+        return cls(offset, length, flat, size)
+
+
+def _span_of(acc, name):
+    span = getattr(acc, "span_of", None)
+    if span is not None:
+        return span(name)
+    dense = np.asarray(getattr(acc, f"{name}_hist"))
+    nz = np.flatnonzero(dense)
+    if nz.size == 0:
+        return 0, dense[:0]
+    return int(nz[0]), dense[nz[0] : nz[-1] + 1]
 
 
 @dataclass(frozen=True)
@@ -36,32 +98,43 @@ class Stacked:
     """The accumulators of ``P`` points as arrays (leading axis: point).
 
     ``counts`` columns: n, shadowed, captured, reimpact, rolling; ``e`` and ``mu``
-    columns: n, mean, M2, M3 of the rebounds' e_m and mu_m.
+    columns: n, mean, M2, M3 of the rebounds' e_m and mu_m; the histograms as
+    :class:`Spans` (memory proportional to the occupied bins).
     """
 
     counts: np.ndarray  # (P, 5) int64
     e: np.ndarray  # (P, 4) float64
     mu: np.ndarray  # (P, 4) float64
-    e_hist: np.ndarray  # (P, len(E_EDGES) + 1) int64, under/overflow at the ends
-    mu_hist: np.ndarray  # (P, len(MU_EDGES) + 1) int64
+    e_spans: Spans
+    mu_spans: Spans
 
     @classmethod
     def of(cls, accumulators) -> Stacked:
         """Stack a sequence of :class:`~.accumulators.PointAccumulator`."""
         accs = list(accumulators)
-        p = len(accs)
-        counts = np.empty((p, 5), dtype=np.int64)
-        e = np.empty((p, 4))
-        mu = np.empty((p, 4))
-        e_hist = np.empty((p, E_EDGES.size + 1), dtype=np.int64)
-        mu_hist = np.empty((p, MU_EDGES.size + 1), dtype=np.int64)
-        for i, a in enumerate(accs):
-            counts[i] = (a.n, a.shadowed, a.captured, a.reimpact, a.rolling)
-            e[i] = (a.e.n, a.e.mean, a.e.m2, a.e.m3)
-            mu[i] = (a.mu.n, a.mu.mean, a.mu.m2, a.mu.m3)
-            e_hist[i] = a.e_hist
-            mu_hist[i] = a.mu_hist
-        return cls(counts, e, mu, e_hist, mu_hist)
+        counts = np.array(
+            [(a.n, a.shadowed, a.captured, a.reimpact, a.rolling) for a in accs],
+            dtype=np.int64,
+        ).reshape(-1, 5)
+        e = np.array(
+            [(a.e.n, a.e.mean, a.e.m2, a.e.m3) for a in accs], dtype=float
+        ).reshape(-1, 4)
+        mu = np.array(
+            [(a.mu.n, a.mu.mean, a.mu.m2, a.mu.m3) for a in accs], dtype=float
+        ).reshape(-1, 4)
+        e_spans = Spans.of((_span_of(a, "e") for a in accs), E_EDGES.size + 1)
+        mu_spans = Spans.of((_span_of(a, "mu") for a in accs), MU_EDGES.size + 1)
+        return cls(counts, e, mu, e_spans, mu_spans)
+
+    @property
+    def e_hist(self) -> np.ndarray:
+        """Dense e_m histograms ``(P, len(E_EDGES) + 1)``."""
+        return self.e_spans.dense(np.int64)
+
+    @property
+    def mu_hist(self) -> np.ndarray:
+        """Dense mu_m histograms ``(P, len(MU_EDGES) + 1)``."""
+        return self.mu_spans.dense(np.int64)
 
 
 def _merge_zero(captured, e):
@@ -112,33 +185,61 @@ def _skewness(m):
 def histogram_quantiles(hist, edges, q=QUANTILES) -> np.ndarray:
     """Quantiles of each row of `hist` (with under/overflow bins), linear within
     a bin; ``-inf``/``+inf`` when they fall in the under/overflow bin, NaN for an
-    empty row. Returns shape ``(P, len(q))``."""
-    hist = np.asarray(hist)
+    empty row. Returns shape ``(P, len(q))``.
+
+    `hist` is a dense ``(P, bins)`` array or :class:`Spans`; the work is
+    proportional to the occupied bins. Each row's cumulative fraction is the
+    integer cumulative count over the total, as in the per-point definition.
+    """
+    spans = (
+        hist
+        if isinstance(hist, Spans)
+        else Spans.of(
+            (_span_of_dense(row) for row in np.asarray(hist)), np.asarray(hist).shape[1]
+        )
+    )
     q = np.asarray(q, dtype=float)
-    out = np.full((hist.shape[0], q.size), np.nan)
-    nbins = hist.shape[1]
-    for s in range(0, hist.shape[0], _SLICE):
-        h = hist[s : s + _SLICE]
-        total = h.sum(axis=1)
-        ok = total > 0
-        if not ok.any():
-            continue
-        cum = np.cumsum(h[ok], axis=1) / total[ok, None]
-        rows = np.flatnonzero(ok) + s
-        for k, qk in enumerate(q):
-            i = (cum < qk).sum(axis=1)  # searchsorted(cum, qk, side="left")
-            inner = (i > 0) & (i < nbins - 1)
-            val = np.where(i == 0, -np.inf, np.inf)
-            ii = i[inner]
-            r = np.flatnonzero(inner)
-            before = cum[r, ii - 1]
-            after = cum[r, ii]
-            with np.errstate(invalid="ignore", divide="ignore"):
-                frac = np.where(after > before, (qk - before) / (after - before), 0.5)
-            lo, hi = edges[ii - 1], edges[ii]
-            val[inner] = lo + frac * (hi - lo)
-            out[rows, k] = val
+    out = np.full((spans.rows, q.size), np.nan)
+    start, length, counts = spans.start, spans.length, spans.counts
+    ok = length > 0
+    if not ok.any():
+        return out
+    row = np.repeat(np.arange(spans.rows), length)
+    csum = np.cumsum(counts)
+    st = start[ok]
+    base = np.zeros(spans.rows, dtype=np.int64)  # the count before each row
+    base[ok] = csum[st] - counts[st]
+    total = np.zeros(spans.rows, dtype=np.int64)
+    total[ok] = csum[st + length[ok] - 1] - base[ok]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cum = (csum - base[row]) / total[row]  # per-row fraction <= each bin's top
+    rows = np.flatnonzero(ok)
+    off = spans.offset[ok]
+    for k, qk in enumerate(q):
+        below = np.bincount(row[cum < qk], minlength=spans.rows)
+        i = off + below[ok]  # searchsorted(dense cum, qk, side="left")
+        j = i - off  # the same position inside the span
+        inner = (i > 0) & (i < spans.size - 1)
+        val = np.where(i == 0, -np.inf, np.inf)
+        r = np.flatnonzero(inner)
+        ji = j[r]
+        after = cum[st[r] + ji]
+        prev_in_span = ji > 0
+        before = np.where(prev_in_span, cum[st[r] + np.maximum(ji - 1, 0)], 0.0)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            frac = np.where(after > before, (qk - before) / (after - before), 0.5)
+        ii = i[r]
+        lo, hi = edges[ii - 1], edges[ii]
+        val[r] = lo + frac * (hi - lo)
+        out[rows, k] = val
     return out
+
+
+def _span_of_dense(row):
+    nz = np.flatnonzero(row)
+    if nz.size == 0:
+        return 0, row[:0]
+    return int(nz[0]), row[nz[0] : nz[-1] + 1]
 
 
 def point_statistics(stacked: Stacked, confidence: float) -> dict[str, np.ndarray]:
@@ -190,8 +291,8 @@ def point_statistics(stacked: Stacked, confidence: float) -> dict[str, np.ndarra
         "rolling_fraction": rolling_fraction,
     }
     for name, hist, edges in (
-        ("e", stacked.e_hist, E_EDGES),
-        ("mu", stacked.mu_hist, MU_EDGES),
+        ("e", stacked.e_spans, E_EDGES),
+        ("mu", stacked.mu_spans, MU_EDGES),
     ):
         qs = histogram_quantiles(hist, edges)
         for k, qv in enumerate(QUANTILES):
