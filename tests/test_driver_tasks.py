@@ -263,4 +263,4 @@ def test_a_precision_wave_gives_every_worker_a_task():
     assert [[g[0][2] for g in t] for t in wave] == [[0], [1], [2], [3]]
     many = _Streams(build_plan(_grid(precision=sc.precision)), None, sc.precision, 0.95)
     wave = _precision_wave(many, 4, 2)
-    assert len(wave) == 8 and sum(len(t) for t in wave) == 36 * 4
+    assert len(wave) >= 8 and sum(len(t) for t in wave) == 36 * 4
