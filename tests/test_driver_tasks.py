@@ -264,3 +264,16 @@ def test_a_precision_wave_gives_every_worker_a_task():
     many = _Streams(build_plan(_grid(precision=sc.precision)), None, sc.precision, 0.95)
     wave = _precision_wave(many, 4, 2)
     assert len(wave) >= 8 and sum(len(t) for t in wave) == 36 * 4
+
+
+def test_any_executor_gives_the_same_bits():
+    from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
+
+    sc = _grid(speeds_m_s=(0.1, 0.4, 0.9), samples=300_000)
+    ref = run(sc)
+    with ThreadPoolExecutor(2) as ex:
+        res = run(sc, executor=ex)
+    _same(ref, res)
+    assert res.provenance["backend"] == "executor"
+    with ProcessPoolExecutor(2) as ex:
+        _same(ref, run(sc, executor=ex))
