@@ -324,20 +324,6 @@ def test_every_summary_variable_is_documented():
         assert f"`{name}" in text, name
 
 
-def test_no_plotting_on_import_of_the_core():
-    code = (
-        "import sys, microimpact, microimpact.config, microimpact.physics.impact, "
-        "microimpact.population.distributions, microimpact.surface.angles, "
-        "microimpact.scenario, microimpact.grid, microimpact.engine.montecarlo; "
-        "microimpact.Scenario.from_preset('sst65-silicon-normal'); "
-        "print(any(m.startswith('matplotlib') for m in sys.modules))"
-    )
-    out = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, check=True
-    )
-    assert out.stdout.strip() == "False"
-
-
 def test_public_api_is_curated():
     import inspect
     import typing

@@ -98,3 +98,20 @@ def check_scalar(
         finite = "" if allow_inf else " (finite)"
         raise ValueError(f"`{name}` must be a number{bound}{finite}; got {shown!r}.")
     return v
+
+
+def check_subset(values, name: str, choices) -> tuple:
+    """`values` (one value or a sequence) as a non-empty tuple of `choices`, or
+    ``ValueError`` naming `name`, the bad value and the allowed set."""
+    if isinstance(values, str):
+        values = (values,)
+    try:
+        values = tuple(values)
+    except TypeError:
+        values = (values,)
+    bad = [v for v in values if v not in choices]
+    if bad or not values:
+        raise ValueError(
+            f"`{name}` must be a non-empty subset of {tuple(choices)}; got {values!r}."
+        )
+    return values

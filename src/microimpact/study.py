@@ -228,15 +228,9 @@ class Study:
 
 
 def _parts_iv(parts):
-    if isinstance(parts, str):
-        parts = (parts,)
-    parts = tuple(parts)
-    bad = [p for p in parts if p not in PARTS]
-    if bad or not parts:
-        raise ValueError(
-            f"`parts` must be a non-empty subset of {PARTS}; got {parts!r}."
-        )
-    return parts
+    from ._validation import check_subset
+
+    return check_subset(parts, "parts", PARTS)
 
 
 def _use_agg():

@@ -683,16 +683,9 @@ def save_figure(fig, path_without_ext, formats=("png", "pdf")):
     list of pathlib.Path
     """
     from .._files import atomic_write
+    from .._validation import check_subset
 
-    if isinstance(formats, str):
-        formats = (formats,)
-    formats = tuple(formats)
-    bad = [f for f in formats if f not in FIGURE_FORMATS]
-    if bad or not formats:
-        raise ValueError(
-            f"`formats` must be a non-empty subset of {FIGURE_FORMATS}; "
-            f"got {formats!r}."
-        )
+    formats = check_subset(formats, "formats", FIGURE_FORMATS)
     base = Path(path_without_ext)
     meta = {"png": {}, "pdf": {"CreationDate": None}, "svg": {"Date": None}}
     out = []
