@@ -243,6 +243,8 @@ class Checkpoint:
         The warning issued for a rejected file.
     stale_path : Path or None
         Where the rejected file was moved (``<path>.stale``).
+    min_interval : float
+        The least interval between writes of the current run [s].
     writes, bytes_written, write_seconds : int, int, float
         Number of writes, size of the last file [bytes], total time writing [s].
     """
@@ -262,6 +264,7 @@ class Checkpoint:
         self.writes = 0
         self.bytes_written = 0
         self.write_seconds = 0.0
+        self.min_interval = self.interval
         self._last_write = None  # monotonic time of the last write
         self._last_cost = 0.0
 
@@ -280,8 +283,7 @@ class Checkpoint:
         """Start a run: remove stale temporary files, load the file if it belongs to
         this run (else warn and move it aside) and return the restored state."""
         self._reset()
-        if self.interval is None:
-            self.interval = interval
+        self.min_interval = interval if self.interval is None else self.interval
         self._fingerprint = fingerprint
         self._remove_temporaries()
         try:
@@ -302,7 +304,7 @@ class Checkpoint:
     def due(self) -> bool:
         """True when the next write is due: at least `interval` seconds and
         ``last write time / WRITE_FRACTION`` after the last write."""
-        wait = max(self.interval, self._last_cost / WRITE_FRACTION)
+        wait = max(self.min_interval, self._last_cost / WRITE_FRACTION)
         return time.monotonic() - self._last_write >= wait
 
     def write(self, state: dict) -> None:

@@ -386,6 +386,13 @@ class _Job:
         if not streams.active():
             return  # everything was restored from the checkpoint: no workers needed
         fixed = self.precision is None
+        runner = make_runner(
+            self.plan,
+            workers=self.workers,
+            backend=self.backend,
+            executor=self.executor,
+            address=self.address,
+        )
         bar = _Progress(
             self.progress,
             total=sum(st.max_samples for st in streams.by_key.values())
@@ -393,13 +400,6 @@ class _Job:
             else None,
             desc=self.scenario.name,
             initial=streams.samples_done(),
-        )
-        runner = make_runner(
-            self.plan,
-            workers=self.workers,
-            backend=self.backend,
-            executor=self.executor,
-            address=self.address,
         )
         try:
             if fixed:
@@ -418,10 +418,12 @@ class _Job:
         finally:
             # normal end, an exception, Ctrl-C or the caller closing the generator:
             # keep everything merged so far (the state is consistent between yields)
-            if ck is not None:
-                ck.write(streams.state())
-            runner.close()
-            bar.close()
+            try:
+                if ck is not None:
+                    ck.write(streams.state())
+            finally:
+                runner.close()
+                bar.close()
         if not fixed:
             self._warn_unconverged()
 
