@@ -31,6 +31,18 @@ pytestmark = pytest.mark.skipif(
 )
 
 
+@pytest.fixture(params=[True, False], ids=["simd", "scalar"])
+def simd(request):
+    """Run with the AVX-512 lookups of the compiled kernel, then with its scalar
+    ones (the same bits; the first is skipped on a CPU without AVX-512)."""
+    ck = kernel._ckernel()
+    if not ck.simd(True) and request.param:
+        pytest.skip("no AVX-512 lookups on this CPU")
+    ck.simd(request.param)
+    yield request.param
+    ck.simd(True)
+
+
 def _both(plan, point, monkeypatch=None, block=3, n=30_000):
     fused = kernel.simulate_block(plan, point, 0, block, n)
     plain = kernel.simulate_block(
@@ -41,7 +53,7 @@ def _both(plan, point, monkeypatch=None, block=3, n=30_000):
 
 @pytest.mark.parametrize("shadowing", ["reject", "none", "weighted"])
 @pytest.mark.parametrize("friction", [0.15, np.inf])
-def test_bit_identical_for_p_q_one(shadowing, friction, monkeypatch):
+def test_bit_identical_for_p_q_one(shadowing, friction, monkeypatch, simd):
     sc = scenario(
         coefficients=PowerCoefficients(friction=friction),
         surfaces=(rough(15.0), SurfaceVariant("smooth")),
@@ -71,7 +83,7 @@ def test_general_exponents_agree_to_round_off(monkeypatch):
     assert np.abs(a["e_hist"] - b["e_hist"]).sum() <= 2
 
 
-def test_bit_identical_for_every_kind_of_table():
+def test_bit_identical_for_every_kind_of_table(simd):
     # discrete (equal cells), histogram (guide search), the refined grid, discrete
     # angles with every shadowing, continuous angles 'weighted' (a guide search)
     rng = np.random.default_rng(3)
@@ -97,7 +109,7 @@ def test_bit_identical_for_every_kind_of_table():
 
 
 @pytest.mark.parametrize("n", [0, 1, 255, 256, 257, 1000])
-def test_bit_identical_at_chunk_edges(n, monkeypatch):
+def test_bit_identical_at_chunk_edges(n, monkeypatch, simd):
     # a block shorter than, equal to and just past one inner chunk (256 impacts)
     sc = scenario(surfaces=(rough(15.0),), speeds_m_s=(0.3,), angles_deg=(30.0,))
     a, b = _both(build_plan(sc), 0, monkeypatch, block=0, n=n)
@@ -105,7 +117,7 @@ def test_bit_identical_at_chunk_edges(n, monkeypatch):
         assert_array_equal(a[key], b[key], err_msg=key)
 
 
-def test_qmc_bit_identical(monkeypatch):
+def test_qmc_bit_identical(monkeypatch, simd):
     # QMC indices arrive unshifted (shift 0), so the kernel checks their range
     sc = scenario(
         surfaces=(rough(15.0),), speeds_m_s=(0.3,), angles_deg=(30.0,), sampling="qmc"
@@ -182,7 +194,7 @@ def test_spill_constant_matches():
 
 
 def _bad_kind(kind):
-    rows, stride, guide, shift, _, levels, cbits = _sampler([1.0, 2.0])
+    rows, stride, guide, shift, _, levels, cbits, _ = _sampler([1.0, 2.0])
     return (rows, stride, guide, shift, kind, levels, cbits)
 
 
@@ -203,6 +215,15 @@ def _bad_kind(kind):
 def test_direct_call_rejects_bad_buffers(over, error):
     with pytest.raises(error):
         kernel._ckernel().block(*_block_args(**over))
+
+
+def test_constant_columns_are_read_once():
+    # k1 and k2 constant (PowerCoefficients), v_c not: the compiled kernel is told
+    # which columns it may read once instead of per impact
+    plan = build_plan(scenario(surfaces=(rough(15.0),)))
+    assert kernel.constant_columns(plan.diameters) == 0b011
+    sp = plan.points[0]
+    assert kernel.constant_columns(plan.angle_tables(sp.surface, 90.0).sampler) == 0
 
 
 def test_samplers_check_their_rows():
@@ -275,7 +296,7 @@ def _build_for(isa, tmp_path):
 
 
 @pytest.mark.parametrize("p", [1.0, 1.3])
-def test_instruction_set_clones_give_the_same_bits(p, tmp_path, monkeypatch):
+def test_instruction_set_clones_give_the_same_bits(p, tmp_path, monkeypatch, simd):
     # the installed module picks an AVX-512, AVX2 or baseline clone at load time;
     # each, built alone, must give the installed module's results bit for bit
     # (which the tests above compare with the NumPy kernel)
@@ -304,7 +325,7 @@ def test_instruction_set_clones_give_the_same_bits(p, tmp_path, monkeypatch):
 
 
 @pytest.mark.parametrize("shadowing", ["reject", "none", "weighted"])
-def test_bit_identical_with_a_rough_particle(shadowing):
+def test_bit_identical_with_a_rough_particle(shadowing, simd):
     # both discrete: exact pairs ('reject', 'none'); 'weighted': the convolution
     rng = np.random.default_rng(4)
     sc = scenario(

@@ -205,6 +205,8 @@ typedef struct {
     int gshift;
     int kind;        /* 0 general (guide), 1 equal cells, 2 dyadic grid */
     int levels, cbits; /* dyadic: levels per half, log2 cells per level */
+    int constant;      /* bit q: interpolated column q is the same in every cell */
+    double cval[3];    /* its value (what the interpolation gives in any cell) */
 } sampler_t;
 
 #define GUIDE_SEARCH 0x80000000u /* _tables.GUIDE_SEARCH */
@@ -366,6 +368,142 @@ fetch(const sampler_t *s, const uint64_t *restrict r, int one, int c,
     }
 }
 
+
+/* ------------------------------------------------ AVX-512 lookups (same bits) */
+/* The arithmetic kinds (refined grid, equal atoms) 8 draws at a time: the cell
+ * from vplzcntq and shifts (or an exact 64-bit multiply-high from 32-bit
+ * products), the row's quantities by gathers, the interpolation by the same IEEE
+ * operations as fetch() (u64 -> double conversion rounded to nearest, then
+ * multiply, then add: no fused multiply-add), so the bits are those of the
+ * scalar loops. Only compiled where GCC can target AVX-512 and only called where
+ * the CPU has AVX-512F/DQ/CD (have_avx512). */
+#if defined(__GNUC__) && defined(__x86_64__) && !defined(MICROIMPACT_NO_AVX512)
+#define HAVE_AVX512_PATH 1
+#include <immintrin.h>
+#define AVX512_FN \
+    static __attribute__((target("avx512f,avx512dq,avx512cd,avx512vl"), noinline))
+
+static int have_avx512 = 0;
+
+/* floor(a * b / 2^64) per lane, exactly (the 32-bit halves of _tables.mulhi64) */
+static inline __attribute__((target("avx512f,avx512dq,avx512cd,avx512vl"), always_inline))
+__m512i
+mulhi64_x8(__m512i a, uint64_t b)
+{
+    const __m512i m = _mm512_set1_epi64(0xFFFFFFFF);
+    const __m512i b_lo = _mm512_set1_epi64((long long)(b & 0xFFFFFFFFu));
+    const __m512i b_hi = _mm512_set1_epi64((long long)(b >> 32));
+    __m512i a_hi = _mm512_srli_epi64(a, 32);
+    __m512i ll = _mm512_mul_epu32(a, b_lo);
+    __m512i hl = _mm512_mul_epu32(a_hi, b_lo);
+    __m512i lh = _mm512_mul_epu32(a, b_hi);
+    __m512i hh = _mm512_mul_epu32(a_hi, b_hi);
+    __m512i cross = _mm512_add_epi64(
+        _mm512_add_epi64(_mm512_srli_epi64(ll, 32), _mm512_and_si512(hl, m)), lh);
+    return _mm512_add_epi64(
+        _mm512_add_epi64(_mm512_srli_epi64(hl, 32), _mm512_srli_epi64(cross, 32)), hh);
+}
+
+/* fetch() for kinds 1 and 2 (and the "reject" scaling r -> mulhi64(r, cut) when
+ * cut > 0); columns flagged in s->constant are written as their constant. */
+AVX512_FN void
+fetch_avx512(const sampler_t *s, const uint64_t *restrict r, int one, int c,
+             uint64_t cut, double *restrict out0, double *restrict out1,
+             double *restrict out2)
+{
+    const int ncol = one ? 1 : 3;
+    double *outs[3] = {out0, out1, out2};
+    const double *rows = s->rows;
+    const __m512i stride = _mm512_set1_epi64(s->stride);
+    const int kind = s->kind;
+    const __m512i one_i = _mm512_set1_epi64(1);
+    const __m512i lv1 = _mm512_set1_epi64(s->levels - 1);
+    const __m512i last = _mm512_set1_epi64(s->n - 1);
+    const __m512i c62 = _mm512_set1_epi64(62 - s->cbits);
+    const __m512i cmask = _mm512_set1_epi64(((int64_t)1 << s->cbits) - 1);
+    const __m128i cb = _mm_cvtsi32_si128(s->cbits);
+    const __m128i deep_sh = _mm_cvtsi32_si128(63 - s->levels);
+    const __m512i zero = _mm512_setzero_si512();
+    for (int k = 0; k < c; k += 8) {
+        __mmask8 lane = c - k >= 8 ? 0xFF : (__mmask8)((1u << (c - k)) - 1);
+        __m512i rv = _mm512_maskz_loadu_epi64(lane, r + k);
+        if (cut)
+            rv = mulhi64_x8(rv, cut);
+        __m512i idx;
+        if (kind == 1) {
+            idx = mulhi64_x8(rv, (uint64_t)s->n);
+        } else {
+            __m512i upm = _mm512_srai_epi64(rv, 63);
+            __mmask8 up = _mm512_movepi64_mask(rv);
+            __m512i R = _mm512_xor_si512(rv, upm);
+            __m512i kk = _mm512_sub_epi64(_mm512_lzcnt_epi64(_mm512_or_si512(R, one_i)),
+                                          one_i);
+            kk = _mm512_min_epi64(kk, lv1);
+            __mmask8 deep = _mm512_cmpeq_epi64_mask(_mm512_srl_epi64(R, deep_sh), zero);
+            __m512i j = _mm512_and_si512(
+                _mm512_srlv_epi64(R, _mm512_sub_epi64(c62, kk)), cmask);
+            __m512i L = _mm512_add_epi64(
+                _mm512_add_epi64(one_i, _mm512_sll_epi64(_mm512_sub_epi64(lv1, kk), cb)),
+                j);
+            L = _mm512_maskz_mov_epi64((__mmask8)~deep, L);
+            idx = _mm512_mask_sub_epi64(L, up, last, L);
+        }
+        __m512i off = _mm512_mullo_epi64(idx, stride);
+        if (kind == 1) {
+            for (int q = 0; q < ncol; q++) {
+                __m512d v = (s->constant >> q) & 1
+                    ? _mm512_set1_pd(s->cval[q])
+                    : _mm512_mask_i64gather_pd(_mm512_setzero_pd(), lane, off,
+                                               rows + 2 + 2 * q, 8);
+                _mm512_mask_storeu_pd(outs[q] + k, lane, v);
+            }
+        } else {
+            __m512i start = _mm512_mask_i64gather_epi64(zero, lane, off,
+                                                        (const long long *)rows, 8);
+            __m512d iw = _mm512_mask_i64gather_pd(_mm512_setzero_pd(), lane, off,
+                                                  rows + 1, 8);
+            __m512d f = _mm512_mul_pd(_mm512_cvtepu64_pd(_mm512_sub_epi64(rv, start)),
+                                      iw);
+            for (int q = 0; q < ncol; q++) {
+                __m512d v;
+                if ((s->constant >> q) & 1) {
+                    v = _mm512_set1_pd(s->cval[q]);
+                } else {
+                    __m512d lo = _mm512_mask_i64gather_pd(_mm512_setzero_pd(), lane,
+                                                          off, rows + 2 + 2 * q, 8);
+                    __m512d sp = _mm512_mask_i64gather_pd(_mm512_setzero_pd(), lane,
+                                                          off, rows + 3 + 2 * q, 8);
+                    v = _mm512_add_pd(lo, _mm512_mul_pd(f, sp));
+                }
+                _mm512_mask_storeu_pd(outs[q] + k, lane, v);
+            }
+        }
+    }
+}
+#endif
+
+/* One variable's lookups for a chunk: the AVX-512 loop where the CPU has it and
+ * the kind is arithmetic, else the scalar fetch() (after the "reject" scaling
+ * r -> mulhi64(r, cut) into `tmp` when cut > 0). */
+ALWAYS_INLINE void
+lookup(const sampler_t *s, const uint64_t *r, int one, int c, uint64_t cut,
+       uint64_t *restrict tmp, uint32_t *restrict g, double *restrict out0,
+       double *restrict out1, double *restrict out2)
+{
+#ifdef HAVE_AVX512_PATH
+    if (have_avx512 && s->kind != 0) {
+        fetch_avx512(s, r, one, c, cut, out0, out1, out2);
+        return;
+    }
+#endif
+    if (cut) {
+        for (int k = 0; k < c; k++)
+            tmp[k] = mulhi64(r[k], cut);
+        r = tmp;
+    }
+    fetch(s, r, one, c, g, out0, out1, out2);
+}
+
 /* The caller has checked every index (see draws_in_range). */
 static CLONES __attribute__((noinline)) void
 run_block(block_args *a, scratch_t *s)
@@ -381,8 +519,8 @@ run_block(block_args *a, scratch_t *s)
         int c = (int)(a->n - start < CHUNK ? a->n - start : CHUNK);
         /* 1. locate the drawn cells and interpolate their quantities, one
          * variable at a time (a loop specialised for each kind of table) */
-        fetch(&a->d, a->i_d + start, 0, c, s->g[0], ws + W_IK1 * CHUNK,
-              ws + W_IK2 * CHUNK, ws + W_VC * CHUNK);
+        lookup(&a->d, a->i_d + start, 0, c, 0, s->ra, s->g[0], ws + W_IK1 * CHUNK,
+               ws + W_IK2 * CHUNK, ws + W_VC * CHUNK);
         if (a->angle_random && a->pair_shift) {
             /* a pair: its rank k among the pairs, placed in the top bits, gives
              * the surface cell i (a table with a start per surface atom) and the
@@ -408,14 +546,8 @@ run_block(block_args *a, scratch_t *s)
                 ws[W_TAN * CHUNK + k] = (ta + rb[6]) / (1.0 - ta * rb[6]);
             }
         } else if (a->angle_random) {
-            const uint64_t *ra = a->i_a + start;
-            if (a->cut) {
-                for (int k = 0; k < c; k++)
-                    s->ra[k] = mulhi64(ra[k], a->cut);
-                ra = s->ra;
-            }
-            fetch(&a->a, ra, 0, c, s->g[1], ws + W_SIN * CHUNK, ws + W_COT * CHUNK,
-                  ws + W_TAN * CHUNK);
+            lookup(&a->a, a->i_a + start, 0, c, a->cut, s->ra, s->g[1],
+                   ws + W_SIN * CHUNK, ws + W_COT * CHUNK, ws + W_TAN * CHUNK);
             for (int k = 0; k < CHUNK; k++) {
                 double sp = ws[W_SIN * CHUNK + k], cp = ws[W_COT * CHUNK + k];
                 ws[W_SIN * CHUNK + k] = st * cp - ct * sp; /* sin(theta - phi) */
@@ -429,8 +561,8 @@ run_block(block_args *a, scratch_t *s)
             }
         }
         if (a->speed_random) {
-            fetch(&a->s, a->i_s + start, 1, c, s->g[2], ws + W_U * CHUNK, NULL,
-                  NULL);
+            lookup(&a->s, a->i_s + start, 1, c, 0, s->ra, s->g[2], ws + W_U * CHUNK,
+                   NULL, NULL);
             for (int k = 0; k < CHUNK; k++) {
                 double spd = a->speed * ws[W_U * CHUNK + k];
                 ws[W_U * CHUNK + k] = spd * ws[W_SIN * CHUNK + k];
@@ -515,8 +647,9 @@ static int
 parse_sampler(PyObject *tup, const char *name, sampler_t *s, Py_ssize_t min_stride,
               Py_buffer *bufs, int *held)
 {
-    if (!PyArg_ParseTuple(tup, "y*ny*iiii", &bufs[0], &s->stride, &bufs[1],
-                          &s->gshift, &s->kind, &s->levels, &s->cbits))
+    s->constant = 0;
+    if (!PyArg_ParseTuple(tup, "y*ny*iiii|i", &bufs[0], &s->stride, &bufs[1],
+                          &s->gshift, &s->kind, &s->levels, &s->cbits, &s->constant))
         return -1;
     *held = 1;
     s->rows = bufs[0].buf;
@@ -535,6 +668,17 @@ parse_sampler(PyObject *tup, const char *name, sampler_t *s, Py_ssize_t min_stri
     if (check_len(&bufs[0], name, 8, (s->n + 1) * s->stride) ||
         check_len(&bufs[1], name, 4, guide_len))
         return -1;
+    /* constant columns (the caller's promise: the same lo bits and a +0.0 span in
+     * every cell): their value is what fetch() computes, lo + f * 0.0 = lo + 0.0
+     * for interpolated kinds, lo for atoms */
+    s->constant &= 7;
+    for (int q = 0; q < 3; q++) {
+        s->cval[q] = 0.0;
+        if (((s->constant >> q) & 1) && 3 + 2 * q < s->stride)
+            s->cval[q] = s->kind == 1 ? s->rows[2 + 2 * q] : s->rows[2 + 2 * q] + 0.0;
+        else
+            s->constant &= ~(1 << q);
+    }
     /* the arithmetic kinds must describe exactly these n cells */
     if (s->n >= 0x7FFFFFFF || s->kind < 0 || s->kind > 2 ||
         (s->kind == 2 &&
@@ -663,8 +807,35 @@ done:
     return result;
 }
 
+PyDoc_STRVAR(simd_doc,
+"simd(flag=None) -> bool\n\n"
+"Whether the AVX-512 lookups run (the CPU has AVX-512F/DQ/CD/VL); with `flag`\n"
+"False they are switched off (True switches them back on where the CPU has\n"
+"them). Both give the same bits; this exists for the tests.");
+
+static PyObject *
+ck_simd(PyObject *self, PyObject *args)
+{
+    int flag = -1;
+    if (!PyArg_ParseTuple(args, "|p:simd", &flag))
+        return NULL;
+#ifdef HAVE_AVX512_PATH
+    if (flag == 0)
+        have_avx512 = 0;
+    else if (flag == 1)
+        have_avx512 = __builtin_cpu_supports("avx512f") &&
+                      __builtin_cpu_supports("avx512dq") &&
+                      __builtin_cpu_supports("avx512cd") &&
+                      __builtin_cpu_supports("avx512vl");
+    return PyBool_FromLong(have_avx512);
+#else
+    return PyBool_FromLong(0);
+#endif
+}
+
 static PyMethodDef ck_methods[] = {
     {"block", ck_block, METH_VARARGS, block_doc},
+    {"simd", ck_simd, METH_VARARGS, simd_doc},
     {NULL, NULL, 0, NULL},
 };
 
@@ -677,6 +848,13 @@ static struct PyModuleDef ck_module = {
 PyMODINIT_FUNC
 PyInit__ckernel(void)
 {
+#ifdef HAVE_AVX512_PATH
+    __builtin_cpu_init();
+    have_avx512 = __builtin_cpu_supports("avx512f") &&
+                  __builtin_cpu_supports("avx512dq") &&
+                  __builtin_cpu_supports("avx512cd") &&
+                  __builtin_cpu_supports("avx512vl");
+#endif
     PyObject *m = PyModule_Create(&ck_module);
     if (m == NULL)
         return NULL;

@@ -26,6 +26,8 @@ formulas, so one angle table serves every apparent angle.
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 from .._tables import mulhi64
@@ -337,9 +339,28 @@ def _ckernel():
     return _ckernel
 
 
+_SAMPLER_ARGS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def constant_columns(sampler) -> int:
+    """Bit ``q`` set where interpolated column ``q`` (``rows[:, 2 + 2q]``, span
+    ``rows[:, 3 + 2q]``) is the same in every cell: the same ``lo`` bits and a
+    ``+0.0`` span, so that ``lo + f * span`` is ``lo + 0.0`` for any fraction (k1 of
+    every preset). The compiled kernel reads such a column once, not per impact
+    (the same bits)."""
+    rows = sampler.rows[:-1]
+    mask = 0
+    for q in range(min(3, (rows.shape[1] - 2) // 2)):
+        lo = rows[:, 2 + 2 * q].view(np.uint64)
+        span = rows[:, 3 + 2 * q].view(np.uint64)
+        if np.all(lo == lo[0]) and not np.any(span):
+            mask |= 1 << q
+    return mask
+
+
 def _sampler_args(sampler):
-    """The ``(rows, stride, guide, guide_shift, kind, levels, cells_log2)`` tuple of
-    the C kernel."""
+    """The ``(rows, stride, guide, guide_shift, kind, levels, cells_log2,
+    constant_columns)`` tuple of the C kernel (built once per sampler)."""
     global _NO_SAMPLER
     if sampler is None:
         if _NO_SAMPLER is None:
@@ -349,16 +370,20 @@ def _sampler_args(sampler):
             one = ([1.0], [1.0])
             _NO_SAMPLER = Sampler.of(CellTable.from_atoms([1.0]), one, one, one, one)
         sampler = _NO_SAMPLER
-    t = sampler.table
-    return (
-        sampler.rows,
-        sampler.rows.shape[1],
-        t.guide,
-        t.guide_shift,
-        t.kind,
-        t.levels,
-        t.cells_log2,
-    )
+    args = _SAMPLER_ARGS.get(sampler)
+    if args is None:
+        t = sampler.table
+        args = _SAMPLER_ARGS[sampler] = (
+            sampler.rows,
+            sampler.rows.shape[1],
+            t.guide,
+            t.guide_shift,
+            t.kind,
+            t.levels,
+            t.cells_log2,
+            constant_columns(sampler),
+        )
+    return args
 
 
 def _simulate_compiled(plan, sp, tables, raw, n):
