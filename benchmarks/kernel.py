@@ -23,14 +23,12 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
-
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from run import SEED, make_scenario  # noqa: E402
+from run import SEED, make_scenario
 
-from microimpact.engine import kernel  # noqa: E402
-from microimpact.engine.plan import (  # noqa: E402
+from microimpact.engine import kernel
+from microimpact.engine.plan import (
     BLOCK_SIZE,
     VAR_ANGLE,
     VAR_DIAMETER,
