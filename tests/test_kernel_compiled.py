@@ -194,7 +194,7 @@ def test_spill_constant_matches():
 
 
 def _bad_kind(kind):
-    rows, stride, guide, shift, _, levels, cbits, _ = _sampler([1.0, 2.0])
+    rows, stride, guide, shift, _, levels, cbits = _sampler([1.0, 2.0])[:7]
     return (rows, stride, guide, shift, kind, levels, cbits)
 
 

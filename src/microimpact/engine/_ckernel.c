@@ -207,6 +207,9 @@ typedef struct {
     int levels, cbits; /* dyadic: levels per half, log2 cells per level */
     int constant;      /* bit q: interpolated column q is the same in every cell */
     double cval[3];    /* its value (what the interpolation gives in any cell) */
+    const double *crows; /* compact rows (kinds 1, 2): the varying columns only */
+    Py_ssize_t cstride;
+    int cpos[3];       /* column q's place in a compact row; -1: constant */
 } sampler_t;
 
 #define GUIDE_SEARCH 0x80000000u /* _tables.GUIDE_SEARCH */
@@ -405,7 +408,12 @@ mulhi64_x8(__m512i a, uint64_t b)
 }
 
 /* fetch() for kinds 1 and 2 (and the "reject" scaling r -> mulhi64(r, cut) when
- * cut > 0); columns flagged in s->constant are written as their constant. */
+ * cut > 0), reading the compact rows (s->crows): per cell only the columns that
+ * vary, (lo, span) for the refined grid and lo for atoms. The refined grid's
+ * cells are aligned to their widths, which are powers of two 2^w (w from the
+ * level, see guide_entry), so r - start is the low w bits of r and 1/width is
+ * 2^-w: the fraction has the bits of fetch()'s (r - start) * inv_width without
+ * reading either from the row. Constant columns are written as their value. */
 AVX512_FN void
 fetch_avx512(const sampler_t *s, const uint64_t *restrict r, int one, int c,
              uint64_t cut, double *restrict out0, double *restrict out1,
@@ -413,70 +421,68 @@ fetch_avx512(const sampler_t *s, const uint64_t *restrict r, int one, int c,
 {
     const int ncol = one ? 1 : 3;
     double *outs[3] = {out0, out1, out2};
-    const double *rows = s->rows;
-    const __m512i stride = _mm512_set1_epi64(s->stride);
+    const double *crows = s->crows;
+    const __m512i cstride = _mm512_set1_epi64(s->cstride);
     const int kind = s->kind;
     const __m512i one_i = _mm512_set1_epi64(1);
     const __m512i lv1 = _mm512_set1_epi64(s->levels - 1);
     const __m512i last = _mm512_set1_epi64(s->n - 1);
     const __m512i c62 = _mm512_set1_epi64(62 - s->cbits);
+    const __m512i w_deep = _mm512_set1_epi64(63 - s->levels);
+    const __m512i bias = _mm512_set1_epi64(1023);
     const __m512i cmask = _mm512_set1_epi64(((int64_t)1 << s->cbits) - 1);
     const __m128i cb = _mm_cvtsi32_si128(s->cbits);
     const __m128i deep_sh = _mm_cvtsi32_si128(63 - s->levels);
     const __m512i zero = _mm512_setzero_si512();
+    const __m512d zero_d = _mm512_setzero_pd();
     for (int k = 0; k < c; k += 8) {
         __mmask8 lane = c - k >= 8 ? 0xFF : (__mmask8)((1u << (c - k)) - 1);
         __m512i rv = _mm512_maskz_loadu_epi64(lane, r + k);
         if (cut)
             rv = mulhi64_x8(rv, cut);
-        __m512i idx;
         if (kind == 1) {
-            idx = mulhi64_x8(rv, (uint64_t)s->n);
-        } else {
-            __m512i upm = _mm512_srai_epi64(rv, 63);
-            __mmask8 up = _mm512_movepi64_mask(rv);
-            __m512i R = _mm512_xor_si512(rv, upm);
-            __m512i kk = _mm512_sub_epi64(_mm512_lzcnt_epi64(_mm512_or_si512(R, one_i)),
-                                          one_i);
-            kk = _mm512_min_epi64(kk, lv1);
-            __mmask8 deep = _mm512_cmpeq_epi64_mask(_mm512_srl_epi64(R, deep_sh), zero);
-            __m512i j = _mm512_and_si512(
-                _mm512_srlv_epi64(R, _mm512_sub_epi64(c62, kk)), cmask);
-            __m512i L = _mm512_add_epi64(
-                _mm512_add_epi64(one_i, _mm512_sll_epi64(_mm512_sub_epi64(lv1, kk), cb)),
-                j);
-            L = _mm512_maskz_mov_epi64((__mmask8)~deep, L);
-            idx = _mm512_mask_sub_epi64(L, up, last, L);
-        }
-        __m512i off = _mm512_mullo_epi64(idx, stride);
-        if (kind == 1) {
+            __m512i off = _mm512_mullo_epi64(mulhi64_x8(rv, (uint64_t)s->n), cstride);
             for (int q = 0; q < ncol; q++) {
-                __m512d v = (s->constant >> q) & 1
+                __m512d v = s->cpos[q] < 0
                     ? _mm512_set1_pd(s->cval[q])
-                    : _mm512_mask_i64gather_pd(_mm512_setzero_pd(), lane, off,
-                                               rows + 2 + 2 * q, 8);
+                    : _mm512_mask_i64gather_pd(zero_d, lane, off, crows + s->cpos[q], 8);
                 _mm512_mask_storeu_pd(outs[q] + k, lane, v);
             }
-        } else {
-            __m512i start = _mm512_mask_i64gather_epi64(zero, lane, off,
-                                                        (const long long *)rows, 8);
-            __m512d iw = _mm512_mask_i64gather_pd(_mm512_setzero_pd(), lane, off,
-                                                  rows + 1, 8);
-            __m512d f = _mm512_mul_pd(_mm512_cvtepu64_pd(_mm512_sub_epi64(rv, start)),
-                                      iw);
-            for (int q = 0; q < ncol; q++) {
-                __m512d v;
-                if ((s->constant >> q) & 1) {
-                    v = _mm512_set1_pd(s->cval[q]);
-                } else {
-                    __m512d lo = _mm512_mask_i64gather_pd(_mm512_setzero_pd(), lane,
-                                                          off, rows + 2 + 2 * q, 8);
-                    __m512d sp = _mm512_mask_i64gather_pd(_mm512_setzero_pd(), lane,
-                                                          off, rows + 3 + 2 * q, 8);
-                    v = _mm512_add_pd(lo, _mm512_mul_pd(f, sp));
-                }
-                _mm512_mask_storeu_pd(outs[q] + k, lane, v);
+            continue;
+        }
+        /* the cell: as guide_entry() computes it */
+        __m512i upm = _mm512_srai_epi64(rv, 63);
+        __mmask8 up = _mm512_movepi64_mask(rv);
+        __m512i R = _mm512_xor_si512(rv, upm);
+        __m512i kk = _mm512_sub_epi64(_mm512_lzcnt_epi64(_mm512_or_si512(R, one_i)),
+                                      one_i);
+        kk = _mm512_min_epi64(kk, lv1);
+        __mmask8 deep = _mm512_cmpeq_epi64_mask(_mm512_srl_epi64(R, deep_sh), zero);
+        __m512i w = _mm512_sub_epi64(c62, kk); /* log2 of the cell's width */
+        __m512i j = _mm512_and_si512(_mm512_srlv_epi64(R, w), cmask);
+        __m512i L = _mm512_add_epi64(
+            _mm512_add_epi64(one_i, _mm512_sll_epi64(_mm512_sub_epi64(lv1, kk), cb)), j);
+        L = _mm512_maskz_mov_epi64((__mmask8)~deep, L);
+        __m512i idx = _mm512_mask_sub_epi64(L, up, last, L);
+        w = _mm512_mask_mov_epi64(w, deep, w_deep); /* the outermost cells */
+        /* f = (r mod 2^w) * 2^-w, both factors exact */
+        __m512i low = _mm512_and_si512(
+            rv, _mm512_sub_epi64(_mm512_sllv_epi64(one_i, w), one_i));
+        __m512d scale =
+            _mm512_castsi512_pd(_mm512_slli_epi64(_mm512_sub_epi64(bias, w), 52));
+        __m512d f = _mm512_mul_pd(_mm512_cvtepu64_pd(low), scale);
+        __m512i off = _mm512_mullo_epi64(idx, cstride);
+        for (int q = 0; q < ncol; q++) {
+            __m512d v;
+            if (s->cpos[q] < 0) {
+                v = _mm512_set1_pd(s->cval[q]);
+            } else {
+                const double *col = crows + s->cpos[q];
+                __m512d lo = _mm512_mask_i64gather_pd(zero_d, lane, off, col, 8);
+                __m512d sp = _mm512_mask_i64gather_pd(zero_d, lane, off, col + 1, 8);
+                v = _mm512_add_pd(lo, _mm512_mul_pd(f, sp));
             }
+            _mm512_mask_storeu_pd(outs[q] + k, lane, v);
         }
     }
 }
@@ -491,7 +497,7 @@ lookup(const sampler_t *s, const uint64_t *r, int one, int c, uint64_t cut,
        double *restrict out1, double *restrict out2)
 {
 #ifdef HAVE_AVX512_PATH
-    if (have_avx512 && s->kind != 0) {
+    if (have_avx512 && s->kind != 0 && s->crows != NULL) {
         fetch_avx512(s, r, one, c, cut, out0, out1, out2);
         return;
     }
@@ -642,14 +648,20 @@ check_len(Py_buffer *b, const char *name, Py_ssize_t itemsize, Py_ssize_t need)
 }
 
 /* Parse one sampler tuple (rows, stride, guide, guide_shift, kind, levels,
- * log2 cells per level); `bufs` receives the 2 buffers to release. */
+ * log2 cells per level[, constant columns[, compact rows, compact stride]]);
+ * `bufs` receives the 2 or 3 buffers to release. */
 static int
 parse_sampler(PyObject *tup, const char *name, sampler_t *s, Py_ssize_t min_stride,
               Py_buffer *bufs, int *held)
 {
     s->constant = 0;
-    if (!PyArg_ParseTuple(tup, "y*ny*iiii|i", &bufs[0], &s->stride, &bufs[1],
-                          &s->gshift, &s->kind, &s->levels, &s->cbits, &s->constant))
+    s->crows = NULL;
+    s->cstride = 0;
+    bufs[2].buf = NULL;
+    bufs[2].obj = NULL;
+    if (!PyArg_ParseTuple(tup, "y*ny*iiii|iy*n", &bufs[0], &s->stride, &bufs[1],
+                          &s->gshift, &s->kind, &s->levels, &s->cbits, &s->constant,
+                          &bufs[2], &s->cstride))
         return -1;
     *held = 1;
     s->rows = bufs[0].buf;
@@ -678,6 +690,26 @@ parse_sampler(PyObject *tup, const char *name, sampler_t *s, Py_ssize_t min_stri
             s->cval[q] = s->kind == 1 ? s->rows[2 + 2 * q] : s->rows[2 + 2 * q] + 0.0;
         else
             s->constant &= ~(1 << q);
+    }
+    /* compact rows: per cell the non-constant columns in order, (lo, span) each
+     * for the refined grid, lo for atoms (kernel._compact_rows) */
+    if (bufs[2].buf != NULL) {
+        Py_ssize_t pos = 0, avail = (s->stride - 2) / 2;
+        for (int q = 0; q < 3; q++) {
+            s->cpos[q] = -1;
+            if (q < avail && !((s->constant >> q) & 1)) {
+                s->cpos[q] = (int)pos;
+                pos += s->kind == 1 ? 1 : 2;
+            }
+        }
+        if (s->kind == 0 || s->cstride < pos || s->cstride < 1 ||
+            check_len(&bufs[2], name, 8, s->n * s->cstride)) {
+            PyErr_Clear();
+            PyErr_Format(PyExc_ValueError, "_ckernel.block: bad %s compact rows",
+                         name);
+            return -1;
+        }
+        s->crows = bufs[2].buf;
     }
     /* the arithmetic kinds must describe exactly these n cells */
     if (s->n >= 0x7FFFFFFF || s->kind < 0 || s->kind > 2 ||
@@ -711,7 +743,7 @@ static PyObject *
 ck_block(PyObject *self, PyObject *args)
 {
     Py_buffer bd, ba, bs, bh, beh, bmh;
-    Py_buffer sb[4][2];
+    Py_buffer sb[4][3];
     int held[4] = {0, 0, 0, 0};
     PyObject *samp[4];
     int angle_random, speed_random, shadow_none;
@@ -802,8 +834,9 @@ done:
     PyBuffer_Release(&bmh);
     for (int i = 0; i < 4; i++)
         if (held[i])
-            for (int j = 0; j < 2; j++)
-                PyBuffer_Release(&sb[i][j]);
+            for (int j = 0; j < 3; j++)
+                if (j < 2 || sb[i][j].obj != NULL)
+                    PyBuffer_Release(&sb[i][j]);
     return result;
 }
 

@@ -27,6 +27,7 @@ formulas, so one angle table serves every apparent angle.
 from __future__ import annotations
 
 import weakref
+from functools import lru_cache
 
 import numpy as np
 
@@ -358,9 +359,48 @@ def constant_columns(sampler) -> int:
     return mask
 
 
+@lru_cache(maxsize=4)
+def _refined_starts(levels: int, cells_log2: int) -> np.ndarray:
+    """The cell starts of the canonical refined grid (``CellTable.DYADIC``)."""
+    from .._tables import _integer_probabilities, refined_probabilities
+
+    p, s = refined_probabilities(levels, 1 << cells_log2)
+    return _integer_probabilities(p[:-1], s[:-1])
+
+
+def _compact_rows(sampler, constant: int):
+    """``(rows, stride)`` of the compiled kernel's SIMD lookups, or None: per cell
+    only the columns that vary, ``(lo, span)`` each for the refined grid and ``lo``
+    for atoms (whose span is never read), the stride padded to a power of two.
+    The refined grid's rows need no start or ``1/width``: its cells are aligned
+    to their power-of-two widths, which is checked here against the canonical grid
+    (a table that is not exactly it gets no compact rows: the scalar lookups)."""
+    t, rows = sampler.table, sampler.rows[:-1]
+    if t.kind == t.DYADIC:
+        if not np.array_equal(t.starts, _refined_starts(t.levels, t.cells_log2)):
+            return None
+        per = 2
+    elif t.kind == t.EQUAL:
+        per = 1
+    else:
+        return None
+    cols = []
+    for q in range(min(3, (rows.shape[1] - 2) // 2)):
+        if not (constant >> q) & 1:
+            cols.extend(range(2 + 2 * q, 2 + 2 * q + per))
+    stride = 1
+    while stride < len(cols):
+        stride *= 2
+    out = np.zeros((t.size, stride))
+    out[:, : len(cols)] = rows[:, cols]
+    out.setflags(write=False)
+    return out, stride
+
+
 def _sampler_args(sampler):
     """The ``(rows, stride, guide, guide_shift, kind, levels, cells_log2,
-    constant_columns)`` tuple of the C kernel (built once per sampler)."""
+    constant_columns[, compact_rows, compact_stride])`` tuple of the C kernel
+    (built once per sampler)."""
     global _NO_SAMPLER
     if sampler is None:
         if _NO_SAMPLER is None:
@@ -373,7 +413,8 @@ def _sampler_args(sampler):
     args = _SAMPLER_ARGS.get(sampler)
     if args is None:
         t = sampler.table
-        args = _SAMPLER_ARGS[sampler] = (
+        constant = constant_columns(sampler)
+        args = (
             sampler.rows,
             sampler.rows.shape[1],
             t.guide,
@@ -381,8 +422,12 @@ def _sampler_args(sampler):
             t.kind,
             t.levels,
             t.cells_log2,
-            constant_columns(sampler),
+            constant,
         )
+        compact = _compact_rows(sampler, constant)
+        if compact is not None:
+            args += compact
+        _SAMPLER_ARGS[sampler] = args
     return args
 
 
