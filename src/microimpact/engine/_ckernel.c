@@ -435,13 +435,55 @@ fetch_avx512(const sampler_t *s, const uint64_t *restrict r, int one, int c,
     const __m128i deep_sh = _mm_cvtsi32_si128(63 - s->levels);
     const __m512i zero = _mm512_setzero_si512();
     const __m512d zero_d = _mm512_setzero_pd();
+    /* two passes over the chunk: the cells (and fractions) of every draw, with a
+     * prefetch of each row, then the gathers, which then find their rows in
+     * cache (gathers issued right after their index wait on the memory one
+     * group at a time) */
+    int64_t offs[CHUNK] __attribute__((aligned(64)));
+    double fr[CHUNK] __attribute__((aligned(64)));
     for (int k = 0; k < c; k += 8) {
         __mmask8 lane = c - k >= 8 ? 0xFF : (__mmask8)((1u << (c - k)) - 1);
         __m512i rv = _mm512_maskz_loadu_epi64(lane, r + k);
         if (cut)
             rv = mulhi64_x8(rv, cut);
+        __m512i idx;
         if (kind == 1) {
-            __m512i off = _mm512_mullo_epi64(mulhi64_x8(rv, (uint64_t)s->n), cstride);
+            idx = mulhi64_x8(rv, (uint64_t)s->n);
+        } else {
+            /* the cell: as guide_entry() computes it */
+            __m512i upm = _mm512_srai_epi64(rv, 63);
+            __mmask8 up = _mm512_movepi64_mask(rv);
+            __m512i R = _mm512_xor_si512(rv, upm);
+            __m512i kk = _mm512_sub_epi64(
+                _mm512_lzcnt_epi64(_mm512_or_si512(R, one_i)), one_i);
+            kk = _mm512_min_epi64(kk, lv1);
+            __mmask8 deep =
+                _mm512_cmpeq_epi64_mask(_mm512_srl_epi64(R, deep_sh), zero);
+            __m512i w = _mm512_sub_epi64(c62, kk); /* log2 of the cell's width */
+            __m512i j = _mm512_and_si512(_mm512_srlv_epi64(R, w), cmask);
+            __m512i L = _mm512_add_epi64(
+                _mm512_add_epi64(one_i, _mm512_sll_epi64(_mm512_sub_epi64(lv1, kk), cb)),
+                j);
+            L = _mm512_maskz_mov_epi64((__mmask8)~deep, L);
+            idx = _mm512_mask_sub_epi64(L, up, last, L);
+            w = _mm512_mask_mov_epi64(w, deep, w_deep); /* the outermost cells */
+            /* f = (r mod 2^w) * 2^-w, both factors exact */
+            __m512i low = _mm512_and_si512(
+                rv, _mm512_sub_epi64(_mm512_sllv_epi64(one_i, w), one_i));
+            __m512d scale =
+                _mm512_castsi512_pd(_mm512_slli_epi64(_mm512_sub_epi64(bias, w), 52));
+            _mm512_store_pd(fr + k, _mm512_mul_pd(_mm512_cvtepu64_pd(low), scale));
+        }
+        /* masked-off lanes hold row 0 (in range) */
+        idx = _mm512_maskz_mov_epi64(lane, idx);
+        _mm512_store_si512((void *)(offs + k), _mm512_mullo_epi64(idx, cstride));
+        for (int q = 0; q < 8; q++)
+            _mm_prefetch((const char *)(crows + offs[k + q]), _MM_HINT_T0);
+    }
+    for (int k = 0; k < c; k += 8) {
+        __mmask8 lane = c - k >= 8 ? 0xFF : (__mmask8)((1u << (c - k)) - 1);
+        __m512i off = _mm512_load_si512((const void *)(offs + k));
+        if (kind == 1) {
             for (int q = 0; q < ncol; q++) {
                 __m512d v = s->cpos[q] < 0
                     ? _mm512_set1_pd(s->cval[q])
@@ -450,28 +492,7 @@ fetch_avx512(const sampler_t *s, const uint64_t *restrict r, int one, int c,
             }
             continue;
         }
-        /* the cell: as guide_entry() computes it */
-        __m512i upm = _mm512_srai_epi64(rv, 63);
-        __mmask8 up = _mm512_movepi64_mask(rv);
-        __m512i R = _mm512_xor_si512(rv, upm);
-        __m512i kk = _mm512_sub_epi64(_mm512_lzcnt_epi64(_mm512_or_si512(R, one_i)),
-                                      one_i);
-        kk = _mm512_min_epi64(kk, lv1);
-        __mmask8 deep = _mm512_cmpeq_epi64_mask(_mm512_srl_epi64(R, deep_sh), zero);
-        __m512i w = _mm512_sub_epi64(c62, kk); /* log2 of the cell's width */
-        __m512i j = _mm512_and_si512(_mm512_srlv_epi64(R, w), cmask);
-        __m512i L = _mm512_add_epi64(
-            _mm512_add_epi64(one_i, _mm512_sll_epi64(_mm512_sub_epi64(lv1, kk), cb)), j);
-        L = _mm512_maskz_mov_epi64((__mmask8)~deep, L);
-        __m512i idx = _mm512_mask_sub_epi64(L, up, last, L);
-        w = _mm512_mask_mov_epi64(w, deep, w_deep); /* the outermost cells */
-        /* f = (r mod 2^w) * 2^-w, both factors exact */
-        __m512i low = _mm512_and_si512(
-            rv, _mm512_sub_epi64(_mm512_sllv_epi64(one_i, w), one_i));
-        __m512d scale =
-            _mm512_castsi512_pd(_mm512_slli_epi64(_mm512_sub_epi64(bias, w), 52));
-        __m512d f = _mm512_mul_pd(_mm512_cvtepu64_pd(low), scale);
-        __m512i off = _mm512_mullo_epi64(idx, cstride);
+        __m512d f = _mm512_load_pd(fr + k);
         for (int q = 0; q < ncol; q++) {
             __m512d v;
             if (s->cpos[q] < 0) {
