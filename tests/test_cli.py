@@ -341,7 +341,17 @@ def test_sigkill_then_rerun_is_bit_identical(tmp_path):
     if not killed or (out / "summary.csv").exists():
         # the checkpoint seen was the final one, written as the run ended
         pytest.skip("the run finished before it could be killed")
-    assert _console("run", str(sc), "--out", str(out), *args).returncode == 0
+    rerun = _console("run", str(sc), "--out", str(out), *args)
+    assert rerun.returncode == 0
+    # the re-run says, before it simulates, how much it restored (a run that
+    # ignored its checkpoint would be bit-identical too: this is what tells)
+    said = re.search(r"resumed (\d+) of (\d+) blocks", rerun.stderr)
+    assert said and 0 < int(said.group(1)) < int(said.group(2)), rerun.stderr
+    from microimpact.engine.result import open_result
+
+    prov = open_result(out).provenance
+    assert prov["resumed_blocks"] == int(said.group(1))
+    assert prov["total_blocks"] == int(said.group(2))
     a = pd.read_csv(ref / "summary.csv")
     b = pd.read_csv(out / "summary.csv")
     num = a.select_dtypes("number").columns

@@ -149,15 +149,24 @@ class Study:
 
         The folder is locked for the whole run; a checkpoint kept there
         (:data:`CHECKPOINT_NAME`) lets an interrupted run resume with the same
-        command; it is removed once every output is written.
+        command; it is removed once every output is written. ``checkpoint=`` may
+        be a function of the :class:`~microimpact.engine.checkpoint.Checkpoint`,
+        called once it is loaded (before any block runs), e.g. to say how much
+        was restored.
         """
+        from .engine.checkpoint import Checkpoint
+
         self.experiments()
         with OutputFolder(out_dir) as folder:
-            checkpoint = folder.path / CHECKPOINT_NAME
-            options.setdefault("checkpoint", checkpoint)
-            self.run(**options)
+            checkpoint = options.pop("checkpoint", None)
+            if checkpoint is None or callable(checkpoint):
+                # a callable is told how much was restored before any block runs
+                checkpoint = Checkpoint(
+                    folder.path / CHECKPOINT_NAME, on_load=checkpoint
+                )
+            self.run(checkpoint=checkpoint, **options)
             self._write(folder, PARTS)
-            Path(options["checkpoint"]).unlink(missing_ok=True)
+            Path(getattr(checkpoint, "path", checkpoint)).unlink(missing_ok=True)
         return self
 
     # ------------------------------------------------------------ internals

@@ -214,25 +214,30 @@ def announce(args, scenario, *, samples=None):
         from ..engine.montecarlo import estimate_duration
     except ImportError:  # pragma: no cover - older engine
         return
-    seconds = estimate_duration(scenario, samples=samples, workers=args.workers)
+    from ..engine.parallel import available_cores
+
+    workers = min(args.workers, available_cores())
+    seconds = estimate_duration(scenario, samples=samples, workers=workers)
     if seconds is not None and seconds > ANNOUNCE_AFTER_S:
         print(
             f"microimpact: this run is expected to take about {seconds / 60:.0f} min "
-            f"on {args.workers} worker(s); progress is kept in the output folder, so "
+            f"on {workers} worker(s); progress is kept in the output folder, so "
             "an interrupted run resumes",
             file=sys.stderr,
         )
 
 
-def report_resume(result, out):
-    """Say on stderr how much of a run was restored from its checkpoint."""
+def resume_reporter(out):
+    """A ``checkpoint=`` callback for :meth:`Study.execute` that says on stderr how
+    much was restored, before any block runs."""
     import sys
 
-    p = result.provenance
-    restored = int(p.get("resumed_blocks", 0) or 0)
-    if restored:
-        print(
-            f"microimpact: resumed {restored} of {int(p.get('total_blocks', 0))} "
-            f"blocks from the checkpoint in {out}",
-            file=sys.stderr,
-        )
+    def report(checkpoint):
+        if checkpoint.resumed:
+            print(
+                f"microimpact: resumed {checkpoint.restored_blocks} of "
+                f"{checkpoint.total_blocks} blocks from the checkpoint in {out}",
+                file=sys.stderr,
+            )
+
+    return report

@@ -32,9 +32,13 @@ def cli_action(args) -> int:
     study = Study(args.scenario)
     study.scenario, study.outputs = _apply_flags(args, study)
     c.announce(args, study.scenario, samples=args.samples)
-    study.execute(args.out, samples=args.samples, **c.run_options(args))
+    study.execute(
+        args.out,
+        samples=args.samples,
+        checkpoint=c.resume_reporter(args.out),
+        **c.run_options(args),
+    )
     result = study.result
-    c.report_resume(result, args.out)
     c.say(
         args,
         f"{study.scenario.name}: {len(result.summary)} sweep points, "
