@@ -360,3 +360,40 @@ def test_relative_function_agrees_with_the_dataset(rough_result):
     s = rough_result.summary
     for col in ("e_relative", "e_relative_se", "mu_relative", "mu_relative_se"):
         assert_allclose(table[col].to_numpy(), s[col].to_numpy(), rtol=1e-12)
+
+
+def test_big_sweeps_keep_ragged_histograms(rough_result, tmp_path, monkeypatch):
+    """Beyond DENSE_HISTOGRAM_CELLS the Dataset keeps only the occupied bins (a CF
+    contiguous ragged array); every histogram, quantile and figure input is the
+    same as with dense histograms, also after a round trip through results.nc."""
+    import microimpact.engine.dataset as dataset
+    from microimpact.engine.result import SimulationResult
+
+    monkeypatch.setattr(dataset, "DENSE_HISTOGRAM_CELLS", 10)
+    sc, plan = rough_result.scenario, None
+    from microimpact.engine.plan import build_plan
+
+    plan = build_plan(sc, seed=rough_result.seed_entropy)
+    totals = {(p, 0): a for p, a in rough_result.accumulators.items()}
+    ragged = SimulationResult.from_accumulators(sc, plan, totals, elapsed=0.0)
+    ds = ragged.dataset
+    assert ds.attrs["histograms"] == "ragged" and "e_hist" not in ds
+    assert ds["e_hist_length"].attrs["sample_dimension"] == "e_hist_obs"
+    stored = ds["e_hist_counts"].size + ds["mu_hist_counts"].size
+    dense_cells = (
+        rough_result.dataset["e_hist"].size + rough_result.dataset["mu_hist"].size
+    )
+    assert stored < dense_cells / 5  # proportional to the occupied bins
+    ragged.to_files(tmp_path)
+    back = open_result(tmp_path)
+    for point in range(len(rough_result.summary)):
+        for name in ("e", "mu"):
+            want = rough_result.histogram(point, name)[0]
+            assert_array_equal(ragged.histogram(point, name)[0], want)
+            assert_array_equal(back.histogram(point, name)[0], want)
+    for col in ("e_p05", "e_p50", "mu_p95", "e_hist_underflow", "mu_hist_overflow"):
+        if col in rough_result.summary:
+            assert_array_equal(ragged.summary[col], rough_result.summary[col])
+    assert_array_equal(
+        ds["mu_hist_overflow"].values, rough_result.dataset["mu_hist_overflow"].values
+    )

@@ -93,6 +93,10 @@ SUMMARY_COLUMNS = (
     "shadowed_fraction",
     "reimpact_fraction",
 )
+#: Sweeps with at most this many histogram cells (points x bins) keep dense
+#: histograms (``e_hist``, ``mu_hist``); bigger ones keep the occupied bins only, as
+#: a CF contiguous ragged array (memory proportional to what is kept).
+DENSE_HISTOGRAM_CELLS = 2**25
 #: Probabilities at which the input distributions' quantile functions are stored
 #: (the input figures, paper Figs. 2 and 4, are drawn from them).
 INPUT_QUANTILES = 4096
@@ -159,29 +163,58 @@ def build_dataset(grid, columns, stacked, *, attrs, inputs=None, smooth=None):
             grid.reshape(values),
             {"units": units, "long_name": long_name},
         )
+    dense = grid.size * (E_EDGES.size + MU_EDGES.size + 2) <= DENSE_HISTOGRAM_CELLS
     for nm, spans, edges in (
         ("e", stacked.e_spans, E_EDGES),
         ("mu", stacked.mu_spans, MU_EDGES),
     ):
-        h = spans.dense()  # int32 where every count fits (memory: points x bins)
-        data_vars[f"{nm}_hist"] = (
-            (*dims, f"{nm}_bin"),
-            grid.reshape(h[:, 1:-1]),
-            {
-                "units": "1",
-                "long_name": f"histogram of {nm}_m over rebounds (counts per bin)",
-                **_edges_attrs(edges),
-            },
-        )
+        ends = _span_ends(spans)
         data_vars[f"{nm}_hist_underflow"] = (
             dims,
-            grid.reshape(h[:, 0]),
+            grid.reshape(ends[0]),
             {"units": "1", "long_name": f"rebounds with {nm}_m below {edges[0]:g}"},
         )
         data_vars[f"{nm}_hist_overflow"] = (
             dims,
-            grid.reshape(h[:, -1]),
+            grid.reshape(ends[1]),
             {"units": "1", "long_name": f"rebounds with {nm}_m above {edges[-1]:g}"},
+        )
+        long_name = f"histogram of {nm}_m over rebounds (counts per bin)"
+        if dense:
+            h = spans.dense()  # int32 where every count fits
+            data_vars[f"{nm}_hist"] = (
+                (*dims, f"{nm}_bin"),
+                grid.reshape(h[:, 1:-1]),
+                {"units": "1", "long_name": long_name, **_edges_attrs(edges)},
+            )
+            continue
+        # a big sweep: the occupied bins only, as a CF contiguous ragged array
+        # (memory and file size proportional to what the histograms hold)
+        big = spans.counts.size and int(spans.counts.max()) >= 2**31
+        obs = f"{nm}_hist_obs"
+        data_vars[f"{nm}_hist_counts"] = (
+            (obs,),
+            spans.counts.astype(np.int64 if big else np.int32),
+            {"units": "1", "long_name": long_name, **_edges_attrs(edges)},
+        )
+        data_vars[f"{nm}_hist_offset"] = (
+            dims,
+            grid.reshape(spans.offset.astype(np.int32)),
+            {
+                "units": "1",
+                "long_name": f"index of the first stored {nm}_m bin of each point "
+                "(0 = the underflow bin, 1 = the first bin of " + f"{nm}_bin)",
+            },
+        )
+        data_vars[f"{nm}_hist_length"] = (
+            dims,
+            grid.reshape(spans.length.astype(np.int32)),
+            {
+                "units": "1",
+                "long_name": f"number of stored {nm}_m bins of each point "
+                "(points in grid order)",
+                "sample_dimension": obs,
+            },
         )
     coords = {
         dim: (dim, list(values), _COORD_ATTRS[dim])
@@ -236,8 +269,44 @@ def build_dataset(grid, columns, stacked, *, attrs, inputs=None, smooth=None):
                 },
             )
     ds = xr.Dataset(data_vars, coords=coords)
-    ds.attrs.update({"Conventions": CONVENTIONS, **attrs})
+    ds.attrs.update(
+        {
+            "Conventions": CONVENTIONS,
+            **attrs,
+            "histograms": "dense" if dense else "ragged",
+        }
+    )
     return ds
+
+
+def _span_ends(spans):
+    """Per point, the underflow (first dense bin) and overflow (last) counts."""
+    start, length, off = spans.start, spans.length, spans.offset
+    under = np.zeros(spans.rows, dtype=np.int64)
+    over = np.zeros(spans.rows, dtype=np.int64)
+    has = length > 0
+    first = has & (off == 0)
+    under[first] = spans.counts[start[first]]
+    last = has & (off + length == spans.size)
+    over[last] = spans.counts[start[last] + length[last] - 1]
+    return under, over
+
+
+def point_histogram(ds, index: tuple, name: str) -> np.ndarray:
+    """The in-range histogram of `name` (``"e"`` or ``"mu"``) at the grid index
+    `index`, from the dense or the ragged representation."""
+    if f"{name}_hist" in ds:
+        return np.asarray(ds[f"{name}_hist"].values[index], dtype=np.int64)
+    lengths = ds[f"{name}_hist_length"].values
+    point = int(np.ravel_multi_index(index, lengths.shape))
+    flat = lengths.ravel().astype(np.int64)
+    start = int(flat[:point].sum())
+    n = int(flat[point])
+    offset = int(ds[f"{name}_hist_offset"].values.ravel()[point])
+    size = ds.sizes[f"{name}_bin"] + 2
+    dense = np.zeros(size, dtype=np.int64)
+    dense[offset : offset + n] = ds[f"{name}_hist_counts"].values[start : start + n]
+    return dense[1:-1]
 
 
 def scalar_variables(ds) -> list[str]:

@@ -9,6 +9,7 @@ relative coefficients are all derived from it, so a result loaded back from
 from __future__ import annotations
 
 import datetime as _dt
+import functools
 import json
 import math
 import platform
@@ -28,6 +29,7 @@ from .dataset import (
     SUMMARY_COLUMNS,
     build_dataset,
     encoding,
+    point_histogram,
     summary_frame,
 )
 from .plan import BLOCK_SIZE
@@ -45,14 +47,20 @@ _JSON_ATTRS = ("scenario", "versions")
 
 
 def versions() -> dict[str, str]:
-    """Versions of Python and the packages that determine the numbers."""
+    """Versions of Python and the packages that determine the numbers (read once
+    per process: reading package metadata costs ~25 ms)."""
+    return dict(_versions())
+
+
+@functools.lru_cache(maxsize=1)
+def _versions() -> tuple:
     out = {"python": platform.python_version()}
     for pkg in ("microimpact", "numpy", "scipy", "pandas", "xarray", "netCDF4"):
         try:
             out[pkg] = metadata.version(pkg)
         except metadata.PackageNotFoundError:
             out[pkg] = "not installed"
-    return out
+    return tuple(out.items())
 
 
 # ---------------------------------------------------------------- scenario record
@@ -396,7 +404,7 @@ class SimulationResult:
         if name not in ("e", "mu"):
             raise ValueError(f"`name` must be 'e' or 'mu'; got {name!r}.")
         index = self.grid.unravel(int(point))
-        counts = self.dataset[f"{name}_hist"].values[index]
+        counts = point_histogram(self.dataset, index, name)
         return counts, (E_EDGES if name == "e" else MU_EDGES)
 
     # -------------------------------------------------------------- files
