@@ -96,7 +96,7 @@ SUMMARY_COLUMNS = (
 #: Sweeps with at most this many histogram cells (points x bins) keep dense
 #: histograms (``e_hist``, ``mu_hist``); bigger ones keep the occupied bins only, as
 #: a CF contiguous ragged array (memory proportional to what is kept).
-DENSE_HISTOGRAM_CELLS = 2**25
+DENSE_HISTOGRAM_CELLS = 2**22
 #: Probabilities at which the input distributions' quantile functions are stored
 #: (the input figures, paper Figs. 2 and 4, are drawn from them).
 INPUT_QUANTILES = 4096
