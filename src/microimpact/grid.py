@@ -18,6 +18,7 @@ the rule.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -126,9 +127,12 @@ class SweepGrid:
         )
 
     def points(self) -> Iterator[GridPoint]:
-        """Every point, in numbering order."""
-        for i in range(self.size):
-            yield self.point(i)
+        """Every point, in numbering order (C order of :attr:`dims`)."""
+        combos = itertools.product(
+            enumerate(self.surfaces), self.speeds_m_s, self.angles_deg
+        )
+        for i, ((s, name), speed, angle) in enumerate(combos):
+            yield GridPoint(i, s, name, speed, angle)
 
     def coords(self, index: int) -> dict:
         """``{"surface": name, "speed_m_s": v, "angle_deg": a}`` of point `index`."""
