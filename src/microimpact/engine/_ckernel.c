@@ -54,6 +54,7 @@ typedef struct {
     int64_t iws[I_ROWS * CHUNK];
     uint64_t ra[CHUNK];          /* angle draws (scaled for "reject") */
     uint32_t g[3][CHUNK];        /* guide entry per variable */
+    uint64_t draw[3][CHUNK];     /* a chunk of each variable's keyed stream */
 } scratch_t;
 
 typedef struct {
@@ -294,6 +295,240 @@ locate(const sampler_t *s, uint64_t r, uint32_t g, double *f)
     return i;
 }
 
+/* ------------------------------------- keyed streams: SeedSequence and PCG64 */
+/* Block b of sweep point p draws variable v from
+ * numpy.random.PCG64(numpy.random.SeedSequence(entropy, spawn_key=(p, b, v))),
+ * and this is that generator, bit for bit (tests/test_rng_streams.py checks it
+ * against NumPy): SeedSequence's hash pool (numpy/random/bit_generator.pyx:
+ * mix_entropy and generate_state, pool of 4 uint32 words), PCG64's seeding
+ * (pcg64_set_seed: state and increment from generate_state(4, uint64), with the
+ * two initial steps of pcg_setseq_128_srandom_r) and its output, XSL-RR 128/64
+ * (random_raw; numpy/random/src/pcg64/pcg64.h).
+ *
+ * The assembled entropy is the entropy's uint32 words (little-endian; 0 is one
+ * word 0), padded with zeros to the pool size when shorter (NumPy does so when a
+ * spawn key is given), then every key element's words. Only the first pool-size
+ * words enter the pool before its words are mixed together; the rest are mixed
+ * in one at a time. So the pool after the entropy does not depend on the key
+ * (ss_prefix, once per run), and each stream adds its few key words (ss_key). */
+#define SS_POOL 4
+#define SS_INIT_A 0x43b0d7e5u
+#define SS_MULT_A 0x931e8875u
+#define SS_INIT_B 0x8b51f9ddu
+#define SS_MULT_B 0x58f38dedu
+#define SS_MIX_MULT_L 0xca01f9ddu
+#define SS_MIX_MULT_R 0x4973f715u
+#define SS_XSHIFT 16
+
+typedef struct {
+    uint32_t pool[SS_POOL];
+    uint32_t hash_const; /* the running hashmix constant */
+} ss_state;
+
+static inline uint32_t
+ss_hashmix(uint32_t value, uint32_t *hash_const)
+{
+    value ^= *hash_const;
+    *hash_const *= SS_MULT_A;
+    value *= *hash_const;
+    value ^= value >> SS_XSHIFT;
+    return value;
+}
+
+static inline uint32_t
+ss_mix(uint32_t x, uint32_t y)
+{
+    uint32_t result = SS_MIX_MULT_L * x - SS_MIX_MULT_R * y;
+    result ^= result >> SS_XSHIFT;
+    return result;
+}
+
+/* The pool after the entropy words w[0:nw] (nw >= 1; padded with zeros to the
+ * pool size, as NumPy pads when a spawn key follows). */
+static void
+ss_prefix(const uint32_t *w, Py_ssize_t nw, ss_state *st)
+{
+    uint32_t hc = SS_INIT_A;
+    for (int i = 0; i < SS_POOL; i++)
+        st->pool[i] = ss_hashmix(i < nw ? w[i] : 0u, &hc);
+    for (int i_src = 0; i_src < SS_POOL; i_src++)
+        for (int i_dst = 0; i_dst < SS_POOL; i_dst++)
+            if (i_src != i_dst)
+                st->pool[i_dst] = ss_mix(st->pool[i_dst], ss_hashmix(st->pool[i_src], &hc));
+    for (Py_ssize_t i_src = SS_POOL; i_src < nw; i_src++)
+        for (int i_dst = 0; i_dst < SS_POOL; i_dst++)
+            st->pool[i_dst] = ss_mix(st->pool[i_dst], ss_hashmix(w[i_src], &hc));
+    st->hash_const = hc;
+}
+
+/* One more entropy word mixed into every pool word. */
+static inline void
+ss_word(ss_state *st, uint32_t word)
+{
+    for (int i_dst = 0; i_dst < SS_POOL; i_dst++)
+        st->pool[i_dst] = ss_mix(st->pool[i_dst], ss_hashmix(word, &st->hash_const));
+}
+
+/* A spawn-key element: its uint32 words, little-endian (0 is one word 0). */
+static inline void
+ss_key(ss_state *st, uint64_t k)
+{
+    do {
+        ss_word(st, (uint32_t)k);
+        k >>= 32;
+    } while (k);
+}
+
+/* generate_state(n64, uint64): 2 * n64 uint32 words, cycling over the pool, read
+ * as little-endian pairs. */
+static void
+ss_generate64(const ss_state *st, int n64, uint64_t *out)
+{
+    uint32_t hc = SS_INIT_B;
+    for (int i = 0; i < n64; i++) {
+        uint64_t v = 0;
+        for (int h = 0; h < 2; h++) {
+            uint32_t d = st->pool[(2 * i + h) % SS_POOL];
+            d ^= hc;
+            hc *= SS_MULT_B;
+            d *= hc;
+            d ^= d >> SS_XSHIFT;
+            v |= (uint64_t)d << (32 * h);
+        }
+        out[i] = v;
+    }
+}
+
+/* PCG64 (pcg_setseq_128 with the XSL-RR 128/64 output). With unsigned __int128
+ * (GCC, Clang) the state is one; otherwise two 64-bit halves with the 64 x 64
+ * -> 128 product from 32-bit halves (MICROIMPACT_NO_INT128 forces this path;
+ * both give the same bits). */
+#define PCG_MULT_HI 2549297995355413924ULL
+#define PCG_MULT_LO 4865540595714422341ULL
+#if defined(__SIZEOF_INT128__) && !defined(MICROIMPACT_NO_INT128)
+#define PCG_INT128 1
+typedef unsigned __int128 u128;
+typedef struct {
+    u128 state, inc;
+} pcg64_t;
+
+static inline void
+pcg_step(pcg64_t *g)
+{
+    g->state = g->state * (((u128)PCG_MULT_HI << 64) | PCG_MULT_LO) + g->inc;
+}
+
+static inline uint64_t
+pcg_hi(const pcg64_t *g)
+{
+    return (uint64_t)(g->state >> 64);
+}
+
+static inline uint64_t
+pcg_lo(const pcg64_t *g)
+{
+    return (uint64_t)g->state;
+}
+
+static void
+pcg_seed(pcg64_t *g, const uint64_t v[4])
+{
+    u128 initstate = ((u128)v[0] << 64) | v[1];
+    u128 initseq = ((u128)v[2] << 64) | v[3];
+    g->state = 0;
+    g->inc = (initseq << 1) | 1u;
+    pcg_step(g);
+    g->state += initstate;
+    pcg_step(g);
+}
+#else
+#define PCG_INT128 0
+typedef struct {
+    uint64_t s_hi, s_lo, i_hi, i_lo;
+} pcg64_t;
+
+/* the full 128-bit product of two 64-bit words */
+static inline void
+mul_64x64(uint64_t a, uint64_t b, uint64_t *hi, uint64_t *lo)
+{
+    const uint64_t m = 0xFFFFFFFFu;
+    uint64_t a_lo = a & m, a_hi = a >> 32, b_lo = b & m, b_hi = b >> 32;
+    uint64_t ll = a_lo * b_lo, hl = a_hi * b_lo, lh = a_lo * b_hi, hh = a_hi * b_hi;
+    uint64_t cross = (ll >> 32) + (hl & m) + lh;
+    *hi = (hl >> 32) + (cross >> 32) + hh;
+    *lo = (cross << 32) | (ll & m);
+}
+
+static inline void
+pcg_step(pcg64_t *g)
+{
+    uint64_t hi, lo;
+    mul_64x64(g->s_lo, PCG_MULT_LO, &hi, &lo);
+    hi += g->s_hi * PCG_MULT_LO + g->s_lo * PCG_MULT_HI;
+    uint64_t nlo = lo + g->i_lo;
+    hi += g->i_hi + (nlo < lo);
+    g->s_hi = hi;
+    g->s_lo = nlo;
+}
+
+static inline uint64_t
+pcg_hi(const pcg64_t *g)
+{
+    return g->s_hi;
+}
+
+static inline uint64_t
+pcg_lo(const pcg64_t *g)
+{
+    return g->s_lo;
+}
+
+static void
+pcg_seed(pcg64_t *g, const uint64_t v[4])
+{
+    g->s_hi = 0;
+    g->s_lo = 0;
+    g->i_hi = (v[2] << 1) | (v[3] >> 63);
+    g->i_lo = (v[3] << 1) | 1u;
+    pcg_step(g);
+    uint64_t lo = g->s_lo + v[1];
+    g->s_hi += v[0] + (lo < g->s_lo);
+    g->s_lo = lo;
+    pcg_step(g);
+}
+#endif
+
+/* random_raw: step, then the output of the new state */
+static inline uint64_t
+pcg_next(pcg64_t *g)
+{
+    pcg_step(g);
+    uint64_t hi = pcg_hi(g);
+    uint64_t x = hi ^ pcg_lo(g);
+    unsigned rot = (unsigned)(hi >> 58);
+    return (x >> rot) | (x << ((-rot) & 63));
+}
+
+static inline void
+pcg_fill(pcg64_t *g, uint64_t *out, Py_ssize_t n)
+{
+    for (Py_ssize_t i = 0; i < n; i++)
+        out[i] = pcg_next(g);
+}
+
+/* The generator of SeedSequence(entropy, spawn_key=key[0:nk]), `prefix` being
+ * the pool after the entropy (ss_prefix). */
+static void
+stream_seed(const ss_state *prefix, const uint64_t *key, int nk, pcg64_t *g)
+{
+    ss_state st = *prefix;
+    uint64_t v[4];
+    for (int i = 0; i < nk; i++)
+        ss_key(&st, key[i]);
+    ss_generate64(&st, 4, v);
+    pcg_seed(g, v);
+}
+
 typedef struct {
     const uint64_t *i_d, *i_a, *i_s;
     Py_ssize_t n;
@@ -310,6 +545,8 @@ typedef struct {
     int64_t *e_hist, *mu_hist;
     counts_t counts;
     double sums[8];
+    int keyed;         /* draw from gen[] (the keyed streams), not i_d, i_a, i_s */
+    pcg64_t gen[3];    /* diameter, angle, speed streams */
 } block_args;
 
 /* Locate the cells of draws r[0:c] (kinds: see guide_entry) and write the first
@@ -544,15 +781,30 @@ run_block(block_args *a, scratch_t *s)
     double se1 = 0.0, se2 = 0.0, se3 = 0.0, sm1 = 0.0, sm2 = 0.0, sm3 = 0.0;
     for (Py_ssize_t start = 0; start < a->n; start += CHUNK) {
         int c = (int)(a->n - start < CHUNK ? a->n - start : CHUNK);
+        const uint64_t *i_d, *i_a, *i_s;
+        if (a->keyed) { /* this chunk of each stream, in impact order */
+            pcg_fill(&a->gen[0], s->draw[0], c);
+            if (a->angle_random)
+                pcg_fill(&a->gen[1], s->draw[1], c);
+            if (a->speed_random)
+                pcg_fill(&a->gen[2], s->draw[2], c);
+            i_d = s->draw[0];
+            i_a = s->draw[1];
+            i_s = s->draw[2];
+        } else {
+            i_d = a->i_d + start;
+            i_a = a->i_a + start;
+            i_s = a->i_s + start;
+        }
         /* 1. locate the drawn cells and interpolate their quantities, one
          * variable at a time (a loop specialised for each kind of table) */
-        lookup(&a->d, a->i_d + start, 0, c, 0, s->ra, s->g[0], ws + W_IK1 * CHUNK,
+        lookup(&a->d, i_d, 0, c, 0, s->ra, s->g[0], ws + W_IK1 * CHUNK,
                ws + W_IK2 * CHUNK, ws + W_VC * CHUNK);
         if (a->angle_random && a->pair_shift) {
             /* a pair: its rank k among the pairs, placed in the top bits, gives
              * the surface cell i (a table with a start per surface atom) and the
              * particle atom j = rank - start(i) */
-            const uint64_t *ra = a->i_a + start;
+            const uint64_t *ra = i_a;
             for (int k = 0; k < c; k++)
                 s->ra[k] = mulhi64(ra[k], a->pair_total) << a->pair_shift;
             fetch(&a->a, s->ra, 0, c, s->g[1], ws + W_SIN * CHUNK, ws + W_COT * CHUNK,
@@ -573,7 +825,7 @@ run_block(block_args *a, scratch_t *s)
                 ws[W_TAN * CHUNK + k] = (ta + rb[6]) / (1.0 - ta * rb[6]);
             }
         } else if (a->angle_random) {
-            lookup(&a->a, a->i_a + start, 0, c, a->cut, s->ra, s->g[1],
+            lookup(&a->a, i_a, 0, c, a->cut, s->ra, s->g[1],
                    ws + W_SIN * CHUNK, ws + W_COT * CHUNK, ws + W_TAN * CHUNK);
             for (int k = 0; k < CHUNK; k++) {
                 double sp = ws[W_SIN * CHUNK + k], cp = ws[W_COT * CHUNK + k];
@@ -588,7 +840,7 @@ run_block(block_args *a, scratch_t *s)
             }
         }
         if (a->speed_random) {
-            lookup(&a->s, a->i_s + start, 1, c, 0, s->ra, s->g[2], ws + W_U * CHUNK,
+            lookup(&a->s, i_s, 1, c, 0, s->ra, s->g[2], ws + W_U * CHUNK,
                    NULL, NULL);
             for (int k = 0; k < CHUNK; k++) {
                 double spd = a->speed * ws[W_U * CHUNK + k];
@@ -832,6 +1084,7 @@ ck_block(PyObject *self, PyObject *args)
     a.shadow_none = shadow_none;
     a.e_hist = beh.buf;
     a.mu_hist = bmh.buf;
+    a.keyed = 0;
     scratch_t *s = PyMem_RawMalloc(sizeof(scratch_t));
     if (s == NULL) {
         PyErr_NoMemory();
@@ -858,6 +1111,362 @@ done:
             for (int j = 0; j < 3; j++)
                 if (j < 2 || sb[i][j].obj != NULL)
                     PyBuffer_Release(&sb[i][j]);
+    return result;
+}
+
+/* --------------------------------------------------- keyed streams: bindings */
+
+/* The entropy's uint32 words (kernel.entropy_words) as the pool after them. */
+static int
+parse_entropy(Py_buffer *b, ss_state *st)
+{
+    if (b->len < 4 || b->len % 4 != 0) {
+        PyErr_SetString(PyExc_ValueError,
+                        "_ckernel: entropy needs at least one uint32 word");
+        return -1;
+    }
+    ss_prefix((const uint32_t *)b->buf, b->len / 4, st);
+    return 0;
+}
+
+PyDoc_STRVAR(stream_doc,
+"stream(entropy_words, key, out) -> None\n\n"
+"Fill the uint64 buffer `out` with the first outputs of\n"
+"PCG64(SeedSequence(entropy, spawn_key=key)).random_raw(len(out)): `entropy_words`\n"
+"holds the entropy's uint32 words, little-endian (kernel.entropy_words), `key` is\n"
+"a tuple of integers in [0, 2^64).");
+
+static PyObject *
+ck_stream(PyObject *self, PyObject *args)
+{
+    Py_buffer be, bo;
+    PyObject *key;
+    if (!PyArg_ParseTuple(args, "y*O!w*:stream", &be, &PyTuple_Type, &key, &bo))
+        return NULL;
+    PyObject *result = NULL;
+    ss_state st;
+    uint64_t k[16];
+    Py_ssize_t nk = PyTuple_GET_SIZE(key);
+    if (parse_entropy(&be, &st))
+        goto done;
+    if (nk > 16 || bo.len % 8 != 0) {
+        PyErr_SetString(PyExc_ValueError,
+                        "_ckernel.stream: at most 16 key words, out of uint64");
+        goto done;
+    }
+    for (Py_ssize_t i = 0; i < nk; i++) {
+        k[i] = PyLong_AsUnsignedLongLong(PyTuple_GET_ITEM(key, i));
+        if (PyErr_Occurred())
+            goto done;
+    }
+    pcg64_t g;
+    stream_seed(&st, k, (int)nk, &g);
+    Py_BEGIN_ALLOW_THREADS
+    pcg_fill(&g, (uint64_t *)bo.buf, bo.len / 8);
+    Py_END_ALLOW_THREADS
+    result = Py_None;
+    Py_INCREF(result);
+done:
+    PyBuffer_Release(&be);
+    PyBuffer_Release(&bo);
+    return result;
+}
+
+/* The histogram layout (6 float64: e_m then mu_m lower edge, inverse bin width,
+ * bin count); slots 0 below the range, 1..nb the bins, nb + 1 above, then SPILL. */
+static int
+parse_hist(Py_buffer *bh, hist_t *hs)
+{
+    if (check_len(bh, "hist", 8, 6))
+        return -1;
+    const double *h = (const double *)bh->buf;
+    if (!(h[2] >= 1 && h[5] >= 1 && h[2] < 1e7 && h[5] < 1e7)) {
+        PyErr_SetString(PyExc_ValueError, "_ckernel: bad hist layout");
+        return -1;
+    }
+    hs->e_lo = h[0];
+    hs->e_inv_w = h[1];
+    hs->e_nb = h[2];
+    hs->mu_lo = h[3];
+    hs->mu_inv_w = h[4];
+    hs->mu_nb = h[5];
+    hs->e_top = (int64_t)h[2] + 1;
+    hs->mu_top = (int64_t)h[5] + 1;
+    hs->e_spill = hs->e_top + 1;
+    hs->mu_spill = hs->mu_top + 1;
+    return 0;
+}
+
+/* A sampler tuple parsed once per call, found again by identity. */
+typedef struct {
+    PyObject *tup;
+    sampler_t s;
+    Py_buffer bufs[3];
+    int held;
+} parsed_sampler;
+
+typedef struct {
+    parsed_sampler **items; /* each allocated alone: its address is kept */
+    Py_ssize_t n, cap;
+} sampler_set;
+
+static const sampler_t *
+sampler_of(sampler_set *set, PyObject *tup, const char *name, Py_ssize_t min_stride)
+{
+    for (Py_ssize_t i = set->n - 1; i >= 0; i--)
+        if (set->items[i]->tup == tup)
+            return &set->items[i]->s;
+    if (set->n == set->cap) {
+        Py_ssize_t cap = set->cap ? 2 * set->cap : 8;
+        parsed_sampler **p = PyMem_Realloc(set->items, cap * sizeof *p);
+        if (p == NULL) {
+            PyErr_NoMemory();
+            return NULL;
+        }
+        set->items = p;
+        set->cap = cap;
+    }
+    parsed_sampler *ps = PyMem_Malloc(sizeof *ps);
+    if (ps == NULL) {
+        PyErr_NoMemory();
+        return NULL;
+    }
+    ps->tup = tup;
+    ps->held = 0;
+    if (parse_sampler(tup, name, &ps->s, min_stride, ps->bufs, &ps->held)) {
+        if (ps->held)
+            for (int j = 0; j < 3; j++)
+                if (j < 2 || ps->bufs[j].obj != NULL)
+                    PyBuffer_Release(&ps->bufs[j]);
+        PyMem_Free(ps);
+        return NULL;
+    }
+    set->items[set->n++] = ps;
+    return &ps->s;
+}
+
+static void
+sampler_set_free(sampler_set *set)
+{
+    for (Py_ssize_t i = 0; i < set->n; i++) {
+        for (int j = 0; j < 3; j++)
+            if (j < 2 || set->items[i]->bufs[j].obj != NULL)
+                PyBuffer_Release(&set->items[i]->bufs[j]);
+        PyMem_Free(set->items[i]);
+    }
+    PyMem_Free(set->items);
+}
+
+/* One block spec with its point's parameters. */
+typedef struct {
+    uint64_t point, block;
+    Py_ssize_t n;
+    int angle_random, shadow_none, pair_shift;
+    const sampler_t *a, *b;
+    uint64_t cut, pair_total;
+    double sin_theta, cos_theta, speed;
+} spec_t;
+
+/* The occupied span [lo, hi) of h[0:size] (lo = hi = 0 when empty). */
+static void
+occupied(const int64_t *h, int64_t size, int64_t *lo, int64_t *hi)
+{
+    int64_t i = 0, j = size;
+    while (i < size && h[i] == 0)
+        i++;
+    if (i == size) {
+        *lo = *hi = 0;
+        return;
+    }
+    while (h[j - 1] == 0)
+        j--;
+    *lo = i;
+    *hi = j;
+}
+
+PyDoc_STRVAR(specs_doc,
+"specs(entropy_words, common, specs, counts, sums, spans) -> bytes\n\n"
+"Run block specs in order, each drawing its variables from its keyed streams\n"
+"PCG64(SeedSequence(entropy, spawn_key=(point, block, v))) (v: 0 diameter,\n"
+"1 angle, 2 speed), and reduce each as block() does. `common` is (dsamp, ssamp,\n"
+"speed_random, p, q, friction, hist); each spec is (point, block, n, pt) with pt\n"
+"= (angle_random, asamp, cut, psamp, pair_total, pair_shift, sin_theta,\n"
+"cos_theta, speed, shadow_none) (see block(); equal objects are parsed once).\n"
+"Writes per spec: counts int64[5] (shadowed, captured, reimpact, rolling,\n"
+"rebounds), sums float64[8] (as block()), spans int64[4] (offset and length of\n"
+"the occupied e_m histogram span, then of mu_m's). Returns the spans' counts, one\n"
+"after the other, as int64 bytes.");
+
+static PyObject *
+ck_specs(PyObject *self, PyObject *args)
+{
+    Py_buffer be, bh, bc, bs, bp;
+    PyObject *dsamp, *ssamp, *list;
+    int speed_random;
+    double p, q, friction;
+    if (!PyArg_ParseTuple(args, "y*(OOpdddy*)O!w*w*w*:specs", &be, &dsamp, &ssamp,
+                          &speed_random, &p, &q, &friction, &bh, &PyList_Type,
+                          &list, &bc, &bs, &bp))
+        return NULL; /* (the parser releases what it acquired) */
+    PyObject *result = NULL;
+    sampler_set set = {NULL, 0, 0};
+    spec_t *sp = NULL;
+    scratch_t *scr = NULL;
+    int64_t *eh = NULL, *mh = NULL, *out = NULL;
+    Py_ssize_t K = PyList_GET_SIZE(list);
+    ss_state st;
+    hist_t hs;
+    const sampler_t *sd, *ss;
+    if (parse_entropy(&be, &st) || parse_hist(&bh, &hs) ||
+        check_len(&bc, "counts", 8, 5 * K) || check_len(&bs, "sums", 8, 8 * K) ||
+        check_len(&bp, "spans", 8, 4 * K))
+        goto done;
+    if ((sd = sampler_of(&set, dsamp, "diameter", 8)) == NULL ||
+        (ss = sampler_of(&set, ssamp, "speed", 4)) == NULL)
+        goto done;
+    sp = PyMem_Malloc((K ? K : 1) * sizeof *sp);
+    if (sp == NULL) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    PyObject *prev_pt = NULL;
+    for (Py_ssize_t i = 0; i < K; i++) {
+        PyObject *item = PyList_GET_ITEM(list, i), *pt, *as, *ps;
+        unsigned long long point, block, cut, pair_total;
+        spec_t *x = &sp[i];
+        if (!PyArg_ParseTuple(item, "KKnO!:specs", &point, &block, &x->n,
+                              &PyTuple_Type, &pt))
+            goto done;
+        x->point = point;
+        x->block = block;
+        if (x->n < 0) {
+            PyErr_SetString(PyExc_ValueError, "_ckernel.specs: negative n");
+            goto done;
+        }
+        if (pt == prev_pt) { /* the same point as the spec before */
+            spec_t keep = *x;
+            *x = sp[i - 1];
+            x->point = keep.point;
+            x->block = keep.block;
+            x->n = keep.n;
+            continue;
+        }
+        if (!PyArg_ParseTuple(pt, "pOKOKidddp:specs", &x->angle_random, &as, &cut,
+                              &ps, &pair_total, &x->pair_shift, &x->sin_theta,
+                              &x->cos_theta, &x->speed, &x->shadow_none))
+            goto done;
+        if ((x->a = sampler_of(&set, as, "angle", 8)) == NULL ||
+            (x->b = sampler_of(&set, ps, "particle", 8)) == NULL)
+            goto done;
+        x->cut = cut;
+        x->pair_total = pair_total;
+        if (x->pair_shift < 0 || x->pair_shift > 63 ||
+            (x->pair_shift &&
+             (pair_total < 1 || (((uint64_t)pair_total - 1) >> (64 - x->pair_shift)) ||
+              x->a->kind != 0))) {
+            PyErr_SetString(PyExc_ValueError, "_ckernel.specs: bad pair layout");
+            goto done;
+        }
+        prev_pt = pt;
+    }
+    int64_t e_size = hs.e_spill + SPILL, mu_size = hs.mu_spill + SPILL;
+    Py_ssize_t cap = 4096, used = 0;
+    scr = PyMem_RawMalloc(sizeof(scratch_t));
+    eh = PyMem_RawCalloc(e_size, sizeof *eh);
+    mh = PyMem_RawCalloc(mu_size, sizeof *mh);
+    out = PyMem_RawMalloc(cap * sizeof *out);
+    if (scr == NULL || eh == NULL || mh == NULL || out == NULL) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    int64_t *counts = bc.buf, *spans = bp.buf;
+    double *sums = bs.buf;
+    int oom = 0;
+    Py_BEGIN_ALLOW_THREADS
+    for (Py_ssize_t i = 0; i < K && !oom; i++) {
+        const spec_t *x = &sp[i];
+        block_args a;
+        a.i_d = a.i_a = a.i_s = NULL;
+        a.n = x->n;
+        a.angle_random = x->angle_random;
+        a.speed_random = speed_random;
+        a.d = *sd;
+        a.a = *x->a;
+        a.s = *ss;
+        a.b = *x->b;
+        a.cut = x->cut;
+        a.pair_total = x->pair_total;
+        a.pair_shift = x->pair_shift;
+        a.sin_theta = x->sin_theta;
+        a.cos_theta = x->cos_theta;
+        a.speed = x->speed;
+        a.p = p;
+        a.q = q;
+        a.friction = friction;
+        a.shadow_none = x->shadow_none;
+        a.hist = hs;
+        a.e_hist = eh;
+        a.mu_hist = mh;
+        memset(&a.counts, 0, sizeof a.counts);
+        a.keyed = 1;
+        for (int v = 0; v < 3; v++) {
+            uint64_t key[3] = {x->point, x->block, (uint64_t)v};
+            if (v == 0 || (v == 1 && x->angle_random) || (v == 2 && speed_random))
+                stream_seed(&st, key, 3, &a.gen[v]);
+        }
+        run_block(&a, scr);
+        int64_t *c = counts + 5 * i;
+        c[0] = a.counts.shadow;
+        c[1] = a.counts.capt;
+        c[2] = a.counts.reimp;
+        c[3] = a.counts.roll;
+        c[4] = a.counts.reb;
+        memcpy(sums + 8 * i, a.sums, sizeof a.sums);
+        /* the occupied spans, appended to `out`; then the scratch histograms are
+         * zeroed where they were written (the spans and the spill slots) */
+        int64_t lo[2], hi[2];
+        occupied(eh, hs.e_top + 1, &lo[0], &hi[0]);
+        occupied(mh, hs.mu_top + 1, &lo[1], &hi[1]);
+        Py_ssize_t need = used + (hi[0] - lo[0]) + (hi[1] - lo[1]);
+        if (need > cap) {
+            while (cap < need)
+                cap *= 2;
+            int64_t *o = PyMem_RawRealloc(out, cap * sizeof *out);
+            if (o == NULL) {
+                oom = 1;
+                break;
+            }
+            out = o;
+        }
+        for (int h = 0; h < 2; h++) {
+            int64_t *hist = h ? mh : eh;
+            memcpy(out + used, hist + lo[h], (hi[h] - lo[h]) * sizeof *out);
+            used += hi[h] - lo[h];
+            memset(hist + lo[h], 0, (hi[h] - lo[h]) * sizeof *hist);
+            spans[4 * i + 2 * h] = lo[h];
+            spans[4 * i + 2 * h + 1] = hi[h] - lo[h];
+        }
+        memset(eh + hs.e_spill, 0, SPILL * sizeof *eh);
+        memset(mh + hs.mu_spill, 0, SPILL * sizeof *mh);
+    }
+    Py_END_ALLOW_THREADS
+    if (oom) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    result = PyBytes_FromStringAndSize((const char *)out, used * sizeof *out);
+done:
+    PyMem_RawFree(scr);
+    PyMem_RawFree(eh);
+    PyMem_RawFree(mh);
+    PyMem_RawFree(out);
+    PyMem_Free(sp);
+    sampler_set_free(&set);
+    PyBuffer_Release(&be);
+    PyBuffer_Release(&bh);
+    PyBuffer_Release(&bc);
+    PyBuffer_Release(&bs);
+    PyBuffer_Release(&bp);
     return result;
 }
 
@@ -890,6 +1499,8 @@ ck_simd(PyObject *self, PyObject *args)
 static PyMethodDef ck_methods[] = {
     {"block", ck_block, METH_VARARGS, block_doc},
     {"simd", ck_simd, METH_VARARGS, simd_doc},
+    {"stream", ck_stream, METH_VARARGS, stream_doc},
+    {"specs", ck_specs, METH_VARARGS, specs_doc},
     {NULL, NULL, 0, NULL},
 };
 

@@ -149,6 +149,8 @@ def simulate_block(
 
 
 def _simulate_block(plan: Plan, point, rep, block, n, store=False):
+    if not store and plan.kernel == "compiled" and plan.sampling != "qmc":
+        return _simulate_keyed(plan, [(point, rep, block, n)])[0]
     sp = plan.points[point]
     tables = plan.angle_tables(sp.surface, sp.angle_deg)
     variables = _variables(plan, tables)
@@ -307,7 +309,13 @@ def _simulate_block(plan: Plan, point, rep, block, n, store=False):
 
 def simulate_specs(plan: Plan, specs) -> list[PointAccumulator]:
     """One accumulator per block spec ``(point, rep, block, n)``, each exactly what
-    ``simulate_block(plan, *spec)`` returns (same draws, same bits), in order."""
+    ``simulate_block(plan, *spec)`` returns (same draws, same bits), in order.
+
+    With the compiled kernel and plain Monte Carlo this is one C call for all the
+    specs, which derives every block's keyed streams itself (``_ckernel.specs``:
+    NumPy's ``SeedSequence`` and ``PCG64``, bit for bit; see :func:`stream_raw`)."""
+    if plan.kernel == "compiled" and plan.sampling != "qmc":
+        return _simulate_keyed(plan, specs)
     return [_simulate_block(plan, *spec) for spec in specs]
 
 
@@ -473,3 +481,117 @@ def _simulate_compiled(plan, sp, tables, raw, n):
         e_hist=e_hist[:-_SPILL],
         mu_hist=mu_hist[:-_SPILL],
     )
+
+
+# ------------------------------------------------- compiled path, keyed streams
+@lru_cache(maxsize=16)
+def entropy_words(entropy: int) -> bytes:
+    """The uint32 words of `entropy`, little-endian, as ``SeedSequence`` splits an
+    integer (0 is one word 0), as the bytes ``_ckernel.stream``/``specs`` read."""
+    entropy = int(entropy)
+    if entropy < 0:
+        raise ValueError("entropy must be a non-negative integer")
+    n = max(1, (entropy.bit_length() + 31) // 32)
+    return entropy.to_bytes(4 * n, "little")
+
+
+def compiled_stream_raw(entropy, key, n) -> np.ndarray:
+    """``PCG64(SeedSequence(entropy, spawn_key=key)).random_raw(n)`` computed by the
+    compiled kernel (the same bits; tests/test_rng_streams.py)."""
+    out = np.empty(n, dtype=np.uint64)
+    _ckernel().stream(entropy_words(entropy), tuple(int(k) for k in key), out)
+    return out
+
+
+_COMMON_ARGS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_POINT_ARGS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _common_args(plan: Plan):
+    """What every block of `plan` shares, as ``_ckernel.specs`` reads it."""
+    args = _COMMON_ARGS.get(plan)
+    if args is None:
+        args = _COMMON_ARGS[plan] = (
+            _sampler_args(plan.diameters),
+            _sampler_args(plan.speeds),
+            plan.speeds is not None,
+            float(plan.p),
+            float(plan.q),
+            float(plan.friction),
+            _HIST,
+        )
+    return args
+
+
+def _point_args(tables, speed: float):
+    """The point tuple of ``_ckernel.specs`` (cached per angle tables and speed:
+    the same object for every block of a point, which the C side parses once)."""
+    by_speed = _POINT_ARGS.get(tables)
+    if by_speed is None:
+        by_speed = _POINT_ARGS[tables] = {}
+    args = by_speed.get(speed)
+    if args is None:
+        args = by_speed[speed] = (
+            bool(tables.random),
+            _sampler_args(tables.sampler),
+            int(tables.cut),
+            _sampler_args(tables.pair),
+            int(tables.pair_total),
+            int(tables.pair_shift),
+            float(tables.sin_theta),
+            float(tables.cos_theta),
+            float(speed),
+            bool(tables.random and tables.count_shadowed),
+        )
+    return args
+
+
+def _simulate_keyed(plan: Plan, specs) -> list[PointAccumulator]:
+    """Monte Carlo block specs through one ``_ckernel.specs`` call: the kernel draws
+    each block's variables from its keyed streams itself and returns the counts,
+    the shifted sums and the occupied histogram spans (the same bits as
+    :func:`_simulate_compiled` on :func:`stream_raw`'s draws)."""
+    items = []
+    points = plan.points
+    for point, _rep, block, n in specs:
+        sp = points[point]
+        tables = plan.angle_tables(sp.surface, sp.angle_deg)
+        items.append((point, block, n, _point_args(tables, float(sp.speed))))
+    k = len(items)
+    counts = np.empty((k, 5), dtype=np.int64)
+    sums = np.empty((k, 8))
+    spans = np.empty((k, 4), dtype=np.int64)
+    buf = _ckernel().specs(
+        entropy_words(plan.entropy),
+        _common_args(plan),
+        items,
+        counts,
+        sums,
+        spans,
+    )
+    flat = np.frombuffer(buf, dtype=np.int64)
+    out = []
+    at = 0
+    of = Moments.from_shifted_sums
+    for (_, _, n, _), c, s, (e_lo, e_len, mu_lo, mu_len) in zip(
+        items, counts.tolist(), sums.tolist(), spans.tolist(), strict=True
+    ):
+        e_counts = flat[at : at + e_len]
+        at += e_len
+        mu_counts = flat[at : at + mu_len]
+        at += mu_len
+        m = c[4]
+        out.append(
+            PointAccumulator(
+                n=n,
+                shadowed=c[0],
+                captured=c[1],
+                reimpact=c[2],
+                rolling=c[3],
+                e=of(m, *s[:4]),
+                mu=of(m, *s[4:]),
+                e_span=(e_lo, e_counts),
+                mu_span=(mu_lo, mu_counts),
+            )
+        )
+    return out
