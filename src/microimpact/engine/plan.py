@@ -61,12 +61,11 @@ from .._tables import (
 )
 from ..errors import InputError, ScenarioError
 from ..grid import GridPoint, SweepGrid
+from ._convolution import sum_table
 
 #: Samples per block: the engine's unit of randomness (an algorithm constant, never
 #: derived from the worker count or the memory).
 BLOCK_SIZE = 1 << 15
-#: Atoms per one-dimensional table used when convolving two angle distributions.
-CONVOLUTION_ATOMS = 1024
 #: Bits of each draw the sampler reads (all of a 64-bit integer).
 DRAW_BITS = 64
 #: Bytes of weighted-shadowing angle tables kept per plan (each has its own cell
@@ -500,24 +499,13 @@ def _angle_sampler(table: CellTable) -> Sampler:
 def convolve_angles(a, b) -> CellTable:
     """Table of the sum of two independent angles (surface + particle roughness).
 
-    Each distribution is reduced to :data:`CONVOLUTION_ATOMS` equiprobable atoms
-    (its table's quantiles at the mid-probabilities), all pairs are summed (an exact
-    discrete convolution of the reduced tables), and the sums' quantile function is
-    tabulated on the refined grid; the Kolmogorov distance to the exact convolution
-    is at most about ``1/CONVOLUTION_ATOMS`` (the reductions).
+    Exact at the refined grid's nodes when at least one of the two is continuous
+    (the CDF of the sum is a mixture, or a Gauss–Legendre integral in probability,
+    inverted on a fine grid and checked against the exact CDF), exact for two
+    discrete ones with at most ``MAX_SUM_ATOMS`` pairs, and otherwise the reduced
+    convolution of 1,024 atoms each (see :mod:`._convolution`).
     """
-    m = CONVOLUTION_ATOMS
-    q = mid_probabilities(m)
-    xa, xb = cell_table(a).quantile(q), cell_table(b).quantile(q)
-    sums = np.sort((xa[:, None] + xb[None, :]).ravel())
-    n = sums.size
-
-    def ppf(p):  # the empirical quantile, linear between order statistics
-        k = np.clip(np.asarray(p) * n - 0.5, 0.0, n - 1.0)
-        i = np.minimum(k.astype(np.intp), n - 2)
-        return sums[i] + (k - i) * (sums[i + 1] - sums[i])
-
-    return CellTable.from_quantile(ppf)
+    return sum_table(a, b)
 
 
 @lru_cache(maxsize=8)
