@@ -246,3 +246,9 @@ def test_specs_reject_bad_input():
         run([(0, 0, 10, pt)], entropy=b"")
     with pytest.raises(TypeError):
         run([(0, 0, 10, list(pt))])
+    with pytest.raises(TypeError):
+        run([[0, 0, 10, pt]])
+    with pytest.raises(OverflowError):
+        run([(-1, 0, 10, pt)])
+    with pytest.raises(OverflowError):
+        run([(0, 2**64, 10, pt)])

@@ -1331,14 +1331,23 @@ ck_specs(PyObject *self, PyObject *args)
     }
     PyObject *prev_pt = NULL;
     for (Py_ssize_t i = 0; i < K; i++) {
-        PyObject *item = PyList_GET_ITEM(list, i), *pt, *as, *ps;
-        unsigned long long point, block, cut, pair_total;
+        PyObject *item = PyList_GET_ITEM(list, i), *pt, *po, *bo, *as, *ps;
+        unsigned long long cut, pair_total;
         spec_t *x = &sp[i];
-        if (!PyArg_ParseTuple(item, "KKnO!:specs", &point, &block, &x->n,
-                              &PyTuple_Type, &pt))
+        if (!PyTuple_Check(item)) {
+            PyErr_SetString(PyExc_TypeError, "_ckernel.specs: a spec is a tuple");
             goto done;
-        x->point = point;
-        x->block = block;
+        }
+        if (!PyArg_ParseTuple(item, "OOnO!:specs", &po, &bo, &x->n, &PyTuple_Type,
+                              &pt))
+            goto done;
+        /* key elements in [0, 2^64), as SeedSequence takes them */
+        x->point = PyLong_AsUnsignedLongLong(po);
+        if (PyErr_Occurred())
+            goto done;
+        x->block = PyLong_AsUnsignedLongLong(bo);
+        if (PyErr_Occurred())
+            goto done;
         if (x->n < 0) {
             PyErr_SetString(PyExc_ValueError, "_ckernel.specs: negative n");
             goto done;
