@@ -1,5 +1,5 @@
 /*
- * The compiled form of the Monte Carlo kernel: one call per block of impacts.
+ * The compiled form of the Monte Carlo kernel: blocks of impacts.
  *
  * It computes exactly what microimpact.engine.kernel.simulate_block computes with
  * NumPy, in the same IEEE operation order: built with -ffp-contract=off (no fused
@@ -30,6 +30,13 @@
  *
  * On x86-64 Linux the block function is cloned for AVX-512, AVX2 and the baseline
  * ISA and the loader picks the best the CPU has; all clones give the same bits.
+ *
+ * The random draws: block() reads them from arrays (QMC, and the tests);
+ * specs() runs a list of Monte Carlo blocks in one call and draws each block's
+ * variables itself from their keyed streams, NumPy's
+ * PCG64(SeedSequence(entropy, spawn_key=(point, block, variable))) reimplemented
+ * bit for bit (see "keyed streams" below; tests/test_rng_streams.py), a chunk
+ * at a time into L1-resident scratch.
  *
  * The module needs only the buffer protocol (no NumPy headers) and releases the
  * GIL while it runs.
