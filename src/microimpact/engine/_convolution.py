@@ -48,6 +48,7 @@ import warnings
 import numpy as np
 
 from .._tables import CellTable, mid_probabilities
+from ._cells import cell_table
 
 #: Grid points of the inversion grid per scale of the continuous part.
 GRID_PER_SCALE = 32
@@ -318,8 +319,6 @@ def reduced_convolution(a, b) -> CellTable:
     :data:`REDUCED_ATOMS` equiprobable atoms (its table's quantiles at the
     mid-probabilities), all sums formed and their empirical quantile function
     tabulated on the refined grid; Kolmogorov distance up to ~``1/REDUCED_ATOMS``."""
-    from .plan import cell_table
-
     m = REDUCED_ATOMS
     q = mid_probabilities(m)
     xa, xb = cell_table(a).quantile(q), cell_table(b).quantile(q)

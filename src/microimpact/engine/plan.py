@@ -52,7 +52,6 @@ import numpy as np
 
 from .._tables import (
     CellTable,
-    QuantileTable,
     fraction_to_integer,
     linear_columns,
     mid_probabilities,
@@ -61,6 +60,7 @@ from .._tables import (
 )
 from ..errors import InputError, ScenarioError
 from ..grid import GridPoint, SweepGrid
+from ._cells import cell_table
 from ._convolution import sum_table
 
 #: Samples per block: the engine's unit of randomness (an algorithm constant, never
@@ -428,54 +428,6 @@ def _angle_tables(sampler, angle_deg: float, shadowing: str) -> AngleTables:
     # from_cells drops cells that round to zero probability: keep their rows out too
     cells = np.arange(first, last)[nonempty_cells(cum)]
     return AngleTables(sampler.subset(sub, cells), 0, st, ct, shadowed, True)
-
-
-def _exact_atoms(dist):
-    """The atoms of a discrete distribution object, or None."""
-    for obj in (dist, getattr(dist, "_impl", None), getattr(dist, "_discrete", None)):
-        if obj is None:
-            continue
-        atoms = getattr(obj, "atoms", None)
-        if atoms is not None:
-            return np.asarray(atoms, dtype=float)
-        v = getattr(obj, "v", None)
-        if isinstance(v, float):
-            return np.array([v])
-    return None
-
-
-def _histogram_breaks(dist):
-    """Probabilities of the bin edges of a histogram distribution (kinks of its
-    quantile function), or ()."""
-    inner = getattr(dist, "dist", None)
-    bins = getattr(inner, "_hbins", None)
-    if bins is None or not hasattr(dist, "cdf"):
-        return ()
-    return np.asarray(dist.cdf(np.asarray(bins, dtype=float)), dtype=float)
-
-
-def cell_table(dist) -> CellTable:
-    """The :class:`~microimpact._tables.CellTable` of a size or angle distribution.
-
-    Discrete distributions (``is_discrete`` with their atoms) give one cell per
-    atom, continuous ones (``ppf``, and ``isf`` when it has one) the refined grid;
-    an object with only ``table()`` gives its equiprobable atoms (a step table).
-    """
-    discrete = bool(getattr(dist, "is_discrete", False))
-    if discrete:
-        atoms = _exact_atoms(dist)
-        if atoms is not None:
-            w = getattr(dist, "weights", None)
-            if w is not None and atoms.size > 1 and np.any(w != w[0]):
-                return CellTable.from_atoms(atoms, w)
-            return CellTable.from_atoms(atoms)
-    if not discrete and hasattr(dist, "ppf"):
-        # the upper half from the inverse survival function where the object has
-        # one; else ppf(1 - s), exact to ~1e-16 in probability
-        isf = getattr(dist, "isf", None)
-        return CellTable.from_quantile(dist.ppf, isf, breaks=_histogram_breaks(dist))
-    table: QuantileTable = dist.table()
-    return CellTable.from_atoms(table.values)
 
 
 #: Largest angle strictly inside (-pi/2, pi/2) [rad].
