@@ -164,22 +164,24 @@ class TruncatedContinuous:
         self._moments = None
 
     # -- quantiles ---------------------------------------------------------------
+    def _quantile(self, q, parent, kept):
+        """``parent(q)`` when nothing is cut, else ``kept(q)``, clipped to the
+        support; ``nan`` for `q` outside [0, 1]."""
+        q, bad, qq = _probabilities(q)
+        x = parent(qq) if self._whole else kept(qq)
+        x = np.clip(x, *self._support)
+        return np.where(bad, np.nan, x)[()]
+
     def ppf(self, q):
         """Quantile function; ``nan`` for `q` outside [0, 1].
 
         ``F^{-1}(F_a + qK)``, or ``S^{-1}(S_a - qK)`` when the kept interval lies in
         the parent's upper half: accurate for small `q`.
         """
-        q, bad, qq = _probabilities(q)
         t, d = self._t, self.dist
-        if self._whole:
-            x = d.ppf(qq)
-        elif t.upper_tail:
-            x = d.isf(t.sa - qq * t.kept)
-        else:
-            x = d.ppf(t.fa + qq * t.kept)
-        x = np.clip(x, *self._support)
-        return np.where(bad, np.nan, x)[()]
+        if t.upper_tail:
+            return self._quantile(q, d.ppf, lambda u: d.isf(t.sa - u * t.kept))
+        return self._quantile(q, d.ppf, lambda u: d.ppf(t.fa + u * t.kept))
 
     def isf(self, q):
         """Inverse survival function, ``ppf(1 - q)`` accurate for small `q`;
@@ -188,47 +190,38 @@ class TruncatedContinuous:
         ``S^{-1}(S_b + qK)``, or ``F^{-1}(F_b - qK)`` when the kept interval lies in
         the parent's lower half.
         """
-        q, bad, qq = _probabilities(q)
         t, d = self._t, self.dist
-        if self._whole:
-            x = d.isf(qq)
-        elif t.sb > 0.5:
-            x = d.ppf(t.fb - qq * t.kept)
-        else:
-            x = d.isf(t.sb + qq * t.kept)
-        x = np.clip(x, *self._support)
-        return np.where(bad, np.nan, x)[()]
+        if t.sb > 0.5:
+            return self._quantile(q, d.isf, lambda u: d.ppf(t.fb - u * t.kept))
+        return self._quantile(q, d.isf, lambda u: d.isf(t.sb + u * t.kept))
 
     # -- probabilities -------------------------------------------------------------
-    def cdf(self, x):
-        """P(X <= x); ``nan`` where `x` is NaN."""
+    def _probability(self, x, parent, kept):
+        """``parent(x)`` when nothing is cut, else ``kept(x) / K`` with `x` clipped
+        to the limits, in [0, 1]; ``nan`` where `x` is NaN."""
         x = as_float_array(x, "x")
-        t, d = self._t, self.dist
         if self._whole:
-            p = np.asarray(d.cdf(x), dtype=float)
+            p = np.asarray(parent(x), dtype=float)
         else:
             xc = np.clip(x, self.lower, self.upper)
-            if t.upper_tail:
-                p = (t.sa - d.sf(xc)) / t.kept
-            else:
-                p = (d.cdf(xc) - t.fa) / t.kept
-            p = np.clip(p, 0.0, 1.0)
+            p = np.clip(kept(xc) / self.kept, 0.0, 1.0)
         return np.where(np.isnan(x), np.nan, p)[()]
 
-    def sf(self, x):
-        """P(X > x), accurate in the upper tail; ``nan`` where `x` is NaN."""
-        x = as_float_array(x, "x")
+    def cdf(self, x):
+        """P(X <= x): ``(F(x) - F_a) / K``, or ``(S_a - S(x)) / K`` in the parent's
+        upper half; ``nan`` where `x` is NaN."""
         t, d = self._t, self.dist
-        if self._whole:
-            s = np.asarray(d.sf(x), dtype=float)
-        else:
-            xc = np.clip(x, self.lower, self.upper)
-            if t.sb > 0.5:
-                s = (t.fb - d.cdf(xc)) / t.kept
-            else:
-                s = (d.sf(xc) - t.sb) / t.kept
-            s = np.clip(s, 0.0, 1.0)
-        return np.where(np.isnan(x), np.nan, s)[()]
+        if t.upper_tail:
+            return self._probability(x, d.cdf, lambda xc: t.sa - d.sf(xc))
+        return self._probability(x, d.cdf, lambda xc: d.cdf(xc) - t.fa)
+
+    def sf(self, x):
+        """P(X > x), accurate in the upper tail: ``(S(x) - S_b) / K``, or
+        ``(F_b - F(x)) / K`` in the parent's lower half; ``nan`` where `x` is NaN."""
+        t, d = self._t, self.dist
+        if t.sb > 0.5:
+            return self._probability(x, d.sf, lambda xc: t.fb - d.cdf(xc))
+        return self._probability(x, d.sf, lambda xc: d.sf(xc) - t.sb)
 
     def pdf(self, x):
         """Probability density; 0 outside the kept interval, ``nan`` at NaN."""

@@ -43,7 +43,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
-from .._distributions import CoreMethods, DiscreteAtoms, TruncatedContinuous, truncation
+from .._distributions import CoreMethods, DiscreteAtoms, TruncatedContinuous
 from .._validation import as_float_array, check_choice, check_scalar
 from ..units import length_factor, m_to_um, um_to_m
 
@@ -130,7 +130,7 @@ class SizeDistribution(CoreMethods):
                 self.dist,
                 self.lower,
                 self.upper,
-                what=f"the {self.kind} distribution",
+                what=_what(self.kind, self.params),
                 where=_where(self.lower, self.upper),
                 hint=_WIDEN,
             )
@@ -212,15 +212,19 @@ def _where(lower, upper) -> str:
     return f"[{m_to_um(lower):g}, {m_to_um(upper):g}] um"
 
 
-def _continuous(
-    kind, dist, lower, upper, params, stacklevel, what=None
-) -> SizeDistribution:
+def _what(kind, params) -> str:
+    """The distribution as named when truncation cuts away everything: ``N(mean um,
+    std um)`` for a normal one with its parameters, else ``the {kind} distribution``."""
+    mean, std = params.get("mean_um"), params.get("std_um")
+    if kind == "normal" and all(isinstance(v, numbers.Real) for v in (mean, std)):
+        return f"N({mean:g} um, {std:g} um)"
+    return f"the {kind} distribution"
+
+
+def _continuous(kind, dist, lower, upper, params, stacklevel) -> SizeDistribution:
     """Truncate `dist` [m] to [lower, upper] through its CDF, report the cut."""
-    where = _where(lower, upper)
-    what = what or f"the {kind} distribution"
-    truncation(dist, lower, upper, what=what, where=where, hint=_WIDEN)  # the error
     out = SizeDistribution(kind, dist=dist, lower=lower, upper=upper, params=params)
-    _warn_cut(out.truncated_mass, where, stacklevel + 1)
+    _warn_cut(out.truncated_mass, _where(lower, upper), stacklevel + 1)
     return out
 
 
@@ -231,8 +235,7 @@ def _normal(mean_um, std_um, min_um, max_um, stacklevel) -> SizeDistribution:
     lower, upper = _limits_iv(min_um, max_um)
     dist = stats.norm(loc=float(um_to_m(mean_um)), scale=float(um_to_m(std_um)))
     params = {"mean_um": mean_um, "std_um": std_um, "min_um": min_um, "max_um": max_um}
-    what = f"N({mean_um:g} um, {std_um:g} um)"
-    return _continuous("normal", dist, lower, upper, params, stacklevel + 1, what)
+    return _continuous("normal", dist, lower, upper, params, stacklevel + 1)
 
 
 def normal_diameters(mean_um, std_um, *, min_um=None, max_um=None) -> SizeDistribution:
