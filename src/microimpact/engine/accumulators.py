@@ -376,7 +376,10 @@ def histogram_quantile(counts: np.ndarray, edges: np.ndarray, q) -> np.ndarray:
     """Quantiles from a histogram with under/overflow bins, linear within a bin.
 
     Resolution is one bin width; quantiles falling in the under- or overflow bin are
-    returned as -inf / +inf (honestly out of the histogram's range).
+    returned as -inf / +inf (honestly out of the histogram's range). The one-row
+    definition behind :func:`microimpact.engine.statistics.point_row` (the tests'
+    oracle); a run uses the vectorised
+    :func:`microimpact.engine.summary.histogram_quantiles`.
     """
     q = np.atleast_1d(np.asarray(q, dtype=float))
     total = counts.sum()

@@ -9,6 +9,9 @@ Quasi-Monte Carlo: the ``R`` independently scrambled replicates give ``R`` indep
 estimates of every statistic; the point estimate pools all impacts and the interval
 is ``+- t_{R-1} SE`` with ``SE`` the standard deviation of the replicate estimates over
 ``sqrt(R)`` (Owen 1997).
+
+A run computes these for all sweep points at once in :mod:`.summary`;
+:func:`point_row` is the one-point definition the tests check it against.
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ from scipy.special import ndtri
 
 from .accumulators import E_EDGES, MU_EDGES, PointAccumulator, histogram_quantile
 
+#: Histogram quantiles reported per point (``e_p05`` ...).
 QUANTILES = (0.05, 0.5, 0.95)
 
 
@@ -65,7 +69,13 @@ def _mean_ci(m, z):
 
 
 def point_row(acc: PointAccumulator, confidence: float) -> dict:
-    """Summary statistics of one sweep point from its (pooled) accumulator."""
+    """Summary statistics of one sweep point from its (pooled) accumulator.
+
+    The scalar, one-point definition of the plain Monte Carlo statistics, kept as
+    the independent oracle the tests hold the vectorised
+    :func:`microimpact.engine.summary.point_statistics` to (bit for bit); runs use
+    that one (and :func:`~microimpact.engine.summary.replicate_statistics` for QMC).
+    """
     z = z_value(confidence)
     imp = acc.impacts
     low, high = wilson_interval(acc.captured, imp, confidence)
@@ -109,38 +119,6 @@ def point_row(acc: PointAccumulator, confidence: float) -> dict:
         for qv, val in zip(QUANTILES, qs, strict=True):
             row[f"{name}_p{round(qv * 100):02d}"] = float(val)
     row["capture_se"] = float(interval_se(low, high, confidence))
-    return row
-
-
-_REPLICATED = {
-    "capture_fraction": ("capture_ci_low", "capture_ci_high", None),
-    "e_mean": ("e_ci_low", "e_ci_high", "e_se"),
-    "e_rebound_mean": ("e_rebound_ci_low", "e_rebound_ci_high", "e_rebound_se"),
-    "mu_mean": ("mu_ci_low", "mu_ci_high", "mu_se"),
-}
-
-
-def replicate_row(accs: list[PointAccumulator], confidence: float) -> dict:
-    """QMC summary: pooled estimates, intervals from the spread of replicates."""
-    from scipy.stats import t as student_t
-
-    pooled = accs[0]
-    for a in accs[1:]:
-        pooled = pooled.merge(a)
-    row = point_row(pooled, confidence)
-    reps = [point_row(a, confidence) for a in accs]
-    r = len(reps)
-    tq = float(student_t.ppf(0.5 + confidence / 2.0, r - 1))
-    for stat, (lo, hi, se_name) in _REPLICATED.items():
-        vals = np.array([x[stat] for x in reps], dtype=float)
-        se = float(np.std(vals, ddof=1) / math.sqrt(r))
-        row[lo] = row[stat] - tq * se
-        row[hi] = row[stat] + tq * se
-        if se_name:
-            row[se_name] = se
-        else:
-            row["capture_se"] = se
-    row["replicates"] = r
     return row
 
 
@@ -256,24 +234,33 @@ def relative_coefficients(summary, reference_angle_deg: float = 85.0):
     same surface and speed, with the standard errors of the two independent estimates
     combined in quadrature; at the reference angle itself the difference is exactly 0
     with standard error 0. NaN where the reference angle is not in the sweep.
+
+    The table form of :func:`microimpact.engine.summary.relative_to_reference` (which
+    fills the result's own columns on the sweep grid), for any summary table, also
+    one that is not a full grid.
     """
+    import pandas as pd
+
     out = summary.copy()
+    keys = ["surface", "speed_m_s"]
     ref = summary[np.isclose(summary["angle_deg"], reference_angle_deg)]
-    ref = ref.set_index(["surface", "speed_m_s"])
-    for stat, se in (("e_rebound_mean", "e_rebound_se"), ("mu_mean", "mu_se")):
-        name = "e_relative" if stat.startswith("e") else "mu_relative"
-        vals, ses = [], []
-        for _, r in out.iterrows():
-            key = (r["surface"], r["speed_m_s"])
-            if key in ref.index and math.isclose(r["angle_deg"], reference_angle_deg):
-                vals.append(0.0 if not math.isnan(r[stat]) else math.nan)
-                ses.append(0.0 if not math.isnan(r[stat]) else math.nan)
-            elif key in ref.index:
-                vals.append(r[stat] - ref.loc[key, stat])
-                ses.append(math.hypot(r[se], ref.loc[key, se]))
-            else:
-                vals.append(math.nan)
-                ses.append(math.nan)
-        out[name] = vals
-        out[f"{name}_se"] = ses
+    ref = ref.drop_duplicates(keys).set_index(keys)
+    where = pd.MultiIndex.from_frame(summary[keys])
+    has_ref = where.isin(ref.index)
+    at_ref = has_ref & np.array(
+        [math.isclose(a, reference_angle_deg) for a in summary["angle_deg"]], dtype=bool
+    )
+    for stat, se, name in (
+        ("e_rebound_mean", "e_rebound_se", "e_relative"),
+        ("mu_mean", "mu_se", "mu_relative"),
+    ):
+        x = summary[stat].to_numpy(dtype=float)
+        x_se = summary[se].to_numpy(dtype=float)
+        r = ref[stat].reindex(where).to_numpy(dtype=float)
+        r_se = ref[se].reindex(where).to_numpy(dtype=float)
+        # math.hypot per value, not np.hypot: they can differ in the last bit
+        hyp = np.array([math.hypot(a, b) for a, b in zip(x_se, r_se, strict=True)])
+        zero = np.where(np.isnan(x), np.nan, 0.0)
+        out[name] = np.where(at_ref, zero, np.where(has_ref, x - r, np.nan))
+        out[f"{name}_se"] = np.where(at_ref, zero, np.where(has_ref, hyp, np.nan))
     return out

@@ -23,10 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .accumulators import E_EDGES, MU_EDGES
-from .statistics import wilson_interval, z_value
-
-#: Histogram quantiles reported per point (``e_p05`` ...).
-QUANTILES = (0.05, 0.5, 0.95)
+from .statistics import QUANTILES, interval_se, wilson_interval, z_value
 
 
 @dataclass(frozen=True)
@@ -57,15 +54,12 @@ class Spans:
             big = self.counts.size and int(self.counts.max()) >= 2**31
             dtype = np.int64 if big else np.int32
         out = np.zeros((self.rows, self.size), dtype=dtype)
-        for i, (o, st, n) in enumerate(
-            zip(
-                self.offset.tolist(),
-                self.start.tolist(),
-                self.length.tolist(),
-                strict=True,
-            )
-        ):
-            out[i, o : o + n] = self.counts[st : st + n]
+        row = np.repeat(np.arange(self.rows), self.length)
+        # each stored count's dense bin: its row's offset plus its place in the span
+        col = np.repeat(self.offset - self.start, self.length) + np.arange(
+            self.counts.size
+        )
+        out[row, col] = self.counts
         return out
 
     @classmethod
@@ -86,11 +80,7 @@ def _span_of(acc, name):
     span = getattr(acc, "span_of", None)
     if span is not None:
         return span(name)
-    dense = np.asarray(getattr(acc, f"{name}_hist"))
-    nz = np.flatnonzero(dense)
-    if nz.size == 0:
-        return 0, dense[:0]
-    return int(nz[0]), dense[nz[0] : nz[-1] + 1]
+    return _span_of_dense(np.asarray(getattr(acc, f"{name}_hist")))
 
 
 @dataclass(frozen=True)
@@ -125,16 +115,6 @@ class Stacked:
         e_spans = Spans.of((_span_of(a, "e") for a in accs), E_EDGES.size + 1)
         mu_spans = Spans.of((_span_of(a, "mu") for a in accs), MU_EDGES.size + 1)
         return cls(counts, e, mu, e_spans, mu_spans)
-
-    @property
-    def e_hist(self) -> np.ndarray:
-        """Dense e_m histograms ``(P, len(E_EDGES) + 1)``."""
-        return self.e_spans.dense(np.int64)
-
-    @property
-    def mu_hist(self) -> np.ndarray:
-        """Dense mu_m histograms ``(P, len(MU_EDGES) + 1)``."""
-        return self.mu_spans.dense(np.int64)
 
 
 def _merge_zero(captured, e):
@@ -297,7 +277,7 @@ def point_statistics(stacked: Stacked, confidence: float) -> dict[str, np.ndarra
         qs = histogram_quantiles(hist, edges)
         for k, qv in enumerate(QUANTILES):
             out[f"{name}_p{round(qv * 100):02d}"] = qs[:, k]
-    out["capture_se"] = (out["capture_ci_high"] - out["capture_ci_low"]) / (2.0 * z)
+    out["capture_se"] = interval_se(low, high, confidence)
     return out
 
 
