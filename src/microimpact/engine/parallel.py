@@ -257,11 +257,10 @@ BACKENDS = ("process", "dask")
 
 
 def make_runner(plan, *, workers=1, backend="process", executor=None, address=None):
-    """The runner for the requested parallelism (`workers` capped by
-    :func:`cap_workers`)."""
+    """The runner for the requested parallelism (`workers` as given: the caller
+    caps it with :func:`cap_workers`, once, and records the effective count)."""
     if executor is not None:
         return ExecutorRunner(plan, executor)
-    workers = cap_workers(workers, backend=backend, address=address)
     if backend == "dask":
         return DaskRunner(plan, address=address, workers=workers)
     if workers == 1:

@@ -257,10 +257,11 @@ class SimulationResult:
         kernel = getattr(plan, "kernel", None)
         if kernel is None:
             from .kernel import KERNEL as kernel
+        vers = versions()
         prov = {
             "scenario": scenario.describe(),
             "seed_entropy": str(plan.entropy),
-            "versions": versions(),
+            "versions": vers,
             "samples_per_point": None if samples is None else int(samples),
             "sampling": plan.sampling,
             "replicates": plan.replicates,
@@ -277,7 +278,7 @@ class SimulationResult:
         attrs = {
             "title": f"microimpact Monte Carlo results: {scenario.name}",
             "institution": "",
-            "source": f"microimpact {versions().get('microimpact', '?')}",
+            "source": f"microimpact {vers.get('microimpact', '?')}",
             "references": "Li, Dunn & Brach (2000), Aerosol Sci. Technol. 33:376-386",
             "scenario_name": scenario.name,
             "confidence": confidence,
