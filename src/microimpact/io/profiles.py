@@ -266,15 +266,16 @@ def header_unit(cell: str) -> tuple[str | None, str | None]:
 
 
 def _same_unit(a: str, b: str) -> bool:
-    return LENGTH_UNITS[a] == LENGTH_UNITS[b]
+    return length_factor(a) == length_factor(b)
 
 
 def _column_unit(path, names, idx, axis, explicit):
     """``(unit, where it came from)`` of the x or z column `idx`.
 
     The header's unit is honoured; an explicit unit (`explicit`: ``(value, argument
-    name)`` or ``None``) must agree with it, else ProfileFormatError naming the file,
-    the column and both units. Without either: µm, recorded as the default.
+    name)`` or ``None``, already checked by :func:`_unit_factor`) must agree with it,
+    else ProfileFormatError naming the file, the column and both units. Without
+    either: µm, recorded as the default.
     """
     from_header = bad = None
     if names is not None and idx is not None:
@@ -282,7 +283,6 @@ def _column_unit(path, names, idx, axis, explicit):
     label = None if idx is None or names is None else _label(names, idx)
     if explicit is not None:
         value, arg = explicit
-        _unit_factor(value, arg, path)
         if from_header is not None and not _same_unit(from_header, value):
             raise ProfileFormatError(
                 f"the header of {label} gives the unit {from_header!r} but "
@@ -293,13 +293,15 @@ def _column_unit(path, names, idx, axis, explicit):
             )
         return value, "argument"
     if bad is not None:
-        allowed = ", ".join(repr(u) for u in ("m", "mm", "um", "µm", "nm", "A", "Å"))
-        raise ProfileFormatError(
-            f"unknown length unit {bad!r} in the header of {label}; allowed: "
-            f"{allowed}, or give the {axis} unit explicitly (`{axis}_unit`)",
-            source=path,
-            field=names[idx],
-        )
+        try:
+            length_factor(bad)  # its message lists the allowed units
+        except ValueError as exc:
+            raise ProfileFormatError(
+                f"{exc}, or give the {axis} unit explicitly (`{axis}_unit`) instead "
+                "of the header's",
+                source=path,
+                field=names[idx],
+            ) from None
     if from_header is not None:
         return from_header, "header"
     return "um", "default"
