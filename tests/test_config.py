@@ -551,6 +551,14 @@ def test_error_outputs():
         minimal(outputs={"experiments": 3}),
         r"outputs\.experiments: must be a CSV file name or an array of them",
     )
+    check(
+        minimal(outputs={"report": "yes"}),
+        r"outputs\.report: must be true or false; got 'yes'",
+    )
+
+
+def test_outputs_report_key():
+    assert outputs_from_dict(minimal(outputs={"report": False})).report is False
 
 
 def test_error_top_level_not_a_table():
