@@ -156,17 +156,17 @@ def _run(study, tmp: Path, *extra):
 @_FAST
 @given(study=studies(max_speeds=12, max_angles=6, budget=6_000))
 def test_own_study_runs_to_the_end(study, tmp_path_factory):
-    tmp = tmp_path_factory.mktemp("own")
-    rc, path, out = _run(study, tmp)
-    assert rc == 0, study.toml
-    check_run(out, path)
-    shutil.rmtree(path.parent)
+    _runs_to_the_end(study, tmp_path_factory)
 
 
 @pytest.mark.slow
 @_SLOW
 @given(study=studies())
 def test_own_study_runs_to_the_end_many(study, tmp_path_factory):
+    _runs_to_the_end(study, tmp_path_factory)
+
+
+def _runs_to_the_end(study, tmp_path_factory):
     tmp = tmp_path_factory.mktemp("own")
     rc, path, out = _run(study, tmp)
     assert rc == 0, study.toml
