@@ -23,12 +23,23 @@ import re
 from pathlib import Path
 
 from ._files import atomic_write
+from ._formats import FIGURE_FORMATS
 from .errors import InputError
 
-__all__ = ["LOCK_NAME", "MANIFEST_NAME", "OutputFolder", "OutputFolderBusy"]
+__all__ = [
+    "CHECKPOINT_NAME",
+    "LOCK_NAME",
+    "MANIFEST_NAME",
+    "OutputFolder",
+    "OutputFolderBusy",
+]
 
 LOCK_NAME = ".microimpact.lock"
 MANIFEST_NAME = ".microimpact-manifest.json"
+#: The checkpoint file a study keeps in its output folder while it runs.
+CHECKPOINT_NAME = ".microimpact-checkpoint.npz"
+#: File suffixes of figures (the part "figures" of the manifest).
+_FIGURE_SUFFIXES = tuple(f".{f}" for f in FIGURE_FORMATS)
 _TMP = re.compile(r"^\.(?P<name>.+)\.[A-Za-z0-9_]{8}\.tmp$")
 #: Outputs a study may write (their stale temporary files are always removed).
 KNOWN = ("summary.csv", "results.nc", "capture_speed.csv", "report.html")
@@ -129,7 +140,7 @@ class OutputFolder:
 
     def _clean_temporaries(self) -> None:
         listed = {n for files in self.manifest().values() for n in files}
-        listed |= set(KNOWN) | {MANIFEST_NAME, ".microimpact-checkpoint.npz"}
+        listed |= set(KNOWN) | {MANIFEST_NAME, CHECKPOINT_NAME}
         for entry in self.path.iterdir():
             m = _TMP.match(entry.name)
             if m and entry.is_file() and _owned(m.group("name"), listed):
@@ -137,12 +148,12 @@ class OutputFolder:
 
 
 def _owned(name: str, listed) -> bool:
-    return name in listed or name.endswith((".png", ".pdf", ".svg"))
+    return name in listed or name.endswith(_FIGURE_SUFFIXES)
 
 
 def _part_of(name: str) -> str:
     if name == "report.html":
         return "report"
-    if name.endswith((".png", ".pdf", ".svg")):
+    if name.endswith(_FIGURE_SUFFIXES):
         return "figures"
     return "tables"

@@ -364,27 +364,42 @@ def as_scenario(scenario) -> Scenario:
     TypeError
         For anything else.
     """
-    import os
-
     if isinstance(scenario, Scenario):
         return scenario
-    if isinstance(scenario, str | os.PathLike):
-        from .config import PRESETS, load_preset, preset_path  # noqa: F401
+    return Scenario.from_toml(scenario_file(scenario))
 
-        text = os.fspath(scenario)
-        path = Path(text)
-        if path.suffix.lower() == ".toml" or path.exists() or text not in PRESETS:
-            if path.suffix.lower() != ".toml" and not path.exists():
-                from ._validation import did_you_mean
 
-                raise ScenarioError(
-                    "not a scenario file and not a preset name; presets: "
-                    f"{', '.join(sorted(PRESETS))}{did_you_mean(text, PRESETS)}",
-                    source=text,
-                )
-            return Scenario.from_toml(path)
-        return load_preset(text)
-    raise TypeError(
-        "`scenario` must be a Scenario, a path to a scenario file or a preset name; "
-        f"got {type(scenario).__name__}."
+def scenario_file(scenario) -> Path:
+    """The scenario file that `scenario` names: a path to a ``.toml`` (or any
+    existing) file as it is, else the file of the shipped preset of that name.
+
+    Raises
+    ------
+    ScenarioError
+        For a name that is neither a scenario file nor a preset (with a
+        did-you-mean hint).
+    TypeError
+        For anything but a str or path.
+    """
+    import os
+
+    if not isinstance(scenario, str | os.PathLike):
+        raise TypeError(
+            "`scenario` must be a Scenario, a path to a scenario file or a preset "
+            f"name; got {type(scenario).__name__}."
+        )
+    from .config import PRESETS, preset_path
+
+    text = os.fspath(scenario)
+    path = Path(text)
+    if path.suffix.lower() == ".toml" or path.exists():
+        return path
+    if text in PRESETS:
+        return preset_path(text)
+    from ._validation import did_you_mean
+
+    raise ScenarioError(
+        "not a scenario file and not a preset name; presets: "
+        f"{', '.join(sorted(PRESETS))}{did_you_mean(text, PRESETS)}",
+        source=text,
     )

@@ -22,16 +22,13 @@ the folder are never touched.
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
-from ._outdir import OutputFolder
+from ._outdir import CHECKPOINT_NAME, OutputFolder
 from .outputs import Outputs
 
 __all__ = ["CHECKPOINT_NAME", "Outputs", "Study", "reproduce"]
 
-#: The checkpoint file a study keeps in its output folder while it runs.
-CHECKPOINT_NAME = ".microimpact-checkpoint.npz"
 #: The parts :meth:`Study.write` can write.
 PARTS = ("tables", "figures", "report")
 
@@ -60,37 +57,34 @@ class Study:
     """
 
     def __init__(self, scenario, *, outputs: Outputs | None = None):
-        from .config import outputs_from_toml
-        from .scenario import as_scenario
+        from .scenario import Scenario, scenario_file
 
-        if outputs is None and isinstance(scenario, str | os.PathLike):
-            path = Path(scenario)
-            if path.suffix.lower() == ".toml" or path.exists():
+        _outputs_iv(outputs)
+        if not isinstance(scenario, Scenario):
+            path = scenario_file(scenario)
+            if outputs is None:
+                from .config import outputs_from_toml
+
                 outputs = outputs_from_toml(path)
-            else:
-                from .config import PRESETS, preset_path
-
-                if os.fspath(scenario) in PRESETS:
-                    outputs = outputs_from_toml(preset_path(os.fspath(scenario)))
-        if outputs is not None and not isinstance(outputs, Outputs):
-            raise TypeError(f"`outputs` must be an Outputs; got {outputs!r}.")
-        self.scenario = as_scenario(scenario)
-        self.outputs = Outputs() if outputs is None else outputs
-        self.result = None
-        self.files: list[Path] = []
-        self._experiments = None
+            scenario = Scenario.from_toml(path)
+        self._setup(scenario, outputs)
 
     @classmethod
     def from_result(cls, result, *, outputs: Outputs | None = None) -> Study:
         """A study around an existing result (e.g. :func:`open_result`), to write its
         files, figures and report without running anything."""
-        study = cls.__new__(cls)
-        study.scenario = result.scenario
-        study.outputs = Outputs() if outputs is None else outputs
+        _outputs_iv(outputs)
+        study = cls.__new__(cls)  # the result's scenario may be a ScenarioRecord
+        study._setup(result.scenario, outputs)
         study.result = result
-        study.files = []
-        study._experiments = None
         return study
+
+    def _setup(self, scenario, outputs):
+        self.scenario = scenario
+        self.outputs = Outputs() if outputs is None else outputs
+        self.result = None
+        self.files: list[Path] = []
+        self._experiments = None
 
     def __repr__(self) -> str:
         state = "not run" if self.result is None else repr(self.result)
@@ -204,10 +198,11 @@ class Study:
         self.files = written
 
     def _figures(self, folder):
+        from .plotting._style import use_agg
         from .plotting.results import figures_for_result, save_figures
         from .report import input_figures
 
-        _use_agg()
+        use_agg()
         exp = self.experiments()
         paths = figures_for_result(
             self.result, folder.path, formats=self.outputs.figures, experiments=exp
@@ -220,9 +215,10 @@ class Study:
         return [Path(p) for p in paths]
 
     def _report(self, path, *, figures, folder=None):
+        from .plotting._style import use_agg
         from .report import write_report
 
-        _use_agg()
+        use_agg()
         name = self.result.scenario.name
         csv = path.parent / "summary.csv"
         return Path(
@@ -236,21 +232,18 @@ class Study:
         )
 
 
+def _outputs_iv(outputs):
+    if outputs is not None and not isinstance(outputs, Outputs):
+        raise TypeError(f"`outputs` must be an Outputs; got {outputs!r}.")
+
+
 def _parts_iv(parts):
     from ._validation import check_subset
 
     return check_subset(parts, "parts", PARTS)
 
 
-def _use_agg():
-    """Draw without a display when no backend was chosen (files only)."""
-    import matplotlib
-
-    if "matplotlib.pyplot" not in __import__("sys").modules:
-        matplotlib.use("Agg")
-
-
-def reproduce(out_dir="out", *, samples=None, **options) -> list[Study]:
+def reproduce(out_dir="out", *, samples=None, figures=None, **options) -> list[Study]:
     """Reproduce the paper: run its four presets into ``out_dir/<preset>/`` and
     write one report of them all to ``out_dir/report.html``.
 
@@ -259,14 +252,21 @@ def reproduce(out_dir="out", *, samples=None, **options) -> list[Study]:
     out_dir : path
     samples : int, optional
         Impacts per sweep point (default: each preset's, 4,000).
+    figures : sequence of {"png", "pdf", "svg"}, optional
+        Figure formats (default: each preset's ``[outputs] figures``, png).
     **options
         As for :meth:`Study.run` (seed, workers, backend, ...).
     """
+    from dataclasses import replace
+
     from .config import PRESETS
     from .report import write_report
 
     out = Path(out_dir)
     studies = [Study(name) for name in PRESETS]
+    if figures is not None:
+        for study in studies:
+            study.outputs = replace(study.outputs, figures=figures)
     for study in studies:  # every experiments file is read before any output
         study.experiments()
     for study in studies:

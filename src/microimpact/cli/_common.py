@@ -147,13 +147,6 @@ def say(args, msg):
         print(msg)
 
 
-def use_agg():
-    """Draw without a display (the CLI only writes files)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-
-
 def write_outputs(out, *, tables=None, texts=None, figures=None):
     """Write tables (CSV), texts and figures (PNG + PDF) to `out`, each atomically.
 
@@ -161,6 +154,7 @@ def write_outputs(out, *, tables=None, texts=None, figures=None):
     an Axes; matplotlib is imported (with the Agg backend) only when needed.
     """
     from .._files import atomic_write
+    from .._formats import DEFAULT_FIGURE_FORMATS
 
     out.mkdir(parents=True, exist_ok=True)
     for name, table in (tables or {}).items():
@@ -168,30 +162,29 @@ def write_outputs(out, *, tables=None, texts=None, figures=None):
     for name, text in (texts or {}).items():
         atomic_write(out / name, lambda t, x=text: Path(t).write_text(x))
     if figures:
-        use_agg()
+        from ..plotting._style import use_agg
         from ..plotting.results import save_figures
 
-        save_figures(figures.items(), out, ("png", "pdf"))
+        use_agg()
+        save_figures(figures.items(), out, DEFAULT_FIGURE_FORMATS)
     print(f"-> {out}")
 
 
 def print_capture(result):
     """Every capture-speed row, estimated or not (a refused estimate says why);
     with a single speed, one line saying that there is none."""
-    import math as _m
-
     if len(result.grid.speeds_m_s) < 2:
         print("  capture speed: one speed was simulated, so none is estimated")
         return
     cs = result.capture_speed()
 
     def num(x):
-        return "open" if x is None or not _m.isfinite(float(x)) else f"{float(x):.3f}"
+        return "open" if x is None or not math.isfinite(float(x)) else f"{float(x):.3f}"
 
     for _, r in cs.iterrows():
         where = f"  {r['surface']}, {r['angle_deg']:g} deg: {r['quantile']:.0%} capture"
         note = str(r.get("note", "") or "")
-        if _m.isfinite(float(r["speed_m_s"])):
+        if math.isfinite(float(r["speed_m_s"])):
             print(
                 f"{where} at {float(r['speed_m_s']):.3f} m/s "
                 f"[{num(r['speed_ci_low'])}, {num(r['speed_ci_high'])}]"

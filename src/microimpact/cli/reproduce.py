@@ -25,7 +25,9 @@ def cli_action(args) -> int:
 
     t0 = time.perf_counter()
     samples = args.samples or (1000 if args.quick else None)
-    studies = reproduce(args.out, samples=samples, **c.run_options(args))
+    studies = reproduce(
+        args.out, samples=samples, figures=args.formats, **c.run_options(args)
+    )
     for study in studies:
         c.say(
             args,

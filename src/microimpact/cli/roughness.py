@@ -98,8 +98,10 @@ def cli_action(args) -> int:
         "is relative to the scenario file: copy angles.txt next to it",
     )
     atomic_write(out / "surface.toml", lambda t: Path(t).write_text(snippet))
-    c.use_agg()
+    from ..plotting._style import use_agg
     from ..plotting.results import save_figures
+
+    use_agg()
 
     save_figures([("angle_pdf", lambda: plot_angle_pdf(ch))], out, ("png", "pdf"))
     save_figures([("profile", lambda: plot_profile(profile))], out, ("png",))

@@ -26,3 +26,14 @@ STYLE = {
 def colour(k: int) -> str:
     """The `k`-th colour of the palette (cycled)."""
     return PALETTE[k % len(PALETTE)]
+
+
+def use_agg():
+    """Draw without a display (files only), unless a backend is already in use:
+    pyplot imported means the caller chose one, which is left as it is."""
+    import sys
+
+    if "matplotlib.pyplot" not in sys.modules:
+        import matplotlib
+
+        matplotlib.use("Agg")
