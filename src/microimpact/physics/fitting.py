@@ -629,10 +629,8 @@ class CoefficientLawsFit:
             "p": self.laws.p,
             "q": self.laws.q,
             "friction": self.laws.friction,
-            "by_diameter": [
-                {k: _plain_cell(v) for k, v in row.items()}
-                for row in self.table.to_dict(orient="records")
-            ],
+            # pandas (>= 2) gives the records as Python scalars
+            "by_diameter": self.table.to_dict(orient="records"),
             "scenario_toml": self.toml(),
         }
 
@@ -657,16 +655,6 @@ class CoefficientLawsFit:
 
 #: Identifies the layout of :meth:`CoefficientLawsFit.to_dict`.
 LAWS_SCHEMA = "microimpact.coefficient_laws/1"
-
-
-def _plain_cell(v):
-    if isinstance(v, np.bool_ | bool):
-        return bool(v)
-    if isinstance(v, np.integer):
-        return int(v)
-    if isinstance(v, np.floating | float):
-        return float(v)
-    return v
 
 
 def coefficient_laws_fit(
