@@ -186,9 +186,9 @@ def coefficients_snippet(laws, *, comment=None) -> str:
     ValueError
         If a law cannot be written as a scenario law table (a Python callable).
     """
-    items = {}
+    items, described = {}, laws.describe()
     for name in ("k1", "k2", "v_c"):
-        spec = laws.describe()[name]
+        spec = described[name]
         if spec.get("law") == "callable":
             raise ValueError(
                 f"{name} is a Python function; a scenario file cannot hold it."
