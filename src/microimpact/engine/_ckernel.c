@@ -114,7 +114,6 @@ physics(double *restrict ws, int64_t *restrict iws, int64_t c, double p,
     const double two_sevenths = 2.0 / 7.0;
     const double e_lo = h->e_lo, e_inv_w = h->e_inv_w, e_nb = h->e_nb;
     const double mu_lo = h->mu_lo, mu_inv_w = h->mu_inv_w, mu_nb = h->mu_nb;
-    const int64_t e_top = h->e_top, mu_top = h->mu_top;
     const int64_t e_spill = h->e_spill, mu_spill = h->mu_spill;
     int64_t n_shadow = 0, n_capt = 0, n_reimp = 0, n_roll = 0, m = 0;
     for (int64_t k = 0; k < CHUNK; k++) {
@@ -786,6 +785,13 @@ run_block(block_args *a, scratch_t *s)
     counts_t cnt = {0, 0, 0, 0, 0};
     double ke = 0.0, km = 0.0;
     double se1 = 0.0, se2 = 0.0, se3 = 0.0, sm1 = 0.0, sm2 = 0.0, sm3 = 0.0;
+    if (!a->angle_random) { /* smooth: phi = 0 exactly, the same in every chunk */
+        for (int k = 0; k < CHUNK; k++) {
+            ws[W_SIN * CHUNK + k] = st * 1.0 - ct * 0.0;
+            ws[W_COT * CHUNK + k] = ct * 1.0 + st * 0.0;
+            ws[W_TAN * CHUNK + k] = 0.0;
+        }
+    }
     for (Py_ssize_t start = 0; start < a->n; start += CHUNK) {
         int c = (int)(a->n - start < CHUNK ? a->n - start : CHUNK);
         const uint64_t *i_d, *i_a, *i_s;
@@ -838,12 +844,6 @@ run_block(block_args *a, scratch_t *s)
                 double sp = ws[W_SIN * CHUNK + k], cp = ws[W_COT * CHUNK + k];
                 ws[W_SIN * CHUNK + k] = st * cp - ct * sp; /* sin(theta - phi) */
                 ws[W_COT * CHUNK + k] = ct * cp + st * sp; /* cos(theta - phi) */
-            }
-        } else { /* smooth: phi = 0 exactly */
-            for (int k = 0; k < CHUNK; k++) {
-                ws[W_SIN * CHUNK + k] = st * 1.0 - ct * 0.0;
-                ws[W_COT * CHUNK + k] = ct * 1.0 + st * 0.0;
-                ws[W_TAN * CHUNK + k] = 0.0;
             }
         }
         if (a->speed_random) {
@@ -922,6 +922,55 @@ check_len(Py_buffer *b, const char *name, Py_ssize_t itemsize, Py_ssize_t need)
         PyErr_Format(PyExc_ValueError,
                      "_ckernel.block: %s holds %zd bytes, needs %zd items of %zd",
                      name, b->len, need, itemsize);
+        return -1;
+    }
+    return 0;
+}
+
+/* The histogram layout (6 float64: e_m then mu_m lower edge, inverse bin width,
+ * bin count); slots 0 below the range, 1..nb the bins, nb + 1 above, then SPILL. */
+static int
+parse_hist(Py_buffer *bh, hist_t *hs)
+{
+    if (check_len(bh, "hist", 8, 6))
+        return -1;
+    const double *h = (const double *)bh->buf;
+    if (!(h[2] >= 1 && h[5] >= 1 && h[2] < 1e7 && h[5] < 1e7)) {
+        PyErr_SetString(PyExc_ValueError, "_ckernel: bad hist layout");
+        return -1;
+    }
+    hs->e_lo = h[0];
+    hs->e_inv_w = h[1];
+    hs->e_nb = h[2];
+    hs->mu_lo = h[3];
+    hs->mu_inv_w = h[4];
+    hs->mu_nb = h[5];
+    hs->e_top = (int64_t)h[2] + 1;
+    hs->mu_top = (int64_t)h[5] + 1;
+    hs->e_spill = hs->e_top + 1;
+    hs->mu_spill = hs->mu_top + 1;
+    return 0;
+}
+
+/* Release the buffers of a parsed sampler (the compact rows are optional). */
+static void
+release_sampler(Py_buffer *bufs)
+{
+    for (int j = 0; j < 3; j++)
+        if (j < 2 || bufs[j].obj != NULL)
+            PyBuffer_Release(&bufs[j]);
+}
+
+/* Pairs: every rank < pair_total, shifted, must stay below 2^64, and every
+ * particle atom index (rank - start, at most pair_total - 1) must have a row;
+ * the surface table is searched through its guide (kind 0). */
+static int
+check_pairs(int shift, unsigned long long total, const sampler_t *surface)
+{
+    if (shift < 0 || shift > 63 ||
+        (shift && (total < 1 || (((uint64_t)total - 1) >> (64 - shift)) ||
+                   surface->kind != 0))) {
+        PyErr_SetString(PyExc_ValueError, "_ckernel: bad pair layout");
         return -1;
     }
     return 0;
@@ -1044,43 +1093,19 @@ ck_block(PyObject *self, PyObject *args)
         parse_sampler(samp[2], "speed", &a.s, 4, sb[2], &held[2]) ||
         parse_sampler(samp[3], "particle", &a.b, 8, sb[3], &held[3]))
         goto done;
-    /* pairs: every rank < pair_total, shifted, must stay below 2^64, and every
-     * particle atom index (rank - start, at most pair_total - 1) must have a row */
-    if (a.pair_shift < 0 || a.pair_shift > 63 ||
-        (a.pair_shift &&
-         (pair_total < 1 || (((uint64_t)pair_total - 1) >> (64 - a.pair_shift)) ||
-          a.a.kind != 0))) {
-        PyErr_SetString(PyExc_ValueError, "_ckernel.block: bad pair layout");
+    if (check_pairs(a.pair_shift, pair_total, &a.a))
         goto done;
-    }
     a.pair_total = (uint64_t)pair_total;
     if (n < 0) {
         PyErr_SetString(PyExc_ValueError, "_ckernel.block: bad n or stride");
         goto done;
     }
-    if (check_len(&bd, "i_d", 8, n) || check_len(&bh, "hist", 8, 6) ||
+    if (check_len(&bd, "i_d", 8, n) ||
         (angle_random && check_len(&ba, "i_a", 8, n)) ||
-        (speed_random && check_len(&bs, "i_s", 8, n)))
-        goto done;
-    const double *h = (const double *)bh.buf;
-    a.hist.e_lo = h[0];
-    a.hist.e_inv_w = h[1];
-    a.hist.e_nb = h[2];
-    a.hist.mu_lo = h[3];
-    a.hist.mu_inv_w = h[4];
-    a.hist.mu_nb = h[5];
-    /* slots: 0 below the range, 1..nb the bins, nb + 1 above, then SPILL */
-    a.hist.e_top = (int64_t)h[2] + 1;
-    a.hist.mu_top = (int64_t)h[5] + 1;
-    a.hist.e_spill = a.hist.e_top + 1;
-    a.hist.mu_spill = a.hist.mu_top + 1;
-    if (h[2] < 1 || h[5] < 1 ||
+        (speed_random && check_len(&bs, "i_s", 8, n)) || parse_hist(&bh, &a.hist) ||
         check_len(&beh, "e_hist", 8, a.hist.e_spill + SPILL) ||
-        check_len(&bmh, "mu_hist", 8, a.hist.mu_spill + SPILL)) {
-        if (!PyErr_Occurred())
-            PyErr_SetString(PyExc_ValueError, "_ckernel.block: bad hist layout");
+        check_len(&bmh, "mu_hist", 8, a.hist.mu_spill + SPILL))
         goto done;
-    }
     a.i_d = bd.buf;
     a.i_a = ba.buf;
     a.i_s = bs.buf;
@@ -1115,9 +1140,7 @@ done:
     PyBuffer_Release(&bmh);
     for (int i = 0; i < 4; i++)
         if (held[i])
-            for (int j = 0; j < 3; j++)
-                if (j < 2 || sb[i][j].obj != NULL)
-                    PyBuffer_Release(&sb[i][j]);
+            release_sampler(sb[i]);
     return result;
 }
 
@@ -1179,31 +1202,6 @@ done:
     return result;
 }
 
-/* The histogram layout (6 float64: e_m then mu_m lower edge, inverse bin width,
- * bin count); slots 0 below the range, 1..nb the bins, nb + 1 above, then SPILL. */
-static int
-parse_hist(Py_buffer *bh, hist_t *hs)
-{
-    if (check_len(bh, "hist", 8, 6))
-        return -1;
-    const double *h = (const double *)bh->buf;
-    if (!(h[2] >= 1 && h[5] >= 1 && h[2] < 1e7 && h[5] < 1e7)) {
-        PyErr_SetString(PyExc_ValueError, "_ckernel: bad hist layout");
-        return -1;
-    }
-    hs->e_lo = h[0];
-    hs->e_inv_w = h[1];
-    hs->e_nb = h[2];
-    hs->mu_lo = h[3];
-    hs->mu_inv_w = h[4];
-    hs->mu_nb = h[5];
-    hs->e_top = (int64_t)h[2] + 1;
-    hs->mu_top = (int64_t)h[5] + 1;
-    hs->e_spill = hs->e_top + 1;
-    hs->mu_spill = hs->mu_top + 1;
-    return 0;
-}
-
 /* A sampler tuple parsed once per call, found again by identity. */
 typedef struct {
     PyObject *tup;
@@ -1242,9 +1240,7 @@ sampler_of(sampler_set *set, PyObject *tup, const char *name, Py_ssize_t min_str
     ps->held = 0;
     if (parse_sampler(tup, name, &ps->s, min_stride, ps->bufs, &ps->held)) {
         if (ps->held)
-            for (int j = 0; j < 3; j++)
-                if (j < 2 || ps->bufs[j].obj != NULL)
-                    PyBuffer_Release(&ps->bufs[j]);
+            release_sampler(ps->bufs);
         PyMem_Free(ps);
         return NULL;
     }
@@ -1256,9 +1252,7 @@ static void
 sampler_set_free(sampler_set *set)
 {
     for (Py_ssize_t i = 0; i < set->n; i++) {
-        for (int j = 0; j < 3; j++)
-            if (j < 2 || set->items[i]->bufs[j].obj != NULL)
-                PyBuffer_Release(&set->items[i]->bufs[j]);
+        release_sampler(set->items[i]->bufs);
         PyMem_Free(set->items[i]);
     }
     PyMem_Free(set->items);
@@ -1376,13 +1370,8 @@ ck_specs(PyObject *self, PyObject *args)
             goto done;
         x->cut = cut;
         x->pair_total = pair_total;
-        if (x->pair_shift < 0 || x->pair_shift > 63 ||
-            (x->pair_shift &&
-             (pair_total < 1 || (((uint64_t)pair_total - 1) >> (64 - x->pair_shift)) ||
-              x->a->kind != 0))) {
-            PyErr_SetString(PyExc_ValueError, "_ckernel.specs: bad pair layout");
+        if (check_pairs(x->pair_shift, pair_total, x->a))
             goto done;
-        }
         prev_pt = pt;
     }
     int64_t e_size = hs.e_spill + SPILL, mu_size = hs.mu_spill + SPILL;
