@@ -140,57 +140,6 @@ class QuantileTable:
         return float(self.values.std())
 
 
-class EqualAtoms:
-    """The discrete distribution with mass ``1/n`` on each of ``n`` atoms.
-
-    The one implementation behind the discrete kinds of the size and angle
-    distributions (an empirical sample, a monodisperse population). The methods take
-    and return plain arrays; the callers map ``q`` outside [0, 1] and NaN inputs to
-    NaN.
-
-    Attributes
-    ----------
-    atoms : ndarray
-        The atoms, sorted, read-only.
-    """
-
-    is_discrete = True
-
-    def __init__(self, atoms):
-        a = np.sort(np.asarray(atoms, dtype=float).ravel())
-        a.setflags(write=False)
-        self.atoms = a
-
-    def ppf(self, q):
-        """Left-continuous inverse of the CDF, ``atoms[ceil(q n) - 1]``."""
-        n = self.atoms.size
-        k = np.clip(np.ceil(q * n).astype(np.intp) - 1, 0, n - 1)
-        return self.atoms[k]
-
-    def cdf(self, x):
-        return np.searchsorted(self.atoms, x, side="right") / self.atoms.size
-
-    def pdf(self, x):
-        """``inf`` at the atoms (a Dirac delta), 0 elsewhere."""
-        return np.where(np.isin(x, self.atoms), np.inf, 0.0)
-
-    def rvs(self, size, rng):
-        return self.atoms[rng.integers(0, self.atoms.size, size=size)]
-
-    def mean(self) -> float:
-        return float(self.atoms.mean())
-
-    def std(self) -> float:
-        return float(self.atoms.std())
-
-    def support(self) -> tuple[float, float]:
-        return float(self.atoms[0]), float(self.atoms[-1])
-
-    def table(self, size: int = TABLE_SIZE) -> QuantileTable:
-        """:meth:`QuantileTable.from_sample`: the atoms are the sample's values."""
-        return QuantileTable.from_sample(self.atoms, size=size)
-
-
 # ----------------------------------------------------------------- cell tables
 #: Dyadic levels per side of a refined quantile grid: the probabilities
 #: ``[2^-(k+2), 2^-(k+1))`` for ``k = 0 .. GRID_LEVELS - 1`` each hold
@@ -432,20 +381,19 @@ class CellTable:
                 raise ValueError("too many atoms (at most 2^31 - 1).")
             cum = _equal_starts(np.arange(x.size), x.size)
             return cls.from_cells(cum, x, x, kind=cls.EQUAL)
-        else:
-            w = np.asarray(weights, dtype=float).ravel()
-            if w.shape != x.shape or np.any(w < 0) or not np.isfinite(w).all():
-                raise ValueError("`weights` must be finite, >= 0, one per atom.")
-            order = np.argsort(x, kind="stable")
-            x, w = x[order], w[order]
-            if not w.sum() > 0:
-                raise ValueError("`weights` sum to zero: nothing to sample.")
-            keep = w > 0
-            x, w = x[keep], w[keep]
-            start = np.flatnonzero(np.r_[True, x[1:] != x[:-1]])
-            c = np.cumsum(w)
-            before = np.r_[0.0, c[:-1]][start]
-            cum = fraction_to_integer(before / c[-1])
+        w = np.asarray(weights, dtype=float).ravel()
+        if w.shape != x.shape or np.any(w < 0) or not np.isfinite(w).all():
+            raise ValueError("`weights` must be finite, >= 0, one per atom.")
+        order = np.argsort(x, kind="stable")
+        x, w = x[order], w[order]
+        if not w.sum() > 0:
+            raise ValueError("`weights` sum to zero: nothing to sample.")
+        keep = w > 0
+        x, w = x[keep], w[keep]
+        start = np.flatnonzero(np.r_[True, x[1:] != x[:-1]])
+        c = np.cumsum(w)
+        before = np.r_[0.0, c[:-1]][start]
+        cum = fraction_to_integer(before / c[-1])
         v = x[start]
         return cls.from_cells(cum, v, v)
 
@@ -492,8 +440,7 @@ class CellTable:
 
     def quantile(self, q) -> np.ndarray:
         """The table's own quantile function at probabilities `q` in [0, 1)."""
-        r = np.minimum(np.asarray(q, dtype=float) * _TWO64, _TOP).astype(np.uint64)
-        return self.interpolate(self.left, self.right, r)
+        return self.interpolate(self.left, self.right, fraction_to_integer(q))
 
     def probability_at_least(self, lo, hi, value) -> float:
         """Exact probability (to ~1e-16) that the column interpolated from `lo` to
@@ -566,8 +513,7 @@ def _integer_probabilities(p, s) -> np.ndarray:
     lower = p <= 0.5
     out = np.empty(p.size, dtype=np.uint64)
     out[lower] = fraction_to_integer(p[lower])
-    si = np.minimum(s[~lower] * _TWO64, _TOP).astype(np.uint64)
-    out[~lower] = np.uint64(0) - si  # 2^64 - s 2^64 (s > 0)
+    out[~lower] = np.uint64(0) - fraction_to_integer(s[~lower])  # 2^64 - s 2^64
     return np.maximum.accumulate(out)
 
 

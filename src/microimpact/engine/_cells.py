@@ -14,20 +14,6 @@ from .._tables import CellTable, QuantileTable
 __all__ = ["cell_table"]
 
 
-def _exact_atoms(dist):
-    """The atoms of a discrete distribution object, or None."""
-    for obj in (dist, getattr(dist, "_impl", None), getattr(dist, "_discrete", None)):
-        if obj is None:
-            continue
-        atoms = getattr(obj, "atoms", None)
-        if atoms is not None:
-            return np.asarray(atoms, dtype=float)
-        v = getattr(obj, "v", None)
-        if isinstance(v, float):
-            return np.array([v])
-    return None
-
-
 def _histogram_breaks(dist):
     """Probabilities of the bin edges of a histogram distribution (kinks of its
     quantile function), or ()."""
@@ -47,8 +33,9 @@ def cell_table(dist) -> CellTable:
     """
     discrete = bool(getattr(dist, "is_discrete", False))
     if discrete:
-        atoms = _exact_atoms(dist)
+        atoms = getattr(dist, "atoms", None)
         if atoms is not None:
+            atoms = np.asarray(atoms, dtype=float)
             w = getattr(dist, "weights", None)
             if w is not None and atoms.size > 1 and np.any(w != w[0]):
                 return CellTable.from_atoms(atoms, w)

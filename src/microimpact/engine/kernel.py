@@ -31,7 +31,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from .._tables import mulhi64
+from .._tables import fraction_to_integer, mulhi64
 from .accumulators import (
     E_EDGES,
     MU_EDGES,
@@ -53,13 +53,12 @@ from .plan import (
     VAR_DIAMETER,
     VAR_SPEED,
     Plan,
+    pair_sin,
     resolve_kernel,
 )
 
 #: spawn-key slot that separates QMC scrambles from MC block streams
 QMC_TAG = 0xFFFF_FFFF
-_TWO64 = 2.0**64
-_TOP = np.nextafter(_TWO64, 0.0)
 
 
 def stream_raw(entropy, point, block, var, n):
@@ -88,20 +87,15 @@ def qmc_uniforms(entropy, point, rep, block, n, dim, block_size):
         return engine.random(n)
 
 
-def uniform_to_raw(u) -> np.ndarray:
-    """Uniforms in [0, 1) as the 64-bit integers the tables read (``u * 2^64``; a
-    double has 53 bits, so this keeps every bit of a QMC point)."""
-    return np.minimum(np.asarray(u, dtype=float) * _TWO64, _TOP).astype(np.uint64)
-
-
 def _draw(plan: Plan, point, rep, block, n, variables):
     """Per listed variable a uint64 array of draws, MC (raw 64-bit outputs) or QMC
-    (the uniforms scaled to 64-bit integers)."""
+    (the uniforms scaled to 64-bit integers, ``u * 2^64``: a double has 53 bits,
+    so this keeps every bit of a QMC point)."""
     if plan.sampling == "qmc":
         u = qmc_uniforms(
             plan.entropy, point, rep, block, n, len(variables), plan.block_size
         )
-        return [uniform_to_raw(u[:, k]) for k in range(len(variables))]
+        return [fraction_to_integer(u[:, k]) for k in range(len(variables))]
     return [stream_raw(plan.entropy, point, block, v, n) for v in variables]
 
 
@@ -170,10 +164,7 @@ def _simulate_block(plan: Plan, point, rep, block, n, store=False):
         ar, br = tables.sampler.rows, tables.pair.rows
         s_a, c_a, t_a = ar[j_a, A_SIN], ar[j_a, A_COS], ar[j_a, A_TAN]
         s_b, c_b, t_b = br[j_b, A_SIN], br[j_b, A_COS], br[j_b, A_TAN]
-        s1 = st * c_a - ct * s_a  # sin(theta - a)
-        c1 = ct * c_a + st * s_a
-        sin_true = s1 * c_b - c1 * s_b  # sin(theta - a - b)
-        cos_true = c1 * c_b + s1 * s_b
+        sin_true, cos_true = pair_sin(st, ct, s_a, c_a, s_b, c_b)  # theta - a - b
         with np.errstate(divide="ignore", invalid="ignore"):
             tan_phi = (t_a + t_b) / (1.0 - t_a * t_b)  # tan(a + b)
     elif tables.random:

@@ -143,11 +143,6 @@ class Sampler:
         t = self.table
         return self.rows.nbytes + self.values.nbytes + t.cum.nbytes * 4
 
-    def column(self, k: int, r) -> np.ndarray:
-        """Kernel column pair `k` (its ``lo`` index) at the draws `r`."""
-        j, f = self.table.locate(r)
-        return self.rows[j, k] + f * self.rows[j, k + 1]
-
     def value(self, r) -> np.ndarray:
         """The sampled variable at the draws `r`."""
         j, f = self.table.locate(r)
@@ -203,7 +198,7 @@ class AngleTables:
         distribution: the table's quantile function at mid-probabilities."""
         if not self.random:
             return np.zeros(1 << 16)
-        r = (mid_probabilities(1 << 16) * 2.0**64).astype(np.uint64)
+        r = fraction_to_integer(mid_probabilities(1 << 16))
         if self.pair_shift:
             _, i, j = self.pair_draws(r)
             return self.sampler.values[i, 0] + self.pair.values[j, 0]
@@ -266,21 +261,6 @@ class Plan:
         """Per diameter cell: start, 1/width, (lo, span) of 1/k1, 1/k2, v_c (the
         kernel rows, sentinel row included)."""
         return self.diameters.rows
-
-    @property
-    def inv_k1(self) -> np.ndarray:
-        """1/k1 at the start of each diameter cell [s m-1]."""
-        return self.diameters.rows[:-1, D_IK1]
-
-    @property
-    def inv_k2(self) -> np.ndarray:
-        """1/k2 at the start of each diameter cell [s m-1]."""
-        return self.diameters.rows[:-1, D_IK2]
-
-    @property
-    def v_c(self) -> np.ndarray:
-        """Capture velocity at the start of each diameter cell [m s-1]."""
-        return self.diameters.rows[:-1, D_VC]
 
     @property
     def speed_factor(self) -> np.ndarray | None:
