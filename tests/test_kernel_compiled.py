@@ -43,7 +43,7 @@ def simd(request):
     ck.simd(True)
 
 
-def _both(plan, point, monkeypatch=None, block=3, n=30_000):
+def _both(plan, point, block=3, n=30_000):
     fused = kernel.simulate_block(plan, point, 0, block, n)
     plain = kernel.simulate_block(
         dataclasses.replace(plan, kernel="numpy"), point, 0, block, n
@@ -51,9 +51,18 @@ def _both(plan, point, monkeypatch=None, block=3, n=30_000):
     return fused.to_arrays(), plain.to_arrays()
 
 
+def _assert_same_bits(plan, points=None, block=3, n=30_000):
+    """Every array of the compiled kernel's accumulator equals the NumPy kernel's,
+    at each of `points` (default: every sweep point)."""
+    for point in range(len(plan.points)) if points is None else points:
+        a, b = _both(plan, point, block=block, n=n)
+        for key in a:
+            assert_array_equal(a[key], b[key], err_msg=f"{key} at point {point}")
+
+
 @pytest.mark.parametrize("shadowing", ["reject", "none", "weighted"])
 @pytest.mark.parametrize("friction", [0.15, np.inf])
-def test_bit_identical_for_p_q_one(shadowing, friction, monkeypatch, simd):
+def test_bit_identical_for_p_q_one(shadowing, friction, simd):
     sc = scenario(
         coefficients=PowerCoefficients(friction=friction),
         surfaces=(rough(15.0), SurfaceVariant("smooth")),
@@ -62,21 +71,17 @@ def test_bit_identical_for_p_q_one(shadowing, friction, monkeypatch, simd):
         shadowing=shadowing,
         speed_spread=0.1,
     )
-    plan = build_plan(sc)
-    for point in range(len(plan.points)):
-        a, b = _both(plan, point, monkeypatch)
-        for key in a:
-            assert_array_equal(a[key], b[key], err_msg=f"{key} at point {point}")
+    _assert_same_bits(build_plan(sc))
 
 
-def test_general_exponents_agree_to_round_off(monkeypatch):
+def test_general_exponents_agree_to_round_off():
     sc = scenario(
         coefficients=PowerCoefficients(p=1.3, q=0.7, friction=0.2),
         surfaces=(rough(12.0),),
         speeds_m_s=(0.4,),
         angles_deg=(35.0,),
     )
-    a, b = _both(build_plan(sc), 0, monkeypatch)
+    a, b = _both(build_plan(sc), 0)
     assert_array_equal(a["counts"], b["counts"])
     assert_allclose(a["e"], b["e"], rtol=1e-12)
     assert_allclose(a["mu"], b["mu"], rtol=1e-12)
@@ -101,30 +106,22 @@ def test_bit_identical_for_every_kind_of_table(simd):
                 shadowing=shadowing,
                 speed_spread=0.05,
             )
-            plan = build_plan(sc)
-            for point in range(len(plan.points)):
-                a, b = _both(plan, point, n=5000)
-                for key in a:
-                    assert_array_equal(a[key], b[key], err_msg=f"{key} {point}")
+            _assert_same_bits(build_plan(sc), n=5000)
 
 
 @pytest.mark.parametrize("n", [0, 1, 255, 256, 257, 1000])
-def test_bit_identical_at_chunk_edges(n, monkeypatch, simd):
+def test_bit_identical_at_chunk_edges(n, simd):
     # a block shorter than, equal to and just past one inner chunk (256 impacts)
     sc = scenario(surfaces=(rough(15.0),), speeds_m_s=(0.3,), angles_deg=(30.0,))
-    a, b = _both(build_plan(sc), 0, monkeypatch, block=0, n=n)
-    for key in a:
-        assert_array_equal(a[key], b[key], err_msg=key)
+    _assert_same_bits(build_plan(sc), [0], block=0, n=n)
 
 
-def test_qmc_bit_identical(monkeypatch, simd):
+def test_qmc_bit_identical(simd):
     # QMC indices arrive unshifted (shift 0), so the kernel checks their range
     sc = scenario(
         surfaces=(rough(15.0),), speeds_m_s=(0.3,), angles_deg=(30.0,), sampling="qmc"
     )
-    a, b = _both(build_plan(sc), 0, monkeypatch, block=0, n=4096)
-    for key in a:
-        assert_array_equal(a[key], b[key], err_msg=key)
+    _assert_same_bits(build_plan(sc), [0], block=0, n=4096)
 
 
 def _sampler(values, columns=3):
@@ -336,11 +333,7 @@ def test_bit_identical_with_a_rough_particle(shadowing, simd):
         shadowing=shadowing,
         speed_spread=0.05,
     )
-    plan = build_plan(sc)
-    for point in range(len(plan.points)):
-        a, b = _both(plan, point, n=5000)
-        for key in a:
-            assert_array_equal(a[key], b[key], err_msg=f"{key} {point}")
+    _assert_same_bits(build_plan(sc), n=5000)
 
 
 @pytest.mark.parametrize("shadowing", ["reject", "none", "weighted"])
