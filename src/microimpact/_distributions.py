@@ -580,6 +580,24 @@ class CoreMethods:
         """(lower, upper) limits of the values."""
         return self._core.support()
 
+    def _describe(self, convert, unit: str) -> dict:
+        """The wrapper's ``describe()``: ``kind``, ``params``, the mean, standard
+        deviation, median and support converted from SI by `convert` (keys suffixed
+        ``_{unit}``), ``truncated_mass`` and, if discrete, ``n_atoms``."""
+        lo, hi = self.support()
+        out = {
+            "kind": self.kind,
+            "params": dict(self.params),
+            f"mean_{unit}": float(convert(self.mean())),
+            f"std_{unit}": float(convert(self.std())),
+            f"median_{unit}": float(convert(self.median())),
+            f"support_{unit}": (float(convert(lo)), float(convert(hi))),
+            "truncated_mass": float(self.truncated_mass),
+        }
+        if self.is_discrete:
+            out["n_atoms"] = int(self.atoms.size)
+        return out
+
     def table(self, size: int = TABLE_SIZE) -> QuantileTable:
         """The equiprobable :class:`~microimpact._tables.QuantileTable` the engine
         samples: a discrete distribution's own atoms (``from_sample``, or

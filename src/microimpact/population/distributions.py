@@ -140,19 +140,7 @@ class SizeDistribution(CoreMethods):
 
     def describe(self) -> dict:
         """Summary in interface units (µm) for reports and provenance."""
-        lo, hi = self.support()
-        out = {
-            "kind": self.kind,
-            "params": dict(self.params),
-            "mean_um": float(m_to_um(self.mean())),
-            "std_um": float(m_to_um(self.std())),
-            "median_um": float(m_to_um(self.median())),
-            "support_um": (float(m_to_um(lo)), float(m_to_um(hi))),
-            "truncated_mass": float(self.truncated_mass),
-        }
-        if self.is_discrete:
-            out["n_atoms"] = int(self.atoms.size)
-        return out
+        return self._describe(m_to_um, "um")
 
     def __repr__(self) -> str:
         shown = ", ".join(

@@ -148,19 +148,7 @@ class AngleDistribution(CoreMethods):
 
     def describe(self) -> dict:
         """Summary in interface units (degrees) for reports and provenance."""
-        lo, hi = self.support()
-        out = {
-            "kind": self.kind,
-            "params": dict(self.params),
-            "mean_deg": float(rad_to_deg(self.mean())),
-            "std_deg": float(rad_to_deg(self.std())),
-            "median_deg": float(rad_to_deg(self.median())),
-            "support_deg": (float(rad_to_deg(lo)), float(rad_to_deg(hi))),
-            "truncated_mass": float(self.truncated_mass),
-        }
-        if self.is_discrete:
-            out["n_atoms"] = int(self.atoms.size)
-        return out
+        return self._describe(rad_to_deg, "deg")
 
     def __repr__(self) -> str:
         shown = ", ".join(
