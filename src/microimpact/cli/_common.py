@@ -79,8 +79,9 @@ def formats(text):
     fmts = [f.strip().lower() for f in text.split(",") if f.strip()]
     bad = [f for f in fmts if f not in FIGURE_FORMATS]
     if bad or not fmts:
+        what = f"{bad[0]!r} is not a figure format" if bad else "no format given"
         raise argparse.ArgumentTypeError(
-            f"formats must be a comma list of {', '.join(FIGURE_FORMATS)}; got {text!r}"
+            f"{what}; give a comma list of {', '.join(FIGURE_FORMATS)} (got {text!r})"
         )
     return tuple(dict.fromkeys(fmts))
 
