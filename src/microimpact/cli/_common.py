@@ -197,6 +197,10 @@ def print_capture(result):
 
 #: A run expected to take longer than this [s] says so at the start.
 ANNOUNCE_AFTER_S = 120.0
+#: Runs at most this big are not timed for the announcement (they take well under
+#: ANNOUNCE_AFTER_S even on the NumPy kernel): the pilot would cost a plan build.
+QUICK_IMPACTS = 10**8
+QUICK_POINTS = 10_000
 
 
 def announce(args, scenario, *, samples=None):
@@ -209,8 +213,15 @@ def announce(args, scenario, *, samples=None):
     except ImportError:  # pragma: no cover - older engine
         return
     from ..engine.parallel import available_cores
+    from ..grid import SweepGrid
 
     workers = min(args.workers, available_cores())
+    points = SweepGrid.from_scenario(scenario).size
+    per_point = samples or (
+        scenario.precision.max_samples if scenario.precision else scenario.samples
+    )
+    if points * per_point <= QUICK_IMPACTS and points <= QUICK_POINTS:
+        return  # surely well under the announcement threshold: no pilot timing
     seconds = estimate_duration(scenario, samples=samples, workers=workers)
     if seconds is not None and seconds > ANNOUNCE_AFTER_S:
         print(
