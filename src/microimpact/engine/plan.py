@@ -516,15 +516,12 @@ def _surface_sampler(variant, particle_roughness, shadowing):
     return _angle_sampler(table)
 
 
-def build_plan(scenario, *, seed=None, kernel=None) -> Plan:
-    """Tabulate everything the kernel needs for `scenario` (see :mod:`.plan`).
-
-    `kernel` is ``"compiled"``, ``"numpy"``, ``"auto"`` or None (the environment
-    variable ``MICROIMPACT_KERNEL``, else auto); the choice is ``plan.kernel``.
-    """
-    kernel = resolve_kernel(kernel)
-    entropy = resolve_entropy(scenario.seed if seed is None else seed)
-    table = cell_table(scenario.particles)
+def diameter_sampler(scenario, particles=None) -> Sampler:
+    """The kernel's diameter table for `scenario` (rows 1/k1, 1/k2, v_c, d): the
+    cells of `particles` (default ``scenario.particles``) with the scenario's
+    coefficient laws evaluated at both ends of each cell. A wall law builds one per
+    fixed diameter and keeps the rest of the plan."""
+    table = cell_table(scenario.particles if particles is None else particles)
     coeffs = scenario.coefficients
     columns = []
     for end in (table.left, table.right):
@@ -545,9 +542,21 @@ def build_plan(scenario, *, seed=None, kernel=None) -> Plan:
                 )
         with np.errstate(divide="ignore"):
             columns.append((1.0 / k1, 1.0 / k2, v_c))
-    diameters = Sampler.of(
+    return Sampler.of(
         table, (table.left, table.right), *zip(columns[0], columns[1], strict=True)
     )
+
+
+def build_plan(scenario, *, seed=None, kernel=None) -> Plan:
+    """Tabulate everything the kernel needs for `scenario` (see :mod:`.plan`).
+
+    `kernel` is ``"compiled"``, ``"numpy"``, ``"auto"`` or None (the environment
+    variable ``MICROIMPACT_KERNEL``, else auto); the choice is ``plan.kernel``.
+    """
+    kernel = resolve_kernel(kernel)
+    entropy = resolve_entropy(scenario.seed if seed is None else seed)
+    diameters = diameter_sampler(scenario)
+    coeffs = scenario.coefficients
     points = tuple(SweepGrid.from_scenario(scenario).points())
     surfaces = tuple(
         _surface_sampler(v, scenario.particle_roughness, scenario.shadowing)
