@@ -109,6 +109,11 @@ _EXPORTS: dict[str, str] = {
     "Study": "study",
     "Outputs": "outputs",
     "reproduce": "study",
+    # a stochastic wall law for CFD and particle tracking
+    "build_wall_law": "wall_law.build",
+    "WallLaw": "wall_law.law",
+    "WallLawSample": "wall_law.law",
+    "WallLawSpec": "wall_law.spec",
     # figures
     "plot_capture": "plotting.results",
     "plot_coefficients_vs_angle": "plotting.results",

@@ -43,6 +43,7 @@ TOP_KEYS = (
     "particle_roughness",
     "sweep",
     "outputs",
+    "wall_law",
 )
 PARTICLE_KEYS = {
     "normal": ({"mean_um", "std_um"}, {"min_um", "max_um"}),
@@ -94,6 +95,8 @@ COEFFICIENT_KEYS = ("set", "k1", "k2", "v_c", "p", "q", "friction")
 SWEEP_KEYS = ("speed_m_s", "angle_deg", "speed_spread")
 PRECISION_KEYS = ("statistic", "half_width", "max_samples", "min_samples")
 OUTPUT_KEYS = ("figures", "report", "experiments")
+WALL_LAW_KEYS = ("diameter_um", "speed_m_s", "angle_deg", "reservoir", "samples")
+SPACINGS = ("linear", "log")
 ANGLE_METHODS = ("slope", "paper")
 DETREND = ("line", "mean", "none")
 SYNTHETIC_PROFILES = ("formica", "gaussian")

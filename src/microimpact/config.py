@@ -53,6 +53,8 @@ __all__ = [
     "outputs_from_toml",
     "scenario_from_dict",
     "scenario_from_toml",
+    "wall_law_from_dict",
+    "wall_law_from_toml",
 ]
 
 from ._config_base import (
@@ -65,8 +67,10 @@ from ._config_base import (
     PRECISION_KEYS,
     PRESET_DIR,
     PRESETS,
+    SPACINGS,
     SWEEP_KEYS,
     TOP_KEYS,
+    WALL_LAW_KEYS,
     _Ctx,
     _join,
     _one_line,
@@ -158,7 +162,8 @@ def _particles(ctx: _Ctx, data, where="particles"):
 
 def _values(ctx: _Ctx, value, key) -> list:
     """A sweep value: a number, an array of numbers and range tables, or a range
-    table ``{start, stop, num}`` / ``{start, stop, step}`` (both ends included)."""
+    table ``{start, stop, num}`` / ``{start, stop, step}`` (both ends included),
+    with ``spacing = "log"`` for ``num`` values evenly spaced in log."""
     if isinstance(value, dict):
         return _range(ctx, value, key)
     if isinstance(value, list):
@@ -175,18 +180,32 @@ def _values(ctx: _Ctx, value, key) -> list:
 
 
 def _range(ctx, t, key) -> list:
-    ctx.keys(t, key, ("start", "stop", "num", "step"), ("start", "stop"))
+    ctx.keys(t, key, ("start", "stop", "num", "step", "spacing"), ("start", "stop"))
     start = ctx.number(t["start"], f"{key}.start")
     stop = ctx.number(t["stop"], f"{key}.stop")
+    spacing = t.get("spacing", "linear")
+    ctx.choice(spacing, f"{key}.spacing", SPACINGS)
     if ("num" in t) == ("step" in t):
         raise ctx.error(f"{key}.num", "give exactly one of 'num' or 'step'")
     if stop < start:
         raise ctx.error(f"{key}.stop", f"must be >= start ({start:g}); got {stop:g}")
+    if spacing == "log":
+        if "num" not in t:
+            raise ctx.error(f"{key}.spacing", "'log' spacing needs 'num', not 'step'")
+        if not start > 0:
+            raise ctx.error(
+                f"{key}.start", f"must be > 0 for 'log' spacing; got {start:g}"
+            )
     if "num" in t:
         n = ctx.integer(t["num"], f"{key}.num", low=1)
         if n > MAX_SWEEP_POINTS:
             raise ctx.error(f"{key}.num", f"must be <= {MAX_SWEEP_POINTS}; got {n}")
-        vals = np.linspace(start, stop, n) if n > 1 else np.array([start])
+        if n == 1:
+            vals = np.array([start])
+        elif spacing == "log":
+            vals = np.geomspace(start, stop, n)
+        else:
+            vals = np.linspace(start, stop, n)
     else:
         step = ctx.number(t["step"], f"{key}.step", low=0, strict=True)
         n = math.floor((stop - start) / step * (1 + 1e-12) + 1e-9) + 1
@@ -343,6 +362,55 @@ def outputs_from_toml(path):
     )
 
 
+def _wall_law(ctx: _Ctx, data):
+    """The ``[wall_law]`` table as :class:`~microimpact.wall_law.spec.WallLawSpec`
+    (None if absent). Speeds and angles default to the ``[sweep]``'s."""
+    from .wall_law.spec import WallLawSpec
+
+    if "wall_law" not in data:
+        return None
+    t = ctx.table(data["wall_law"], "wall_law")
+    ctx.keys(t, "wall_law", WALL_LAW_KEYS, ("diameter_um",))
+    sweep = data.get("sweep", {}) if isinstance(data.get("sweep"), dict) else {}
+    kw = {}
+    for key, name, default in (
+        ("diameter_um", "diameters_um", None),
+        ("speed_m_s", "speeds_m_s", sweep.get("speed_m_s")),
+        ("angle_deg", "angles_deg", sweep.get("angle_deg", [90.0])),
+    ):
+        where = f"wall_law.{key}" if key in t else f"sweep.{key}"
+        value = t.get(key, default)
+        if value is None:
+            raise ctx.error(f"wall_law.{key}", "missing (and no [sweep] value to use)")
+        kw[name] = _values(ctx, value, where)
+    for key in ("reservoir", "samples"):
+        if key in t:
+            kw[key] = ctx.integer(t[key], f"wall_law.{key}", low=1)
+    try:
+        return WallLawSpec(**kw)
+    except ScenarioError as exc:
+        raise ctx.error(exc.field, exc.message) from None
+
+
+def wall_law_from_dict(data: dict, *, source=None, base_dir=None):
+    """The :class:`~microimpact.wall_law.spec.WallLawSpec` of parsed scenario data
+    (its ``[wall_law]`` table), or None if it has none."""
+    if base_dir is None and source is not None:
+        base_dir = Path(source).resolve().parent
+    ctx = _Ctx(source, base_dir)
+    ctx.table(data, "(top level)")
+    return _wall_law(ctx, data)
+
+
+def wall_law_from_toml(path):
+    """The :class:`~microimpact.wall_law.spec.WallLawSpec` of a scenario file, or
+    None if it has no ``[wall_law]`` table."""
+    path = Path(path)
+    return wall_law_from_dict(
+        _load_toml(path), source=path, base_dir=path.resolve().parent
+    )
+
+
 def scenario_from_dict(data: dict, *, source=None, base_dir=None) -> Scenario:
     """Build a :class:`Scenario` from parsed TOML data (see ``docs/scenarios.md``).
 
@@ -414,6 +482,7 @@ def scenario_from_dict(data: dict, *, source=None, base_dir=None) -> Scenario:
         kw["particle_roughness"] = _angles(ctx, t, "particle_roughness")
     kw.update(_sweep(ctx, data))
     _outputs(ctx, data)  # validated with the file; kept by microimpact.Study
+    _wall_law(ctx, data)  # validated with the file; read by microimpact wall-law
     kw["source"] = ctx.source
     try:
         return Scenario(**kw)

@@ -46,6 +46,7 @@ VERBS = {
     "convergence": "convergence",
     "compare": "compare",
     "presets": "presets",
+    "wall-law": "wall_law",
 }
 
 

@@ -1,0 +1,109 @@
+"""``microimpact wall-law SCENARIO --out DIR``: a stochastic wall law for CFD."""
+
+from __future__ import annotations
+
+import sys
+import time
+
+from . import _common as c
+
+HELP = "tabulate a stochastic wall law (NetCDF, CSV, C sampler, OpenFOAM)"
+
+#: Folder (in --out) keeping finished diameters of an interrupted build.
+CHECKPOINT_DIR = ".microimpact-wall-law-checkpoint"
+
+
+def cli_parse(sp):
+    sp.add_argument("scenario", help="scenario TOML file with a [wall_law] table")
+    sp.add_argument("--out", required=True, type=c.out_dir, help="output folder")
+    sp.add_argument("--samples", type=c.count, help="draws per node")
+    sp.add_argument("--reservoir", type=c.count, help="rebound samples kept per node")
+    sp.add_argument("--seed", type=c.nonneg_int, help="root seed (overrides the file)")
+    sp.add_argument(
+        "--workers",
+        type=c.positive_int,
+        default=1,
+        help="worker processes (default 1; capped at the number of cores)",
+    )
+    sp.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler address")
+    for flag, what in (
+        ("--diameter-um", "diameter [um]"),
+        ("--speed-m-s", "speed [m/s]"),
+        ("--angle-deg", "incidence angle from the wall [deg]"),
+    ):
+        sp.add_argument(
+            flag,
+            type=c.positive_float,
+            help=f"{what} of the OpenFOAM constant e and mu (default: mid-table)",
+        )
+    sp.add_argument("--no-c", action="store_true", help="write no C sampler")
+    sp.add_argument("--no-openfoam", action="store_true", help="no OpenFOAM files")
+    sp.add_argument("--quiet", action="store_true", help="no progress")
+
+
+def cli_action(args) -> int:
+    import dataclasses
+
+    from .._outdir import OutputFolder
+    from ..config import wall_law_from_toml
+    from ..errors import ScenarioError
+    from ..scenario import as_scenario, scenario_file
+    from ..wall_law import build_wall_law
+
+    t0 = time.perf_counter()
+    path = scenario_file(args.scenario)
+    scenario = as_scenario(path)
+    spec = wall_law_from_toml(path)
+    if spec is None:
+        raise ScenarioError(
+            "has no [wall_law] table (give diameter_um, and optionally speed_m_s, "
+            "angle_deg, reservoir, samples; see docs/wall-law.md)",
+            source=path,
+            field="wall_law",
+        )
+    changes = {k: getattr(args, k) for k in ("samples", "reservoir")}
+    spec = dataclasses.replace(spec, **{k: v for k, v in changes.items() if v})
+    condition = {
+        k: getattr(args, k)
+        for k in ("diameter_um", "speed_m_s", "angle_deg")
+        if getattr(args, k) is not None
+    }
+    if condition and args.no_openfoam:
+        raise ScenarioError(
+            "the condition flags set the OpenFOAM coefficients; drop --no-openfoam",
+            field="--no-openfoam",
+        )
+    executor = None
+    if args.scheduler is not None:
+        from dask.distributed import Client
+
+        executor = Client(args.scheduler)
+
+    def progress(done, total):
+        if not args.quiet:
+            print(f"\r  diameters {done}/{total}", end="", file=sys.stderr, flush=True)
+
+    with OutputFolder(args.out) as folder:
+        law = build_wall_law(
+            scenario,
+            spec,
+            workers=args.workers,
+            seed=args.seed,
+            executor=executor,
+            progress=progress,
+            checkpoint=folder.path / CHECKPOINT_DIR,
+        )
+        if not args.quiet:
+            print(file=sys.stderr)
+        law.write(
+            folder.path,
+            c=not args.no_c,
+            openfoam=not args.no_openfoam,
+            condition=condition or None,
+        )
+    c.say(
+        args,
+        f"{scenario.name}: wall law {law!r}, seed entropy {law.dataset.attrs['seed']}, "
+        f"{time.perf_counter() - t0:.1f} s -> {args.out}",
+    )
+    return c.EXIT_OK

@@ -1,0 +1,376 @@
+"""Build a wall law: run the engine at every node and tabulate the outcomes.
+
+At a node (surface, diameter, speed, angle) the diameter is fixed and every other
+random input keeps its distribution: the roughness angle of the surface (paper
+Eqs. 7-9 on a facet tilted by it), the particle's own roughness, the speed scatter,
+under the scenario's shadowing rule. The impacts are those of the engine's NumPy
+kernel (:func:`microimpact.engine.kernel.simulate_block` with ``store=True``, the
+draws :func:`microimpact.run` makes), so the physics is the paper's Eqs. 1-9 as
+implemented in :mod:`microimpact.physics.impact` and checked there.
+
+Common random numbers: every diameter of a (surface, speed, angle) uses the same
+draws (the engine's stream of that sweep point), so the table is smooth in the
+diameter, and the seed reproduces the table bit for bit for any worker count.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import shutil
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ..engine.plan import build_plan, diameter_sampler, resolve_entropy
+from ..grid import SweepGrid
+from ..population.distributions import monodisperse
+from .law import WallLaw, wall_law_dataset
+from .spec import REBOUND_VARIABLES, RESERVOIR_VARIABLES, WallLawSpec
+
+__all__ = ["build_wall_law", "node_outcomes"]
+
+
+def node_outcomes(e_m, mu_m, angle_deg: float) -> dict:
+    """Wall-law variables of rebounds with apparent restitution `e_m` and impulse
+    ratio `mu_m` at apparent incidence angle `angle_deg` (docs/wall-law.md):
+
+    * ``e_n = e_m`` (paper Eq. 8 seen on the nominal surface);
+    * ``e_t = U_x / u_x = 1 - mu_m (1 + e_m) tan(theta)``, from the impulse ratio
+      of paper Eq. 9 in the frame of docs/conventions.md (NaN at theta = 90 deg,
+      where there is no incoming tangential velocity);
+    * the rebound angle ``atan2(U_z, U_x)`` from the wall plane [deg];
+    * the lateral angle, 0 for the paper's profile roughness.
+    """
+    theta = math.radians(angle_deg)
+    s, c = math.sin(theta), math.cos(theta)
+    if angle_deg == 90.0:
+        c = 0.0  # cos(pi/2) is 6e-17 in floating point: the impact is normal
+    u_z = e_m * s  # per unit speed
+    u_x = c - mu_m * (1.0 + e_m) * s
+    with np.errstate(invalid="ignore", divide="ignore"):
+        e_t = u_x / c if c > 0 else np.full_like(e_m, np.nan)
+    return {
+        "e_n": e_m,
+        "e_t": e_t,
+        "mu": mu_m,
+        "rebound_angle_deg": np.degrees(np.arctan2(u_z, u_x)),
+        "lateral_angle_deg": np.zeros_like(e_m),
+    }
+
+
+def _node(plan, point: int, angle_deg: float, spec: WallLawSpec, samples: int):
+    """Counts, statistics and reservoir of one node."""
+    from ..engine.montecarlo import iter_point_samples
+
+    parts = list(iter_point_samples(plan, point, samples))
+    draws = {k: np.concatenate([p[k] for p in parts]) for k in ("captured", "shadowed")}
+    e_m = np.concatenate([p["e_m"] for p in parts])
+    mu_m = np.concatenate([p["mu_m"] for p in parts])
+    struck = ~draws["shadowed"]
+    captured = draws["captured"] & struck
+    rebound = struck & ~captured
+    out = node_outcomes(e_m[rebound], mu_m[rebound], angle_deg)
+    n_reb = int(np.count_nonzero(rebound))
+    q = np.asarray(spec.quantiles)
+    row = {
+        "n_samples": samples,
+        "n_impacts": int(np.count_nonzero(struck)),
+        "n_captured": int(np.count_nonzero(captured)),
+        "n_rebounds": n_reb,
+        "n_reimpacts": int(np.count_nonzero(out["e_n"] < 0.0)),
+    }
+    for name in REBOUND_VARIABLES:
+        x = out[name]
+        if n_reb == 0 or np.isnan(x).all():
+            row[f"{name}_mean"] = row[f"{name}_std"] = np.nan
+            row[f"{name}_quantile"] = np.full(q.size, np.nan)
+        else:
+            row[f"{name}_mean"] = float(np.mean(x))
+            row[f"{name}_std"] = float(np.std(x, ddof=1)) if n_reb > 1 else np.nan
+            row[f"{name}_quantile"] = np.quantile(x, q)
+    k = min(spec.reservoir, n_reb)
+    row["reservoir_count"] = k
+    for name in RESERVOIR_VARIABLES:
+        res = np.full(spec.reservoir, np.nan)
+        res[:k] = out[name][:k]
+        row[f"reservoir_{name}"] = res
+    return row
+
+
+def _diameter_task(plan, scenario, spec, samples, j):
+    """Every node of diameter ``spec.diameters_um[j]``: a dict of stacked arrays
+    over the sweep points (surface x speed x angle, in :class:`SweepGrid` order)."""
+    d_plan = dataclasses.replace(
+        plan,
+        diameters=diameter_sampler(scenario, monodisperse(spec.diameters_um[j])),
+    )
+    rows = [
+        _node(d_plan, i, p.angle_deg, spec, samples) for i, p in enumerate(plan.points)
+    ]
+    return {k: np.stack([np.asarray(r[k]) for r in rows]) for k in rows[0]}
+
+
+_WORKER: dict = {}
+
+
+def _init_worker(plan, scenario, spec, samples):
+    _WORKER.update(plan=plan, scenario=scenario, spec=spec, samples=samples)
+
+
+def _worker_task(j):
+    w = _WORKER
+    return j, _diameter_task(w["plan"], w["scenario"], w["spec"], w["samples"], j)
+
+
+def _executor_task(plan, scenario, spec, samples, j):
+    return j, _diameter_task(plan, scenario, spec, samples, j)
+
+
+def _results(plan, scenario, spec, samples, workers, executor, indices):
+    """Yield ``(j, arrays)`` for the diameter indices `indices`, in completion
+    order."""
+    if not indices:
+        return
+    if executor is not None:
+        futures = [
+            executor.submit(_executor_task, plan, scenario, spec, samples, j)
+            for j in indices
+        ]
+        for f in futures:
+            yield f.result()
+        return
+    if workers <= 1 or len(indices) == 1:
+        for j in indices:
+            yield j, _diameter_task(plan, scenario, spec, samples, j)
+        return
+    import multiprocessing as mp
+    import threading
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    fork = threading.active_count() == 1 and "fork" in mp.get_all_start_methods()
+    ctx = mp.get_context("fork" if fork and os.name != "nt" else "spawn")
+    with ProcessPoolExecutor(
+        max_workers=min(workers, len(indices)),
+        mp_context=ctx,
+        initializer=_init_worker,
+        initargs=(plan, scenario, spec, samples),
+    ) as pool:
+        futures = [pool.submit(_worker_task, j) for j in indices]
+        try:
+            for f in as_completed(futures):
+                yield f.result()
+        except BaseException:
+            for f in futures:
+                f.cancel()
+            raise
+
+
+class _Partial:
+    """Finished diameters of an interrupted build, one ``.npz`` per diameter in a
+    folder; a re-run with the same scenario, nodes and seed loads them instead of
+    simulating them again. The folder's ``meta.json`` holds the fingerprint (and
+    the entropy drawn for a scenario without a seed, so that the re-run continues
+    the same table)."""
+
+    def __init__(self, folder, fingerprint: str, entropy_of):
+        import json
+
+        self.folder = Path(folder)
+        meta = self.folder / "meta.json"
+        old = None
+        try:
+            old = json.loads(meta.read_text())
+        except (OSError, ValueError):
+            pass
+        if not (isinstance(old, dict) and old.get("fingerprint") == fingerprint):
+            if self.folder.exists():
+                shutil.rmtree(self.folder)
+            old = None
+        self.entropy = entropy_of(None if old is None else int(old["entropy"]))
+        if old is None:
+            from .._files import atomic_write
+
+            self.folder.mkdir(parents=True, exist_ok=True)
+            atomic_write(
+                meta,
+                lambda t: Path(t).write_text(
+                    json.dumps(
+                        {"fingerprint": fingerprint, "entropy": str(self.entropy)}
+                    )
+                ),
+            )
+
+    def _file(self, j):
+        return self.folder / f"diameter_{j:05d}.npz"
+
+    def load(self, j):
+        try:
+            with np.load(self._file(j)) as f:
+                return {k: f[k] for k in f.files}
+        except (OSError, ValueError, EOFError):
+            return None
+
+    def save(self, j, arrays):
+        from .._files import atomic_write
+
+        def write(tmp):
+            with open(tmp, "wb") as fh:
+                np.savez(fh, **arrays)
+
+        atomic_write(self._file(j), write)
+
+    def remove(self):
+        shutil.rmtree(self.folder, ignore_errors=True)
+
+
+def _fingerprint(scenario, spec, seed) -> str:
+    import hashlib
+
+    from .. import __version__
+    from .._json import dumps
+
+    text = dumps(
+        {
+            "scenario": scenario.describe(),
+            "spec": dataclasses.asdict(spec),
+            "seed": None if seed is None else str(seed),
+            "version": __version__,
+        }
+    )
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def build_wall_law(
+    scenario,
+    spec: WallLawSpec | None = None,
+    *,
+    workers: int = 1,
+    seed=None,
+    executor=None,
+    progress=None,
+    checkpoint=None,
+):
+    """Tabulate the wall law of `scenario` at the nodes of `spec`.
+
+    Parameters
+    ----------
+    scenario : Scenario, path or preset name
+        The physics: coefficient laws against diameter, surfaces, particle
+        roughness, speed scatter, shadowing, seed. Its particle size distribution
+        is not used (the diameter is a node coordinate).
+    spec : WallLawSpec, optional
+        The nodes (default: the scenario file's ``[wall_law]`` table).
+    workers : int
+        Local processes (capped at the available cores).
+    seed : int, optional
+        Root seed (default: the scenario's; fresh entropy if it has none, recorded
+        in the table's ``seed`` attribute).
+    executor : concurrent.futures.Executor, optional
+        Any executor with ``submit`` (e.g. ``dask.distributed.Client``); the table
+        is the same as with local workers.
+    progress : callable, optional
+        Called with ``(done, total)`` diameters after each one.
+    checkpoint : path-like, optional
+        A folder where each finished diameter is kept until the table is complete:
+        an interrupted build re-run with the same arguments simulates only the
+        diameters that were not finished (and gives the same table).
+
+    Returns
+    -------
+    WallLaw
+    """
+    from ..engine.parallel import cap_workers
+    from ..errors import ScenarioError
+    from ..scenario import as_scenario
+
+    source_text = None
+    if not hasattr(scenario, "seed"):  # a path or a preset name
+        from ..config import wall_law_from_toml
+        from ..scenario import scenario_file
+
+        path = scenario_file(scenario)
+        scenario = as_scenario(path)
+        if spec is None:
+            spec = wall_law_from_toml(path)
+    scenario = as_scenario(scenario)
+    if spec is None and scenario.source is not None:
+        from ..config import wall_law_from_toml
+
+        spec = wall_law_from_toml(scenario.source)
+    if spec is None:
+        raise ScenarioError(
+            "no wall-law nodes: give `spec=WallLawSpec(...)` or a [wall_law] table "
+            "in the scenario file",
+            source=scenario.source,
+            field="wall_law",
+        )
+    if not isinstance(spec, WallLawSpec):
+        raise TypeError(f"`spec` must be a WallLawSpec; got {type(spec).__name__}")
+    if scenario.source is not None and os.path.isfile(scenario.source):
+        with open(scenario.source, encoding="utf-8") as fh:
+            source_text = fh.read()
+    samples = spec.samples if spec.samples is not None else scenario.samples
+    spec.check_size(len(scenario.surfaces))
+    nodes_scenario = scenario.with_options(
+        speeds_m_s=spec.speeds_m_s,
+        angles_deg=spec.angles_deg,
+        samples=samples,
+        precision=None,
+        sampling="mc",
+    )
+    started = time.perf_counter()
+    seed = nodes_scenario.seed if seed is None else seed
+    partial = None
+    if checkpoint is not None:
+        partial = _Partial(
+            checkpoint,
+            _fingerprint(nodes_scenario, spec, seed),
+            lambda old: resolve_entropy(
+                seed if old is None or seed is not None else old
+            ),
+        )
+        seed = partial.entropy
+    plan = build_plan(nodes_scenario, seed=seed, kernel="numpy")
+    grid = SweepGrid.from_scenario(nodes_scenario)
+    workers = cap_workers(int(workers))
+    total = len(spec.diameters_um)
+    columns: dict = {}
+
+    def keep(j, arrays):
+        for k, v in arrays.items():
+            if k not in columns:
+                columns[k] = np.empty((total, *v.shape), dtype=v.dtype)
+            columns[k][j] = v
+
+    todo = []
+    for j in range(total):
+        arrays = partial.load(j) if partial is not None else None
+        if arrays is None:
+            todo.append(j)
+        else:
+            keep(j, arrays)
+    done = total - len(todo)
+    for j, arrays in _results(
+        plan, nodes_scenario, spec, samples, workers, executor, todo
+    ):
+        keep(j, arrays)
+        if partial is not None:
+            partial.save(j, arrays)
+        done += 1
+        if progress is not None:
+            progress(done, total)
+    ds = wall_law_dataset(
+        grid,
+        spec,
+        columns,
+        scenario=nodes_scenario,
+        entropy=plan.entropy,
+        source_text=source_text,
+        seconds=time.perf_counter() - started,
+    )
+    if partial is not None:
+        partial.remove()
+    return WallLaw(ds)

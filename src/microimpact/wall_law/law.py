@@ -1,0 +1,505 @@
+"""The wall law: a CF-1.10 table of impact outcomes and its stochastic sampler.
+
+:class:`WallLaw` wraps the ``wall_law.nc`` Dataset (its schema is in
+docs/wall-law.md) and samples it the way the C sampler (``c/swl.c``) does: pick a
+corner of the query's cell with probability equal to its trilinear weight in
+(log d, log v, angle), decide capture with that corner's capture probability, and
+otherwise take one of the corner's reservoir samples. Each node's distribution, and
+the correlation of e_n, e_t and the lateral angle within it, are kept; nothing is
+averaged across nodes.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .. import __version__
+from ..engine.dataset import CONVENTIONS
+from ..engine.statistics import wilson_interval
+from ..errors import DataFormatError
+from .spec import REBOUND_VARIABLES, RESERVOIR_VARIABLES
+
+__all__ = ["WallLaw", "WallLawSample", "wall_law_dataset"]
+
+DIMS = ("surface", "diameter_um", "speed_m_s", "angle_deg")
+
+#: Frame, angle convention and interpolation rule (the file's attributes).
+FRAME = (
+    "wall frame: z the outward normal of the nominal wall, x the incoming "
+    "particle's tangential direction of travel, y = z cross x (lateral)"
+)
+ANGLE_CONVENTION = (
+    "angle_deg: apparent incidence angle measured from the wall plane (90 = normal "
+    "impact); rebound_angle_deg = atan2(U_z, U_x) from the wall plane; "
+    "lateral_angle_deg = atan2(U_y, hypot(U_x, U_z))"
+)
+INTERPOLATION = (
+    "stochastic: pick the corner of the (log diameter, log speed, angle) cell with "
+    "probability equal to its trilinear weight (upper node on each axis where the "
+    "axis' uniform < its fraction), capture where a uniform < that corner's "
+    "capture_probability, else draw reservoir sample floor(u * reservoir_count); "
+    "queries outside the axes are clamped to the end nodes; velocity U_z = e_n s "
+    "sin(theta), U_x = s cos(theta) - mu (1 + e_n) s sin(theta), "
+    "U_y = tan(psi) hypot(U_x, U_z)"
+)
+
+_UNITS = {
+    "e_n": ("1", "normal restitution e_n = U_z / (s sin theta) (apparent e_m)"),
+    "e_t": ("1", "tangential restitution e_t = U_x / (s cos theta)"),
+    "mu": ("1", "apparent impulse ratio mu_m (paper Eq. 9)"),
+    "rebound_angle_deg": ("degree", "rebound angle from the wall plane"),
+    "lateral_angle_deg": ("degree", "lateral (out-of-plane) rebound angle"),
+}
+
+VARIABLES: dict[str, tuple[str, str]] = {
+    "n_samples": ("1", "draws made at the node"),
+    "n_impacts": ("1", "draws that struck a facet (not shadowed)"),
+    "n_captured": ("1", "impacts captured"),
+    "n_rebounds": ("1", "impacts not captured"),
+    "n_reimpacts": ("1", "rebounds heading into the nominal wall (U_z < 0)"),
+    "capture_probability": ("1", "probability that an impact is captured"),
+    "capture_ci_low": ("1", "lower Wilson confidence limit of capture_probability"),
+    "capture_ci_high": ("1", "upper Wilson confidence limit of capture_probability"),
+    "reimpact_probability": ("1", "fraction of rebounds with U_z < 0"),
+    "reservoir_count": ("1", "rebound samples held in the reservoir"),
+}
+for _name, (_u, _long) in _UNITS.items():
+    VARIABLES[f"{_name}_mean"] = (_u, f"mean over rebounds of the {_long}")
+    VARIABLES[f"{_name}_std"] = (_u, f"standard deviation over rebounds of the {_long}")
+    VARIABLES[f"{_name}_quantile"] = (_u, f"quantiles over rebounds of the {_long}")
+for _name in RESERVOIR_VARIABLES:
+    _u, _long = _UNITS[_name]
+    VARIABLES[f"reservoir_{_name}"] = (
+        _u,
+        f"reservoir of joint rebound samples: {_long}",
+    )
+
+COORDS = {
+    "surface": (None, "surface variant"),
+    "diameter_um": ("um", "particle diameter"),
+    "speed_m_s": ("m s-1", "nominal incident speed"),
+    "angle_deg": ("degree", "apparent incidence angle from the wall plane"),
+    "quantile": ("1", "probability level of the quantile variables"),
+    "sample": ("1", "index in a node's reservoir"),
+}
+
+
+def wall_law_dataset(
+    grid, spec, columns, *, scenario, entropy, source_text=None, seconds=None
+):
+    """The wall law's CF-1.10 Dataset from per-diameter stacked node columns.
+
+    `columns` maps each node variable to an array of shape (diameters, points,
+    ...) with the points in ``grid`` order (surface x speed x angle).
+    """
+    import xarray as xr
+
+    from .._json import dumps
+
+    n_s, n_v, n_a = len(grid.surfaces), len(grid.speeds_m_s), len(grid.angles_deg)
+    n_d = len(spec.diameters_um)
+
+    def nodes(a):
+        a = np.asarray(a).reshape((n_d, n_s, n_v, n_a, *a.shape[2:]))
+        return np.moveaxis(a, 0, 1)  # (surface, diameter, speed, angle, ...)
+
+    data = {}
+    for name, arr in columns.items():
+        a = nodes(arr)
+        extra = ()
+        if name.endswith("_quantile"):
+            extra = ("quantile",)
+        elif name.startswith("reservoir_") and name != "reservoir_count":
+            extra = ("sample",)
+        if name.startswith("n_") or name == "reservoir_count":
+            a = a.astype(np.int64 if name != "reservoir_count" else np.int32)
+        data[name] = (DIMS + extra, a)
+    k = data["n_captured"][1]
+    n = data["n_impacts"][1]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        p = np.where(n > 0, k / np.maximum(n, 1), np.nan)
+        reb = data["n_rebounds"][1]
+        reimp = np.where(reb > 0, data["n_reimpacts"][1] / np.maximum(reb, 1), np.nan)
+    low, high = wilson_interval(k, n, scenario.confidence)
+    data["capture_probability"] = (DIMS, p)
+    data["capture_ci_low"] = (DIMS, np.where(n > 0, low, np.nan))
+    data["capture_ci_high"] = (DIMS, np.where(n > 0, high, np.nan))
+    data["reimpact_probability"] = (DIMS, reimp)
+    order = [v for v in VARIABLES if v in data]
+    ds = xr.Dataset(
+        {v: data[v] for v in order},
+        coords={
+            "surface": np.array(grid.surfaces, dtype=object),
+            "diameter_um": np.array(spec.diameters_um),
+            "speed_m_s": np.array(grid.speeds_m_s),
+            "angle_deg": np.array(grid.angles_deg),
+            "quantile": np.array(spec.quantiles),
+            "sample": np.arange(spec.reservoir, dtype=np.int32),
+        },
+    )
+    for v in ds.data_vars:
+        units, long_name = VARIABLES[v]
+        ds[v].attrs.update(units=units, long_name=long_name)
+    for c, (units, long_name) in COORDS.items():
+        ds[c].attrs["long_name"] = long_name
+        if units is not None:
+            ds[c].attrs["units"] = units
+    ds["diameter_um"].attrs["axis_spacing"] = "interpolated in log"
+    ds["speed_m_s"].attrs["axis_spacing"] = "interpolated in log"
+    ds.attrs.update(
+        Conventions=CONVENTIONS,
+        title=f"microimpact wall law: {scenario.name}",
+        source=f"microimpact {__version__} (Li, Dunn & Brach 2000 Monte Carlo)",
+        frame=FRAME,
+        angle_convention=ANGLE_CONVENTION,
+        interpolation=INTERPOLATION,
+        scenario=source_text if source_text is not None else "",
+        scenario_description=dumps(scenario.describe()),
+        seed=str(entropy),
+        samples_per_node=int(columns["n_samples"].flat[0]),
+        reservoir=int(spec.reservoir),
+        confidence=float(scenario.confidence),
+        shadowing=scenario.shadowing,
+        microimpact_version=__version__,
+        common_random_numbers="every diameter of a (surface, speed, angle) uses the "
+        "same draws",
+    )
+    if seconds is not None:
+        ds.attrs["build_seconds"] = float(seconds)
+    return ds
+
+
+@dataclass(frozen=True)
+class WallLawSample:
+    """Outcomes of sampled impacts (arrays of length N).
+
+    Attributes
+    ----------
+    captured : ndarray of bool
+        The particle sticks (its velocity is zero).
+    velocity : ndarray, shape (N, 3)
+        Rebound velocity in the wall frame [m s-1] (x along the incoming tangential
+        direction of travel, y lateral, z out of the wall); zero where captured,
+        NaN where not valid.
+    reimpact : ndarray of bool
+        Rebounds heading back into the wall (U_z < 0): strike it again.
+    clamped : ndarray of bool
+        The query lay outside the table on some axis and was clamped to its end.
+    valid : ndarray of bool
+        False where the chosen node has no impact to draw from (every draw there
+        shadowed).
+    """
+
+    captured: np.ndarray
+    velocity: np.ndarray
+    reimpact: np.ndarray
+    clamped: np.ndarray
+    valid: np.ndarray
+
+
+def _bracket(coord: np.ndarray, x: np.ndarray):
+    """Lower node index, fraction in [0, 1] and clamped flag along one axis."""
+    n = coord.size
+    if n == 1:
+        return np.zeros(x.shape, np.intp), np.zeros(x.shape), x != coord[0]
+    i = np.clip(np.searchsorted(coord, x, side="right") - 1, 0, n - 2)
+    lo, hi = coord[i], coord[i + 1]
+    t = (x - lo) / (hi - lo)
+    clamped = (t < 0.0) | (t > 1.0)
+    return i, np.clip(t, 0.0, 1.0), clamped
+
+
+def _check_query(name, value, n, positive):
+    a = np.asarray(value, dtype=float)
+    if a.ndim > 1:
+        raise ValueError(f"`{name}` must be a scalar or 1-D; got shape {a.shape}")
+    a = np.broadcast_to(a, (n,)) if a.ndim == 0 else a
+    if a.shape != (n,):
+        raise ValueError(f"`{name}` has {a.size} values; expected {n}")
+    bad = ~np.isfinite(a) | ((a <= 0) if positive else (a <= 0) | (a > 90))
+    if np.any(bad):
+        i = int(np.argmax(bad))
+        allowed = "> 0" if positive else "in (0, 90]"
+        raise ValueError(f"`{name}` must be finite and {allowed}; got {a[i]!r}")
+    return a
+
+
+class WallLaw:
+    """A tabulated stochastic wall law (see docs/wall-law.md).
+
+    Build one with :func:`microimpact.build_wall_law` or load a saved one with
+    :meth:`WallLaw.open`. The Dataset is :attr:`dataset`.
+    """
+
+    def __init__(self, dataset):
+        missing = [
+            v
+            for v in (
+                "capture_probability",
+                "reservoir_count",
+                "n_impacts",
+                *tuple(f"reservoir_{n}" for n in RESERVOIR_VARIABLES),
+            )
+            if v not in dataset
+        ]
+        if missing:
+            raise DataFormatError(
+                f"not a wall-law table: missing variables {', '.join(missing)}"
+            )
+        for c in DIMS[1:]:
+            x = np.asarray(dataset[c].values, dtype=float)
+            if x.size == 0 or np.any(np.diff(x) <= 0) or not np.all(np.isfinite(x)):
+                raise DataFormatError(
+                    f"not a wall-law table: coordinate {c} must be finite and "
+                    "strictly increasing"
+                )
+        self.dataset = dataset
+        ds = dataset.transpose(*DIMS, ...)
+        self._log_d = np.log(ds["diameter_um"].values.astype(float))
+        self._log_v = np.log(ds["speed_m_s"].values.astype(float))
+        self._angle = ds["angle_deg"].values.astype(float)
+        self._p = ds["capture_probability"].values.astype(float)
+        self._count = ds["reservoir_count"].values.astype(np.int64)
+        self._res = {
+            n: ds[f"reservoir_{n}"].values.astype(float) for n in RESERVOIR_VARIABLES
+        }
+
+    # ---------------------------------------------------------------- loading
+    @classmethod
+    def open(cls, path):
+        """Load a ``wall_law.nc`` (or the folder holding one)."""
+        import xarray as xr
+
+        path = Path(path)
+        if path.is_dir():
+            path = path / "wall_law.nc"
+        if not path.is_file():
+            raise DataFormatError("no such file", source=str(path))
+        try:
+            with xr.open_dataset(path) as ds:
+                ds = ds.load()
+        except (OSError, ValueError) as err:
+            raise DataFormatError(
+                f"not a readable NetCDF file ({err})", source=str(path)
+            ) from None
+        try:
+            return cls(ds)
+        except DataFormatError as err:
+            raise DataFormatError(err.message, source=str(path)) from None
+
+    # ------------------------------------------------------------- properties
+    @property
+    def surfaces(self) -> tuple[str, ...]:
+        return tuple(str(s) for s in self.dataset["surface"].values)
+
+    @property
+    def diameters_um(self) -> np.ndarray:
+        return self.dataset["diameter_um"].values
+
+    @property
+    def speeds_m_s(self) -> np.ndarray:
+        return self.dataset["speed_m_s"].values
+
+    @property
+    def angles_deg(self) -> np.ndarray:
+        return self.dataset["angle_deg"].values
+
+    @property
+    def reservoir(self) -> int:
+        return int(self.dataset.sizes["sample"])
+
+    def surface_index(self, surface) -> int:
+        """Index of `surface` (an index or a surface name)."""
+        names = self.surfaces
+        if isinstance(surface, str):
+            if surface not in names:
+                raise ValueError(
+                    f"unknown surface {surface!r}; the table has {', '.join(names)}"
+                )
+            return names.index(surface)
+        if isinstance(surface, bool) or not isinstance(surface, int | np.integer):
+            raise TypeError(f"`surface` must be a name or an index; got {surface!r}")
+        if not 0 <= surface < len(names):
+            raise ValueError(f"`surface` must be in [0, {len(names)}); got {surface}")
+        return int(surface)
+
+    def __repr__(self):
+        d, v, a = self.diameters_um, self.speeds_m_s, self.angles_deg
+        return (
+            f"<WallLaw {len(self.surfaces)} surface(s) x {d.size} diameters "
+            f"[{d[0]:g}, {d[-1]:g}] um x {v.size} speeds [{v[0]:g}, {v[-1]:g}] m/s x "
+            f"{a.size} angles [{a[0]:g}, {a[-1]:g}] deg, K={self.reservoir}>"
+        )
+
+    # ---------------------------------------------------------------- sampling
+    def sample_uniform(self, diameter_um, speed_m_s, angle_deg, u, *, surface=0):
+        """Outcomes for caller-supplied uniform numbers (the C sampler's rule).
+
+        Parameters
+        ----------
+        diameter_um, speed_m_s, angle_deg : float or array_like
+            The impacts' diameters [µm], speeds [m s-1] and apparent incidence
+            angles from the wall plane [deg], broadcast to N = ``len(u)``.
+        u : array_like, shape (N, 5)
+            Uniform numbers in [0, 1): u[:, 0..2] pick the cell corner along the
+            diameter, speed and angle axes, u[:, 3] decides capture, u[:, 4] picks
+            the reservoir sample (docs/wall-law.md, "The sampling rule").
+        surface : int or str
+            The surface (index or name).
+
+        Returns
+        -------
+        WallLawSample
+        """
+        s = self.surface_index(surface)
+        u = np.asarray(u, dtype=float)
+        if u.ndim != 2 or u.shape[1] != 5:
+            raise ValueError(f"`u` must have shape (N, 5); got {u.shape}")
+        if u.size and (np.any(~(u >= 0.0)) or np.any(~(u < 1.0))):
+            raise ValueError("`u` must hold uniform numbers in [0, 1)")
+        n = u.shape[0]
+        d = _check_query("diameter_um", diameter_um, n, True)
+        v = _check_query("speed_m_s", speed_m_s, n, True)
+        a = _check_query("angle_deg", angle_deg, n, False)
+        idx, clamped = [], np.zeros(n, bool)
+        for axis, (coord, x) in enumerate(
+            ((self._log_d, np.log(d)), (self._log_v, np.log(v)), (self._angle, a))
+        ):
+            i, t, c = _bracket(coord, x)
+            idx.append(np.where(u[:, axis] < t, i + 1, i))
+            clamped |= c
+        node = (s, idx[0], idx[1], idx[2])
+        p = self._p[node]
+        valid = ~np.isnan(p)
+        captured = valid & (u[:, 3] < p)
+        count = self._count[node]
+        rebound = valid & ~captured
+        k = np.minimum(np.floor(u[:, 4] * count).astype(np.int64), count - 1)
+        k = np.where(rebound, k, 0)
+        e_n = self._res["e_n"][(*node, k)]
+        mu = self._res["mu"][(*node, k)]
+        psi = self._res["lateral_angle_deg"][(*node, k)]
+        th = a * (math.pi / 180.0)
+        sin_t, cos_t = np.sin(th), np.cos(th)
+        vel = np.zeros((n, 3))
+        u_z = e_n * v * sin_t
+        u_x = v * cos_t - mu * (1.0 + e_n) * v * sin_t
+        u_y = np.tan(psi * (math.pi / 180.0)) * np.hypot(u_x, u_z)
+        vel[:, 0] = np.where(rebound, u_x, 0.0)
+        vel[:, 1] = np.where(rebound, u_y, 0.0)
+        vel[:, 2] = np.where(rebound, u_z, 0.0)
+        vel[~valid] = np.nan
+        return WallLawSample(
+            captured=captured,
+            velocity=vel,
+            reimpact=rebound & (u_z < 0.0),
+            clamped=clamped,
+            valid=valid,
+        )
+
+    def sample(self, diameter_um, speed_m_s, angle_deg, *, rng, surface=0):
+        """Sample impacts (vectorised): ``rng.random((N, 5))`` drives
+        :meth:`sample_uniform`, N the broadcast length of the queries.
+
+        `rng` is a :class:`numpy.random.Generator` (or an int seed).
+        """
+        rng = np.random.default_rng(rng)
+        shape = np.broadcast_shapes(
+            np.shape(diameter_um), np.shape(speed_m_s), np.shape(angle_deg)
+        )
+        if len(shape) > 1:
+            raise ValueError(f"queries must be scalars or 1-D; got shape {shape}")
+        n = shape[0] if shape else 1
+        return self.sample_uniform(
+            np.broadcast_to(diameter_um, (n,)),
+            np.broadcast_to(speed_m_s, (n,)),
+            np.broadcast_to(angle_deg, (n,)),
+            rng.random((n, 5)),
+            surface=surface,
+        )
+
+    # ----------------------------------------------------------------- tables
+    def to_frame(self):
+        """The long table of ``wall_law.csv``: one row per node."""
+        import pandas as pd
+
+        ds = self.dataset.transpose(*DIMS, ...)
+        q = list(ds["quantile"].values)
+        cols = {}
+        grids = np.meshgrid(*(np.arange(ds.sizes[dim]) for dim in DIMS), indexing="ij")
+        for dim, g in zip(DIMS, grids, strict=True):
+            cols[dim] = ds[dim].values[g.ravel()]
+        for v in (
+            "n_samples",
+            "n_impacts",
+            "n_captured",
+            "n_rebounds",
+            "capture_probability",
+            "capture_ci_low",
+            "capture_ci_high",
+            "reimpact_probability",
+        ):
+            cols[v] = ds[v].values.ravel()
+        for name in REBOUND_VARIABLES:
+            cols[f"{name}_mean"] = ds[f"{name}_mean"].values.ravel()
+            cols[f"{name}_std"] = ds[f"{name}_std"].values.ravel()
+            qa = ds[f"{name}_quantile"].values.reshape(-1, len(q))
+            for level, tag in ((0.05, "p05"), (0.5, "p50"), (0.95, "p95")):
+                if level in q:
+                    cols[f"{name}_{tag}"] = qa[:, q.index(level)]
+        return pd.DataFrame(cols)
+
+    def write(self, out_dir, *, c=True, openfoam=True, condition=None) -> list[Path]:
+        """Write ``wall_law.nc``, ``wall_law.csv`` and (by default) the C sampler
+        with its binary table (``c/``) and the OpenFOAM dictionaries
+        (``openfoam/``) into `out_dir`; every file is written whole or not at all.
+
+        `condition` is a dict with any of ``diameter_um``, ``speed_m_s``,
+        ``angle_deg``: where the OpenFOAM constant coefficients are taken.
+        Returns the paths written.
+        """
+        from .._files import atomic_write
+
+        out = Path(out_dir)
+        out.mkdir(parents=True, exist_ok=True)
+        written = [
+            atomic_write(out / "wall_law.nc", self._write_netcdf),
+            atomic_write(
+                out / "wall_law.csv",
+                lambda tmp: self.to_frame().to_csv(
+                    tmp, index=False, float_format="%.9g"
+                ),
+            ),
+        ]
+        if c:
+            from .export_c import write_c
+
+            written.extend(_paths(write_c(self, out)))
+        if openfoam:
+            from .openfoam import write_openfoam
+
+            written.extend(_paths(write_openfoam(self, out, **(condition or {}))))
+        return written
+
+    def _write_netcdf(self, path):
+        ds = self.dataset.copy()
+        encoding = {}
+        for v in ds.data_vars:
+            if ds[v].dtype.kind == "f":
+                encoding[v] = {"zlib": True, "complevel": 4, "_FillValue": np.nan}
+            else:
+                encoding[v] = {"zlib": True, "complevel": 4}
+        ds["surface"] = ds["surface"].astype(str)
+        ds.to_netcdf(path, engine="netcdf4", encoding=encoding)
+
+
+def _paths(result):
+    if result is None:
+        return []
+    if isinstance(result, str | Path):
+        return [Path(result)]
+    return [Path(p) for p in result]
