@@ -42,7 +42,8 @@ def node_outcomes(e_m, mu_m, angle_deg: float) -> dict:
       of paper Eq. 9 in the frame of docs/conventions.md (NaN at theta = 90 deg,
       where there is no incoming tangential velocity);
     * the rebound angle ``atan2(U_z, U_x)`` from the wall plane [deg];
-    * the lateral angle, 0 for the paper's profile roughness.
+    * the lateral angle, 0 for the paper's profile roughness;
+    * the speed ratio ``|U| / s`` of the rebound (at most 1: no energy is gained).
     """
     theta = math.radians(angle_deg)
     s, c = math.sin(theta), math.cos(theta)
@@ -58,6 +59,7 @@ def node_outcomes(e_m, mu_m, angle_deg: float) -> dict:
         "mu": mu_m,
         "rebound_angle_deg": np.degrees(np.arctan2(u_z, u_x)),
         "lateral_angle_deg": np.zeros_like(e_m),
+        "speed_ratio": np.hypot(u_x, u_z),
     }
 
 

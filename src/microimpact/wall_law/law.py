@@ -44,7 +44,7 @@ INTERPOLATION = (
     "capture_probability, else draw reservoir sample floor(u * reservoir_count); "
     "queries outside the axes are clamped to the end nodes; velocity U_z = e_n s "
     "sin(theta), U_x = s cos(theta) - mu (1 + e_n) s sin(theta), "
-    "U_y = tan(psi) hypot(U_x, U_z)"
+    "U_y = tan(psi) hypot(U_x, U_z), then U scaled to |U| = speed_ratio s"
 )
 
 _UNITS = {
@@ -53,6 +53,7 @@ _UNITS = {
     "mu": ("1", "apparent impulse ratio mu_m (paper Eq. 9)"),
     "rebound_angle_deg": ("degree", "rebound angle from the wall plane"),
     "lateral_angle_deg": ("degree", "lateral (out-of-plane) rebound angle"),
+    "speed_ratio": ("1", "rebound speed over incident speed |U| / s"),
 }
 
 VARIABLES: dict[str, tuple[str, str]] = {
@@ -383,12 +384,19 @@ class WallLaw:
         e_n = self._res["e_n"][(*node, k)]
         mu = self._res["mu"][(*node, k)]
         psi = self._res["lateral_angle_deg"][(*node, k)]
+        ratio = self._res["speed_ratio"][(*node, k)]
         th = a * (math.pi / 180.0)
         sin_t, cos_t = np.sin(th), np.cos(th)
         vel = np.zeros((n, 3))
         u_z = e_n * v * sin_t
         u_x = v * cos_t - mu * (1.0 + e_n) * v * sin_t
         u_y = np.tan(psi * (math.pi / 180.0)) * np.hypot(u_x, u_z)
+        # the magnitude is the sample's: |U| = speed_ratio * s (no energy gained
+        # when the corner's angle differs from the query's)
+        norm = np.sqrt(u_x * u_x + u_y * u_y + u_z * u_z)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            scale = np.where(norm > 0.0, ratio * v / norm, 0.0)
+        u_x, u_y, u_z = u_x * scale, u_y * scale, u_z * scale
         vel[:, 0] = np.where(rebound, u_x, 0.0)
         vel[:, 1] = np.where(rebound, u_y, 0.0)
         vel[:, 2] = np.where(rebound, u_z, 0.0)

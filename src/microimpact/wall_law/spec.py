@@ -25,7 +25,7 @@ DEFAULT_QUANTILES = (0.01, 0.05, 0.1, 0.25, 0.5, 0.75, 0.9, 0.95, 0.99)
 #: Variables tabulated over the rebounds of a node (quantiles, mean, std).
 REBOUND_VARIABLES = ("e_n", "e_t", "mu", "rebound_angle_deg", "lateral_angle_deg")
 #: Variables held in the reservoirs (joint samples, in draw order).
-RESERVOIR_VARIABLES = ("e_n", "mu", "e_t", "lateral_angle_deg")
+RESERVOIR_VARIABLES = ("e_n", "mu", "e_t", "lateral_angle_deg", "speed_ratio")
 
 #: Largest reservoir: values per node kept for the sampler.
 MAX_RESERVOIR = 1_000_000
@@ -133,11 +133,11 @@ class WallLawSpec:
 
     def check_size(self, surfaces: int) -> None:
         """Refuse a table whose reservoirs would not fit in memory."""
-        values = surfaces * self.nodes * self.reservoir * 4
+        values = surfaces * self.nodes * self.reservoir * 5
         if values > MAX_RESERVOIR_VALUES:
             raise ScenarioError(
                 f"{surfaces} surface(s) x {self.nodes:,} nodes x {self.reservoir:,} "
-                f"samples x 4 variables = {values:,} values, more than "
+                f"samples x 5 variables = {values:,} values, more than "
                 f"{MAX_RESERVOIR_VALUES:,} (1 GiB); use fewer nodes or a smaller "
                 "reservoir",
                 field="wall_law.reservoir",
