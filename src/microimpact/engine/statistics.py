@@ -45,8 +45,11 @@ def wilson_interval(k, n, confidence=0.95):
         z2n = z * z / n
         centre = (p + z2n / 2.0) / (1.0 + z2n)
         half = z / (1.0 + z2n) * np.sqrt(p * (1.0 - p) / n + z2n / (4.0 * n))
-    # the exact limits lie in [0, 1]; round-off must not push them out
-    return np.clip(centre - half, 0.0, 1.0), np.clip(centre + half, 0.0, 1.0)
+    # the exact limits lie in [0, 1] and hold k/n; round-off must not push them
+    # out (at k = 0 it gave a lower limit of 3e-18 > 0 = k/n)
+    low = np.minimum(np.clip(centre - half, 0.0, 1.0), p)
+    high = np.maximum(np.clip(centre + half, 0.0, 1.0), p)
+    return low, high
 
 
 def interval_se(low, high, confidence):

@@ -1,0 +1,478 @@
+"""The stochastic wall law (issue 13) against independent oracles.
+
+* a smooth surface: every node is deterministic and equals the rigid-body model
+  of :func:`microimpact.rebound` (paper Eqs. 1-6), evaluated here directly;
+* normal roughness: the capture probability has the closed form
+  P(v sin(theta - phi) <= v_c(d) | phi < theta) under the 'reject' shadowing rule;
+* direct runs of the engine at the node (another seed): capture by a two-sample
+  z test, the distributions of e_n, e_t and the rebound angle by two-sample KS;
+* the sampler: at a node it draws that node's distribution; between nodes its
+  capture fraction is the trilinear interpolation of the nodes' (computed here).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from scipy import stats
+
+import microimpact as mi
+from microimpact.cli import main
+from microimpact.errors import DataFormatError, ScenarioError
+from microimpact.wall_law import WallLaw, WallLawSpec, build_wall_law
+
+K1, FRICTION = 4.0, 0.2
+
+
+def _coefficients():
+    return mi.ImpactCoefficients(
+        k1=K1,
+        k2=mi.PowerLaw(a=0.05, b=-1.5, d_ref=10e-6),
+        v_c=mi.PowerLaw(a=0.5, b=-1.0, d_ref=10e-6),
+        friction=FRICTION,
+    )
+
+
+def _scenario(surfaces, *, seed=11, samples=2000, **kw):
+    return mi.Scenario(
+        name="wall",
+        particles=mi.lognormal_diameters(10.0, 1.5),
+        coefficients=_coefficients(),
+        surfaces=surfaces,
+        seed=seed,
+        samples=samples,
+        **kw,
+    )
+
+
+SMOOTH = (mi.SurfaceVariant("smooth"),)
+ROUGH_DEG = 8.0
+ROUGH = (mi.SurfaceVariant("rough", mi.normal_angles(ROUGH_DEG)),)
+SPEC = WallLawSpec(
+    diameters_um=(3.0, 10.0, 30.0),
+    speeds_m_s=(0.3, 1.0, 3.0, 10.0),
+    angles_deg=(15.0, 40.0, 70.0, 90.0),
+    reservoir=128,
+)
+
+
+@pytest.fixture(scope="module")
+def rough_law():
+    return build_wall_law(_scenario(ROUGH), SPEC)
+
+
+def _v_c(d_um):
+    return float(_coefficients().evaluate(np.array([d_um * 1e-6])).v_c[0])
+
+
+# ---------------------------------------------------------------- oracles
+def test_smooth_nodes_are_the_rigid_body_model():
+    law = build_wall_law(_scenario(SMOOTH, samples=50), SPEC)
+    ds = law.dataset.isel(surface=0)
+    coeffs = _coefficients()
+    for d in SPEC.diameters_um:
+        k1, k2, v_c = (float(a[0]) for a in coeffs.evaluate(np.array([d * 1e-6])))
+        for v in SPEC.speeds_m_s:
+            for a in SPEC.angles_deg:
+                th = math.radians(a)
+                r = mi.rebound(
+                    -v * math.sin(th),
+                    -v * math.cos(th),  # travels towards -t (docs/conventions.md)
+                    k1=k1,
+                    k2=k2,
+                    v_c=v_c,
+                    friction=FRICTION,
+                )
+                node = ds.sel(diameter_um=d, speed_m_s=v, angle_deg=a)
+                p = float(node.capture_probability)
+                assert p == float(bool(r.captured))
+                if r.captured:
+                    assert int(node.reservoir_count) == 0
+                    continue
+                e = float(r.e)
+                np.testing.assert_allclose(node.e_n_quantile, e, rtol=1e-6)
+                np.testing.assert_allclose(node.mu_quantile, float(r.mu), rtol=1e-6)
+                if a < 90:
+                    e_t = float(r.V_t) / (-v * math.cos(th))
+                    np.testing.assert_allclose(node.e_t_quantile, e_t, rtol=1e-6)
+                else:
+                    assert np.isnan(node.e_t_mean)
+                angle = math.degrees(math.atan2(e * v * math.sin(th), -float(r.V_t)))
+                np.testing.assert_allclose(
+                    node.rebound_angle_deg_quantile, angle, rtol=1e-6, atol=1e-9
+                )
+                # the sampler at the node rebuilds the model's velocity
+                s = law.sample(d, v, a, rng=1)
+                np.testing.assert_allclose(
+                    s.velocity[0], [-float(r.V_t), 0.0, float(r.V_n)], atol=1e-9
+                )
+
+
+def _closed_form_capture(d_um, v, angle_deg, std_deg):
+    """P(v sin(theta - phi) <= v_c | phi < theta), phi ~ N(0, std) on (-90, 90)."""
+    phi = stats.norm(0.0, std_deg)
+    cdf = lambda x: phi.cdf(np.clip(x, -90.0, 90.0))  # noqa: E731
+    reach = cdf(angle_deg) - cdf(-90.0)
+    r = _v_c(d_um) / v
+    if r >= 1:
+        return 1.0
+    a = math.degrees(math.asin(r))
+    # theta - phi in (0, a] or [180 - a, theta + 90): sin(theta - phi) <= r
+    low = cdf(angle_deg) - cdf(angle_deg - a)
+    high = cdf(angle_deg - 180.0 + a) - cdf(-90.0)
+    return float((low + max(high, 0.0)) / reach)
+
+
+def test_capture_matches_the_closed_form_on_normal_roughness(rough_law):
+    ds = rough_law.dataset.isel(surface=0)
+    z = []
+    for d in SPEC.diameters_um:
+        for v in SPEC.speeds_m_s:
+            for a in SPEC.angles_deg:
+                node = ds.sel(diameter_um=d, speed_m_s=v, angle_deg=a)
+                p = _closed_form_capture(d, v, a, ROUGH_DEG)
+                n = int(node.n_impacts)
+                p_hat = float(node.capture_probability)
+                if p in (0.0, 1.0):
+                    assert p_hat == p
+                    continue
+                z.append((p_hat - p) / math.sqrt(p * (1 - p) / n))
+                # and the Wilson interval is honest about it (k = 4 SE margin)
+                assert node.capture_ci_low - 1e-3 <= p <= node.capture_ci_high + 1e-3
+    z = np.array(z)
+    assert len(z) >= 8
+    assert np.max(np.abs(z)) < 4.5, z
+    assert np.mean(z**2) < 2.5, z
+
+
+def test_nodes_match_direct_runs_of_the_engine(rough_law):
+    ds = rough_law.dataset.isel(surface=0)
+    for d, v, a in ((10.0, 1.0, 40.0), (3.0, 3.0, 70.0), (30.0, 10.0, 15.0)):
+        direct = _scenario(ROUGH, seed=999, samples=4000).with_options(
+            particles=mi.monodisperse(d), speeds_m_s=(v,), angles_deg=(a,)
+        )
+        out = mi.sample_point(direct, 0, 4000)
+        node = ds.sel(diameter_um=d, speed_m_s=v, angle_deg=a)
+        n1, p1 = int(node.n_impacts), float(node.capture_probability)
+        n2 = int(np.count_nonzero(~out["shadowed"]))
+        p2 = float(np.count_nonzero(out["captured"] & ~out["shadowed"])) / n2
+        pool = (p1 * n1 + p2 * n2) / (n1 + n2)
+        se = math.sqrt(max(pool * (1 - pool), 1e-12) * (1 / n1 + 1 / n2))
+        assert abs(p1 - p2) < 4.5 * se + 1e-12
+        reb = ~out["captured"] & ~out["shadowed"]
+        e_m, mu_m = out["e_m"][reb], out["mu_m"][reb]
+        th = math.radians(a)
+        e_t = 1.0 - mu_m * (1.0 + e_m) * math.tan(th)
+        ang = np.degrees(np.arctan2(e_m * math.sin(th), e_t * math.cos(th)))
+        k = int(node.reservoir_count)
+        assert k == min(SPEC.reservoir, int(node.n_rebounds))
+        res_e = node.reservoir_e_n.values[:k]
+        res_et = node.reservoir_e_t.values[:k]
+        assert stats.ks_2samp(res_e, e_m).pvalue > 1e-3
+        assert stats.ks_2samp(res_et, e_t).pvalue > 1e-3
+        # the quantiles of the node against the direct run's (two-sample KS on the
+        # full node: its quantiles lie inside the direct run's DKW band)
+        eps = math.sqrt(math.log(2 / 1e-4) / (2 * len(e_m)))
+        for q, x in zip(node["quantile"].values, node.e_n_quantile.values, strict=True):
+            assert abs(np.mean(e_m <= x) - q) < eps + 2.5 * math.sqrt(
+                q * (1 - q) / int(node.n_rebounds)
+            )
+        qa = node.rebound_angle_deg_quantile.values
+        assert abs(np.median(ang) - qa[list(node["quantile"].values).index(0.5)]) < 3.0
+
+
+# ---------------------------------------------------------------- the sampler
+def test_sampling_at_a_node_draws_that_node(rough_law):
+    ds = rough_law.dataset.isel(surface=0).sel(diameter_um=10.0, speed_m_s=1.0)
+    node = ds.sel(angle_deg=40.0)
+    n = 200_000
+    s = rough_law.sample(10.0, 1.0, 40.0, rng=np.random.default_rng(5))
+    s = rough_law.sample(np.full(n, 10.0), 1.0, 40.0, rng=np.random.default_rng(5))
+    p = float(node.capture_probability)
+    assert abs(s.captured.mean() - p) < 5 * math.sqrt(p * (1 - p) / n) + 1e-12
+    reb = ~s.captured
+    e_n = s.velocity[reb, 2] / math.sin(math.radians(40.0))
+    k = int(node.reservoir_count)
+    # every rebound is one of the node's reservoir samples
+    assert np.isin(np.round(e_n, 9), np.round(node.reservoir_e_n.values[:k], 9)).all()
+    assert not s.clamped.any() and s.valid.all()
+
+
+def _trilinear_capture(law, d, v, a):
+    ds = law.dataset.isel(surface=0)
+    axes = []
+    for coord, x, log in (
+        (ds.diameter_um.values, d, True),
+        (ds.speed_m_s.values, v, True),
+        (ds.angle_deg.values, a, False),
+    ):
+        c = np.log(coord) if log else coord
+        x = math.log(x) if log else x
+        i = int(np.clip(np.searchsorted(c, x) - 1, 0, len(c) - 2))
+        axes.append((i, (x - c[i]) / (c[i + 1] - c[i])))
+    p = ds.capture_probability.values
+    total = 0.0
+    for bits in range(8):
+        w, idx = 1.0, []
+        for ax, (i, t) in enumerate(axes):
+            up = (bits >> ax) & 1
+            w *= t if up else 1 - t
+            idx.append(i + up)
+        total += w * p[tuple(idx)]
+    return total
+
+
+def test_between_nodes_capture_is_the_trilinear_mix(rough_law):
+    n = 400_000
+    rng = np.random.default_rng(9)
+    for d, v, a in ((5.0, 0.6, 30.0), (17.0, 2.0, 80.0), (4.0, 5.0, 55.0)):
+        p = _trilinear_capture(rough_law, d, v, a)
+        s = rough_law.sample(np.full(n, d), v, a, rng=rng)
+        assert abs(s.captured.mean() - p) < 5 * math.sqrt(p * (1 - p) / n) + 1e-12
+
+
+def test_queries_outside_the_table_are_clamped_and_flagged(rough_law):
+    s = rough_law.sample([1.0, 10.0, 10.0], [1.0, 50.0, 1.0], [40.0, 40.0, 5.0], rng=2)
+    assert s.clamped.tolist() == [True, True, True]
+    inside = rough_law.sample(10.0, 1.0, 40.0, rng=2)
+    assert not inside.clamped.any()
+
+
+def test_rebounds_never_gain_energy(rough_law):
+    rng = np.random.default_rng(3)
+    n = 50_000
+    d = np.exp(rng.uniform(np.log(3), np.log(30), n))
+    v = np.exp(rng.uniform(np.log(0.3), np.log(10), n))
+    a = rng.uniform(15, 90, n)
+    s = rough_law.sample(d, v, a, rng=rng)
+    speed = np.linalg.norm(s.velocity, axis=1)
+    assert np.all(speed <= v * (1 + 1e-9))
+    assert np.all(s.velocity[s.captured] == 0.0)
+    assert np.all(s.velocity[:, 1] == 0.0)  # profile roughness: no lateral scatter
+
+
+def test_sample_argument_errors(rough_law):
+    with pytest.raises(ValueError, match="angle_deg"):
+        rough_law.sample(10.0, 1.0, 95.0, rng=1)
+    with pytest.raises(ValueError, match="diameter_um"):
+        rough_law.sample(-1.0, 1.0, 45.0, rng=1)
+    with pytest.raises(ValueError, match="unknown surface"):
+        rough_law.sample(10.0, 1.0, 45.0, rng=1, surface="glass")
+    with pytest.raises(ValueError, match=r"shape \(N, 5\)"):
+        rough_law.sample_uniform(10.0, 1.0, 45.0, np.zeros((3, 4)))
+
+
+# ------------------------------------------------------ reproducibility, files
+def test_seed_reproduces_the_table_for_any_worker_count(rough_law):
+    again = build_wall_law(_scenario(ROUGH), SPEC, workers=2)
+    for v in rough_law.dataset.data_vars:
+        np.testing.assert_array_equal(
+            again.dataset[v].values, rough_law.dataset[v].values
+        )
+    other = build_wall_law(_scenario(ROUGH, seed=12), SPEC)
+    assert not np.array_equal(
+        other.dataset.reservoir_e_n.values, rough_law.dataset.reservoir_e_n.values
+    )
+
+
+def test_an_interrupted_build_resumes_only_what_is_left(tmp_path, rough_law):
+    calls = []
+
+    def stop_after_two(done, total):
+        calls.append(done)
+        if done == 2:
+            raise KeyboardInterrupt
+
+    folder = tmp_path / "ckpt"
+    with pytest.raises(KeyboardInterrupt):
+        build_wall_law(
+            _scenario(ROUGH), SPEC, progress=stop_after_two, checkpoint=folder
+        )
+    calls.clear()
+    law = build_wall_law(
+        _scenario(ROUGH), SPEC, progress=lambda d, t: calls.append(d), checkpoint=folder
+    )
+    assert calls == [3]  # only the third diameter was simulated again
+    for v in law.dataset.data_vars:
+        np.testing.assert_array_equal(
+            law.dataset[v].values, rough_law.dataset[v].values
+        )
+    assert not folder.exists()
+
+
+def test_netcdf_and_csv_round_trip(tmp_path, rough_law):
+    rough_law.write(tmp_path, c=False, openfoam=False)
+    back = WallLaw.open(tmp_path / "wall_law.nc")
+    ds = back.dataset
+    assert ds.attrs["Conventions"] == "CF-1.10"
+    for key in ("frame", "angle_convention", "interpolation", "seed", "scenario"):
+        assert key in ds.attrs
+    for v in ds.data_vars:
+        assert ds[v].attrs["units"] and ds[v].attrs["long_name"], v
+    assert ds.n_captured.dtype.kind == "i"
+    u = np.random.default_rng(4).random((1000, 5))
+    a = rough_law.sample_uniform(7.0, 2.0, 33.0, u)
+    b = back.sample_uniform(7.0, 2.0, 33.0, u)
+    np.testing.assert_array_equal(a.velocity, b.velocity)
+    import pandas as pd
+
+    table = pd.read_csv(tmp_path / "wall_law.csv")
+    assert len(table) == SPEC.nodes
+    row = table[
+        (table.diameter_um == 10) & (table.speed_m_s == 1) & (table.angle_deg == 40)
+    ]
+    node = ds.isel(surface=0).sel(diameter_um=10.0, speed_m_s=1.0, angle_deg=40.0)
+    np.testing.assert_allclose(row.capture_probability, node.capture_probability)
+    np.testing.assert_allclose(
+        row.e_n_p50, node.e_n_quantile.sel(quantile=0.5), rtol=1e-8
+    )
+
+
+def test_open_refuses_what_is_not_a_wall_law(tmp_path):
+    with pytest.raises(DataFormatError, match="no such file"):
+        WallLaw.open(tmp_path / "missing.nc")
+    bad = tmp_path / "bad.nc"
+    bad.write_text("not netcdf")
+    with pytest.raises(DataFormatError, match=r"bad\.nc"):
+        WallLaw.open(bad)
+
+
+# ---------------------------------------------------------------- inputs
+def test_spec_validation_names_the_key():
+    with pytest.raises(ScenarioError, match=r"wall_law\.angle_deg"):
+        WallLawSpec(diameters_um=(1.0,), speeds_m_s=(1.0,), angles_deg=(0.0,))
+    with pytest.raises(ScenarioError, match=r"wall_law\.reservoir"):
+        WallLawSpec(
+            diameters_um=(1.0,), speeds_m_s=(1.0,), angles_deg=(9.0,), reservoir=0
+        )
+    s = WallLawSpec(diameters_um=(5.0, 1.0, 5.0), speeds_m_s=(1.0,), angles_deg=(9.0,))
+    assert s.diameters_um == (1.0, 5.0)  # sorted, each once
+
+
+def _toml(tmp_path, wall_law: str, extra=""):
+    path = tmp_path / "study.toml"
+    path.write_text(
+        f"""name = "w"
+seed = 3
+samples = 300
+{extra}
+[particles]
+distribution = "monodisperse"
+diameter_um = 10
+[coefficients]
+k1 = 4.0
+k2 = 0.05
+v_c = 0.4
+friction = 0.2
+[[surfaces]]
+name = "rough"
+kind = "normal"
+std_deg = 5
+[sweep]
+speed_m_s = [1.0, 2.0]
+angle_deg = [30, 90]
+{wall_law}
+"""
+    )
+    return path
+
+
+def test_toml_wall_law_table(tmp_path):
+    from microimpact.config import wall_law_from_toml
+
+    path = _toml(
+        tmp_path,
+        '[wall_law]\ndiameter_um = {start = 1, stop = 100, num = 3, spacing = "log"}\n'
+        "reservoir = 16",
+    )
+    spec = wall_law_from_toml(path)
+    assert spec.diameters_um == (1.0, 10.0, 100.0)
+    assert spec.speeds_m_s == (1.0, 2.0) and spec.angles_deg == (30.0, 90.0)
+    assert spec.reservoir == 16
+    bad = _toml(
+        tmp_path,
+        '[wall_law]\ndiameter_um = {start = 0, stop = 1, num = 3, spacing = "log"}',
+    )
+    with pytest.raises(ScenarioError, match=r"study.toml.*wall_law.diameter_um.start"):
+        wall_law_from_toml(bad)
+    bad = _toml(tmp_path, "[wall_law]\ndiameter_um = [10]\nreservior = 3")
+    with pytest.raises(ScenarioError, match="reservior"):
+        mi.Scenario.from_toml(bad)
+
+
+def test_cli_wall_law_end_to_end(tmp_path, capsys):
+    path = _toml(tmp_path, "[wall_law]\ndiameter_um = [5, 20]\nreservoir = 16")
+    out = tmp_path / "out"
+    assert (
+        main(
+            [
+                "wall-law",
+                str(path),
+                "--out",
+                str(out),
+                "--quiet",
+                "--no-c",
+                "--no-openfoam",
+            ]
+        )
+        == 0
+    )
+    law = WallLaw.open(out)
+    assert law.dataset.sizes["diameter_um"] == 2
+    assert (out / "wall_law.csv").is_file()
+    no_table = _toml(tmp_path, "")
+    assert main(["wall-law", str(no_table), "--out", str(out), "--quiet"]) == 2
+    assert "[wall_law]" in capsys.readouterr().err
+
+
+# ------------------------------------------------------ property-based, the user path
+@settings(
+    max_examples=12,
+    deadline=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture],
+)
+@given(
+    d=st.lists(st.floats(1.0, 100.0), min_size=1, max_size=3),
+    v=st.lists(st.floats(0.05, 30.0), min_size=1, max_size=3),
+    a=st.lists(st.floats(1.0, 90.0), min_size=1, max_size=3),
+    std=st.sampled_from([0.0, 3.0, 20.0]),
+    reservoir=st.integers(1, 40),
+    seed=st.integers(0, 2**32),
+)
+def test_random_valid_tables_build_and_sample(d, v, a, std, reservoir, seed):
+    surfaces = SMOOTH if std == 0 else (mi.SurfaceVariant("r", mi.normal_angles(std)),)
+    spec = WallLawSpec(
+        diameters_um=d, speeds_m_s=v, angles_deg=a, reservoir=reservoir, samples=64
+    )
+    law = build_wall_law(_scenario(surfaces, seed=seed), spec)
+    ds = law.dataset
+    p = ds.capture_probability.values
+    assert np.all((p >= 0) & (p <= 1))
+    assert np.all((ds.capture_ci_low.values <= p) & (p <= ds.capture_ci_high.values))
+    assert np.all(
+        ds.reservoir_count.values == np.minimum(reservoir, ds.n_rebounds.values)
+    )
+    rng = np.random.default_rng(seed)
+    n = 500
+    s = law.sample(
+        rng.uniform(0.5, 150, n),
+        rng.uniform(0.01, 50, n),
+        rng.uniform(0.5, 90, n),
+        rng=rng,
+    )
+    assert s.valid.all()
+    assert np.all(np.isfinite(s.velocity))
+    if std == 0:  # a smooth wall: 0 <= e <= 1, nothing goes back into the wall
+        assert not s.reimpact.any()
+        e = ds.e_n_quantile.values
+        assert np.all((e[~np.isnan(e)] >= 0) & (e[~np.isnan(e)] <= 1))
+
+
+def test_spec_replace_keeps_validation():
+    with pytest.raises(ScenarioError):
+        dataclasses.replace(SPEC, reservoir=-3)
