@@ -1,0 +1,479 @@
+"""OpenFOAM dictionaries of a wall law: ``openfoam/`` in the wall law's folder.
+
+Two kinds of file:
+
+* **The no-compile fallback**, for OpenFOAM's own ``localInteraction`` patch
+  interaction model: each surface's *mean* normal restitution ``e`` and OpenFOAM's
+  ``mu`` at one condition (diameter, speed, angle) of the table. This keeps no
+  scatter and no capture: OpenFOAM's interaction types are ``none``, ``rebound``,
+  ``stick`` and ``escape`` only (v1912 and the Foundation's releases alike), with
+  no per-patch sticking probability, so the capture probability is written as a
+  comment.
+
+  OpenFOAM's ``mu`` is **not** a Coulomb friction coefficient nor microimpact's
+  impulse ratio: it is one minus the tangential restitution. OpenCFD's v1912 (the
+  Debian package ``openfoam`` 1912.200626), ``src/lagrangian/intermediate/
+  submodels/Kinematic/PatchInteractionModel/LocalInteraction/LocalInteraction.C``,
+  ``LocalInteraction<CloudType>::correct``, case ``itRebound``::
+
+      scalar Un = U & nw;
+      vector Ut = U - Un*nw;
+
+      if (Un > 0)
+      {
+          U -= (1.0 + patchData_[patchi].e())*Un*nw;
+      }
+
+      U -= patchData_[patchi].mu()*Ut;
+
+  (``nw`` the patch's outward normal, ``U`` relative to the patch velocity), so the
+  normal velocity becomes ``-e Un`` and the tangential one ``(1 - mu) Ut`` (lines
+  297-305 of that file at OpenCFD's commit "REL: Updated bashrc|cshrc version to
+  v1912", 2019-12-19). The same lines are in ``StandardWallInteraction.C`` there
+  and in the OpenFOAM Foundation's OpenFOAM-dev.
+  ``patchInteractionData.C`` reads ``e`` (default 1) and ``mu`` (default 0) per patch,
+  and ``PatchInteractionModel::wordToInteractionType`` knows ``none``, ``rebound``,
+  ``stick`` and ``escape``. Hence ``e = mean e_n`` and ``mu = 1 - mean e_t``.
+
+* **The stochastic model's dictionary** (``stochasticWallLawCoeffs``), for an
+  out-of-tree patch interaction model that samples the C table
+  (``c/wall_law.swl``, read by ``c/swl.h``'s ``swl_rebound_velocity``) at every wall
+  strike. Its keys are described in the file itself and in docs/wall-law.md.
+
+The condition of the fallback: on each axis the node nearest the middle of the
+axis' range, measured in the axis' interpolation variable (log d, log v, angle in
+degrees), the lower one on a tie; or, where a value is given, the node nearest
+that value in the same variable (a value outside the axis' range is an error).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import re
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+
+from .._files import atomic_write
+from .._validation import did_you_mean
+
+__all__ = [
+    "LOCAL_INTERACTION_FILE",
+    "LOCAL_PATCHES_FILE",
+    "STOCHASTIC_FILE",
+    "fallback_condition",
+    "openfoam_coefficients",
+    "write_openfoam",
+]
+
+#: The fallback: a complete ``localInteractionCoeffs`` entry.
+LOCAL_INTERACTION_FILE = "localInteractionCoeffs"
+#: The same patch entries alone, to ``#include`` inside the user's ``patches ( )``.
+LOCAL_PATCHES_FILE = "localInteractionPatches"
+#: The out-of-tree stochastic model's coefficients.
+STOCHASTIC_FILE = "stochasticWallLawCoeffs"
+#: The binary table of the C sampler, relative to the wall law's folder.
+C_TABLE = ("c", "wall_law.swl")
+
+#: Characters of a patch name written as a plain OpenFOAM word; any other name is
+#: written in double quotes, which OpenFOAM reads as a regular expression.
+_WORD = re.compile(r"[A-Za-z0-9_.:+-]+")
+_PLAIN = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.:+-]*")
+#: The axes of the condition and whether the node distance is taken in log.
+_AXES = (("diameter_um", True), ("speed_m_s", True), ("angle_deg", False))
+
+
+def _pick_node(coord, value, name: str, log: bool) -> int:
+    """Index of the node of `coord` chosen for `value` (None: the middle)."""
+    x = np.asarray(coord, dtype=float)
+    f = np.log if log else (lambda a: a)
+    if value is None:
+        target = 0.5 * (f(x[0]) + f(x[-1]))
+    else:
+        try:
+            v = float(value)
+        except (TypeError, ValueError):
+            raise ValueError(f"`{name}` must be a number; got {value!r}") from None
+        lo, hi = x[0], x[-1]
+        tol = 1e-9 * max(abs(lo), abs(hi), 1.0)
+        if not (math.isfinite(v) and lo - tol <= v <= hi + tol):
+            raise ValueError(
+                f"`{name}` = {v:g} is outside the table's range "
+                f"[{lo:g}, {hi:g}]; choose a value within it"
+            )
+        target = f(max(v, x[0])) if log else v
+    dist = np.abs(f(x) - target)
+    return int(np.flatnonzero(dist <= dist.min() * (1 + 1e-12) + 1e-300)[0])
+
+
+def fallback_condition(dataset, *, diameter_um=None, speed_m_s=None, angle_deg=None):
+    """The node of the fallback dictionary: ``{axis: (index, value)}``.
+
+    On each axis, the node nearest `value` (or, where it is None, nearest the
+    middle of the axis' range) in the axis' interpolation variable: log d, log v,
+    and the angle in degrees; the lower node on a tie. Raises ``ValueError``
+    naming the argument if a value lies outside the axis' range.
+    """
+    given = {"diameter_um": diameter_um, "speed_m_s": speed_m_s, "angle_deg": angle_deg}
+    out = {}
+    for axis, log in _AXES:
+        coord = np.asarray(dataset[axis].values, dtype=float)
+        i = _pick_node(coord, given[axis], axis, log)
+        out[axis] = (i, float(coord[i]))
+    return out
+
+
+def _patch_names(surfaces, patches) -> dict:
+    """Surface -> the OpenFOAM keyword written for it (plain word or "regex")."""
+    names = {}
+    if patches is None:
+        patches = {}
+    elif not isinstance(patches, Mapping):
+        raise TypeError(
+            "`patches` must map surface names to mesh patch names; "
+            f"got {type(patches).__name__}"
+        )
+    for key in patches:
+        if key not in surfaces:
+            raise ValueError(
+                f"`patches` names surface {key!r}, which the table does not have"
+                f"{did_you_mean(key, surfaces)}; surfaces: "
+                + ", ".join(repr(s) for s in surfaces)
+            )
+    for s in surfaces:
+        if s in patches:
+            p = patches[s]
+            if not isinstance(p, str) or not p.strip():
+                raise ValueError(
+                    f"`patches[{s!r}]` must be a non-empty patch name; got {p!r}"
+                )
+            if '"' in p or "\\" in p or any(ord(c) < 32 for c in p):
+                raise ValueError(
+                    f"`patches[{s!r}]` = {p!r}: a patch name or regular expression "
+                    "without quotes, backslashes or control characters"
+                )
+            names[s] = p if _PLAIN.fullmatch(p) else f'"{p}"'
+        else:
+            word = "".join(c if _WORD.fullmatch(c) else "_" for c in s) or "_"
+            if not _PLAIN.fullmatch(word):
+                word = "_" + word
+            names[s] = word
+    seen: dict = {}
+    for s, w in names.items():
+        if w in seen:
+            raise ValueError(
+                f"surfaces {seen[w]!r} and {s!r} would both be written as patch "
+                f"{w}; give `patches` to name their mesh patches"
+            )
+        seen[w] = s
+    return names
+
+
+def _value(ds, name, s, node):
+    if name not in ds:
+        return math.nan
+    i, j, k = node
+    a = ds[name].sel(surface=s).isel(diameter_um=i, speed_m_s=j, angle_deg=k)
+    return float(a.values)
+
+
+def openfoam_coefficients(law, *, diameter_um=None, speed_m_s=None, angle_deg=None):
+    """The fallback's numbers: the condition and, per surface, a dict with ``type``
+    (``"rebound"``, or ``"stick"`` where every impact is captured), ``e``
+    (mean e_n), ``mu`` (OpenFOAM's: 1 - mean e_t) and the node's statistics.
+
+    Raises ``ValueError`` naming the argument for a value outside the table, at
+    normal incidence (e_t is undefined there) and for a surface with no impact at
+    the node (every draw shadowed).
+    """
+    ds = law.dataset
+    cond = fallback_condition(
+        ds, diameter_um=diameter_um, speed_m_s=speed_m_s, angle_deg=angle_deg
+    )
+    node = tuple(cond[a][0] for a, _ in _AXES)
+    surfaces = [str(s) for s in np.asarray(ds["surface"].values).tolist()]
+    out = {}
+    for s, label in zip(ds["surface"].values.tolist(), surfaces, strict=True):
+        stats = {
+            name: _value(ds, name, s, node)
+            for name in (
+                "capture_probability",
+                "capture_ci_low",
+                "capture_ci_high",
+                "reimpact_probability",
+                "e_n_mean",
+                "e_n_std",
+                "e_t_mean",
+                "e_t_std",
+                "mu_mean",
+                "mu_std",
+                "n_impacts",
+                "n_rebounds",
+            )
+        }
+        p = stats["capture_probability"]
+        where = (
+            f"at diameter_um={cond['diameter_um'][1]:g}, "
+            f"speed_m_s={cond['speed_m_s'][1]:g}, angle_deg={cond['angle_deg'][1]:g}"
+        )
+        if not math.isfinite(p):
+            raise ValueError(
+                f"surface {label!r} has no impact {where} (every draw shadowed); "
+                "choose another `angle_deg`"
+            )
+        if p >= 1.0 or not math.isfinite(stats["e_n_mean"]):
+            kind, e, mu = "stick", math.nan, math.nan
+        else:
+            if cond["angle_deg"][1] >= 90.0 or not math.isfinite(stats["e_t_mean"]):
+                raise ValueError(
+                    f"`angle_deg` = {cond['angle_deg'][1]:g}: the tangential "
+                    "restitution is undefined at normal incidence; choose an "
+                    "oblique angle"
+                )
+            kind = "rebound"
+            e = stats["e_n_mean"]
+            mu = 1.0 - stats["e_t_mean"]
+        out[label] = {"type": kind, "e": e, "mu": mu, **stats}
+    return {axis: v for axis, (_, v) in cond.items()}, out
+
+
+def _fmt(x: float) -> str:
+    return "nan" if not math.isfinite(x) else f"{x:.10g}"
+
+
+def _header(ds, cond, coeffs, requested) -> list[str]:
+    from .. import __version__
+
+    attrs = ds.attrs
+    scenario = str(attrs.get("scenario", "") or "")
+    digest = hashlib.sha256(scenario.encode()).hexdigest()[:16] if scenario else "-"
+    title = str(attrs.get("title", "microimpact wall law"))
+    lines = [
+        f"Generated by microimpact {__version__} (table built by microimpact "
+        f"{attrs.get('microimpact_version', '?')}); do not edit, regenerate.",
+        f"{title}",
+        f"scenario: sha256 {digest} of the scenario text held in wall_law.nc",
+        f"seed: {attrs.get('seed', '?')}; samples per node: "
+        f"{attrs.get('samples_per_node', '?')}; shadowing: "
+        f"{attrs.get('shadowing', '?')}",
+        "condition (the table's node; "
+        + ", ".join(
+            f"{a} {'given ' + format(float(r), 'g') if r is not None else 'middle'}"
+            for a, r in requested.items()
+        )
+        + "):",
+        f"    diameter {cond['diameter_um']:g} um, speed {cond['speed_m_s']:g} m/s, "
+        f"angle {cond['angle_deg']:g} deg from the wall plane",
+        "per surface, at that node (means and standard deviations over rebounds):",
+    ]
+    for s, c in coeffs.items():
+        lines.append(
+            f"  {s}: e_n {_fmt(c['e_n_mean'])} +- {_fmt(c['e_n_std'])}, "
+            f"e_t {_fmt(c['e_t_mean'])} +- {_fmt(c['e_t_std'])}, "
+            f"capture probability {_fmt(c['capture_probability'])} "
+            f"(CI {_fmt(c['capture_ci_low'])} .. {_fmt(c['capture_ci_high'])}), "
+            f"re-impacts {_fmt(c['reimpact_probability'])} of rebounds"
+        )
+    return lines
+
+
+def _comment_block(lines) -> str:
+    return "".join(f"// {line}".rstrip() + "\n" for line in lines)
+
+
+_FOAMFILE = (
+    "FoamFile\n{{\n    version     2.0;\n    format      ascii;\n"
+    "    class       dictionary;\n    object      {obj};\n}}\n\n"
+)
+
+_CONVENTION = [
+    "OpenFOAM's rebound (localInteraction, standardWallInteraction):",
+    "  U_n' = -e U_n and U_t' = (1 - mu) U_t, so e = mean e_n and",
+    "  mu = 1 - mean e_t: OpenFOAM's mu is NOT a friction coefficient.",
+    "OpenFOAM has no per-patch sticking probability (types none, rebound, stick,",
+    "escape): the capture probability above is NOT applied by this dictionary.",
+    "A surface whose every impact is captured at the node is written 'stick'.",
+]
+
+
+def _patch_entries(coeffs, names, indent) -> str:
+    pad = " " * indent
+    out = []
+    for s, c in coeffs.items():
+        out.append(
+            f"{pad}// surface {s!r}: capture probability "
+            f"{_fmt(c['capture_probability'])} (not applied)\n"
+        )
+        if c["type"] == "stick":
+            out.append(f"{pad}{names[s]}\n{pad}{{\n{pad}    type    stick;\n{pad}}}\n")
+        else:
+            out.append(
+                f"{pad}{names[s]}\n{pad}{{\n{pad}    type    rebound;\n"
+                f"{pad}    e       {_fmt(c['e'])};\n"
+                f"{pad}    mu      {_fmt(c['mu'])};\n{pad}}}\n"
+            )
+    return "".join(out)
+
+
+def _write_text(path: Path, text: str) -> Path:
+    def write(tmp):
+        with open(tmp, "w", encoding="utf-8", newline="\n") as fh:
+            fh.write(text)
+
+    return atomic_write(path, write)
+
+
+def write_openfoam(
+    law,
+    out_dir,
+    *,
+    diameter_um=None,
+    speed_m_s=None,
+    angle_deg=None,
+    patches: Mapping[str, str] | None = None,
+) -> list[Path]:
+    """Write ``out_dir/openfoam/``: OpenFOAM dictionaries of the wall law `law`.
+
+    Files:
+
+    * ``localInteractionCoeffs``: a ``localInteractionCoeffs { patches ( ... ); }``
+      entry with each surface's mean ``e`` and OpenFOAM's ``mu`` (= 1 - mean e_t)
+      at one condition, for OpenFOAM's ``localInteraction`` model;
+    * ``localInteractionPatches``: the same patch entries alone, to ``#include``
+      inside a ``patches ( ... )`` list that also names the mesh's other patches;
+    * ``stochasticWallLawCoeffs``: the dictionary of an out-of-tree model that
+      samples ``c/wall_law.swl`` at every wall strike.
+
+    Parameters
+    ----------
+    law : WallLaw
+        Anything with the wall law's Dataset as ``.dataset``.
+    out_dir : path
+        The wall law's folder (the stochastic dictionary points at its
+        ``c/wall_law.swl``).
+    diameter_um, speed_m_s, angle_deg : float, optional
+        The condition of the fallback's means: on each axis the node nearest the
+        value in (log d, log v, angle); default the node nearest the middle of the
+        axis' range. A value outside the axis' range raises ``ValueError``.
+    patches : mapping, optional
+        Surface name -> mesh patch name (or OpenFOAM regular expression, written in
+        double quotes, e.g. ``"(top|bottom)Wall"``). Default: the surface name,
+        with characters other than ``A-Z a-z 0-9 _ . : + -`` replaced by ``_``.
+
+    Returns
+    -------
+    list of Path
+        The files written.
+    """
+    ds = law.dataset
+    requested = {
+        "diameter_um": diameter_um,
+        "speed_m_s": speed_m_s,
+        "angle_deg": angle_deg,
+    }
+    cond, coeffs = openfoam_coefficients(
+        law, diameter_um=diameter_um, speed_m_s=speed_m_s, angle_deg=angle_deg
+    )
+    names = _patch_names(list(coeffs), patches)
+    header = _header(ds, cond, coeffs, requested)
+    folder = Path(out_dir) / "openfoam"
+    written = []
+
+    usage = [
+        "Use: in constant/<cloud>Properties, subModels { patchInteractionModel",
+        'localInteraction; #include "<this file>" }. localInteraction needs every',
+        "non-coupled, non-empty patch of the mesh in 'patches': add the others",
+        "(inlets, outlets) here, or #include localInteractionPatches inside your own",
+        "list instead. Patch names are the surface names unless mapped at export.",
+    ]
+    text = (
+        _FOAMFILE.format(obj=LOCAL_INTERACTION_FILE)
+        + _comment_block([*header, "", *_CONVENTION, "", *usage])
+        + "\nlocalInteractionCoeffs\n{\n    patches\n    (\n"
+        + _patch_entries(coeffs, names, 8)
+        + "    );\n}\n"
+    )
+    written.append(_write_text(folder / LOCAL_INTERACTION_FILE, text))
+
+    usage = [
+        "A fragment, not a dictionary: the patch entries alone, to include in the",
+        "'patches' list of localInteractionCoeffs next to the mesh's other patches:",
+        "    patches",
+        "    (",
+        '        #include "<path>/openfoam/localInteractionPatches"',
+        "        outlet { type escape; }",
+        "    );",
+    ]
+    text = (
+        _comment_block([*header, "", *_CONVENTION, "", *usage])
+        + "\n"
+        + _patch_entries(coeffs, names, 0)
+    )
+    written.append(_write_text(folder / LOCAL_PATCHES_FILE, text))
+
+    written.append(
+        _write_text(
+            folder / STOCHASTIC_FILE,
+            _stochastic_text(ds, out_dir, coeffs, names, header),
+        )
+    )
+    return written
+
+
+_STOCHASTIC_KEYS = [
+    "Coefficients of an out-of-tree patch interaction model that samples the",
+    "wall law at every wall strike through c/swl.h (swl_rebound_velocity):",
+    "  patchInteractionModel stochasticWallLaw;  (the model's type name)",
+    "Keys:",
+    "  table         the binary table written with this file (c/wall_law.swl);",
+    "                the model expands $FOAM_CASE and environment variables in it.",
+    '  patches       a list of  <mesh patch name or "regex"> { ... }  entries',
+    "                that, as in localInteraction, names every non-coupled,",
+    "                non-empty patch of the mesh (first match wins). An entry is",
+    "                either a wall-law patch:",
+    "    surface     the table's surface name (swl_surface_index);",
+    "    captured    what a captured parcel does: stick (kept, inactive, U = 0)",
+    "                or escape (removed); default stick;",
+    "                or one of localInteraction's own entries, e.g.",
+    "                outlet { type escape; }  or  { type rebound; e 1; mu 0; }.",
+    "  maxReimpacts  a rebound with U_z < 0 (SWL_FLAG_REIMPACT) strikes the same",
+    "                wall again with the rebound velocity, at most this many times;",
+    "                after that the parcel is captured. Default 10.",
+    "  warnClamped   report parcels whose diameter, speed or angle lay outside the",
+    "                table (they use its end nodes, SWL_FLAG_CLAMPED). Default yes.",
+    "Per strike the model takes, relative to the patch velocity Up: d = the",
+    "parcel's diameter * 1e6 [um], v_in = U - Up, normal = -nw (OpenFOAM's patch",
+    "normal points out of the fluid; the table's z points into it), five",
+    "uniform numbers from the cloud's rndGen, and sets U = Up + v_out, or applies",
+    "'captured' on SWL_CAPTURED. SWL_NO_DATA (no impact tabulated at the node) is",
+    "a fatal error naming the patch.",
+]
+
+
+def _stochastic_text(ds, out_dir, coeffs, names, header) -> str:
+    table = (Path(out_dir).resolve().joinpath(*C_TABLE)).as_posix()
+    entries = []
+    for index, s in enumerate(coeffs):
+        entries.append(
+            f"        {names[s]}\n        {{\n"
+            f"            surface     {_quote(s)};  // index {index} in the table\n"
+            "            captured    stick;\n        }\n"
+        )
+    return (
+        _FOAMFILE.format(obj=STOCHASTIC_FILE)
+        + _comment_block([*header[:4], "", *_STOCHASTIC_KEYS])
+        + f"\nstochasticWallLawCoeffs\n{{\n    table           {_quote(table)};\n"
+        + "    patches\n    (\n"
+        + "".join(entries)
+        + "        // the mesh's other patches, e.g. outlet { type escape; }\n"
+        + "    );\n"
+        + "    maxReimpacts    10;\n"
+        + "    warnClamped     yes;\n}\n"
+    )
+
+
+def _quote(text: str) -> str:
+    """An OpenFOAM string: double quotes, with ``\\`` and ``"`` escaped."""
+    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
