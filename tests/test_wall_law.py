@@ -476,3 +476,19 @@ def test_random_valid_tables_build_and_sample(d, v, a, std, reservoir, seed):
 def test_spec_replace_keeps_validation():
     with pytest.raises(ScenarioError):
         dataclasses.replace(SPEC, reservoir=-3)
+
+
+def test_cli_condition_flags_are_checked_before_the_build(tmp_path, capsys):
+    path = _toml(tmp_path, "[wall_law]\ndiameter_um = [5, 20]\nreservoir = 8")
+    out = tmp_path / "out"
+    for flags, field in (
+        (["--diameter-um", "500"], "--diameter-um"),
+        (["--speed-m-s", "0.01"], "--speed-m-s"),
+        (["--angle-deg", "89"], "--angle-deg"),
+    ):
+        rc = main(
+            ["wall-law", str(path), "--out", str(out), "--quiet", "--no-c", *flags]
+        )
+        assert rc == 2
+        assert field in capsys.readouterr().err
+    assert not (out / "wall_law.nc").exists()  # refused before anything was built

@@ -73,6 +73,8 @@ def cli_action(args) -> int:
             "the condition flags set the OpenFOAM coefficients; drop --no-openfoam",
             field="--no-openfoam",
         )
+    if condition:
+        _check_condition(spec, condition)
     executor = None
     if args.scheduler is not None:
         from dask.distributed import Client
@@ -107,3 +109,33 @@ def cli_action(args) -> int:
         f"{time.perf_counter() - t0:.1f} s -> {args.out}",
     )
     return c.EXIT_OK
+
+
+def _check_condition(spec, condition):
+    """Refuse condition flags the table cannot serve, before it is built."""
+    import numpy as np
+    import xarray as xr
+
+    from ..errors import InputError
+    from ..wall_law.openfoam import fallback_condition
+
+    coords = xr.Dataset(
+        coords={
+            "diameter_um": np.asarray(spec.diameters_um),
+            "speed_m_s": np.asarray(spec.speeds_m_s),
+            "angle_deg": np.asarray(spec.angles_deg),
+        }
+    )
+    flag = {k: "--" + k.replace("_", "-") for k in condition}
+    try:
+        chosen = fallback_condition(coords, **condition)
+    except ValueError as err:
+        bad = next((k for k in condition if f"`{k}`" in str(err)), None)
+        raise InputError(str(err), field=flag.get(bad, "--angle-deg")) from None
+    if "angle_deg" in condition and chosen["angle_deg"][1] >= 90.0:
+        raise InputError(
+            f"{condition['angle_deg']:g} is nearest the 90 deg node, where the "
+            "tangential restitution (OpenFOAM's mu) is undefined; choose an oblique "
+            "angle",
+            field="--angle-deg",
+        )

@@ -12,6 +12,7 @@ averaged across nodes.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -490,7 +491,16 @@ class WallLaw:
         if openfoam:
             from .openfoam import write_openfoam
 
-            written.extend(_paths(write_openfoam(self, out, **(condition or {}))))
+            try:
+                written.extend(_paths(write_openfoam(self, out, **(condition or {}))))
+            except ValueError as err:
+                if condition:  # the caller's condition: their error to fix
+                    raise
+                warnings.warn(
+                    f"no OpenFOAM dictionaries written: {err}",
+                    RuntimeWarning,
+                    stacklevel=2,
+                )
         return written
 
     def _write_netcdf(self, path):

@@ -113,13 +113,20 @@ def fallback_condition(dataset, *, diameter_um=None, speed_m_s=None, angle_deg=N
 
     On each axis, the node nearest `value` (or, where it is None, nearest the
     middle of the axis' range) in the axis' interpolation variable: log d, log v,
-    and the angle in degrees; the lower node on a tie. Raises ``ValueError``
-    naming the argument if a value lies outside the axis' range.
+    and the angle in degrees; the lower node on a tie. The default angle is the
+    middle of the oblique nodes (below 90 deg), where the table has any. Raises
+    ``ValueError`` naming the argument if a value lies outside the axis' range.
     """
     given = {"diameter_um": diameter_um, "speed_m_s": speed_m_s, "angle_deg": angle_deg}
     out = {}
     for axis, log in _AXES:
         coord = np.asarray(dataset[axis].values, dtype=float)
+        if axis == "angle_deg" and given[axis] is None and np.any(coord < 90.0):
+            # the default is an oblique node: e_t is undefined at normal incidence
+            oblique = coord[coord < 90.0]
+            i = _pick_node(oblique, None, axis, log)
+            out[axis] = (i, float(oblique[i]))
+            continue
         i = _pick_node(coord, given[axis], axis, log)
         out[axis] = (i, float(coord[i]))
     return out
