@@ -1,0 +1,555 @@
+/*
+ * swl.c -- read and sample a microimpact stochastic wall law (portable C99).
+ * See swl.h for the API and the binary format, and docs/wall-law.md for the frame
+ * and the sampling rule, which this file follows step by step.
+ */
+#include "swl.h"
+
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define SWL_HEADER_SIZE 64
+#define SWL_PI 3.14159265358979323846
+/* Largest size of one axis and of the whole table this reader accepts: far above
+ * any real table, small enough that no size computation below can overflow. */
+#define SWL_MAX_AXIS 1000000u
+#define SWL_MAX_VALUES 0x40000000u /* 2^30 values per reservoir array (8 GiB) */
+
+static const char SWL_MAGIC[8] = {'S', 'W', 'L', 'T', 'A', 'B', 'L', '\0'};
+
+struct swl_law {
+    int n[5]; /* surfaces, diameters, speeds, angles, reservoir K */
+    char *names;                 /* S * SWL_NAME_WIDTH, each NUL-terminated */
+    double *axis[3];             /* diameter_um, speed_m_s, angle_deg */
+    double *scaled[3];           /* log(diameter), log(speed), angle: the axes' variables */
+    double *capture;             /* capture_probability [S*D*V*A] */
+    double *e_n, *mu, *lateral, *ratio; /* reservoirs [S*D*V*A*K] */
+    int32_t *count;              /* reservoir_count [S*D*V*A] */
+};
+
+/* ---- little-endian decoding and CRC-32 ------------------------------------ */
+
+static uint32_t get_u32(const unsigned char *p)
+{
+    return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) |
+           ((uint32_t)p[3] << 24);
+}
+
+static uint64_t get_u64(const unsigned char *p)
+{
+    return (uint64_t)get_u32(p) | ((uint64_t)get_u32(p + 4) << 32);
+}
+
+/* CRC-32 of zlib (reflected polynomial 0xEDB88320), updated over `len` bytes. */
+static uint32_t crc32_update(uint32_t crc, const unsigned char *p, size_t len)
+{
+    static uint32_t table[256];
+    static int ready = 0;
+    size_t i;
+    if (!ready) {
+        uint32_t k, c;
+        int j;
+        for (k = 0; k < 256; k++) {
+            c = k;
+            for (j = 0; j < 8; j++)
+                c = (c & 1u) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
+            table[k] = c;
+        }
+        ready = 1;
+    }
+    crc = ~crc;
+    for (i = 0; i < len; i++)
+        crc = table[(crc ^ p[i]) & 0xFFu] ^ (crc >> 8);
+    return ~crc;
+}
+
+/* Read `len` bytes into `dst`, updating the CRC. */
+static int read_block(FILE *fp, void *dst, size_t len, uint32_t *crc)
+{
+    if (len && fread(dst, 1, len, fp) != len)
+        return ferror(fp) ? SWL_E_IO : SWL_E_TRUNCATED;
+    *crc = crc32_update(*crc, (const unsigned char *)dst, len);
+    return 0;
+}
+
+/* Turn `n` little-endian float64 values read into `v` into host doubles. */
+static void fix_doubles(double *v, size_t n)
+{
+    size_t i;
+    uint64_t bits;
+    for (i = 0; i < n; i++) {
+        bits = get_u64((const unsigned char *)&v[i]);
+        memcpy(&v[i], &bits, sizeof bits);
+    }
+}
+
+static void fix_int32(int32_t *v, size_t n)
+{
+    size_t i;
+    uint32_t bits;
+    for (i = 0; i < n; i++) {
+        bits = get_u32((const unsigned char *)&v[i]);
+        memcpy(&v[i], &bits, sizeof bits);
+    }
+}
+
+/* ---- loading --------------------------------------------------------------- */
+
+void swl_free(swl_law *law)
+{
+    int i;
+    if (!law)
+        return;
+    free(law->names);
+    for (i = 0; i < 3; i++) {
+        free(law->axis[i]);
+        free(law->scaled[i]);
+    }
+    free(law->capture);
+    free(law->e_n);
+    free(law->mu);
+    free(law->lateral);
+    free(law->ratio);
+    free(law->count);
+    free(law);
+}
+
+static int check_values(swl_law *law, size_t nodes)
+{
+    const size_t k = (size_t)law->n[4];
+    size_t a, i, j, base;
+    int32_t c;
+    double p;
+    for (a = 0; a < (size_t)law->n[0]; a++) {
+        const char *name = law->names + a * SWL_NAME_WIDTH;
+        if (memchr(name, '\0', SWL_NAME_WIDTH) == NULL)
+            return SWL_E_VALUE; /* a name must end within its field */
+    }
+    for (a = 0; a < 3; a++) {
+        const double *x = law->axis[a];
+        for (i = 0; i < (size_t)law->n[a + 1]; i++) {
+            if (!isfinite(x[i]) || (a < 2 && !(x[i] > 0.0)))
+                return SWL_E_VALUE;
+            if (i > 0 && !(x[i] > x[i - 1]))
+                return SWL_E_VALUE;
+        }
+    }
+    for (i = 0; i < nodes; i++) {
+        p = law->capture[i];
+        c = law->count[i];
+        if (!isnan(p) && !(p >= 0.0 && p <= 1.0))
+            return SWL_E_VALUE;
+        if (c < 0 || (size_t)c > k)
+            return SWL_E_VALUE;
+        if (c == 0 && !(isnan(p) || p == 1.0))
+            return SWL_E_VALUE; /* a node that can rebound needs a sample */
+        base = i * k;
+        for (j = 0; j < (size_t)c; j++)
+            if (!isfinite(law->e_n[base + j]) || !isfinite(law->mu[base + j]) ||
+                !(fabs(law->lateral[base + j]) < 90.0) ||
+                !(law->ratio[base + j] >= 0.0) || !isfinite(law->ratio[base + j]))
+                return SWL_E_VALUE;
+    }
+    return 0;
+}
+
+static int load_file(FILE *fp, swl_law **out)
+{
+    unsigned char h[SWL_HEADER_SIZE];
+    uint32_t dims[5], crc = 0, width, version;
+    uint64_t size, expected, nodes, values;
+    swl_law *law;
+    int rc, i, extra;
+    size_t got;
+
+    got = fread(h, 1, sizeof h, fp);
+    if (ferror(fp))
+        return SWL_E_IO;
+    /* a short file that starts like the magic is truncated; anything else is not
+     * a table at all */
+    if (memcmp(h, SWL_MAGIC, got < sizeof SWL_MAGIC ? got : sizeof SWL_MAGIC) != 0)
+        return SWL_E_MAGIC;
+    if (got < 12)
+        return SWL_E_TRUNCATED;
+    version = get_u32(h + 8);
+    if (version != SWL_FORMAT_VERSION)
+        return SWL_E_VERSION;
+    if (got < sizeof h)
+        return SWL_E_TRUNCATED;
+    for (i = 0; i < 5; i++) {
+        dims[i] = get_u32(h + 12 + 4 * i);
+        if (dims[i] < 1 || dims[i] > SWL_MAX_AXIS)
+            return SWL_E_SIZE;
+    }
+    width = get_u32(h + 32);
+    if (width != SWL_NAME_WIDTH || get_u32(h + 36) != 0)
+        return SWL_E_SIZE;
+    for (i = 52; i < SWL_HEADER_SIZE; i++)
+        if (h[i] != 0)
+            return SWL_E_SIZE;
+    /* each factor is <= 1e6, so nodes fits a uint64 when checked step by step */
+    nodes = (uint64_t)dims[0] * dims[1];
+    if (nodes > SWL_MAX_VALUES)
+        return SWL_E_SIZE;
+    nodes *= dims[2];
+    if (nodes > SWL_MAX_VALUES)
+        return SWL_E_SIZE;
+    nodes *= dims[3];
+    if (nodes > SWL_MAX_VALUES)
+        return SWL_E_SIZE;
+    values = nodes * dims[4];
+    if (values > SWL_MAX_VALUES)
+        return SWL_E_SIZE;
+    expected = SWL_HEADER_SIZE + (uint64_t)dims[0] * SWL_NAME_WIDTH +
+               8u * ((uint64_t)dims[1] + dims[2] + dims[3]) + 8u * nodes +
+               32u * values + 4u * nodes;
+    size = get_u64(h + 40);
+    if (size != expected)
+        return SWL_E_SIZE;
+    if ((size_t)values != values) /* a 32-bit host cannot hold this table */
+        return SWL_E_NOMEM;
+    /* the file's length, where the C library can tell it, before allocating: a
+     * corrupt header must not make us allocate gigabytes for a short file */
+    if (fseek(fp, 0, SEEK_END) == 0) {
+        long end = ftell(fp);
+        if (end >= 0 && (uint64_t)end != size)
+            return (uint64_t)end < size ? SWL_E_TRUNCATED : SWL_E_SIZE;
+        if (fseek(fp, SWL_HEADER_SIZE, SEEK_SET) != 0)
+            return SWL_E_IO;
+    }
+
+    law = (swl_law *)calloc(1, sizeof *law);
+    if (!law)
+        return SWL_E_NOMEM;
+    for (i = 0; i < 5; i++)
+        law->n[i] = (int)dims[i];
+    law->names = (char *)malloc((size_t)dims[0] * SWL_NAME_WIDTH);
+    for (i = 0; i < 3; i++) {
+        law->axis[i] = (double *)malloc(dims[i + 1] * sizeof(double));
+        law->scaled[i] = (double *)malloc(dims[i + 1] * sizeof(double));
+    }
+    law->capture = (double *)malloc((size_t)nodes * sizeof(double));
+    law->e_n = (double *)malloc((size_t)values * sizeof(double));
+    law->mu = (double *)malloc((size_t)values * sizeof(double));
+    law->lateral = (double *)malloc((size_t)values * sizeof(double));
+    law->ratio = (double *)malloc((size_t)values * sizeof(double));
+    law->count = (int32_t *)malloc((size_t)nodes * sizeof(int32_t));
+    if (!law->names || !law->axis[0] || !law->axis[1] || !law->axis[2] ||
+        !law->scaled[0] || !law->scaled[1] || !law->scaled[2] || !law->capture ||
+        !law->e_n || !law->mu || !law->lateral || !law->ratio || !law->count) {
+        swl_free(law);
+        return SWL_E_NOMEM;
+    }
+
+    rc = read_block(fp, law->names, (size_t)dims[0] * SWL_NAME_WIDTH, &crc);
+    for (i = 0; i < 3 && rc == 0; i++)
+        rc = read_block(fp, law->axis[i], dims[i + 1] * sizeof(double), &crc);
+    if (rc == 0)
+        rc = read_block(fp, law->capture, (size_t)nodes * sizeof(double), &crc);
+    if (rc == 0)
+        rc = read_block(fp, law->e_n, (size_t)values * sizeof(double), &crc);
+    if (rc == 0)
+        rc = read_block(fp, law->mu, (size_t)values * sizeof(double), &crc);
+    if (rc == 0)
+        rc = read_block(fp, law->lateral, (size_t)values * sizeof(double), &crc);
+    if (rc == 0)
+        rc = read_block(fp, law->ratio, (size_t)values * sizeof(double), &crc);
+    if (rc == 0)
+        rc = read_block(fp, law->count, (size_t)nodes * sizeof(int32_t), &crc);
+    if (rc == 0) {
+        extra = fgetc(fp);
+        if (extra != EOF)
+            rc = SWL_E_SIZE; /* trailing bytes */
+        else if (ferror(fp))
+            rc = SWL_E_IO;
+    }
+    if (rc == 0 && crc != get_u32(h + 48))
+        rc = SWL_E_CHECKSUM;
+    if (rc == 0) {
+        for (i = 0; i < 3; i++)
+            fix_doubles(law->axis[i], dims[i + 1]);
+        fix_doubles(law->capture, (size_t)nodes);
+        fix_doubles(law->e_n, (size_t)values);
+        fix_doubles(law->mu, (size_t)values);
+        fix_doubles(law->lateral, (size_t)values);
+        fix_doubles(law->ratio, (size_t)values);
+        fix_int32(law->count, (size_t)nodes);
+        rc = check_values(law, (size_t)nodes);
+    }
+    if (rc != 0) {
+        swl_free(law);
+        return rc;
+    }
+    /* the axes' interpolation variables: natural log for d and v, degrees for theta */
+    for (i = 0; i < 3; i++) {
+        uint32_t j;
+        for (j = 0; j < dims[i + 1]; j++)
+            law->scaled[i][j] = i < 2 ? log(law->axis[i][j]) : law->axis[i][j];
+    }
+    *out = law;
+    return 0;
+}
+
+int swl_load(const char *path, swl_law **out)
+{
+    FILE *fp;
+    int rc;
+    if (!out)
+        return SWL_E_ARG;
+    *out = NULL;
+    if (!path)
+        return SWL_E_ARG;
+    fp = fopen(path, "rb");
+    if (!fp)
+        return SWL_E_IO;
+    rc = load_file(fp, out);
+    fclose(fp);
+    return rc;
+}
+
+const char *swl_strerror(int code)
+{
+    switch (code) {
+    case SWL_REBOUND: return "rebound";
+    case SWL_CAPTURED: return "captured";
+    case SWL_NO_DATA: return "no data at the chosen node (every draw was shadowed)";
+    case SWL_E_ARG: return "bad argument";
+    case SWL_E_IO: return "cannot open or read the file";
+    case SWL_E_MAGIC: return "not a microimpact wall-law table (wrong magic)";
+    case SWL_E_VERSION: return "unknown wall-law table format version";
+    case SWL_E_TRUNCATED: return "the file is truncated";
+    case SWL_E_SIZE: return "the sizes in the header are invalid or disagree with the file";
+    case SWL_E_CHECKSUM: return "the table is corrupt (CRC-32 mismatch)";
+    case SWL_E_VALUE: return "the table holds an invalid value";
+    case SWL_E_NOMEM: return "out of memory";
+    default: return "unknown code";
+    }
+}
+
+int swl_surface_index(const swl_law *law, const char *name)
+{
+    int s;
+    if (!law || !name)
+        return SWL_E_ARG;
+    for (s = 0; s < law->n[0]; s++)
+        if (strcmp(law->names + (size_t)s * SWL_NAME_WIDTH, name) == 0)
+            return s;
+    return SWL_E_ARG;
+}
+
+int swl_size(const swl_law *law, int what)
+{
+    if (!law || what < SWL_DIM_SURFACE || what > SWL_DIM_RESERVOIR)
+        return SWL_E_ARG;
+    return law->n[what];
+}
+
+const char *swl_surface_name(const swl_law *law, int surface)
+{
+    if (!law || surface < 0 || surface >= law->n[0])
+        return NULL;
+    return law->names + (size_t)surface * SWL_NAME_WIDTH;
+}
+
+/* ---- sampling (docs/wall-law.md, "The sampling rule") ----------------------- */
+
+/* Step 1 on one axis: the node of the corner chosen with the uniform number `u`.
+ * `x` is the query in the axis' variable (log d, log v or theta). Sets *clamped. */
+static int pick_node(const double *node, int n, double x, double u, int *clamped)
+{
+    int lo, hi, mid;
+    double t;
+    *clamped = 0;
+    if (n == 1) { /* one node: t = 0 */
+        *clamped = x != node[0];
+        return 0;
+    }
+    if (x < node[0]) {
+        *clamped = 1;
+        return 0; /* i = 0, t = 0: the lower node */
+    }
+    if (x > node[n - 1]) {
+        *clamped = 1;
+        return n - 1; /* i = n - 2, t = 1: the upper node */
+    }
+    /* binary search: node[lo] <= x <= node[hi], hi = lo + 1 */
+    lo = 0;
+    hi = n - 1;
+    while (hi - lo > 1) {
+        mid = lo + (hi - lo) / 2;
+        if (node[mid] <= x)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    t = (x - node[lo]) / (node[hi] - node[lo]);
+    /* step 2: the upper node where u < t */
+    return u < t ? hi : lo;
+}
+
+/* Steps 1-4 for a query already checked; the velocity in the wall frame. */
+static int sample_checked(const swl_law *law, int surface, double diameter_um,
+                          double speed_m_s, double angle_deg, const double u[5],
+                          double velocity[3], int *flags)
+{
+    int id, iv, ia, c1, c2, c3, k, count;
+    size_t node, at;
+    double p, th, st, ct, s, en, mu, ux, uy, uz, norm, scale;
+
+    id = pick_node(law->scaled[0], law->n[1], log(diameter_um), u[0], &c1);
+    iv = pick_node(law->scaled[1], law->n[2], log(speed_m_s), u[1], &c2);
+    ia = pick_node(law->scaled[2], law->n[3], angle_deg, u[2], &c3);
+    *flags = (c1 ? SWL_FLAG_CLAMPED_DIAMETER : 0) | (c2 ? SWL_FLAG_CLAMPED_SPEED : 0) |
+             (c3 ? SWL_FLAG_CLAMPED_ANGLE : 0);
+    node = (((size_t)surface * law->n[1] + id) * law->n[2] + iv) * law->n[3] + ia;
+
+    p = law->capture[node];
+    count = law->count[node];
+    if (isnan(p) || (count == 0 && !(u[3] < p))) {
+        velocity[0] = velocity[1] = velocity[2] = NAN;
+        return SWL_NO_DATA;
+    }
+    /* step 3 */
+    if (u[3] < p) {
+        velocity[0] = velocity[1] = velocity[2] = 0.0;
+        return SWL_CAPTURED;
+    }
+    /* step 4: sample k = floor(u[4] * count), at most count - 1 */
+    k = (int)floor(u[4] * (double)count);
+    if (k > count - 1)
+        k = count - 1;
+    at = node * (size_t)law->n[4] + (size_t)k;
+    en = law->e_n[at];
+    mu = law->mu[at];
+    s = speed_m_s;
+    th = angle_deg * (SWL_PI / 180.0);
+    st = sin(th);
+    ct = cos(th);
+    uz = en * s * st;
+    ux = s * ct - mu * (1.0 + en) * s * st;
+    uy = tan(law->lateral[at] * (SWL_PI / 180.0)) * hypot(ux, uz);
+    /* scaled to |U| = speed_ratio * s: between nodes the sample keeps its own
+     * energy loss (a zero vector stays zero) */
+    norm = sqrt(ux * ux + uy * uy + uz * uz);
+    scale = norm > 0.0 ? law->ratio[at] * s / norm : 0.0;
+    ux *= scale;
+    uy *= scale;
+    uz *= scale;
+    velocity[0] = ux;
+    velocity[1] = uy;
+    velocity[2] = uz;
+    if (uz < 0.0)
+        *flags |= SWL_FLAG_REIMPACT;
+    return SWL_REBOUND;
+}
+
+static int good_uniforms(const double u[5])
+{
+    int i;
+    for (i = 0; i < 5; i++)
+        if (!(u[i] >= 0.0 && u[i] < 1.0))
+            return 0;
+    return 1;
+}
+
+int swl_sample(const swl_law *law, int surface, double diameter_um, double speed_m_s,
+               double angle_deg, const double u[5], double velocity[3], int *flags)
+{
+    int dummy;
+    if (!flags)
+        flags = &dummy;
+    *flags = 0;
+    if (!velocity)
+        return SWL_E_ARG;
+    velocity[0] = velocity[1] = velocity[2] = NAN;
+    if (!law || !u || surface < 0 || surface >= law->n[0] || !good_uniforms(u) ||
+        !(diameter_um > 0.0) || !(speed_m_s > 0.0) || !isfinite(diameter_um) ||
+        !isfinite(speed_m_s) || !(angle_deg > 0.0 && angle_deg <= 90.0))
+        return SWL_E_ARG;
+    return sample_checked(law, surface, diameter_um, speed_m_s, angle_deg, u, velocity,
+                          flags);
+}
+
+int swl_sample_n(const swl_law *law, int surface, long n, const double *diameter_um,
+                 const double *speed_m_s, const double *angle_deg, const double *u,
+                 double *velocity, int *status, int *flags)
+{
+    long i;
+    int f;
+    if (!law || n < 0 || (n > 0 && (!diameter_um || !speed_m_s || !angle_deg || !u ||
+                                    !velocity || !status)))
+        return SWL_E_ARG;
+    for (i = 0; i < n; i++) {
+        status[i] = swl_sample(law, surface, diameter_um[i], speed_m_s[i], angle_deg[i],
+                               u + 5 * i, velocity + 3 * i, &f);
+        if (flags)
+            flags[i] = f;
+    }
+    return 0;
+}
+
+static double dot3(const double a[3], const double b[3])
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+int swl_rebound_velocity(const swl_law *law, int surface, double diameter_um,
+                         const double v_in[3], const double normal[3], const double u[5],
+                         double v_out[3], int *flags)
+{
+    double z[3], x[3], y[3], vt[3], w[3], nn, vn, tmag, s, theta;
+    int i, k, rc, dummy;
+    if (!flags)
+        flags = &dummy;
+    *flags = 0;
+    if (!v_out)
+        return SWL_E_ARG;
+    v_out[0] = v_out[1] = v_out[2] = NAN;
+    if (!v_in || !normal)
+        return SWL_E_ARG;
+    for (i = 0; i < 3; i++)
+        if (!isfinite(v_in[i]) || !isfinite(normal[i]))
+            return SWL_E_ARG;
+    nn = sqrt(dot3(normal, normal));
+    if (!(nn > 0.0) || !isfinite(nn))
+        return SWL_E_ARG;
+    for (i = 0; i < 3; i++)
+        z[i] = normal[i] / nn;
+    vn = dot3(v_in, z);
+    if (!(vn < 0.0))
+        return SWL_E_ARG; /* moving along or away from the wall, not into it */
+    for (i = 0; i < 3; i++)
+        vt[i] = v_in[i] - vn * z[i];
+    tmag = sqrt(dot3(vt, vt));
+    s = sqrt(dot3(v_in, v_in));
+    if (!(s > 0.0) || !isfinite(s))
+        return SWL_E_ARG;
+    theta = fmin(atan2(-vn, tmag) * (180.0 / SWL_PI), 90.0);
+    if (tmag > 0.0) {
+        for (i = 0; i < 3; i++)
+            x[i] = vt[i] / tmag;
+    } else { /* normal incidence: x along e_k - n_k z, |z_k| smallest */
+        k = 0;
+        for (i = 1; i < 3; i++)
+            if (fabs(z[i]) < fabs(z[k]))
+                k = i;
+        for (i = 0; i < 3; i++)
+            x[i] = (i == k ? 1.0 : 0.0) - z[k] * z[i];
+        tmag = sqrt(dot3(x, x));
+        for (i = 0; i < 3; i++)
+            x[i] /= tmag;
+    }
+    y[0] = z[1] * x[2] - z[2] * x[1];
+    y[1] = z[2] * x[0] - z[0] * x[2];
+    y[2] = z[0] * x[1] - z[1] * x[0];
+    rc = swl_sample(law, surface, diameter_um, s, theta, u, w, flags);
+    if (rc == SWL_REBOUND)
+        for (i = 0; i < 3; i++)
+            v_out[i] = w[0] * x[i] + w[1] * y[i] + w[2] * z[i];
+    else if (rc == SWL_CAPTURED)
+        v_out[0] = v_out[1] = v_out[2] = 0.0;
+    return rc;
+}

@@ -1,0 +1,280 @@
+"""The wall law for C codes: a binary table and a portable C99 sampler.
+
+:func:`write_binary` writes the part of the wall law that the sampler needs (capture
+probabilities and reservoirs) as ``wall_law.swl``, a little-endian binary file whose
+layout is documented in ``c/swl.h`` (and checked there on load: magic, version,
+sizes, file length, CRC-32, values). :func:`read_binary` reads it back.
+:func:`write_c` writes ``c/`` into an output folder: the sampler (``swl.h``,
+``swl.c``), the Ansys Fluent ``DEFINE_DPM_BC`` wrapper (``fluent_udf.c``), the
+table and a README. The C sampler follows docs/wall-law.md, "The sampling rule",
+as :meth:`microimpact.wall_law.WallLaw.sample_uniform` does.
+"""
+
+from __future__ import annotations
+
+import struct
+import zlib
+from pathlib import Path
+
+import numpy as np
+
+from .._files import atomic_write
+from ..errors import DataFormatError
+
+__all__ = ["read_binary", "write_binary", "write_c"]
+
+#: The C sources shipped with the package (package data).
+C_SOURCES = Path(__file__).with_name("c")
+#: Files copied from :data:`C_SOURCES` by :func:`write_c`.
+C_FILES = ("swl.h", "swl.c", "fluent_udf.c")
+
+MAGIC = b"SWLTABL\0"
+VERSION = 1
+NAME_WIDTH = 64
+HEADER = struct.Struct("<8s8IQI12x")  # 64 bytes; see c/swl.h
+DIMS = ("surface", "diameter_um", "speed_m_s", "angle_deg")
+RESERVOIRS = ("e_n", "mu", "lateral_angle_deg", "speed_ratio")
+
+
+def _dataset(law):
+    """The Dataset of a WallLaw (or a Dataset itself), in (surface, d, v, theta,
+    sample) order."""
+    ds = getattr(law, "dataset", law)
+    return ds.transpose(*DIMS, "sample", ...)
+
+
+def _check(names, axes, p, count, res, k):
+    """Raise ValueError where the table breaks the format (what swl_load checks)."""
+    for name in names:
+        if len(name) >= NAME_WIDTH or b"\0" in name:
+            raise ValueError(
+                f"surface name {name.decode()!r} must be at most {NAME_WIDTH - 1} "
+                "bytes of UTF-8 without NUL for the binary table"
+            )
+    for dim, x in zip(DIMS[1:], axes, strict=True):
+        if not (np.all(np.isfinite(x)) and np.all(np.diff(x) > 0)):
+            raise ValueError(f"{dim} must be finite and strictly increasing")
+        if dim != "angle_deg" and not np.all(x > 0):
+            raise ValueError(f"{dim} must be > 0")
+    if np.any((p < 0) | (p > 1)):
+        raise ValueError("capture_probability must be in [0, 1] or NaN")
+    if np.any((count < 0) | (count > k)):
+        raise ValueError(f"reservoir_count must be in [0, {k}]")
+    if np.any((count == 0) & ~(np.isnan(p) | (p == 1))):
+        raise ValueError("a node with reservoir_count 0 must have capture 1 or NaN")
+    held = np.arange(k) < count[..., None]
+    for name, a in zip(RESERVOIRS, res, strict=True):
+        a, allowed = a[held], "finite"
+        ok = np.abs(a) < (90.0 if name == "lateral_angle_deg" else np.inf)
+        if name == "speed_ratio":
+            ok, allowed = ok & (a >= 0), "finite and >= 0"
+        if not np.all(ok):
+            raise ValueError(f"reservoir_{name} must be {allowed} where it is held")
+
+
+def encode(law) -> bytes:
+    """The binary table (format version 1 of ``c/swl.h``) of a WallLaw or its
+    Dataset."""
+    ds = _dataset(law)
+    names = [str(s).encode("utf-8") for s in ds["surface"].values]
+    axes = [np.asarray(ds[c].values, dtype=float) for c in DIMS[1:]]
+    p = np.asarray(ds["capture_probability"].values, dtype=float)
+    count = np.asarray(ds["reservoir_count"].values)
+    res = [np.asarray(ds[f"reservoir_{n}"].values, dtype=float) for n in RESERVOIRS]
+    k = int(ds.sizes["sample"])
+    _check(names, axes, p, count, res, k)
+    payload = b"".join(
+        [
+            b"".join(n.ljust(NAME_WIDTH, b"\0") for n in names),
+            *(np.ascontiguousarray(x, "<f8").tobytes() for x in axes),
+            np.ascontiguousarray(p, "<f8").tobytes(),
+            *(np.ascontiguousarray(a, "<f8").tobytes() for a in res),
+            np.ascontiguousarray(count, "<i4").tobytes(),
+        ]
+    )
+    s, d, v, a = p.shape
+    header = HEADER.pack(
+        MAGIC,
+        VERSION,
+        s,
+        d,
+        v,
+        a,
+        k,
+        NAME_WIDTH,
+        0,
+        HEADER.size + len(payload),
+        zlib.crc32(payload),
+    )
+    return header + payload
+
+
+def write_binary(law, path) -> Path:
+    """Write the binary table of `law` (a WallLaw or its Dataset) to `path`
+    (atomically); returns the path."""
+    data = encode(law)
+    return atomic_write(path, lambda tmp: Path(tmp).write_bytes(data))
+
+
+def read_binary(path):
+    """The binary table at `path` as an xarray Dataset (``capture_probability``,
+    ``reservoir_count`` and the reservoirs of e_n, mu, the lateral angle and the
+    speed ratio).
+
+    Raises :class:`~microimpact.errors.DataFormatError` where ``swl_load`` would
+    return an error (values are not re-checked).
+    """
+    import xarray as xr
+
+    def bad(message):
+        return DataFormatError(f"not a valid wall-law table: {message}", source=path)
+
+    data = Path(path).read_bytes()
+    if len(data) < HEADER.size:
+        raise bad("file too short for the header")
+    magic, version, s, d, v, a, k, width, _, size, crc = HEADER.unpack_from(data)
+    if magic != MAGIC:
+        raise bad("wrong magic")
+    if version != VERSION:
+        raise bad(f"format version {version}, this reader knows {VERSION}")
+    if width != NAME_WIDTH or size != len(data):
+        raise bad(f"header says {size} bytes, the file has {len(data)}")
+    if zlib.crc32(data[HEADER.size :]) != crc:
+        raise bad("CRC-32 mismatch")
+    at = HEADER.size
+    names = [
+        data[at + i * width : at + (i + 1) * width].split(b"\0", 1)[0].decode()
+        for i in range(s)
+    ]
+    at += s * width
+
+    def take(dtype, shape):
+        nonlocal at
+        n = int(np.prod(shape))
+        out = np.frombuffer(data, dtype, n, at).reshape(shape).astype(dtype[1:])
+        at += n * np.dtype(dtype).itemsize
+        return out
+
+    axes = [take("<f8", (n,)) for n in (d, v, a)]
+    nodes = (s, d, v, a)
+    p = take("<f8", nodes)
+    res = [take("<f8", (*nodes, k)) for _ in RESERVOIRS]
+    count = take("<i4", nodes)
+    variables = {"capture_probability": (DIMS, p), "reservoir_count": (DIMS, count)}
+    for name, arr in zip(RESERVOIRS, res, strict=True):
+        variables[f"reservoir_{name}"] = ((*DIMS, "sample"), arr)
+    coords = dict(zip(DIMS, [np.array(names, dtype=object), *axes], strict=True))
+    coords["sample"] = np.arange(k, dtype=np.int32)
+    return xr.Dataset(variables, coords=coords)
+
+
+def _readme(law) -> str:
+    ds = _dataset(law)
+    s = ", ".join(repr(str(n)) for n in ds["surface"].values)
+    rng = {
+        c: f"{float(ds[c].values[0]):g} … {float(ds[c].values[-1]):g} "
+        f"({ds.sizes[c]} nodes)"
+        for c in DIMS[1:]
+    }
+    return _README.format(
+        surfaces=s,
+        diameters=rng["diameter_um"],
+        speeds=rng["speed_m_s"],
+        angles=rng["angle_deg"],
+        k=ds.sizes["sample"],
+    )
+
+
+def write_c(law, out_dir) -> list[Path]:
+    """Write ``out_dir/c/``: ``swl.h``, ``swl.c``, ``fluent_udf.c``, the binary
+    table ``wall_law.swl`` and ``README.md``. Returns the paths written."""
+    c_dir = Path(out_dir) / "c"
+    written = []
+    for name in C_FILES:
+        text = (C_SOURCES / name).read_bytes()
+        written.append(atomic_write(c_dir / name, lambda tmp, b=text: _put(tmp, b)))
+    written.append(write_binary(law, c_dir / "wall_law.swl"))
+    readme = _readme(law).encode("utf-8")
+    written.append(atomic_write(c_dir / "README.md", lambda tmp: _put(tmp, readme)))
+    return written
+
+
+def _put(path, data: bytes) -> None:
+    Path(path).write_bytes(data)
+
+
+_README = """\
+# The wall law in C
+
+`swl.h` and `swl.c` read and sample this wall law in portable C99 (libc and libm
+only); `fluent_udf.c` is an Ansys Fluent `DEFINE_DPM_BC` wrapper around them.
+`wall_law.swl` is the table:
+
+* surfaces {surfaces};
+* diameter {diameters} µm;
+* speed {speeds} m/s;
+* angle {angles} degrees from the wall plane;
+* K = {k} rebound samples per node.
+
+The frame and the sampling rule are in microimpact's docs/wall-law.md; the binary
+format is documented at the top of `swl.h`.
+
+## Compile
+
+    cc -std=c99 -O2 -c swl.c            # then link swl.o and -lm into your code
+
+Compiled with `-ffp-contract=off` (no fused multiply-add), the sampler gives the
+results of microimpact's Python sampler `WallLaw.sample_uniform` for the same
+uniform numbers, bit for bit except where the C library's `log` or `tan` differs
+from NumPy's in the last place: then the velocity differs by about 1e-16 of the
+speed, or, very rarely, a uniform number within 1e-16 of a cell fraction picks the
+other corner.
+
+## API
+
+    swl_law *law;
+    int rc = swl_load("wall_law.swl", &law);        /* 0, or a negative SWL_E_* */
+    int s = swl_surface_index(law, "my surface");   /* or 0 for the first */
+    double u[5] = {{...}};                            /* five uniforms in [0, 1) */
+    double vel[3]; int flags;
+    rc = swl_sample(law, s, d_um, speed, theta_deg, u, vel, &flags);
+    /* rc: SWL_REBOUND (vel = rebound, wall frame), SWL_CAPTURED (vel = 0),
+       SWL_NO_DATA (the node had no impact; vel = NaN) or a negative error;
+       flags: SWL_FLAG_CLAMPED_* (query outside the table), SWL_FLAG_REIMPACT */
+    rc = swl_rebound_velocity(law, s, d_um, v_in, normal, u, v_out, &flags);
+    /* the same in your own frame: normal is the wall's outward normal (into the
+       fluid), v_in must move into the wall; v_out is the rebound velocity */
+    swl_free(law);
+
+`swl_sample_n` samples many queries at once and `swl_strerror(rc)` explains a
+code. The wall frame: z the wall's outward normal, x the incoming particle's
+tangential direction of travel, y = z × x; theta is measured from the wall plane
+(90 = normal incidence) and must lie in (0, 90].
+
+## The uniform numbers
+
+Every sample takes five uniform numbers in [0, 1), in this order:
+
+| u | use |
+|---|---|
+| u[0] | picks the diameter node of the cell corner (upper node where u[0] < t_d) |
+| u[1] | picks the speed node (upper where u[1] < t_v) |
+| u[2] | picks the angle node (upper where u[2] < t_theta) |
+| u[3] | captured where u[3] < the corner's capture probability |
+| u[4] | reservoir sample floor(u[4] * count) of the corner |
+
+All five are used on every call, whatever the outcome. t is the query's fraction of
+its cell in log d, log v and theta; a query outside an axis is clamped to the end
+node and flagged.
+
+## Fluent
+
+Compile `fluent_udf.c` with `swl.c` as a compiled UDF (Source Files: both `.c`;
+Header Files: `swl.h`), copy `wall_law.swl` into the case folder (or set
+`MICROIMPACT_SWL_TABLE` to its path, and `MICROIMPACT_SWL_SURFACE` to a surface
+name), and hook `microimpact_wall` as the DPM boundary condition (Discrete Phase
+BC Type: user-defined) of the walls. A captured particle ends with PATH_ABORT,
+which Fluent's DPM summary counts as *aborted*, not *trapped*; the on-demand
+function `microimpact_wall_report` prints the captures of each process. See the
+comments at the top of `fluent_udf.c`.
+"""
