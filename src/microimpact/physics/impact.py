@@ -111,30 +111,59 @@ class ReboundResult:
 class ApparentReboundResult:
     """Outcome of :func:`apparent_rebound`, seen on the nominal (apparent) surface.
 
+    The nominal frame is right-handed, ``(t, b, n) = (x, y, z)``: ``n`` (z) is the
+    outward normal of the nominal surface, ``t`` (x) lies in the plane of incidence
+    (the particle travels towards ``-t``) and ``b = n x t`` (y) is the spin axis of
+    the 2-D model. The facet frame ``(t', b', n')`` has ``n'`` the facet normal,
+    ``t'`` the facet's line in the plane of incidence and ``b' = n' x t'``; with no
+    out-of-plane tilt it is the paper's ``(t', n')`` with ``b' = b``.
+
     Attributes
     ----------
     e_m : ndarray
         Apparent (measured) coefficient of restitution ``-V_n/v_n`` in the nominal
         frame, Eq. 8 [-]. 0 where captured, NaN where shadowed.
     mu_m : ndarray
-        Apparent impulse ratio in the nominal frame, Eq. 9 [-]. NaN where captured or
-        shadowed.
-    e, mu : ndarray
-        The same coefficients in the facet frame (from :func:`rebound`).
+        Apparent impulse ratio ``(V_t - v_t)/(V_n - v_n)`` in the nominal frame,
+        Eq. 9 [-]. NaN where captured or shadowed.
+    e : ndarray
+        Coefficient of restitution on the facet (from :func:`rebound`) [-].
+    mu : ndarray
+        Impulse ratio on the facet along ``t'`` [-], signed as in :func:`rebound`;
+        with no out-of-plane tilt it is the paper's facet ``mu``.
+    mu_b : ndarray
+        Impulse ratio on the facet along ``b'`` [-]; 0 with no out-of-plane tilt.
+        ``hypot(mu, mu_b)`` is the magnitude of the tangential-to-normal impulse.
     captured, shadowed, rolling : ndarray of bool
-        Capture (decided on the true normal speed), facet out of reach (``phi >=
-        theta``), and rolling at separation.
+        Capture (decided on the true normal speed ``|v_n_true|``), facet out of
+        reach (``phi >= theta``), and rolling at separation.
     reimpact : ndarray of bool
         True where the rebound still heads into the nominal surface (``V_n < 0`` in
         the nominal frame), so that a real particle would strike again.
-    V_n, V_t : ndarray
-        Rebound velocity in the nominal frame [m s-1].
-    v_n_true, v_t_true : ndarray
-        Incoming velocity in the facet frame [m s-1].
+    V_n, V_t, V_b : ndarray
+        Rebound velocity in the nominal frame [m s-1]: along ``n`` (z, normal),
+        ``t`` (x, in the plane of incidence) and ``b = n x t`` (y, lateral).
+        0 where captured.
+    v_n_true, v_t_true, v_b_true : ndarray
+        Incoming velocity in the facet frame ``(n', t', b')`` [m s-1].
     true_incidence_angle_deg : ndarray
-        ``theta - phi`` [deg].
+        ``theta - phi`` [deg], the true incidence angle in the plane of incidence
+        (the path's angle to the facet is ``arcsin(|v_n_true| / speed)``).
+    lateral_angle_deg : ndarray
+        Lateral (out-of-plane) rebound angle :math:`\\psi = \\operatorname{atan2}(V_b,
+        -V_t)` [deg], in (-180, 180]: 0 is forward scatter in the plane of incidence,
+        positive towards ``+b``, ±180 back along the incoming direction. NaN where
+        captured or shadowed.
+    rebound_elevation_deg : ndarray
+        Elevation of the rebound above the nominal plane,
+        ``atan2(V_n, hypot(V_t, V_b))`` [deg]; negative where ``reimpact``. NaN
+        where captured or shadowed.
     spin : ndarray or None
-        Angular velocity after impact [rad s-1] when `radius` was given.
+        Angular velocity after impact about ``b = n x t`` [rad s-1] when `radius` was
+        given (the 2-D model's spin).
+    spin_t, spin_n : ndarray or None
+        Angular velocity after impact about ``t`` and ``n`` [rad s-1] when `radius`
+        was given; 0 with no out-of-plane tilt.
     """
 
     e_m: np.ndarray
@@ -150,7 +179,14 @@ class ApparentReboundResult:
     v_n_true: np.ndarray
     v_t_true: np.ndarray
     true_incidence_angle_deg: np.ndarray
+    mu_b: np.ndarray
+    V_b: np.ndarray
+    v_b_true: np.ndarray
+    lateral_angle_deg: np.ndarray
+    rebound_elevation_deg: np.ndarray
     spin: np.ndarray | None = None
+    spin_t: np.ndarray | None = None
+    spin_n: np.ndarray | None = None
 
 
 def _coefficients_iv(k1, k2, v_c, p, q, friction, radius, spin):
@@ -318,6 +354,7 @@ def apparent_rebound(
     incidence_angle_deg,
     roughness_angle_deg,
     *,
+    out_of_plane_angle_deg=0.0,
     k1,
     k2,
     v_c,
@@ -328,14 +365,19 @@ def apparent_rebound(
     spin=0.0,
 ) -> ApparentReboundResult:
     r"""
-    Impact on a rough surface's local facet, seen on the nominal surface: Eqs. 7-9.
+    Impact on a rough surface's local facet, seen on the nominal surface: Eqs. 7-9,
+    and their 3-D extension to a facet tilted out of the plane of incidence.
 
     The incoming particle travels in the ``-t`` direction at `speed`, at the apparent
-    incidence angle :math:`\theta` from the nominal plane. It strikes a facet tilted by
-    the roughness angle :math:`\phi`, so the true incidence angle is
-    :math:`\theta' = \theta - \phi`. The impact is computed in the facet frame with
-    :func:`rebound` (capture decided on the true normal speed) and rotated back to the
-    nominal frame with Eq. 7.
+    incidence angle :math:`\theta` from the nominal plane,
+    :math:`u = s(-\cos\theta, 0, -\sin\theta)` in the nominal frame
+    ``(t, b, n) = (x, y, z)``. It strikes a facet with local slopes
+    :math:`h_x = \tan\phi_\parallel` (the paper's roughness angle :math:`\phi`) and
+    :math:`h_y = \tan\phi_\perp` (the out-of-plane angle), whose unit normal is
+    :math:`n' \propto (-\tan\phi_\parallel, -\tan\phi_\perp, 1)`. The impact is
+    computed on the facet with Eqs. 1-6 of [1]_ (through :func:`rebound`; capture
+    is decided on the true normal speed :math:`|u\cdot n'|`) and seen on the nominal
+    surface. With :math:`\phi_\perp = 0` this is exactly the paper's 2-D model.
 
     Parameters
     ----------
@@ -344,33 +386,98 @@ def apparent_rebound(
     incidence_angle_deg : array_like
         Apparent incidence angle from the nominal plane [deg], in (0, 90]; 90 is normal.
     roughness_angle_deg : array_like
-        Local facet angle :math:`\phi` [deg], in (-90, 90). Positive: tilted away from
-        the particle; negative: facing it.
+        Local facet angle :math:`\phi = \phi_\parallel` in the plane of incidence
+        [deg], in (-90, 90). Positive: tilted away from the particle (the surface
+        rises along ``+t``); negative: facing it.
+    out_of_plane_angle_deg : array_like, default 0.0
+        Local facet angle :math:`\phi_\perp` across the plane of incidence [deg], in
+        (-90, 90): the surface rises along ``+b`` for :math:`\phi_\perp > 0`, so the
+        facet normal leans towards ``-b`` and the rebound is deflected towards ``-b``.
     k1, k2, v_c, p, q, friction, radius, spin
-        As in :func:`rebound`.
+        As in :func:`rebound`; `spin` is the initial angular velocity about
+        ``b = n x t``.
 
     Returns
     -------
     ApparentReboundResult
+        Includes the rebound velocity ``(V_t, V_b, V_n)`` along ``(x, y, z)``, the
+        lateral angle :math:`\psi` and the rebound elevation.
 
     Notes
     -----
-    With :math:`v_{n'} = -s\sin\theta'`, :math:`v_{t'} = -s\cos\theta'`,
+    **The 3-D impact** (docs/physics.md, "Areal roughness"). With
+    :math:`u_{n'} = u\cdot n'` (< 0 for an impact; otherwise the facet is
+    ``shadowed``) and the tangential velocity :math:`u_{t'} = u - u_{n'} n'`, the
+    contact point slips at :math:`w = u_{t'} + \omega \times (-r n')`. Eqs. 1-6 hold
+    with :math:`|u_{n'}|`, Eq. 3 with :math:`\eta = |w| / |u_{n'}|`, and the
+    tangential impulse opposes the slip,
 
     .. math::
 
-        e_m &= \frac{e - \tan\phi\, V_{t'}/v_{n'}}{1 + \tan\phi\, v_{t'}/v_{n'}}
-            && \text{Eq. 8} \\
-        \mu_m &= \frac{\mu - \tan\phi}{\mu\tan\phi + 1} && \text{Eq. 9}
+        V_{n'} = -e\,u_{n'}, \qquad
+        V_{t'} = u_{t'} - \mu (1 + e) |u_{n'}|\, \hat w, \qquad
+        U = V_{n'} n' + V_{t'},
 
-    which are exactly ``-V_n/v_n`` and ``(V_t - v_t)/(V_n - v_n)`` after the rotation
-    of Eq. 7. Shadowed elements (``phi >= theta``) are NaN with ``shadowed = True``.
-    A captured particle has ``e_m = 0`` and ``mu_m = nan``.
+    which for a sphere is exact: the slip keeps its direction during the impact.
+    On the nominal surface :math:`e_m = U_z / (s\sin\theta)`,
+    :math:`\mu_m = (U_x - u_x)/(U_z - u_z)`, :math:`\psi = \operatorname{atan2}(U_y,
+    -U_x)`. The final spin is :math:`\omega' = \omega + (\Delta V \times n') /
+    (\tfrac25 r)`.
+
+    **How it is evaluated** (so that :math:`\phi_\perp = 0` reproduces the 2-D
+    model bit for bit). The facet is the paper's facet, tilted by :math:`\phi` about
+    ``b``, then tilted by :math:`\chi = \arctan(\tan\phi_\perp\cos\phi)` about its
+    own line ``t'``: :math:`n' = \cos\chi\, n_\phi - \sin\chi\, b`,
+    :math:`b' = \cos\chi\, b + \sin\chi\, n_\phi`, with
+    :math:`n_\phi = (-\sin\phi, 0, \cos\phi)` and :math:`t' = (\cos\phi, 0,
+    \sin\phi)`. The particle has no ``b`` component, so with the paper's
+    :math:`v_{n\phi} = -s\sin\theta'`, :math:`v_{t'} = -s\cos\theta'`,
+    :math:`\theta' = \theta - \phi`:
+
+    .. math::
+
+        u_{n'} = \cos\chi\, v_{n\phi}, \qquad u_{b'} = \sin\chi\, v_{n\phi},
+
+    so shadowing depends on :math:`\phi` alone and :math:`\phi_\perp` lowers the
+    normal speed by :math:`\cos\chi`. Projecting :math:`U` back on ``n_phi``, ``t'``
+    and ``b`` gives Eq. 7 with :math:`V_{n'}` replaced by
+    :math:`A = \cos\chi V_{n'} + \sin\chi V_{b'}`, and Eqs. 8-9 with :math:`e`
+    and :math:`\mu` replaced by
+
+    .. math::
+
+        e_\phi &= e\cos^2\chi - \sin\chi\, V_{b'}/v_{n\phi}, \\
+        \mu_\phi &= \mu_{t'} / (\cos\chi + \mu_{b'}\sin\chi),
+
+    where :math:`\mu_{t'}, \mu_{b'}` are the facet impulse ratios along ``t'`` and
+    ``b'``:
+
+    .. math::
+
+        e_m &= \frac{e_\phi - \tan\phi\, V_{t'}/v_{n\phi}}
+                    {1 + \tan\phi\, v_{t'}/v_{n\phi}} && \text{Eq. 8} \\
+        \mu_m &= \frac{\mu_\phi - \tan\phi}{\mu_\phi\tan\phi + 1} && \text{Eq. 9}
+
+    With :math:`\chi = 0`: :math:`e_\phi = e`, :math:`\mu_\phi = \mu`, and these are
+    the paper's Eqs. 7-9 as printed; they are exactly ``-V_n/v_n`` and
+    ``(V_t - v_t)/(V_n - v_n)``. Shadowed elements (``phi >= theta``) are NaN with
+    ``shadowed = True``. A captured particle has ``e_m = 0``, ``V = 0`` and NaN
+    ``mu_m``, lateral angle and elevation.
+
+    References
+    ----------
+    .. [1] X. Li, P. F. Dunn and R. M. Brach, *Aerosol Sci. Technol.* 33:376-386, 2000.
     """
+    k1, k2, v_c, p, q, friction, radius, spin = _coefficients_iv(
+        k1, k2, v_c, p, q, friction, radius, spin
+    )
     speed = as_float_array(speed, "speed")
     theta_deg = as_float_array(incidence_angle_deg, "incidence_angle_deg")
     phi_deg = as_float_array(roughness_angle_deg, "roughness_angle_deg")
-    speed, theta_deg, phi_deg = np.broadcast_arrays(speed, theta_deg, phi_deg)
+    perp_deg = as_float_array(out_of_plane_angle_deg, "out_of_plane_angle_deg")
+    speed, theta_deg, phi_deg, perp_deg = np.broadcast_arrays(
+        speed, theta_deg, phi_deg, perp_deg
+    )
 
     in_domain = (
         (speed > 0)
@@ -378,62 +485,118 @@ def apparent_rebound(
         & (theta_deg > 0)
         & (theta_deg <= 90)
         & (np.abs(phi_deg) < 90)
+        & (np.abs(perp_deg) < 90)
     )
     theta = deg_to_rad(theta_deg)
     phi = deg_to_rad(phi_deg)
     true_angle = theta - phi  # theta' = theta - phi
-    shadowed = in_domain & (true_angle <= 0)
+    shadowed = in_domain & (true_angle <= 0)  # u . n' >= 0: phi_perp plays no part
     reachable = in_domain & ~shadowed
 
-    # Incoming velocity in the facet frame (n', t').
     with np.errstate(invalid="ignore"):
-        v_n_true = np.where(reachable, -speed * np.sin(true_angle), np.nan)
+        # out-of-plane tilt of the facet about its own line t' (0 exactly for
+        # phi_perp = 0, so that cos_chi = 1 and sin_chi = 0 exactly)
+        chi = np.arctan(np.tan(deg_to_rad(perp_deg)) * np.cos(phi))
+        cos_chi, sin_chi = np.cos(chi), np.sin(chi)
+        # incoming velocity on the paper's facet (n_phi, t'), then on (n', b')
+        v_n_phi = np.where(reachable, -speed * np.sin(true_angle), np.nan)
         v_t_true = np.where(reachable, -speed * np.cos(true_angle), np.nan)
+        v_n_true = cos_chi * v_n_phi  # u . n'
+        v_b_true = sin_chi * v_n_phi  # u . b'
+
+    # slip of the contact point: w = u_t' + omega x (-r n'), with omega about b and
+    # b x n' = cos(chi) t'
+    if radius is None:
+        slip_t = v_t_true
+    else:
+        slip_t = v_t_true - radius * (spin * cos_chi)
+    slip_b = v_b_true
+    # the slip speed, signed like its t' component (so that it is the 2-D slip
+    # itself when slip_b = 0)
+    slip = np.copysign(np.hypot(slip_t, slip_b), slip_t)
 
     facet = rebound(
         v_n_true,
-        v_t_true,
+        slip,
         k1=k1,
         k2=k2,
         v_c=v_c,
         p=p,
         q=q,
         friction=friction,
-        radius=radius,
-        spin=spin,
     )
-    # rebound broadcasts v_n_true (of speed's shape) with the coefficients, so its
-    # outputs already have the full shape; only the geometry needs broadcasting
+    # rebound broadcasts with the coefficients, so its outputs have the full shape;
+    # the geometry is broadcast to it
     e, mu, captured = facet.e, facet.mu, facet.captured
-    V_n_true, V_t_true = facet.V_n, facet.V_t
     shape = np.shape(e)
-    phi_b = np.broadcast_to(phi, shape)
-    v_n_true = np.broadcast_to(v_n_true, shape)
-    v_t_true = np.broadcast_to(v_t_true, shape)
 
-    cos_phi, sin_phi = np.cos(phi_b), np.sin(phi_b)
-    tan_phi = np.tan(phi_b)
+    def full(a):
+        return np.broadcast_to(a, shape)
+
+    phi_b, cos_chi, sin_chi = full(phi), full(cos_chi), full(sin_chi)
+    v_n_phi, v_t_true, v_n_true, v_b_true = (
+        full(v_n_phi), full(v_t_true), full(v_n_true), full(v_b_true)
+    )  # fmt: skip
+    slip, slip_t, slip_b = full(slip), full(slip_t), full(slip_b)
 
     with np.errstate(divide="ignore", invalid="ignore"):
-        # [1], Eq. 7: nominal components from the facet (actual) components.
-        V_n = cos_phi * V_n_true + sin_phi * V_t_true
-        V_t = -sin_phi * V_n_true + cos_phi * V_t_true
-        # [1], Eq. 8
-        e_m = (e - tan_phi * V_t_true / v_n_true) / (
-            1.0 + tan_phi * v_t_true / v_n_true
+        # unit slip direction (w_t', w_b') * sign: (1, 0) exactly when slip_b = 0
+        moving = slip != 0
+        dir_t = np.where(moving, slip_t / slip, 1.0)
+        dir_b = np.where(moving, slip_b / slip, 0.0)
+        mu_t = mu * dir_t  # facet impulse ratio along t' (the 2-D mu)
+        mu_b = mu * dir_b  # and along b'
+        V_n_true = facet.V_n  # [1], Eq. 1: -e u_n'
+        # [1], Eq. 2 along each facet tangent; 0 where captured
+        V_t_true = np.where(captured, 0.0, v_t_true - mu_t * (1.0 + e) * v_n_true)
+        V_b_true = np.where(captured, 0.0, v_b_true - mu_b * (1.0 + e) * v_n_true)
+
+        cos_phi, sin_phi = np.cos(phi_b), np.sin(phi_b)
+        tan_phi = np.tan(phi_b)
+        # component of U along the paper's facet normal n_phi
+        A = V_n_true * cos_chi + V_b_true * sin_chi
+        # [1], Eq. 7 (with V_n' -> A): nominal components from the facet components
+        V_n = cos_phi * A + sin_phi * V_t_true
+        V_t = -sin_phi * A + cos_phi * V_t_true
+        V_b = cos_chi * V_b_true - sin_chi * V_n_true
+        # [1], Eq. 8 with e -> e_phi
+        e_phi = e * cos_chi**2 - sin_chi * V_b_true / v_n_phi
+        e_m = (e_phi - tan_phi * V_t_true / v_n_phi) / (
+            1.0 + tan_phi * v_t_true / v_n_phi
         )
-        # [1], Eq. 9
-        mu_m = (mu - tan_phi) / (mu * tan_phi + 1.0)
+        # [1], Eq. 9 with mu -> mu_phi
+        mu_phi = mu_t / (cos_chi + mu_b * sin_chi)
+        mu_m = (mu_phi - tan_phi) / (mu_phi * tan_phi + 1.0)
+
+        final = {}
+        if radius is not None:
+            r = full(radius)
+            spin0 = full(spin)
+            dV_t = V_t_true - v_t_true
+            dV_b = V_b_true - v_b_true
+            k = SOLID_SPHERE_INERTIA * r
+            # omega' = omega + (dV x n') / ((2/5) r), dV = dV_t t' + dV_b b':
+            # dV x n' = dV_b t' - dV_t b', resolved on (t, b, n)
+            final["spin"] = spin0 - dV_t * cos_chi / k
+            final["spin_t"] = (dV_b * cos_phi + dV_t * sin_chi * sin_phi) / k
+            final["spin_n"] = (dV_b * sin_phi - dV_t * sin_chi * cos_phi) / k
+            for key, value in final.items():
+                final[key] = np.where(captured, 0.0, value)[()]
+
     e_m = np.where(captured, 0.0, e_m)
     reimpact = ~captured & (V_n < 0)  # NaN compares False
+    leaves = ~captured & np.isfinite(V_n)
+    # + 0.0 turns a -0.0 lateral component into +0.0: psi = 180, not -180
+    psi = np.arctan2(V_b + 0.0, -V_t)
+    elevation = np.arctan2(V_n, np.hypot(V_t, V_b))
 
     return ApparentReboundResult(
         e_m=e_m[()],
         mu_m=mu_m[()],
         e=e,
-        mu=mu,
+        mu=np.array(mu_t)[()],
         captured=captured,
-        shadowed=np.array(np.broadcast_to(shadowed, shape))[()],
+        shadowed=np.array(full(shadowed))[()],
         rolling=facet.rolling,
         reimpact=reimpact[()],
         V_n=V_n[()],
@@ -441,7 +604,14 @@ def apparent_rebound(
         v_n_true=np.array(v_n_true)[()],
         v_t_true=np.array(v_t_true)[()],
         true_incidence_angle_deg=np.where(
-            in_domain, np.broadcast_to(rad_to_deg(true_angle), shape), np.nan
+            full(in_domain), full(rad_to_deg(true_angle)), np.nan
         )[()],
-        spin=facet.spin,
+        mu_b=np.array(mu_b)[()],
+        V_b=V_b[()],
+        v_b_true=np.array(v_b_true)[()],
+        lateral_angle_deg=np.where(leaves, rad_to_deg(psi), np.nan)[()],
+        rebound_elevation_deg=np.where(leaves, rad_to_deg(elevation), np.nan)[()],
+        spin=final.get("spin"),
+        spin_t=final.get("spin_t"),
+        spin_n=final.get("spin_n"),
     )
