@@ -343,23 +343,27 @@ def _outputs(ctx: _Ctx, data):
     return Outputs(**kw)
 
 
-def outputs_from_dict(data: dict, *, source=None, base_dir=None):
-    """The :class:`~microimpact.study.Outputs` of parsed scenario data (its
-    ``[outputs]`` table; defaults where absent). Relative experiment paths resolve
-    from `base_dir` (default: the folder of `source`)."""
+def _read_table(read, data, source, base_dir):
+    """``read(ctx, data)`` for one table of parsed scenario data; relative paths
+    resolve from `base_dir` (default: the folder of `source`)."""
     if base_dir is None and source is not None:
         base_dir = Path(source).resolve().parent
     ctx = _Ctx(source, base_dir)
     ctx.table(data, "(top level)")
-    return _outputs(ctx, data)
+    return read(ctx, data)
+
+
+def outputs_from_dict(data: dict, *, source=None, base_dir=None):
+    """The :class:`~microimpact.study.Outputs` of parsed scenario data (its
+    ``[outputs]`` table; defaults where absent). Relative experiment paths resolve
+    from `base_dir` (default: the folder of `source`)."""
+    return _read_table(_outputs, data, source, base_dir)
 
 
 def outputs_from_toml(path):
     """The :class:`~microimpact.study.Outputs` of a scenario file."""
     path = Path(path)
-    return outputs_from_dict(
-        _load_toml(path), source=path, base_dir=path.resolve().parent
-    )
+    return _read_table(_outputs, _load_toml(path), path, path.resolve().parent)
 
 
 def _wall_law(ctx: _Ctx, data):
@@ -395,20 +399,14 @@ def _wall_law(ctx: _Ctx, data):
 def wall_law_from_dict(data: dict, *, source=None, base_dir=None):
     """The :class:`~microimpact.wall_law.spec.WallLawSpec` of parsed scenario data
     (its ``[wall_law]`` table), or None if it has none."""
-    if base_dir is None and source is not None:
-        base_dir = Path(source).resolve().parent
-    ctx = _Ctx(source, base_dir)
-    ctx.table(data, "(top level)")
-    return _wall_law(ctx, data)
+    return _read_table(_wall_law, data, source, base_dir)
 
 
 def wall_law_from_toml(path):
     """The :class:`~microimpact.wall_law.spec.WallLawSpec` of a scenario file, or
     None if it has no ``[wall_law]`` table."""
     path = Path(path)
-    return wall_law_from_dict(
-        _load_toml(path), source=path, base_dir=path.resolve().parent
-    )
+    return _read_table(_wall_law, _load_toml(path), path, path.resolve().parent)
 
 
 def scenario_from_dict(data: dict, *, source=None, base_dir=None) -> Scenario:
