@@ -175,6 +175,8 @@ def test_nodes_match_direct_runs_of_the_engine(rough_law):
         res_et = node.reservoir_e_t.values[:k]
         assert stats.ks_2samp(res_e, e_m).pvalue > 1e-3
         assert stats.ks_2samp(res_et, e_t).pvalue > 1e-3
+        res_ang = np.degrees(np.arctan2(res_e * math.sin(th), res_et * math.cos(th)))
+        assert stats.ks_2samp(res_ang, ang).pvalue > 1e-3
         # the quantiles of the node against the direct run's (two-sample KS on the
         # full node: its quantiles lie inside the direct run's DKW band)
         eps = math.sqrt(math.log(2 / 1e-4) / (2 * len(e_m)))
