@@ -206,6 +206,8 @@ def _bad_kind(kind):
         ({"dsamp": _bad_kind(2)}, ValueError),  # not a refined grid
         ({"dsamp": _bad_kind(7)}, ValueError),
         ({"pair_total": 2**30, "pair_shift": 40}, ValueError),  # ranks overflow
+        ({"pair_shift": -1}, ValueError),  # a pair search without its columns
+        ({"pair_shift": -2}, ValueError),
         ({"dsamp": (np.zeros(3), 8, np.zeros(17, np.uint32), 60, 0, 0, 0)}, ValueError),
     ],
 )

@@ -62,6 +62,8 @@ typedef struct {
     uint64_t ra[CHUNK];          /* angle draws (scaled for "reject") */
     uint32_t g[3][CHUNK];        /* guide entry per variable */
     uint64_t draw[3][CHUNK];     /* a chunk of each variable's keyed stream */
+    double pu[CHUNK], pal[CHUNK], pbe[CHUNK]; /* pair search: target, alpha, beta */
+    int64_t pn[CHUNK], pj[CHUNK]; /* pair search: atoms searched, the answer */
 } scratch_t;
 
 typedef struct {
@@ -543,7 +545,8 @@ typedef struct {
                              phi; speed factor; particle angle atoms (pairs) */
     uint64_t cut;      /* angle draws scaled to [0, cut) ("reject"); 0: not */
     uint64_t pair_total; /* pairs (surface atom, particle atom) drawn from */
-    int pair_shift;      /* > 0: pair tables (plan.PairSampler) */
+    int pair_shift;      /* > 0: pair tables (plan.PairSampler); -1: a pair
+                            search (plan.PairSearch) */
     double sin_theta, cos_theta;
     double speed, p, q, friction;
     int shadow_none;
@@ -774,6 +777,70 @@ lookup(const sampler_t *s, const uint64_t *r, int one, int c, uint64_t cut,
     fetch(s, r, one, c, g, out0, out1, out2);
 }
 
+/* Column layout of a pair search (plan.PairSearch): surface rows hold alpha,
+ * beta, the number of particle atoms n_i and the total C_i(n_i) after the angle
+ * columns; particle rows hold the prefix sums P1, P2 of the atoms before them. */
+enum { Q_ALPHA = 8, Q_BETA, Q_COUNT, Q_TOTAL };
+enum { P_ONE = 8, P_TWO };
+
+/* A pair drawn by a search (plan.search_pairs, step for step): the surface cell
+ * i and the fraction f of each draw, then the largest J < n_i with
+ * alpha_i P1[J] + beta_i P2[J] <= f C_i(n_i), by steps of decreasing powers of
+ * two, one step for the whole chunk at a time (the chunk's searches overlap);
+ * then sin, cos (theta - a - b) and tan(a + b) as for pair ranks. */
+ALWAYS_INLINE void
+pair_search(const block_args *a, scratch_t *s, const uint64_t *restrict r, int c)
+{
+    const sampler_t *A = &a->a, *B = &a->b;
+    double *restrict ws = s->ws;
+    double *restrict u = s->pu, *restrict al = s->pal, *restrict be = s->pbe;
+    int64_t *restrict nn = s->pn, *restrict base = s->pj;
+    uint32_t *restrict cell = s->g[1];
+    const double st = a->sin_theta, ct = a->cos_theta;
+    const int64_t nb = B->n;
+    for (int k = 0; k < c; k++) {
+        double f;
+        Py_ssize_t i = locate(A, r[k], A->guide[r[k] >> A->gshift], &f);
+        const double *row = A->rows + i * A->stride;
+        double cnt = row[Q_COUNT];
+        cell[k] = (uint32_t)i;
+        al[k] = row[Q_ALPHA];
+        be[k] = row[Q_BETA];
+        /* in [1, nb] for any plan's tables; the clamp keeps a malformed call
+         * inside the buffer */
+        nn[k] = cnt >= 1.0 ? (cnt <= (double)nb ? (int64_t)cnt : nb) : 1;
+        u[k] = f * row[Q_TOTAL];
+        base[k] = 0;
+    }
+    int64_t step = 0;
+    if (nb > 1) {
+        step = 1;
+        while (step <= (nb - 1) / 2)
+            step *= 2;
+    }
+    const double *restrict prow = B->rows;
+    const Py_ssize_t pstride = B->stride;
+    for (; step > 0; step >>= 1) {
+        for (int k = 0; k < c; k++) {
+            int64_t cand = base[k] + step;
+            int ok = cand < nn[k];
+            const double *pr = prow + (ok ? cand : 0) * pstride;
+            double cm = al[k] * pr[P_ONE] + be[k] * pr[P_TWO];
+            base[k] = (ok & (cm <= u[k])) ? cand : base[k];
+        }
+    }
+    for (int k = 0; k < c; k++) {
+        const double *ra = A->rows + (Py_ssize_t)cell[k] * A->stride;
+        const double *rb = prow + base[k] * pstride;
+        double sa = ra[2], ca = ra[4], ta = ra[6];
+        double s1 = st * ca - ct * sa; /* sin(theta - a) */
+        double c1 = ct * ca + st * sa;
+        ws[W_SIN * CHUNK + k] = s1 * rb[4] - c1 * rb[2];
+        ws[W_COT * CHUNK + k] = c1 * rb[4] + s1 * rb[2];
+        ws[W_TAN * CHUNK + k] = (ta + rb[6]) / (1.0 - ta * rb[6]);
+    }
+}
+
 /* The caller has checked every index (see draws_in_range). */
 static CLONES __attribute__((noinline)) void
 run_block(block_args *a, scratch_t *s)
@@ -813,7 +880,9 @@ run_block(block_args *a, scratch_t *s)
          * variable at a time (a loop specialised for each kind of table) */
         lookup(&a->d, i_d, 0, c, 0, s->ra, s->g[0], ws + W_IK1 * CHUNK,
                ws + W_IK2 * CHUNK, ws + W_VC * CHUNK);
-        if (a->angle_random && a->pair_shift) {
+        if (a->angle_random && a->pair_shift < 0) {
+            pair_search(a, s, i_a, c);
+        } else if (a->angle_random && a->pair_shift) {
             /* a pair: its rank k among the pairs, placed in the top bits, gives
              * the surface cell i (a table with a start per surface atom) and the
              * particle atom j = rank - start(i) */
@@ -963,10 +1032,20 @@ release_sampler(Py_buffer *bufs)
 
 /* Pairs: every rank < pair_total, shifted, must stay below 2^64, and every
  * particle atom index (rank - start, at most pair_total - 1) must have a row;
- * the surface table is searched through its guide (kind 0). */
+ * the surface table is searched through its guide (kind 0). A pair search
+ * (shift -1) needs the columns of its layout (Q_TOTAL, P_TWO) and a surface
+ * table searched through its guide. */
 static int
-check_pairs(int shift, unsigned long long total, const sampler_t *surface)
+check_pairs(int shift, unsigned long long total, const sampler_t *surface,
+            const sampler_t *particle)
 {
+    if (shift == -1) {
+        if (surface->kind == 0 && surface->stride > Q_TOTAL &&
+            particle->stride > P_TWO)
+            return 0;
+        PyErr_SetString(PyExc_ValueError, "_ckernel: bad pair search layout");
+        return -1;
+    }
     if (shift < 0 || shift > 63 ||
         (shift && (total < 1 || (((uint64_t)total - 1) >> (64 - shift)) ||
                    surface->kind != 0))) {
@@ -1062,7 +1141,9 @@ PyDoc_STRVAR(block_doc,
 "cell table (see plan.Sampler): each row starts with the cell start (uint64\n"
 "bits) and 1/width; then diameter rows hold (lo, span) of 1/k1, 1/k2, v_c,\n"
 "angle rows of sin, cos, tan phi, speed rows of the factor. Angle draws are scaled to [0, cut) when\n"
-"cut > 0. `hist` holds 6 float64 values (e_m then mu_m lower edge, inverse bin\n"
+"cut > 0. pair_shift > 0: the angle is a (surface, particle) pair of rank\n"
+"floor(r pair_total / 2^64) placed in the top bits (plan.PairSampler); -1: a\n"
+"pair drawn by a search (plan.PairSearch); 0: one angle. `hist` holds 6 float64 values (e_m then mu_m lower edge, inverse bin\n"
 "width, bin count); the int64 histogram arrays are added to (their last 8 slots\n"
 "are spill). Returns counts (shadowed, captured, reimpact, rolling, rebounds) and\n"
 "sums (K, S1, S2, S3 of e_m, then of mu_m; S_r = sum over rebounds of\n"
@@ -1093,7 +1174,7 @@ ck_block(PyObject *self, PyObject *args)
         parse_sampler(samp[2], "speed", &a.s, 4, sb[2], &held[2]) ||
         parse_sampler(samp[3], "particle", &a.b, 8, sb[3], &held[3]))
         goto done;
-    if (check_pairs(a.pair_shift, pair_total, &a.a))
+    if (check_pairs(a.pair_shift, pair_total, &a.a, &a.b))
         goto done;
     a.pair_total = (uint64_t)pair_total;
     if (n < 0) {
@@ -1370,7 +1451,7 @@ ck_specs(PyObject *self, PyObject *args)
             goto done;
         x->cut = cut;
         x->pair_total = pair_total;
-        if (check_pairs(x->pair_shift, pair_total, x->a))
+        if (check_pairs(x->pair_shift, pair_total, x->a, x->b))
             goto done;
         prev_pt = pt;
     }

@@ -81,7 +81,7 @@ _BREAK_MIN = 2.0**-40
 _EDGE = 2.0**-50
 
 
-def _discrete(dist):
+def discrete_atoms(dist):
     """``(atoms, weights)`` of a discrete distribution, else None."""
     if not getattr(dist, "is_discrete", False):
         return None
@@ -299,7 +299,7 @@ def sum_mixtures(a, b):
     the quadrature over the narrower one (the integrand is smooth on the wider
     one's scale), then over the wider one (when the narrower has a kink, e.g. a
     uniform law)."""
-    da, db = _discrete(a), _discrete(b)
+    da, db = discrete_atoms(a), discrete_atoms(b)
     if da is not None and _continuous(b):
         return [(Mixture(*da, b), _scale(b), True)]
     if db is not None and _continuous(a):
@@ -345,7 +345,7 @@ def sum_table(a, b) -> CellTable:
             break
     if best is not None:
         return mixture_table(best[0], best[1], x_nodes=best[2])
-    da, db = _discrete(a), _discrete(b)
+    da, db = discrete_atoms(a), discrete_atoms(b)
     if da is not None and db is not None and da[0].size * db[0].size <= MAX_SUM_ATOMS:
         sums = (da[0][:, None] + db[0][None, :]).ravel()
         return CellTable.from_atoms(sums, (da[1][:, None] * db[1][None, :]).ravel())

@@ -159,7 +159,7 @@ def _simulate_block(plan: Plan, point, rep, block, n, store=False):
     inv_k2 = _col(dr, j_d, f_d, D_IK2)
     v_c = _col(dr, j_d, f_d, D_VC)
     st, ct = tables.sin_theta, tables.cos_theta
-    if tables.pair_shift:  # rough particle on a discrete surface: an exact pair
+    if tables.pairs:  # rough particle on a discrete surface: an exact pair
         _, j_a, j_b = tables.pair_draws(raw[VAR_ANGLE])
         ar, br = tables.sampler.rows, tables.pair.rows
         s_a, c_a, t_a = ar[j_a, A_SIN], ar[j_a, A_COS], ar[j_a, A_TAN]
@@ -265,7 +265,7 @@ def _simulate_block(plan: Plan, point, rep, block, n, store=False):
             out["k1"] = 1.0 / _col(dr, j_d, f_d, D_IK1)
             out["k2"] = 1.0 / _col(dr, j_d, f_d, D_IK2)
         out["v_c"] = _col(dr, j_d, f_d, D_VC)
-        if tables.pair_shift:
+        if tables.pairs:
             out["roughness_angle"] = (
                 tables.sampler.values[j_a, 0] + tables.pair.values[j_b, 0]
             )
@@ -447,7 +447,7 @@ def _simulate_compiled(plan, sp, tables, raw, n):
         int(tables.cut),
         _sampler_args(tables.pair),
         int(tables.pair_total),
-        int(tables.pair_shift),
+        tables.pair_mode,
         _sampler_args(plan.speeds),
         tables.sin_theta,
         tables.cos_theta,
@@ -528,7 +528,7 @@ def _point_args(tables, speed: float):
             int(tables.cut),
             _sampler_args(tables.pair),
             int(tables.pair_total),
-            int(tables.pair_shift),
+            tables.pair_mode,
             float(tables.sin_theta),
             float(tables.cos_theta),
             float(speed),

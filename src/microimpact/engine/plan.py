@@ -61,7 +61,7 @@ from .._tables import (
 from ..errors import InputError, ScenarioError
 from ..grid import GridPoint, SweepGrid
 from ._cells import cell_table
-from ._convolution import sum_table
+from ._convolution import MAX_SUM_ATOMS, discrete_atoms, sum_table
 
 #: Samples per block: the engine's unit of randomness (an algorithm constant, never
 #: derived from the worker count or the memory).
@@ -184,9 +184,28 @@ class AngleTables:
     #: Draw from the whole table and count the unreachable facets as shadowed
     #: (``"none"``, and any point at which no facet can be reached at all).
     count_shadowed: bool = False
+    #: A pair drawn by a search (see :class:`PairSearch`): ``sampler`` draws the
+    #: surface atom, ``pair`` holds the particle atoms and their prefix sums.
+    pair_search: bool = False
+
+    @property
+    def pairs(self) -> bool:
+        """The angle is a (surface, particle) pair (:class:`PairSampler` or
+        :class:`PairSearch`)."""
+        return bool(self.pair_shift) or self.pair_search
+
+    @property
+    def pair_mode(self) -> int:
+        """The compiled kernel's ``pair_shift``: the shift of a rank pair, -1 for a
+        pair search, 0 for no pair."""
+        return -1 if self.pair_search else int(self.pair_shift)
 
     def pair_draws(self, r):
-        """``(surface cell, particle atom)`` of angle draws `r` (pair tables)."""
+        """``(key, surface cell, particle atom)`` of angle draws `r` (pair tables;
+        the key is the rank placed in the top bits, or the draw itself for a
+        search)."""
+        if self.pair_search:
+            return (r, *search_pairs(self.sampler, self.pair, r))
         k = mulhi64(r, self.pair_total) << np.uint64(self.pair_shift)
         i, _ = self.sampler.table.locate(k)
         j = (k - self.sampler.table.cum[i]) >> np.uint64(self.pair_shift)
@@ -199,7 +218,7 @@ class AngleTables:
         if not self.random:
             return np.zeros(1 << 16)
         r = fraction_to_integer(mid_probabilities(1 << 16))
-        if self.pair_shift:
+        if self.pairs:
             _, i, j = self.pair_draws(r)
             return self.sampler.values[i, 0] + self.pair.values[j, 0]
         if self.cut:
@@ -228,6 +247,101 @@ class PairSampler:
         return self.surface.nbytes + self.particle.nbytes
 
 
+#: Columns of a :class:`PairSearch` particle row: the prefix sums (over the atoms
+#: before it) that the search reads.
+P_ONE, P_TWO = 8, 9
+#: Columns of a :class:`PairSearch` surface row (per apparent angle): the
+#: coefficients ``alpha``, ``beta`` of the conditional CDF, the number of particle
+#: atoms drawn from and the total ``alpha P1[n] + beta P2[n]``.
+Q_ALPHA, Q_BETA, Q_COUNT, Q_TOTAL = 8, 9, 10, 11
+
+
+@dataclass(frozen=True, eq=False)
+class PairSearch:
+    """A rough particle on a surface whose angle distributions are both discrete,
+    where :class:`PairSampler` does not apply (``"weighted"`` shadowing, or unequal
+    masses) and the pairs are too many to tabulate their sums exactly (more than
+    ``MAX_SUM_ATOMS``): the pair ``(a_i, b_j)`` is drawn exactly from one 64-bit
+    draw, without forming the pairs.
+
+    The pair weight is ``w_i v_j g_ij``, with ``g = 1`` for the reachable pairs
+    (``"reject"``; every pair for ``"none"``) and ``g = sin(theta - a_i - b_j)_+``
+    for ``"weighted"``. For each surface atom ``i`` the reachable particle atoms
+    are a prefix ``j < n_i`` of the sorted ``b``, and the cumulative weight of the
+    first ``J`` of them is ``C_i(J) = alpha_i P1[J] + beta_i P2[J]`` with
+    angle-independent prefix sums: ``P1 = cumsum(v)``, ``P2 = 0``, ``alpha = 1``,
+    ``beta = 0`` for the masses; ``P1 = cumsum(v cos b)``, ``P2 = cumsum(v sin b)``,
+    ``alpha_i = sin(theta - a_i)``, ``beta_i = -cos(theta - a_i)`` for the sine
+    weight. A per-angle table of integer probabilities ``w_i C_i(n_i)`` draws
+    ``i`` and the fraction ``f`` inside its cell; the particle atom is the largest
+    ``J < n_i`` with ``C_i(J) <= f C_i(n_i)``, found by a binary search
+    (:func:`search_pairs`, the same steps in both kernels)."""
+
+    surface: Sampler
+    particle: Sampler  # rows + (P1, P2) of the masses
+    sine: Sampler | None  # rows + (P1, P2) of the sine weight ("weighted")
+
+    @property
+    def values(self) -> np.ndarray:
+        return np.concatenate([self.surface.values, self.particle.values])
+
+    @property
+    def nbytes(self) -> int:
+        return self.surface.nbytes * 2 + self.particle.nbytes
+
+
+def _prefix_sampler(b: Sampler, one, two) -> Sampler:
+    """`b` with the prefix sums of `one` and `two` as columns :data:`P_ONE`,
+    :data:`P_TWO` (row ``j``: the sum over the atoms before ``j``; the sentinel
+    row holds the totals)."""
+    n = b.table.size
+    rows = np.zeros((n + 1, 10))
+    rows[:, : b.rows.shape[1]] = b.rows
+    rows[1:, P_ONE] = np.cumsum(one)
+    rows[1:, P_TWO] = np.cumsum(two)
+    return Sampler(b.table, rows, b.values)
+
+
+def _pair_search(ta: CellTable, tb: CellTable, shadowing: str) -> PairSearch:
+    a, b = _angle_sampler(ta), _angle_sampler(tb)
+    v = tb.widths()
+    particle = _prefix_sampler(b, v, np.zeros_like(v))
+    sine = None
+    if shadowing == "weighted":
+        rb = b.rows[:-1]
+        sine = _prefix_sampler(b, v * rb[:, A_COS], v * rb[:, A_SIN])
+    return PairSearch(a, particle, sine)
+
+
+def _search_top(n: int) -> int:
+    """The first step of the pair search over `n` atoms: the largest power of two
+    below `n` (0 for one atom)."""
+    return 1 << ((n - 1).bit_length() - 1) if n > 1 else 0
+
+
+def search_pairs(surface: Sampler, particle: Sampler, r):
+    """``(surface cell, particle atom)`` of draws `r` from :class:`PairSearch`
+    tables: the cell ``i`` and fraction ``f`` of `r`, then the largest ``J < n_i``
+    with ``alpha_i P1[J] + beta_i P2[J] <= f * total_i``, by steps of decreasing
+    powers of two (what the compiled kernel does, operation for operation)."""
+    i, f = surface.table.locate(r)
+    q = surface.rows[i]
+    alpha, beta = q[:, Q_ALPHA], q[:, Q_BETA]
+    count = q[:, Q_COUNT].astype(np.int64)
+    u = f * q[:, Q_TOTAL]
+    p1, p2 = particle.rows[:, P_ONE], particle.rows[:, P_TWO]
+    base = np.zeros(i.size, dtype=np.int64)
+    step = _search_top(particle.table.size)
+    while step:
+        cand = base + step
+        ok = cand < count
+        at = np.where(ok, cand, 0)
+        cm = alpha * p1[at] + beta * p2[at]
+        base = np.where(ok & (cm <= u), cand, base)
+        step >>= 1
+    return i, base.astype(np.intp)
+
+
 @dataclass(frozen=True, eq=False)
 class Plan:
     """Picklable description of a run for the kernel (built by
@@ -240,7 +354,7 @@ class Plan:
     q: float
     friction: float
     speeds: Sampler | None  # the relative speed factor, or None
-    surfaces: tuple[Sampler | PairSampler | None, ...]  # per variant (None: smooth)
+    surfaces: tuple[Sampler | PairSampler | PairSearch | None, ...]  # per variant
     shadowing: str
     sampling: str = "mc"
     replicates: int = 1
@@ -282,7 +396,7 @@ class Plan:
         tables = self._cache.get(key)
         if tables is None:
             own = self.shadowing == "weighted" or isinstance(
-                self.surfaces[surface], PairSampler
+                self.surfaces[surface], PairSampler | PairSearch
             )  # tables with rows of their own per apparent angle
             if own and self.surfaces[surface] is not None:
                 size = self.surfaces[surface].nbytes
@@ -316,11 +430,12 @@ def pair_sin(st, ct, sa, ca, sb, cb):
     return s1 * cb - c1 * sb, c1 * cb + s1 * sb
 
 
-def _pair_tables(pair: PairSampler, st, ct, angle_deg, shadowing) -> AngleTables:
-    a, b = pair.surface, pair.particle
-    n_a, n_b = a.table.size, b.table.size
+def _reachable_counts(a: Sampler, b: Sampler, st, ct, angle_deg):
+    """Per surface atom ``a_i``: the number of particle atoms (a prefix of the
+    sorted ``b``) whose pair is reachable, ``sin(theta - a_i - b_j) > 0`` as the
+    kernels compute it."""
+    n_b = b.table.size
     ra, rb = a.rows[:-1], b.rows[:-1]
-    # the reachable particle atoms of each surface atom: a prefix of the sorted b
     theta = np.deg2rad(angle_deg)
     bv = b.values[:, 0]
     counts = np.searchsorted(bv, theta - a.values[:, 0], side="left")
@@ -335,6 +450,13 @@ def _pair_tables(pair: PairSampler, st, ct, angle_deg, shadowing) -> AngleTables
             st, ct, ra[:, A_SIN], ra[:, A_COS], rb[jp, A_SIN], rb[jp, A_COS]
         )[0]
         counts = np.where((counts < n_b) & (s_hi > 0), counts + 1, counts)
+    return counts
+
+
+def _pair_tables(pair: PairSampler, st, ct, angle_deg, shadowing) -> AngleTables:
+    a, b = pair.surface, pair.particle
+    n_a, n_b = a.table.size, b.table.size
+    counts = _reachable_counts(a, b, st, ct, angle_deg)
     shadowed = 1.0 - int(counts.sum()) / (n_a * n_b)
     count = shadowing == "none" or not counts.any()  # nothing reachable: count
     if count:  # every pair; the unreachable ones are counted as shadowed
@@ -350,6 +472,63 @@ def _pair_tables(pair: PairSampler, st, ct, angle_deg, shadowing) -> AngleTables
     )
 
 
+def _search_tables(pair: PairSearch, st, ct, angle_deg, shadowing) -> AngleTables:
+    """The per-angle table of a :class:`PairSearch`: surface atom ``i`` with
+    probability ``w_i C_i(n_i)`` (normalised), its rows extended by ``alpha_i``,
+    ``beta_i``, ``n_i`` and ``C_i(n_i)``."""
+    a = pair.surface
+    n_b = pair.particle.table.size
+    counts = _reachable_counts(a, pair.particle, st, ct, angle_deg)
+    w = a.table.widths()
+    masses = pair.particle.rows[:, P_ONE]  # cumsum of v, from 0
+    shadowed = max(0.0, 1.0 - float(np.sum(w * masses[counts])))
+    count = shadowing == "none" or not counts.any()  # nothing reachable: count
+    ra = a.rows[:-1]
+    while True:
+        if count:  # every pair, by mass; the unreachable ones are counted
+            counts = np.full(a.table.size, n_b, dtype=np.int64)
+        if shadowing == "weighted" and not count:
+            part = pair.sine
+            alpha = st * ra[:, A_COS] - ct * ra[:, A_SIN]  # sin(theta - a_i)
+            beta = -(ct * ra[:, A_COS] + st * ra[:, A_SIN])  # -cos(theta - a_i)
+        else:
+            part = pair.particle
+            alpha = np.ones(a.table.size)
+            beta = np.zeros(a.table.size)
+        rp = part.rows
+        total = alpha * rp[counts, P_ONE] + beta * rp[counts, P_TWO]
+        mass = w * np.where(counts > 0, np.maximum(total, 0.0), 0.0)
+        keep = np.flatnonzero(mass > 0)
+        if keep.size or count:
+            break
+        count = True  # round-off: reachable by a hair, with zero weight
+    c = np.cumsum(mass[keep])
+    cum = fraction_to_integer(np.r_[0.0, c[:-1]] / c[-1])
+    sub = CellTable.from_cells(cum, a.table.left[keep], a.table.right[keep])
+    cells = keep[nonempty_cells(cum)]
+    n = sub.size
+    rows = np.zeros((n + 1, 12))
+    rows[:, R_CUM] = sub.cum.view(np.float64)
+    rows[:n, R_INVW] = sub.inv_width
+    rows[:n, 2:8] = a.rows[cells, 2:8]
+    rows[:n, Q_ALPHA] = alpha[cells]
+    rows[:n, Q_BETA] = beta[cells]
+    rows[:n, Q_COUNT] = counts[cells]
+    rows[:n, Q_TOTAL] = total[cells]
+    sampler = Sampler(sub, rows, np.ascontiguousarray(a.values[cells]))
+    return AngleTables(
+        sampler,
+        0,
+        st,
+        ct,
+        shadowed,
+        True,
+        part,
+        count_shadowed=count,
+        pair_search=True,
+    )
+
+
 def _angle_tables(sampler, angle_deg: float, shadowing: str) -> AngleTables:
     theta = np.deg2rad(angle_deg)
     st, ct = float(np.sin(theta)), float(np.cos(theta))
@@ -357,6 +536,8 @@ def _angle_tables(sampler, angle_deg: float, shadowing: str) -> AngleTables:
         return AngleTables(None, 0, st, ct, 0.0, False)
     if isinstance(sampler, PairSampler):
         return _pair_tables(sampler, st, ct, angle_deg, shadowing)
+    if isinstance(sampler, PairSearch):
+        return _search_tables(sampler, st, ct, angle_deg, shadowing)
     table, rows = sampler.table, sampler.rows
     a = _reach(st, ct, rows, 0.0)  # at the start of each cell
     b = _reach(st, ct, rows, 1.0)  # at its end
@@ -512,6 +693,12 @@ def _surface_sampler(variant, particle_roughness, shadowing):
             and ta.size * tb.size <= MAX_PAIRS
         ):
             return PairSampler(_angle_sampler(ta), _angle_sampler(tb))
+        if (
+            discrete_atoms(variant.angles) is not None
+            and discrete_atoms(particle_roughness) is not None
+            and ta.size * tb.size > MAX_SUM_ATOMS
+        ):  # too many pairs to tabulate their sums: drawn by a search
+            return _pair_search(ta, tb, shadowing)
         table = convolve_angles(variant.angles, particle_roughness)
     return _angle_sampler(table)
 
