@@ -20,9 +20,15 @@ exact at its nodes to far below 0.1 standard error at 10⁹ impacts:
   nodes as atoms;
 * **discrete + discrete** (weighted shadowing, or unequal masses) with at most
   :data:`MAX_SUM_ATOMS` pairs: the exact discrete law of the sums (weights
-  :math:`w_i v_j`, equal sums merged). Larger products are still reduced to
-  :data:`REDUCED_ATOMS` equiprobable atoms each and convolved
-  (:func:`reduced_convolution`; Kolmogorov distance up to ~1/1024).
+  :math:`w_i v_j`, equal sums merged). Larger products are drawn exactly as
+  pairs by a search (:class:`~microimpact.engine.plan.PairSearch`); the reduced
+  convolution (:func:`reduced_convolution`, :data:`REDUCED_ATOMS` equiprobable
+  atoms each, Kolmogorov distance up to ~1/1024) is left only for objects without
+  atoms or the continuous protocol.
+
+A discrete + continuous law whose density jumps at the ends of its support fails
+the inversion check; its table is then built on nodes at every jump with exact
+probabilities (:func:`exact_node_table`).
 
 The quantile function is found by inverting the mixture: its ``log F`` (lower half)
 and ``log S`` (upper half) and their derivatives ``f/F``, ``-f/S`` are computed
@@ -60,6 +66,12 @@ MAX_REFINE = 2
 CHECK_STRIDE = 64
 #: The checked nodes must be within this fraction of 0.1 SE at 1e9 impacts.
 CHECK_FRACTION = 0.01
+#: In-cell errors of an exact-node table (:func:`exact_node_table`) must be within
+#: this fraction of 0.1 SE at 1e9 impacts.
+CELL_CHECK_FRACTION = 0.5
+#: Geometric nodes (levels of halving, nodes per level) into the outermost jumps
+#: of an exact-node table.
+GEO_LEVELS, GEO_PER_LEVEL = 44, 8
 #: Impacts the check's standard error refers to.
 CHECK_N = 1e9
 #: Gauss–Legendre order and sub-intervals of the quadrature of the narrower law.
@@ -179,7 +191,8 @@ def _hermite_solve(x0, h, v0, v1, d0, d1, target):
     lo = np.zeros_like(target)
     hi = np.ones_like(target)
     span = v1 - v0
-    t = np.where(span > 0, (target - v0) / np.where(span > 0, span, 1.0), 0.5)
+    with np.errstate(all="ignore"):  # a failed grid (inf, nan): checked later
+        t = np.where(span > 0, (target - v0) / np.where(span > 0, span, 1.0), 0.5)
     for _ in range(60):
         t2, t3 = t * t, t * t * t
         val = (
@@ -291,6 +304,68 @@ def mixture_table(inverse, worst, *, x_nodes=False) -> CellTable:
     return CellTable.from_quantile(inverse.ppf, inverse.isf, breaks=breaks)
 
 
+def jump_points(mix: Mixture) -> np.ndarray:
+    """Where the density of `mix` may jump: each atom plus each finite end of the
+    continuous part's support (a uniform law, a truncation, an exponential's
+    origin), inside the mixture's bounds."""
+    support = getattr(mix.dist, "support", None)
+    if not callable(support):
+        return np.empty(0)
+    lo, hi = mix.bounds()
+    ends = [float(e) for e in support() if math.isfinite(float(e))]
+    x = np.concatenate([mix.y + e for e in ends]) if ends else np.empty(0)
+    return x[(x >= lo) & (x <= hi)]
+
+
+def exact_node_table(mix: Mixture, inverse, jumps) -> tuple[CellTable, float]:
+    """A table whose node probabilities are the exact mixture CDF (SF in the upper
+    half) at its nodes, and the worst in-cell error against the tolerance.
+
+    The nodes are the approximate quantiles of the refined grid (where the
+    inversion gave finite values), the inversion grid's points and the `jumps`:
+    wherever the density jumps there is a node, so inside every cell it is smooth
+    (constant for a uniform law, which the table's linear cells then reproduce
+    exactly). The check evaluates the exact CDF at the middle of every
+    :data:`CHECK_STRIDE`-th cell and of every cell next to a jump."""
+    from .._tables import _integer_probabilities, refined_probabilities
+
+    lo, hi = mix.bounds()
+    p, sv = refined_probabilities()
+    lower = p[1:-1] <= 0.5
+    with np.errstate(all="ignore"):
+        xq = np.where(lower, inverse.ppf(np.where(lower, p[1:-1], 0.5)), 0.0)
+        xq[~lower] = inverse.isf(sv[1:-1][~lower])
+    # geometric nodes into the two outermost jumps, where F (S) starts from 0
+    h = float(inverse.x[1] - inverse.x[0])
+    geo = h * 2.0 ** -(np.arange(GEO_LEVELS * GEO_PER_LEVEL) / GEO_PER_LEVEL)
+    ends = [jumps.min() + geo, jumps.max() - geo] if jumps.size else []
+    x = np.concatenate([xq[np.isfinite(xq)], inverse.x, jumps, *ends, [lo, hi]])
+    x = np.unique(np.clip(x, lo, hi))
+    F, S, _ = mix.evaluate(x, (0, 1))
+    cum = _integer_probabilities(F, S)  # equal ones: empty cells, dropped
+    left = np.r_[x[0], x]
+    right = np.r_[x, x[-1]]
+    table = CellTable.from_cells(np.r_[np.uint64(0), cum], left, right)
+    # the check: table CDF at cell middles against the exact one
+    n = table.size
+    near = np.searchsorted(table.left, jumps)
+    cells = np.unique(np.r_[np.arange(1, n - 1, CHECK_STRIDE), near - 1, near])
+    cells = cells[(cells >= 1) & (cells < n - 1)]
+    cells = cells[table.right[cells] > table.left[cells]]
+    if cells.size == 0:
+        return table, 0.0
+    xm = 0.5 * (table.left[cells] + table.right[cells])
+    start = table.cum[cells].astype(float) / 2.0**64
+    w = table.widths()[cells]
+    t_cdf = start + 0.5 * w
+    t_sf = (np.uint64(0) - table.cum[cells + 1]).astype(float) / 2.0**64 + 0.5 * w
+    Fm, Sm, _ = mix.evaluate(xm, (0, 1))
+    use_f = Fm <= Sm
+    err = np.where(use_f, np.abs(t_cdf - Fm), np.abs(t_sf - Sm))
+    tol = _tolerance(np.where(use_f, Fm, Sm)) / CHECK_FRACTION * CELL_CHECK_FRACTION
+    return table, float(np.max(err / tol))
+
+
 def sum_mixtures(a, b):
     """The sum of two independent angle distributions as :class:`Mixture` objects
     to try in turn, each with the length scale of its continuous part, and whether
@@ -343,6 +418,11 @@ def sum_table(a, b) -> CellTable:
             best = (inverse, worst, x_nodes)
         if worst <= 1.0:
             break
+        jumps = jump_points(mix) if x_nodes else np.empty(0)
+        if jumps.size:  # a density with jumps: nodes there, exact probabilities
+            table, cell_worst = exact_node_table(mix, inverse, jumps)
+            if cell_worst <= 1.0:
+                return table
     if best is not None:
         return mixture_table(best[0], best[1], x_nodes=best[2])
     da, db = discrete_atoms(a), discrete_atoms(b)
