@@ -84,6 +84,18 @@ _EXPORTS: dict[str, str] = {
     "weierstrass_mandelbrot_profile": "surface.synthetic",
     "formica_profile": "surface.synthetic",
     "hertz_contact_diameter": "surface.contact",
+    # areal surfaces (height maps): readers, parameters, joint facet angles
+    "read_height_map": "io.areal",
+    "HeightMap": "io.areal",
+    "level_plane": "surface.areal",
+    "areal_parameters": "surface.areal",
+    "ArealParameters": "surface.areal",
+    "contact_patch_means": "surface.areal",
+    "facet_angles": "surface.areal",
+    "FacetAngles": "surface.areal",
+    "facet_angle_statistics": "surface.areal",
+    "FacetAngleStatistics": "surface.areal",
+    "gaussian_areal_surface": "surface.areal",
     # a study: scenario, sweep grid, engine, results
     "Scenario": "scenario",
     "SurfaceVariant": "scenario",
