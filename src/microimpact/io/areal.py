@@ -60,7 +60,7 @@ from .profiles import header_unit
 __all__ = ["HeightMap", "read_height_map"]
 
 #: Suffixes read as plain text.
-TEXT_SUFFIXES = (".txt", ".csv", ".tsv", ".dat", ".asc", ".xyz")
+TEXT_SUFFIXES = (".txt", ".csv", ".tsv", ".dat", ".asc")
 FORMATS = ("text", "x3p", "surfacetopography")
 _HEADER_LINE = re.compile(r"^#\s*(?P<key>[^=:]+?)\s*[=:]\s*(?P<value>.+?)\s*$")
 _KEY_NAME = re.compile(r"^[A-Za-z]+")
