@@ -1,0 +1,196 @@
+"""``microimpact sensitivity SCENARIO --out DIR``: Sobol' indices of the statistics.
+
+Writes ``DIR/sensitivity.csv`` (see :data:`microimpact.sensitivity.COLUMNS`) and
+``DIR/sensitivity_ST.png`` (total indices against speed, or angle when the sweep has
+one speed), each atomically. The uncertain inputs come from the scenario's
+``[sensitivity]`` table or from ``--parameter KEY=LOW:HIGH`` flags (uniform ranges;
+they replace the table's parameters). See ``docs/sensitivity.md``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+
+from . import _common as c
+
+HELP = "Sobol' sensitivity indices of capture, e and mu to uncertain scenario inputs"
+
+
+def _parameter(text):
+    """``KEY=LOW:HIGH`` -> (key, {"low": LOW, "high": HIGH})."""
+    key, sep, rng = text.partition("=")
+    low, sep2, high = rng.partition(":")
+    try:
+        lo, hi = float(low), float(high)
+    except ValueError:
+        lo = hi = math.nan
+    if not (sep and sep2 and key.strip()) or not (
+        math.isfinite(lo) and math.isfinite(hi)
+    ):
+        raise argparse.ArgumentTypeError(
+            f"expected KEY=LOW:HIGH, e.g. particles.median_um=8:12; got {text!r}"
+        )
+    if not hi > lo:
+        raise argparse.ArgumentTypeError(f"needs LOW < HIGH; got {text!r}")
+    return key.strip(), {"low": lo, "high": hi}
+
+
+def _power_of_two(text):
+    v = c.positive_int(text)
+    if v < 2 or v & (v - 1):
+        raise argparse.ArgumentTypeError(
+            f"must be a power of 2 (the balance of Sobol' points), e.g. 256 or "
+            f"1024; got {text}"
+        )
+    return v
+
+
+def _statistics(text):
+    return tuple(s.strip() for s in text.split(",") if s.strip())
+
+
+def cli_parse(sp):
+    sp.add_argument("scenario", help="scenario TOML file (with a [sensitivity] table)")
+    sp.add_argument("--out", required=True, type=c.out_dir, help="output folder")
+    sp.add_argument(
+        "--parameter",
+        type=_parameter,
+        action="append",
+        metavar="KEY=LOW:HIGH",
+        help="an uncertain input, uniform on [LOW, HIGH] (repeatable; replaces "
+        "the [sensitivity.parameters] table)",
+    )
+    sp.add_argument(
+        "--samples",
+        type=_power_of_two,
+        help="base size n of the Sobol' design, a power of 2 (default: the "
+        "file's, else 1024); the engine runs n * (parameters + 2) times",
+    )
+    sp.add_argument(
+        "--statistics",
+        type=_statistics,
+        metavar="A,B",
+        help="statistics to analyse (default capture_fraction,e_rebound_mean,mu_mean)",
+    )
+    sp.add_argument(
+        "--impacts",
+        type=c.count,
+        help="impacts per sweep point in each run (default: the scenario's samples)",
+    )
+    sp.add_argument(
+        "--resamples", type=c.int_at_least(10), help="bootstrap resamples (999)"
+    )
+    sp.add_argument(
+        "--confidence",
+        type=c.fraction,
+        default=0.95,
+        help="level of the bootstrap intervals (0.95)",
+    )
+    c.add_run_options(sp, seed_help="root seed (default: the file's seed)")
+
+
+def _executor(args):
+    """``(executor, closer)`` for --backend dask, else ``(None, None)``."""
+    if args.backend != "dask":
+        if args.scheduler is not None:
+            from ..errors import InputError
+
+            raise InputError(
+                f"{args.scheduler!r} needs --backend dask", field="--scheduler"
+            )
+        return None, None
+    try:
+        from dask.distributed import Client, LocalCluster
+    except ImportError:  # pragma: no cover - only without the extra
+        from ..errors import InputError
+
+        raise InputError(
+            "needs Dask distributed: pip install 'microimpact[dask]'",
+            field="--backend",
+        ) from None
+    if args.scheduler is None:
+        cluster = LocalCluster(
+            n_workers=args.workers, threads_per_worker=1, dashboard_address=":0"
+        )
+        client = Client(cluster)
+    else:
+        cluster, client = None, Client(args.scheduler, timeout=10)
+
+    def close():
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+    return client.get_executor(), close
+
+
+def write_sensitivity(result, out, formats=("png",)):
+    """Write ``out/sensitivity.csv`` and ``out/sensitivity_ST.<format>``, each
+    atomically; return the paths."""
+    from ..plotting._style import use_agg
+    from ..plotting.results import save_figures
+
+    out.mkdir(parents=True, exist_ok=True)
+    paths = [result.to_csv(out / "sensitivity.csv")]
+    use_agg()
+    paths += save_figures(
+        [("sensitivity_ST", lambda: result.plot()[0].figure)], out, formats
+    )
+    return paths
+
+
+def cli_action(args) -> int:
+    from ..sensitivity import sobol_sensitivity
+
+    parameters = dict(args.parameter) if args.parameter else None
+    executor, close = _executor(args)
+    t0 = time.perf_counter()
+    last = [0.0]
+
+    def progress(done, total):
+        now = time.perf_counter()
+        if not args.quiet and (now - last[0] > 5 or done == total):
+            last[0] = now
+            print(f"  {done}/{total} design rows", file=sys.stderr)
+
+    try:
+        result = sobol_sensitivity(
+            args.scenario,
+            parameters,
+            samples=args.samples,
+            statistics=args.statistics,
+            workers=args.workers,
+            executor=executor,
+            seed=args.seed,
+            confidence=args.confidence,
+            n_resamples=args.resamples,
+            impacts=args.impacts,
+            progress=progress,
+        )
+    finally:
+        if close is not None:
+            close()
+    write_sensitivity(result, args.out, args.formats or ("png",))
+    c.say(
+        args,
+        f"{len(result.parameters)} parameters, n = {result.samples}, "
+        f"{result.evaluations} engine runs, seed {result.seed}, "
+        f"{time.perf_counter() - t0:.1f} s -> {args.out}",
+    )
+    if not args.quiet:
+        _print_top(result)
+    return c.EXIT_OK
+
+
+def _print_top(result):
+    """Per statistic, the parameters by their largest total index."""
+    t = result.table
+    for stat, sub in t.groupby("statistic", sort=False):
+        best = sub.groupby("parameter", sort=False)["ST"].max().sort_values()[::-1]
+        ranked = ", ".join(
+            f"{p} {v:.2f}" if math.isfinite(v) else f"{p} -" for p, v in best.items()
+        )
+        print(f"  {stat}: max ST  {ranked}")

@@ -1,0 +1,424 @@
+"""Sobol' sensitivity (issue 15): dotted scenario keys, the [sensitivity] table, the
+indices on cases with known answers, the CSV and the figure."""
+
+from __future__ import annotations
+
+import argparse
+import copy
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from microimpact._config_sensitivity import sensitivity_from_dict
+from microimpact.errors import ScenarioError
+from microimpact.parameters import get_value, numeric_keys, with_values
+from microimpact.sensitivity import COLUMNS, sobol_analysis, sobol_sensitivity
+
+BASE = {
+    "seed": 11,
+    "samples": 1500,
+    "particles": {"distribution": "lognormal", "median_um": 10, "geometric_std": 1.3},
+    "coefficients": {
+        "k1": 4.0,
+        "k2": {"law": "power", "a_m_s": 0.05, "b": -1.5, "d_ref_um": 10},
+        "v_c": {"law": "power", "a_m_s": 0.5, "b": -1.5, "d_ref_um": 10},
+        "friction": 0.15,
+    },
+    "surfaces": [{"name": "silicon", "kind": "smooth"}],
+    "sweep": {"speed_m_s": [0.3, 0.6], "angle_deg": [90]},
+}
+
+
+def scenario(**changes):
+    data = copy.deepcopy(BASE)
+    data.update(changes)
+    return data
+
+
+# ---------------------------------------------------------------- dotted keys
+def test_get_and_replace_values_by_dotted_key():
+    data = scenario(
+        surfaces=[
+            {"name": "formica", "kind": "normal", "std_deg": 10},
+            {"kind": "smooth"},
+        ],
+        confidence=0.9,
+    )
+    assert get_value(data, "particles.median_um") == 10
+    assert get_value(data, "coefficients.k1") == 4.0
+    assert get_value(data, "coefficients.v_c.a_m_s") == 0.5
+    assert get_value(data, "surfaces.formica.std_deg") == 10
+    assert get_value(data, "confidence") == 0.9
+    new = with_values(
+        data, {"surfaces.formica.std_deg": 5.5, "particles.median_um": 12.0}
+    )
+    assert new["surfaces"][0]["std_deg"] == 5.5
+    assert new["particles"]["median_um"] == 12 and isinstance(
+        new["particles"]["median_um"], int
+    )  # a whole number replacing an integer stays one
+    assert data["surfaces"][0]["std_deg"] == 10  # the input is not changed
+    assert "surfaces.formica.std_deg" in numeric_keys(data)
+    assert "particles.distribution" not in numeric_keys(data)
+
+
+@pytest.mark.parametrize(
+    "key, expected",
+    [
+        (
+            "particles.median",
+            "particles.median: no such number in the scenario "
+            "(did you mean 'particles.median_um'?)",
+        ),
+        ("surfaces.silcon.std_deg", "surfaces.silcon.std_deg: no such number"),
+        (
+            "coefficients.v_c",
+            "coefficients.v_c: is a table, not a number; name one "
+            "of its numbers: coefficients.v_c.a_m_s",
+        ),
+        ("particles.distribution", "particles.distribution: is not a number"),
+        ("sweep.speed_m_s", "sweep.speed_m_s: is an array, not a number"),
+    ],
+)
+def test_dotted_key_errors_are_one_line_naming_the_key(key, expected):
+    data = scenario(surfaces=[{"name": "silicon", "kind": "normal", "std_deg": 3}])
+    with pytest.raises(ScenarioError) as err:
+        get_value(data, key, source="s.toml")
+    msg = str(err.value)
+    assert "\n" not in msg and msg.startswith("s.toml: ")
+    assert expected in msg
+    with pytest.raises(ScenarioError, match=key.replace(".", r"\.")):
+        with_values(data, {key: 1.0}, source="s.toml")
+
+
+def test_surface_typo_suggests_the_surface():
+    data = scenario(surfaces=[{"name": "formica", "kind": "normal", "std_deg": 3}])
+    with pytest.raises(
+        ScenarioError, match=r"did you mean 'surfaces\.formica\.std_deg'"
+    ):
+        get_value(data, "surfaces.formca.std_deg")
+
+
+def test_a_bad_value_gets_the_scenario_error_naming_the_key():
+    from microimpact.config import scenario_from_dict
+
+    with pytest.raises(ScenarioError, match=r"particles\.median_um: must be > 0"):
+        scenario_from_dict(with_values(BASE, {"particles.median_um": -1.0}))
+
+
+# ---------------------------------------------------------------- [sensitivity]
+def test_sensitivity_table():
+    data = scenario(
+        sensitivity={
+            "samples": 64,
+            "statistics": ["capture_fraction"],
+            "parameters": {
+                "particles.median_um": {"low": 8, "high": 12},
+                "coefficients.k1": {
+                    "distribution": "normal",
+                    "mean": 4,
+                    "std": 1,
+                    "low": 0,
+                },
+                "coefficients.v_c.a_m_s": {
+                    "distribution": "lognormal",
+                    "median": 0.5,
+                    "geometric_std": 1.2,
+                },
+            },
+        }
+    )
+    s = sensitivity_from_dict(data, source="s.toml")
+    assert s.samples == 64 and s.statistics == ("capture_fraction",)
+    assert s.parameters["particles.median_um"].ppf(0.5) == pytest.approx(10)
+    assert s.parameters["coefficients.k1"].ppf(1e-9) >= 0
+    assert s.parameters["coefficients.v_c.a_m_s"].median() == pytest.approx(0.5)
+
+
+@pytest.mark.parametrize(
+    "table, expected",
+    [
+        (
+            {"samples": 100, "parameters": {"coefficients.k1": {"low": 1, "high": 2}}},
+            "sensitivity.samples: must be a power of 2",
+        ),
+        (
+            {"parameters": {"coefficients.kk1": {"low": 1, "high": 2}}},
+            'sensitivity.parameters."coefficients.kk1": no such number in the '
+            "scenario (did you mean 'coefficients.k1'?)",
+        ),
+        (
+            {"parameters": {"coefficients.k1": {"low": 2, "high": 1}}},
+            'sensitivity.parameters."coefficients.k1".high: must be > low',
+        ),
+        (
+            {"parameters": {"coefficients.k1": {"distribution": "gamma"}}},
+            "must be one of 'uniform', 'normal', 'lognormal', 'triangular'",
+        ),
+        ({"parameters": {"seed": {"low": 1, "high": 2}}}, "cannot be a parameter"),
+        ({"parameters": {}}, "must name at least one parameter"),
+        (
+            {"parameters": {"coefficients.k1": {"low": 1, "high": 2}}, "sample": 4},
+            "(did you mean 'samples'?)",
+        ),
+    ],
+)
+def test_sensitivity_table_errors(table, expected):
+    with pytest.raises(ScenarioError) as err:
+        sensitivity_from_dict(scenario(sensitivity=table), source="s.toml")
+    assert expected in str(err.value) and "\n" not in str(err.value)
+
+
+# ---------------------------------------------------------------- known answers
+class Ishigami:
+    """The Ishigami function (a = 7, b = 0.1) as a stand-in model: the same
+    interface as :class:`microimpact.sensitivity.EngineModel`."""
+
+    outputs = pd.DataFrame(
+        {"statistic": ["y"], "speed_m_s": [np.nan], "angle_deg": [np.nan]}
+    )
+
+    def __init__(self, mutate=False):
+        self.mutate = mutate
+
+    def __call__(self, rows):
+        x = np.asarray(rows, dtype=float)
+        if self.mutate:  # the values of x3 not applied (stuck at its mean)
+            x = x.copy()
+            x[:, 2] = 0.0
+        y = np.sin(x[:, 0]) + 7 * np.sin(x[:, 1]) ** 2
+        return (y + 0.1 * x[:, 2] ** 4 * np.sin(x[:, 0]))[:, None]
+
+
+ISHIGAMI_S1 = (0.3139, 0.4424, 0.0)
+ISHIGAMI_ST = (0.5576, 0.4424, 0.2437)
+U = {"low": -np.pi, "high": np.pi}
+
+
+def ishigami_indices(model, executor=None):
+    res = sobol_analysis(
+        model, {"x1": U, "x2": U, "x3": U}, samples=2048, seed=4, executor=executor
+    )
+    return res.table
+
+
+def check_ishigami(t):
+    for i, name in enumerate(("x1", "x2", "x3")):
+        row = t[t["parameter"] == name].iloc[0]
+        for col, truth in (("S1", ISHIGAMI_S1[i]), ("ST", ISHIGAMI_ST[i])):
+            lo, hi = row[f"{col}_ci_low"], row[f"{col}_ci_high"]
+            assert lo - 0.01 <= truth <= hi + 0.01, (name, col, lo, truth, hi)
+            assert abs(row[col] - truth) < 0.06, (name, col, row[col], truth)
+            assert hi - lo < 0.2
+
+
+def test_ishigami_through_the_engine_code_path():
+    """The stand-in goes through the design, the executor batching, the indices,
+    the bootstrap and the table exactly as the engine does."""
+    with ThreadPoolExecutor(2) as ex:
+        t = ishigami_indices(Ishigami(), executor=ex)
+    assert list(t.columns) == list(COLUMNS)
+    check_ishigami(t)
+    # same seed, same table, serial or on an executor (intervals included)
+    pd.testing.assert_frame_equal(ishigami_indices(Ishigami()), t)
+
+
+def test_ishigami_check_catches_mutations():
+    t = ishigami_indices(Ishigami())
+    swapped = t.rename(columns={"S1": "ST", "ST": "S1"})
+    swapped = swapped.rename(
+        columns={
+            "S1_ci_low": "ST_ci_low",
+            "ST_ci_low": "S1_ci_low",
+            "S1_ci_high": "ST_ci_high",
+            "ST_ci_high": "S1_ci_high",
+        }
+    )
+    with pytest.raises(AssertionError):
+        check_ishigami(swapped)
+    with pytest.raises(AssertionError):
+        check_ishigami(ishigami_indices(Ishigami(mutate=True)))
+
+
+def test_normal_incidence_smooth_capture_ignores_friction_and_k1():
+    """On a smooth surface at normal incidence a particle is captured iff its
+    normal speed is below v_c(d): the diameters and the v_c law decide, friction
+    and k1 cannot matter."""
+    res = sobol_sensitivity(
+        scenario(),
+        {
+            "particles.median_um": {"low": 8, "high": 12},
+            "coefficients.v_c.a_m_s": {"low": 0.4, "high": 0.6},
+            "coefficients.friction": {"low": 0.1, "high": 0.4},
+            "coefficients.k1": {"low": 2, "high": 6},
+        },
+        samples=32,
+        statistics=("capture_fraction",),
+        seed=2,
+        n_resamples=200,
+    )
+    t = res.table
+    assert res.evaluations == 32 * 6
+    for p in ("coefficients.friction", "coefficients.k1"):
+        sub = t[t["parameter"] == p]
+        for col in ("S1", "ST"):
+            assert (sub[f"{col}_ci_low"] <= 0).all() and (
+                sub[f"{col}_ci_high"] >= 0
+            ).all()
+            assert np.allclose(sub[col], 0, atol=1e-12)
+    for p in ("particles.median_um", "coefficients.v_c.a_m_s"):
+        sub = t[t["parameter"] == p]
+        assert (sub["ST"] > 0.1).all() and (sub["ST_ci_low"] > 0).all(), sub
+    assert t[t["parameter"] == "particles.median_um"]["ST"].sum() > 0.5
+
+
+def test_an_input_without_effect_has_zero_total_index():
+    """``confidence`` sets only the engine's intervals, never a mean: ST = 0."""
+    res = sobol_sensitivity(
+        scenario(
+            surfaces=[{"name": "rough", "kind": "normal", "std_deg": 8}],
+            sweep={"speed_m_s": [0.5, 1.0], "angle_deg": [30, 90]},
+            confidence=0.95,
+        ),
+        {
+            "confidence": {"low": 0.8, "high": 0.99},
+            "surfaces.rough.std_deg": {"low": 4, "high": 12},
+        },
+        samples=16,
+        seed=5,
+        n_resamples=100,
+    )
+    t = res.table
+    none = t[t["parameter"] == "confidence"]
+    assert np.allclose(none["ST"], 0, atol=1e-12)
+    assert (none["ST_ci_low"] <= 1e-12).all() and (none["ST_ci_high"] >= -1e-12).all()
+    rough = t[
+        (t["parameter"] == "surfaces.rough.std_deg")
+        & (t["statistic"] == "mu_mean")
+        & (t["angle_deg"] == 30)
+    ]
+    assert (rough["ST"] > 0.5).all()
+
+
+def test_undefined_indices_are_nan_and_surface_column():
+    """Where every particle is captured e_rebound_mean is undefined; with two
+    surfaces the table has a surface column after statistic."""
+    res = sobol_sensitivity(
+        scenario(
+            surfaces=[
+                {"name": "a", "kind": "smooth"},
+                {"name": "b", "kind": "normal", "std_deg": 5},
+            ],
+            sweep={"speed_m_s": [0.01, 0.6], "angle_deg": [90]},
+        ),
+        {"particles.median_um": {"low": 8, "high": 12}},
+        samples=8,
+        statistics=("capture_fraction", "e_rebound_mean"),
+        seed=1,
+        n_resamples=50,
+    )
+    t = res.table
+    assert list(t.columns[:5]) == [
+        "parameter",
+        "statistic",
+        "surface",
+        "speed_m_s",
+        "angle_deg",
+    ]
+    slow = t[(t["speed_m_s"] == 0.01)]
+    assert slow["ST"].isna().all()  # all captured: no rebound, constant capture
+    fast = t[(t["speed_m_s"] == 0.6) & (t["statistic"] == "capture_fraction")]
+    assert fast["ST"].notna().all()
+
+
+def test_design_values_the_scenario_refuses_fail_before_any_run():
+    with pytest.raises(ScenarioError, match=r"particles\.median_um: must be > 0"):
+        sobol_sensitivity(
+            scenario(), {"particles.median_um": {"low": -12, "high": -1}}, samples=4
+        )
+    with pytest.raises(ScenarioError, match=r"did you mean 'coefficients\.k1'"):
+        sobol_sensitivity(scenario(), {"coefficients.kk1": {"low": 1, "high": 2}})
+
+
+# ---------------------------------------------------------------- CLI and files
+def _toml(data) -> str:
+    """A small TOML writer for these flat test scenarios."""
+    import json
+
+    def val(v):
+        if isinstance(v, dict):
+            return (
+                "{"
+                + ", ".join(f"{json.dumps(k)} = {val(x)}" for k, x in v.items())
+                + "}"
+            )
+        if isinstance(v, list):
+            return "[" + ", ".join(val(x) for x in v) + "]"
+        return json.dumps(v)
+
+    lines = []
+    tables = []
+    for k, v in data.items():
+        if isinstance(v, dict):
+            tables.append((k, v))
+        elif isinstance(v, list) and v and isinstance(v[0], dict):
+            for entry in v:
+                tables.append((f"[{k}]", entry))
+        else:
+            lines.append(f"{k} = {val(v)}")
+    for name, t in tables:
+        lines.append(f"[{name}]")
+        sub = []
+        for k, v in t.items():
+            if (
+                isinstance(v, dict)
+                and all(isinstance(x, dict) for x in v.values())
+                and v
+            ):
+                sub.append((f"{name}.{k}", v))
+            else:
+                lines.append(f"{json.dumps(k)} = {val(v)}")
+        for sname, st in sub:
+            lines.append(f"[{sname}]")
+            lines += [f"{json.dumps(k)} = {val(v)}" for k, v in st.items()]
+    return "\n".join(lines) + "\n"
+
+
+def test_cli_action_writes_csv_and_figure(tmp_path, capsys):
+    from microimpact.cli import sensitivity as verb
+
+    data = scenario(
+        sweep={"speed_m_s": [0.6], "angle_deg": [45, 90]},
+        sensitivity={
+            "samples": 4,
+            "resamples": 20,
+            "parameters": {"particles.median_um": {"low": 8, "high": 12}},
+        },
+    )
+    path = tmp_path / "s.toml"
+    path.write_text(_toml(data))
+    parser = argparse.ArgumentParser()
+    verb.cli_parse(parser)
+    args = parser.parse_args(
+        [
+            str(path),
+            "--out",
+            str(tmp_path / "out"),
+            "--quiet",
+            "--parameter",
+            "coefficients.k1=2:6",
+            "--parameter",
+            "particles.median_um=9:11",
+        ]
+    )
+    assert verb.cli_action(args) == 0
+    t = pd.read_csv(tmp_path / "out" / "sensitivity.csv")
+    assert list(t.columns) == list(COLUMNS)
+    assert set(t["parameter"]) == {"coefficients.k1", "particles.median_um"}
+    assert (tmp_path / "out" / "sensitivity_ST.png").stat().st_size > 1000
+    assert not list((tmp_path / "out").glob(".*.tmp"))
+    with pytest.raises(SystemExit):
+        parser.parse_args([str(path), "--out", "x", "--parameter", "k1=3"])
+    with pytest.raises(SystemExit):
+        parser.parse_args([str(path), "--out", "x", "--samples", "100"])
