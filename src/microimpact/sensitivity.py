@@ -79,7 +79,9 @@ class EngineModel:
     ``(m, len(model.outputs))``: for each row, the scenario `data` with those values
     is built and validated, run with ``microimpact.run(scenario, samples=impacts,
     seed=seed, workers=1, progress=False)`` and reduced to its statistics; the run
-    itself is dropped, so memory stays bounded whatever the design size.
+    itself is dropped, so memory stays bounded whatever the design size. Warnings
+    are shown once, for the file's own scenario when the model is made; those of
+    the design rows (the same ones, thousands of times) are not repeated.
 
     Parameters
     ----------
@@ -181,9 +183,11 @@ class EngineModel:
         `rows` (the others at their file values) before any run, so that a range
         the scenario does not allow fails at once with its one-line error."""
         rows = np.atleast_2d(np.asarray(rows, dtype=float))
-        for j, key in enumerate(self.keys):
-            for value in (rows[:, j].min(), rows[:, j].max()):
-                self.scenario({key: float(value)})
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            for j, key in enumerate(self.keys):
+                for value in (rows[:, j].min(), rows[:, j].max()):
+                    self.scenario({key: float(value)})
 
     def _seed(self, row) -> int:
         if self.common_random_numbers:
@@ -219,15 +223,19 @@ class EngineModel:
         rows = np.atleast_2d(np.asarray(rows, dtype=float))
         out = np.empty((len(rows), len(self.outputs)))
         for k, row in enumerate(rows):
-            scenario = self.scenario(row)
-            result = run(
-                scenario,
-                samples=self.impacts,
-                seed=self._seed(row),
-                workers=1,
-                progress=False,
-            )
-            out[k] = self._statistics(result)
+            # the warnings of the file's scenario were shown once, when this model
+            # was made; the same warnings for thousands of design rows are not
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                scenario = self.scenario(row)
+                result = run(
+                    scenario,
+                    samples=self.impacts,
+                    seed=self._seed(row),
+                    workers=1,
+                    progress=False,
+                )
+                out[k] = self._statistics(result)
             del result
         return out
 
@@ -441,9 +449,19 @@ def _indices(f_A, f_B, f_AB, *, confidence, n_resamples, seed):
         low = np.reshape(part.confidence_interval.low, (m, d)).copy()
         high = np.reshape(part.confidence_interval.high, (m, d)).copy()
         dist = np.reshape(part.bootstrap_distribution, (m, d, -1))
-        # an index that no resample changes (e.g. ST = 0 exactly for an input
-        # without effect): BCa is undefined, the interval is the point itself
-        flat = np.ptp(dist, axis=-1) == 0
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN slices
+            # BCa fails where resamples are undefined (a resample without
+            # variance, near 0 % or 100 % capture): percentile interval of the
+            # defined resamples instead
+            alpha = 100 * (1 - confidence) / 2
+            bad = ~(np.isfinite(low) & np.isfinite(high))
+            if bad.any():
+                q = np.nanpercentile(dist[bad], [alpha, 100 - alpha], axis=-1)
+                low[bad], high[bad] = q[0], q[1]
+            # an index that no resample changes (e.g. ST = 0 exactly for an input
+            # without effect): BCa is undefined, the interval is the point itself
+            flat = np.nanmax(dist, axis=-1) == np.nanmin(dist, axis=-1)
         low[flat], high[flat] = point[ok][flat], point[ok][flat]
         lo[ok], hi[ok] = low, high
     return s1, st, s1_lo, s1_hi, st_lo, st_hi, ok
