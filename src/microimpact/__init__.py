@@ -126,6 +126,10 @@ _EXPORTS: dict[str, str] = {
     "WallLaw": "wall_law.law",
     "WallLawSample": "wall_law.law",
     "WallLawSpec": "wall_law.spec",
+    # global sensitivity (Sobol' indices of the statistics)
+    "sobol_sensitivity": "sensitivity",
+    "sobol_analysis": "sensitivity",
+    "SensitivityResult": "sensitivity",
     # figures
     "plot_capture": "plotting.results",
     "plot_coefficients_vs_angle": "plotting.results",
@@ -136,6 +140,7 @@ _EXPORTS: dict[str, str] = {
     "plot_size_distribution": "plotting.sizes",
     "plot_angle_pdf": "plotting.roughness",
     "plot_profile": "plotting.roughness",
+    "plot_sensitivity": "plotting.sensitivity",
     # errors and warnings
     "InputError": "errors",
     "ScenarioError": "errors",
