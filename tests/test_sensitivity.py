@@ -422,3 +422,58 @@ def test_cli_action_writes_csv_and_figure(tmp_path, capsys):
         parser.parse_args([str(path), "--out", "x", "--parameter", "k1=3"])
     with pytest.raises(SystemExit):
         parser.parse_args([str(path), "--out", "x", "--samples", "100"])
+
+
+def test_cli_sensitivity_through_main(tmp_path, capsys):
+    """The registered verb end to end: the file's [sensitivity] table, exit 0 with
+    the CSV and figure; a misspelt --parameter key is the user's error (exit 2)."""
+    from pathlib import Path
+
+    from microimpact.cli import main
+
+    scenario = Path(__file__).parent / "data" / "sensitivity_small.toml"
+    out = tmp_path / "out"
+    assert main(["sensitivity", str(scenario), "--out", str(out), "--quiet"]) == 0
+    import pandas as pd
+
+    table = pd.read_csv(out / "sensitivity.csv")
+    assert list(table.columns)[:10] == [
+        "parameter",
+        "statistic",
+        "speed_m_s",
+        "angle_deg",
+        "S1",
+        "S1_ci_low",
+        "S1_ci_high",
+        "ST",
+        "ST_ci_low",
+        "ST_ci_high",
+    ]
+    assert (out / "sensitivity_ST.png").is_file()
+    # the scenario with its [sensitivity] table is a valid scenario for `run` too
+    assert (
+        main(
+            [
+                "run",
+                str(scenario),
+                "--out",
+                str(tmp_path / "run"),
+                "--quiet",
+                "--no-figures",
+            ]
+        )
+        == 0
+    )
+    rc = main(
+        [
+            "sensitivity",
+            str(scenario),
+            "--out",
+            str(out),
+            "--quiet",
+            "--parameter",
+            "coefficients.frictoin=0.1:0.4",
+        ]
+    )
+    assert rc == 2
+    assert "coefficients.frictoin" in capsys.readouterr().err

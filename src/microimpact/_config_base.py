@@ -44,6 +44,7 @@ TOP_KEYS = (
     "sweep",
     "outputs",
     "wall_law",
+    "sensitivity",
 )
 PARTICLE_KEYS = {
     "normal": ({"mean_um", "std_um"}, {"min_um", "max_um"}),

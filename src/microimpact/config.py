@@ -481,6 +481,10 @@ def scenario_from_dict(data: dict, *, source=None, base_dir=None) -> Scenario:
     kw.update(_sweep(ctx, data))
     _outputs(ctx, data)  # validated with the file; kept by microimpact.Study
     _wall_law(ctx, data)  # validated with the file; read by microimpact wall-law
+    if "sensitivity" in data:  # validated with the file; microimpact sensitivity
+        from ._config_sensitivity import sensitivity_from_dict
+
+        sensitivity_from_dict(data, source=ctx.source)
     kw["source"] = ctx.source
     try:
         return Scenario(**kw)

@@ -47,6 +47,7 @@ VERBS = {
     "compare": "compare",
     "presets": "presets",
     "wall-law": "wall_law",
+    "sensitivity": "sensitivity",
 }
 
 
