@@ -494,3 +494,72 @@ def test_cli_condition_flags_are_checked_before_the_build(tmp_path, capsys):
         assert rc == 2
         assert field in capsys.readouterr().err
     assert not (out / "wall_law.nc").exists()  # refused before anything was built
+
+
+def _axis_toml(draw_values, spacing_log):
+    lo, hi = min(draw_values), max(draw_values)
+    if spacing_log and hi > lo:
+        return f'{{ start = {lo!r}, stop = {hi!r}, num = 3, spacing = "log" }}'
+    return "[" + ", ".join(repr(v) for v in draw_values) + "]"
+
+
+@settings(
+    max_examples=6,
+    deadline=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture],
+)
+@given(
+    d=st.lists(st.floats(0.5, 200.0), min_size=1, max_size=3),
+    v=st.lists(st.floats(0.01, 50.0), min_size=1, max_size=3),
+    a=st.lists(st.floats(0.5, 90.0), min_size=1, max_size=3),
+    log=st.booleans(),
+    std=st.sampled_from([1.0, 15.0, 40.0]),
+    shadowing=st.sampled_from(["reject", "weighted", "none"]),
+)
+def test_random_wall_law_files_run_end_to_end_through_the_cli(
+    tmp_path_factory, d, v, a, log, std, shadowing
+):
+    """Random valid [wall_law] tables through `microimpact wall-law`: exit 0 and
+    every output (NetCDF, CSV, C, OpenFOAM), readable back."""
+    tmp = tmp_path_factory.mktemp("wl")
+    path = tmp / "s.toml"
+    path.write_text(
+        f"""name = "p"
+seed = 1
+samples = 40
+shadowing = "{shadowing}"
+[particles]
+distribution = "monodisperse"
+diameter_um = 10
+[coefficients]
+k1 = 4.0
+k2 = {{law = "power", a_m_s = 0.05, b = -1.5, d_ref_um = 10}}
+v_c = {{law = "power", a_m_s = 0.5, b = -1.0, d_ref_um = 10}}
+friction = 0.2
+[[surfaces]]
+name = "rough"
+kind = "normal"
+std_deg = {std}
+[sweep]
+speed_m_s = [1.0]
+[wall_law]
+diameter_um = {_axis_toml(d, log)}
+speed_m_s = {_axis_toml(v, log)}
+angle_deg = {_axis_toml(a, False)}
+reservoir = 8
+"""
+    )
+    out = tmp / "out"
+    assert main(["wall-law", str(path), "--out", str(out), "--quiet"]) == 0
+    for name in (
+        "wall_law.nc",
+        "wall_law.csv",
+        "c/swl.c",
+        "c/wall_law.swl",
+        "c/fluent_udf.c",
+    ):
+        assert (out / name).is_file(), name
+    law = WallLaw.open(out)
+    s = law.sample(float(np.mean(d)), float(np.mean(v)), float(np.mean(a)), rng=0)
+    assert s.captured.shape == (1,)
+    assert not list(out.glob(".*.tmp"))
