@@ -1,0 +1,1158 @@
+"""Calibration: scenario parameters fitted to measured rebound statistics (see
+``docs/calibration.md``).
+
+The parameters are numbers of the scenario file named by their dotted keys
+(:mod:`microimpact.parameters`). The measurements are an experiment table
+(:func:`microimpact.io.experiments.read_experiments`): any of ``e``, ``mu``,
+``e_relative``, ``mu_relative`` and ``capture_fraction`` with their intervals, at
+speeds and angles of the scenario's sweep, matched to the simulation exactly as
+:func:`microimpact.compare.compare` matches them (interpolated between neighbouring
+sweep points).
+
+**Forward model.** The engine with *common random numbers*: every parameter value is
+run with the same seed and the same number of impacts per sweep point, so every
+impact draws the same 64-bit integers and reads the same table cells; a parameter
+moves the drawn values (a normal roughness angle is ``std * z`` for a fixed ``z``)
+and the model output moves with it smoothly, except where an impact switches
+between capture and rebound (a step of about ``1/N``). See the docs for the
+measured smoothness and the finite-difference step this asks for.
+
+**Objective.** For each experimental point ``i`` the residual is
+``r_i = (m_sim,i - m_exp,i) / sqrt(s_exp,i² + s_sim,i²)``, with ``s_exp`` the
+measurement's standard error (from its interval) and ``s_sim`` the simulation's (the
+summary's SE column, the one ``compare`` uses). ``sum r_i²`` is minimised with
+:func:`scipy.optimize.least_squares` (trust-region reflective, within the bounds).
+``s_sim`` is held fixed during a minimisation (taken at the start point, then once
+more at the first optimum and the fit repeated), so the weights do not pull the fit.
+
+**Uncertainty.** The covariance is ``(J^T J)^-1`` of the weighted residuals at the
+optimum, *not* scaled by ``chi2/dof``: the weights are known standard errors, so
+``chi2`` is a goodness-of-fit test (``p_value``) rather than a variance estimate
+(scaling would turn model error into parameter uncertainty and, for a handful of
+points, add the noise of ``chi2`` itself). The ``confidence`` intervals are
+``estimate ± z sqrt(C_jj)``. A parametric bootstrap checks them: data drawn from
+the fitted model with the combined noise ``s_exp² + s_sim²`` (the simulation's
+error is frozen by the common random numbers, so it must be drawn here too), each
+refitted, percentile intervals.
+
+**Identifiability.** A parameter whose Jacobian column is zero (the data do not
+depend on it), or that lies in a direction of the column-normalised Jacobian whose
+singular value is below ``rcond`` times the largest (the data fix only a combination
+of it with others), or whose interval is wider than its bounds, is reported as not
+identifiable: ``estimate`` None, with the reason.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+import warnings
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError
+
+__all__ = [
+    "CalibrationResult",
+    "calibrate",
+    "default_bounds",
+    "parse_parameter",
+    "to_toml",
+]
+
+#: Relative finite-difference step of the Jacobian (times the parameter's scale,
+#: see :func:`_scale`). It must be well above the granularity of the model under
+#: common random numbers (the capture/rebound switches, docs/calibration.md).
+DEFAULT_STEP = 0.02
+#: Singular values of the column-normalised Jacobian below this times the largest
+#: mark a direction the data do not determine.
+DEFAULT_RCOND = 1e-2
+#: Parametric bootstrap replicates by default.
+DEFAULT_BOOTSTRAP = 100
+#: Parameter draws for the model band when there is no bootstrap.
+BAND_DRAWS = 20
+
+#: Scenario keys that are not model parameters (sampling, reporting, the design).
+NOT_PARAMETERS = (
+    "seed",
+    "samples",
+    "qmc_replicates",
+    "confidence",
+    "reference_angle_deg",
+    "capture_quantiles",
+)
+_NOT_PARAMETER_TABLES = ("precision.", "outputs.", "wall_law.", "sensitivity.")
+
+#: experimental statistic -> summary column of its model curve
+_CURVE = {
+    "e": "e_rebound_mean",
+    "mu": "mu_mean",
+    "e_relative": "e_relative",
+    "mu_relative": "mu_relative",
+    "capture_fraction": "capture_fraction",
+}
+
+
+# ---------------------------------------------------------------------- inputs
+def parse_parameter(text: str):
+    """``KEY`` or ``KEY=LOW:HIGH`` (either limit may be empty: its default) ->
+    ``(key, (low, high) or None)``; None for an empty limit.
+
+    >>> parse_parameter("surfaces.formica.std_deg=2:20")
+    ('surfaces.formica.std_deg', (2.0, 20.0))
+    """
+    text = str(text).strip()
+    if "=" not in text:
+        if not text:
+            raise InputError(
+                "empty parameter; give KEY or KEY=LOW:HIGH", field="--parameter"
+            )
+        return text, None
+    key, _, rng = text.partition("=")
+    key = key.strip()
+    lo, sep, hi = rng.partition(":")
+    if not key or not sep:
+        raise InputError(
+            f"{text!r}: give KEY or KEY=LOW:HIGH (e.g. surfaces.rough.std_deg=2:20)",
+            field="--parameter",
+        )
+
+    def num(s, which):
+        s = s.strip()
+        if not s:
+            return None
+        try:
+            v = float(s)
+        except ValueError:
+            raise InputError(
+                f"{text!r}: the {which} bound {s!r} is not a number",
+                field="--parameter",
+            ) from None
+        if math.isnan(v):
+            raise InputError(f"{text!r}: the {which} bound is NaN", field="--parameter")
+        return v
+
+    return key, (num(lo, "lower"), num(hi, "upper"))
+
+
+def default_bounds(key: str, value: float) -> tuple[float, float]:
+    """The bounds of a parameter without ``=LOW:HIGH``: physically valid ranges.
+
+    * roughness angles: ``*std_deg`` in [0, 45] deg (a spread of 45 deg is already
+      a surface of cliffs), ``*mean_deg`` in [-45, 45] deg;
+    * ``speed_spread`` (a relative spread) in [0, 0.5];
+    * any other number keeps its sign within a decade either side of its file
+      value: ``[v/10, 10 v]`` for ``v > 0`` (lengths, diameters, speeds, the
+      coefficients' prefactors, friction), ``[10 v, v/10]`` for ``v < 0`` (the
+      exponents ``b`` of the power laws);
+    * a zero value has no natural scale: give the bounds.
+    """
+    last = key.rsplit(".", 1)[-1]
+    if last.endswith("std_deg"):
+        return 0.0, 45.0
+    if last.endswith("mean_deg"):
+        return -45.0, 45.0
+    if last == "speed_spread":
+        return 0.0, 0.5
+    if value > 0:
+        return value / 10.0, value * 10.0
+    if value < 0:
+        return value * 10.0, value / 10.0
+    raise InputError(
+        "its file value is 0, so there is no default range; give one as "
+        f"--parameter {key}=LOW:HIGH",
+        field=key,
+    )
+
+
+def _load(scenario, source=None, base_dir=None):
+    """``(data, source, base_dir)`` of a scenario file, preset name or parsed dict."""
+    from .config import PRESETS, _load_toml, preset_path
+
+    if isinstance(scenario, Mapping):
+        if base_dir is None and source is not None:
+            base_dir = Path(source).resolve().parent
+        return dict(scenario), source, base_dir
+    if not isinstance(scenario, str | os.PathLike):
+        raise TypeError(
+            "`scenario` must be a scenario file, a preset name or parsed TOML data "
+            f"(a dict); got {type(scenario).__name__}."
+        )
+    text = os.fspath(scenario)
+    path = Path(text)
+    if not path.exists() and text in PRESETS:
+        path = preset_path(text)
+    return _load_toml(path), path, path.resolve().parent
+
+
+def _check_key(data, key, source):
+    from .parameters import get_value
+
+    if (
+        key in NOT_PARAMETERS
+        or key.startswith(_NOT_PARAMETER_TABLES)
+        or (key.startswith("sweep.") and key != "sweep.speed_spread")
+    ):
+        raise InputError(
+            "is not a model parameter (sampling, reporting or the sweep design); "
+            "calibrate physics numbers such as surfaces.<name>.std_deg or "
+            "coefficients.v_c.a_m_s",
+            source=source,
+            field=key,
+        )
+    return float(get_value(data, key, source=source))
+
+
+# ---------------------------------------------------------------------- the model
+def _simulate(task):
+    """One engine run (a worker task): ``(data, source, base_dir, seed, samples)``
+    -> the summary table."""
+    import microimpact
+
+    from .config import scenario_from_dict
+
+    data, source, base_dir, seed, samples = task
+    scenario = scenario_from_dict(data, source=source, base_dir=base_dir)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        result = microimpact.run(
+            scenario, samples=samples, seed=seed, workers=1, progress=False
+        )
+    return result.summary
+
+
+def _process_pool(workers):
+    import multiprocessing as mp
+    import threading
+    from concurrent.futures import ProcessPoolExecutor
+
+    if os.name == "nt":  # pragma: no cover
+        method = "spawn"
+    elif threading.active_count() == 1 and "fork" in mp.get_all_start_methods():
+        method = "fork"
+    else:
+        method = "forkserver"
+    return ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context(method))
+
+
+class _Model:
+    """The engine at parameter vectors, with common random numbers, a cache, and
+    batches mapped on an executor."""
+
+    def __init__(
+        self, data, source, base_dir, keys, seed, samples, experiments, mapper
+    ):
+        self.data, self.source, self.base_dir = data, source, base_dir
+        self.keys, self.seed, self.samples = tuple(keys), seed, samples
+        self.exp = experiments
+        self.map = mapper
+        self.cache: dict = {}
+        self.runs = 0
+
+    def values(self, x):
+        return dict(zip(self.keys, (float(v) for v in x), strict=True))
+
+    def scenario_data(self, x):
+        from .parameters import with_values
+
+        return with_values(self.data, self.values(x), source=self.source)
+
+    def summaries(self, xs):
+        """The summary at every parameter vector of `xs` (cached)."""
+        todo = []
+        for x in xs:
+            k = tuple(np.asarray(x, dtype=float).tolist())
+            if k not in self.cache and k not in todo:
+                todo.append(k)
+        tasks = [
+            (self.scenario_data(k), self.source, self.base_dir, self.seed, self.samples)
+            for k in todo
+        ]
+        for k, s in zip(todo, self.map(_simulate, tasks), strict=True):
+            self.cache[k] = s
+        self.runs += len(todo)
+        return [self.cache[tuple(np.asarray(x, dtype=float).tolist())] for x in xs]
+
+    def points(self, summary):
+        """``(m_sim, s_sim)`` at the experimental points."""
+        from .compare import compare
+
+        t = compare(summary, self.exp)
+        return t["sim_mean"].to_numpy(float), t["sim_se"].to_numpy(float)
+
+
+def _mapper(workers, executor):
+    """``(map, close)``: the executor's map, a pool of our own, or the builtin."""
+    if executor is not None:
+        return executor.map, None
+    if workers > 1:
+        from .engine.parallel import cap_workers
+
+        pool = _process_pool(cap_workers(int(workers)))
+        return pool.map, pool
+    return (lambda f, it: list(map(f, it))), None
+
+
+# ---------------------------------------------------------------------- result
+@dataclass
+class CalibrationResult:
+    """What :func:`calibrate` found. ``write(out)`` writes ``calibration.json``,
+    ``calibration.png`` and ``calibration.md``; :meth:`to_dict` is the JSON."""
+
+    keys: tuple
+    estimate: np.ndarray  #: the optimiser's values (also for the unidentifiable)
+    identifiable: np.ndarray
+    reasons: list
+    std_error: np.ndarray
+    ci_low: np.ndarray
+    ci_high: np.ndarray
+    covariance: np.ndarray
+    correlation: np.ndarray
+    bounds: np.ndarray
+    at_bound: np.ndarray
+    chi2: float
+    dof: int
+    p_value: float
+    confidence: float
+    points: object  #: pandas table of the experimental points at the optimum
+    curves: object  #: pandas table of the model at every sweep point with its band
+    data: dict  #: the calibrated scenario (parsed TOML data)
+    seed: int
+    samples: int
+    bootstrap: np.ndarray  #: (B, n) refitted values (empty without bootstrap)
+    bootstrap_ci_low: np.ndarray
+    bootstrap_ci_high: np.ndarray
+    info: dict = field(default_factory=dict)
+    base_dir: str | None = None
+
+    @property
+    def scenario_toml(self) -> str:
+        """The calibrated scenario as TOML text (file names made absolute)."""
+        notes = [
+            f"calibrated by microimpact calibrate: chi2 = {self.chi2:.4g}, "
+            f"dof = {self.dof}, p = {_fmt(self.p_value)}"
+        ]
+        for k, key in enumerate(self.keys):
+            if self.identifiable[k]:
+                notes.append(
+                    f"{key} = {self.estimate[k]:.6g} "
+                    f"[{self.ci_low[k]:.4g}, {self.ci_high[k]:.4g}] "
+                    f"({self.confidence:.0%})"
+                )
+            else:
+                notes.append(
+                    f"{key} = {self.estimate[k]:.6g} is NOT identified by the data "
+                    f"({self.reasons[k]}); one value of many that fit as well"
+                )
+        return to_toml(_absolute_files(self.data, self.base_dir), header=notes)
+
+    def scenario(self):
+        """The calibrated :class:`~microimpact.Scenario`."""
+        from .config import scenario_from_dict
+
+        return scenario_from_dict(self.data, base_dir=self.base_dir)
+
+    def parameters_table(self):
+        import pandas as pd
+
+        return pd.DataFrame(
+            {
+                "parameter": list(self.keys),
+                "estimate": [
+                    v if ok else math.nan
+                    for v, ok in zip(self.estimate, self.identifiable, strict=True)
+                ],
+                "std_error": self.std_error,
+                "ci_low": self.ci_low,
+                "ci_high": self.ci_high,
+                "bootstrap_ci_low": self.bootstrap_ci_low,
+                "bootstrap_ci_high": self.bootstrap_ci_high,
+                "identifiable": self.identifiable,
+                "reason": self.reasons,
+            }
+        )
+
+    def to_dict(self) -> dict:
+        params = {}
+        for k, key in enumerate(self.keys):
+            ok = bool(self.identifiable[k])
+            params[key] = {
+                "estimate": float(self.estimate[k]) if ok else None,
+                "std_error": float(self.std_error[k]) if ok else None,
+                "ci_low": float(self.ci_low[k]) if ok else None,
+                "ci_high": float(self.ci_high[k]) if ok else None,
+                "bootstrap_ci_low": float(self.bootstrap_ci_low[k]) if ok else None,
+                "bootstrap_ci_high": float(self.bootstrap_ci_high[k]) if ok else None,
+                "identifiable": ok,
+                "reason": self.reasons[k],
+                "value_in_fit": float(self.estimate[k]),
+                "bounds": [float(self.bounds[k, 0]), float(self.bounds[k, 1])],
+                "at_bound": bool(self.at_bound[k]),
+            }
+        return {
+            "parameters": params,
+            "chi2": self.chi2,
+            "dof": self.dof,
+            "p_value": self.p_value,
+            "confidence": self.confidence,
+            "covariance_scaled_by_chi2_dof": False,
+            "correlation": {
+                "keys": list(self.keys),
+                "matrix": self.correlation,
+            },
+            "seed": self.seed,
+            "samples": self.samples,
+            "bootstrap_replicates": len(self.bootstrap),
+            "points": self.points.to_dict(orient="records"),
+            "info": self.info,
+            "scenario_toml": self.scenario_toml,
+        }
+
+    def report(self) -> str:
+        """The report section (Markdown)."""
+        lines = [
+            "## Calibration",
+            "",
+            f"{len(self.points)} experimental points, {len(self.keys)} parameter(s); "
+            f"engine seed {self.seed}, {self.samples} impacts per sweep point "
+            "(common random numbers).",
+            "",
+            f"| parameter | estimate | {self.confidence:.0%} interval (Jacobian) "
+            "| bootstrap interval | note |",
+            "|---|---|---|---|---|",
+        ]
+        for k, key in enumerate(self.keys):
+            if self.identifiable[k]:
+                note = "at a bound" if self.at_bound[k] else ""
+                lines.append(
+                    f"| `{key}` | {self.estimate[k]:.5g} | "
+                    f"[{self.ci_low[k]:.4g}, {self.ci_high[k]:.4g}] | "
+                    f"[{_fmt(self.bootstrap_ci_low[k])}, "
+                    f"{_fmt(self.bootstrap_ci_high[k])}] | {note} |"
+                )
+            else:
+                lines.append(f"| `{key}` | not identifiable | | | {self.reasons[k]} |")
+        lines += [
+            "",
+            f"chi2 = {self.chi2:.4g} with {self.dof} degrees of freedom, "
+            f"p = {_fmt(self.p_value)}."
+            + (
+                " The model does not describe the data within their errors: the "
+                "intervals assume it does and are too optimistic (model error is "
+                "not parameter uncertainty)."
+                if self.p_value is not None
+                and math.isfinite(self.p_value)
+                and self.p_value < 0.01
+                else ""
+            ),
+            "",
+            "The intervals are the linearised region from the Jacobian at the "
+            "optimum (covariance not scaled by chi2/dof: the weights are the "
+            "measurements' and the simulation's standard errors), checked by a "
+            "parametric bootstrap of "
+            f"{len(self.bootstrap)} refits. See docs/calibration.md.",
+            "",
+            "![data against the calibrated model](calibration.png)",
+            "",
+        ]
+        return "\n".join(lines)
+
+    def write(self, out, *, figure=True) -> Path:
+        """Write ``calibration.json``, ``calibration.md`` and (with `figure`)
+        ``calibration.png`` to folder `out`, each atomically."""
+        from . import _json
+        from ._files import atomic_write
+
+        out = Path(out)
+        out.mkdir(parents=True, exist_ok=True)
+        text = _json.dumps(self.to_dict(), indent=2)
+        atomic_write(out / "calibration.json", lambda t: Path(t).write_text(text))
+        report = self.report()
+        atomic_write(out / "calibration.md", lambda t: Path(t).write_text(report))
+        if figure:
+            from .plotting._style import use_agg
+
+            use_agg()
+            import matplotlib.pyplot as plt
+
+            from .plotting.calibration import plot_calibration
+
+            fig = plot_calibration(self)
+            try:
+                atomic_write(
+                    out / "calibration.png",
+                    lambda t: fig.savefig(t, format="png", dpi=200),
+                )
+            finally:
+                plt.close(fig)
+        return out
+
+
+def _fmt(x) -> str:
+    if x is None or not math.isfinite(float(x)):
+        return "n/a"
+    return f"{float(x):.4g}"
+
+
+# ---------------------------------------------------------------------- fitting
+def _scale(x0, bounds):
+    """A natural scale of each parameter: |start value|, else a 100th of a finite
+    range, else 1."""
+    s = np.abs(np.asarray(x0, dtype=float))
+    width = bounds[:, 1] - bounds[:, 0]
+    fallback = np.where(np.isfinite(width), width / 100.0, 1.0)
+    return np.where(s > 0, s, fallback)
+
+
+def _steps(x, h, bounds):
+    """Finite-difference points of each parameter: ``(x_plus, x_minus, dx)``;
+    central where both fit in the bounds, else one-sided."""
+    plus, minus, dx = [], [], []
+    for j in range(len(x)):
+        up, dn = x.copy(), x.copy()
+        hi_ok = x[j] + h[j] <= bounds[j, 1]
+        lo_ok = x[j] - h[j] >= bounds[j, 0]
+        if hi_ok and lo_ok:
+            up[j] += h[j]
+            dn[j] -= h[j]
+        elif hi_ok:
+            up[j] += h[j]
+        else:
+            dn[j] -= h[j]
+        plus.append(up)
+        minus.append(dn)
+        dx.append(up[j] - dn[j])
+    return plus, minus, np.asarray(dx)
+
+
+class _Objective:
+    """Weighted residuals and their finite-difference Jacobian (runs batched)."""
+
+    def __init__(self, model, y, s_exp, s_sim, free, x_full, h, bounds):
+        self.model, self.y = model, y
+        self.sigma = np.sqrt(s_exp**2 + s_sim**2)
+        self.free = np.asarray(free)  # indices of the fitted parameters
+        self.x_full = np.asarray(x_full, dtype=float)
+        self.h, self.bounds = h, bounds
+
+    def full(self, xf):
+        x = self.x_full.copy()
+        x[self.free] = xf
+        return x
+
+    def residual_of(self, summary):
+        m, _ = self.model.points(summary)
+        return (m - self.y) / self.sigma
+
+    def __call__(self, xf):
+        (s,) = self.model.summaries([self.full(xf)])
+        return self.residual_of(s)
+
+    def jac(self, xf, *args):
+        x = self.full(xf)
+        plus, minus, dx = _steps(
+            x[self.free], self.h[self.free], self.bounds[self.free]
+        )
+        pts = [self.full(p) for p in plus] + [self.full(p) for p in minus]
+        ss = self.model.summaries(pts)
+        n = len(self.free)
+        cols = [
+            (self.residual_of(ss[j]) - self.residual_of(ss[n + j])) / dx[j]
+            for j in range(n)
+        ]
+        return np.column_stack(cols) if cols else np.zeros((len(self.y), 0))
+
+
+def _least_squares(obj, x0f, bounds_f, scale_f, *, xtol=1e-5):
+    from scipy.optimize import least_squares
+
+    lo, hi = bounds_f[:, 0], bounds_f[:, 1]
+    x0f = np.clip(x0f, lo, hi)
+    return least_squares(
+        obj,
+        x0f,
+        jac=obj.jac,
+        bounds=(lo, hi),
+        x_scale=scale_f,
+        method="trf",
+        xtol=xtol,
+        ftol=1e-8,
+        gtol=1e-8,
+        max_nfev=100,
+    )
+
+
+def _identify(J, h, width, *, rcond, z, J2=None):
+    """``(identifiable, reasons, cov, s_normalised, noise)`` from the weighted
+    Jacobian `J`; `J2` (the same at twice the step) measures the finite-difference
+    error: a direction whose singular value is below it is not determined."""
+    m, n = J.shape
+    norms = np.linalg.norm(J, axis=0)
+    reasons: list = [None] * n
+    ok = np.ones(n, dtype=bool)
+    # no effect: the column vanishes (exactly, under common random numbers, when
+    # the data do not depend on the parameter) or is round-off against the others
+    effect = norms * h
+    big = effect.max() if n else 0.0
+    for j in range(n):
+        if norms[j] == 0 or effect[j] <= 1e-9 * big:
+            ok[j] = False
+            reasons[j] = (
+                "the data do not depend on it (its finite-difference step changes "
+                "no residual)"
+            )
+    cov = np.full((n, n), np.nan)
+    svals = np.array([])
+    noise = 0.0
+    idx = np.flatnonzero(ok)
+    if idx.size:
+        Jn = J[:, idx] / norms[idx]
+        if J2 is not None:
+            noise = float(np.linalg.norm(Jn - J2[:, idx] / norms[idx], 2))
+        _, svals, Vt = np.linalg.svd(Jn, full_matrices=False)
+        if idx.size > m:
+            svals = np.concatenate([svals, np.zeros(idx.size - svals.size)])
+            _, _, Vt = np.linalg.svd(Jn, full_matrices=True)
+        cut = max(rcond * svals[0], noise)
+        keep = svals > cut if svals[0] > 0 else np.zeros_like(svals, bool)
+        null = Vt[~keep]
+        for a, j in enumerate(idx):
+            if null.size and np.max(np.abs(null[:, a])) > 0.1:
+                ok[j] = False
+                partners = [
+                    k
+                    for b, k in enumerate(idx)
+                    if b != a and np.any(np.abs(null[:, b]) > 0.1)
+                ]
+                reasons[j] = (
+                    "the data determine only a combination of it"
+                    + (
+                        " with " + ", ".join(f"#{k}" for k in partners)
+                        if partners
+                        else ""
+                    )
+                    + f" (normalised singular value {svals[~keep].min():.2g} of "
+                    f"{svals[0]:.2g}, below the threshold {cut:.2g}: "
+                    f"max of {rcond:g} x the largest and the finite-difference "
+                    f"error {noise:.2g})"
+                )
+        Vk, sk = Vt[keep], svals[keep]
+        cn = (Vk.T / sk**2) @ Vk
+        sub = cn / np.outer(norms[idx], norms[idx])
+        cov[np.ix_(idx, idx)] = sub
+        for j in np.flatnonzero(ok):
+            half = z * math.sqrt(cov[j, j])
+            if np.isfinite(width[j]) and 2 * half > width[j]:
+                ok[j] = False
+                reasons[j] = (
+                    f"the data barely constrain it: its {2 * half:.3g} wide interval "
+                    f"exceeds its bounds' range {width[j]:.3g}"
+                )
+    for j in np.flatnonzero(~ok):
+        cov[j, :] = np.nan
+        cov[:, j] = np.nan
+    return ok, reasons, cov, svals, noise
+
+
+def calibrate(
+    scenario,
+    experiments,
+    parameters: Sequence[str] | Mapping,
+    *,
+    bounds: Mapping | None = None,
+    seed: int | None = None,
+    samples: int | None = None,
+    workers: int = 1,
+    executor=None,
+    bootstrap: int = DEFAULT_BOOTSTRAP,
+    confidence: float = 0.95,
+    rel_step: float = DEFAULT_STEP,
+    rcond: float = DEFAULT_RCOND,
+    source=None,
+    base_dir=None,
+    bootstrap_seed: int | None = 0,
+    band_draws: int = BAND_DRAWS,
+    progress=None,
+) -> CalibrationResult:
+    """Fit scenario parameters to measured rebound statistics.
+
+    Parameters
+    ----------
+    scenario : path, preset name or dict
+        The scenario file (or its parsed TOML data, with `source`/`base_dir`).
+        Its sweep must contain the experimental points' speeds and angles (or
+        bracket them: the simulation is interpolated as by ``compare``).
+    experiments : path or pandas.DataFrame
+        An experiment CSV (``docs/outputs.md``) or the table of
+        :func:`~microimpact.io.experiments.read_experiments`.
+    parameters : sequence of str, or mapping key -> (low, high) or None
+        Dotted scenario keys (``surfaces.formica.std_deg``,
+        ``coefficients.v_c.a_m_s``, ...); the file's values are the start.
+    bounds : mapping key -> (low, high), optional
+        Limits (None for a default limit); else :func:`default_bounds`.
+    seed : int, optional
+        The engine seed of every model run (common random numbers); default the
+        scenario's ``seed``, else a fixed 0.
+    samples : int, optional
+        Impacts per sweep point (default the scenario's ``samples``; a precision
+        target is not used, so every run draws the same impacts).
+    workers, executor :
+        Model runs of a Jacobian (2 per parameter) and of a batch are mapped on
+        `executor` (anything with ``map``), else on a process pool of `workers`.
+    bootstrap : int, default 100
+        Parametric bootstrap refits (0: none).
+    confidence : float, default 0.95
+    rel_step : float
+        Finite-difference step relative to each parameter's scale.
+    rcond : float
+        Identifiability threshold on the normalised Jacobian's singular values.
+    bootstrap_seed : int, optional
+        Seed of the bootstrap's data draws.
+    band_draws : int
+        Without enough bootstrap refits (fewer than this), the model band comes
+        from this many parameter draws from the covariance (0: no band).
+    progress : callable, optional
+        ``progress(message)`` at each stage.
+
+    Returns
+    -------
+    CalibrationResult
+
+    Raises
+    ------
+    InputError
+        A key that is not a number of the scenario (or not a model parameter),
+        bounds that are empty or that the scenario rejects, an experiment file
+        that cannot be read or whose points are not in the sweep.
+    """
+    from scipy import stats
+
+    from .compare import _experiments_iv
+    from .config import scenario_from_dict
+    from .engine.statistics import z_value
+    from .parameters import with_values
+
+    say = progress or (lambda msg: None)
+    if not (isinstance(confidence, float | int) and 0 < confidence < 1):
+        raise InputError(f"must be in (0, 1); got {confidence!r}", field="confidence")
+    if isinstance(bootstrap, bool) or not isinstance(bootstrap, int) or bootstrap < 0:
+        raise InputError(
+            f"must be an integer >= 0; got {bootstrap!r}", field="bootstrap"
+        )
+    data, source, base_dir = _load(scenario, source, base_dir)
+    data = {k: v for k, v in data.items() if k != "sensitivity"}
+    base = scenario_from_dict(data, source=source, base_dir=base_dir)
+
+    # parameters and bounds
+    if isinstance(parameters, str):
+        parameters = [parameters]
+    given = dict(bounds or {})
+    if isinstance(parameters, Mapping):
+        for k, b in parameters.items():
+            if b is not None:
+                given.setdefault(k, b)
+        keys = list(parameters)
+    else:
+        keys = list(parameters)
+    if not keys:
+        raise InputError("give at least one parameter", field="--parameter")
+    dup = {k for k in keys if keys.count(k) > 1}
+    if dup:
+        raise InputError(f"given twice: {sorted(dup)}", field="--parameter")
+    unknown = set(given) - set(keys)
+    if unknown:
+        raise InputError(
+            f"bounds for keys that are not parameters: {sorted(unknown)}",
+            field="bounds",
+        )
+    x0 = np.array([_check_key(data, k, source) for k in keys])
+    B = np.empty((len(keys), 2))
+    for j, key in enumerate(keys):
+        b = given.get(key)
+        lo = hi = None
+        if b is not None:
+            try:
+                lo, hi = b
+            except (TypeError, ValueError):
+                raise InputError(
+                    f"bounds must be (low, high); got {b!r}", field=key
+                ) from None
+        if lo is None or hi is None:
+            dlo, dhi = default_bounds(key, x0[j])
+            lo = dlo if lo is None else lo
+            hi = dhi if hi is None else hi
+        lo, hi = float(lo), float(hi)
+        if not lo < hi:
+            raise InputError(
+                f"empty range {lo:g}:{hi:g}; the lower bound must be below the upper",
+                field=key,
+            )
+        B[j] = lo, hi
+        for v in (lo, hi):  # the scenario must accept its bounds (one-line error)
+            if math.isfinite(v):
+                try:
+                    scenario_from_dict(
+                        with_values(data, {key: v}, source=source),
+                        source=source,
+                        base_dir=base_dir,
+                    )
+                except InputError as exc:
+                    raise InputError(
+                        f"the bound {v:g} is not allowed: {exc.message}"
+                        + (
+                            ""
+                            if b is not None
+                            else f"; give --parameter {key}=LOW:HIGH"
+                        ),
+                        source=source,
+                        field=key,
+                    ) from None
+    width = B[:, 1] - B[:, 0]
+    scale = _scale(x0, B)
+    x0 = np.clip(x0, B[:, 0], B[:, 1])
+    h = rel_step * scale
+
+    # experiments
+    from .io.experiments import read_experiments
+
+    if isinstance(experiments, str | os.PathLike):
+        exp_source = str(experiments)
+        experiments = read_experiments(experiments)
+    else:
+        exp_source = None
+    try:
+        exp = _experiments_iv(experiments)
+    except (TypeError, ValueError) as exc:
+        raise InputError(str(exc), source=exp_source) from None
+    if seed is None:
+        seed = base.seed if base.seed is not None else 0
+    seed = int(seed)
+    samples = int(samples if samples is not None else base.samples)
+
+    mapper, pool = _mapper(workers, executor)
+    try:
+        model = _Model(data, source, base_dir, keys, seed, samples, exp, mapper)
+        (s0,) = model.summaries([x0])
+        try:
+            _, s_sim = model.points(s0)
+        except ValueError as exc:
+            raise InputError(str(exc), source=exp_source) from None
+        y = exp["mean"].to_numpy(float)
+        s_exp = exp["se"].to_numpy(float)
+        bad = np.flatnonzero(~np.isfinite(s_sim))
+        if bad.size:
+            from .compare import compare
+
+            t = compare(s0, exp)
+            i = int(bad[0])
+            raise InputError(
+                f"experimental point (line {exp['line'].iloc[i]}): {t['note'].iloc[i]}",
+                source=exp_source,
+            )
+        use = np.sqrt(s_exp**2 + s_sim**2) > 0  # e.g. e_relative at the reference angle
+        if not use.all():
+            exp = exp[use].reset_index(drop=True)
+            model.exp = exp
+            y, s_exp, s_sim = y[use], s_exp[use], s_sim[use]
+        m, n = len(y), len(keys)
+        if m == 0:
+            raise InputError(
+                "no experimental point with a nonzero error", source=exp_source
+            )
+        free = np.arange(n)
+
+        # fit: weights at the start, then once more at the first optimum
+        say("fitting")
+        x = x0.copy()
+        for _ in range(3):
+            obj = _Objective(model, y, s_exp, s_sim, free, x, h, B)
+            fit = _least_squares(obj, x, B, scale)
+            x = fit.x.copy()
+            (sx,) = model.summaries([x])
+            _, s_new = model.points(sx)
+            old_sigma = np.sqrt(s_exp**2 + s_sim**2)
+            s_sim = s_new
+            if np.max(np.abs(np.sqrt(s_exp**2 + s_sim**2) / old_sigma - 1)) < 0.01:
+                break  # the weights hardly moved: no refit
+        obj = _Objective(model, y, s_exp, s_sim, free, x, h, B)
+        r = obj(x)
+        J = obj.jac(x)
+        obj2 = _Objective(model, y, s_exp, s_sim, free, x, 2 * h, B)
+        J2 = obj2.jac(x) if n > 1 else None  # the FD error (only matters for n > 1)
+        chi2 = float(r @ r)
+        z = z_value(confidence)
+        ok, reasons, cov, svals, fd_noise = _identify(
+            J, h, width, rcond=rcond, z=z, J2=J2
+        )
+        for j, why in enumerate(reasons):  # name partners by key, not index
+            if why:
+                reasons[j] = re.sub(r"#(\d+)", lambda mm: keys[int(mm.group(1))], why)
+        n_id = int(ok.sum())
+        dof = m - n_id
+        p_value = float(stats.chi2.sf(chi2, dof)) if dof > 0 else math.nan
+        se = np.sqrt(np.where(ok, np.diag(cov), np.nan))
+        ci_low, ci_high = x - z * se, x + z * se
+        corr = np.full((n, n), np.nan)
+        idx = np.flatnonzero(ok)
+        if idx.size:
+            d = se[idx]
+            corr[np.ix_(idx, idx)] = cov[np.ix_(idx, idx)] / np.outer(d, d)
+            corr[idx, idx] = 1.0
+        at_bound = np.isclose(x, B[:, 0], rtol=0, atol=1e-9 * scale) | np.isclose(
+            x, B[:, 1], rtol=0, atol=1e-9 * scale
+        )
+
+        # parametric bootstrap: data from the fitted model with the combined noise
+        m_hat, _ = model.points(sx)
+        sigma = np.sqrt(s_exp**2 + s_sim**2)
+        boot = np.empty((0, n))
+        boot_curves = []
+        if bootstrap and idx.size:
+            say(f"bootstrap: {bootstrap} refits")
+            rng = np.random.default_rng(bootstrap_seed)
+            fits = []
+            for _b in range(bootstrap):
+                yb = m_hat + sigma * rng.standard_normal(m)
+                ob = _Objective(model, yb, s_exp, s_sim, idx, x, h, B)
+                fb = _least_squares(ob, x[idx], B[idx], scale[idx], xtol=1e-4)
+                xb = ob.full(fb.x)
+                fits.append(xb)
+                boot_curves.append(model.summaries([xb])[0])
+                if len(model.cache) > 256:  # bound the memory: keep the optimum
+                    keep = tuple(x.tolist())
+                    model.cache = {keep: model.cache[keep]}
+            boot = np.array(fits)
+        alpha = 1 - confidence
+        b_lo = np.full(n, np.nan)
+        b_hi = np.full(n, np.nan)
+        if len(boot):
+            b_lo[idx] = np.quantile(boot[:, idx], alpha / 2, axis=0)
+            b_hi[idx] = np.quantile(boot[:, idx], 1 - alpha / 2, axis=0)
+
+        # the model band at every sweep point
+        if len(boot) >= max(band_draws, 1):
+            band_summaries = boot_curves
+            band_from = "bootstrap refits"
+        elif idx.size and band_draws > 0:
+            rng = np.random.default_rng(
+                1 if bootstrap_seed is None else bootstrap_seed + 1
+            )
+            c = cov[np.ix_(idx, idx)]
+            draws = rng.multivariate_normal(x[idx], c, size=band_draws, method="svd")
+            pts = []
+            for dv in draws:
+                xd = x.copy()
+                xd[idx] = np.clip(dv, B[idx, 0], B[idx, 1])
+                pts.append(xd)
+            band_summaries = model.summaries(pts)
+            band_from = "parameter draws from the covariance"
+        else:
+            band_summaries, band_from = [], "none"
+        curves = _curves(sx, band_summaries, exp, alpha)
+        points = _points_table(model, sx, exp, y, s_exp, s_sim)
+        runs = model.runs
+    finally:
+        if pool is not None:
+            pool.shutdown(wait=True, cancel_futures=True)
+
+    calibrated = with_values(
+        data, dict(zip(keys, x.tolist(), strict=True)), source=source
+    )
+    info = {
+        "optimizer": {
+            "status": int(fit.status),
+            "message": str(fit.message),
+            "nfev": int(fit.nfev),
+            "njev": int(fit.njev) if fit.njev is not None else None,
+        },
+        "model_runs": int(runs),
+        "finite_difference_steps": dict(zip(keys, h.tolist(), strict=True)),
+        "singular_values_normalised": (svals / svals[0]).tolist()
+        if svals.size and svals[0] > 0
+        else [],
+        "condition_number": float(svals[0] / svals[-1])
+        if svals.size and svals[-1] > 0
+        else None,
+        "jacobian_fd_error_normalised": fd_noise,
+        "band": band_from,
+        "experiments": exp_source,
+        "scenario": None if source is None else str(source),
+    }
+    return CalibrationResult(
+        keys=tuple(keys),
+        estimate=x,
+        identifiable=ok,
+        reasons=reasons,
+        std_error=se,
+        ci_low=np.where(ok, ci_low, np.nan),
+        ci_high=np.where(ok, ci_high, np.nan),
+        covariance=cov,
+        correlation=corr,
+        bounds=B,
+        at_bound=at_bound,
+        chi2=chi2,
+        dof=int(dof),
+        p_value=p_value,
+        confidence=float(confidence),
+        points=points,
+        curves=curves,
+        data=calibrated,
+        seed=seed,
+        samples=samples,
+        bootstrap=boot,
+        bootstrap_ci_low=b_lo,
+        bootstrap_ci_high=b_hi,
+        info=info,
+        base_dir=None if base_dir is None else str(base_dir),
+    )
+
+
+def _points_table(model, summary, exp, y, s_exp, s_sim):
+    import pandas as pd
+
+    m, _ = model.points(summary)
+    sigma = np.sqrt(s_exp**2 + s_sim**2)
+    return pd.DataFrame(
+        {
+            "surface": exp["surface"].where(exp["surface"].notna(), None).tolist()
+            if "surface" in exp
+            else None,
+            "speed_m_s": exp["speed_m_s"].to_numpy(float),
+            "angle_deg": exp["angle_deg"].to_numpy(float),
+            "statistic": exp["statistic"].tolist(),
+            "exp_mean": y,
+            "exp_ci_low": exp["ci_low"].to_numpy(float),
+            "exp_ci_high": exp["ci_high"].to_numpy(float),
+            "exp_se": s_exp,
+            "sim_mean": m,
+            "sim_se": s_sim,
+            "residual": (m - y) / sigma,
+            "line": exp["line"].to_numpy(),
+        }
+    )
+
+
+def _curves(summary, band_summaries, exp, alpha):
+    """The model at every sweep point for each statistic of the data, with the
+    band (quantiles over `band_summaries`)."""
+    import pandas as pd
+
+    rows = []
+    for stat in dict.fromkeys(exp["statistic"]):
+        col = _CURVE[stat]
+        if col not in summary:
+            continue
+        base = summary[["surface", "speed_m_s", "angle_deg", col]].rename(
+            columns={col: "model"}
+        )
+        base = base.assign(statistic=stat)
+        if band_summaries:
+            stack = np.column_stack([s[col].to_numpy(float) for s in band_summaries])
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)
+                base["band_low"] = np.nanquantile(stack, alpha / 2, axis=1)
+                base["band_high"] = np.nanquantile(stack, 1 - alpha / 2, axis=1)
+        else:
+            base["band_low"] = np.nan
+            base["band_high"] = np.nan
+        rows.append(base)
+    return pd.concat(rows, ignore_index=True) if rows else pd.DataFrame()
+
+
+# ---------------------------------------------------------------------- TOML
+_BARE = re.compile(r"^[A-Za-z0-9_-]+$")
+
+
+def _key(k) -> str:
+    k = str(k)
+    return k if _BARE.match(k) else _string(k)
+
+
+def _string(s: str) -> str:
+    import json
+
+    return json.dumps(s, ensure_ascii=False)
+
+
+def _value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int | np.integer):
+        return str(int(v))
+    if isinstance(v, float | np.floating):
+        v = float(v)
+        if math.isnan(v):
+            return "nan"
+        if math.isinf(v):
+            return "inf" if v > 0 else "-inf"
+        return repr(v)
+    if isinstance(v, str):
+        return _string(v)
+    if isinstance(v, Mapping):
+        return "{ " + ", ".join(f"{_key(k)} = {_value(x)}" for k, x in v.items()) + " }"
+    if isinstance(v, list | tuple):
+        return "[" + ", ".join(_value(x) for x in v) + "]"
+    raise TypeError(f"cannot write a {type(v).__name__} as TOML")
+
+
+def to_toml(data: Mapping, *, header: Sequence[str] = ()) -> str:
+    """Parsed TOML data as TOML text (``tomllib.loads`` gives `data` back).
+
+    Top-level tables become ``[table]`` sections, arrays of tables ``[[array]]``
+    sections; tables inside a section are written inline. `header` lines are
+    written first as comments.
+    """
+    out = [f"# {line}" for line in header]
+    scalars = {
+        k: v
+        for k, v in data.items()
+        if not isinstance(v, Mapping) and not _table_array(v)
+    }
+    for k, v in scalars.items():
+        out.append(f"{_key(k)} = {_value(v)}")
+    for k, v in data.items():
+        if isinstance(v, Mapping):
+            out += ["", f"[{_key(k)}]"]
+            out += [f"{_key(a)} = {_value(b)}" for a, b in v.items()]
+        elif _table_array(v):
+            for entry in v:
+                out += ["", f"[[{_key(k)}]]"]
+                out += [f"{_key(a)} = {_value(b)}" for a, b in entry.items()]
+    return "\n".join(out) + "\n"
+
+
+def _table_array(v) -> bool:
+    return isinstance(v, list) and bool(v) and all(isinstance(e, Mapping) for e in v)
+
+
+def _absolute_files(data, base_dir):
+    """A copy of `data` whose ``file`` values are absolute paths (the calibrated
+    TOML is written elsewhere than the scenario)."""
+    import copy
+
+    if base_dir is None:
+        return data
+    base = Path(base_dir)
+
+    def fix(node):
+        if isinstance(node, dict):
+            for k, v in node.items():
+                if k == "file" and isinstance(v, str):
+                    node[k] = str((base / v).resolve())
+                elif k == "file" and isinstance(v, list):
+                    node[k] = [
+                        str((base / f).resolve()) if isinstance(f, str) else f
+                        for f in v
+                    ]
+                else:
+                    fix(v)
+        elif isinstance(node, list):
+            for e in node:
+                fix(e)
+        return node
+
+    return fix(copy.deepcopy(data))

@@ -1,0 +1,94 @@
+"""``microimpact calibrate SCENARIO EXPERIMENTS --parameter KEY[=LOW:HIGH] --out DIR``:
+fit scenario parameters to measured rebound statistics (docs/calibration.md)."""
+
+from __future__ import annotations
+
+import time
+
+from . import _common as c
+
+HELP = "fit scenario parameters (dotted keys) to measured e, mu or capture"
+
+
+def cli_parse(sp):
+    sp.add_argument("scenario", help="scenario TOML file or preset name")
+    sp.add_argument(
+        "experiments",
+        help="experiment CSV (speed_m_s/angle_deg, statistic, mean, interval)",
+    )
+    sp.add_argument(
+        "--parameter",
+        action="append",
+        required=True,
+        metavar="KEY[=LOW:HIGH]",
+        help="a number of the scenario by its dotted key, e.g. "
+        "surfaces.formica.std_deg or coefficients.v_c.a_m_s=0.05:1 (repeat the "
+        "flag for several; default bounds: docs/calibration.md)",
+    )
+    sp.add_argument("--out", required=True, type=c.out_dir, help="output folder")
+    sp.add_argument(
+        "--samples", type=c.count, help="impacts per sweep point of every model run"
+    )
+    sp.add_argument(
+        "--bootstrap",
+        type=c.nonneg_int,
+        default=100,
+        help="parametric bootstrap refits (default 100; 0: none)",
+    )
+    sp.add_argument(
+        "--confidence",
+        type=c.fraction,
+        default=0.95,
+        help="level of the intervals (default 0.95)",
+    )
+    sp.add_argument("--seed", type=c.nonneg_int, help="engine seed of every model run")
+    sp.add_argument(
+        "--workers",
+        type=c.positive_int,
+        default=1,
+        help="processes for the model runs (default 1; capped at the cores)",
+    )
+    sp.add_argument("--no-figures", action="store_true", help="write no figure")
+    sp.add_argument("--quiet", action="store_true", help="print nothing but errors")
+
+
+def cli_action(args) -> int:
+    from ..calibration import calibrate, parse_parameter
+
+    parameters = {}
+    for text in args.parameter:
+        key, bounds = parse_parameter(text)
+        if key in parameters:
+            from ..errors import InputError
+
+            raise InputError(f"{key!r} is given twice", field="--parameter")
+        parameters[key] = bounds
+    t0 = time.perf_counter()
+    result = calibrate(
+        args.scenario,
+        args.experiments,
+        parameters,
+        samples=args.samples,
+        seed=args.seed,
+        workers=args.workers,
+        bootstrap=args.bootstrap,
+        confidence=args.confidence,
+        progress=None if args.quiet else (lambda msg: c.say(args, f"  {msg}")),
+    )
+    result.write(args.out, figure=not args.no_figures)
+    if not args.quiet:
+        for k, key in enumerate(result.keys):
+            if result.identifiable[k]:
+                print(
+                    f"  {key} = {result.estimate[k]:.5g} "
+                    f"[{result.ci_low[k]:.4g}, {result.ci_high[k]:.4g}]"
+                )
+            else:
+                print(f"  {key}: not identifiable ({result.reasons[k]})")
+        p = result.p_value
+        print(
+            f"  chi2 = {result.chi2:.4g}, dof = {result.dof}"
+            + (f", p = {p:.3g}" if p == p else "")
+            + f"; {time.perf_counter() - t0:.1f} s -> {args.out}"
+        )
+    return c.EXIT_OK
