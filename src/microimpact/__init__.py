@@ -130,6 +130,10 @@ _EXPORTS: dict[str, str] = {
     "sobol_sensitivity": "sensitivity",
     "sobol_analysis": "sensitivity",
     "SensitivityResult": "sensitivity",
+    # calibration against measurements
+    "calibrate": "calibration",
+    "CalibrationResult": "calibration",
+    "plot_calibration": "plotting.calibration",
     # figures
     "plot_capture": "plotting.results",
     "plot_coefficients_vs_angle": "plotting.results",
