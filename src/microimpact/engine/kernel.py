@@ -41,7 +41,10 @@ from .accumulators import (
 )
 from .plan import (
     A_COS,
+    A_COSX,
+    A_PERP,
     A_SIN,
+    A_SINX,
     A_TAN,
     D_IK1,
     D_IK2,
@@ -130,9 +133,13 @@ def simulate_block(
     """Simulate `n` impacts of block `block` at sweep point `point`.
 
     Returns a :class:`PointAccumulator`, or with ``store=True`` a dict of per-impact
-    arrays (``diameter``, ``roughness_angle``, ``speed``, ``e_m``, ``mu_m``,
-    ``captured``, ``shadowed``, ``reimpact``, and the coefficients ``k1``, ``k2``,
-    ``v_c`` the kernel used) for inspection and small studies. In a continuous
+    arrays (``diameter``, ``roughness_angle`` [rad], ``out_of_plane_angle`` [rad;
+    0 but on an areal surface], ``speed``, ``e_m``, ``mu_m``,
+    ``lateral_angle_deg`` (the lateral rebound angle psi of
+    :func:`microimpact.apparent_rebound`: 0 forward, 180 backward in the plane of
+    incidence; NaN where captured or shadowed), ``captured``, ``shadowed``,
+    ``reimpact``, and the coefficients ``k1``, ``k2``, ``v_c`` the kernel used) for
+    inspection and small studies. In a continuous
     distribution's cell the coefficients and the angle's sine, cosine and tangent
     are interpolated like the diameter and the angle themselves, so they equal the
     laws and the trigonometric functions of the reported values to second order in
@@ -167,6 +174,9 @@ def _simulate_block(plan: Plan, point, rep, block, n, store=False):
         sin_true, cos_true = pair_sin(st, ct, s_a, c_a, s_b, c_b)  # theta - a - b
         with np.errstate(divide="ignore", invalid="ignore"):
             tan_phi = (t_a + t_b) / (1.0 - t_a * t_b)  # tan(a + b)
+        if store:  # sin and cos of a + b, for the lateral angle
+            s_phi = s_a * c_b + c_a * s_b
+            c_phi = c_a * c_b - s_a * s_b
     elif tables.random:
         r_a = raw[VAR_ANGLE]
         if tables.cut:
@@ -178,19 +188,29 @@ def _simulate_block(plan: Plan, point, rep, block, n, store=False):
         tan_phi = _col(ar, j_a, f_a, A_TAN)
         sin_true = st * c_phi - ct * s_phi  # sin(theta - phi)
         cos_true = ct * c_phi + st * s_phi  # cos(theta - phi)
+        if tables.areal:  # the facet's tilt chi about its own line t'
+            s_chi = _col(ar, j_a, f_a, A_SINX)
+            c_chi = _col(ar, j_a, f_a, A_COSX)
     else:  # smooth: phi = 0 exactly
         sin_true, cos_true, tan_phi = st, ct, np.zeros(n)
+        s_phi, c_phi = 0.0, 1.0
 
     speed = sp.speed
     if plan.speeds is not None:
         j_s, f_s = _locate(plan.speeds, raw[VAR_SPEED])
         speed = speed * _col(plan.speeds.rows, j_s, f_s, S_FACTOR)
+    areal = tables.areal
     with np.errstate(divide="ignore", invalid="ignore"):
         u = speed * sin_true  # true normal speed |v_n'|
         cot = cos_true / sin_true
     if not isinstance(u, np.ndarray):
         u = np.full(n, u)
+    if areal:
+        u = u * c_chi  # |u . n'| = cos(chi) |v_n_phi| (times 1.0 where chi = 0)
     cot = np.broadcast_to(cot, (n,))
+    if store:
+        s_phi = np.broadcast_to(s_phi, (n,))
+        c_phi = np.broadcast_to(c_phi, (n,))
 
     shadowed = None
     n_shadowed = 0
@@ -202,6 +222,10 @@ def _simulate_block(plan: Plan, point, rep, block, n, store=False):
             u = u[reach]
             inv_k1, inv_k2, v_c = inv_k1[reach], inv_k2[reach], v_c[reach]
             cot, tan_phi = cot[reach], tan_phi[reach]
+            if areal:
+                s_chi, c_chi = s_chi[reach], c_chi[reach]
+            if store:
+                s_phi, c_phi = s_phi[reach], c_phi[reach]
 
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         tan_cot = tan_phi * cot
@@ -223,30 +247,39 @@ def _simulate_block(plan: Plan, point, rep, block, n, store=False):
         e *= R  # Eq. 6
         e[captured] = 0.0
         one_e = e + 1.0
-        mu = cot * (2.0 / 7.0)
-        mu /= one_e  # mu0, Eq. 3 (no initial spin)
-        rolling = np.abs(mu) <= plan.friction
-        if np.isfinite(plan.friction):
-            np.clip(mu, -plan.friction, plan.friction, out=mu)
-        # Eq. 8 with V_t'/v_n' = cot - mu (1 + e) from Eq. 2
-        e_m = mu * one_e
-        e_m *= tan_phi
-        e_m -= tan_cot
-        e_m += e
-        e_m *= gain
-        # Eq. 9
-        denom = mu * tan_phi
-        denom += 1.0
-        mu_m = np.subtract(mu, tan_phi)
-        mu_m /= denom
+        if areal:  # the 3-D impact (docs/physics.md, "Areal roughness")
+            e_m, mu_m, mu, rolling, mu_t, mu_b = _areal_impact(
+                plan.friction, cot, tan_cot, gain, e, one_e, tan_phi, s_chi, c_chi
+            )
+        else:
+            mu = cot * (2.0 / 7.0)
+            mu /= one_e  # mu0, Eq. 3 (no initial spin)
+            rolling = np.abs(mu) <= plan.friction
+            if np.isfinite(plan.friction):
+                np.clip(mu, -plan.friction, plan.friction, out=mu)
+            # Eq. 8 with V_t'/v_n' = cot - mu (1 + e) from Eq. 2
+            e_m = mu * one_e
+            e_m *= tan_phi
+            e_m -= tan_cot
+            e_m += e
+            e_m *= gain
+            # Eq. 9
+            denom = mu * tan_phi
+            denom += 1.0
+            mu_m = np.subtract(mu, tan_phi)
+            mu_m /= denom
 
     rebound = ~captured
     if store:
+        if not areal:  # in the plane of incidence: chi = 0
+            mu_t, mu_b, s_chi, c_chi = mu, 0.0, 0.0, 1.0
+        psi = lateral_angle_deg(s_phi, c_phi, s_chi, c_chi, cot, e, one_e, mu_t, mu_b)
         out = {
             "e_m": np.where(captured, 0.0, e_m),
             "mu_m": np.where(captured, np.nan, mu_m),
             "captured": captured,
             "reimpact": rebound & (e_m < 0),
+            "lateral_angle_deg": np.where(captured, np.nan, psi),
         }
         if shadowed is not None:
             full = {}
@@ -274,6 +307,10 @@ def _simulate_block(plan: Plan, point, rep, block, n, store=False):
             out["roughness_angle"] = _col(av, j_a, f_a, 0)
         else:
             out["roughness_angle"] = np.zeros(n)
+        if areal:
+            out["out_of_plane_angle"] = _col(tables.sampler.rows, j_a, f_a, A_PERP)
+        else:
+            out["out_of_plane_angle"] = np.zeros(n)
         out["speed"] = np.broadcast_to(speed, (n,)).copy()
         return out
 
@@ -296,6 +333,69 @@ def _simulate_block(plan: Plan, point, rep, block, n, store=False):
         e_hist=histogram_counts(e_r, E_EDGES),
         mu_hist=histogram_counts(mu_r, MU_EDGES),
     )
+
+
+def _areal_impact(friction, cot, tan_cot, gain, e, one_e, tan_phi, s_chi, c_chi):
+    """``(e_m, mu_m, mu, rolling, mu_t, mu_b)`` of impacts on facets tilted by
+    ``chi`` about their line ``t'``, in units of the paper's facet normal speed
+    ``v_n_phi`` (what :func:`microimpact.apparent_rebound` computes with
+    ``out_of_plane_angle_deg``; docs/physics.md): ``u_n' = cos(chi) v_n_phi``,
+    ``u_b' = sin(chi) v_n_phi``, the slip ``(cot, sin(chi)) v_n_phi`` with
+    ``eta = g / cos(chi)``, ``g = copysign(hypot(cot, sin chi), cot)``, the impulse
+    along the slip, and Eqs. 8-9 with ``e_phi = e cos^2(chi) - sin(chi)
+    V_b'/v_n_phi`` and ``mu_phi = mu_t / (cos(chi) + mu_b sin(chi))``. Where
+    ``chi = 0`` every step is the 2-D kernel's, operation for operation (``g =
+    cot``, multiplications by 1.0, additions of 0.0): the same bits."""
+    g = np.copysign(np.hypot(cot, s_chi), cot)  # slip / v_n_phi, signed like cot
+    mu = g / c_chi  # eta
+    mu *= 2.0 / 7.0
+    mu /= one_e  # mu0, Eq. 3 (no initial spin)
+    rolling = np.abs(mu) <= friction
+    if np.isfinite(friction):
+        np.clip(mu, -friction, friction, out=mu)
+    moving = g != 0.0
+    mu_t = mu * np.where(moving, cot / g, 1.0)  # impulse ratio along t'
+    mu_b = mu * np.where(moving, s_chi / g, 0.0)  # and along b'
+    # V_b'/v_n_phi = sin(chi) - mu_b (1 + e) cos(chi)
+    q_b = mu_b * one_e
+    q_b *= c_chi
+    q_b = np.subtract(s_chi, q_b, out=q_b)
+    e_phi = e * (c_chi * c_chi)
+    e_phi -= s_chi * q_b
+    # Eq. 8 with e -> e_phi and V_t'/v_n_phi = cot - mu_t (1 + e) cos(chi)
+    e_m = mu_t * one_e
+    e_m *= c_chi
+    e_m *= tan_phi
+    e_m -= tan_cot
+    e_m += e_phi
+    e_m *= gain
+    # Eq. 9 with mu -> mu_phi
+    mu_phi = mu_b * s_chi
+    mu_phi += c_chi
+    mu_phi = np.divide(mu_t, mu_phi, out=mu_phi)
+    denom = mu_phi * tan_phi
+    denom += 1.0
+    mu_m = np.subtract(mu_phi, tan_phi)
+    mu_m /= denom
+    return e_m, mu_m, mu, rolling, mu_t, mu_b
+
+
+def lateral_angle_deg(s_phi, c_phi, s_chi, c_chi, cot, e, one_e, mu_t, mu_b):
+    """The lateral rebound angle ``psi = atan2(V_b, -V_t)`` [deg] of
+    :func:`microimpact.apparent_rebound`, from the rebound ``U = Q v_n_phi`` in
+    units of the (negative) facet normal speed ``v_n_phi``: ``Q_n' = -e cos chi``,
+    ``Q_t' = cot - mu_t (1 + e) cos chi``, ``Q_b' = sin chi - mu_b (1 + e) cos
+    chi``, rotated by ``chi`` about ``t'`` and by ``phi`` about ``b`` (Eq. 7), so
+    ``psi = atan2(-Q_b, Q_t)``. In the plane of incidence (``chi = 0``) it is 0
+    for a forward and 180 for a backward rebound."""
+    with np.errstate(invalid="ignore"):
+        q_n = -e * c_chi
+        q_t = cot - mu_t * one_e * c_chi
+        q_b = s_chi - mu_b * one_e * c_chi
+        q_a = q_n * c_chi + q_b * s_chi  # along the paper's facet normal n_phi
+        x = c_phi * q_t - s_phi * q_a  # -V_t / |v_n_phi|
+        y = s_chi * q_n - c_chi * q_b  # V_b / |v_n_phi|
+        return np.rad2deg(np.arctan2(y + 0.0, x))  # + 0.0: no -0 (psi = 180)
 
 
 def simulate_specs(plan: Plan, specs) -> list[PointAccumulator]:
@@ -430,8 +530,19 @@ def _sampler_args(sampler):
     return args
 
 
+def _no_areal(tables):
+    """The compiled kernel has no areal path: never let it read an areal table as
+    a one-angle one (``build_plan`` routes such plans to the NumPy kernel)."""
+    if tables.areal:
+        raise RuntimeError(
+            "the compiled kernel cannot simulate an areal surface; build the plan "
+            "with kernel='numpy' (build_plan does so for 'auto')"
+        )
+
+
 def _simulate_compiled(plan, sp, tables, raw, n):
     """The same block through the compiled kernel (``_ckernel.c``)."""
+    _no_areal(tables)
     spread = plan.speeds is not None
     e_hist = np.zeros(E_EDGES.size + 1 + _SPILL, dtype=np.int64)
     mu_hist = np.zeros(MU_EDGES.size + 1 + _SPILL, dtype=np.int64)
@@ -522,6 +633,7 @@ def _point_args(tables, speed: float):
         by_speed = _POINT_ARGS[tables] = {}
     args = by_speed.get(speed)
     if args is None:
+        _no_areal(tables)
         args = by_speed[speed] = (
             bool(tables.random),
             _sampler_args(tables.sampler),

@@ -87,6 +87,10 @@ D_IK1, D_IK2, D_VC = 2, 4, 6
 A_SIN, A_COS, A_TAN = 2, 4, 6
 #: Column of a speed row: (lo, span) of the relative speed factor.
 S_FACTOR = 2
+#: Further columns of an areal angle row (:class:`ArealSampler`): (lo, span) pairs
+#: of sin(chi), cos(chi) and phi_perp, ``chi = arctan(tan(phi_perp) cos(phi_par))``
+#: the facet's tilt about its own line t' (docs/physics.md).
+A_SINX, A_COSX, A_PERP = 8, 10, 12
 
 #: Environment variable choosing the kernel: ``numpy`` forces the NumPy kernel,
 #: ``compiled`` requires the compiled one, unset or ``auto`` takes the compiled
@@ -187,6 +191,10 @@ class AngleTables:
     #: A pair drawn by a search (see :class:`PairSearch`): ``sampler`` draws the
     #: surface atom, ``pair`` holds the particle atoms and their prefix sums.
     pair_search: bool = False
+    #: An areal surface (:class:`ArealSampler`): each cell of ``sampler`` is one
+    #: ``(phi_par, phi_perp)`` pair, its rows carry :data:`A_SINX`,
+    #: :data:`A_COSX`, :data:`A_PERP`.
+    areal: bool = False
 
     @property
     def pairs(self) -> bool:
@@ -210,6 +218,16 @@ class AngleTables:
         i, _ = self.sampler.table.locate(k)
         j = (k - self.sampler.table.cum[i]) >> np.uint64(self.pair_shift)
         return k, i, j.astype(np.intp)
+
+    def areal_cells(self, r) -> np.ndarray:
+        """The row of ``sampler`` (one ``(phi_par, phi_perp)`` pair) that each angle
+        draw `r` selects, as the NumPy kernel maps it (areal tables only)."""
+        if not self.areal:
+            raise ValueError("areal_cells: not an areal surface's tables")
+        r = np.asarray(r, dtype=np.uint64)
+        if self.cut:
+            r = mulhi64(r, self.cut)
+        return self.sampler.table.cells(r)
 
     @property
     def phi(self) -> np.ndarray:
@@ -245,6 +263,47 @@ class PairSampler:
     @property
     def nbytes(self) -> int:
         return self.surface.nbytes + self.particle.nbytes
+
+
+@dataclass(frozen=True, eq=False)
+class ArealSampler(Sampler):
+    """The facet-angle pairs ``(phi_par, phi_perp)`` of an areal surface
+    (:class:`~microimpact.surface.areal_angles.ArealAngles`): one equal-mass
+    zero-length cell per pair, sorted by ``phi_par`` (the table of ``phi_par``
+    alone is exactly the one-angle table of the same angles, so the draw mapping
+    is that of an empirical angle set), each row carrying ``sin``, ``cos``,
+    ``tan`` of ``phi_par`` and ``sin(chi)``, ``cos(chi)``, ``phi_perp``
+    (:data:`A_SINX`, :data:`A_COSX`, :data:`A_PERP`). Reachability depends on
+    ``phi_par`` alone (the particle has no component along ``b``), so the
+    reachable pairs are a prefix of the table."""
+
+    @property
+    def perp(self) -> np.ndarray:
+        """``phi_perp`` [rad] of each cell."""
+        return self.rows[:-1, A_PERP]
+
+
+def areal_sampler(angles) -> ArealSampler:
+    """The :class:`ArealSampler` of an
+    :class:`~microimpact.surface.areal_angles.ArealAngles` (pairs sorted by
+    ``phi_par``, then ``phi_perp``)."""
+    par = np.asarray(angles.phi_par, dtype=float)
+    perp = np.asarray(angles.phi_perp, dtype=float)
+    order = np.lexsort((perp, par))
+    par, perp = par[order], perp[order]
+    base = _angle_sampler(CellTable.from_atoms(par))
+    n = base.table.size
+    if n != par.size or not np.array_equal(base.table.left, par):
+        raise ValueError("areal_sampler: one cell per pair (internal)")
+    lo = base.values[:, 0]  # phi_par, clipped inside (-pi/2, pi/2)
+    perp = np.clip(perp, -_LIMIT, _LIMIT)
+    chi = np.arctan(np.tan(perp) * np.cos(lo))
+    rows = np.zeros((n + 1, 14))
+    rows[:, :8] = base.rows
+    rows[:n, A_SINX] = np.sin(chi)
+    rows[:n, A_COSX] = np.cos(chi)
+    rows[:n, A_PERP] = perp
+    return ArealSampler(base.table, rows, np.array(base.values))
 
 
 #: Columns of a :class:`PairSearch` particle row: the prefix sums (over the atoms
@@ -354,7 +413,8 @@ class Plan:
     q: float
     friction: float
     speeds: Sampler | None  # the relative speed factor, or None
-    surfaces: tuple[Sampler | PairSampler | PairSearch | None, ...]  # per variant
+    # per variant (an ArealSampler is a Sampler)
+    surfaces: tuple[Sampler | PairSampler | PairSearch | None, ...]
     shadowing: str
     sampling: str = "mc"
     replicates: int = 1
@@ -384,8 +444,16 @@ class Plan:
     @property
     def surface_atoms(self) -> tuple[np.ndarray | None, ...]:
         """Roughness angle at the start of each cell [rad], per surface (None for a
-        smooth one)."""
-        return tuple(None if s is None else s.values[:, 0] for s in self.surfaces)
+        smooth one); for an areal surface the ``(phi_par, phi_perp)`` pairs,
+        shape ``(n, 2)``."""
+        return tuple(
+            None
+            if s is None
+            else np.column_stack([s.values[:, 0], s.perp])
+            if isinstance(s, ArealSampler)
+            else s.values[:, 0]
+            for s in self.surfaces
+        )
 
     def angle_tables(self, surface: int, angle_deg: float) -> AngleTables:
         """Tables of one (surface, angle), cached for the life of the plan: for
@@ -538,6 +606,9 @@ def _angle_tables(sampler, angle_deg: float, shadowing: str) -> AngleTables:
         return _pair_tables(sampler, st, ct, angle_deg, shadowing)
     if isinstance(sampler, PairSearch):
         return _search_tables(sampler, st, ct, angle_deg, shadowing)
+    # an areal surface: one cell per (phi_par, phi_perp) pair, reachable by
+    # phi_par alone; "weighted" multiplies by the exposure's cos(chi) as well
+    areal = isinstance(sampler, ArealSampler)
     table, rows = sampler.table, sampler.rows
     a = _reach(st, ct, rows, 0.0)  # at the start of each cell
     b = _reach(st, ct, rows, 1.0)  # at its end
@@ -559,9 +630,11 @@ def _angle_tables(sampler, angle_deg: float, shadowing: str) -> AngleTables:
     if shadowing == "none" or (cut == 0 and blocked.size):
         # "none"; or no facet at all can be reached at this angle, which every
         # option reports the same way: each sample is shadowed, none impacts
-        return AngleTables(sampler, 0, st, ct, shadowed, True, count_shadowed=True)
+        return AngleTables(
+            sampler, 0, st, ct, shadowed, True, count_shadowed=True, areal=areal
+        )
     if shadowing == "reject":
-        return AngleTables(sampler, cut, st, ct, shadowed, True)
+        return AngleTables(sampler, cut, st, ct, shadowed, True, areal=areal)
     # "weighted": each cell's mass times the mean of sin(theta - phi)_+ over it
     # (linear in the fraction, so the integral is exact for the table)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -575,8 +648,14 @@ def _angle_tables(sampler, angle_deg: float, shadowing: str) -> AngleTables:
         )
         f_end = np.where((a > 0) & (b < 0), a / (a - b), 1.0)
     mass = widths * pos
+    if areal:
+        # the facet's exposure max(0, -n'.u) = cos(chi) sin(theta - phi_par)_+
+        # (docs/engine.md); cos(chi) = 1 exactly where phi_perp = 0
+        mass = mass * rows[:-1, A_COSX]
     if not mass.sum() > 0:  # round-off: reachable by a hair, with zero weight
-        return AngleTables(sampler, 0, st, ct, 1.0, True, count_shadowed=True)
+        return AngleTables(
+            sampler, 0, st, ct, 1.0, True, count_shadowed=True, areal=areal
+        )
     keep = np.flatnonzero(mass > 0)
     last = int(keep[-1]) + 1
     first = int(keep[0])
@@ -588,7 +667,9 @@ def _angle_tables(sampler, angle_deg: float, shadowing: str) -> AngleTables:
     )
     # from_cells drops cells that round to zero probability: keep their rows out too
     cells = np.arange(first, last)[nonempty_cells(cum)]
-    return AngleTables(sampler.subset(sub, cells), 0, st, ct, shadowed, True)
+    return AngleTables(
+        sampler.subset(sub, cells), 0, st, ct, shadowed, True, areal=areal
+    )
 
 
 #: Largest angle strictly inside (-pi/2, pi/2) [rad].
@@ -678,7 +759,29 @@ def resolve_kernel(kernel=None) -> str:
 MAX_PAIRS = 1 << 40
 
 
-def _surface_sampler(variant, particle_roughness, shadowing):
+def _is_areal(angles) -> bool:
+    return bool(getattr(angles, "is_areal", False))
+
+
+def _surface_sampler(variant, particle_roughness, shadowing, source=None):
+    if _is_areal(particle_roughness):
+        raise ScenarioError(
+            "a particle's roughness is one angle; an areal (two-angle) "
+            "distribution is a surface's",
+            source=source,
+            field="particle_roughness",
+        )
+    if _is_areal(variant.angles):
+        if particle_roughness is not None:
+            raise ScenarioError(
+                f"surface {variant.name!r} is areal: a rough particle on an areal "
+                "surface is not supported yet (how the particle's one angle "
+                "combines with the facet's two is not defined); remove "
+                "particle_roughness or use a profile surface",
+                source=source,
+                field="particle_roughness",
+            )
+        return areal_sampler(variant.angles)
     if variant.angles is None and particle_roughness is None:
         return None
     if variant.angles is None:
@@ -739,14 +842,30 @@ def build_plan(scenario, *, seed=None, kernel=None) -> Plan:
 
     `kernel` is ``"compiled"``, ``"numpy"``, ``"auto"`` or None (the environment
     variable ``MICROIMPACT_KERNEL``, else auto); the choice is ``plan.kernel``.
+    A scenario with an areal surface runs on the NumPy kernel (the compiled one
+    has no areal path): ``auto`` resolves to ``"numpy"`` for it, and asking for
+    ``"compiled"`` (argument or environment) is an :class:`InputError`.
     """
+    requested = kernel
     kernel = resolve_kernel(kernel)
+    if kernel == "compiled" and any(_is_areal(v.angles) for v in scenario.surfaces):
+        if requested is None:
+            requested = os.environ.get(KERNEL_ENV, "").strip().lower() or "auto"
+        if requested == "compiled":
+            raise InputError(
+                "the compiled kernel has no areal-surface path (issue 14): run "
+                "scenarios with `kind = \"areal\"` surfaces with kernel='numpy' "
+                f"or 'auto' (unset {KERNEL_ENV})"
+            )
+        kernel = "numpy"
     entropy = resolve_entropy(scenario.seed if seed is None else seed)
     diameters = diameter_sampler(scenario)
     coeffs = scenario.coefficients
     points = tuple(SweepGrid.from_scenario(scenario).points())
     surfaces = tuple(
-        _surface_sampler(v, scenario.particle_roughness, scenario.shadowing)
+        _surface_sampler(
+            v, scenario.particle_roughness, scenario.shadowing, scenario.source
+        )
         for v in scenario.surfaces
     )
     speeds = None
