@@ -57,6 +57,14 @@ PARTICLE_KEYS = {
     ),
     "histogram": (set(), {"file", "edges_um", "counts", "unit"}),
 }
+#: Keys of kind = "areal" (see _config_surfaces._areal).
+AREAL_SYNTHETIC_KEYS = (
+    ("rms_um", "corr_x_um", "nx", "ny", "dx_um", "seed"),
+    ("corr_y_um", "dy_um"),
+)
+AREAL_FILE_KEYS = ("dx_um", "dy_um", "z_unit", "delimiter", "format")
+AREAL_PATCHES = ("disc", "square")
+AREAL_LEVEL = ("plane", "none")
 SURFACE_KEYS = {
     "smooth": (set(), set()),
     "angles": (set(), {"file", "angles_deg"}),
@@ -89,6 +97,25 @@ SURFACE_KEYS = {
             "rms_height_um",
             "correlation_length_um",
             "seed",
+        },
+    ),
+    # areal: a height map (file) or a seeded Gaussian areal surface (synthetic);
+    # exactly one of file/synthetic and one of the contact keys is checked there
+    "areal": (
+        set(),
+        {
+            "file",
+            "synthetic",
+            "contact_diameter_um",
+            "contact_length_um",
+            "azimuth_deg",
+            "azimuth",
+            "azimuth_seed",
+            "patch",
+            "step_um",
+            "level",
+            "min_coverage",
+            *AREAL_FILE_KEYS,
         },
     ),
 }

@@ -7,6 +7,10 @@ from __future__ import annotations
 
 from ._config_base import (
     ANGLE_METHODS,
+    AREAL_FILE_KEYS,
+    AREAL_LEVEL,
+    AREAL_PATCHES,
+    AREAL_SYNTHETIC_KEYS,
     DETREND,
     SURFACE_KEYS,
     SYNTHETIC_PROFILES,
@@ -40,6 +44,8 @@ def _angles(ctx: _Ctx, t, where):
 
     if kind == "smooth":
         return None
+    if kind == "areal":
+        return _areal(ctx, t, where)
     if kind == "normal":
         mean = num("mean_deg")
         if mean is not None and not -90 < mean < 90:
@@ -100,6 +106,98 @@ def _angles(ctx: _Ctx, t, where):
         method=method,
         detrend=None if detrend == "none" else detrend,
         cutoff_um=cutoff,
+    )
+
+
+def _areal(ctx, t, where):
+    """Joint facet angles of an areal surface: a height-map file or a seeded
+    Gaussian areal surface, at the contact diameter, for a fixed or random impact
+    azimuth (docs/scenarios.md)."""
+    from .surface import areal_angles as aa
+
+    _exactly_one(ctx, t, where, ("file", "synthetic"))
+    _exactly_one(ctx, t, where, ("contact_diameter_um", "contact_length_um"))
+    contact_key = (
+        "contact_diameter_um" if "contact_diameter_um" in t else ("contact_length_um")
+    )
+    contact = ctx.number(t[contact_key], _join(where, contact_key), low=0, strict=True)
+    if "azimuth_deg" in t and "azimuth" in t:
+        raise ctx.error(
+            _join(where, "azimuth"), "give either 'azimuth_deg' or 'azimuth', not both"
+        )
+    azimuth = 0.0
+    if "azimuth" in t:
+        ctx.choice(t["azimuth"], _join(where, "azimuth"), ("random",))
+        azimuth = None
+    elif "azimuth_deg" in t:
+        azimuth = ctx.number(t["azimuth_deg"], _join(where, "azimuth_deg"))
+    if "azimuth_seed" in t and azimuth is not None:
+        raise ctx.error(
+            _join(where, "azimuth_seed"), "only allowed with azimuth = 'random'"
+        )
+    patch = ctx.choice(t.get("patch", "disc"), _join(where, "patch"), AREAL_PATCHES)
+    step = ctx.get_number(t, where, "step_um", low=0, strict=True)
+    if "synthetic" in t:
+        for key in (*AREAL_FILE_KEYS, "level", "min_coverage", "azimuth_seed"):
+            if key in t:
+                raise ctx.error(_join(where, key), "only allowed with 'file'")
+        syn_where = _join(where, "synthetic")
+        syn = ctx.table(t["synthetic"], syn_where)
+        required, optional = AREAL_SYNTHETIC_KEYS
+        ctx.keys(syn, syn_where, (*required, *optional), required)
+        n = {k: ctx.integer(syn[k], _join(syn_where, k), low=2) for k in ("nx", "ny")}
+        seed = ctx.integer(syn["seed"], _join(syn_where, "seed"))
+        lengths = {
+            k: ctx.number(syn[k], _join(syn_where, k), low=0, strict=True)
+            for k in ("rms_um", "corr_x_um", "dx_um", *optional)
+            if k in syn
+        }
+        return ctx.build(
+            where,
+            t,
+            aa.gaussian_areal_angles,
+            **n,
+            **lengths,
+            seed=seed,
+            contact_diameter_um=contact,
+            azimuth_deg=azimuth,
+            patch=patch,
+            step_um=step,
+        )
+    from .io.areal import FORMATS, read_height_map
+
+    path = ctx.path(t["file"], _join(where, "file"))
+    kw = {}
+    for key in ("dx_um", "dy_um"):
+        if key in t:
+            kw[key] = ctx.number(t[key], _join(where, key), low=0, strict=True)
+    if "z_unit" in t:
+        kw["z_unit"] = ctx.string(t["z_unit"], _join(where, "z_unit"))
+    if "delimiter" in t:
+        kw["delimiter"] = ctx.string(t["delimiter"], _join(where, "delimiter"))
+    if "format" in t:
+        kw["format"] = ctx.choice(t["format"], _join(where, "format"), FORMATS)
+    level = ctx.choice(t.get("level", "plane"), _join(where, "level"), AREAL_LEVEL)
+    cover = ctx.get_number(t, where, "min_coverage", low=0, strict=True, high=1)
+    seed = None
+    if azimuth is None:  # reproducible by default: the random azimuths of seed 0
+        seed = 0
+        if "azimuth_seed" in t:
+            seed = ctx.integer(t["azimuth_seed"], _join(where, "azimuth_seed"))
+    hm = ctx.build(_join(where, "file"), t, read_height_map, path, **kw)
+    return ctx.build(
+        where,
+        t,
+        aa.areal_angles_from_height_map,
+        hm,
+        contact_diameter_um=contact,
+        azimuth_deg=azimuth,
+        patch=patch,
+        step_um=step,
+        level_first=level == "plane",
+        min_coverage=0.5 if cover is None else cover,
+        seed=seed,
+        source=str(path),
     )
 
 
