@@ -563,3 +563,59 @@ reservoir = 8
     s = law.sample(float(np.mean(d)), float(np.mean(v)), float(np.mean(a)), rng=0)
     assert s.captured.shape == (1,)
     assert not list(out.glob(".*.tmp"))
+
+
+def test_areal_surface_fills_the_lateral_angle():
+    """On an areal surface the lateral angle is the rebound's deflection out of the
+    plane of incidence: checked against microimpact.apparent_rebound with the
+    out-of-plane angle, per impact, converted to the wall frame (y = z x x = -b)."""
+    from microimpact.surface.areal_angles import gaussian_areal_angles
+    from microimpact.wall_law.build import node_outcomes
+
+    angles = gaussian_areal_angles(
+        nx=96,
+        ny=96,
+        dx_um=1.0,
+        rms_um=1.0,
+        corr_x_um=6.0,
+        contact_diameter_um=3.0,
+        seed=4,
+        azimuth_deg=None,
+    )
+    scenario = _scenario((mi.SurfaceVariant("areal", angles),), samples=3000)
+    spec = WallLawSpec(diameters_um=(10.0,), speeds_m_s=(2.0,), angles_deg=(35.0,))
+    law = build_wall_law(scenario, spec)
+    node = law.dataset.isel(surface=0, diameter_um=0, speed_m_s=0, angle_deg=0)
+    k = int(node.reservoir_count)
+    lateral = node.reservoir_lateral_angle_deg.values[:k]
+    assert np.std(lateral) > 1.0  # real out-of-plane scatter
+    assert abs(np.mean(lateral)) < 4 * np.std(lateral) / math.sqrt(k)  # isotropic
+    # per impact, against the physics function (an independent implementation)
+    sc = scenario.with_options(
+        particles=mi.monodisperse(10.0), speeds_m_s=(2.0,), angles_deg=(35.0,)
+    )
+    out = mi.sample_point(sc, 0, 2000)
+    reb = ~out["captured"] & ~out["shadowed"]
+    v_c = _v_c(10.0)
+    r = mi.apparent_rebound(
+        2.0,
+        35.0,
+        np.degrees(out["roughness_angle"][reb]),
+        out_of_plane_angle_deg=np.degrees(out["out_of_plane_angle"][reb]),
+        k1=K1,
+        k2=float(_coefficients().evaluate(np.array([10e-6])).k2[0]),
+        v_c=v_c,
+        friction=FRICTION,
+    )
+    u_x, u_y, u_z = -r.V_t, -r.V_b, r.V_n  # wall frame: x = -t, y = -b, z = n
+    expected = np.degrees(np.arctan2(u_y, np.hypot(u_x, u_z)))
+    got = node_outcomes(
+        out["e_m"][reb], out["mu_m"][reb], 35.0, out["lateral_angle_deg"][reb]
+    )
+    np.testing.assert_allclose(got["lateral_angle_deg"], expected, atol=1e-6)
+    np.testing.assert_allclose(
+        got["speed_ratio"], np.sqrt(u_x**2 + u_y**2 + u_z**2) / 2.0, rtol=1e-6
+    )
+    # and the sampler rebuilds that lateral velocity
+    s = law.sample(np.full(4000, 10.0), 2.0, 35.0, rng=3)
+    assert np.std(s.velocity[~s.captured, 1]) > 0

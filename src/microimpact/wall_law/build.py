@@ -33,7 +33,7 @@ from .spec import REBOUND_VARIABLES, RESERVOIR_VARIABLES, WallLawSpec
 __all__ = ["build_wall_law", "node_outcomes"]
 
 
-def node_outcomes(e_m, mu_m, angle_deg: float) -> dict:
+def node_outcomes(e_m, mu_m, angle_deg: float, psi_deg=None) -> dict:
     """Wall-law variables of rebounds with apparent restitution `e_m` and impulse
     ratio `mu_m` at apparent incidence angle `angle_deg` (docs/wall-law.md):
 
@@ -42,7 +42,11 @@ def node_outcomes(e_m, mu_m, angle_deg: float) -> dict:
       of paper Eq. 9 in the frame of docs/conventions.md (NaN at theta = 90 deg,
       where there is no incoming tangential velocity);
     * the rebound angle ``atan2(U_z, U_x)`` from the wall plane [deg];
-    * the lateral angle, 0 for the paper's profile roughness;
+    * the lateral angle ``atan2(U_y, hypot(U_x, U_z))`` [deg]: 0 for the paper's
+      profile roughness (`psi_deg` None); on an areal surface from the engine's
+      lateral angle ``psi = atan2(V_b, -V_t)`` of :func:`microimpact.apparent_rebound`
+      (frame t, b = n x t, n), where the wall law's ``y = z x x = -b``, so
+      ``U_y = -U_b = -U_x tan(psi)``;
     * the speed ratio ``|U| / s`` of the rebound (at most 1: no energy is gained).
     """
     theta = math.radians(angle_deg)
@@ -51,6 +55,12 @@ def node_outcomes(e_m, mu_m, angle_deg: float) -> dict:
         c = 0.0  # cos(pi/2) is 6e-17 in floating point: the impact is normal
     u_z = e_m * s  # per unit speed
     u_x = c - mu_m * (1.0 + e_m) * s
+    if psi_deg is None:
+        u_y = np.zeros_like(e_m)
+    else:
+        psi = np.radians(psi_deg)
+        # psi = 0 or 180 deg exactly: in the plane of incidence (tan(pi) != 0)
+        u_y = np.where(np.sin(psi) == 0.0, 0.0, -u_x * np.tan(psi))
     with np.errstate(invalid="ignore", divide="ignore"):
         e_t = u_x / c if c > 0 else np.full_like(e_m, np.nan)
     return {
@@ -58,8 +68,8 @@ def node_outcomes(e_m, mu_m, angle_deg: float) -> dict:
         "e_t": e_t,
         "mu": mu_m,
         "rebound_angle_deg": np.degrees(np.arctan2(u_z, u_x)),
-        "lateral_angle_deg": np.zeros_like(e_m),
-        "speed_ratio": np.hypot(u_x, u_z),
+        "lateral_angle_deg": np.degrees(np.arctan2(u_y, np.hypot(u_x, u_z))),
+        "speed_ratio": np.sqrt(u_x * u_x + u_y * u_y + u_z * u_z),
     }
 
 
@@ -74,7 +84,12 @@ def _node(plan, point: int, angle_deg: float, spec: WallLawSpec, samples: int):
     struck = ~draws["shadowed"]
     captured = draws["captured"] & struck
     rebound = struck & ~captured
-    out = node_outcomes(e_m[rebound], mu_m[rebound], angle_deg)
+    psi = None
+    if "out_of_plane_angle" in parts[0] and any(
+        np.any(p["out_of_plane_angle"] != 0.0) for p in parts
+    ):  # an areal surface: the rebound leaves the plane of incidence
+        psi = np.concatenate([p["lateral_angle_deg"] for p in parts])[rebound]
+    out = node_outcomes(e_m[rebound], mu_m[rebound], angle_deg, psi)
     n_reb = int(np.count_nonzero(rebound))
     q = np.asarray(spec.quantiles)
     row = {
