@@ -96,6 +96,11 @@ _EXPORTS: dict[str, str] = {
     "facet_angle_statistics": "surface.areal",
     "FacetAngleStatistics": "surface.areal",
     "gaussian_areal_surface": "surface.areal",
+    "ArealAngles": "surface.areal_angles",
+    "areal_angles_from_sample": "surface.areal_angles",
+    "areal_angles_from_facets": "surface.areal_angles",
+    "areal_angles_from_height_map": "surface.areal_angles",
+    "gaussian_areal_angles": "surface.areal_angles",
     # a study: scenario, sweep grid, engine, results
     "Scenario": "scenario",
     "SurfaceVariant": "scenario",
