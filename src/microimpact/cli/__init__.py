@@ -48,6 +48,7 @@ VERBS = {
     "presets": "presets",
     "wall-law": "wall_law",
     "sensitivity": "sensitivity",
+    "calibrate": "calibrate",
 }
 
 
