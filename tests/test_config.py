@@ -591,6 +591,7 @@ def test_list_presets_and_files():
         "sst125-silicon-normal",
         "sst76-formica-oblique",
         "lycopodium-formica-oblique",
+        "sst76-formica-areal",
     }
     for name, file in PRESETS.items():
         assert (PRESET_DIR / file).is_file()

@@ -22,7 +22,16 @@ PRESETS: dict[str, str] = {
     "sst125-silicon-normal": "sst125-silicon-normal.toml",
     "sst76-formica-oblique": "sst76-formica-oblique.toml",
     "lycopodium-formica-oblique": "lycopodium-formica-oblique.toml",
+    "sst76-formica-areal": "sst76-formica-areal.toml",
 }
+#: The presets that reproduce the paper (what `microimpact reproduce` runs); the
+#: others carry its cases beyond it.
+PAPER_PRESETS = (
+    "sst65-silicon-normal",
+    "sst125-silicon-normal",
+    "sst76-formica-oblique",
+    "lycopodium-formica-oblique",
+)
 
 TOP_KEYS = (
     "name",

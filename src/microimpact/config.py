@@ -45,6 +45,7 @@ from .scenario import (
 )
 
 __all__ = [
+    "PAPER_PRESETS",
     "PRESETS",
     "PRESET_DIR",
     "list_presets",
@@ -63,6 +64,7 @@ from ._config_base import (
     COEFFICIENT_KEYS,
     MAX_SWEEP_POINTS,
     OUTPUT_KEYS,
+    PAPER_PRESETS,
     PARTICLE_KEYS,
     PRECISION_KEYS,
     PRESET_DIR,

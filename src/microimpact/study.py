@@ -259,11 +259,11 @@ def reproduce(out_dir="out", *, samples=None, figures=None, **options) -> list[S
     """
     from dataclasses import replace
 
-    from .config import PRESETS
+    from .config import PAPER_PRESETS
     from .report import write_report
 
     out = Path(out_dir)
-    studies = [Study(name) for name in PRESETS]
+    studies = [Study(name) for name in PAPER_PRESETS]
     if figures is not None:
         for study in studies:
             study.outputs = replace(study.outputs, figures=figures)
