@@ -536,3 +536,16 @@ def test_engine_capture_speed_matches_closed_form():
     r = qmc.iloc[0]
     assert r["speed_ci_low"] <= vq <= r["speed_ci_high"]
     assert "effective counts" in r["note"]
+
+
+def test_a_nearly_flat_fit_far_outside_is_reported_not_overflowed(monkeypatch):
+    """A probit fit so flat that its crossing lies beyond exp(709) m/s (found by the
+    property test under xdist: OverflowError in the message) is reported as NaN with
+    a note."""
+    from microimpact.engine import capture
+
+    monkeypatch.setattr(capture, "_fit_probit", lambda x, y, n: (-1e-3, 1e-6, 0.0))
+    v = np.array([0.2, 0.4, 0.8, 1.6])
+    r = estimate_capture_speed(v, np.array([90, 60, 40, 10]), np.full(4, 100))
+    assert np.isnan(r.speed_m_s)
+    assert "above 1e308" in r.note

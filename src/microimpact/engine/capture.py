@@ -446,11 +446,12 @@ def estimate_capture_speed(
     theta = (z_q - alpha) / beta if beta != 0 else math.nan
     x_lo, x_hi = float(xw[0]), float(xw[-1])
     if not (np.isfinite(theta) and x_lo <= theta <= x_hi):
-        where = (
-            f"at {_fmt(math.exp(theta))} m/s, outside"
-            if np.isfinite(theta)
-            else "nowhere (flat fit) within"
-        )
+        if not np.isfinite(theta):
+            where = "nowhere (flat fit) within"
+        elif theta > 709.0:  # exp() would overflow: a nearly flat fit
+            where = "above 1e308 m/s, outside"
+        else:
+            where = f"at {_fmt(math.exp(theta))} m/s, outside"
         return _none(
             "; ".join(
                 [
