@@ -22,10 +22,12 @@ The driver is made of small pieces with one job each:
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 import os
 import sys
+import threading
 import time
 import warnings
 from collections.abc import Iterator
@@ -37,9 +39,16 @@ from .._validation import check_choice, check_int
 from ..errors import ConvergenceWarning, InputError
 from .accumulators import PointAccumulator
 from .checkpoint import Checkpoint, CheckpointWarning, plan_fingerprint
-from .parallel import BACKENDS, available_cores, cap_workers, make_runner
+from .parallel import (
+    BACKENDS,
+    SerialRunner,
+    available_cores,
+    cap_workers,
+    make_runner,
+)
 from .plan import BLOCK_SIZE, Plan, build_plan, resolve_entropy  # noqa: F401
 from .statistics import wilson_interval, z_value
+from .summary import Stacked
 
 __all__ = [
     "BlockResult",
@@ -105,18 +114,39 @@ class BlockResult:
 # ----------------------------------------------------------------- driver state
 class _Stream:
     """Driver-side state of one (point, replicate): blocks ``[0, next_block)`` are
-    merged into `acc`."""
+    merged into `acc`.
 
-    __slots__ = ("acc", "done", "max_samples", "next_block")
+    A stream whose first group is merged keeps that group's row of its task's
+    :class:`~.summary.Stacked` (``row``), not an accumulator object: a sweep of
+    many small points, each one group, never builds one per point. :attr:`acc`
+    builds it on first use (a later merge, a convergence test, a checkpoint)."""
+
+    __slots__ = ("_acc", "done", "max_samples", "next_block", "row")
 
     def __init__(self, max_samples: int):
         self.max_samples = max_samples  # the target, or the cap of a precision target
         self.next_block = 0
-        self.acc: PointAccumulator | None = None
+        self._acc: PointAccumulator | None = None
+        self.row: tuple | None = None  # (Stacked, index) while it is the only group
         self.done = False
 
+    @property
+    def acc(self) -> PointAccumulator | None:
+        if self._acc is None and self.row is not None:
+            rows, i = self.row
+            self._acc = rows.accumulator(i)
+        return self._acc
+
+    @acc.setter
+    def acc(self, value: PointAccumulator | None) -> None:
+        self._acc = value
+        self.row = None
+
     def samples_done(self) -> int:
-        return self.acc.n if self.acc is not None else 0
+        if self.row is not None:
+            rows, i = self.row
+            return int(rows.counts[i, 0])
+        return self._acc.n if self._acc is not None else 0
 
 
 def _converged(acc: PointAccumulator, precision, confidence) -> bool:
@@ -191,18 +221,50 @@ class _Streams:
             if st.done:
                 yield BlockResult(p, r, st.next_block - 1, None, st.acc, True)
 
-    def merge(self, group: tuple, acc: PointAccumulator) -> BlockResult | None:
-        """Merge `group` (its accumulator `acc`) if its first block is the next one
-        of its stream; None if the stream is done or the group is not next (blocks
-        run after convergence: discarded, deterministically)."""
+    def merge(self, group: tuple, rows: Stacked, i: int) -> _Stream | None:
+        """Merge `group` (its accumulator: row `i` of `rows`) if its first block is
+        the next one of its stream; returns the stream, or None if the stream is
+        done or the group is not next (blocks run after convergence: discarded,
+        deterministically)."""
         point, rep, first, _n = group[0]
         st = self.by_key[(point, rep)]
         if st.done or first != st.next_block:
             return None
-        st.acc = acc if st.acc is None else st.acc.merge(acc)
+        if first == 0:
+            st.row = (rows, i)  # nothing merged before: the group's row is the total
+        else:
+            st.acc = st.acc.merge(rows.accumulator(i))
         st.next_block = group[-1][2] + 1
         st.done = self._finished(st)
-        return BlockResult(point, rep, group[-1][2], acc, st.acc, st.done)
+        return st
+
+    def stacked(self) -> Stacked:
+        """The accumulator of every (point, replicate), as the rows of one
+        :class:`~.summary.Stacked` in key order (point-major). Streams still held
+        as a task's row are gathered from their tasks' arrays, not rebuilt."""
+        parts, where, loose = [], {}, []
+        chunk = np.empty(len(self.by_key), dtype=np.intp)
+        row = np.empty(len(self.by_key), dtype=np.intp)
+        for k, key in enumerate(sorted(self.by_key)):
+            st = self.by_key[key]
+            if st.row is not None:
+                rows, i = st.row
+                c = where.get(id(rows))
+                if c is None:
+                    c = where[id(rows)] = len(parts)
+                    parts.append(rows)
+                chunk[k], row[k] = c, i
+            else:
+                chunk[k], row[k] = -1, len(loose)
+                loose.append(st.acc if st.acc is not None else PointAccumulator())
+        if loose:
+            chunk[chunk == -1] = len(parts)
+            parts.append(Stacked.of(loose))
+        if not parts:
+            return Stacked.of([])
+        first = np.zeros(len(parts), dtype=np.intp)
+        np.cumsum([len(p) for p in parts[:-1]], out=first[1:])
+        return Stacked.concat(parts).take(first[chunk] + row)
 
     def state(self) -> dict:
         """``{(point, rep): (next_block, accumulator)}`` for the checkpoint."""
@@ -233,14 +295,15 @@ def _caps(plan, n_target, precision) -> dict:
 
 # ------------------------------------------------------------------- scheduling
 def _pack(groups, max_groups=None) -> Iterator[tuple]:
-    """Consecutive `groups` packed into tasks of up to :data:`TASK_IMPACTS` impacts
+    """Consecutive groups packed into tasks of up to :data:`TASK_IMPACTS` impacts
     or `max_groups` (default :data:`TASK_GROUPS`) groups; a larger group is a task
-    alone. Packing is transport only: it changes no bit."""
+    alone. `groups` yields ``(group, impacts)``. Packing is transport only: it
+    changes no bit."""
     max_groups = TASK_GROUPS if max_groups is None else min(max_groups, TASK_GROUPS)
     task, impacts = [], 0
-    for group in groups:
+    for group, n in groups:
         task.append(group)
-        impacts += sum(spec[3] for spec in group)
+        impacts += n
         if impacts >= TASK_IMPACTS or len(task) >= max_groups:
             yield tuple(task)
             task, impacts = [], 0
@@ -252,18 +315,29 @@ def _fixed_tasks(streams: _Streams) -> Iterator[tuple]:
     """The remaining blocks of a fixed-size run, in key order: groups of
     :data:`BLOCKS_PER_TASK` blocks aligned on multiples of it (so a resumed run groups
     as an uninterrupted one), packed into tasks."""
-    T = BLOCKS_PER_TASK
+    T, B = BLOCKS_PER_TASK, streams.block_size
 
     def groups():
         for key in sorted(streams.by_key):
             st = streams.by_key[key]
             if st.done:
                 continue
-            stop = streams.n_blocks(st)
+            point, rep = key
+            cap = st.max_samples
+            stop = -(-cap // B)
+            last = cap - (stop - 1) * B  # impacts of the last block
             start = st.next_block
             while start < stop:
                 end = min((start // T + 1) * T, stop)
-                yield streams.specs(key, start, end)
+                if end < stop:
+                    group = tuple((point, rep, b, B) for b in range(start, end))
+                    yield group, (end - start) * B
+                else:
+                    group = (
+                        *((point, rep, b, B) for b in range(start, end - 1)),
+                        (point, rep, end - 1, last),
+                    )
+                    yield group, (end - 1 - start) * B + last
                 start = end
 
     return _pack(groups())
@@ -277,7 +351,9 @@ def _precision_wave(streams: _Streams, per_key: int, workers: int) -> list[tuple
     for key in streams.active():
         st = streams.by_key[key]
         stop = min(st.next_block + per_key, streams.n_blocks(st))
-        groups.extend((spec,) for spec in streams.specs(key, st.next_block, stop))
+        groups.extend(
+            ((spec,), spec[3]) for spec in streams.specs(key, st.next_block, stop)
+        )
     return list(_pack(groups, max(1, len(groups) // (4 * workers))))
 
 
@@ -377,13 +453,25 @@ class _Job:
 
     def blocks(self) -> Iterator[BlockResult]:
         """Run the remaining blocks, yielding each merged group in key order."""
+        yield from self._drive(results=True)
+
+    def drain(self) -> Stacked:
+        """Run the remaining blocks; the accumulator of every (point, replicate), as
+        :meth:`_Streams.stacked` (no per-group result objects are built)."""
+        for _ in self._drive(results=False):
+            pass
+        return self.streams.stacked()
+
+    def _drive(self, *, results: bool) -> Iterator[BlockResult]:
         streams, ck = self.streams, self.checkpoint
         if ck is not None:
             streams.restore(ck.open(self._fingerprint, interval=checkpoint_interval()))
             self.resumed_blocks = streams.merged_blocks
             ck.started(self.resumed_blocks, streams.total_blocks)
-        yield from streams.finished_results()
+        if results:
+            yield from streams.finished_results()
         if not streams.active():
+            self._start_background()
             return  # everything was restored from the checkpoint: no workers needed
         fixed = self.precision is None
         runner = make_runner(
@@ -393,6 +481,8 @@ class _Job:
             executor=self.executor,
             address=self.address,
         )
+        if isinstance(runner, SerialRunner):
+            self._start_background()  # no fork to come: the kernel frees the GIL
         bar = _Progress(
             self.progress,
             total=sum(st.max_samples for st in streams.by_key.values())
@@ -404,16 +494,25 @@ class _Job:
         try:
             if fixed:
                 tasks, todo = itertools.tee(_fixed_tasks(streams))
-                for task, accs in zip(todo, runner.imap(tasks), strict=True):
-                    yield from self._merge(task, accs, bar)
+                for task, rows in zip(todo, runner.imap(tasks), strict=True):
+                    # the workers have started (a pool forks on its first task)
+                    self._start_background()
+                    yield from self._merge(
+                        zip(task, itertools.repeat(rows), range(len(task))),
+                        bar,
+                        results,
+                    )
             else:
                 per_key = max(1, runner.workers * 2)
                 while streams.active():
                     wave = _precision_wave(streams, per_key, runner.workers)
-                    results = runner.map(wave)
-                    done = dict(zip(_groups(wave), _groups(results), strict=True))
+                    done = {}
+                    for task, rows in zip(wave, runner.map(wave), strict=True):
+                        for i, group in enumerate(task):
+                            done[group] = (rows, i)
+                    self._start_background()
                     yield from self._merge(
-                        sorted(done), [done[g] for g in sorted(done)], bar
+                        ((g, *done[g]) for g in sorted(done)), bar, results
                     )
         finally:
             # normal end, an exception, Ctrl-C or the caller closing the generator:
@@ -427,15 +526,47 @@ class _Job:
         if not fixed:
             self._warn_unconverged()
 
-    def _merge(self, groups, accs, bar) -> Iterator[BlockResult]:
-        for group, acc in zip(groups, accs, strict=True):
-            br = self.streams.merge(group, acc)
-            if br is not None:
-                bar.update(acc.n)
-                yield br
+    def _merge(self, items, bar, results) -> Iterator[BlockResult]:
+        """Merge ``(group, rows, i)`` items in order; with `results`, yield a
+        :class:`BlockResult` for each group merged."""
+        merge = self.streams.merge
+        n = 0
+        for group, rows, i in items:
+            st = merge(group, rows, i)
+            if st is None:
+                continue
+            n += int(rows.counts[i, 0])
+            if results:
+                bar.update(n)
+                n = 0
+                yield BlockResult(
+                    group[0][0],
+                    group[0][1],
+                    group[-1][2],
+                    rows.accumulator(i),
+                    st.acc,
+                    st.done,
+                )
+        bar.update(n)
         ck = self.checkpoint
         if ck is not None and ck.due():
             ck.write(self.streams.state())
+
+    # ------------------------------------------------------------ background
+    def in_background(self, fn) -> None:
+        """Run `fn` in a thread while the workers run (driver work that does not
+        depend on the results, e.g. the scenario's description); its value is
+        :meth:`background_result`. The thread starts once no fork is to come (a
+        process pool forks on its first task: a thread must not be running then)."""
+        self._background = _Background(fn)
+
+    def _start_background(self) -> None:
+        bg = getattr(self, "_background", None)
+        if bg is not None:
+            bg.start()
+
+    def background_result(self):
+        return self._background.result()
 
     def _warn_unconverged(self):
         short = self.streams.unconverged()
@@ -455,8 +586,35 @@ class _Job:
         )
 
 
-def _groups(tasks):
-    return [g for task in tasks for g in task]
+class _Background:
+    """A function run once in a daemon thread, or in the caller if never started."""
+
+    def __init__(self, fn):
+        self._fn = fn
+        self._thread = None
+        self._value = None
+        self._error = None
+
+    def start(self) -> None:
+        if self._thread is None:
+            self._thread = threading.Thread(
+                target=self._run, name="microimpact-driver", daemon=True
+            )
+            self._thread.start()
+
+    def _run(self) -> None:
+        try:
+            self._value = self._fn()
+        except BaseException as exc:  # re-raised in the caller by result()
+            self._error = exc
+
+    def result(self):
+        if self._thread is None:
+            return self._fn()
+        self._thread.join()
+        if self._error is not None:
+            raise self._error
+        return self._value
 
 
 def iter_blocks(
@@ -556,20 +714,20 @@ def run(
         progress=progress,
         plan=None,
     )
-    totals: dict[tuple[int, int], PointAccumulator] = {}
-    for br in job.blocks():
-        if br.done:
-            totals[(br.point, br.replicate)] = br.total
+    # what the result needs of the scenario alone is prepared while the workers run
+    job.in_background(functools.partial(SimulationResult.prepare, job.scenario))
+    stacked = job.drain()
     elapsed = time.perf_counter() - t0
-    return SimulationResult.from_accumulators(
+    return SimulationResult.from_stacked(
         job.scenario,
         job.plan,
-        totals,
+        stacked,
         elapsed=elapsed,
         samples=samples,
         workers=job.workers,
         backend=backend if executor is None else "executor",
         provenance=job.provenance(),
+        prepared=job.background_result(),
     )
 
 

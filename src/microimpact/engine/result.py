@@ -13,6 +13,7 @@ import functools
 import json
 import math
 import platform
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from importlib import metadata
 from pathlib import Path
@@ -147,6 +148,28 @@ def _record_of(ds) -> ScenarioRecord:
 
 
 # ---------------------------------------------------------------- the result
+class _RowAccumulators(Mapping):
+    """``point -> PointAccumulator``, each built on access from the rows of a
+    :class:`~.summary.Stacked` (a sweep of 10^4 points builds none unless asked)."""
+
+    def __init__(self, stacked):
+        self._stacked = stacked
+
+    def __getitem__(self, point):
+        if not isinstance(point, int | np.integer) or not 0 <= point < len(self):
+            raise KeyError(point)
+        return self._stacked.accumulator(int(point))
+
+    def __iter__(self):
+        return iter(range(len(self._stacked)))
+
+    def __len__(self):
+        return len(self._stacked)
+
+    def __repr__(self):
+        return f"<{len(self)} accumulators>"
+
+
 def _storable(value):
     """A provenance value as a NetCDF attribute (str, number or number array)."""
     if isinstance(value, bool | np.bool_):
@@ -171,9 +194,9 @@ class SimulationResult:
         mu_m, the accumulator state and the provenance in its attributes.
     scenario : Scenario or ScenarioRecord
         The scenario (a :class:`ScenarioRecord` for a result read from a file).
-    accumulators : dict or None
-        ``point index -> pooled PointAccumulator`` for a fresh run; None for a
-        result read from a file.
+    accumulators : Mapping or None
+        ``point index -> pooled PointAccumulator`` for a fresh run (built on
+        access); None for a result read from a file.
     """
 
     def __init__(self, dataset, scenario=None, accumulators=None, provenance=None):
@@ -213,32 +236,80 @@ class SimulationResult:
         provenance : dict, optional
             Further provenance (e.g. resumed blocks), merged in.
         """
-        grid = SweepGrid.from_scenario(scenario)
         R = plan.replicates
-        pooled = []
-        reps = []
-        for sp in plan.points:
-            accs = [totals[(sp.index, r)] for r in range(R)]
-            acc = accs[0]
-            for a in accs[1:]:
-                acc = acc.merge(a)
-            pooled.append(acc)
-            reps.extend(accs)
-        stacked = Stacked.of(pooled)
+        rows = Stacked.of(totals[(sp.index, r)] for sp in plan.points for r in range(R))
+        return cls.from_stacked(
+            scenario,
+            plan,
+            rows,
+            elapsed=elapsed,
+            samples=samples,
+            workers=workers,
+            backend=backend,
+            provenance=provenance,
+        )
+
+    @staticmethod
+    def prepare(scenario) -> dict:
+        """What the result takes from the scenario alone (its description, the
+        input quantile functions, the grid): :func:`~microimpact.run` computes it
+        while the workers run and passes it to :meth:`from_stacked`."""
+        return {
+            "description": scenario.describe(),
+            "inputs": _input_quantiles(scenario),
+            "smooth": [_is_smooth(s) for s in scenario.surfaces],
+            "grid": SweepGrid.from_scenario(scenario),
+            "versions": versions(),
+        }
+
+    @classmethod
+    def from_stacked(
+        cls,
+        scenario,
+        plan,
+        stacked,
+        *,
+        elapsed,
+        samples=None,
+        workers=1,
+        backend="process",
+        provenance=None,
+        prepared=None,
+    ) -> SimulationResult:
+        """Build the result of a run from the accumulators of every (point,
+        replicate) as the rows of a :class:`~.summary.Stacked` (point-major: row
+        ``point * replicates + replicate``); otherwise as :meth:`from_accumulators`.
+        `prepared` is :meth:`prepare`'s value for `scenario` (computed if None)."""
+        if prepared is None:
+            prepared = cls.prepare(scenario)
+        grid = prepared["grid"]
+        R = plan.replicates
         confidence = float(scenario.confidence)
         if R > 1:
-            columns = replicate_statistics(stacked, Stacked.of(reps), R, confidence)
+            pooled = []
+            for p in range(len(plan.points)):
+                acc = stacked.accumulator(p * R)
+                for r in range(1, R):
+                    acc = acc.merge(stacked.accumulator(p * R + r))
+                pooled.append(acc)
+            pooled_rows = Stacked.of(pooled)
+            columns = replicate_statistics(pooled_rows, stacked, R, confidence)
+            accumulators = dict(enumerate(pooled))
         else:
+            pooled_rows = stacked
             columns = point_statistics(stacked, confidence)
+            accumulators = _RowAccumulators(stacked)
         if plan.shadowing != "none":
             # the facets removed ('reject') or re-weighted ('weighted') were never
             # sampled: report their exact probability from the table (1 where no
             # facet can be reached: then every sample was counted as shadowed)
+            mass = {}
+            for sp in plan.points:
+                key = (sp.surface, sp.angle_deg)
+                if key not in mass:
+                    mass[key] = plan.angle_tables(*key).shadowed_mass
             columns["shadowed_fraction"] = np.array(
-                [
-                    plan.angle_tables(sp.surface, sp.angle_deg).shadowed_mass
-                    for sp in plan.points
-                ]
+                [mass[(sp.surface, sp.angle_deg)] for sp in plan.points]
             )
         ref = scenario.reference_angle_deg
         if ref is not None and np.isclose(grid.angles_deg, ref).any():
@@ -257,9 +328,9 @@ class SimulationResult:
         kernel = getattr(plan, "kernel", None)
         if kernel is None:
             from .kernel import KERNEL as kernel
-        vers = versions()
+        vers = prepared["versions"]
         prov = {
-            "scenario": scenario.describe(),
+            "scenario": prepared["description"],
             "seed_entropy": str(plan.entropy),
             "versions": vers,
             "samples_per_point": None if samples is None else int(samples),
@@ -294,12 +365,11 @@ class SimulationResult:
         ds = build_dataset(
             grid,
             columns,
-            stacked,
+            pooled_rows,
             attrs=attrs,
-            inputs=_input_quantiles(scenario),
-            smooth=[_is_smooth(s) for s in scenario.surfaces],
+            inputs=prepared["inputs"],
+            smooth=prepared["smooth"],
         )
-        accumulators = dict(enumerate(pooled))
         return cls(ds, scenario, accumulators, prov)
 
     @classmethod

@@ -1,0 +1,222 @@
+"""The fast path of sweep grids: compact task results, rows instead of objects, the
+summary from stacked arrays. Every shortcut is checked against the slow definition
+it replaces (same bits)."""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+import pytest
+from engine_helpers import rough, scenario
+from numpy.testing import assert_array_equal
+
+from microimpact.engine import montecarlo, parallel
+from microimpact.engine.accumulators import (
+    E_BINS,
+    E_EDGES,
+    MU_BINS,
+    Moments,
+    PointAccumulator,
+    histogram_quantile,
+)
+from microimpact.engine.montecarlo import build_plan, iter_blocks, run
+from microimpact.engine.plan import BLOCK_SIZE
+from microimpact.engine.result import SimulationResult
+from microimpact.engine.summary import (
+    Spans,
+    Stacked,
+    _histogram_quantiles_dense_search,
+    histogram_quantiles,
+)
+
+
+def _grid(**kw):
+    base = dict(
+        surfaces=(rough(8.0), rough(15.0, name="rougher")),
+        speeds_m_s=tuple(np.linspace(0.1, 1.0, 7)),
+        angles_deg=(20.0, 50.0, 80.0),
+        samples=3000,
+    )
+    base.update(kw)
+    return scenario(**base)
+
+
+def _bits(a):
+    a = np.asarray(a)
+    return a.view(np.uint64) if a.dtype == np.float64 else a
+
+
+def _same_dataset(a, b):
+    assert list(a.data_vars) == list(b.data_vars)
+    for v in a.data_vars:
+        assert a[v].dtype == b[v].dtype, v
+        assert_array_equal(_bits(a[v].values), _bits(b[v].values), err_msg=v)
+    skip = {"created", "elapsed_s", "resumed_blocks", "total_blocks", "workers"}
+    assert {k: str(v) for k, v in a.attrs.items() if k not in skip} == {
+        k: str(v) for k, v in b.attrs.items() if k not in skip
+    }
+
+
+def _random_rows(rng, rows, size=E_BINS):
+    out = []
+    for _ in range(rows):
+        d = np.zeros(size, dtype=np.int64)
+        kind = rng.integers(0, 6)
+        if kind == 1:
+            d[rng.integers(0, size)] = rng.integers(1, 5)
+        elif kind == 2:
+            lo = rng.integers(0, size - 50)
+            d[lo : lo + 50] = rng.integers(0, 3, 50)
+        elif kind == 3:
+            d[0], d[-1] = rng.integers(0, 100, 2)
+            d[5:30] = rng.integers(0, 10**6, 25)
+        elif kind == 4:
+            np.add.at(d, rng.integers(0, size, 1000), 1)
+        elif kind == 5:
+            d[rng.integers(0, size, 3)] = rng.integers(1, 10**12, 3)
+        out.append(d)
+    return np.array(out)
+
+
+# ------------------------------------------------------------------ summary
+def test_histogram_quantiles_equal_the_definitions(rng):
+    """The search on integer counts gives the bits of forming every cumulative
+    fraction (the former vectorised code) and of the per-point oracle."""
+    qs = [0.05, 0.5, 0.95, 1e-300, 1.0, 1 / 3, 1e-9, 1 - 1e-12]
+    for _ in range(60):
+        dense = _random_rows(rng, int(rng.integers(1, 40)))
+        spans = Spans.of(
+            [
+                (
+                    int(np.flatnonzero(r)[0]),
+                    r[np.flatnonzero(r)[0] :][: np.ptp(np.flatnonzero(r)) + 1],
+                )
+                if r.any()
+                else (0, r[:0])
+                for r in dense
+            ],
+            E_BINS,
+        )
+        got = histogram_quantiles(spans, E_EDGES, qs)
+        ref = _histogram_quantiles_dense_search(spans, E_EDGES, np.asarray(qs))
+        assert_array_equal(_bits(got), _bits(ref))
+        assert_array_equal(_bits(histogram_quantiles(dense, E_EDGES, qs)), _bits(got))
+        oracle = np.array([histogram_quantile(r, E_EDGES, qs) for r in dense])
+        assert_array_equal(_bits(got), _bits(oracle))
+
+
+def _accumulators(rng, k):
+    accs = []
+    for e_row, mu_row in zip(
+        _random_rows(rng, k), _random_rows(rng, k, MU_BINS), strict=True
+    ):
+        e = Moments(int(rng.integers(0, 10**6)), *rng.normal(size=3).tolist())
+        mu = Moments(int(rng.integers(0, 10**6)), *rng.normal(size=3).tolist())
+        counts = rng.integers(0, 10**6, 5).tolist()
+        accs.append(PointAccumulator(*counts, e=e, mu=mu, e_hist=e_row, mu_hist=mu_row))
+    return accs
+
+
+def test_stacked_rows_round_trip_take_and_concat(rng):
+    accs = _accumulators(rng, 25)
+    st = Stacked.of(accs)
+    assert len(st) == 25
+    assert all(st.accumulator(i) == a for i, a in enumerate(accs))
+    order = rng.permutation(25)[:17]
+    taken = st.take(order)
+    assert all(taken.accumulator(j) == accs[i] for j, i in enumerate(order))
+    assert st.take(np.arange(25)) is st
+    both = Stacked.concat([st, Stacked.of(accs[:3])])
+    assert [both.accumulator(i) for i in range(28)] == accs + accs[:3]
+    # the moments' counts come back as ints, the values bit for bit
+    a = st.accumulator(4)
+    assert type(a.e.n) is int and a.e == accs[4].e and a.mu == accs[4].mu
+
+
+# ------------------------------------------------------------------ the driver
+def test_run_equals_the_accumulator_path():
+    """run() builds the result from the tasks' rows; building it from the
+    iter_blocks totals (PointAccumulator objects) gives the same bits."""
+    sc = _grid()
+    res = run(sc, seed=3)
+    plan = build_plan(sc, seed=3)
+    totals = {
+        (br.point, br.replicate): br.total for br in iter_blocks(sc, seed=3) if br.done
+    }
+    ref = SimulationResult.from_accumulators(sc, plan, totals, elapsed=0.0)
+    _same_dataset(ref.dataset, res.dataset)
+    assert len(res.accumulators) == len(plan.points)
+    assert all(res.accumulators[k] == ref.accumulators[k] for k in ref.accumulators)
+    with pytest.raises(KeyError):
+        res.accumulators[len(plan.points)]
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_mixed_streams_are_gathered_in_key_order(monkeypatch, workers):
+    """Points of one group (kept as rows) and of several groups (merged objects)
+    in one run, packed in tasks that straddle points: the same bits as the
+    accumulator path."""
+    monkeypatch.setattr(montecarlo, "BLOCKS_PER_TASK", 2)
+    monkeypatch.setattr(montecarlo, "TASK_IMPACTS", 3 * BLOCK_SIZE)
+    sc = _grid(speeds_m_s=(0.2, 0.5), angles_deg=(30.0, 60.0), samples=5 * BLOCK_SIZE)
+    sc_small = _grid(speeds_m_s=(0.2, 0.5), angles_deg=(30.0, 60.0), samples=BLOCK_SIZE)
+    for s in (sc, sc_small):
+        res = run(s, seed=9, workers=workers)
+        plan = build_plan(s, seed=9)
+        totals = {
+            (br.point, br.replicate): br.total
+            for br in iter_blocks(s, seed=9)
+            if br.done
+        }
+        _same_dataset(
+            SimulationResult.from_accumulators(s, plan, totals, elapsed=0.0).dataset,
+            res.dataset,
+        )
+
+
+def test_qmc_replicates_pool_as_before():
+    sc = _grid(sampling="qmc", qmc_replicates=4, samples=2048, speeds_m_s=(0.3, 0.6))
+    res = run(sc, seed=2)
+    plan = build_plan(sc, seed=2)
+    totals = {
+        (br.point, br.replicate): br.total for br in iter_blocks(sc, seed=2) if br.done
+    }
+    ref = SimulationResult.from_accumulators(sc, plan, totals, elapsed=0.0)
+    _same_dataset(ref.dataset, res.dataset)
+
+
+def test_tasks_return_rows():
+    sc = _grid(speeds_m_s=(0.2, 0.4), angles_deg=(30.0,))
+    plan = build_plan(sc, seed=1)
+    task = (((0, 0, 0, 3000),), ((1, 0, 0, 3000),))
+    rows = parallel.run_task(plan, task)
+    assert isinstance(rows, Stacked) and len(rows) == 2
+    ref = parallel._simulate(plan, [g[0] for g in task])
+    assert [rows.accumulator(i) for i in range(2)] == ref
+
+
+def test_the_description_is_prepared_while_the_workers_run(monkeypatch):
+    """The scenario's description (slow: quadratures) is computed in a thread
+    during the run, once, and an error in it reaches the caller."""
+    sc = _grid()
+    seen = []
+    real = SimulationResult.prepare
+
+    def prepare(scenario):
+        seen.append(threading.current_thread() is threading.main_thread())
+        return real(scenario)
+
+    monkeypatch.setattr(SimulationResult, "prepare", staticmethod(prepare))
+    ref = run(sc, seed=4)
+    assert seen == [False]
+    seen.clear()
+    _same_dataset(ref.dataset, run(sc, seed=4, workers=2).dataset)
+    assert seen == [False]
+
+    def broken(scenario):
+        raise RuntimeError("describe failed")
+
+    monkeypatch.setattr(SimulationResult, "prepare", staticmethod(broken))
+    with pytest.raises(RuntimeError, match="describe failed"):
+        run(sc, seed=4)
