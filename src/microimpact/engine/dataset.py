@@ -190,11 +190,10 @@ def build_dataset(grid, columns, stacked, *, attrs, inputs=None, smooth=None):
             continue
         # a big sweep: the occupied bins only, as a CF contiguous ragged array
         # (memory and file size proportional to what the histograms hold)
-        big = spans.counts.size and int(spans.counts.max()) >= 2**31
         obs = f"{nm}_hist_obs"
         data_vars[f"{nm}_hist_counts"] = (
             (obs,),
-            spans.counts.astype(np.int64 if big else np.int32),
+            spans.counts.astype(np.int64 if spans.big else np.int32, copy=False),
             {"units": "1", "long_name": long_name, **_edges_attrs(edges)},
         )
         data_vars[f"{nm}_hist_offset"] = (

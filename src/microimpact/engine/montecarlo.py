@@ -22,7 +22,9 @@ The driver is made of small pieces with one job each:
 
 from __future__ import annotations
 
+import contextlib
 import functools
+import gc
 import itertools
 import math
 import os
@@ -121,10 +123,11 @@ class _Stream:
     many small points, each one group, never builds one per point. :attr:`acc`
     builds it on first use (a later merge, a convergence test, a checkpoint)."""
 
-    __slots__ = ("_acc", "done", "max_samples", "next_block", "row")
+    __slots__ = ("_acc", "done", "index", "max_samples", "next_block", "row")
 
-    def __init__(self, max_samples: int):
+    def __init__(self, max_samples: int, index: int = 0):
         self.max_samples = max_samples  # the target, or the cap of a precision target
+        self.index = index  # the stream's place in key order
         self.next_block = 0
         self._acc: PointAccumulator | None = None
         self.row: tuple | None = None  # (Stacked, index) while it is the only group
@@ -173,9 +176,14 @@ class _Streams:
         self.block_size = plan.block_size
         self.precision = precision
         self.confidence = confidence
-        self.by_key = {
-            key: _Stream(cap) for key, cap in _caps(plan, n_target, precision).items()
-        }
+        caps = _caps(plan, n_target, precision)
+        self.by_key = {key: _Stream(caps[key], k) for k, key in enumerate(sorted(caps))}
+        # the task rows that hold streams' totals (kept alive here), and per stream
+        # in key order: which of them and which row (-1: none, see `acc`)
+        self._chunks: list[Stacked] = []
+        self._chunk_ids: dict[int, int] = {}
+        self._src_chunk = [-1] * len(self.by_key)
+        self._src_row = [0] * len(self.by_key)
 
     def n_blocks(self, st: _Stream) -> int:
         return -(-st.max_samples // self.block_size)
@@ -231,9 +239,17 @@ class _Streams:
         if st.done or first != st.next_block:
             return None
         if first == 0:
-            st.row = (rows, i)  # nothing merged before: the group's row is the total
+            # nothing merged before: the group's row is the stream's total
+            st.row = (rows, i)
+            c = self._chunk_ids.get(id(rows))
+            if c is None:
+                c = self._chunk_ids[id(rows)] = len(self._chunks)
+                self._chunks.append(rows)
+            self._src_chunk[st.index] = c
+            self._src_row[st.index] = i
         else:
             st.acc = st.acc.merge(rows.accumulator(i))
+            self._src_chunk[st.index] = -1
         st.next_block = group[-1][2] + 1
         st.done = self._finished(st)
         return st
@@ -242,24 +258,18 @@ class _Streams:
         """The accumulator of every (point, replicate), as the rows of one
         :class:`~.summary.Stacked` in key order (point-major). Streams still held
         as a task's row are gathered from their tasks' arrays, not rebuilt."""
-        parts, where, loose = [], {}, []
-        chunk = np.empty(len(self.by_key), dtype=np.intp)
-        row = np.empty(len(self.by_key), dtype=np.intp)
-        for k, key in enumerate(sorted(self.by_key)):
-            st = self.by_key[key]
-            if st.row is not None:
-                rows, i = st.row
-                c = where.get(id(rows))
-                if c is None:
-                    c = where[id(rows)] = len(parts)
-                    parts.append(rows)
-                chunk[k], row[k] = c, i
-            else:
-                chunk[k], row[k] = -1, len(loose)
-                loose.append(st.acc if st.acc is not None else PointAccumulator())
-        if loose:
-            chunk[chunk == -1] = len(parts)
-            parts.append(Stacked.of(loose))
+        chunk = np.array(self._src_chunk, dtype=np.intp)
+        row = np.array(self._src_row, dtype=np.intp)
+        parts = list(self._chunks)
+        loose = np.flatnonzero(chunk < 0)
+        if loose.size:  # merged from several groups, restored, or never run
+            streams = list(self.by_key.values())  # key order
+            accs = [streams[k].acc for k in loose.tolist()]
+            chunk[loose] = len(parts)
+            row[loose] = np.arange(loose.size)
+            parts.append(
+                Stacked.of(a if a is not None else PointAccumulator() for a in accs)
+            )
         if not parts:
             return Stacked.of([])
         first = np.zeros(len(parts), dtype=np.intp)
@@ -441,6 +451,8 @@ class _Job:
             )
         self.progress = progress
         self.resumed_blocks = 0
+        self.close_later = False  # see wait_closed
+        self._closing = None
 
     def provenance(self) -> dict:
         out = {
@@ -521,7 +533,13 @@ class _Job:
                 if ck is not None:
                     ck.write(streams.state())
             finally:
-                runner.close()
+                # run() waits for a pool's workers to exit after building its
+                # result (close_later); iter_blocks before it returns
+                if self.close_later:
+                    runner.close(wait=False)
+                    self._closing = runner
+                else:
+                    runner.close()
                 bar.close()
         if not fixed:
             self._warn_unconverged()
@@ -551,6 +569,13 @@ class _Job:
         ck = self.checkpoint
         if ck is not None and ck.due():
             ck.write(self.streams.state())
+
+    def wait_closed(self) -> None:
+        """Wait until the runner's workers have exited (with ``close_later``, the
+        pool is only told to shut down when the last task is merged)."""
+        runner, self._closing = self._closing, None
+        if runner is not None:
+            runner.close()
 
     # ------------------------------------------------------------ background
     def in_background(self, fn) -> None:
@@ -584,6 +609,38 @@ class _Job:
             ConvergenceWarning,
             stacklevel=3,
         )
+
+
+#: While :func:`run` drives a run, the interpreter's full collections (the oldest
+#: generation: every object of the process, ~75 ms with NumPy, SciPy and xarray
+#: loaded) wait until the end; the young generations, where the driver's and the
+#: tasks' short-lived objects die, are collected as usual.
+_GC_LOCK = threading.Lock()
+_GC_STATE = {"depth": 0, "saved": None}
+_GC_DEFERRED = 1 << 30
+
+
+@contextlib.contextmanager
+def _defer_full_collections():
+    """Defer the oldest generation's automatic collections (re-entrant, shared by
+    concurrent runs: the thresholds are restored when the last one ends, unless the
+    program changed them meanwhile). Forked workers inherit the setting."""
+    with _GC_LOCK:
+        if _GC_STATE["depth"] == 0:
+            saved = gc.get_threshold()
+            _GC_STATE["saved"] = saved
+            if saved[0] > 0:
+                gc.set_threshold(saved[0], saved[1], _GC_DEFERRED)
+        _GC_STATE["depth"] += 1
+    try:
+        yield
+    finally:
+        with _GC_LOCK:
+            _GC_STATE["depth"] -= 1
+            if _GC_STATE["depth"] == 0:
+                saved = _GC_STATE["saved"]
+                if gc.get_threshold() == (saved[0], saved[1], _GC_DEFERRED):
+                    gc.set_threshold(*saved)
 
 
 class _Background:
@@ -702,33 +759,37 @@ def run(
     from .result import SimulationResult
 
     t0 = time.perf_counter()
-    job = _Job(
-        scenario,
-        samples=samples,
-        seed=seed,
-        workers=workers,
-        backend=backend,
-        executor=executor,
-        address=address,
-        checkpoint=checkpoint,
-        progress=progress,
-        plan=None,
-    )
-    # what the result needs of the scenario alone is prepared while the workers run
-    job.in_background(functools.partial(SimulationResult.prepare, job.scenario))
-    stacked = job.drain()
-    elapsed = time.perf_counter() - t0
-    return SimulationResult.from_stacked(
-        job.scenario,
-        job.plan,
-        stacked,
-        elapsed=elapsed,
-        samples=samples,
-        workers=job.workers,
-        backend=backend if executor is None else "executor",
-        provenance=job.provenance(),
-        prepared=job.background_result(),
-    )
+    with _defer_full_collections(), contextlib.ExitStack() as stack:
+        job = _Job(
+            scenario,
+            samples=samples,
+            seed=seed,
+            workers=workers,
+            backend=backend,
+            executor=executor,
+            address=address,
+            checkpoint=checkpoint,
+            progress=progress,
+            plan=None,
+        )
+        # what the result needs of the scenario alone is prepared while the
+        # workers run; the workers exit while the result is built
+        job.in_background(functools.partial(SimulationResult.prepare, job.scenario))
+        job.close_later = True
+        stack.callback(job.wait_closed)
+        stacked = job.drain()
+        elapsed = time.perf_counter() - t0
+        return SimulationResult.from_stacked(
+            job.scenario,
+            job.plan,
+            stacked,
+            elapsed=elapsed,
+            samples=samples,
+            workers=job.workers,
+            backend=backend if executor is None else "executor",
+            provenance=job.provenance(),
+            prepared=job.background_result(),
+        )
 
 
 # ------------------------------------------------------------------ estimate

@@ -86,7 +86,10 @@ def run_task(plan, task):
         for _ in range(len(group) - 1):
             acc = acc.merge(next(accs))
         out.append(acc)
-    return Stacked.of(out)
+    rows = Stacked.of(out)
+    if sum(spec[3] for spec in flat) < 2**31:  # no histogram count can exceed it
+        rows = rows.narrow()
+    return rows
 
 
 def _init_worker(plan):
@@ -131,7 +134,7 @@ class SerialRunner:
     def imap(self, tasks):
         return (run_task(self.plan, t) for t in tasks)
 
-    def close(self):
+    def close(self, wait: bool = True):
         pass
 
 
@@ -172,8 +175,10 @@ class PoolRunner:
             lambda t: self._pool.submit(_run_task_global, t), tasks, 4 * self.workers
         )
 
-    def close(self):
-        self._pool.shutdown(wait=True, cancel_futures=True)
+    def close(self, wait: bool = True):
+        """Shut the pool down; with ``wait=False`` return at once (the workers exit
+        meanwhile) and let a later ``close()`` wait for them."""
+        self._pool.shutdown(wait=wait, cancel_futures=True)
 
 
 class ExecutorRunner:
@@ -197,7 +202,7 @@ class ExecutorRunner:
         while batch := list(itertools.islice(it, 8 * self.workers)):
             yield from self.map(batch)
 
-    def close(self):
+    def close(self, wait: bool = True):
         pass
 
 
@@ -252,7 +257,7 @@ class DaskRunner:
             4 * self.workers,
         )
 
-    def close(self):
+    def close(self, wait: bool = True):
         self._client.close()
         if self._cluster is not None:
             self._cluster.close()

@@ -38,7 +38,7 @@ class Spans:
 
     offset: np.ndarray  # (P,) int64
     length: np.ndarray  # (P,) int64
-    counts: np.ndarray  # (sum(length),) int64
+    counts: np.ndarray  # (sum(length),) int64, or int32 (see narrow)
     size: int
 
     @functools.cached_property
@@ -54,8 +54,7 @@ class Spans:
     def dense(self, dtype=None) -> np.ndarray:
         """The ``(P, size)`` dense histograms (int32 where every count fits)."""
         if dtype is None:
-            big = self.counts.size and int(self.counts.max()) >= 2**31
-            dtype = np.int64 if big else np.int32
+            dtype = np.int64 if self.big else np.int32
         out = np.zeros((self.rows, self.size), dtype=dtype)
         row = np.repeat(np.arange(self.rows), self.length)
         # each stored count's dense bin: its row's offset plus its place in the span
@@ -64,6 +63,21 @@ class Spans:
         )
         out[row, col] = self.counts
         return out
+
+    @property
+    def big(self) -> bool:
+        """Some count needs 64 bits."""
+        return bool(
+            self.counts.dtype != np.int32
+            and self.counts.size
+            and int(self.counts.max()) >= 2**31
+        )
+
+    def narrow(self) -> Spans:
+        """The same spans with int32 counts: half the bytes to send, gather and
+        store. The caller guarantees that every count fits (a task's groups hold
+        far fewer than 2^31 impacts)."""
+        return Spans(self.offset, self.length, self.counts.astype(np.int32), self.size)
 
     def row(self, i: int) -> tuple[int, np.ndarray]:
         """``(offset, counts)`` of row `i` (a view of :attr:`counts`)."""
@@ -165,6 +179,16 @@ class Stacked:
             mu=Moments(int(mu[0]), *mu[1:]),
             e_span=self.e_spans.row(i),
             mu_span=self.mu_spans.row(i),
+        )
+
+    def narrow(self) -> Stacked:
+        """The same rows with int32 histogram counts (:meth:`Spans.narrow`)."""
+        return Stacked(
+            self.counts,
+            self.e,
+            self.mu,
+            self.e_spans.narrow(),
+            self.mu_spans.narrow(),
         )
 
     def take(self, rows) -> Stacked:
@@ -287,7 +311,8 @@ def histogram_quantiles(hist, edges, q=QUANTILES) -> np.ndarray:
     st = spans.start[ok]
     ln = length[ok]
     off = spans.offset[ok]
-    csum = np.cumsum(counts)  # int64: exact, and non-decreasing across all rows
+    # int64: exact, and non-decreasing across all rows
+    csum = np.cumsum(counts, dtype=np.int64)
     base = csum[st] - counts[st]  # the count before each row
     total = csum[st + ln - 1] - base
     if int(total.max()) >= 2**52:  # pragma: no cover - beyond any feasible run
@@ -348,7 +373,7 @@ def _histogram_quantiles_dense_search(spans, edges, q) -> np.ndarray:
     start, length, counts = spans.start, spans.length, spans.counts
     ok = length > 0
     row = np.repeat(np.arange(spans.rows), length)
-    csum = np.cumsum(counts)
+    csum = np.cumsum(counts, dtype=np.int64)
     st = start[ok]
     base = np.zeros(spans.rows, dtype=np.int64)
     base[ok] = csum[st] - counts[st]
