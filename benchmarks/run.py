@@ -36,7 +36,10 @@ process once with ``--smoke``):
 
 Usage::
 
-    python benchmarks/run.py [--quick | --smoke] [--json PATH]
+    python benchmarks/run.py [--quick | --smoke] [--grid-only] [--json PATH]
+
+``--grid-only`` measures items 3, 4 and 9 alone (the grid ratios), and reports the
+CPU time of the driver process and of the workers during each grid run on all cores.
 
 ``--quick`` takes under a minute on 2 cores, ``--smoke`` about 10 s (tiny sizes, no
 timing is meaningful; it checks that everything runs). Timings on shared machines are
@@ -294,11 +297,28 @@ def _grid_task(shape, samples: int, workers: int, seed: int, warmup=True) -> dic
     scenario = grid_scenario(*shape, samples)
     if warmup:
         mi.run(grid_scenario(2, 2, samples), seed=1, workers=workers, progress=False)
+    kids0 = _children_cpu_s()
     t0 = time.perf_counter()
+    c0 = time.process_time()
     mi.run(scenario, seed=seed, workers=workers, progress=False)
     dt = time.perf_counter() - t0
+    driver = time.process_time() - c0
     n = shape[0] * shape[1] * samples
-    return {"rate": n / dt, "wall_s": dt, "points": shape[0] * shape[1], "n": n}
+    return {
+        "rate": n / dt,
+        "wall_s": dt,
+        "points": shape[0] * shape[1],
+        "n": n,
+        # CPU of this process (the driver and its threads; with 1 worker also the
+        # kernel) and of the pool's worker processes (reaped when the run ends)
+        "driver_cpu_s": driver,
+        "workers_cpu_s": _children_cpu_s() - kids0,
+    }
+
+
+def _children_cpu_s() -> float:
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
 
 
 def _fixed_cost_task(workers: int) -> dict:
@@ -660,6 +680,74 @@ def print_table(res: dict) -> None:
         print(f"note: {note}")
 
 
+def run_grid_benchmark(mode: str) -> dict:
+    """Only the single large point and the sweep grid, on 1 process and on all
+    cores (``--grid-only``: the ratios of item 9 without the rest)."""
+    cfg = MODES[mode]
+    iso, reps = cfg["isolate"], cfg["repeats"]
+    kw = dict(isolate=iso, per_process=cfg["process_per_repeat"])
+    workers = os.cpu_count() or 1
+    t_start = time.perf_counter()
+    eng = repeated("engine", reps, n=cfg["n_engine"], workers=1, **kw)
+    allc = repeated(
+        "engine", reps, n=cfg["n_engine"], workers=workers, warmup=iso, **kw
+    )
+    gkw = dict(shape=cfg["grid"], samples=cfg["grid_samples"])
+    grid1 = repeated("grid", reps, workers=1, **gkw, **kw)
+    grid_all = repeated("grid", reps, workers=workers, warmup=iso, **gkw, **kw)
+    return {
+        "engine_per_s": eng["rate"],
+        "engine_all_cores_per_s": allc["rate"],
+        "grid_per_s": grid1["rate"],
+        "grid_all_cores_per_s": grid_all["rate"],
+        "grid_ratio": grid1["rate"] / eng["rate"],
+        "grid_all_cores_ratio": grid_all["rate"] / allc["rate"],
+        "grid_shape": list(cfg["grid"]),
+        "grid_samples": cfg["grid_samples"],
+        "mode": mode,
+        "n_engine": cfg["n_engine"],
+        "repeats": reps,
+        "cpu_count": workers,
+        "wall_s": time.perf_counter() - t_start,
+        "details": {
+            "rates": {
+                "engine": eng["rates"],
+                "engine_all_cores": allc["rates"],
+                "grid": grid1["rates"],
+                "grid_all_cores": grid_all["rates"],
+            },
+            "grid_driver_cpu_s": [r["driver_cpu_s"] for r in grid_all["runs"]],
+            "grid_workers_cpu_s": [r["workers_cpu_s"] for r in grid_all["runs"]],
+        },
+    }
+
+
+def print_grid_table(res: dict) -> None:
+    shape = "x".join(str(k) for k in res["grid_shape"])
+    P = res["cpu_count"]
+    rates = res["details"]["rates"]
+    for name, key in (
+        ("microimpact.run, 1 process", "engine"),
+        (f"microimpact.run, {P} processes", "engine_all_cores"),
+        (f"grid {shape}, {res['grid_samples']}/point, 1 process", "grid"),
+        (f"grid {shape}, {P} processes", "grid_all_cores"),
+    ):
+        runs = ", ".join(f"{r / 1e6:.1f}" for r in rates[key])
+        print(f"{name:<46} {res[key + '_per_s'] / 1e6:7.2f} M/s  (runs: {runs})")
+    cpu = res["details"]
+    print(
+        f"grid on {P} processes: driver CPU "
+        + ", ".join(f"{c:.3f}" for c in cpu["grid_driver_cpu_s"])
+        + " s; workers CPU "
+        + ", ".join(f"{c:.3f}" for c in cpu["grid_workers_cpu_s"])
+        + " s"
+    )
+    print(
+        f"grid / one large point: {res['grid_ratio']:.2f} (1 process), "
+        f"{res['grid_all_cores_ratio']:.2f} ({P} processes)"
+    )
+
+
 def run_benchmark(mode: str, *, dask: bool = True, reproduce: bool = True) -> dict:
     cfg = MODES[mode]
     iso, reps = cfg["isolate"], cfg["repeats"]
@@ -839,11 +927,27 @@ def main(argv=None) -> int:
     parser.add_argument(
         "--no-reproduce", action="store_true", help="skip the paper reproduction"
     )
+    parser.add_argument(
+        "--grid-only",
+        action="store_true",
+        help="only engine_per_s and grid_per_s (1 process and all cores)",
+    )
     parser.add_argument("--child", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.child:
         return _child(args.child)
     mode = "smoke" if args.smoke else "quick" if args.quick else "full"
+    if args.grid_only:
+        res = run_grid_benchmark(mode)
+        print(
+            f"# microimpact grid benchmark, mode {mode}, {res['cpu_count']} CPUs; "
+            f"N engine {res['n_engine']:.3g}; median of {res['repeats']}; "
+            f"{res['wall_s']:.0f} s in all"
+        )
+        print_grid_table(res)
+        if args.json:
+            write_json_atomic(args.json, res)
+        return 0
     res = run_benchmark(mode, dask=not args.no_dask, reproduce=not args.no_reproduce)
     print(
         f"# microimpact benchmark, mode {mode}, {res['cpu_count']} CPUs, "
