@@ -453,6 +453,7 @@ class _Job:
         self.resumed_blocks = 0
         self.close_later = False  # see wait_closed
         self._closing = None
+        self._background = None  # see in_background
 
     def provenance(self) -> dict:
         out = {
@@ -586,9 +587,8 @@ class _Job:
         self._background = _Background(fn)
 
     def _start_background(self) -> None:
-        bg = getattr(self, "_background", None)
-        if bg is not None:
-            bg.start()
+        if self._background is not None:
+            self._background.start()
 
     def background_result(self):
         return self._background.result()
