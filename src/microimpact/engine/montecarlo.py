@@ -451,8 +451,6 @@ class _Job:
             )
         self.progress = progress
         self.resumed_blocks = 0
-        self.close_later = False  # see wait_closed
-        self._closing = None
         self._background = None  # see in_background
 
     def provenance(self) -> dict:
@@ -534,13 +532,7 @@ class _Job:
                 if ck is not None:
                     ck.write(streams.state())
             finally:
-                # run() waits for a pool's workers to exit after building its
-                # result (close_later); iter_blocks before it returns
-                if self.close_later:
-                    runner.close(wait=False)
-                    self._closing = runner
-                else:
-                    runner.close()
+                runner.close()
                 bar.close()
         if not fixed:
             self._warn_unconverged()
@@ -570,13 +562,6 @@ class _Job:
         ck = self.checkpoint
         if ck is not None and ck.due():
             ck.write(self.streams.state())
-
-    def wait_closed(self) -> None:
-        """Wait until the runner's workers have exited (with ``close_later``, the
-        pool is only told to shut down when the last task is merged)."""
-        runner, self._closing = self._closing, None
-        if runner is not None:
-            runner.close()
 
     # ------------------------------------------------------------ background
     def in_background(self, fn) -> None:
@@ -759,7 +744,7 @@ def run(
     from .result import SimulationResult
 
     t0 = time.perf_counter()
-    with _defer_full_collections(), contextlib.ExitStack() as stack:
+    with _defer_full_collections():
         job = _Job(
             scenario,
             samples=samples,
@@ -773,10 +758,8 @@ def run(
             plan=None,
         )
         # what the result needs of the scenario alone is prepared while the
-        # workers run; the workers exit while the result is built
+        # workers run
         job.in_background(functools.partial(SimulationResult.prepare, job.scenario))
-        job.close_later = True
-        stack.callback(job.wait_closed)
         stacked = job.drain()
         elapsed = time.perf_counter() - t0
         return SimulationResult.from_stacked(

@@ -134,7 +134,7 @@ class SerialRunner:
     def imap(self, tasks):
         return (run_task(self.plan, t) for t in tasks)
 
-    def close(self, wait: bool = True):
+    def close(self):
         pass
 
 
@@ -175,10 +175,8 @@ class PoolRunner:
             lambda t: self._pool.submit(_run_task_global, t), tasks, 4 * self.workers
         )
 
-    def close(self, wait: bool = True):
-        """Shut the pool down; with ``wait=False`` return at once (the workers exit
-        meanwhile) and let a later ``close()`` wait for them."""
-        self._pool.shutdown(wait=wait, cancel_futures=True)
+    def close(self):
+        self._pool.shutdown(wait=True, cancel_futures=True)
 
 
 class ExecutorRunner:
@@ -202,7 +200,7 @@ class ExecutorRunner:
         while batch := list(itertools.islice(it, 8 * self.workers)):
             yield from self.map(batch)
 
-    def close(self, wait: bool = True):
+    def close(self):
         pass
 
 
@@ -257,7 +255,7 @@ class DaskRunner:
             4 * self.workers,
         )
 
-    def close(self, wait: bool = True):
+    def close(self):
         self._client.close()
         if self._cluster is not None:
             self._cluster.close()
