@@ -311,8 +311,12 @@ def histogram_quantiles(hist, edges, q=QUANTILES) -> np.ndarray:
     st = spans.start[ok]
     ln = length[ok]
     off = spans.offset[ok]
-    # int64: exact, and non-decreasing across all rows
-    csum = np.cumsum(counts, dtype=np.int64)
+    # exact, and non-decreasing across all rows: in the counts' own int32 when the
+    # whole sum fits (a cumulative sum that casts as it goes is ~8x slower)
+    if counts.dtype == np.int32 and int(counts.sum(dtype=np.int64)) < 2**31:
+        csum = np.cumsum(counts, dtype=np.int32)
+    else:
+        csum = np.cumsum(counts.astype(np.int64, copy=False))
     base = csum[st] - counts[st]  # the count before each row
     total = csum[st + ln - 1] - base
     if int(total.max()) >= 2**52:  # pragma: no cover - beyond any feasible run
