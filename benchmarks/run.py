@@ -33,6 +33,10 @@ process once with ``--smoke``):
    x 100 angles (10^4 points) at 4,000 impacts per point on the same rough surface
    (``grid_all_cores_per_s``: ``workers=os.cpu_count()``); ``grid_ratio`` is
    ``grid_per_s / engine_per_s``, measured in the same run (target >= 0.5).
+10. ``wall_law_build_s``: ``microimpact.build_wall_law`` of a 20 x 20 x 20 table
+   (diameter x speed x angle) at 4,000 draws per node on the same surface and laws,
+   on all cores (issue 13's target: under a minute on two); ``wall_law_per_s`` its
+   impacts per second.
 
 Usage::
 
@@ -100,6 +104,7 @@ FULL = dict(
     process_per_repeat=True,
 )
 FULL.update(grid=(100, 100), grid_samples=4000)
+FULL.update(wall_law=(20, 20, 20), wall_law_samples=4000)
 QUICK = {**FULL, "n_rng": 2 * 10**7, "n_numpy": 2 * 10**6, "n_engine": 2 * 10**7}
 QUICK.update(grid=(50, 50))
 QUICK.update(rss_ns=(10**6, 10**7), qmc_replicates=16)
@@ -108,6 +113,7 @@ SMOKE = {**QUICK, "n_rng": 1 << 18, "n_numpy": 1 << 17, "n_engine": 1 << 17}
 SMOKE.update(repeats=1, rss_ns=(10**5,), qmc_replicates=4, qmc_n=1 << 12)
 SMOKE.update(reproduce_samples=100, reproduce_presets=1, isolate=False)
 SMOKE.update(grid=(4, 5), grid_samples=400)
+SMOKE.update(wall_law=(3, 3, 3), wall_law_samples=200)
 MODES = {"full": FULL, "quick": QUICK, "smoke": SMOKE}
 #: Largest N of the whole-array NumPy baseline (memory: ~1.5 GiB at 10^7).
 NUMPY_MAX_N = 10**7
@@ -316,6 +322,26 @@ def _grid_task(shape, samples: int, workers: int, seed: int, warmup=True) -> dic
     }
 
 
+def _wall_law_task(shape, samples: int, workers: int, seed: int) -> dict:
+    """Build a wall law of ``d x v x angle`` nodes on the benchmark's surface and
+    laws (one surface), ``samples`` draws per node (issue 13's target: 20 x 20 x 20
+    at 4,000 in under a minute on two cores)."""
+    from microimpact.wall_law import WallLawSpec, build_wall_law
+
+    n_d, n_v, n_a = shape
+    spec = WallLawSpec(
+        diameters_um=tuple(np.geomspace(20.0, 120.0, n_d)),
+        speeds_m_s=tuple(np.geomspace(0.1, 10.0, n_v)),
+        angles_deg=tuple(np.linspace(5.0, 90.0, n_a)),
+        samples=samples,
+    )
+    t0 = time.perf_counter()
+    build_wall_law(make_scenario(), spec, workers=workers, seed=seed)
+    dt = time.perf_counter() - t0
+    n = n_d * n_v * n_a * samples
+    return {"rate": n / dt, "wall_s": dt, "nodes": n_d * n_v * n_a, "n": n}
+
+
 def _children_cpu_s() -> float:
     r = resource.getrusage(resource.RUSAGE_CHILDREN)
     return r.ru_utime + r.ru_stime
@@ -508,6 +534,9 @@ TASKS = {
         p["shape"], p["samples"], p["workers"], p["seed"], p.get("warmup", True)
     ),
     "dask": lambda p: _dask_task(p["n"], p["workers"], p["repeats"]),
+    "wall_law": lambda p: _wall_law_task(
+        p["shape"], p["samples"], p["workers"], p["seed"]
+    ),
 }
 
 
@@ -650,6 +679,11 @@ def print_table(res: dict) -> None:
         "the NumPy baseline.\nPeak RSS of the measuring process ('+X/wkr': the "
         "largest process-pool or Dask worker, which shares most pages with it)."
     )
+    print(
+        f"wall law {'x'.join(str(k) for k in res['details']['wall_law_shape'])} "
+        f"nodes at {res['wall_law_samples']}/node, {res['cpu_count']} processes: "
+        f"{res['wall_law_build_s']:.1f} s ({res['wall_law_per_s'] / 1e6:.2f} M/s)"
+    )
     by_n = ", ".join(
         f"{int(n):.0e}: {v:.0f}" for n, v in res["peak_rss_mb_by_n"].items()
     )
@@ -768,6 +802,14 @@ def run_benchmark(mode: str, *, dask: bool = True, reproduce: bool = True) -> di
     gkw = dict(shape=cfg["grid"], samples=cfg["grid_samples"])
     grid1 = repeated("grid", reps, workers=1, **gkw, **kw)
     grid_all = repeated("grid", reps, workers=workers, warmup=iso, **gkw, **kw)
+    details["wall_law_shape"] = list(cfg["wall_law"])
+    wall = measure(
+        "wall_law",
+        isolate=iso,
+        shape=cfg["wall_law"],
+        samples=cfg["wall_law_samples"],
+        workers=workers,
+    )["runs"][0]
     if iso:  # the fixed cost of one run (pool start, plan, result)
         details["fixed_cost_s"] = {
             str(w): measure("fixed_cost", isolate=iso, workers=w)["runs"][0]["wall_s"]
@@ -869,6 +911,10 @@ def run_benchmark(mode: str, *, dask: bool = True, reproduce: bool = True) -> di
         "grid_all_cores_ratio": grid_all["rate"] / allc["rate"],
         "grid_shape": list(cfg["grid"]),
         "grid_samples": cfg["grid_samples"],
+        "wall_law_build_s": wall["wall_s"],
+        "wall_law_per_s": wall["rate"],
+        "wall_law_nodes": wall["nodes"],
+        "wall_law_samples": cfg["wall_law_samples"],
         "dask_per_s": dask_rate,
         "peak_rss_mb": max(rss_by_n.values()),
         "qmc_error_ratio": q["ratio"],

@@ -60,6 +60,8 @@ def test_smoke_writes_every_key(tmp_path):
         "grid_per_s",
         "grid_all_cores_per_s",
         "grid_ratio",
+        "wall_law_build_s",
+        "wall_law_per_s",
     ):
         assert key in data, key
         if key == "dask_per_s" and dask_missing:
