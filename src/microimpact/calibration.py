@@ -226,17 +226,10 @@ def _simulate(task):
 
 
 def _process_pool(workers):
-    import multiprocessing as mp
-    import threading
-    from concurrent.futures import ProcessPoolExecutor
+    """A process pool started as the engine's (fork when no thread runs)."""
+    from .engine.parallel import process_pool
 
-    if os.name == "nt":  # pragma: no cover
-        method = "spawn"
-    elif threading.active_count() == 1 and "fork" in mp.get_all_start_methods():
-        method = "fork"
-    else:
-        method = "forkserver"
-    return ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context(method))
+    return process_pool(workers)
 
 
 class _Model:

@@ -363,19 +363,11 @@ def _map(executor, model, chunks, in_flight):
         yield result
 
 
-def _process_pool(workers: int):
+def _process_pool(workers):
     """A process pool started as the engine's (fork when no thread runs)."""
-    import multiprocessing as mp
-    import threading
-    from concurrent.futures import ProcessPoolExecutor
+    from .engine.parallel import process_pool
 
-    if os.name == "nt":
-        method = "spawn"
-    elif threading.active_count() == 1 and "fork" in mp.get_all_start_methods():
-        method = "fork"
-    else:
-        method = "forkserver"
-    return ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context(method))
+    return process_pool(workers)
 
 
 def _evaluate(model, rows, *, workers, executor, progress) -> np.ndarray:

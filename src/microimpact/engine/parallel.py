@@ -138,34 +138,44 @@ class SerialRunner:
         pass
 
 
+def start_method() -> str:
+    """How the project starts worker processes: ``"fork"`` (instant, and the
+    workers inherit the tables already built) while no other thread runs, else
+    ``"forkserver"`` (``"spawn"`` on Windows)."""
+    import multiprocessing as mp
+    import threading
+
+    if os.name == "nt":  # pragma: no cover - not tested here
+        return "spawn"
+    if threading.active_count() == 1 and "fork" in mp.get_all_start_methods():
+        return "fork"
+    return "forkserver"
+
+
+def process_pool(workers: int, **kwargs):
+    """A :class:`concurrent.futures.ProcessPoolExecutor` of `workers` processes
+    started with :func:`start_method` (`kwargs` go to the executor)."""
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor
+
+    return ProcessPoolExecutor(
+        max_workers=workers, mp_context=mp.get_context(start_method()), **kwargs
+    )
+
+
 class PoolRunner:
     """Run tasks on a :class:`concurrent.futures.ProcessPoolExecutor`."""
 
     def __init__(self, plan, workers: int):
-        import multiprocessing as mp
-        import threading
-        from concurrent.futures import ProcessPoolExecutor
-
         self.workers = workers
         # 'fork' starts workers instantly with the tables already built, but is
         # unsafe once threads run; otherwise 'forkserver' (or 'spawn').
-        if os.name == "nt":
-            method = "spawn"
-        elif threading.active_count() == 1 and "fork" in mp.get_all_start_methods():
-            method = "fork"
-        else:
-            method = "forkserver"
-        ctx = mp.get_context(method)
+        method = start_method()
         if method == "fork":
             # build the first angle table and touch the kernel here, once, so that
             # forked workers inherit them instead of each building them per run
             kernel.simulate_block(plan, 0, 0, 0, 1)
-        self._pool = ProcessPoolExecutor(
-            max_workers=workers,
-            mp_context=ctx,
-            initializer=_init_worker,
-            initargs=(plan,),
-        )
+        self._pool = process_pool(workers, initializer=_init_worker, initargs=(plan,))
 
     def map(self, tasks):
         return list(self._pool.map(_run_task_global, tasks))

@@ -163,15 +163,12 @@ def _results(plan, scenario, spec, samples, workers, executor, indices):
         for j in indices:
             yield j, _diameter_task(plan, scenario, spec, samples, j)
         return
-    import multiprocessing as mp
-    import threading
-    from concurrent.futures import ProcessPoolExecutor, as_completed
+    from concurrent.futures import as_completed
 
-    fork = threading.active_count() == 1 and "fork" in mp.get_all_start_methods()
-    ctx = mp.get_context("fork" if fork and os.name != "nt" else "spawn")
-    with ProcessPoolExecutor(
-        max_workers=min(workers, len(indices)),
-        mp_context=ctx,
+    from ..engine.parallel import process_pool
+
+    with process_pool(
+        min(workers, len(indices)),
         initializer=_init_worker,
         initargs=(plan, scenario, spec, samples),
     ) as pool:
