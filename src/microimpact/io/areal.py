@@ -381,23 +381,9 @@ def _read_text(path, *, dx_um, dy_um, z_unit, delimiter) -> HeightMap:
 
 
 def _read_x3p(path) -> HeightMap:
-    try:
-        import x3pio
-    except ImportError:
-        raise ProfileFormatError(
-            "reading .x3p files needs the optional package x3pio: "
-            "`pip install x3pio` (or `pip install microimpact[x3p]`)",
-            source=path,
-        ) from None
-    try:
-        f = x3pio.read(path)
-    except FileNotFoundError:
-        raise ProfileFormatError("file not found", source=path) from None
-    except (x3pio.X3pError, OSError, ValueError) as exc:
-        msg = " ".join(str(exc).split())
-        raise ProfileFormatError(
-            f"not a readable x3p file: {msg}", source=path
-        ) from None
+    from .profiles import open_x3p
+
+    f = open_x3p(path)
     kind = type(f).__name__
     if kind != "Surface":
         raise ProfileFormatError(

@@ -533,7 +533,9 @@ def _build_profiles(path, scans, *, xf, zf, dx, meta):
     return out
 
 
-def _read_x3p(path, *, meta):
+def open_x3p(path):
+    """The x3pio object of an ``.x3p`` file; a missing package, a missing or an
+    unreadable file is a :class:`ProfileFormatError` naming the file."""
     try:
         import x3pio
     except ImportError:
@@ -551,6 +553,11 @@ def _read_x3p(path, *, meta):
         raise ProfileFormatError(
             f"not a readable x3p file: {msg}", source=path
         ) from None
+    return f
+
+
+def _read_x3p(path, *, meta):
+    f = open_x3p(path)
     layer = f.layers[0]
     z = np.asarray(layer.z, dtype=float)
     x = np.asarray(layer.x_values, dtype=float)
