@@ -15,6 +15,7 @@ from microimpact.engine import montecarlo, parallel
 from microimpact.engine.accumulators import (
     E_BINS,
     E_EDGES,
+    LATERAL_BINS,
     MU_BINS,
     Moments,
     PointAccumulator,
@@ -111,13 +112,27 @@ def test_histogram_quantiles_equal_the_definitions(rng):
 
 def _accumulators(rng, k):
     accs = []
-    for e_row, mu_row in zip(
-        _random_rows(rng, k), _random_rows(rng, k, MU_BINS), strict=True
+    for e_row, mu_row, lat_row in zip(
+        _random_rows(rng, k),
+        _random_rows(rng, k, MU_BINS),
+        _random_rows(rng, k, LATERAL_BINS),
+        strict=True,
     ):
         e = Moments(int(rng.integers(0, 10**6)), *rng.normal(size=3).tolist())
         mu = Moments(int(rng.integers(0, 10**6)), *rng.normal(size=3).tolist())
+        lat = Moments(int(rng.integers(0, 10**6)), *rng.normal(size=3).tolist())
         counts = rng.integers(0, 10**6, 5).tolist()
-        accs.append(PointAccumulator(*counts, e=e, mu=mu, e_hist=e_row, mu_hist=mu_row))
+        accs.append(
+            PointAccumulator(
+                *counts,
+                e=e,
+                mu=mu,
+                e_hist=e_row,
+                mu_hist=mu_row,
+                lateral=lat,
+                lateral_hist=lat_row,
+            )
+        )
     return accs
 
 
@@ -135,6 +150,9 @@ def test_stacked_rows_round_trip_take_and_concat(rng):
     # the moments' counts come back as ints, the values bit for bit
     a = st.accumulator(4)
     assert type(a.e.n) is int and a.e == accs[4].e and a.mu == accs[4].mu
+    assert type(a.lateral.n) is int and a.lateral == accs[4].lateral
+    assert_array_equal(a.lateral_hist, accs[4].lateral_hist)
+    assert_array_equal(st.narrow().accumulator(4).lateral_hist, a.lateral_hist)
 
 
 # ------------------------------------------------------------------ the driver

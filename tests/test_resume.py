@@ -289,6 +289,8 @@ def test_checkpoint_round_trip_is_exact(tmp_path, rng, big):
         assert back[k][1] == acc
         assert_array_equal(back[k][1].e_hist, acc.e_hist)
         assert_array_equal(back[k][1].mu_hist, acc.mu_hist)
+        assert back[k][1].lateral == acc.lateral
+        assert_array_equal(back[k][1].lateral_hist, acc.lateral_hist)
 
 
 def test_checkpoint_size_is_proportional_to_what_is_kept(tmp_path):
@@ -301,7 +303,9 @@ def test_checkpoint_size_is_proportional_to_what_is_kept(tmp_path):
     ck = Checkpoint(path)
     result = run(sc, samples=200, checkpoint=ck)
     occupied = sum(
-        np.count_nonzero(a.e_hist) + np.count_nonzero(a.mu_hist)
+        np.count_nonzero(a.e_hist)
+        + np.count_nonzero(a.mu_hist)
+        + np.count_nonzero(a.lateral_hist)
         for a in result.accumulators.values()
     )
     points = len(result.accumulators)
@@ -313,7 +317,8 @@ def test_checkpoint_size_is_proportional_to_what_is_kept(tmp_path):
     # and before compression (zeros compress well, so check what is stored)
     with zipfile.ZipFile(path) as z:
         stored = sum(info.file_size for info in z.infolist())
-    assert stored < 2_000 + points * 160 + 8 * occupied  # 144 B per point, int32 bins
+    # 184 B per point (3 moments, 3 spans), int32 bins
+    assert stored < 2_000 + points * 200 + 8 * occupied
 
 
 def test_writes_are_spaced_by_their_cost(tmp_path, monkeypatch):

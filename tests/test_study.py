@@ -55,7 +55,7 @@ def test_dataset_is_cf_and_summary_derives_from_it(rough_result):
     assert ds.attrs["Conventions"] == "CF-1.10"
     for name, var in ds.data_vars.items():
         assert "long_name" in var.attrs, name
-        if name != "surface_is_smooth":
+        if name not in ("surface_is_smooth", "surface_is_areal"):
             assert "units" in var.attrs, name
     for name in ("n", "n_impacts", "n_rebounds", "e_hist", "mu_hist", "n_captured"):
         assert np.issubdtype(ds[name].dtype, np.integer), name

@@ -1,10 +1,10 @@
 """Mergeable streaming statistics for the Monte Carlo engine.
 
 Each block of impacts is reduced to a :class:`PointAccumulator`: counts, the first
-three central moments of ``e_m`` and ``mu_m`` over rebounds (Chan et al. / Pebay
-update formulas) and fixed-edge integer histograms. Accumulators are merged on the
-driver in block-key order, so the result does not depend on how blocks were grouped
-into tasks or which worker ran them.
+three central moments of ``e_m``, ``mu_m`` and the folded lateral angle over rebounds
+(Chan et al. / Pebay update formulas) and fixed-edge integer histograms. Accumulators
+are merged on the driver in block-key order, so the result does not depend on how
+blocks were grouped into tasks or which worker ran them.
 
 The statistics over all impacts with captured particles counted as ``e_m = 0``
 (``e_mean``) are derived exactly from the rebound moments and the capture count, so the
@@ -22,6 +22,9 @@ import numpy as np
 E_EDGES = np.linspace(-2.0, 10.0, 1201)
 #: Fixed histogram edges of the apparent impulse ratio mu_m [-]: 0.01 bins on [-10, 10].
 MU_EDGES = np.linspace(-10.0, 10.0, 2001)
+#: Fixed histogram edges of the folded lateral angle psi_f [deg]: 0.5 degree bins on
+#: [-90, 90], the last edge inclusive (psi_f = 90 counts in the last bin).
+LATERAL_EDGES = np.linspace(-90.0, 90.0, 361)
 
 
 @dataclass(slots=True)
@@ -121,9 +124,36 @@ def histogram_counts(x: np.ndarray, edges: np.ndarray) -> np.ndarray:
     return np.bincount(idx.astype(np.intp) + 1, minlength=nb + 2)
 
 
+def folded_lateral_deg(psi_deg):
+    """The folded lateral angle ``psi_f = atan2(V_b, |V_t|)`` [deg] in [-90, 90] from
+    the lateral angle ``psi = atan2(V_b, -V_t)`` of
+    :func:`microimpact.apparent_rebound` (docs/outputs.md): ``psi`` itself for a
+    forward rebound (``|psi| <= 90``), ``sign(psi) 180 - psi`` for a backward one;
+    0 for every rebound in the plane of incidence (``psi`` = 0 or 180)."""
+    psi = np.asarray(psi_deg, dtype=float)
+    back = np.abs(psi) > 90.0
+    out = np.where(back, np.copysign(180.0, psi) - psi, psi)
+    return out + 0.0  # no -0
+
+
+def lateral_histogram_counts(x: np.ndarray) -> np.ndarray:
+    """:func:`histogram_counts` of folded lateral angles on :data:`LATERAL_EDGES`,
+    the last edge inclusive (90 counts in the last bin, not the overflow bin)."""
+    x = np.asarray(x, dtype=float)
+    counts = histogram_counts(x, LATERAL_EDGES)
+    top = int(np.count_nonzero(x == LATERAL_EDGES[-1]))
+    if top:  # from the overflow bin into the last bin
+        counts[-1] -= top
+        counts[-2] += top
+    return counts
+
+
 #: Bins of the dense histograms (edges plus the under- and overflow bins).
 E_BINS = E_EDGES.size + 1
 MU_BINS = MU_EDGES.size + 1
+LATERAL_BINS = LATERAL_EDGES.size + 1
+#: The dense bin of psi_f = 0 (every rebound of a profile or smooth surface).
+LATERAL_ZERO_BIN = int(np.floor((0.0 - LATERAL_EDGES[0]) * 2.0)) + 1
 _EMPTY = np.zeros(0, dtype=np.int64)
 _EMPTY.setflags(write=False)
 
@@ -160,6 +190,17 @@ def _dense(lo, counts, size) -> np.ndarray:
     return out
 
 
+def in_plane_lateral(rebounds: int) -> tuple[Moments, tuple[int, np.ndarray]]:
+    """``(moments, span)`` of `rebounds` folded lateral angles all exactly 0 (a
+    profile or smooth surface): exactly what ``Moments.of`` and
+    :func:`lateral_histogram_counts` give for ``np.zeros(rebounds)``."""
+    rebounds = int(rebounds)
+    if rebounds == 0:
+        return Moments(), (0, _EMPTY)
+    m = Moments.from_shifted_sums(rebounds, 0.0, 0.0, 0.0, 0.0)
+    return m, (LATERAL_ZERO_BIN, np.array([rebounds], dtype=np.int64))
+
+
 class PointAccumulator:
     """Everything the engine keeps of the impacts at one sweep point.
 
@@ -182,11 +223,14 @@ class PointAccumulator:
         Rebounds that leave the facet rolling.
     e, mu : Moments
         Moments of ``e_m`` and ``mu_m`` over rebounds.
-    e_hist, mu_hist : ndarray of int64
-        Histograms of ``e_m`` and ``mu_m`` over rebounds on :data:`E_EDGES`,
-        :data:`MU_EDGES` with under- and overflow bins (dense copies, built on
-        access: length ``len(edges) + 1``).
-    e_span, mu_span : (int, ndarray of int64)
+    lateral : Moments
+        Moments of the folded lateral angle ``psi_f`` [deg] over the same rebounds
+        (exactly 0 for each rebound on a profile or smooth surface).
+    e_hist, mu_hist, lateral_hist : ndarray of int64
+        Histograms of ``e_m``, ``mu_m`` and ``psi_f`` over rebounds on
+        :data:`E_EDGES`, :data:`MU_EDGES`, :data:`LATERAL_EDGES` with under- and
+        overflow bins (dense copies, built on access: length ``len(edges) + 1``).
+    e_span, mu_span, lateral_span : (int, ndarray of int64)
         The same histograms as ``(offset, counts)``: bins ``offset ..
         offset + len(counts) - 1`` of the dense array (read-only views).
     """
@@ -194,10 +238,13 @@ class PointAccumulator:
     __slots__ = (
         "_e_counts",
         "_e_lo",
+        "_lat_counts",
+        "_lat_lo",
         "_mu_counts",
         "_mu_lo",
         "captured",
         "e",
+        "lateral",
         "mu",
         "n",
         "reimpact",
@@ -219,6 +266,9 @@ class PointAccumulator:
         *,
         e_span=None,
         mu_span=None,
+        lateral=None,
+        lateral_hist=None,
+        lateral_span=None,
     ):
         self.n = int(n)
         self.shadowed = int(shadowed)
@@ -229,6 +279,10 @@ class PointAccumulator:
         self.mu = Moments() if mu is None else mu
         self._e_lo, self._e_counts = _span_arg(e_hist, e_span, E_BINS, "e_hist")
         self._mu_lo, self._mu_counts = _span_arg(mu_hist, mu_span, MU_BINS, "mu_hist")
+        self.lateral = Moments() if lateral is None else lateral
+        self._lat_lo, self._lat_counts = _span_arg(
+            lateral_hist, lateral_span, LATERAL_BINS, "lateral_hist"
+        )
 
     @property
     def e_hist(self) -> np.ndarray:
@@ -239,6 +293,14 @@ class PointAccumulator:
         return _dense(self._mu_lo, self._mu_counts, MU_BINS)
 
     @property
+    def lateral_hist(self) -> np.ndarray:
+        return _dense(self._lat_lo, self._lat_counts, LATERAL_BINS)
+
+    @property
+    def lateral_span(self) -> tuple[int, np.ndarray]:
+        return self._lat_lo, _readonly(self._lat_counts)
+
+    @property
     def e_span(self) -> tuple[int, np.ndarray]:
         return self._e_lo, _readonly(self._e_counts)
 
@@ -247,16 +309,19 @@ class PointAccumulator:
         return self._mu_lo, _readonly(self._mu_counts)
 
     def span_of(self, name: str) -> tuple[int, np.ndarray]:
-        """``(offset, counts)`` of histogram `name` (``"e"`` or ``"mu"``), without
-        a read-only view (for serialisation; do not modify the counts)."""
+        """``(offset, counts)`` of histogram `name` (``"e"``, ``"mu"`` or
+        ``"lateral"``), without a read-only view (for serialisation; do not modify
+        the counts)."""
         if name == "e":
             return self._e_lo, self._e_counts
+        if name == "lateral":
+            return self._lat_lo, self._lat_counts
         return self._mu_lo, self._mu_counts
 
     @property
     def nbytes(self) -> int:
         """Bytes held by the histogram spans."""
-        return self._e_counts.nbytes + self._mu_counts.nbytes
+        return self._e_counts.nbytes + self._mu_counts.nbytes + self._lat_counts.nbytes
 
     def merge(self, other: PointAccumulator) -> PointAccumulator:
         """A new accumulator for the union of two disjoint sets of impacts."""
@@ -271,6 +336,10 @@ class PointAccumulator:
             e_span=_add_spans(self._e_lo, self._e_counts, other._e_lo, other._e_counts),
             mu_span=_add_spans(
                 self._mu_lo, self._mu_counts, other._mu_lo, other._mu_counts
+            ),
+            lateral=self.lateral.merge(other.lateral),
+            lateral_span=_add_spans(
+                self._lat_lo, self._lat_counts, other._lat_lo, other._lat_counts
             ),
         )
 
@@ -303,6 +372,8 @@ class PointAccumulator:
             and self.mu == other.mu
             and np.array_equal(self.e_hist, other.e_hist)
             and np.array_equal(self.mu_hist, other.mu_hist)
+            and self.lateral == other.lateral
+            and np.array_equal(self.lateral_hist, other.lateral_hist)
         )
 
     __hash__ = None
@@ -311,7 +382,8 @@ class PointAccumulator:
         return (
             f"PointAccumulator(n={self.n}, shadowed={self.shadowed}, "
             f"captured={self.captured}, reimpact={self.reimpact}, "
-            f"rolling={self.rolling}, e={self.e!r}, mu={self.mu!r})"
+            f"rolling={self.rolling}, e={self.e!r}, mu={self.mu!r}, "
+            f"lateral={self.lateral!r})"
         )
 
     def __getstate__(self):
@@ -329,6 +401,8 @@ class PointAccumulator:
             "mu": self.mu.as_array(),
             "e_hist": self.e_hist,
             "mu_hist": self.mu_hist,
+            "lateral": self.lateral.as_array(),
+            "lateral_hist": self.lateral_hist,
         }
 
     @classmethod
@@ -344,6 +418,12 @@ class PointAccumulator:
             mu=Moments.from_array(d["mu"]),
             e_hist=np.asarray(d["e_hist"], dtype=np.int64),
             mu_hist=np.asarray(d["mu_hist"], dtype=np.int64),
+            lateral=Moments.from_array(d["lateral"]) if "lateral" in d else None,
+            lateral_hist=(
+                np.asarray(d["lateral_hist"], dtype=np.int64)
+                if "lateral_hist" in d
+                else None
+            ),
         )
 
 

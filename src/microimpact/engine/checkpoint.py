@@ -6,8 +6,10 @@ checkpoint stores that prefix for every (point, replicate), plus a fingerprint o
 run in three parts (seed, sample counts, scenario and tables), so that a checkpoint
 that does not match can be reported with its cause.
 
-The file is a compressed ``.npz`` of flat arrays (format 2): per (point, replicate)
-its next block, its counts and moments, and each histogram as its occupied span of
+The file is a compressed ``.npz`` of flat arrays (format 3): per (point, replicate)
+its next block, its counts and moments (e_m, mu_m and the folded lateral angle;
+format 2 had no lateral angle and is reported as another format, not misread), and
+each histogram as its occupied span of
 bins (offset, length, counts as int32 when they fit), all spans concatenated. Its size
 is proportional to what is kept, not to the number of histogram bins. It is written to
 a temporary file in the same folder (``.<name>.<random>.tmp``), flushed to disk and
@@ -33,10 +35,13 @@ from pathlib import Path
 import numpy as np
 
 from .._files import atomic_write
-from .accumulators import E_BINS, MU_BINS, Moments, PointAccumulator
+from .accumulators import E_BINS, LATERAL_BINS, MU_BINS, Moments, PointAccumulator
 
 #: Version of the file layout; a file of another version is reported, not read.
-FORMAT_VERSION = 2
+#: 3: the lateral angle's moments and histogram (format 2 lacks them).
+FORMAT_VERSION = 3
+#: The histograms a checkpoint stores: name -> dense size.
+_HISTOGRAMS = (("e", E_BINS), ("mu", MU_BINS), ("lateral", LATERAL_BINS))
 #: The parts of the fingerprint, in the order a mismatch is reported.
 FINGERPRINT_PARTS = ("seed", "samples", "scenario")
 #: Reasons a checkpoint file is not used (:attr:`Checkpoint.rejected`).
@@ -105,13 +110,17 @@ def save(path, fingerprint: dict, state: dict) -> int:
         ).reshape(-1, 5),
         "moments": np.array(
             [
-                (a.e.n, a.e.mean, a.e.m2, a.e.m3, a.mu.n, a.mu.mean, a.mu.m2, a.mu.m3)
+                (
+                    *(a.e.n, a.e.mean, a.e.m2, a.e.m3),
+                    *(a.mu.n, a.mu.mean, a.mu.m2, a.mu.m3),
+                    *(a.lateral.n, a.lateral.mean, a.lateral.m2, a.lateral.m3),
+                )
                 for a in accs
             ],
             dtype=float,
-        ).reshape(-1, 8),
+        ).reshape(-1, 12),
     }
-    for name in ("e", "mu"):
+    for name, _ in _HISTOGRAMS:
         spans = [a.span_of(name) for a in accs]
         arrays[f"{name}_lo"] = np.array([lo for lo, _ in spans], dtype=np.int32)
         arrays[f"{name}_len"] = np.array([c.size for _, c in spans], dtype=np.int32)
@@ -174,7 +183,7 @@ def _unpack(z) -> dict:
     keys, nxt = z["keys"], z["next_block"]
     counts, moments = z["counts"], z["moments"]
     spans = {}
-    for name, size in (("e", E_BINS), ("mu", MU_BINS)):
+    for name, size in _HISTOGRAMS:
         lo, length = z[f"{name}_lo"], z[f"{name}_len"]
         flat = z[f"{name}_counts"].astype(np.int64)
         ends = np.cumsum(length)
@@ -190,6 +199,8 @@ def _unpack(z) -> dict:
         spans[name] = list(zip(lo_list, parts, strict=True))
     if not len(keys) == len(nxt) == len(counts) == len(moments):
         raise ValueError("inconsistent array lengths")
+    if moments.ndim != 2 or moments.shape[1] != 12:
+        raise ValueError(f"moments of shape {moments.shape}, expected (n, 12)")
     state = {}
     rows = zip(
         keys.tolist(),
@@ -198,15 +209,18 @@ def _unpack(z) -> dict:
         moments.tolist(),
         spans["e"],
         spans["mu"],
+        spans["lateral"],
         strict=True,
     )
-    for (point, rep), next_block, c, m, e_span, mu_span in rows:
+    for (point, rep), next_block, c, m, e_span, mu_span, lat_span in rows:
         acc = PointAccumulator(
             *c,
             e=Moments(int(m[0]), m[1], m[2], m[3]),
             mu=Moments(int(m[4]), m[5], m[6], m[7]),
             e_span=e_span,
             mu_span=mu_span,
+            lateral=Moments(int(m[8]), m[9], m[10], m[11]),
+            lateral_span=lat_span,
         )
         state[(point, rep)] = (next_block, acc)
     return state

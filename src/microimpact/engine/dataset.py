@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .accumulators import E_EDGES, MU_EDGES
+from .accumulators import E_EDGES, LATERAL_EDGES, MU_EDGES
 
 #: CF conventions version the files follow.
 CONVENTIONS = "CF-1.10"
@@ -56,7 +56,34 @@ VARIABLES: dict[str, tuple[str, str]] = {
     "e_relative_se": ("1", "standard error of e_relative"),
     "mu_relative": ("1", "relative impulse ratio mu - mu(reference angle)"),
     "mu_relative_se": ("1", "standard error of mu_relative"),
+    # the folded lateral angle psi_f = atan2(V_b, |V_t|) over rebounds (0 for every
+    # rebound in the plane of incidence; docs/outputs.md)
+    "lateral_mean_deg": (
+        "degree",
+        "mean folded lateral rebound angle psi_f over rebounds",
+    ),
+    "lateral_std_deg": (
+        "degree",
+        "standard deviation of the folded lateral rebound angle over rebounds",
+    ),
+    "lateral_se_deg": ("degree", "standard error of lateral_mean_deg"),
+    "lateral_ci_low_deg": ("degree", "lower confidence limit of lateral_mean_deg"),
+    "lateral_ci_high_deg": ("degree", "upper confidence limit of lateral_mean_deg"),
+    "lateral_p05_deg": (
+        "degree",
+        "5 % quantile of the folded lateral rebound angle (histogram)",
+    ),
+    "lateral_p50_deg": (
+        "degree",
+        "median of the folded lateral rebound angle (histogram)",
+    ),
+    "lateral_p95_deg": (
+        "degree",
+        "95 % quantile of the folded lateral rebound angle (histogram)",
+    ),
 }
+#: The lateral summary variables (NaN in a result written before they existed).
+LATERAL_VARIABLES = tuple(k for k in VARIABLES if k.startswith("lateral_"))
 #: The state of the pooled accumulators not already in the summary (so that a saved
 #: result can be merged with more samples): counts and central moment sums.
 STATE: dict[str, tuple[str, str]] = {
@@ -68,6 +95,14 @@ STATE: dict[str, tuple[str, str]] = {
     "e_m3": ("1", "sum of cubed deviations of e_m over rebounds"),
     "mu_m2": ("1", "sum of squared deviations of mu_m over rebounds"),
     "mu_m3": ("1", "sum of cubed deviations of mu_m over rebounds"),
+    "lateral_m2": (
+        "degree2",
+        "sum of squared deviations of the folded lateral angle over rebounds",
+    ),
+    "lateral_m3": (
+        "degree3",
+        "sum of cubed deviations of the folded lateral angle over rebounds",
+    ),
 }
 #: Integer (count) variables.
 INTEGER = frozenset(
@@ -114,7 +149,17 @@ def _edges_attrs(edges) -> dict:
     return {"first_edge": float(edges[0]), "last_edge": float(edges[-1])}
 
 
-def build_dataset(grid, columns, stacked, *, attrs, inputs=None, smooth=None):
+#: Histograms: name -> (edges, what is counted, units of the bins).
+_HISTOGRAMS = {
+    "e": (E_EDGES, "e_m", "1"),
+    "mu": (MU_EDGES, "mu_m", "1"),
+    "lateral": (LATERAL_EDGES, "the folded lateral angle psi_f", "degree"),
+}
+
+
+def build_dataset(
+    grid, columns, stacked, *, attrs, inputs=None, smooth=None, areal=None
+):
     """The result Dataset.
 
     Parameters
@@ -132,6 +177,8 @@ def build_dataset(grid, columns, stacked, *, attrs, inputs=None, smooth=None):
         "roughness_angle_quantile": array (surfaces, INPUT_QUANTILES) [rad]}``.
     smooth : sequence of bool, optional
         Per surface: molecularly smooth (phi = 0 exactly).
+    areal : sequence of bool, optional
+        Per surface: an areal (3-D) surface of joint facet angles.
     """
     import xarray as xr
 
@@ -155,6 +202,8 @@ def build_dataset(grid, columns, stacked, *, attrs, inputs=None, smooth=None):
         "e_m3": e[:, 3],
         "mu_m2": mu[:, 2],
         "mu_m3": mu[:, 3],
+        "lateral_m2": stacked.lateral[:, 2],
+        "lateral_m3": stacked.lateral[:, 3],
     }
     for name, values in state.items():
         units, long_name = STATE[name]
@@ -164,22 +213,24 @@ def build_dataset(grid, columns, stacked, *, attrs, inputs=None, smooth=None):
             {"units": units, "long_name": long_name},
         )
     dense = grid.size * (E_EDGES.size + MU_EDGES.size + 2) <= DENSE_HISTOGRAM_CELLS
-    for nm, spans, edges in (
-        ("e", stacked.e_spans, E_EDGES),
-        ("mu", stacked.mu_spans, MU_EDGES),
+    for nm, spans in (
+        ("e", stacked.e_spans),
+        ("mu", stacked.mu_spans),
+        ("lateral", stacked.lateral_spans),
     ):
+        edges, what, _ = _HISTOGRAMS[nm]
         ends = _span_ends(spans)
         data_vars[f"{nm}_hist_underflow"] = (
             dims,
             grid.reshape(ends[0]),
-            {"units": "1", "long_name": f"rebounds with {nm}_m below {edges[0]:g}"},
+            {"units": "1", "long_name": f"rebounds with {what} below {edges[0]:g}"},
         )
         data_vars[f"{nm}_hist_overflow"] = (
             dims,
             grid.reshape(ends[1]),
-            {"units": "1", "long_name": f"rebounds with {nm}_m above {edges[-1]:g}"},
+            {"units": "1", "long_name": f"rebounds with {what} above {edges[-1]:g}"},
         )
-        long_name = f"histogram of {nm}_m over rebounds (counts per bin)"
+        long_name = f"histogram of {what} over rebounds (counts per bin)"
         if dense:
             h = spans.dense()  # int32 where every count fits
             data_vars[f"{nm}_hist"] = (
@@ -201,7 +252,7 @@ def build_dataset(grid, columns, stacked, *, attrs, inputs=None, smooth=None):
             grid.reshape(spans.offset.astype(np.int32)),
             {
                 "units": "1",
-                "long_name": f"index of the first stored {nm}_m bin of each point "
+                "long_name": f"index of the first stored {what} bin of each point "
                 "(0 = the underflow bin, 1 = the first bin of " + f"{nm}_bin)",
             },
         )
@@ -210,7 +261,7 @@ def build_dataset(grid, columns, stacked, *, attrs, inputs=None, smooth=None):
             grid.reshape(spans.length.astype(np.int32)),
             {
                 "units": "1",
-                "long_name": f"number of stored {nm}_m bins of each point "
+                "long_name": f"number of stored {what} bins of each point "
                 "(points in grid order)",
                 "sample_dimension": obs,
             },
@@ -219,20 +270,20 @@ def build_dataset(grid, columns, stacked, *, attrs, inputs=None, smooth=None):
         dim: (dim, list(values), _COORD_ATTRS[dim])
         for dim, values in grid.coordinates().items()
     }
-    for nm, edges in (("e", E_EDGES), ("mu", MU_EDGES)):
+    for nm, (edges, what, units) in _HISTOGRAMS.items():
         coords[f"{nm}_bin"] = (
             f"{nm}_bin",
             0.5 * (edges[1:] + edges[:-1]),
             {
-                "units": "1",
-                "long_name": f"{nm}_m bin centre",
+                "units": units,
+                "long_name": f"{what} bin centre",
                 "bounds": f"{nm}_bin_bounds",
             },
         )
         data_vars[f"{nm}_bin_bounds"] = (
             (f"{nm}_bin", "nv"),
             np.stack([edges[:-1], edges[1:]], axis=1),
-            {"units": "1", "long_name": f"{nm}_m bin edges"},
+            {"units": units, "long_name": f"{what} bin edges"},
         )
     if smooth is not None:
         data_vars["surface_is_smooth"] = (
@@ -242,6 +293,16 @@ def build_dataset(grid, columns, stacked, *, attrs, inputs=None, smooth=None):
                 "long_name": "molecularly smooth surface (roughness angle 0)",
                 "flag_values": np.array([0, 1], dtype=np.int8),
                 "flag_meanings": "rough smooth",
+            },
+        )
+    if areal is not None:
+        data_vars["surface_is_areal"] = (
+            ("surface",),
+            np.asarray(areal, dtype=np.int8),
+            {
+                "long_name": "areal (3-D) surface of joint facet angles",
+                "flag_values": np.array([0, 1], dtype=np.int8),
+                "flag_meanings": "profile_or_smooth areal",
             },
         )
     if inputs:
@@ -292,8 +353,8 @@ def _span_ends(spans):
 
 
 def point_histogram(ds, index: tuple, name: str) -> np.ndarray:
-    """The in-range histogram of `name` (``"e"`` or ``"mu"``) at the grid index
-    `index`, from the dense or the ragged representation."""
+    """The in-range histogram of `name` (``"e"``, ``"mu"`` or ``"lateral"``) at the
+    grid index `index`, from the dense or the ragged representation."""
     if f"{name}_hist" in ds:
         return np.asarray(ds[f"{name}_hist"].values[index], dtype=np.int64)
     lengths = ds[f"{name}_hist_length"].values

@@ -38,6 +38,8 @@ from .accumulators import (
     Moments,
     PointAccumulator,
     histogram_counts,
+    in_plane_lateral,
+    lateral_histogram_counts,
 )
 from .plan import (
     A_COS,
@@ -208,7 +210,7 @@ def _simulate_block(plan: Plan, point, rep, block, n, store=False):
     if areal:
         u = u * c_chi  # |u . n'| = cos(chi) |v_n_phi| (times 1.0 where chi = 0)
     cot = np.broadcast_to(cot, (n,))
-    if store:
+    if store or areal:  # the lateral angle needs phi's sine and cosine
         s_phi = np.broadcast_to(s_phi, (n,))
         c_phi = np.broadcast_to(c_phi, (n,))
 
@@ -224,7 +226,7 @@ def _simulate_block(plan: Plan, point, rep, block, n, store=False):
             cot, tan_phi = cot[reach], tan_phi[reach]
             if areal:
                 s_chi, c_chi = s_chi[reach], c_chi[reach]
-            if store:
+            if store or areal:
                 s_phi, c_phi = s_phi[reach], c_phi[reach]
 
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
@@ -322,6 +324,17 @@ def _simulate_block(plan: Plan, point, rep, block, n, store=False):
     else:
         e_r, mu_r = e_m, mu_m
         n_rolling = int(np.count_nonzero(rolling))
+    if areal:  # the folded lateral angle psi_f of each rebound
+        lat = lateral_angle_deg(
+            s_phi, c_phi, s_chi, c_chi, cot, e, one_e, mu_t, mu_b, folded=True
+        )
+        if n_captured:
+            lat = lat[rebound]
+        lateral, lateral_span = Moments.of(lat), None
+        lateral_hist = lateral_histogram_counts(lat)
+    else:  # in the plane of incidence: psi_f = 0 exactly
+        lateral, lateral_span = in_plane_lateral(e_r.size)
+        lateral_hist = None
     return PointAccumulator(
         n=n,
         shadowed=n_shadowed,
@@ -332,6 +345,9 @@ def _simulate_block(plan: Plan, point, rep, block, n, store=False):
         mu=Moments.of(mu_r),
         e_hist=histogram_counts(e_r, E_EDGES),
         mu_hist=histogram_counts(mu_r, MU_EDGES),
+        lateral=lateral,
+        lateral_hist=lateral_hist,
+        lateral_span=lateral_span,
     )
 
 
@@ -380,14 +396,18 @@ def _areal_impact(friction, cot, tan_cot, gain, e, one_e, tan_phi, s_chi, c_chi)
     return e_m, mu_m, mu, rolling, mu_t, mu_b
 
 
-def lateral_angle_deg(s_phi, c_phi, s_chi, c_chi, cot, e, one_e, mu_t, mu_b):
+def lateral_angle_deg(
+    s_phi, c_phi, s_chi, c_chi, cot, e, one_e, mu_t, mu_b, *, folded=False
+):
     """The lateral rebound angle ``psi = atan2(V_b, -V_t)`` [deg] of
     :func:`microimpact.apparent_rebound`, from the rebound ``U = Q v_n_phi`` in
     units of the (negative) facet normal speed ``v_n_phi``: ``Q_n' = -e cos chi``,
     ``Q_t' = cot - mu_t (1 + e) cos chi``, ``Q_b' = sin chi - mu_b (1 + e) cos
     chi``, rotated by ``chi`` about ``t'`` and by ``phi`` about ``b`` (Eq. 7), so
     ``psi = atan2(-Q_b, Q_t)``. In the plane of incidence (``chi = 0``) it is 0
-    for a forward and 180 for a backward rebound."""
+    for a forward and 180 for a backward rebound. With ``folded=True`` the
+    summary's folded angle ``psi_f = atan2(V_b, |V_t|)`` in [-90, 90] (0 for every
+    rebound in the plane of incidence; docs/outputs.md)."""
     with np.errstate(invalid="ignore"):
         q_n = -e * c_chi
         q_t = cot - mu_t * one_e * c_chi
@@ -395,6 +415,8 @@ def lateral_angle_deg(s_phi, c_phi, s_chi, c_chi, cot, e, one_e, mu_t, mu_b):
         q_a = q_n * c_chi + q_b * s_chi  # along the paper's facet normal n_phi
         x = c_phi * q_t - s_phi * q_a  # -V_t / |v_n_phi|
         y = s_chi * q_n - c_chi * q_b  # V_b / |v_n_phi|
+        if folded:
+            x = np.abs(x)
         return np.rad2deg(np.arctan2(y + 0.0, x))  # + 0.0: no -0 (psi = 180)
 
 
@@ -572,6 +594,7 @@ def _simulate_compiled(plan, sp, tables, raw, n):
         mu_hist,
     )
     m = counts[4]
+    lateral, lateral_span = in_plane_lateral(m)  # profile surfaces only: psi_f = 0
     return PointAccumulator(
         n=n,
         shadowed=counts[0],
@@ -582,6 +605,8 @@ def _simulate_compiled(plan, sp, tables, raw, n):
         mu=Moments.from_shifted_sums(m, *sums[4:]),
         e_hist=e_hist[:-_SPILL],
         mu_hist=mu_hist[:-_SPILL],
+        lateral=lateral,
+        lateral_span=lateral_span,
     )
 
 
@@ -684,6 +709,7 @@ def _simulate_keyed(plan: Plan, specs) -> list[PointAccumulator]:
         mu_counts = flat[at : at + mu_len]
         at += mu_len
         m = c[4]
+        lateral, lateral_span = in_plane_lateral(m)  # profile only: psi_f = 0
         out.append(
             PointAccumulator(
                 n=n,
@@ -695,6 +721,8 @@ def _simulate_keyed(plan: Plan, specs) -> list[PointAccumulator]:
                 mu=of(m, *s[4:]),
                 e_span=(e_lo, e_counts),
                 mu_span=(mu_lo, mu_counts),
+                lateral=lateral,
+                lateral_span=lateral_span,
             )
         )
     return out

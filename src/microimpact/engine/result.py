@@ -24,10 +24,12 @@ from .._files import atomic_write
 from .._json import dumps as json_dumps
 from .._json import restore_nonfinite
 from ..grid import SweepGrid
-from .accumulators import E_EDGES, MU_EDGES
+from .accumulators import E_EDGES, LATERAL_EDGES, MU_EDGES
 from .dataset import (
     INPUT_QUANTILES,
+    LATERAL_VARIABLES,
     SUMMARY_COLUMNS,
+    VARIABLES,
     build_dataset,
     encoding,
     point_histogram,
@@ -67,11 +69,13 @@ def _versions() -> tuple:
 # ---------------------------------------------------------------- scenario record
 @dataclass(frozen=True)
 class SurfaceRecord:
-    """A surface of a saved result: its name, smoothness and stored description."""
+    """A surface of a saved result: its name, smoothness, whether it is areal (3-D)
+    and its stored description."""
 
     name: str
     smooth: bool
     info: dict = field(default_factory=dict, compare=False)
+    areal: bool = False
 
     def describe(self) -> dict:
         return dict(self.info)
@@ -115,12 +119,17 @@ def _record_of(ds) -> ScenarioRecord:
         if "surface_is_smooth" in ds
         else np.zeros(ds.sizes["surface"], dtype=bool)
     )
+    areal = (
+        ds["surface_is_areal"].values.astype(bool)
+        if "surface_is_areal" in ds
+        else np.zeros(ds.sizes["surface"], dtype=bool)
+    )
     by_name = {
         s.get("name"): s for s in info.get("surfaces", []) if isinstance(s, dict)
     }
     surfaces = tuple(
-        SurfaceRecord(str(n), bool(sm), by_name.get(str(n), {"name": str(n)}))
-        for n, sm in zip(ds["surface"].values, smooth, strict=True)
+        SurfaceRecord(str(n), bool(sm), by_name.get(str(n), {"name": str(n)}), bool(ar))
+        for n, sm, ar in zip(ds["surface"].values, smooth, areal, strict=True)
     )
     ref = attrs.get("reference_angle_deg", info.get("reference_angle_deg"))
     ref = None if ref is None or (isinstance(ref, float) and math.isnan(ref)) else ref
@@ -258,6 +267,7 @@ class SimulationResult:
             "description": scenario.describe(),
             "inputs": _input_quantiles(scenario),
             "smooth": [_is_smooth(s) for s in scenario.surfaces],
+            "areal": [is_areal_surface(s) for s in scenario.surfaces],
             "grid": SweepGrid.from_scenario(scenario),
             "versions": versions(),
         }
@@ -356,6 +366,8 @@ class SimulationResult:
             "capture_quantiles": np.asarray(scenario.capture_quantiles, dtype=float),
             "e_edges": f"{E_EDGES[0]}:{E_EDGES[-1]}:{E_EDGES.size - 1} bins",
             "mu_edges": f"{MU_EDGES[0]}:{MU_EDGES[-1]}:{MU_EDGES.size - 1} bins",
+            "lateral_edges": f"{LATERAL_EDGES[0]}:{LATERAL_EDGES[-1]}:"
+            f"{LATERAL_EDGES.size - 1} bins",
         }
         if ref is not None:
             attrs["reference_angle_deg"] = float(ref)
@@ -369,6 +381,7 @@ class SimulationResult:
             attrs=attrs,
             inputs=prepared["inputs"],
             smooth=prepared["smooth"],
+            areal=prepared.get("areal"),
         )
         return cls(ds, scenario, accumulators, prov)
 
@@ -379,7 +392,7 @@ class SimulationResult:
             raise ValueError(
                 "`dataset` is not a microimpact result (no `capture_fraction`)."
             )
-        return cls(dataset, scenario)
+        return cls(_with_lateral(dataset), scenario)
 
     # -------------------------------------------------------------- metadata
     @property
@@ -470,13 +483,20 @@ class SimulationResult:
         return relative_coefficients(self.summary, reference_angle_deg)
 
     def histogram(self, point: int, name: str = "e"):
-        """``(counts, edges)`` of e_m or mu_m over rebounds at sweep point `point`
-        (in-range bins only; the under/overflow counts are in the dataset)."""
-        if name not in ("e", "mu"):
-            raise ValueError(f"`name` must be 'e' or 'mu'; got {name!r}.")
+        """``(counts, edges)`` of e_m, mu_m or the folded lateral angle [deg]
+        (`name` ``"e"``, ``"mu"`` or ``"lateral"``) over rebounds at sweep point
+        `point` (in-range bins only; the under/overflow counts are in the dataset).
+        """
+        edges = {"e": E_EDGES, "mu": MU_EDGES, "lateral": LATERAL_EDGES}
+        if name not in edges:
+            raise ValueError(f"`name` must be 'e', 'mu' or 'lateral'; got {name!r}.")
+        if f"{name}_bin" not in self.dataset.dims:
+            raise ValueError(
+                f"this result has no {name} histogram (written by an older version)"
+            )
         index = self.grid.unravel(int(point))
         counts = point_histogram(self.dataset, index, name)
-        return counts, (E_EDGES if name == "e" else MU_EDGES)
+        return counts, edges[name]
 
     # -------------------------------------------------------------- files
     def to_netcdf(self, path) -> Path:
@@ -498,6 +518,34 @@ class SimulationResult:
             "summary": self.to_csv(out_dir / "summary.csv"),
             "results": self.to_netcdf(out_dir / "results.nc"),
         }
+
+
+def _with_lateral(ds):
+    """`ds`, with the lateral summary variables as NaN if it was written before
+    they existed (its summary then has the lateral columns, all NaN)."""
+    missing = [v for v in LATERAL_VARIABLES if v not in ds]
+    if not missing or "capture_fraction" not in ds:
+        return ds
+    ds = ds.copy()
+    like = ds["capture_fraction"]
+    for name in missing:
+        units, long_name = VARIABLES[name]
+        ds[name] = (
+            like.dims,
+            np.full(like.shape, np.nan),
+            {
+                "units": units,
+                "long_name": long_name,
+                "comment": "not recorded: written by an older microimpact",
+            },
+        )
+    return ds
+
+
+def is_areal_surface(surface) -> bool:
+    """An areal (3-D) surface, recognised by structure: its angle distribution is
+    a joint facet-angle one (``is_areal``)."""
+    return bool(getattr(getattr(surface, "angles", None), "is_areal", False))
 
 
 def _is_smooth(surface) -> bool:

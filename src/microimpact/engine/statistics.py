@@ -21,7 +21,13 @@ import math
 import numpy as np
 from scipy.special import ndtri
 
-from .accumulators import E_EDGES, MU_EDGES, PointAccumulator, histogram_quantile
+from .accumulators import (
+    E_EDGES,
+    LATERAL_EDGES,
+    MU_EDGES,
+    PointAccumulator,
+    histogram_quantile,
+)
 
 #: Histogram quantiles reported per point (``e_p05`` ...).
 QUANTILES = (0.05, 0.5, 0.95)
@@ -122,6 +128,19 @@ def point_row(acc: PointAccumulator, confidence: float) -> dict:
         for qv, val in zip(QUANTILES, qs, strict=True):
             row[f"{name}_p{round(qv * 100):02d}"] = float(val)
     row["capture_se"] = float(interval_se(low, high, confidence))
+    lat = acc.lateral  # the folded lateral angle psi_f [deg] over rebounds
+    lat_mean, lat_se, lat_lo, lat_hi = _mean_ci(lat, z)
+    row["lateral_mean_deg"] = lat_mean
+    row["lateral_std_deg"] = lat.std
+    row["lateral_se_deg"] = lat_se
+    row["lateral_ci_low_deg"] = lat_lo
+    row["lateral_ci_high_deg"] = lat_hi
+    if lat.n and lat.m2 == 0.0:  # no spread (a profile surface): its value
+        qs = [lat.mean] * len(QUANTILES)
+    else:
+        qs = histogram_quantile(acc.lateral_hist, LATERAL_EDGES, QUANTILES)
+    for qv, val in zip(QUANTILES, qs, strict=True):
+        row[f"lateral_p{round(qv * 100):02d}_deg"] = float(val)
     return row
 
 

@@ -23,7 +23,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .accumulators import E_EDGES, MU_EDGES, Moments, PointAccumulator
+from .accumulators import (
+    E_EDGES,
+    LATERAL_BINS,
+    LATERAL_EDGES,
+    MU_EDGES,
+    Moments,
+    PointAccumulator,
+)
 from .statistics import QUANTILES, interval_se, wilson_interval, z_value
 
 
@@ -135,9 +142,10 @@ def _span_of(acc, name):
 class Stacked:
     """The accumulators of ``P`` points as arrays (leading axis: point).
 
-    ``counts`` columns: n, shadowed, captured, reimpact, rolling; ``e`` and ``mu``
-    columns: n, mean, M2, M3 of the rebounds' e_m and mu_m; the histograms as
-    :class:`Spans` (memory proportional to the occupied bins).
+    ``counts`` columns: n, shadowed, captured, reimpact, rolling; ``e``, ``mu`` and
+    ``lateral`` columns: n, mean, M2, M3 of the rebounds' e_m, mu_m and folded
+    lateral angle; the histograms as :class:`Spans` (memory proportional to the
+    occupied bins).
     """
 
     counts: np.ndarray  # (P, 5) int64
@@ -145,6 +153,8 @@ class Stacked:
     mu: np.ndarray  # (P, 4) float64
     e_spans: Spans
     mu_spans: Spans
+    lateral: np.ndarray  # (P, 4) float64
+    lateral_spans: Spans
 
     @classmethod
     def of(cls, accumulators) -> Stacked:
@@ -162,7 +172,12 @@ class Stacked:
         ).reshape(-1, 4)
         e_spans = Spans.of((_span_of(a, "e") for a in accs), E_EDGES.size + 1)
         mu_spans = Spans.of((_span_of(a, "mu") for a in accs), MU_EDGES.size + 1)
-        return cls(counts, e, mu, e_spans, mu_spans)
+        lat = np.array(
+            [(a.lateral.n, a.lateral.mean, a.lateral.m2, a.lateral.m3) for a in accs],
+            dtype=float,
+        ).reshape(-1, 4)
+        lat_spans = Spans.of((_span_of(a, "lateral") for a in accs), LATERAL_BINS)
+        return cls(counts, e, mu, e_spans, mu_spans, lat, lat_spans)
 
     def __len__(self) -> int:
         return self.counts.shape[0]
@@ -173,12 +188,15 @@ class Stacked:
         c = self.counts[i].tolist()
         e = self.e[i].tolist()
         mu = self.mu[i].tolist()
+        lat = self.lateral[i].tolist()
         return PointAccumulator(
             *c,
             e=Moments(int(e[0]), *e[1:]),
             mu=Moments(int(mu[0]), *mu[1:]),
             e_span=self.e_spans.row(i),
             mu_span=self.mu_spans.row(i),
+            lateral=Moments(int(lat[0]), *lat[1:]),
+            lateral_span=self.lateral_spans.row(i),
         )
 
     def narrow(self) -> Stacked:
@@ -189,6 +207,8 @@ class Stacked:
             self.mu,
             self.e_spans.narrow(),
             self.mu_spans.narrow(),
+            self.lateral,
+            self.lateral_spans.narrow(),
         )
 
     def take(self, rows) -> Stacked:
@@ -202,6 +222,8 @@ class Stacked:
             self.mu[rows],
             self.e_spans.take(rows),
             self.mu_spans.take(rows),
+            self.lateral[rows],
+            self.lateral_spans.take(rows),
         )
 
     @classmethod
@@ -218,6 +240,8 @@ class Stacked:
             np.concatenate([p.mu for p in parts]),
             Spans.concat(p.e_spans for p in parts),
             Spans.concat(p.mu_spans for p in parts),
+            np.concatenate([p.lateral for p in parts]),
+            Spans.concat(p.lateral_spans for p in parts),
         )
 
 
@@ -469,6 +493,20 @@ def point_statistics(stacked: Stacked, confidence: float) -> dict[str, np.ndarra
         for k, qv in enumerate(QUANTILES):
             out[f"{name}_p{round(qv * 100):02d}"] = qs[:, k]
     out["capture_se"] = interval_se(low, high, confidence)
+    # the folded lateral angle psi_f [deg] over rebounds (docs/outputs.md)
+    lat_mean, lat_std, lat_se, lat_lo, lat_hi = _mean_stats(stacked.lateral, z)
+    out["lateral_mean_deg"] = lat_mean
+    out["lateral_std_deg"] = lat_std
+    out["lateral_se_deg"] = lat_se
+    out["lateral_ci_low_deg"] = lat_lo
+    out["lateral_ci_high_deg"] = lat_hi
+    qs = histogram_quantiles(stacked.lateral_spans, LATERAL_EDGES)
+    # a stream without spread (every rebound of a profile surface: psi_f = 0) has
+    # its value as every quantile, not a point inside its 0.5 degree bin
+    constant = (stacked.lateral[:, 0] > 0) & (stacked.lateral[:, 2] == 0.0)
+    qs[constant] = stacked.lateral[constant, 1:2]
+    for k, qv in enumerate(QUANTILES):
+        out[f"lateral_p{round(qv * 100):02d}_deg"] = qs[:, k]
     return out
 
 
@@ -478,6 +516,11 @@ _REPLICATED = {
     "e_mean": ("e_ci_low", "e_ci_high", "e_se"),
     "e_rebound_mean": ("e_rebound_ci_low", "e_rebound_ci_high", "e_rebound_se"),
     "mu_mean": ("mu_ci_low", "mu_ci_high", "mu_se"),
+    "lateral_mean_deg": (
+        "lateral_ci_low_deg",
+        "lateral_ci_high_deg",
+        "lateral_se_deg",
+    ),
 }
 
 
