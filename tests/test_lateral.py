@@ -297,3 +297,45 @@ def test_format_2_checkpoint_is_reported_not_misread(tmp_path):
     with pytest.raises(ckpt.CheckpointMismatch) as info:
         ckpt.load(path, fp)
     assert info.value.reason == "format" and "format 2" in str(info.value)
+
+
+# ------------------------------------------------------------ figure and report
+def test_profile_vs_areal_figure_and_report(tmp_path, areal_result):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from microimpact.plotting.areal import plot_profile_vs_areal
+    from microimpact.plotting.results import figures_for_result, result_figures
+    from microimpact.report import write_report
+
+    paths = figures_for_result(areal_result, tmp_path, formats=("png",))
+    assert tmp_path / "profile_vs_areal.png" in paths
+    axs = plot_profile_vs_areal(areal_result)
+    assert len(axs) == 4
+    lateral = axs[3].get_lines()
+    assert len(lateral) == 2 and np.all(lateral[1].get_ydata() == 0.0)  # profile
+    plt.close("all")
+    # a result read back from its file knows its areal surface structurally
+    areal_result.to_files(tmp_path / "run")
+    back = mi.open_result(tmp_path / "run")
+    stems = [stem for stem, _, f in result_figures(back)]
+    plt.close("all")
+    assert "profile_vs_areal" in stems
+    report = write_report(back, tmp_path / "report.html")
+    html = report.read_text()
+    assert "Profile versus areal roughness" in html and "not in the paper" in html
+
+
+def test_no_profile_vs_areal_figure_without_an_areal_surface():
+    import matplotlib.pyplot as plt
+
+    from microimpact.plotting.areal import plot_profile_vs_areal
+    from microimpact.plotting.results import result_figures
+
+    res = run(scenario(surfaces=(rough(10.0),), angles_deg=(30.0, 60.0)), samples=500)
+    assert "profile_vs_areal" not in [s for s, _, _ in result_figures(res)]
+    plt.close("all")
+    with pytest.raises(ValueError, match="no areal surface"):
+        plot_profile_vs_areal(res)

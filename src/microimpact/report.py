@@ -471,6 +471,22 @@ def _png_uri_from_file(path) -> str:
     return "data:image/png;base64," + base64.b64encode(data).decode("ascii")
 
 
+def _stem_of(fig):
+    return fig.stem if isinstance(fig, Path) else None
+
+
+def _embed(fig, caption) -> str:
+    """A figure (a PNG file or a matplotlib Figure, closed here) as HTML."""
+    import matplotlib.pyplot as plt
+
+    if isinstance(fig, Path):
+        return _figure_html(_png_uri_from_file(fig), caption)
+    try:
+        return _figure_html(_png_data_uri(fig), caption)
+    finally:
+        plt.close(fig)
+
+
 def _result_section(result, k, csv_href, experiments, saved) -> str:
     import matplotlib.pyplot as plt
 
@@ -508,6 +524,25 @@ def _result_section(result, k, csv_href, experiments, saved) -> str:
     if saved is None:  # otherwise the caller wrote the input figures too
         with mpl.rc_context(rc):
             figs += [(c, f) for _, c, f in input_figures(result)]
+    areal = [(c, f) for c, f in figs if _stem_of(f) == "profile_vs_areal"]
+    if not areal and saved is None:
+        from .plotting.areal import CAPTION
+
+        areal = [(c, f) for c, f in figs if c == CAPTION]
+    if areal:  # its own section: a comparison the paper does not make
+        figs = [x for x in figs if x not in areal]
+        parts += [
+            "<h3>Profile versus areal roughness</h3>",
+            "<p>This comparison is new: it is not in the paper. Li, Dunn &amp; "
+            "Brach (2000) model a profile, whose facets tilt in the plane of "
+            "incidence only; an areal surface's facets also tilt across it, which "
+            "changes the normal speed on the facet and deflects the rebound "
+            "sideways. The lateral scatter is the standard deviation of the folded "
+            "lateral angle ψ<sub>f</sub> = atan2(V<sub>b</sub>, |V<sub>t</sub>|) "
+            "of the rebounds, exactly 0 on a profile. It is a model prediction "
+            "that no experiment here confirms.</p>",
+        ]
+        parts += [_embed(f, c) for c, f in areal]
     if figs:
         parts.append("<h3>Figures</h3>")
     for caption, fig in figs:

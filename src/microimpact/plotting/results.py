@@ -788,6 +788,10 @@ def figure_caption(stem, result) -> str:
             f"{speeds[0]:g} m s⁻¹ (paper Figs. 9, 10); rough surfaces only when "
             "there are any."
         )
+    if stem == "profile_vs_areal":
+        from .areal import CAPTION
+
+        return CAPTION
     if stem == "comparison":
         return (
             "Simulated against experimental means with their intervals; "
@@ -839,6 +843,10 @@ def result_figures(result, *, experiments=None):
                     result, angle_deg=a, speed_m_s=speeds[0], surface=rough or None
                 ),
             )
+        from .areal import has_areal_surface, plot_profile_vs_areal
+
+        if has_areal_surface(result):  # not in the paper (issue 14)
+            add("profile_vs_areal", plot_profile_vs_areal(result))
     if exp is not None and len(exp):
         from ..compare import compare
         from .comparison import plot_comparison
@@ -861,6 +869,9 @@ def figures_for_result(result, out_dir, *, formats=("png", "pdf"), experiments=N
                                      reference angle (the largest if it is not
                                      swept), first speed, rough surfaces only if
                                      any: Figs. 9/10 (``12p5deg`` for 12.5°)
+    ``profile_vs_areal``             ≥ 2 angles and an areal surface: e_m, μ_m,
+                                     capture and lateral scatter against angle,
+                                     one line per surface (not in the paper)
     ``comparison``                   experiments given
     ===============================  =============================================
 
