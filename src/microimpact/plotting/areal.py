@@ -71,8 +71,7 @@ def plot_profile_vs_areal(result, *, speed_m_s=None, axes=None):
         If the result has no areal surface.
     """
     import matplotlib as mpl
-
-    from .results import _band, _conf_label, _new_axes, _pick, _summary
+    import matplotlib.pyplot as plt
 
     areal = areal_surfaces(result)
     if not any(areal.values()):
@@ -80,9 +79,17 @@ def plot_profile_vs_areal(result, *, speed_m_s=None, axes=None):
             "`result` has no areal surface (surface_is_areal); the profile-vs-areal "
             "figure compares an areal surface with profile ones."
         )
-    summary = _summary(result)
+    summary = result.summary.reset_index(drop=True)
     speeds = list(dict.fromkeys(summary["speed_m_s"].to_numpy(dtype=float)))
-    sp = speeds[0] if speed_m_s is None else _pick(speeds, speed_m_s, "speed_m_s")
+    sp = speeds[0]
+    if speed_m_s is not None:
+        hit = [v for v in speeds if np.isclose(v, float(speed_m_s), rtol=1e-9)]
+        if not hit:
+            raise ValueError(
+                f"`speed_m_s` must be one of the simulated values {speeds}; "
+                f"got {speed_m_s!r}."
+            )
+        sp = hit[0]
     summary = summary[np.isclose(summary["speed_m_s"], sp)]
     names = list(dict.fromkeys(summary["surface"]))
     if "e_rebound_mean" in summary:
@@ -102,7 +109,13 @@ def plot_profile_vs_areal(result, *, speed_m_s=None, axes=None):
         (("lateral_std_deg", None, None), 1.0, "Lateral scatter std $ψ_f$ [°]"),
     )
     with mpl.rc_context(STYLE):
-        axs = _new_axes(axes, 2, 2, (7.6, 5.6), sharex=True)
+        if axes is None:
+            _, axes = plt.subplots(
+                2, 2, figsize=(7.6, 5.6), sharex=True, layout="constrained"
+            )
+        axs = np.atleast_1d(np.asarray(axes, dtype=object)).ravel()
+        if axs.size != 4:
+            raise ValueError(f"`axes` must hold 4 Axes; got {axs.size}.")
         for ax, ((col, lo_col, hi_col), scale, ylabel) in zip(axs, panels, strict=True):
             for i, name in enumerate(names):
                 g = summary[summary["surface"] == name].sort_values("angle_deg")
@@ -119,7 +132,8 @@ def plot_profile_vs_areal(result, *, speed_m_s=None, axes=None):
                 else:
                     lo = g[lo_col].to_numpy(dtype=float) * scale
                     hi = g[hi_col].to_numpy(dtype=float) * scale
-                    _band(ax, x, m, lo, hi, **style)
+                    ax.fill_between(x, lo, hi, color=style["color"], alpha=0.22, lw=0)
+                    ax.plot(x, m, **style)
             ax.set_ylabel(ylabel)
         axs[3].set_ylim(bottom=0.0)
         for ax in axs[2:]:
@@ -130,7 +144,8 @@ def plot_profile_vs_areal(result, *, speed_m_s=None, axes=None):
         fig = axs[0].figure
         fig.suptitle(
             f"{result.scenario.name}: profile (2-D) vs areal (3-D) roughness, "
-            f"{sp:g} m s⁻¹, {_conf_label(result)} bands (not in the paper)",
+            f"{sp:g} m s⁻¹, {100 * float(result.confidence):g} % bands "
+            "(not in the paper)",
             fontsize=STYLE["axes.titlesize"],
         )
     return axs
