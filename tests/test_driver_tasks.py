@@ -99,6 +99,30 @@ def test_simulate_specs_is_used_when_the_kernel_has_it(monkeypatch):
         return [kernel.simulate_block(plan, *s) for s in specs]
 
     monkeypatch.setattr(kernel, "simulate_specs", simulate_specs, raising=False)
+    # the per-accumulator path (the stacked one, tested against it in
+    # tests/test_grid_speed.py, is switched off here)
+    monkeypatch.setattr(kernel, "simulate_specs_stacked", lambda plan, specs: None)
+    _same(ref, run(sc))
+    assert len(calls) == 1 and len(calls[0]) == 36
+
+
+def test_the_stacked_kernel_path_is_one_call_per_task(monkeypatch):
+    """Tasks of single-block groups go through kernel.simulate_specs_stacked, one
+    call with all the task's specs, with the same bits."""
+    sc = _grid()
+    monkeypatch.setattr(kernel, "simulate_specs_stacked", lambda plan, specs: None)
+    ref = run(sc)
+    monkeypatch.undo()
+    if kernel.KERNEL != "compiled":
+        pytest.skip("compiled kernel not built")
+    calls = []
+    real = kernel.simulate_specs_stacked
+
+    def stacked(plan, specs):
+        calls.append(list(specs))
+        return real(plan, specs)
+
+    monkeypatch.setattr(kernel, "simulate_specs_stacked", stacked)
     _same(ref, run(sc))
     assert len(calls) == 1 and len(calls[0]) == 36
 

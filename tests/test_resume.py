@@ -48,6 +48,17 @@ class KernelSpy:
                 return real_specs(plan, specs)
 
             monkeypatch.setattr(kernel, "simulate_specs", specs)
+        real_stacked = getattr(kernel, "simulate_specs_stacked", None)
+        if real_stacked is not None:
+
+            def stacked(plan, specs):
+                rows = real_stacked(plan, specs)
+                if rows is not None:
+                    for spec in specs:
+                        self._count(spec)
+                return rows
+
+            monkeypatch.setattr(kernel, "simulate_specs_stacked", stacked)
 
     def _count(self, spec):
         if self.raise_after is not None and len(self.blocks) >= self.raise_after:

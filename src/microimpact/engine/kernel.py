@@ -33,7 +33,11 @@ import numpy as np
 
 from .._tables import fraction_to_integer, mulhi64
 from .accumulators import (
+    E_BINS,
     E_EDGES,
+    LATERAL_BINS,
+    LATERAL_ZERO_BIN,
+    MU_BINS,
     MU_EDGES,
     Moments,
     PointAccumulator,
@@ -674,11 +678,10 @@ def _point_args(tables, speed: float):
     return args
 
 
-def _simulate_keyed(plan: Plan, specs) -> list[PointAccumulator]:
-    """Monte Carlo block specs through one ``_ckernel.specs`` call: the kernel draws
-    each block's variables from its keyed streams itself and returns the counts,
-    the shifted sums and the occupied histogram spans (the same bits as
-    :func:`_simulate_compiled` on :func:`stream_raw`'s draws)."""
+def _keyed_outputs(plan: Plan, specs):
+    """One ``_ckernel.specs`` call for Monte Carlo block specs: ``(items, counts,
+    sums, spans, flat)`` (the per-block counts, the shifted sums, the occupied
+    histogram spans and their counts, flat)."""
     items = []
     points = plan.points
     for point, _rep, block, n in specs:
@@ -697,7 +700,15 @@ def _simulate_keyed(plan: Plan, specs) -> list[PointAccumulator]:
         sums,
         spans,
     )
-    flat = np.frombuffer(buf, dtype=np.int64)
+    return items, counts, sums, spans, np.frombuffer(buf, dtype=np.int64)
+
+
+def _simulate_keyed(plan: Plan, specs) -> list[PointAccumulator]:
+    """Monte Carlo block specs through one ``_ckernel.specs`` call: the kernel draws
+    each block's variables from its keyed streams itself and returns the counts,
+    the shifted sums and the occupied histogram spans (the same bits as
+    :func:`_simulate_compiled` on :func:`stream_raw`'s draws)."""
+    items, counts, sums, spans, flat = _keyed_outputs(plan, specs)
     out = []
     at = 0
     of = Moments.from_shifted_sums
@@ -726,3 +737,81 @@ def _simulate_keyed(plan: Plan, specs) -> list[PointAccumulator]:
             )
         )
     return out
+
+
+def _stacked_moments(m: np.ndarray, sums: np.ndarray) -> np.ndarray:
+    """``Moments.from_shifted_sums`` of every row as ``(n, mean, M2, M3)`` columns,
+    the same bits (the cube by Python's ``pow``, as the scalar method takes it)."""
+    out = np.zeros((m.size, 4))
+    ok = m > 0
+    if np.any(ok):
+        n = m[ok]
+        shift, s1, s2, s3 = sums[ok].T
+        delta = s1 / n
+        m2 = s2 - s1 * delta
+        cube = np.array([d**3 for d in delta.tolist()])
+        m3 = s3 - 3.0 * delta * s2 + (2.0 * n) * cube
+        out[ok, 0] = n
+        out[ok, 1] = shift + delta
+        out[ok, 2] = np.maximum(m2, 0.0)
+        out[ok, 3] = m3
+    return out
+
+
+def _gather(flat, start, lengths):
+    """The segments ``flat[start[i] : start[i] + lengths[i]]``, concatenated."""
+    total = int(lengths.sum())
+    if total == 0:
+        return np.zeros(0, dtype=np.int64)
+    first = np.zeros(lengths.size, dtype=np.int64)
+    np.cumsum(lengths[:-1], out=first[1:])
+    return flat[np.repeat(start - first, lengths) + np.arange(total)]
+
+
+def simulate_specs_stacked(plan: Plan, specs):
+    """:func:`simulate_specs` as one :class:`~.summary.Stacked` (a row per spec),
+    built from the compiled kernel's arrays without an object per block: exactly
+    ``Stacked.of(simulate_specs(plan, specs))``. Plain Monte Carlo on the compiled
+    kernel only (None otherwise)."""
+    from .summary import Spans, Stacked
+
+    if plan.kernel != "compiled" or plan.sampling == "qmc":
+        return None
+    items, counts, sums, spans, flat = _keyed_outputs(plan, specs)
+    m = counts[:, 4]
+    table = np.empty((len(items), 5), dtype=np.int64)
+    table[:, 0] = [it[2] for it in items]
+    table[:, 1:] = counts[:, :4]
+    e_len, mu_len = spans[:, 1], spans[:, 3]
+    start = np.zeros(len(items), dtype=np.int64)
+    np.cumsum((e_len + mu_len)[:-1], out=start[1:])
+    e_spans = Spans(
+        np.where(e_len > 0, spans[:, 0], 0),
+        e_len,
+        _gather(flat, start, e_len),
+        E_BINS,
+    )
+    mu_spans = Spans(
+        np.where(mu_len > 0, spans[:, 2], 0),
+        mu_len,
+        _gather(flat, start + e_len, mu_len),
+        MU_BINS,
+    )
+    rebound = m > 0
+    lateral = np.zeros((m.size, 4))
+    lateral[:, 0] = m  # psi_f = 0 exactly (profile surfaces): in_plane_lateral
+    lat_spans = Spans(
+        np.where(rebound, LATERAL_ZERO_BIN, 0),
+        rebound.astype(np.int64),
+        m[rebound].astype(np.int64),
+        LATERAL_BINS,
+    )
+    return Stacked(
+        table,
+        _stacked_moments(m, sums[:, :4]),
+        _stacked_moments(m, sums[:, 4:]),
+        e_spans,
+        mu_spans,
+        lateral,
+        lat_spans,
+    )

@@ -79,6 +79,13 @@ def run_task(plan, task):
     array, not two small arrays and a dozen numbers per group).
     """
     flat = [spec for group in task for spec in group]
+    rows = None
+    if all(len(group) == 1 for group in task):  # a group per block: no merging
+        rows = kernel.simulate_specs_stacked(plan, flat)
+    if rows is not None:
+        if sum(spec[3] for spec in flat) < 2**31:
+            rows = rows.narrow()
+        return rows
     accs = iter(_simulate(plan, flat))
     out = []
     for group in task:
