@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ScenarioError
+from ..scenario import _integer, _positive_tuple
 
 __all__ = ["DEFAULT_QUANTILES", "WallLawSpec"]
 
@@ -35,20 +36,12 @@ MAX_RESERVOIR_VALUES = 2**30 // 8  # 1 GiB of float64
 
 
 def _axis(values, field, *, low, high=math.inf, high_inclusive=False) -> tuple:
-    try:
-        arr = np.asarray(values, dtype=float).ravel()
-    except (TypeError, ValueError):
-        raise ScenarioError(f"must be numbers; got {values!r}", field=field) from None
-    if arr.size == 0:
-        raise ScenarioError("must not be empty", field=field)
-    for i, v in enumerate(arr):
-        ok = low < v and (v <= high if high_inclusive else v < high)
-        if not (ok and math.isfinite(v)):
-            bound = f"<= {high:g}" if high_inclusive else f"< {high:g}"
-            rng = f"> {low:g}" + ("" if math.isinf(high) else f" and {bound}")
-            raise ScenarioError(f"must be {rng}; got {v:g} (value {i})", field=field)
-    # the nodes of an interpolation table: sorted, each once
-    return tuple(float(v) for v in np.unique(arr))
+    """A node axis: the scenario's checked numbers, then sorted, each once (the
+    nodes of an interpolation table)."""
+    checked = _positive_tuple(
+        values, field, lo=low, hi=high, hi_inclusive=high_inclusive
+    )
+    return tuple(float(v) for v in np.unique(checked))
 
 
 @dataclass(frozen=True)
@@ -102,23 +95,14 @@ class WallLawSpec:
             "quantiles",
             _axis(self.quantiles, "wall_law.quantiles", low=0, high=1),
         )
-        for name, value, top in (
-            ("reservoir", self.reservoir, MAX_RESERVOIR),
-            ("samples", self.samples, None),
-        ):
-            if value is None and name == "samples":
-                continue
-            if isinstance(value, bool) or not isinstance(value, int | np.integer):
-                raise ScenarioError(
-                    f"must be an integer >= 1; got {value!r}", field=f"wall_law.{name}"
-                )
-            if value < 1 or (top is not None and value > top):
-                allowed = ">= 1" if top is None else f"in [1, {top:,}]"
-                raise ScenarioError(
-                    f"must be an integer {allowed}; got {value!r}",
-                    field=f"wall_law.{name}",
-                )
-            set_(self, name, int(value))
+        set_(self, "reservoir", _integer(self.reservoir, "wall_law.reservoir", 1))
+        if self.reservoir > MAX_RESERVOIR:
+            raise ScenarioError(
+                f"must be an integer in [1, {MAX_RESERVOIR:,}]; got {self.reservoir!r}",
+                field="wall_law.reservoir",
+            )
+        if self.samples is not None:
+            set_(self, "samples", _integer(self.samples, "wall_law.samples", 1))
 
     @property
     def shape(self) -> tuple[int, int, int]:
