@@ -76,20 +76,17 @@ def node_outcomes(e_m, mu_m, angle_deg: float, psi_deg=None) -> dict:
 def _node(plan, point: int, angle_deg: float, spec: WallLawSpec, samples: int):
     """Counts, statistics and reservoir of one node."""
     from ..engine.montecarlo import iter_point_samples
+    from ..engine.plan import ArealSampler
 
     parts = list(iter_point_samples(plan, point, samples))
-    draws = {k: np.concatenate([p[k] for p in parts]) for k in ("captured", "shadowed")}
-    e_m = np.concatenate([p["e_m"] for p in parts])
-    mu_m = np.concatenate([p["mu_m"] for p in parts])
+    draws = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
     struck = ~draws["shadowed"]
     captured = draws["captured"] & struck
     rebound = struck & ~captured
-    psi = None
-    if "out_of_plane_angle" in parts[0] and any(
-        np.any(p["out_of_plane_angle"] != 0.0) for p in parts
-    ):  # an areal surface: the rebound leaves the plane of incidence
-        psi = np.concatenate([p["lateral_angle_deg"] for p in parts])[rebound]
-    out = node_outcomes(e_m[rebound], mu_m[rebound], angle_deg, psi)
+    areal = isinstance(plan.surfaces[plan.points[point].surface], ArealSampler)
+    # on an areal surface the rebound leaves the plane of incidence
+    psi = draws["lateral_angle_deg"][rebound] if areal else None
+    out = node_outcomes(draws["e_m"][rebound], draws["mu_m"][rebound], angle_deg, psi)
     n_reb = int(np.count_nonzero(rebound))
     q = np.asarray(spec.quantiles)
     row = {
@@ -139,25 +136,19 @@ def _init_worker(plan, scenario, spec, samples):
 
 def _worker_task(j):
     w = _WORKER
-    return j, _diameter_task(w["plan"], w["scenario"], w["spec"], w["samples"], j)
-
-
-def _executor_task(plan, scenario, spec, samples, j):
-    return j, _diameter_task(plan, scenario, spec, samples, j)
+    return _diameter_task(w["plan"], w["scenario"], w["spec"], w["samples"], j)
 
 
 def _results(plan, scenario, spec, samples, workers, executor, indices):
-    """Yield ``(j, arrays)`` for the diameter indices `indices`, in completion
-    order."""
+    """Yield ``(j, arrays)`` for the diameter indices `indices`, as they finish
+    (in index order with an `executor`)."""
     if not indices:
         return
     if executor is not None:
-        futures = [
-            executor.submit(_executor_task, plan, scenario, spec, samples, j)
-            for j in indices
-        ]
-        for f in futures:
-            yield f.result()
+        args = (plan, scenario, spec, samples)
+        futures = {j: executor.submit(_diameter_task, *args, j) for j in indices}
+        for j, f in futures.items():
+            yield j, f.result()
         return
     if workers <= 1 or len(indices) == 1:
         for j in indices:
@@ -172,10 +163,10 @@ def _results(plan, scenario, spec, samples, workers, executor, indices):
         initializer=_init_worker,
         initargs=(plan, scenario, spec, samples),
     ) as pool:
-        futures = [pool.submit(_worker_task, j) for j in indices]
+        futures = {pool.submit(_worker_task, j): j for j in indices}
         try:
             for f in as_completed(futures):
-                yield f.result()
+                yield futures[f], f.result()
         except BaseException:
             for f in futures:
                 f.cancel()
@@ -189,33 +180,38 @@ class _Partial:
     the entropy drawn for a scenario without a seed, so that the re-run continues
     the same table)."""
 
-    def __init__(self, folder, fingerprint: str, entropy_of):
+    def __init__(self, folder, fingerprint: str):
         import json
 
         self.folder = Path(folder)
-        meta = self.folder / "meta.json"
-        old = None
+        self.fingerprint = fingerprint
+        #: The entropy of the interrupted build, or None for a fresh one.
+        self.entropy = None
         try:
-            old = json.loads(meta.read_text())
-        except (OSError, ValueError):
+            old = json.loads((self.folder / "meta.json").read_text())
+            if old.get("fingerprint") == fingerprint:
+                self.entropy = int(old["entropy"])
+        except (OSError, ValueError, TypeError, KeyError, AttributeError):
             pass
-        if not (isinstance(old, dict) and old.get("fingerprint") == fingerprint):
-            if self.folder.exists():
-                shutil.rmtree(self.folder)
-            old = None
-        self.entropy = entropy_of(None if old is None else int(old["entropy"]))
-        if old is None:
-            from .._files import atomic_write
+        if self.entropy is None and self.folder.exists():
+            shutil.rmtree(self.folder)  # another build's, or unreadable
 
-            self.folder.mkdir(parents=True, exist_ok=True)
-            atomic_write(
-                meta,
-                lambda t: Path(t).write_text(
-                    json.dumps(
-                        {"fingerprint": fingerprint, "entropy": str(self.entropy)}
-                    )
-                ),
-            )
+    def start(self, entropy: int) -> None:
+        """Record the build's entropy (a fresh build only)."""
+        import json
+
+        from .._files import atomic_write
+
+        if self.entropy is not None:
+            return
+        self.entropy = entropy
+        self.folder.mkdir(parents=True, exist_ok=True)
+        atomic_write(
+            self.folder / "meta.json",
+            lambda t: Path(t).write_text(
+                json.dumps({"fingerprint": self.fingerprint, "entropy": str(entropy)})
+            ),
+        )
 
     def _file(self, j):
         return self.folder / f"diameter_{j:05d}.npz"
@@ -296,23 +292,13 @@ def build_wall_law(
     -------
     WallLaw
     """
+    from ..config import wall_law_from_toml
     from ..engine.parallel import cap_workers
     from ..errors import ScenarioError
     from ..scenario import as_scenario
 
-    source_text = None
-    if not hasattr(scenario, "seed"):  # a path or a preset name
-        from ..config import wall_law_from_toml
-        from ..scenario import scenario_file
-
-        path = scenario_file(scenario)
-        scenario = as_scenario(path)
-        if spec is None:
-            spec = wall_law_from_toml(path)
-    scenario = as_scenario(scenario)
+    scenario = as_scenario(scenario)  # a path or a preset name is loaded
     if spec is None and scenario.source is not None:
-        from ..config import wall_law_from_toml
-
         spec = wall_law_from_toml(scenario.source)
     if spec is None:
         raise ScenarioError(
@@ -323,6 +309,7 @@ def build_wall_law(
         )
     if not isinstance(spec, WallLawSpec):
         raise TypeError(f"`spec` must be a WallLawSpec; got {type(spec).__name__}")
+    source_text = None
     if scenario.source is not None and os.path.isfile(scenario.source):
         with open(scenario.source, encoding="utf-8") as fh:
             source_text = fh.read()
@@ -339,13 +326,9 @@ def build_wall_law(
     seed = nodes_scenario.seed if seed is None else seed
     partial = None
     if checkpoint is not None:
-        partial = _Partial(
-            checkpoint,
-            _fingerprint(nodes_scenario, spec, seed),
-            lambda old: resolve_entropy(
-                seed if old is None or seed is not None else old
-            ),
-        )
+        partial = _Partial(checkpoint, _fingerprint(nodes_scenario, spec, seed))
+        if partial.entropy is None:  # fresh entropy when the scenario has no seed
+            partial.start(resolve_entropy(seed))
         seed = partial.entropy
     plan = build_plan(nodes_scenario, seed=seed, kernel="numpy")
     grid = SweepGrid.from_scenario(nodes_scenario)
