@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
-from ..engine.dataset import CONVENTIONS
+from ..engine.dataset import CONVENTIONS, encoding
 from ..engine.statistics import wilson_interval
 from ..errors import DataFormatError
 from .spec import REBOUND_VARIABLES, RESERVOIR_VARIABLES
@@ -487,12 +487,12 @@ class WallLaw:
         if c:
             from .export_c import write_c
 
-            written.extend(_paths(write_c(self, out)))
+            written.extend(write_c(self, out))
         if openfoam:
             from .openfoam import write_openfoam
 
             try:
-                written.extend(_paths(write_openfoam(self, out, **(condition or {}))))
+                written.extend(write_openfoam(self, out, **(condition or {})))
             except ValueError as err:
                 if condition:  # the caller's condition: their error to fix
                     raise
@@ -505,19 +505,5 @@ class WallLaw:
 
     def _write_netcdf(self, path):
         ds = self.dataset.copy()
-        encoding = {}
-        for v in ds.data_vars:
-            if ds[v].dtype.kind == "f":
-                encoding[v] = {"zlib": True, "complevel": 4, "_FillValue": np.nan}
-            else:
-                encoding[v] = {"zlib": True, "complevel": 4}
         ds["surface"] = ds["surface"].astype(str)
-        ds.to_netcdf(path, engine="netcdf4", encoding=encoding)
-
-
-def _paths(result):
-    if result is None:
-        return []
-    if isinstance(result, str | Path):
-        return [Path(result)]
-    return [Path(p) for p in result]
+        ds.to_netcdf(path, engine="netcdf4", encoding=encoding(ds))
