@@ -758,22 +758,12 @@ def _stacked_moments(m: np.ndarray, sums: np.ndarray) -> np.ndarray:
     return out
 
 
-def _gather(flat, start, lengths):
-    """The segments ``flat[start[i] : start[i] + lengths[i]]``, concatenated."""
-    total = int(lengths.sum())
-    if total == 0:
-        return np.zeros(0, dtype=np.int64)
-    first = np.zeros(lengths.size, dtype=np.int64)
-    np.cumsum(lengths[:-1], out=first[1:])
-    return flat[np.repeat(start - first, lengths) + np.arange(total)]
-
-
 def simulate_specs_stacked(plan: Plan, specs):
     """:func:`simulate_specs` as one :class:`~.summary.Stacked` (a row per spec),
     built from the compiled kernel's arrays without an object per block: exactly
     ``Stacked.of(simulate_specs(plan, specs))``. Plain Monte Carlo on the compiled
     kernel only (None otherwise)."""
-    from .summary import Spans, Stacked
+    from .summary import Spans, Stacked, gather_segments
 
     if plan.kernel != "compiled" or plan.sampling == "qmc":
         return None
@@ -788,13 +778,13 @@ def simulate_specs_stacked(plan: Plan, specs):
     e_spans = Spans(
         np.where(e_len > 0, spans[:, 0], 0),
         e_len,
-        _gather(flat, start, e_len),
+        gather_segments(flat, start, e_len),
         E_BINS,
     )
     mu_spans = Spans(
         np.where(mu_len > 0, spans[:, 2], 0),
         mu_len,
-        _gather(flat, start + e_len, mu_len),
+        gather_segments(flat, start + e_len, mu_len),
         MU_BINS,
     )
     rebound = m > 0

@@ -98,11 +98,8 @@ class Spans:
         total = int(length.sum())
         if rows.size and total == self.counts.size and _is_range(rows):
             return Spans(self.offset[rows], length, self.counts, self.size)
-        new_start = np.zeros(rows.size, dtype=np.int64)
-        np.cumsum(length[:-1], out=new_start[1:])
-        # each kept count's place in `counts`: its row's old start plus its rank
-        src = np.repeat(self.start[rows] - new_start, length) + np.arange(total)
-        return Spans(self.offset[rows], length, self.counts[src], self.size)
+        counts = gather_segments(self.counts, self.start[rows], length)
+        return Spans(self.offset[rows], length, counts, self.size)
 
     @classmethod
     def concat(cls, parts) -> Spans:
@@ -129,6 +126,17 @@ class Spans:
             else np.zeros(0, dtype=np.int64)
         )
         return cls(offset, length, flat, size)
+
+
+def gather_segments(flat, start, length) -> np.ndarray:
+    """The segments ``flat[start[i] : start[i] + length[i]]``, concatenated."""
+    total = int(length.sum())
+    if total == 0:
+        return flat[:0]
+    first = np.zeros(length.size, dtype=np.int64)
+    np.cumsum(length[:-1], out=first[1:])
+    # each kept value's place in `flat`: its segment's start plus its rank
+    return flat[np.repeat(start - first, length) + np.arange(total)]
 
 
 def _span_of(acc, name):
