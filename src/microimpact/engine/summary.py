@@ -364,23 +364,37 @@ def histogram_quantiles(hist, edges, q=QUANTILES) -> np.ndarray:
                 break
             c = c - down + up
         below = _row_search(csum, st, ln, base + c) - st
-        i = off + below  # searchsorted(dense cum, qk, side="left")
-        inner = (i > 0) & (i < spans.size - 1)
-        val = np.where(i == 0, -np.inf, np.inf)
-        r = np.flatnonzero(inner)
-        ji = below[r]
-        at = st[r] + ji
-        after = (csum[at] - base[r]) / total[r]
-        before = np.where(
-            ji > 0, (csum[np.maximum(at - 1, 0)] - base[r]) / total[r], 0.0
+        out[rows, k] = _interpolate_quantile(
+            qk,
+            below,
+            st,
+            off,
+            spans.size,
+            edges,
+            lambda r, at: (csum[at] - base[r]) / total[r],
         )
-        with np.errstate(invalid="ignore", divide="ignore"):
-            frac = np.where(after > before, (qk - before) / (after - before), 0.5)
-        ii = i[r]
-        lo, hi = edges[ii - 1], edges[ii]
-        val[r] = lo + frac * (hi - lo)
-        out[rows, k] = val
     return out
+
+
+def _interpolate_quantile(qk, below, st, off, size, edges, cum):
+    """Quantile `qk` of each row, linear within its bin, from `below` (the
+    number of the row's stored bins whose cumulative fraction is below `qk`;
+    ``searchsorted(dense cum, qk, side="left")`` is ``off + below``); ``cum(r,
+    at)`` is the cumulative fraction of rows `r` at the stored places `at`."""
+    i = off + below
+    inner = (i > 0) & (i < size - 1)
+    val = np.where(i == 0, -np.inf, np.inf)
+    r = np.flatnonzero(inner)
+    ji = below[r]
+    at = st[r] + ji
+    after = cum(r, at)
+    before = np.where(ji > 0, cum(r, np.maximum(at - 1, 0)), 0.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        frac = np.where(after > before, (qk - before) / (after - before), 0.5)
+    ii = i[r]
+    lo, hi = edges[ii - 1], edges[ii]
+    val[r] = lo + frac * (hi - lo)
+    return val
 
 
 def _row_search(values, start, length, keys):
@@ -421,20 +435,9 @@ def _histogram_quantiles_dense_search(spans, edges, q) -> np.ndarray:
     off = spans.offset[ok]
     for k, qk in enumerate(q):
         below = np.bincount(row[cum < qk], minlength=spans.rows)
-        i = off + below[ok]
-        j = i - off
-        inner = (i > 0) & (i < spans.size - 1)
-        val = np.where(i == 0, -np.inf, np.inf)
-        r = np.flatnonzero(inner)
-        ji = j[r]
-        after = cum[st[r] + ji]
-        before = np.where(ji > 0, cum[st[r] + np.maximum(ji - 1, 0)], 0.0)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            frac = np.where(after > before, (qk - before) / (after - before), 0.5)
-        ii = i[r]
-        lo, hi = edges[ii - 1], edges[ii]
-        val[r] = lo + frac * (hi - lo)
-        out[rows, k] = val
+        out[rows, k] = _interpolate_quantile(
+            qk, below[ok], st, off, spans.size, edges, lambda _r, at: cum[at]
+        )
     return out
 
 
