@@ -113,19 +113,14 @@ def cli_action(args) -> int:
 
 def _check_condition(spec, condition):
     """Refuse condition flags the table cannot serve, before it is built."""
-    import numpy as np
-    import xarray as xr
-
     from ..errors import InputError
     from ..wall_law.openfoam import fallback_condition
 
-    coords = xr.Dataset(
-        coords={
-            "diameter_um": np.asarray(spec.diameters_um),
-            "speed_m_s": np.asarray(spec.speeds_m_s),
-            "angle_deg": np.asarray(spec.angles_deg),
-        }
-    )
+    coords = {
+        "diameter_um": spec.diameters_um,
+        "speed_m_s": spec.speeds_m_s,
+        "angle_deg": spec.angles_deg,
+    }
     flag = {k: "--" + k.replace("_", "-") for k in condition}
     try:
         chosen = fallback_condition(coords, **condition)

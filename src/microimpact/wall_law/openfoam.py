@@ -120,7 +120,7 @@ def fallback_condition(dataset, *, diameter_um=None, speed_m_s=None, angle_deg=N
     given = {"diameter_um": diameter_um, "speed_m_s": speed_m_s, "angle_deg": angle_deg}
     out = {}
     for axis, log in _AXES:
-        coord = np.asarray(dataset[axis].values, dtype=float)
+        coord = np.asarray(dataset[axis], dtype=float)  # a Dataset or a dict of axes
         if axis == "angle_deg" and given[axis] is None and np.any(coord < 90.0):
             # the default is an oblique node: e_t is undefined at normal incidence
             oblique = coord[coord < 90.0]
