@@ -254,7 +254,7 @@ def _simulate_block(plan: Plan, point, rep, block, n, store=False):
         e[captured] = 0.0
         one_e = e + 1.0
         if areal:  # the 3-D impact (docs/physics.md, "Areal roughness")
-            e_m, mu_m, mu, rolling, mu_t, mu_b = _areal_impact(
+            e_m, mu_m, mu, rolling, q_t, q_b = _areal_impact(
                 plan.friction, cot, tan_cot, gain, e, one_e, tan_phi, s_chi, c_chi
             )
         else:
@@ -277,9 +277,10 @@ def _simulate_block(plan: Plan, point, rep, block, n, store=False):
 
     rebound = ~captured
     if store:
-        if not areal:  # in the plane of incidence: chi = 0
-            mu_t, mu_b, s_chi, c_chi = mu, 0.0, 0.0, 1.0
-        psi = lateral_angle_deg(s_phi, c_phi, s_chi, c_chi, cot, e, one_e, mu_t, mu_b)
+        if areal:
+            psi = _lateral_angle(s_phi, c_phi, s_chi, c_chi, e, q_t, q_b)
+        else:  # in the plane of incidence: chi = 0
+            psi = lateral_angle_deg(s_phi, c_phi, 0.0, 1.0, cot, e, one_e, mu, 0.0)
         out = {
             "e_m": np.where(captured, 0.0, e_m),
             "mu_m": np.where(captured, np.nan, mu_m),
@@ -329,9 +330,7 @@ def _simulate_block(plan: Plan, point, rep, block, n, store=False):
         e_r, mu_r = e_m, mu_m
         n_rolling = int(np.count_nonzero(rolling))
     if areal:  # the folded lateral angle psi_f of each rebound
-        lat = lateral_angle_deg(
-            s_phi, c_phi, s_chi, c_chi, cot, e, one_e, mu_t, mu_b, folded=True
-        )
+        lat = _lateral_angle(s_phi, c_phi, s_chi, c_chi, e, q_t, q_b, folded=True)
         if n_captured:
             lat = lat[rebound]
         lateral, lateral_span = Moments.of(lat), None
@@ -356,7 +355,7 @@ def _simulate_block(plan: Plan, point, rep, block, n, store=False):
 
 
 def _areal_impact(friction, cot, tan_cot, gain, e, one_e, tan_phi, s_chi, c_chi):
-    """``(e_m, mu_m, mu, rolling, mu_t, mu_b)`` of impacts on facets tilted by
+    """``(e_m, mu_m, mu, rolling, q_t, q_b)`` of impacts on facets tilted by
     ``chi`` about their line ``t'``, in units of the paper's facet normal speed
     ``v_n_phi`` (what :func:`microimpact.apparent_rebound` computes with
     ``out_of_plane_angle_deg``; docs/physics.md): ``u_n' = cos(chi) v_n_phi``,
@@ -365,7 +364,9 @@ def _areal_impact(friction, cot, tan_cot, gain, e, one_e, tan_phi, s_chi, c_chi)
     along the slip, and Eqs. 8-9 with ``e_phi = e cos^2(chi) - sin(chi)
     V_b'/v_n_phi`` and ``mu_phi = mu_t / (cos(chi) + mu_b sin(chi))``. Where
     ``chi = 0`` every step is the 2-D kernel's, operation for operation (``g =
-    cot``, multiplications by 1.0, additions of 0.0): the same bits."""
+    cot``, multiplications by 1.0, additions of 0.0): the same bits. ``q_t``,
+    ``q_b``: the rebound's ``V_t'``, ``V_b'`` over ``v_n_phi`` (the lateral angle's
+    ``Q_t'``, ``Q_b'``; :func:`_lateral_angle`)."""
     g = np.copysign(np.hypot(cot, s_chi), cot)  # slip / v_n_phi, signed like cot
     mu = g / c_chi  # eta
     mu *= 2.0 / 7.0
@@ -385,6 +386,7 @@ def _areal_impact(friction, cot, tan_cot, gain, e, one_e, tan_phi, s_chi, c_chi)
     # Eq. 8 with e -> e_phi and V_t'/v_n_phi = cot - mu_t (1 + e) cos(chi)
     e_m = mu_t * one_e
     e_m *= c_chi
+    q_t = cot - e_m
     e_m *= tan_phi
     e_m -= tan_cot
     e_m += e_phi
@@ -397,7 +399,7 @@ def _areal_impact(friction, cot, tan_cot, gain, e, one_e, tan_phi, s_chi, c_chi)
     denom += 1.0
     mu_m = np.subtract(mu_phi, tan_phi)
     mu_m /= denom
-    return e_m, mu_m, mu, rolling, mu_t, mu_b
+    return e_m, mu_m, mu, rolling, q_t, q_b
 
 
 def lateral_angle_deg(
@@ -413,9 +415,16 @@ def lateral_angle_deg(
     summary's folded angle ``psi_f = atan2(V_b, |V_t|)`` in [-90, 90] (0 for every
     rebound in the plane of incidence; docs/outputs.md)."""
     with np.errstate(invalid="ignore"):
-        q_n = -e * c_chi
         q_t = cot - mu_t * one_e * c_chi
         q_b = s_chi - mu_b * one_e * c_chi
+    return _lateral_angle(s_phi, c_phi, s_chi, c_chi, e, q_t, q_b, folded)
+
+
+def _lateral_angle(s_phi, c_phi, s_chi, c_chi, e, q_t, q_b, folded=False):
+    """:func:`lateral_angle_deg` from the rebound's ``Q_t'`` and ``Q_b'`` (which
+    :func:`_areal_impact` has already formed)."""
+    with np.errstate(invalid="ignore"):
+        q_n = -e * c_chi
         q_a = q_n * c_chi + q_b * s_chi  # along the paper's facet normal n_phi
         x = c_phi * q_t - s_phi * q_a  # -V_t / |v_n_phi|
         y = s_chi * q_n - c_chi * q_b  # V_b / |v_n_phi|
