@@ -619,3 +619,11 @@ def test_areal_surface_fills_the_lateral_angle():
     # and the sampler rebuilds that lateral velocity
     s = law.sample(np.full(4000, 10.0), 2.0, 35.0, rng=3)
     assert np.std(s.velocity[~s.captured, 1]) > 0
+
+
+def test_a_bad_node_value_is_named_plainly():
+    """The value in the message is the number the user wrote (no NumPy repr)."""
+    with pytest.raises(ScenarioError) as err:
+        WallLawSpec(diameters_um=(-1.0,), speeds_m_s=(1.0,), angles_deg=(9.0,))
+    assert "value -1 is outside (0, inf)" in str(err.value)
+    assert "np.float64" not in str(err.value)

@@ -104,7 +104,7 @@ def _positive_tuple(values, name, *, lo=0.0, hi=math.inf, hi_inclusive=False):
         ok = np.isfinite(v) and v > lo and (v <= hi if hi_inclusive else v < hi)
         if not ok:
             rng = f"({lo}, {hi}{']' if hi_inclusive else ')'}"
-            raise ScenarioError(f"value {v!r} is outside {rng}", field=name)
+            raise ScenarioError(f"value {float(v):g} is outside {rng}", field=name)
     return tuple(float(v) for v in arr)
 
 
