@@ -714,14 +714,11 @@ def print_table(res: dict) -> None:
         print(f"note: {note}")
 
 
-def run_grid_benchmark(mode: str) -> dict:
-    """Only the single large point and the sweep grid, on 1 process and on all
-    cores (``--grid-only``: the ratios of item 9 without the rest)."""
-    cfg = MODES[mode]
+def engine_and_grid(cfg: dict, workers: int, kw: dict) -> tuple:
+    """The single large point and a sweep grid of many small points, each on 1
+    process and on `workers`: ``(engine, engine_all_cores, grid,
+    grid_all_cores)`` of :func:`repeated`."""
     iso, reps = cfg["isolate"], cfg["repeats"]
-    kw = dict(isolate=iso, per_process=cfg["process_per_repeat"])
-    workers = os.cpu_count() or 1
-    t_start = time.perf_counter()
     eng = repeated("engine", reps, n=cfg["n_engine"], workers=1, **kw)
     allc = repeated(
         "engine", reps, n=cfg["n_engine"], workers=workers, warmup=iso, **kw
@@ -729,6 +726,11 @@ def run_grid_benchmark(mode: str) -> dict:
     gkw = dict(shape=cfg["grid"], samples=cfg["grid_samples"])
     grid1 = repeated("grid", reps, workers=1, **gkw, **kw)
     grid_all = repeated("grid", reps, workers=workers, warmup=iso, **gkw, **kw)
+    return eng, allc, grid1, grid_all
+
+
+def engine_and_grid_fields(cfg: dict, eng, allc, grid1, grid_all) -> dict:
+    """The rates and grid ratios of :func:`engine_and_grid`'s measurements."""
     return {
         "engine_per_s": eng["rate"],
         "engine_all_cores_per_s": allc["rate"],
@@ -738,6 +740,20 @@ def run_grid_benchmark(mode: str) -> dict:
         "grid_all_cores_ratio": grid_all["rate"] / allc["rate"],
         "grid_shape": list(cfg["grid"]),
         "grid_samples": cfg["grid_samples"],
+    }
+
+
+def run_grid_benchmark(mode: str) -> dict:
+    """Only the single large point and the sweep grid, on 1 process and on all
+    cores (``--grid-only``: the ratios of item 9 without the rest)."""
+    cfg = MODES[mode]
+    iso, reps = cfg["isolate"], cfg["repeats"]
+    kw = dict(isolate=iso, per_process=cfg["process_per_repeat"])
+    workers = os.cpu_count() or 1
+    t_start = time.perf_counter()
+    eng, allc, grid1, grid_all = engine_and_grid(cfg, workers, kw)
+    return {
+        **engine_and_grid_fields(cfg, eng, allc, grid1, grid_all),
         "mode": mode,
         "n_engine": cfg["n_engine"],
         "repeats": reps,
@@ -794,14 +810,7 @@ def run_benchmark(mode: str, *, dask: bool = True, reproduce: bool = True) -> di
     classic = repeated("rng_classic", reps, n=cfg["n_rng"], **kw)
     n_np = min(cfg["n_numpy"], NUMPY_MAX_N)
     npb = repeated("numpy", reps, n=n_np, **kw)
-    eng = repeated("engine", reps, n=cfg["n_engine"], workers=1, **kw)
-    allc = repeated(
-        "engine", reps, n=cfg["n_engine"], workers=workers, warmup=iso, **kw
-    )
-    # a sweep grid of many small points, beside the single large point
-    gkw = dict(shape=cfg["grid"], samples=cfg["grid_samples"])
-    grid1 = repeated("grid", reps, workers=1, **gkw, **kw)
-    grid_all = repeated("grid", reps, workers=workers, warmup=iso, **gkw, **kw)
+    eng, allc, grid1, grid_all = engine_and_grid(cfg, workers, kw)
     details["wall_law_shape"] = list(cfg["wall_law"])
     wall = measure(
         "wall_law",
@@ -903,14 +912,7 @@ def run_benchmark(mode: str, *, dask: bool = True, reproduce: bool = True) -> di
     return {
         "rng_floor_per_s": rng["rate"],
         "numpy_baseline_per_s": npb["rate"],
-        "engine_per_s": eng["rate"],
-        "engine_all_cores_per_s": allc["rate"],
-        "grid_per_s": grid1["rate"],
-        "grid_all_cores_per_s": grid_all["rate"],
-        "grid_ratio": grid1["rate"] / eng["rate"],
-        "grid_all_cores_ratio": grid_all["rate"] / allc["rate"],
-        "grid_shape": list(cfg["grid"]),
-        "grid_samples": cfg["grid_samples"],
+        **engine_and_grid_fields(cfg, eng, allc, grid1, grid_all),
         "wall_law_build_s": wall["wall_s"],
         "wall_law_per_s": wall["rate"],
         "wall_law_nodes": wall["nodes"],
