@@ -309,3 +309,32 @@ def test_to_toml_values():
         "arr": [{"name": "n1", "v": 1}, {"name": "n2", "w": "x"}],
     }
     assert tomllib.loads(to_toml(data)) == data
+
+
+def test_an_undefined_model_value_is_a_rejected_step_not_a_crash():
+    """A trial point where the model leaves a measured statistic undefined (every
+    particle captured: no e) gives a large finite residual, and the Jacobian a
+    one-sided slope, so that least_squares does not fail on NaN."""
+    from microimpact.calibration import UNDEFINED_RESIDUAL, _Objective
+
+    class Stub:
+        def summaries(self, xs):
+            return [np.asarray(x, float) for x in xs]
+
+        def points(self, x):  # the second statistic is undefined above 1
+            return np.array([x[0], np.nan if x[0] > 1 else 2 * x[0]]), None
+
+    bounds = np.array([[0.0, 2.0]])
+    obj = _Objective(
+        Stub(),
+        np.zeros(2),
+        np.ones(2),
+        np.zeros(2),
+        [0],
+        [0.5],
+        np.array([0.02]),
+        bounds,
+    )
+    assert obj(np.array([1.5])).tolist() == [1.5, UNDEFINED_RESIDUAL]
+    J = obj.jac(np.array([0.99]))
+    assert np.allclose(J[:, 0], [1.0, 2.0])

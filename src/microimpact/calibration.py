@@ -75,6 +75,9 @@ DEFAULT_RCOND = 1e-2
 DEFAULT_BOOTSTRAP = 100
 #: Parameter draws for the model band when there is no bootstrap.
 BAND_DRAWS = 20
+#: Weighted residual of a point whose statistic the model leaves undefined at a
+#: trial parameter vector (e.g. ``e`` where every particle is captured).
+UNDEFINED_RESIDUAL = 1e3
 
 #: Scenario keys that are not model parameters (sampling, reporting, the design).
 NOT_PARAMETERS = (
@@ -543,7 +546,11 @@ class _Objective:
 
     def __call__(self, xf):
         (s,) = self.model.summaries([self.full(xf)])
-        return self.residual_of(s)
+        r = self.residual_of(s)
+        # a trial point where the model leaves a measured statistic undefined (e.g.
+        # every particle captured, so no e): a large residual, so that the
+        # optimiser rejects the step instead of failing on NaN
+        return np.where(np.isfinite(r), r, UNDEFINED_RESIDUAL)
 
     def jac(self, xf, *args):
         x = self.full(xf)
@@ -553,10 +560,17 @@ class _Objective:
         pts = [self.full(p) for p in plus] + [self.full(p) for p in minus]
         ss = self.model.summaries(pts)
         n = len(self.free)
-        cols = [
-            (self.residual_of(ss[j]) - self.residual_of(ss[n + j])) / dx[j]
-            for j in range(n)
-        ]
+        r0 = self.residual_of(self.model.summaries([x])[0])
+        cols = []
+        for j in range(n):
+            rp, rm = self.residual_of(ss[j]), self.residual_of(ss[n + j])
+            col = (rp - rm) / dx[j]
+            # a side where the model is undefined: one-sided from the centre
+            # (half the span), else no slope known
+            up = (rp - r0) / (plus[j][j] - x[self.free][j] or dx[j])
+            dn = (r0 - rm) / (x[self.free][j] - minus[j][j] or dx[j])
+            col = np.where(np.isfinite(col), col, np.where(np.isfinite(up), up, dn))
+            cols.append(np.where(np.isfinite(col), col, 0.0))
         return np.column_stack(cols) if cols else np.zeros((len(self.y), 0))
 
 
@@ -872,10 +886,14 @@ def calibrate(
             if np.max(np.abs(np.sqrt(s_exp**2 + s_sim**2) / old_sigma - 1)) < 0.01:
                 break  # the weights hardly moved: no refit
         obj = _Objective(model, y, s_exp, s_sim, free, x, h, B)
-        r = obj(x)
-        J = obj.jac(x)
+        r = obj.residual_of(model.summaries([x])[0])
+        undefined = ~np.isfinite(r)  # no model value at the optimum: not in chi2
+        r = r[~undefined]
+        J = obj.jac(x)[~undefined]
         obj2 = _Objective(model, y, s_exp, s_sim, free, x, 2 * h, B)
-        J2 = obj2.jac(x) if n > 1 else None  # the FD error (only matters for n > 1)
+        J2 = (
+            obj2.jac(x)[~undefined] if n > 1 else None
+        )  # the FD error (only matters for n > 1)
         chi2 = float(r @ r)
         z = z_value(confidence)
         ok, reasons, cov, svals, fd_noise = _identify(
@@ -885,7 +903,7 @@ def calibrate(
             if why:
                 reasons[j] = re.sub(r"#(\d+)", lambda mm: keys[int(mm.group(1))], why)
         n_id = int(ok.sum())
-        dof = m - n_id
+        dof = int((~undefined).sum()) - n_id
         p_value = float(stats.chi2.sf(chi2, dof)) if dof > 0 else math.nan
         se = np.sqrt(np.where(ok, np.diag(cov), np.nan))
         ci_low, ci_high = x - z * se, x + z * se
@@ -972,6 +990,7 @@ def calibrate(
         else None,
         "jacobian_fd_error_normalised": fd_noise,
         "band": band_from,
+        "undefined_at_optimum": [int(v) for v in exp["line"].to_numpy()[undefined]],
         "experiments": exp_source,
         "scenario": None if source is None else str(source),
     }
