@@ -97,6 +97,13 @@ def test_reader_refuses_text_options_for_binary_formats(tmp_path):
         read_height_map(tmp_path / "absent.txt", dx_um=1.0)
 
 
+@pytest.mark.parametrize("delimiter", [";;", '"', "#", 3])
+def test_reader_refuses_a_bad_delimiter_as_the_profile_reader_does(delimiter):
+    with pytest.raises(ValueError, match="`delimiter` must be one character") as e:
+        read_height_map(DATA / "areal_small.txt", delimiter=delimiter)
+    assert repr(delimiter) in str(e.value)
+
+
 # ------------------------------------------------------------------ x3p reader
 def test_read_x3p_surface_round_trip(tmp_path):
     x3pio = pytest.importorskip("x3pio")

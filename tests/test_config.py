@@ -711,3 +711,21 @@ def test_input_errors_are_one_line():
     err = InputError("bad\n  value;\tallowed:\n 1", source="f.csv", field="x", line=3)
     assert str(err) == "f.csv:3: x: bad value; allowed: 1"
     assert "\n" not in str(DataFormatError("a\nb", source="f\nname.csv"))
+
+
+@pytest.mark.parametrize("delimiter", [";;", '"', "#"])
+def test_error_areal_delimiter_names_the_key_and_value(tmp_path, delimiter):
+    (tmp_path / "map.txt").write_text("# dx_um = 1\n# dy_um = 1\n1 2\n3 4\n")
+    surface = {
+        "name": "a",
+        "kind": "areal",
+        "file": "map.txt",
+        "contact_diameter_um": 1.0,
+        "delimiter": delimiter,
+    }
+    err = check(
+        minimal(surfaces=[surface]),
+        r"^s\.toml: surfaces\[0\]\.delimiter: `delimiter` must be one character",
+        base_dir=tmp_path,
+    )
+    assert repr(delimiter) in str(err)

@@ -164,6 +164,7 @@ def _areal(ctx, t, where):
             patch=patch,
             step_um=step,
         )
+    from ._files import check_delimiter
     from .io.areal import FORMATS, read_height_map
 
     path = ctx.path(t["file"], _join(where, "file"))
@@ -174,7 +175,8 @@ def _areal(ctx, t, where):
     if "z_unit" in t:
         kw["z_unit"] = ctx.string(t["z_unit"], _join(where, "z_unit"))
     if "delimiter" in t:
-        kw["delimiter"] = ctx.string(t["delimiter"], _join(where, "delimiter"))
+        delimiter = ctx.string(t["delimiter"], _join(where, "delimiter"))
+        kw["delimiter"] = ctx.build(where, t, check_delimiter, delimiter)
     if "format" in t:
         kw["format"] = ctx.choice(t["format"], _join(where, "format"), FORMATS)
     level = ctx.choice(t.get("level", "plane"), _join(where, "level"), AREAL_LEVEL)

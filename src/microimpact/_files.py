@@ -126,6 +126,22 @@ def sniff_delimiter(first_line: str) -> str | None:
     return next((d for d in DELIMITERS if d in bare), None)
 
 
+def check_delimiter(delimiter) -> str | None:
+    """`delimiter` as :func:`split_rows` takes it (``None``: :data:`SNIFF`), or
+    ``ValueError`` unless it is one character other than ``"`` and ``#``, ``""``
+    (whitespace) or ``None`` (sniffed)."""
+    if delimiter is None:
+        return SNIFF
+    if not (
+        isinstance(delimiter, str) and len(delimiter) <= 1 and delimiter not in '"#'
+    ):
+        raise ValueError(
+            "`delimiter` must be one character (not '\"' or '#'), '' "
+            f"(whitespace) or None (sniffed); got {delimiter!r}."
+        )
+    return delimiter
+
+
 def delimiter_name(delimiter: str | None) -> str:
     """``"whitespace"``, ``"tab"`` or the delimiter itself, for metadata."""
     return {None: "whitespace", "\t": "tab"}.get(delimiter, delimiter)

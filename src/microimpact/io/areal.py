@@ -51,7 +51,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._files import MISSING, SNIFF, parse_number, read_lines, split_rows
+from .._files import MISSING, check_delimiter, parse_number, read_lines, split_rows
 from .._validation import as_float_array
 from ..errors import ProfileFormatError
 from ..units import length_factor
@@ -339,7 +339,7 @@ def _read_text(path, *, dx_um, dy_um, z_unit, delimiter) -> HeightMap:
     rows, delim = split_rows(
         lines,
         source=path,
-        delimiter=SNIFF if delimiter is None else delimiter,
+        delimiter=check_delimiter(delimiter),
         error=ProfileFormatError,
     )
     if not rows:
@@ -508,7 +508,9 @@ def read_height_map(
     elif format not in FORMATS:
         allowed = ", ".join(repr(f) for f in FORMATS)
         raise ValueError(f"`format` must be one of {allowed}; got {format!r}.")
-    if format != "text":
+    if format == "text":
+        check_delimiter(delimiter)
+    else:
         for name, value in (
             ("dx_um", dx_um),
             ("dy_um", dy_um),

@@ -39,6 +39,7 @@ import numpy as np
 
 from .._files import (
     SNIFF,
+    check_delimiter,
     looks_like_header,
     parse_number,
     read_lines,
@@ -613,13 +614,7 @@ def _read_any(
     for e in explicit:
         if e is not None:
             _unit_factor(*e, path)
-    if delimiter is not None and not (
-        isinstance(delimiter, str) and len(delimiter) <= 1 and delimiter not in '"#'
-    ):
-        raise ValueError(
-            "`delimiter` must be one character (not '\"' or '#'), '' or None "
-            f"(whitespace); got {delimiter!r}."
-        )
+    check_delimiter(delimiter)
     dx = None
     if dx_um is not None:
         try:
