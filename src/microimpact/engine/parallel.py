@@ -82,18 +82,15 @@ def run_task(plan, task):
     rows = None
     if all(len(group) == 1 for group in task):  # a group per block: no merging
         rows = kernel.simulate_specs_stacked(plan, flat)
-    if rows is not None:
-        if sum(spec[3] for spec in flat) < 2**31:
-            rows = rows.narrow()
-        return rows
-    accs = iter(_simulate(plan, flat))
-    out = []
-    for group in task:
-        acc = next(accs)
-        for _ in range(len(group) - 1):
-            acc = acc.merge(next(accs))
-        out.append(acc)
-    rows = Stacked.of(out)
+    if rows is None:
+        accs = iter(_simulate(plan, flat))
+        out = []
+        for group in task:
+            acc = next(accs)
+            for _ in range(len(group) - 1):
+                acc = acc.merge(next(accs))
+            out.append(acc)
+        rows = Stacked.of(out)
     if sum(spec[3] for spec in flat) < 2**31:  # no histogram count can exceed it
         rows = rows.narrow()
     return rows
