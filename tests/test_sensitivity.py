@@ -477,3 +477,20 @@ def test_cli_sensitivity_through_main(tmp_path, capsys):
     )
     assert rc == 2
     assert "coefficients.frictoin" in capsys.readouterr().err
+
+
+def test_a_misspelt_preset_name_is_a_did_you_mean_error():
+    """The scenario is named as for `run` (scenario.scenario_file): a misspelt
+    preset gets the same did-you-mean line, not 'file not found'."""
+    import pytest
+
+    from microimpact.calibration import calibrate
+    from microimpact.errors import InputError
+    from microimpact.sensitivity import sobol_sensitivity
+
+    with pytest.raises(InputError, match="did you mean 'sst65-silicon-normal'"):
+        sobol_sensitivity(
+            "sst65-silicon-normall", {"particles.mean_um": {"low": 1, "high": 2}}
+        )
+    with pytest.raises(InputError, match="did you mean 'sst65-silicon-normal'"):
+        calibrate("sst65-silicon-normall", "x.csv", ["coefficients.friction"])

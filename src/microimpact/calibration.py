@@ -174,21 +174,14 @@ def default_bounds(key: str, value: float) -> tuple[float, float]:
 
 def _load(scenario, source=None, base_dir=None):
     """``(data, source, base_dir)`` of a scenario file, preset name or parsed dict."""
-    from .config import PRESETS, _load_toml, preset_path
+    from .config import _load_toml
+    from .scenario import scenario_file
 
     if isinstance(scenario, Mapping):
         if base_dir is None and source is not None:
             base_dir = Path(source).resolve().parent
         return dict(scenario), source, base_dir
-    if not isinstance(scenario, str | os.PathLike):
-        raise TypeError(
-            "`scenario` must be a scenario file, a preset name or parsed TOML data "
-            f"(a dict); got {type(scenario).__name__}."
-        )
-    text = os.fspath(scenario)
-    path = Path(text)
-    if not path.exists() and text in PRESETS:
-        path = preset_path(text)
+    path = scenario_file(scenario)
     return _load_toml(path), path, path.resolve().parent
 
 
@@ -226,13 +219,6 @@ def _simulate(task):
             scenario, samples=samples, seed=seed, workers=1, progress=False
         )
     return result.summary
-
-
-def _process_pool(workers):
-    """A process pool started as the engine's (fork when no thread runs)."""
-    from .engine.parallel import process_pool
-
-    return process_pool(workers)
 
 
 class _Model:
@@ -286,9 +272,9 @@ def _mapper(workers, executor):
     if executor is not None:
         return executor.map, None
     if workers > 1:
-        from .engine.parallel import cap_workers
+        from .engine.parallel import cap_workers, process_pool
 
-        pool = _process_pool(cap_workers(int(workers)))
+        pool = process_pool(cap_workers(int(workers)))
         return pool.map, pool
     return (lambda f, it: list(map(f, it))), None
 

@@ -20,7 +20,6 @@ The model is pluggable: :func:`sobol_analysis` takes any picklable callable with
 from __future__ import annotations
 
 import math
-import os
 import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -344,30 +343,11 @@ def _chunks(rows: np.ndarray, workers: int) -> list[np.ndarray]:
 def _map(executor, model, chunks, in_flight):
     """``model(chunk)`` of every chunk in order, on `executor` (``submit`` with at
     most `in_flight` chunks ahead, else ``map``)."""
-    import collections
+    from .engine.parallel import _ordered
 
     if not hasattr(executor, "submit"):
-        yield from executor.map(model, chunks)
-        return
-    pending = collections.deque()
-    it = iter(chunks)
-    for chunk in it:
-        pending.append(executor.submit(model, chunk))
-        if len(pending) >= in_flight:
-            break
-    while pending:
-        result = pending.popleft().result()
-        for chunk in it:
-            pending.append(executor.submit(model, chunk))
-            break
-        yield result
-
-
-def _process_pool(workers):
-    """A process pool started as the engine's (fork when no thread runs)."""
-    from .engine.parallel import process_pool
-
-    return process_pool(workers)
+        return executor.map(model, chunks)
+    return _ordered(lambda chunk: executor.submit(model, chunk), chunks, in_flight)
 
 
 def _evaluate(model, rows, *, workers, executor, progress) -> np.ndarray:
@@ -376,7 +356,9 @@ def _evaluate(model, rows, *, workers, executor, progress) -> np.ndarray:
     out = np.empty((len(rows), n_out))
     own = None
     if executor is None and workers > 1:
-        executor = own = _process_pool(workers)
+        from .engine.parallel import process_pool
+
+        executor = own = process_pool(workers)
     try:
         chunks = _chunks(rows, workers if executor is not None else 1)
         if executor is None:
@@ -591,12 +573,10 @@ def _load(scenario):
     """``(data, source)`` of a scenario file, preset name or parsed dict."""
     if isinstance(scenario, Mapping):
         return dict(scenario), None
-    from .config import PRESETS, _load_toml, preset_path
+    from .config import _load_toml
+    from .scenario import scenario_file
 
-    text = os.fspath(scenario)
-    path = Path(text)
-    if not path.exists() and text in PRESETS:
-        path = preset_path(text)
+    path = scenario_file(scenario)
     return _load_toml(path), path
 
 
