@@ -446,3 +446,34 @@ def test_facet_angles_feed_apparent_rebound():
     live = np.isfinite(r.lateral_angle_deg)
     assert live.sum() > 0.5 * len(fa)
     assert np.std(r.lateral_angle_deg[live]) > 1.0  # there is lateral scatter
+
+
+@pytest.mark.parametrize(
+    ("fill", "diameter", "match"),
+    [
+        (
+            np.s_[5:7, 5:7],
+            4.0,
+            r"no contact patch \(4 µm\) is measured over at least min_coverage = "
+            r"0\.5 of its area on the map \(20 x 20 µm, 0\.01 of it measured\); "
+            r"allowed: a smaller contact diameter",
+        ),
+        (
+            np.s_[0:3, 0:3],
+            4.0,
+            r"no pair of neighbouring contact patches \(4 µm\) is each measured .* "
+            r"\(20 x 20 µm, 0\.0225 of it measured\); allowed: a smaller contact",
+        ),
+        (
+            np.s_[:, :],
+            12.0,
+            r"the map \(20 x 20 µm\) is smaller than two contact patches \(12 µm\) "
+            r"along x or y; allowed: a contact diameter below half",
+        ),
+    ],
+)
+def test_facet_angles_errors_give_sizes_coverage_and_remedy(fill, diameter, match):
+    z = np.full((20, 20), np.nan)
+    z[fill] = 1.0
+    with pytest.raises(ValueError, match=match):
+        mi.facet_angles(HeightMap(z, 1e-6, 1e-6), contact_diameter_um=diameter)

@@ -332,7 +332,7 @@ def contact_patch_means(
     if ky > hm.ny or kx > hm.nx:
         raise ValueError(
             f"the contact patch ({length * 1e6:.4g} µm) is larger than the map "
-            f"({hm.nx * hm.dx * 1e6:.4g} x {hm.ny * hm.dy * 1e6:.4g} µm)."
+            f"({_extent_um(hm)})."
         )
     ok = hm.valid
     z = np.where(ok, hm.z, 0.0)
@@ -479,6 +479,20 @@ def _contact_length(contact_diameter_um, hertz):
     return length
 
 
+_REMEDY = (
+    "allowed: a smaller contact diameter, a lower min_coverage, or a map with "
+    "fewer missing points."
+)
+
+
+def _extent_um(hm) -> str:
+    return f"{hm.nx * hm.dx * 1e6:.4g} x {hm.ny * hm.dy * 1e6:.4g} µm"
+
+
+def _coverage(min_coverage) -> str:
+    return f"measured over at least min_coverage = {min_coverage:g} of its area"
+
+
 def facet_angles(
     height_map,
     *,
@@ -549,8 +563,12 @@ def facet_angles(
     )
     sx = max(1, round(length / hm.dx))  # L in grid steps
     sy = max(1, round(length / hm.dy))
-    if sx >= hm.nx or sy >= hm.ny:
-        raise ValueError("the map is smaller than two contact patches along x or y.")
+    if 2 * sx > hm.nx or 2 * sy > hm.ny:  # the patches (sy x sx points) fit
+        raise ValueError(
+            f"the map ({_extent_um(hm)}) is smaller than two contact patches "
+            f"({length * 1e6:.4g} µm) along x or y; allowed: a contact diameter "
+            "below half the map's width and height."
+        )
     h00 = means[:-sy, :-sx]
     gx = (means[:-sy, sx:] - h00) / (sx * hm.dx)  # neighbour patch along x
     gy = (means[sy:, :-sx] - h00) / (sy * hm.dy)  # neighbour patch along y
@@ -565,13 +583,21 @@ def facet_angles(
     ok_rows = np.nonzero(np.isfinite(h00).any(axis=1))[0]
     ok_cols = np.nonzero(np.isfinite(h00).any(axis=0))[0]
     if ok_rows.size == 0:
-        raise ValueError("no contact patch fits on the measured part of the map.")
+        raise ValueError(
+            f"no contact patch ({length * 1e6:.4g} µm) is {_coverage(min_coverage)} "
+            f"on the map ({_extent_um(hm)}, {hm.valid_fraction:.3g} of it measured); "
+            f"{_REMEDY}"
+        )
     gx = gx[ok_rows[0] :: py, ok_cols[0] :: px].ravel()
     gy = gy[ok_rows[0] :: py, ok_cols[0] :: px].ravel()
     keep = np.isfinite(gx) & np.isfinite(gy)
     gx, gy = gx[keep], gy[keep]
     if gx.size == 0:
-        raise ValueError("no complete pair of neighbouring contact patches.")
+        raise ValueError(
+            "no pair of neighbouring contact patches "
+            f"({length * 1e6:.4g} µm) is each {_coverage(min_coverage)} on the map "
+            f"({_extent_um(hm)}, {hm.valid_fraction:.3g} of it measured); {_REMEDY}"
+        )
     if azimuth_deg is None:
         alpha = np.random.default_rng(rng).uniform(0.0, 2.0 * np.pi, gx.size)
     else:
