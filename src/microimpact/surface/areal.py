@@ -346,8 +346,29 @@ def contact_patch_means(
     return out
 
 
+class FacetAnglePairs:
+    """What every set of facet-angle pairs ``phi_par``, ``phi_perp`` [rad] offers
+    (:class:`FacetAngles`, :class:`~microimpact.surface.areal_angles.ArealAngles`):
+    the angles in degrees and their statistics."""
+
+    @property
+    def phi_par_deg(self) -> np.ndarray:
+        """:attr:`phi_par` in degrees."""
+        return rad_to_deg(self.phi_par)
+
+    @property
+    def phi_perp_deg(self) -> np.ndarray:
+        """:attr:`phi_perp` in degrees."""
+        return rad_to_deg(self.phi_perp)
+
+    def statistics(self) -> FacetAngleStatistics:
+        """Means, covariance and anisotropy of ``(phi_par, phi_perp)``
+        (:func:`facet_angle_statistics`; needs 2 pairs)."""
+        return facet_angle_statistics(self.phi_par, self.phi_perp)
+
+
 @dataclass(frozen=True, eq=False)
-class FacetAngles:
+class FacetAngles(FacetAnglePairs):
     """Joint samples of the facet angles at the contact scale (SI: radians).
 
     Attributes
@@ -376,20 +397,6 @@ class FacetAngles:
 
     def __len__(self) -> int:
         return int(self.phi_par.size)
-
-    @property
-    def phi_par_deg(self) -> np.ndarray:
-        """:attr:`phi_par` in degrees."""
-        return rad_to_deg(self.phi_par)
-
-    @property
-    def phi_perp_deg(self) -> np.ndarray:
-        """:attr:`phi_perp` in degrees."""
-        return rad_to_deg(self.phi_perp)
-
-    def statistics(self) -> FacetAngleStatistics:
-        """Means, covariance and anisotropy of ``(phi_par, phi_perp)``."""
-        return facet_angle_statistics(self.phi_par, self.phi_perp)
 
 
 @dataclass(frozen=True)

@@ -35,6 +35,7 @@ import numpy as np
 
 from .._validation import as_float_array
 from ..units import deg_to_rad, rad_to_deg
+from .areal import FacetAnglePairs
 
 __all__ = [
     "ArealAngles",
@@ -49,7 +50,7 @@ _LIMIT = math.nextafter(0.5 * math.pi, 0.0)
 
 
 @dataclass(frozen=True, eq=False)
-class ArealAngles:
+class ArealAngles(FacetAnglePairs):
     r"""Equal-mass joint samples of the facet angles :math:`(\phi_\parallel,
     \phi_\perp)` [rad] of an areal surface.
 
@@ -142,21 +143,6 @@ class ArealAngles:
     def std(self) -> float:
         """Standard deviation of :math:`\\phi_\\parallel` [rad] (``ddof=0``)."""
         return float(self.phi_par.std())
-
-    @property
-    def phi_par_deg(self) -> np.ndarray:
-        return rad_to_deg(self.phi_par)
-
-    @property
-    def phi_perp_deg(self) -> np.ndarray:
-        return rad_to_deg(self.phi_perp)
-
-    def statistics(self):
-        """Means, covariance and anisotropy of the pairs
-        (:class:`~microimpact.surface.areal.FacetAngleStatistics`; needs 2 pairs)."""
-        from .areal import facet_angle_statistics
-
-        return facet_angle_statistics(self.phi_par, self.phi_perp)
 
     def describe(self) -> dict:
         """Summary in interface units (degrees) for reports and provenance."""
