@@ -113,7 +113,7 @@ def _locate(sampler, r):
     (equal cells: nothing to interpolate, and neither kernel does)."""
     t = sampler.table
     if t.kind == t.EQUAL:
-        return mulhi64(r, t.size).astype(np.intp), None
+        return t.cells(r), None
     return t.locate(r)
 
 
