@@ -477,3 +477,16 @@ def test_facet_angles_errors_give_sizes_coverage_and_remedy(fill, diameter, matc
     z[fill] = 1.0
     with pytest.raises(ValueError, match=match):
         mi.facet_angles(HeightMap(z, 1e-6, 1e-6), contact_diameter_um=diameter)
+
+
+def test_a_synthetic_surface_too_large_for_memory_is_refused_before_the_fft():
+    """nx x ny beyond MAX_SYNTHETIC_POINTS is a clear error (it was an out-of-memory
+    failure, exit 3, from a scenario's synthetic = {...})."""
+    import pytest
+
+    from microimpact.surface.areal import gaussian_areal_surface
+
+    with pytest.raises(ValueError, match=r"`nx` x `ny` = 10,000,000,000 points"):
+        gaussian_areal_surface(
+            100_000, 100_000, dx_um=1.0, rms_um=1.0, corr_x_um=5.0, seed=1
+        )

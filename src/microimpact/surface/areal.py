@@ -625,6 +625,10 @@ def facet_angles(
 # ------------------------------------------------------------------ synthetic
 
 
+#: Largest synthetic areal surface (points): its FFTs then need about 2.7 GB.
+MAX_SYNTHETIC_POINTS = 2**26
+
+
 def gaussian_areal_surface(
     nx, ny, *, dx_um, dy_um=None, rms_um, corr_x_um, corr_y_um=None, seed=None
 ) -> HeightMap:
@@ -673,6 +677,11 @@ def gaussian_areal_surface(
     """
     nx = check_int(nx, "nx", minimum=2)
     ny = check_int(ny, "ny", minimum=2)
+    if nx * ny > MAX_SYNTHETIC_POINTS:  # the FFTs need ~40 bytes per point
+        raise ValueError(
+            f"`nx` x `ny` = {nx * ny:,} points; at most {MAX_SYNTHETIC_POINTS:,} "
+            "(e.g. 8192 x 8192)"
+        )
     dx = float(um_to_m(check_positive(dx_um, "dx_um")))
     dy = dx if dy_um is None else float(um_to_m(check_positive(dy_um, "dy_um")))
     sigma = float(um_to_m(check_positive(rms_um, "rms_um")))
