@@ -43,7 +43,9 @@ Usage::
     python benchmarks/run.py [--quick | --smoke] [--grid-only] [--json PATH]
 
 ``--grid-only`` measures items 3, 4 and 9 alone (the grid ratios), and reports the
-CPU time of the driver process and of the workers during each grid run on all cores.
+CPU time of this process and of worker processes during each grid run on all cores
+(with the compiled kernel the workers are threads of this process, so its CPU is all
+of it).
 
 ``--quick`` takes under a minute on 2 cores, ``--smoke`` about 10 s (tiny sizes, no
 timing is meaningful; it checks that everything runs). Timings on shared machines are
@@ -651,13 +653,13 @@ def print_table(res: dict) -> None:
         ("NumPy whole arrays (user baseline)", base),
         ("microimpact.run, 1 process", res["engine_per_s"]),
         (
-            f"microimpact.run, {res['cpu_count']} processes",
+            f"microimpact.run, {res['cpu_count']} workers",
             res["engine_all_cores_per_s"],
         ),
         (f"microimpact.run, Dask LocalCluster ({res['cpu_count']})", res["dask_per_s"]),
         (f"grid {shape}, {res['grid_samples']}/point, 1 process", res["grid_per_s"]),
         (
-            f"grid {shape}, {res['cpu_count']} processes",
+            f"grid {shape}, {res['cpu_count']} workers",
             res["grid_all_cores_per_s"],
         ),
     ]
@@ -690,7 +692,7 @@ def print_table(res: dict) -> None:
     print(f"peak RSS of a fresh run [MiB] by N: {by_n}")
     print(
         f"grid / one large point: {res['grid_ratio']:.2f} (1 process), "
-        f"{res['grid_all_cores_ratio']:.2f} ({res['cpu_count']} processes)"
+        f"{res['grid_all_cores_ratio']:.2f} ({res['cpu_count']} workers)"
     )
     q = res["details"].get("qmc")
     if q:
@@ -778,23 +780,23 @@ def print_grid_table(res: dict) -> None:
     rates = res["details"]["rates"]
     for name, key in (
         ("microimpact.run, 1 process", "engine"),
-        (f"microimpact.run, {P} processes", "engine_all_cores"),
+        (f"microimpact.run, {P} workers", "engine_all_cores"),
         (f"grid {shape}, {res['grid_samples']}/point, 1 process", "grid"),
-        (f"grid {shape}, {P} processes", "grid_all_cores"),
+        (f"grid {shape}, {P} workers", "grid_all_cores"),
     ):
         runs = ", ".join(f"{r / 1e6:.1f}" for r in rates[key])
         print(f"{name:<46} {res[key + '_per_s'] / 1e6:7.2f} M/s  (runs: {runs})")
     cpu = res["details"]
     print(
-        f"grid on {P} processes: driver CPU "
+        f"grid on {P} workers: this process's CPU (with worker threads: all of it) "
         + ", ".join(f"{c:.3f}" for c in cpu["grid_driver_cpu_s"])
-        + " s; workers CPU "
+        + " s; worker processes' CPU "
         + ", ".join(f"{c:.3f}" for c in cpu["grid_workers_cpu_s"])
         + " s"
     )
     print(
         f"grid / one large point: {res['grid_ratio']:.2f} (1 process), "
-        f"{res['grid_all_cores_ratio']:.2f} ({P} processes)"
+        f"{res['grid_all_cores_ratio']:.2f} ({P} workers)"
     )
 
 

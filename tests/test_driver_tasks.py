@@ -301,3 +301,54 @@ def test_any_executor_gives_the_same_bits():
     assert res.provenance["backend"] == "executor"
     with ProcessPoolExecutor(2) as ex:
         _same(ref, run(sc, executor=ex))
+
+
+def test_local_workers_are_threads_when_the_kernel_frees_the_gil():
+    """Several local workers are threads for the compiled kernel's Monte Carlo
+    plans (it frees the GIL), processes for the NumPy kernel and for QMC; the
+    provenance says which."""
+    import dataclasses
+
+    from microimpact.engine.plan import build_plan
+
+    sc = _grid(speeds_m_s=(0.3,), samples=2000)
+    plan = build_plan(sc)
+    if plan.kernel != "compiled":  # pragma: no cover - built without the C kernel
+        pytest.skip("the compiled kernel is not built")
+    runners = []
+    try:
+        runners.append(parallel.make_runner(plan, workers=2))
+        assert type(runners[-1]) is parallel.ThreadRunner
+        runners.append(
+            parallel.make_runner(dataclasses.replace(plan, kernel="numpy"), workers=2)
+        )
+        assert type(runners[-1]) is parallel.PoolRunner
+        runners.append(
+            parallel.make_runner(dataclasses.replace(plan, sampling="qmc"), workers=2)
+        )
+        assert type(runners[-1]) is parallel.PoolRunner
+        assert type(parallel.make_runner(plan, workers=1)) is parallel.SerialRunner
+    finally:
+        for r in runners:
+            r.close()
+    res = run(sc, workers=2)
+    assert res.provenance["local_workers"] == "threads"
+    assert "local_workers" not in run(sc, workers=1).provenance
+
+
+@pytest.mark.parametrize("kernel_name", ["compiled", "numpy"])
+def test_threads_and_processes_give_the_bits_of_one_worker(kernel_name):
+    """workers=2 (threads for the compiled kernel, a process pool for the NumPy
+    kernel) merges every group exactly as one worker does, over many tasks."""
+    from microimpact.engine.plan import build_plan
+
+    sc = _grid(samples=5000)
+    plan = build_plan(sc, kernel=kernel_name)
+    one = {(b.point, b.replicate): b.total for b in iter_blocks(sc, plan=plan)}
+    two = {
+        (b.point, b.replicate): b.total
+        for b in iter_blocks(sc, plan=build_plan(sc, kernel=kernel_name), workers=2)
+    }
+    assert one.keys() == two.keys() and len(one) == 36
+    for k in one:
+        assert one[k] == two[k], k

@@ -53,7 +53,14 @@ def _same_dataset(a, b):
     for v in a.data_vars:
         assert a[v].dtype == b[v].dtype, v
         assert_array_equal(_bits(a[v].values), _bits(b[v].values), err_msg=v)
-    skip = {"created", "elapsed_s", "resumed_blocks", "total_blocks", "workers"}
+    skip = {
+        "created",
+        "elapsed_s",
+        "resumed_blocks",
+        "total_blocks",
+        "workers",
+        "local_workers",
+    }
     assert {k: str(v) for k, v in a.attrs.items() if k not in skip} == {
         k: str(v) for k, v in b.attrs.items() if k not in skip
     }

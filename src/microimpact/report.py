@@ -53,6 +53,13 @@ details summary{cursor:pointer;color:#0072B2}
 """
 
 
+def _workers(p: dict, missing: str) -> str:
+    """The worker count, with the provenance's kind of local workers if recorded
+    (e.g. ``2 worker(s) (threads)``)."""
+    kind = p.get("local_workers")
+    return f"{p.get('workers', missing)} worker(s)" + (f" ({kind})" if kind else "")
+
+
 def _e(x) -> str:
     return html.escape(str(x), quote=True)
 
@@ -197,7 +204,7 @@ def _provenance(result) -> str:
         ),
         ("Sweep points", _e(len(s))),
         ("Run time", _e(f"{float(result.elapsed_s):.3g} s")),
-        ("Backend", _e(f"{p.get('backend', '–')}, {p.get('workers', '–')} worker(s)")),
+        ("Backend", _e(f"{p.get('backend', '–')}, {_workers(p, '–')}")),
         (
             "Sampling",
             _e(f"{p.get('sampling', '–')}, {p.get('replicates', '–')} replicate(s)"),
@@ -758,7 +765,7 @@ def summary_text(result) -> str:
         f"- sampling: {p.get('sampling', sc.sampling)}, shadowing: {sc.shadowing}, "
         f"confidence: {_confidence(result):g}",
         f"- sweep: {len(s)} points; run time {float(result.elapsed_s):.3g} s "
-        f"({p.get('backend', '?')}, {p.get('workers', '?')} worker(s))",
+        f"({p.get('backend', '?')}, {_workers(p, '?')})",
         "",
     ]
     head = [

@@ -43,7 +43,8 @@ from .accumulators import PointAccumulator
 from .checkpoint import Checkpoint, CheckpointWarning, plan_fingerprint
 from .parallel import (
     BACKENDS,
-    SerialRunner,
+    PoolRunner,
+    ThreadRunner,
     available_cores,
     cap_workers,
     make_runner,
@@ -453,6 +454,9 @@ class _Job:
             )
         self.progress = progress
         self.resumed_blocks = 0
+        #: how several local workers ran: "threads" or "processes" (None: one
+        #: worker, an executor or Dask)
+        self.local_workers = None
         self._background = None  # see in_background
 
     def provenance(self) -> dict:
@@ -462,6 +466,8 @@ class _Job:
         }
         if self.workers != self.workers_requested:
             out["workers_requested"] = self.workers_requested
+        if self.local_workers is not None:
+            out["local_workers"] = self.local_workers
         return out
 
     def blocks(self) -> Iterator[BlockResult]:
@@ -494,7 +500,11 @@ class _Job:
             executor=self.executor,
             address=self.address,
         )
-        if isinstance(runner, SerialRunner):
+        if isinstance(runner, ThreadRunner):
+            self.local_workers = "threads"
+        elif isinstance(runner, PoolRunner):
+            self.local_workers = "processes"
+        if not runner.forks:
             self._start_background()  # no fork to come: the kernel frees the GIL
         bar = _Progress(
             self.progress,
@@ -720,9 +730,12 @@ def run(
         Root seed; overrides the scenario's. None (and no scenario seed) draws fresh
         entropy, which is recorded in the result.
     workers : int, default 1
-        Worker processes (``backend="process"``) or Dask workers for a local
-        cluster (``backend="dask"``); more than the available cores is capped with
-        a ``RuntimeWarning``.
+        Workers on this machine (``backend="process"``) or Dask workers for a
+        local cluster (``backend="dask"``); more than the available cores is
+        capped with a ``RuntimeWarning``. On this machine the workers are threads
+        when the compiled kernel runs the plan (it frees the GIL: no fork, no
+        transport), else processes; the provenance's ``local_workers`` says which.
+        Either gives the same bits.
     backend : {"process", "dask"}
     executor : object with ``map``, optional
         Any pool (``concurrent.futures`` executor, ``multiprocessing.Pool``,
