@@ -86,10 +86,13 @@ def engine_pair_probabilities(tables, n_b):
     return np.array(width.tolist(), dtype=float) / 2.0**64
 
 
-def _moderate(shadowing, weighted_masses=False):
+def _moderate(shadowing, weighted_masses=False, wide=False):
     rng = np.random.default_rng(4)
     a_deg = rng.normal(2.0, 14.0, 90)
     b_deg = rng.normal(-1.0, 9.0, 70)
+    if wide:  # steep facets: some pairs lean back past -90 deg (a + b < theta - 180)
+        a_deg = rng.uniform(-88.0, 80.0, 60)
+        b_deg = rng.uniform(-88.0, 80.0, 50)
     if weighted_masses:
         surf = weighted_angles(a_deg, rng.uniform(0.2, 3.0, a_deg.size))
         part = weighted_angles(b_deg, rng.uniform(0.2, 3.0, b_deg.size))
@@ -99,15 +102,24 @@ def _moderate(shadowing, weighted_masses=False):
 
 
 @pytest.mark.parametrize(
-    ("shadowing", "weighted_masses"),
-    [("weighted", False), ("weighted", True), ("reject", True), ("none", True)],
+    ("shadowing", "weighted_masses", "wide"),
+    [
+        ("weighted", False, False),
+        ("weighted", True, False),
+        ("reject", True, False),
+        ("none", True, False),
+        ("weighted", True, True),
+    ],
 )
 @pytest.mark.parametrize("theta_deg", [12.0, 35.0, 80.0])
 def test_search_draws_each_pair_with_its_exact_probability(
-    monkeypatch, shadowing, weighted_masses, theta_deg
+    monkeypatch, shadowing, weighted_masses, wide, theta_deg
 ):
+    """With ``wide``, at 80 deg some pairs lean back past -90 deg (``a + b <
+    theta - 180``): ``sin(theta - a - b) < 0`` although ``a + b < theta``, and
+    'weighted' gives them no weight."""
     monkeypatch.setattr(plan_module, "MAX_SUM_ATOMS", 0)  # a search at any size
-    surf, part = _moderate(shadowing, weighted_masses)
+    surf, part = _moderate(shadowing, weighted_masses, wide)
     sc = scenario(
         surfaces=(SurfaceVariant("s", surf),),
         particle_roughness=part,
@@ -148,8 +160,12 @@ def test_search_is_used_beyond_max_sum_atoms_only():
 def test_both_kernels_draw_the_same_pairs(monkeypatch):
     """Compiled and NumPy kernels: the same search, the same bits."""
     monkeypatch.setattr(plan_module, "MAX_SUM_ATOMS", 0)
-    surf, part = _moderate("weighted", weighted_masses=True)
-    for shadowing in ("weighted", "reject", "none"):
+    cases = [
+        (_moderate("weighted", weighted_masses=True), shadowing)
+        for shadowing in ("weighted", "reject", "none")
+    ]
+    cases.append((_moderate("weighted", weighted_masses=True, wide=True), "weighted"))
+    for (surf, part), shadowing in cases:
         sc = scenario(
             coefficients=PowerCoefficients(friction=0.15),
             surfaces=(SurfaceVariant("s", surf),),

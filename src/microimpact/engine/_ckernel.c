@@ -778,16 +778,18 @@ lookup(const sampler_t *s, const uint64_t *r, int one, int c, uint64_t cut,
 }
 
 /* Column layout of a pair search (plan.PairSearch): surface rows hold alpha,
- * beta, the number of particle atoms n_i and the total C_i(n_i) after the angle
- * columns; particle rows hold the prefix sums P1, P2 of the atoms before them. */
-enum { Q_ALPHA = 8, Q_BETA, Q_COUNT, Q_TOTAL };
+ * beta, the end n_i of the particle atoms drawn from, their weight
+ * C_i(n_i) - C_i(m_i) and their first atom m_i after the angle columns;
+ * particle rows hold the prefix sums P1, P2 of the atoms before them. */
+enum { Q_ALPHA = 8, Q_BETA, Q_COUNT, Q_TOTAL, Q_FIRST };
 enum { P_ONE = 8, P_TWO };
 
 /* A pair drawn by a search (plan.search_pairs, step for step): the surface cell
- * i and the fraction f of each draw, then the largest J < n_i with
- * alpha_i P1[J] + beta_i P2[J] <= f C_i(n_i), by steps of decreasing powers of
- * two, one step for the whole chunk at a time (the chunk's searches overlap);
- * then sin, cos (theta - a - b) and tan(a + b) as for pair ranks. */
+ * i and the fraction f of each draw, then the largest J in [m_i, n_i) with
+ * C_i(J) = alpha_i P1[J] + beta_i P2[J] <= C_i(m_i) + f (C_i(n_i) - C_i(m_i)),
+ * by steps of decreasing powers of two from m_i, one step for the whole chunk
+ * at a time (the chunk's searches overlap); then sin, cos (theta - a - b) and
+ * tan(a + b) as for pair ranks. */
 ALWAYS_INLINE void
 pair_search(const block_args *a, scratch_t *s, const uint64_t *restrict r, int c)
 {
@@ -802,15 +804,17 @@ pair_search(const block_args *a, scratch_t *s, const uint64_t *restrict r, int c
         double f;
         Py_ssize_t i = locate(A, r[k], A->guide[r[k] >> A->gshift], &f);
         const double *row = A->rows + i * A->stride;
-        double cnt = row[Q_COUNT];
+        double cnt = row[Q_COUNT], first = row[Q_FIRST];
         cell[k] = (uint32_t)i;
         al[k] = row[Q_ALPHA];
         be[k] = row[Q_BETA];
-        /* in [1, nb] for any plan's tables; the clamp keeps a malformed call
-         * inside the buffer */
+        /* in [1, nb] and [0, n_i) for any plan's tables; the clamps keep a
+         * malformed call inside the buffer */
         nn[k] = cnt >= 1.0 ? (cnt <= (double)nb ? (int64_t)cnt : nb) : 1;
-        u[k] = f * row[Q_TOTAL];
-        base[k] = 0;
+        base[k] = first >= 0.0 ? (first < (double)nn[k] ? (int64_t)first : 0) : 0;
+        const double *pm = B->rows + base[k] * B->stride;
+        double c0 = al[k] * pm[P_ONE] + be[k] * pm[P_TWO]; /* C_i(m_i) */
+        u[k] = c0 + f * row[Q_TOTAL];
     }
     int64_t step = 0;
     if (nb > 1) {
@@ -1033,14 +1037,14 @@ release_sampler(Py_buffer *bufs)
 /* Pairs: every rank < pair_total, shifted, must stay below 2^64, and every
  * particle atom index (rank - start, at most pair_total - 1) must have a row;
  * the surface table is searched through its guide (kind 0). A pair search
- * (shift -1) needs the columns of its layout (Q_TOTAL, P_TWO) and a surface
+ * (shift -1) needs the columns of its layout (Q_FIRST, P_TWO) and a surface
  * table searched through its guide. */
 static int
 check_pairs(int shift, unsigned long long total, const sampler_t *surface,
             const sampler_t *particle)
 {
     if (shift == -1) {
-        if (surface->kind == 0 && surface->stride > Q_TOTAL &&
+        if (surface->kind == 0 && surface->stride > Q_FIRST &&
             particle->stride > P_TWO)
             return 0;
         PyErr_SetString(PyExc_ValueError, "_ckernel: bad pair search layout");

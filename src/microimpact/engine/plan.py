@@ -310,9 +310,10 @@ def areal_sampler(angles) -> ArealSampler:
 #: before it) that the search reads.
 P_ONE, P_TWO = 8, 9
 #: Columns of a :class:`PairSearch` surface row (per apparent angle): the
-#: coefficients ``alpha``, ``beta`` of the conditional CDF, the number of particle
-#: atoms drawn from and the total ``alpha P1[n] + beta P2[n]``.
-Q_ALPHA, Q_BETA, Q_COUNT, Q_TOTAL = 8, 9, 10, 11
+#: coefficients ``alpha``, ``beta`` of the conditional CDF, the end ``n`` of the
+#: particle atoms drawn from, their weight ``C(n) - C(m)`` (``C(J) = alpha P1[J]
+#: + beta P2[J]``) and their first atom ``m``.
+Q_ALPHA, Q_BETA, Q_COUNT, Q_TOTAL, Q_FIRST = 8, 9, 10, 11, 12
 
 
 @dataclass(frozen=True, eq=False)
@@ -324,17 +325,21 @@ class PairSearch:
     draw, without forming the pairs.
 
     The pair weight is ``w_i v_j g_ij``, with ``g = 1`` for the reachable pairs
-    (``"reject"``; every pair for ``"none"``) and ``g = sin(theta - a_i - b_j)_+``
-    for ``"weighted"``. For each surface atom ``i`` the reachable particle atoms
-    are a prefix ``j < n_i`` of the sorted ``b``, and the cumulative weight of the
-    first ``J`` of them is ``C_i(J) = alpha_i P1[J] + beta_i P2[J]`` with
-    angle-independent prefix sums: ``P1 = cumsum(v)``, ``P2 = 0``, ``alpha = 1``,
-    ``beta = 0`` for the masses; ``P1 = cumsum(v cos b)``, ``P2 = cumsum(v sin b)``,
-    ``alpha_i = sin(theta - a_i)``, ``beta_i = -cos(theta - a_i)`` for the sine
-    weight. A per-angle table of integer probabilities ``w_i C_i(n_i)`` draws
-    ``i`` and the fraction ``f`` inside its cell; the particle atom is the largest
-    ``J < n_i`` with ``C_i(J) <= f C_i(n_i)``, found by a binary search
-    (:func:`search_pairs`, the same steps in both kernels)."""
+    (``"reject"``: ``a_i + b_j < theta``; every pair for ``"none"``) and ``g =
+    sin(theta - a_i - b_j)_+`` for ``"weighted"``. For each surface atom ``i``
+    the particle atoms of positive weight are a range ``m_i <= j < n_i`` of the
+    sorted ``b``: a prefix (``m_i = 0``) but for ``"weighted"``, where the pairs
+    leaning back past -90 deg (``a_i + b_j < theta - pi``, steep facets on both
+    sides) have ``sin(theta - a_i - b_j) < 0`` and are left out as well. The
+    cumulative weight of the atoms before ``J`` is ``C_i(J) - C_i(m_i)``,
+    ``C_i(J) = alpha_i P1[J] + beta_i P2[J]`` with angle-independent prefix sums:
+    ``P1 = cumsum(v)``, ``P2 = 0``, ``alpha = 1``, ``beta = 0`` for the masses;
+    ``P1 = cumsum(v cos b)``, ``P2 = cumsum(v sin b)``, ``alpha_i = sin(theta -
+    a_i)``, ``beta_i = -cos(theta - a_i)`` for the sine weight. A per-angle table
+    of integer probabilities ``w_i (C_i(n_i) - C_i(m_i))`` draws ``i`` and the
+    fraction ``f`` inside its cell; the particle atom is the largest ``J`` in
+    ``[m_i, n_i)`` with ``C_i(J) <= C_i(m_i) + f (C_i(n_i) - C_i(m_i))``, found by
+    a binary search (:func:`search_pairs`, the same steps in both kernels)."""
 
     surface: Sampler
     particle: Sampler  # rows + (P1, P2) of the masses
@@ -380,16 +385,18 @@ def _search_top(n: int) -> int:
 
 def search_pairs(surface: Sampler, particle: Sampler, r):
     """``(surface cell, particle atom)`` of draws `r` from :class:`PairSearch`
-    tables: the cell ``i`` and fraction ``f`` of `r`, then the largest ``J < n_i``
-    with ``alpha_i P1[J] + beta_i P2[J] <= f * total_i``, by steps of decreasing
-    powers of two (what the compiled kernel does, operation for operation)."""
+    tables: the cell ``i`` and fraction ``f`` of `r`, then the largest ``J`` in
+    ``[m_i, n_i)`` with ``alpha_i P1[J] + beta_i P2[J] <= C_i(m_i) + f * total_i``,
+    by steps of decreasing powers of two from ``m_i`` (what the compiled kernel
+    does, operation for operation)."""
     i, f = surface.table.locate(r)
     q = surface.rows[i]
     alpha, beta = q[:, Q_ALPHA], q[:, Q_BETA]
     count = q[:, Q_COUNT].astype(np.int64)
-    u = f * q[:, Q_TOTAL]
+    base = q[:, Q_FIRST].astype(np.int64)
     p1, p2 = particle.rows[:, P_ONE], particle.rows[:, P_TWO]
-    base = np.zeros(i.size, dtype=np.int64)
+    u = alpha * p1[base] + beta * p2[base]  # C_i(m_i)
+    u += f * q[:, Q_TOTAL]
     step = _search_top(particle.table.size)
     while step:
         cand = base + step
@@ -521,6 +528,29 @@ def _reachable_counts(a: Sampler, b: Sampler, st, ct, angle_deg):
     return counts
 
 
+def _leaning_back(a: Sampler, b: Sampler, st, ct, angle_deg):
+    """Per surface atom ``a_i``: the number of particle atoms (a prefix of the
+    sorted ``b``) whose pair leans back past -90 deg, ``a_i + b_j < theta - pi``,
+    where ``sin(theta - a_i - b_j) <= 0`` as the kernels compute it although the
+    pair is below ``theta`` (steep facets on both sides)."""
+    n_b = b.table.size
+    ra, rb = a.rows[:-1], b.rows[:-1]
+    theta = np.deg2rad(angle_deg)
+    bv = b.values[:, 0]
+    first = np.searchsorted(bv, theta - np.pi - a.values[:, 0], side="right")
+
+    def sine(j):
+        jc = np.clip(j, 0, n_b - 1)
+        return pair_sin(
+            st, ct, ra[:, A_SIN], ra[:, A_COS], rb[jc, A_SIN], rb[jc, A_COS]
+        )[0]
+
+    for _ in range(3):  # agree with the kernels' own sign at the boundary
+        first = np.where((first > 0) & (sine(first - 1) > 0), first - 1, first)
+        first = np.where((first < n_b) & ~(sine(first) > 0), first + 1, first)
+    return first
+
+
 def _pair_tables(pair: PairSampler, st, ct, angle_deg, shadowing) -> AngleTables:
     a, b = pair.surface, pair.particle
     n_a, n_b = a.table.size, b.table.size
@@ -553,19 +583,24 @@ def _search_tables(pair: PairSearch, st, ct, angle_deg, shadowing) -> AngleTable
     count = shadowing == "none" or not counts.any()  # nothing reachable: count
     ra = a.rows[:-1]
     while True:
+        first = np.zeros(a.table.size, dtype=np.int64)
         if count:  # every pair, by mass; the unreachable ones are counted
             counts = np.full(a.table.size, n_b, dtype=np.int64)
         if shadowing == "weighted" and not count:
             part = pair.sine
             alpha = st * ra[:, A_COS] - ct * ra[:, A_SIN]  # sin(theta - a_i)
             beta = -(ct * ra[:, A_COS] + st * ra[:, A_SIN])  # -cos(theta - a_i)
+            first = np.minimum(
+                _leaning_back(a, pair.particle, st, ct, angle_deg), counts
+            )
         else:
             part = pair.particle
             alpha = np.ones(a.table.size)
             beta = np.zeros(a.table.size)
         rp = part.rows
         total = alpha * rp[counts, P_ONE] + beta * rp[counts, P_TWO]
-        mass = w * np.where(counts > 0, np.maximum(total, 0.0), 0.0)
+        total = total - (alpha * rp[first, P_ONE] + beta * rp[first, P_TWO])
+        mass = w * np.where(counts > first, np.maximum(total, 0.0), 0.0)
         keep = np.flatnonzero(mass > 0)
         if keep.size or count:
             break
@@ -575,7 +610,7 @@ def _search_tables(pair: PairSearch, st, ct, angle_deg, shadowing) -> AngleTable
     sub = CellTable.from_cells(cum, a.table.left[keep], a.table.right[keep])
     cells = keep[nonempty_cells(cum)]
     n = sub.size
-    rows = np.zeros((n + 1, 12))
+    rows = np.zeros((n + 1, 13))
     rows[:, R_CUM] = sub.cum.view(np.float64)
     rows[:n, R_INVW] = sub.inv_width
     rows[:n, 2:8] = a.rows[cells, 2:8]
@@ -583,6 +618,7 @@ def _search_tables(pair: PairSearch, st, ct, angle_deg, shadowing) -> AngleTable
     rows[:n, Q_BETA] = beta[cells]
     rows[:n, Q_COUNT] = counts[cells]
     rows[:n, Q_TOTAL] = total[cells]
+    rows[:n, Q_FIRST] = first[cells]
     sampler = Sampler(sub, rows, np.ascontiguousarray(a.values[cells]))
     return AngleTables(
         sampler,
