@@ -536,7 +536,7 @@ def mulhi64(a, b) -> np.ndarray:
     """``floor(a * b / 2^64)`` for uint64 arrays/scalars (exact, 32-bit halves):
     the compiled kernel's 128-bit multiply-high."""
     a = np.asarray(a, dtype=np.uint64)
-    b = np.uint64(b)
+    b = np.asarray(b, dtype=np.uint64)
     m = np.uint64(0xFFFFFFFF)
     s32 = np.uint64(32)
     a_lo, a_hi = a & m, a >> s32
