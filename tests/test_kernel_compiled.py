@@ -145,6 +145,7 @@ def _block_args(**over):
         i_d=(np.arange(n, dtype=np.uint64) << np.uint64(62)),
         i_a=np.zeros(1, np.uint64),
         i_s=np.zeros(1, np.uint64),
+        i_p=np.zeros(1, np.uint64),
         n=n,
         angle_random=False,
         speed_random=False,
@@ -325,7 +326,8 @@ def test_instruction_set_clones_give_the_same_bits(p, tmp_path, monkeypatch, sim
 
 @pytest.mark.parametrize("shadowing", ["reject", "none", "weighted"])
 def test_bit_identical_with_a_rough_particle(shadowing, simd):
-    # both discrete: exact pairs ('reject', 'none'); 'weighted': the convolution
+    # both discrete: exact pairs ('reject', 'none'); 'weighted': a pair search
+    # (540,000 pairs: its rejection and its fallback)
     rng = np.random.default_rng(4)
     sc = scenario(
         surfaces=(SurfaceVariant("s", angles_from_sample(rng.normal(0, 12, 900))),),

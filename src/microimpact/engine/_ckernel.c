@@ -61,9 +61,16 @@ typedef struct {
     int64_t iws[I_ROWS * CHUNK];
     uint64_t ra[CHUNK];          /* angle draws (scaled for "reject") */
     uint32_t g[3][CHUNK];        /* guide entry per variable */
-    uint64_t draw[3][CHUNK];     /* a chunk of each variable's keyed stream */
-    double pu[CHUNK], pal[CHUNK], pbe[CHUNK]; /* pair search: target, alpha, beta */
-    int64_t pn[CHUNK], pj[CHUNK]; /* pair search: atoms searched, the answer */
+    uint64_t draw[4][CHUNK];     /* a chunk of each variable's keyed stream */
+    /* pair search: per impact the particle atom; per rejected proposal (packed)
+     * its impact, f gmax - g, gmax - g, the target, alpha, beta, the end of the
+     * atoms searched and the search's position */
+    int64_t pj[CHUNK];
+    uint32_t pg[CHUNK];
+    double pf[CHUNK], pgw[CHUNK];
+    int32_t pat[CHUNK];
+    double pnum[CHUNK], pden[CHUNK], pu[CHUNK], pal[CHUNK], pbe[CHUNK];
+    int64_t pn[CHUNK], pb[CHUNK];
 } scratch_t;
 
 typedef struct {
@@ -538,7 +545,7 @@ stream_seed(const ss_state *prefix, const uint64_t *key, int nk, pcg64_t *g)
 }
 
 typedef struct {
-    const uint64_t *i_d, *i_a, *i_s;
+    const uint64_t *i_d, *i_a, *i_s, *i_p;
     Py_ssize_t n;
     int angle_random, speed_random;
     sampler_t d, a, s, b; /* diameter: 1/k1, 1/k2, v_c; angle: sin, cos, tan
@@ -554,8 +561,8 @@ typedef struct {
     int64_t *e_hist, *mu_hist;
     counts_t counts;
     double sums[8];
-    int keyed;         /* draw from gen[] (the keyed streams), not i_d, i_a, i_s */
-    pcg64_t gen[3];    /* diameter, angle, speed streams */
+    int keyed;         /* draw from gen[] (the keyed streams), not i_d, ... i_p */
+    pcg64_t gen[4];    /* diameter, angle, speed, pair proposal streams */
 } block_args;
 
 /* Locate the cells of draws r[0:c] (kinds: see guide_entry) and write the first
@@ -778,70 +785,145 @@ lookup(const sampler_t *s, const uint64_t *r, int one, int c, uint64_t cut,
 }
 
 /* Column layout of a pair search (plan.PairSearch): surface rows hold alpha,
- * beta, the end n_i of the particle atoms drawn from, their weight
- * C_i(n_i) - C_i(m_i) and their first atom m_i after the angle columns;
- * particle rows hold the prefix sums P1, P2 of the atoms before them. */
-enum { Q_ALPHA = 8, Q_BETA, Q_COUNT, Q_TOTAL, Q_FIRST };
+ * beta, the rejection's bound lam_i, the end n_i of the particle atoms drawn
+ * from, their weight C_i(n_i) - C_i(m_i) and their first atom m_i after the
+ * angle columns, then the K + 1 ends of the proposal's bands (uint64 bits;
+ * K = stride - Q_BANDS - 1, a power of two); particle rows hold the prefix sums
+ * P1, P2 of the atoms before them. */
+enum { Q_ALPHA = 8, Q_BETA, Q_BOUND, Q_COUNT, Q_TOTAL, Q_FIRST, Q_BANDS };
 enum { P_ONE = 8, P_TWO };
 
-/* A pair drawn by a search (plan.search_pairs, step for step): the surface cell
- * i and the fraction f of each draw, then the largest J in [m_i, n_i) with
- * C_i(J) = alpha_i P1[J] + beta_i P2[J] <= C_i(m_i) + f (C_i(n_i) - C_i(m_i)),
- * by steps of decreasing powers of two from m_i, one step for the whole chunk
- * at a time (the chunk's searches overlap); then sin, cos (theta - a - b) and
- * tan(a + b) as for pair ranks. */
+/* sin, cos (theta - a - b) and tan(a + b) of impact k from the rows of its
+ * surface atom a and particle atom b (as for pair ranks). */
 ALWAYS_INLINE void
-pair_search(const block_args *a, scratch_t *s, const uint64_t *restrict r, int c)
+pair_angles(double *restrict ws, int k, double st, double ct, const double *ra,
+            const double *rb)
+{
+    double sa = ra[2], ca = ra[4], ta = ra[6];
+    double s1 = st * ca - ct * sa; /* sin(theta - a) */
+    double c1 = ct * ca + st * sa;
+    ws[W_SIN * CHUNK + k] = s1 * rb[4] - c1 * rb[2];
+    ws[W_COT * CHUNK + k] = c1 * rb[4] + s1 * rb[2];
+    ws[W_TAN * CHUNK + k] = (ta + rb[6]) / (1.0 - ta * rb[6]);
+}
+
+/* The cell of draw r (no fraction). */
+ALWAYS_INLINE Py_ssize_t
+cell_of(const sampler_t *s, uint64_t r)
+{
+    double f;
+    return locate(s, r, guide_entry(s, r), &f);
+}
+
+/* A pair drawn by rejection with a search as the fallback (plan.search_pairs,
+ * step for step; the argument is plan.PairSearch's): the surface cell i and
+ * the fraction f of each draw r; the band k of the particle's proposal (the top
+ * bits of r2) and the proposed atom j, the particle cell of
+ * y_k + floor(z w_k / 2^64) (z: the other bits of r2), accepted when
+ * f lam_i < g_ij w_k, g_ij = alpha_i cos b_j + beta_i sin b_j (g at or below 0
+ * counts as 0; lam_i = 0 for the masses: every proposal is accepted). The
+ * rejected proposals are packed, and for each the largest J in [m_i, n_i) with
+ * C_i(J) = alpha_i P1[J] + beta_i P2[J] <= C_i(m_i) + u' (C_i(n_i) - C_i(m_i)),
+ * u' = (f lam_i - g w) / (lam_i - g w), is found by steps of decreasing powers
+ * of two from m_i, one step for all of them at a time (their searches
+ * overlap); sin, cos (theta - a - b) and tan(a + b) as for pair ranks. */
+ALWAYS_INLINE void
+pair_search(const block_args *a, scratch_t *s, const uint64_t *restrict r,
+            const uint64_t *restrict r2, int c)
 {
     const sampler_t *A = &a->a, *B = &a->b;
     double *restrict ws = s->ws;
+    int64_t *restrict jj = s->pj;
+    int32_t *restrict at = s->pat;
+    double *restrict num = s->pnum, *restrict den = s->pden;
     double *restrict u = s->pu, *restrict al = s->pal, *restrict be = s->pbe;
-    int64_t *restrict nn = s->pn, *restrict base = s->pj;
+    int64_t *restrict nn = s->pn, *restrict base = s->pb;
     uint32_t *restrict cell = s->g[1];
     const double st = a->sin_theta, ct = a->cos_theta;
     const int64_t nb = B->n;
+    const double *restrict prow = B->rows;
+    const Py_ssize_t pstride = B->stride;
+    int bits = 1; /* log2 of the bands (a power of two >= 2: check_pairs) */
+    while (((Py_ssize_t)1 << bits) < A->stride - Q_BANDS - 1)
+        bits++;
+    uint32_t *restrict gs = s->pg;
+    double *restrict ff = s->pf, *restrict gw = s->pgw;
+    /* three passes, so that each one's loads are issued for the whole chunk
+     * before they are waited on: the surface cells' guide entries, the cells,
+     * fractions and proposals, then the acceptance */
+    for (int k = 0; k < c; k++)
+        gs[k] = A->guide[r[k] >> A->gshift];
     for (int k = 0; k < c; k++) {
         double f;
-        Py_ssize_t i = locate(A, r[k], A->guide[r[k] >> A->gshift], &f);
+        Py_ssize_t i = locate(A, r[k], gs[k], &f);
         const double *row = A->rows + i * A->stride;
-        double cnt = row[Q_COUNT], first = row[Q_FIRST];
+        const double *band = row + Q_BANDS + (Py_ssize_t)(r2[k] >> (64 - bits));
+        uint64_t y0, y1;
+        memcpy(&y0, band, sizeof y0);
+        memcpy(&y1, band + 1, sizeof y1);
+        uint64_t w = y1 - y0; /* modulo 2^64 */
+        uint64_t x = y0 + mulhi64(r2[k] << bits, w);
+        Py_ssize_t j = cell_of(B, x);
+        /* below n_i for any plan's tables; the clamp keeps a malformed call
+         * inside the buffer */
+        j = j < nb ? j : nb - 1;
         cell[k] = (uint32_t)i;
-        al[k] = row[Q_ALPHA];
-        be[k] = row[Q_BETA];
+        ff[k] = f;
+        gw[k] = (double)w;
+        jj[k] = j;
+    }
+    int m = 0; /* rejected proposals so far */
+    for (int k = 0; k < c; k++) {
+        const double *row = A->rows + (Py_ssize_t)cell[k] * A->stride;
+        const double *pr = prow + jj[k] * pstride;
+        double f = ff[k];
+        double alpha = row[Q_ALPHA], beta = row[Q_BETA], lam = row[Q_BOUND];
+        double g = alpha * pr[4] + beta * pr[2];
+        g = g > 0.0 ? g : 0.0;
+        double gwk = g * gw[k];
+        double t = f * lam;
+        pair_angles(ws, k, st, ct, row, pr); /* the proposal's (kept if accepted) */
+        /* written for every impact, kept (m advanced) for the rejected */
+        at[m] = k;
+        num[m] = t - gwk;
+        den[m] = lam - gwk;
+        al[m] = alpha;
+        be[m] = beta;
+        m += !(t < gwk);
+    }
+    for (int q = 0; q < m; q++) {
+        const double *row = A->rows + (Py_ssize_t)cell[at[q]] * A->stride;
+        double cnt = row[Q_COUNT], first = row[Q_FIRST];
         /* in [1, nb] and [0, n_i) for any plan's tables; the clamps keep a
          * malformed call inside the buffer */
-        nn[k] = cnt >= 1.0 ? (cnt <= (double)nb ? (int64_t)cnt : nb) : 1;
-        base[k] = first >= 0.0 ? (first < (double)nn[k] ? (int64_t)first : 0) : 0;
-        const double *pm = B->rows + base[k] * B->stride;
-        double c0 = al[k] * pm[P_ONE] + be[k] * pm[P_TWO]; /* C_i(m_i) */
-        u[k] = c0 + f * row[Q_TOTAL];
+        nn[q] = cnt >= 1.0 ? (cnt <= (double)nb ? (int64_t)cnt : nb) : 1;
+        base[q] = first >= 0.0 ? (first < (double)nn[q] ? (int64_t)first : 0) : 0;
+        const double *pm = prow + base[q] * pstride;
+        double c0 = al[q] * pm[P_ONE] + be[q] * pm[P_TWO]; /* C_i(m_i) */
+        double fresh = num[q] / den[q]; /* u', uniform on [0, 1) */
+        u[q] = c0 + fresh * row[Q_TOTAL];
     }
     int64_t step = 0;
-    if (nb > 1) {
+    if (nb > 1 && m > 0) {
         step = 1;
         while (step <= (nb - 1) / 2)
             step *= 2;
     }
-    const double *restrict prow = B->rows;
-    const Py_ssize_t pstride = B->stride;
     for (; step > 0; step >>= 1) {
-        for (int k = 0; k < c; k++) {
-            int64_t cand = base[k] + step;
-            int ok = cand < nn[k];
-            const double *pr = prow + (ok ? cand : 0) * pstride;
-            double cm = al[k] * pr[P_ONE] + be[k] * pr[P_TWO];
-            base[k] = (ok & (cm <= u[k])) ? cand : base[k];
+        for (int q = 0; q < m; q++) {
+            /* branch-free (whether a candidate is in range is not predictable):
+             * row 0 stands in for a candidate out of range */
+            int64_t cand = base[q] + step;
+            int64_t ok = cand < nn[q];
+            const double *pr = prow + (cand * ok) * pstride;
+            double cm = al[q] * pr[P_ONE] + be[q] * pr[P_TWO];
+            base[q] += step * (ok & (int64_t)(cm <= u[q]));
         }
     }
-    for (int k = 0; k < c; k++) {
-        const double *ra = A->rows + (Py_ssize_t)cell[k] * A->stride;
-        const double *rb = prow + base[k] * pstride;
-        double sa = ra[2], ca = ra[4], ta = ra[6];
-        double s1 = st * ca - ct * sa; /* sin(theta - a) */
-        double c1 = ct * ca + st * sa;
-        ws[W_SIN * CHUNK + k] = s1 * rb[4] - c1 * rb[2];
-        ws[W_COT * CHUNK + k] = c1 * rb[4] + s1 * rb[2];
-        ws[W_TAN * CHUNK + k] = (ta + rb[6]) / (1.0 - ta * rb[6]);
+    for (int q = 0; q < m; q++) {
+        int k = at[q];
+        pair_angles(ws, k, st, ct, A->rows + (Py_ssize_t)cell[k] * A->stride,
+                    prow + base[q] * pstride);
     }
 }
 
@@ -865,27 +947,31 @@ run_block(block_args *a, scratch_t *s)
     }
     for (Py_ssize_t start = 0; start < a->n; start += CHUNK) {
         int c = (int)(a->n - start < CHUNK ? a->n - start : CHUNK);
-        const uint64_t *i_d, *i_a, *i_s;
+        const uint64_t *i_d, *i_a, *i_s, *i_p;
         if (a->keyed) { /* this chunk of each stream, in impact order */
             pcg_fill(&a->gen[0], s->draw[0], c);
             if (a->angle_random)
                 pcg_fill(&a->gen[1], s->draw[1], c);
             if (a->speed_random)
                 pcg_fill(&a->gen[2], s->draw[2], c);
+            if (a->angle_random && a->pair_shift < 0)
+                pcg_fill(&a->gen[3], s->draw[3], c);
             i_d = s->draw[0];
             i_a = s->draw[1];
             i_s = s->draw[2];
+            i_p = s->draw[3];
         } else {
             i_d = a->i_d + start;
             i_a = a->i_a + start;
             i_s = a->i_s + start;
+            i_p = a->i_p + start;
         }
         /* 1. locate the drawn cells and interpolate their quantities, one
          * variable at a time (a loop specialised for each kind of table) */
         lookup(&a->d, i_d, 0, c, 0, s->ra, s->g[0], ws + W_IK1 * CHUNK,
                ws + W_IK2 * CHUNK, ws + W_VC * CHUNK);
         if (a->angle_random && a->pair_shift < 0) {
-            pair_search(a, s, i_a, c);
+            pair_search(a, s, i_a, i_p, c);
         } else if (a->angle_random && a->pair_shift) {
             /* a pair: its rank k among the pairs, placed in the top bits, gives
              * the surface cell i (a table with a start per surface atom) and the
@@ -1037,15 +1123,17 @@ release_sampler(Py_buffer *bufs)
 /* Pairs: every rank < pair_total, shifted, must stay below 2^64, and every
  * particle atom index (rank - start, at most pair_total - 1) must have a row;
  * the surface table is searched through its guide (kind 0). A pair search
- * (shift -1) needs the columns of its layout (Q_FIRST, P_TWO) and a surface
+ * (shift -1) needs the columns of its layout (P_TWO; Q_BANDS and a power of two
+ * >= 2 of bands, at most 64) and a surface
  * table searched through its guide. */
 static int
 check_pairs(int shift, unsigned long long total, const sampler_t *surface,
             const sampler_t *particle)
 {
     if (shift == -1) {
-        if (surface->kind == 0 && surface->stride > Q_FIRST &&
-            particle->stride > P_TWO)
+        Py_ssize_t bands = surface->stride - Q_BANDS - 1;
+        if (surface->kind == 0 && bands >= 2 && bands <= 64 &&
+            (bands & (bands - 1)) == 0 && particle->stride > P_TWO)
             return 0;
         PyErr_SetString(PyExc_ValueError, "_ckernel: bad pair search layout");
         return -1;
@@ -1135,11 +1223,12 @@ parse_sampler(PyObject *tup, const char *name, sampler_t *s, Py_ssize_t min_stri
 }
 
 PyDoc_STRVAR(block_doc,
-"block(i_d, i_a, i_s, n, angle_random, speed_random, dsamp, asamp, cut,\n"
+"block(i_d, i_a, i_s, i_p, n, angle_random, speed_random, dsamp, asamp, cut,\n"
 "      psamp, pair_total, pair_shift, ssamp,\n"
 "      sin_theta, cos_theta, speed, p, q, friction, shadow_none, hist,\n"
 "      e_hist, mu_hist) -> (counts, sums)\n\n"
-"One block of `n` impacts from the uint64 draws i_d, i_a, i_s. Each sampler is a\n"
+"One block of `n` impacts from the uint64 draws i_d, i_a, i_s (and i_p, the\n"
+"particle's proposals of a pair search). Each sampler is a\n"
 "tuple (rows float64[(n+1)*stride], stride, guide uint32[2^g+1], 64-g, kind,\n"
 "levels, log2 cells per level) of a\n"
 "cell table (see plan.Sampler): each row starts with the cell start (uint64\n"
@@ -1156,7 +1245,7 @@ PyDoc_STRVAR(block_doc,
 static PyObject *
 ck_block(PyObject *self, PyObject *args)
 {
-    Py_buffer bd, ba, bs, bh, beh, bmh;
+    Py_buffer bd, ba, bs, bq, bh, beh, bmh;
     Py_buffer sb[4][3];
     int held[4] = {0, 0, 0, 0};
     PyObject *samp[4];
@@ -1165,8 +1254,8 @@ ck_block(PyObject *self, PyObject *args)
     Py_ssize_t n;
     block_args a;
     unsigned long long pair_total;
-    if (!PyArg_ParseTuple(args, "y*y*y*nppOOKOKiOddddddpy*w*w*:block", &bd, &ba,
-                          &bs, &n, &angle_random, &speed_random, &samp[0],
+    if (!PyArg_ParseTuple(args, "y*y*y*y*nppOOKOKiOddddddpy*w*w*:block", &bd, &ba,
+                          &bs, &bq, &n, &angle_random, &speed_random, &samp[0],
                           &samp[1], &cut, &samp[3], &pair_total, &a.pair_shift,
                           &samp[2], &a.sin_theta, &a.cos_theta, &a.speed, &a.p,
                           &a.q, &a.friction, &shadow_none, &bh, &beh, &bmh))
@@ -1187,13 +1276,16 @@ ck_block(PyObject *self, PyObject *args)
     }
     if (check_len(&bd, "i_d", 8, n) ||
         (angle_random && check_len(&ba, "i_a", 8, n)) ||
-        (speed_random && check_len(&bs, "i_s", 8, n)) || parse_hist(&bh, &a.hist) ||
+        (speed_random && check_len(&bs, "i_s", 8, n)) ||
+        (angle_random && a.pair_shift < 0 && check_len(&bq, "i_p", 8, n)) ||
+        parse_hist(&bh, &a.hist) ||
         check_len(&beh, "e_hist", 8, a.hist.e_spill + SPILL) ||
         check_len(&bmh, "mu_hist", 8, a.hist.mu_spill + SPILL))
         goto done;
     a.i_d = bd.buf;
     a.i_a = ba.buf;
     a.i_s = bs.buf;
+    a.i_p = bq.buf;
     a.n = n;
     a.angle_random = angle_random;
     a.speed_random = speed_random;
@@ -1220,6 +1312,7 @@ done:
     PyBuffer_Release(&bd);
     PyBuffer_Release(&ba);
     PyBuffer_Release(&bs);
+    PyBuffer_Release(&bq);
     PyBuffer_Release(&bh);
     PyBuffer_Release(&beh);
     PyBuffer_Release(&bmh);
@@ -1374,7 +1467,8 @@ PyDoc_STRVAR(specs_doc,
 "specs(entropy_words, common, specs, counts, sums, spans) -> bytes\n\n"
 "Run block specs in order, each drawing its variables from its keyed streams\n"
 "PCG64(SeedSequence(entropy, spawn_key=(point, block, v))) (v: 0 diameter,\n"
-"1 angle, 2 speed), and reduce each as block() does. `common` is (dsamp, ssamp,\n"
+"1 angle, 2 speed, 3 the particle's proposal of a pair search), and reduce each\n"
+"as block() does. `common` is (dsamp, ssamp,\n"
 "speed_random, p, q, friction, hist); each spec is (point, block, n, pt) with pt\n"
 "= (angle_random, asamp, cut, psamp, pair_total, pair_shift, sin_theta,\n"
 "cos_theta, speed, shadow_none) (see block(); equal objects are parsed once).\n"
@@ -1476,7 +1570,7 @@ ck_specs(PyObject *self, PyObject *args)
     for (Py_ssize_t i = 0; i < K && !oom; i++) {
         const spec_t *x = &sp[i];
         block_args a;
-        a.i_d = a.i_a = a.i_s = NULL;
+        a.i_d = a.i_a = a.i_s = a.i_p = NULL;
         a.n = x->n;
         a.angle_random = x->angle_random;
         a.speed_random = speed_random;
@@ -1499,9 +1593,11 @@ ck_specs(PyObject *self, PyObject *args)
         a.mu_hist = mh;
         memset(&a.counts, 0, sizeof a.counts);
         a.keyed = 1;
-        for (int v = 0; v < 3; v++) {
+        int search = x->angle_random && x->pair_shift < 0;
+        for (int v = 0; v < 4; v++) {
             uint64_t key[3] = {x->point, x->block, (uint64_t)v};
-            if (v == 0 || (v == 1 && x->angle_random) || (v == 2 && speed_random))
+            if (v == 0 || (v == 1 && x->angle_random) || (v == 2 && speed_random) ||
+                (v == 3 && search))
                 stream_seed(&st, key, 3, &a.gen[v]);
         }
         run_block(&a, scr);

@@ -86,6 +86,10 @@ def plan_fingerprint(plan, targets) -> dict[str, str]:
         h.update(b"|" if arr is None else np.ascontiguousarray(arr).tobytes())
     for atoms in plan.surface_atoms:
         h.update(b"|" if atoms is None else np.ascontiguousarray(atoms).tobytes())
+    for surface in plan.surfaces:  # how a pair is drawn, where it has changed
+        algorithm = getattr(surface, "ALGORITHM", None)
+        if algorithm:
+            h.update(algorithm.encode())
     return {
         "seed": str(plan.entropy),
         "samples": hashlib.sha256(repr(targets).encode()).hexdigest(),

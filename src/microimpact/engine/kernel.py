@@ -60,6 +60,7 @@ from .plan import (
     S_FACTOR,
     VAR_ANGLE,
     VAR_DIAMETER,
+    VAR_PAIR,
     VAR_SPEED,
     Plan,
     pair_sin,
@@ -130,6 +131,8 @@ def _variables(plan: Plan, tables) -> list[int]:
         variables.append(VAR_ANGLE)
     if plan.speeds is not None:
         variables.append(VAR_SPEED)
+    if tables.random and tables.pair_search:  # the particle atom's proposal
+        variables.append(VAR_PAIR)
     return variables
 
 
@@ -173,7 +176,7 @@ def _simulate_block(plan: Plan, point, rep, block, n, store=False):
     v_c = _col(dr, j_d, f_d, D_VC)
     st, ct = tables.sin_theta, tables.cos_theta
     if tables.pairs:  # rough particle on a discrete surface: an exact pair
-        _, j_a, j_b = tables.pair_draws(raw[VAR_ANGLE])
+        _, j_a, j_b = tables.pair_draws(raw[VAR_ANGLE], raw.get(VAR_PAIR))
         ar, br = tables.sampler.rows, tables.pair.rows
         s_a, c_a, t_a = ar[j_a, A_SIN], ar[j_a, A_COS], ar[j_a, A_TAN]
         s_b, c_b, t_b = br[j_b, A_SIN], br[j_b, A_COS], br[j_b, A_TAN]
@@ -585,6 +588,7 @@ def _simulate_compiled(plan, sp, tables, raw, n):
         raw[VAR_DIAMETER],
         raw.get(VAR_ANGLE, _NO_DRAW),
         raw.get(VAR_SPEED, _NO_DRAW),
+        raw.get(VAR_PAIR, _NO_DRAW),
         n,
         tables.random,
         spread,

@@ -73,7 +73,9 @@ DRAW_BITS = 64
 WEIGHTED_CACHE_BYTES = 64 << 20
 
 # Variable ids in the stream keys (fixed: adding a variable never shifts the others).
-VAR_DIAMETER, VAR_ANGLE, VAR_SPEED = 0, 1, 2
+#: ``VAR_PAIR``: the particle atom's proposal of a pair drawn by
+#: :class:`PairSearch` (drawn for such points only).
+VAR_DIAMETER, VAR_ANGLE, VAR_SPEED, VAR_PAIR = 0, 1, 2, 3
 
 
 #: One sweep point (the grid owns the numbering; see :mod:`microimpact.grid`).
@@ -208,12 +210,14 @@ class AngleTables:
         pair search, 0 for no pair."""
         return -1 if self.pair_search else int(self.pair_shift)
 
-    def pair_draws(self, r):
+    def pair_draws(self, r, r2=None):
         """``(key, surface cell, particle atom)`` of angle draws `r` (pair tables;
         the key is the rank placed in the top bits, or the draw itself for a
-        search)."""
+        search, which needs the particle's draws `r2` too: :data:`VAR_PAIR`)."""
         if self.pair_search:
-            return (r, *search_pairs(self.sampler, self.pair, r))
+            if r2 is None:
+                raise ValueError("a pair search draws twice: give r2 (internal)")
+            return (r, *search_pairs(self.sampler, self.pair, r, r2))
         k = mulhi64(r, self.pair_total) << np.uint64(self.pair_shift)
         i, _ = self.sampler.table.locate(k)
         j = (k - self.sampler.table.cum[i]) >> np.uint64(self.pair_shift)
@@ -230,14 +234,34 @@ class AngleTables:
         return self.sampler.table.cells(r)
 
     @property
+    def pair_acceptance(self) -> float | None:
+        """The fraction of the particle's proposals a :class:`PairSearch` accepts
+        (the rest go to the search), from the tables: ``sum_i p_i W_i / (K
+        lam_i / 2^64)`` (see the class); None for other tables."""
+        if not self.pair_search:
+            return None
+        q = self.sampler.rows[:-1]
+        lam = q[:, Q_BOUND]
+        if not lam.any():  # the masses: every proposal is accepted
+            return 1.0
+        accept = q[:, Q_TOTAL] * 2.0**64 / (PAIR_BANDS * lam)
+        return float(np.sum(self.sampler.table.widths() * accept))
+
+    @property
     def phi(self) -> np.ndarray:
         """2^16 equiprobable angles [rad] of the sampled (conditional or re-weighted)
-        distribution: the table's quantile function at mid-probabilities."""
+        distribution: the table's quantile function at mid-probabilities (for a
+        pair search, whose particle atom needs a second draw, the points of a
+        Hammersley set: the second coordinates are the indices bit-reversed)."""
         if not self.random:
             return np.zeros(1 << 16)
         r = fraction_to_integer(mid_probabilities(1 << 16))
         if self.pairs:
-            _, i, j = self.pair_draws(r)
+            k = np.arange(1 << 16, dtype=np.uint64)
+            rev = np.zeros_like(k)
+            for bit in range(16):
+                rev |= ((k >> np.uint64(bit)) & np.uint64(1)) << np.uint64(63 - bit)
+            _, i, j = self.pair_draws(r, rev | np.uint64(1 << 47))
             return self.sampler.values[i, 0] + self.pair.values[j, 0]
         if self.cut:
             r = mulhi64(r, self.cut)
@@ -310,10 +334,20 @@ def areal_sampler(angles) -> ArealSampler:
 #: before it) that the search reads.
 P_ONE, P_TWO = 8, 9
 #: Columns of a :class:`PairSearch` surface row (per apparent angle): the
-#: coefficients ``alpha``, ``beta`` of the conditional CDF, the end ``n`` of the
-#: particle atoms drawn from, their weight ``C(n) - C(m)`` (``C(J) = alpha P1[J]
-#: + beta P2[J]``) and their first atom ``m``.
-Q_ALPHA, Q_BETA, Q_COUNT, Q_TOTAL, Q_FIRST = 8, 9, 10, 11, 12
+#: coefficients ``alpha``, ``beta`` of the weight and of the conditional CDF, the
+#: rejection's bound ``lam`` (0 for the masses: every proposal is accepted), the
+#: end ``n`` of the particle atoms drawn from, their weight ``C(n) - C(m)``
+#: (``C(J) = alpha P1[J] + beta P2[J]``) and their first atom ``m``; then, from
+#: :data:`Q_BANDS`, the ``PAIR_BANDS + 1`` ends of the proposal's bands (uint64
+#: bits: integer positions in the particle table, from its start of atom ``m``
+#: to its end of atom ``n - 1``, ``2^64`` written 0).
+Q_ALPHA, Q_BETA, Q_BOUND, Q_COUNT, Q_TOTAL, Q_FIRST, Q_BANDS = range(8, 15)
+#: Equal-probability bands of the particle's proposal per surface atom (a power
+#: of two: a band is the top bits of the draw).
+PAIR_BANDS = 8
+#: The relative and absolute margins of a band's bound on ``g`` over its closed
+#: form (the computed ``g`` exceeds the exact one by a few 1e-16 at most).
+BOUND_RELATIVE, BOUND_ABSOLUTE = 1e-12, 1e-14
 
 
 @dataclass(frozen=True, eq=False)
@@ -337,13 +371,60 @@ class PairSearch:
     ``P1 = cumsum(v cos b)``, ``P2 = cumsum(v sin b)``, ``alpha_i = sin(theta -
     a_i)``, ``beta_i = -cos(theta - a_i)`` for the sine weight. A per-angle table
     of integer probabilities ``w_i (C_i(n_i) - C_i(m_i))`` draws ``i`` and the
-    fraction ``f`` inside its cell; the particle atom is the largest ``J`` in
-    ``[m_i, n_i)`` with ``C_i(J) <= C_i(m_i) + f (C_i(n_i) - C_i(m_i))``, found by
-    a binary search (:func:`search_pairs`, the same steps in both kernels)."""
+    fraction ``f`` inside its cell.
+
+    The particle atom is drawn by rejection, with an exact search as the fallback
+    (:func:`search_pairs`, the same steps in both kernels). A second 64-bit draw
+    ``r2`` (:data:`VAR_PAIR`, one per impact) proposes ``j`` in ``[m_i, n_i)``
+    from the masses ``v`` (the particle table's integer cells) under a
+    piecewise-constant envelope: the integer range ``[L_i, L_i + M_i)`` of those
+    atoms in the particle table is cut into ``K =`` :data:`PAIR_BANDS` bands
+    ``[y_k, y_k+1)`` of widths ``w_k``, each drawn with probability ``1/K`` (the
+    top bits of ``r2``), and ``x = y_k + floor(z w_k / 2^64)`` with ``z`` the
+    other bits of ``r2``; ``j`` is the particle cell holding ``x`` (a band may cut
+    an atom: each part is proposed within its own band). The proposal is
+    accepted when ``f lam_i < g_ij w_k``, ``g_ij = alpha_i cos b_j + beta_i sin
+    b_j`` (the particle rows' :data:`A_COS`, :data:`A_SIN`), where ``lam_i >=
+    g_ij w_k`` for every atom of every band. The fraction ``f`` of the surface
+    draw is uniform on [0, 1) and independent of ``(k, j)``, so with ``c_jk`` the
+    part of atom ``j``'s integer mass in band ``k``
+
+        P(accept, j | i) = sum_k (1/K) (c_jk / w_k) (g_ij w_k / lam_i)
+                         = c_j g_ij / (K lam_i)  ~  v_j g_ij.
+
+    Given a rejected proposal, ``f`` is uniform on ``[g w / lam, 1)``, so ``u' =
+    (f lam - g w) / (lam - g w)`` is uniform on [0, 1) whatever ``(k, j)`` was:
+    the search then takes the largest ``J`` in ``[m_i, n_i)`` with ``C_i(J) <=
+    C_i(m_i) + u' W_i`` (``W_i = C_i(n_i) - C_i(m_i) = sum_j v_j g_ij``), which
+    is ``J`` with the target law ``v_J g_iJ / W_i``. Altogether, with ``A_i =
+    sum_j P(accept, j | i)``,
+
+        P(J | i) = v_J g_iJ / (K' lam_i) + (1 - A_i) v_J g_iJ / W_i
+                 = v_J g_iJ / W_i                (A_i = W_i / (K' lam_i)),
+
+    the target law exactly (``K' = K / 2^64``), for any bands and any ``lam``
+    that bounds every band's ``g w`` (a larger one only sends more draws to the
+    search). ``g = sin(psi_i - b)`` with ``psi_i = theta - a_i`` is unimodal in
+    ``b`` over the range (``0 < psi_i - b < pi``), so its largest value over a
+    band's atoms is ``hypot(alpha_i, beta_i)`` (1 to round-off) where the peak
+    ``b = psi_i - pi/2`` lies between them, else the larger end value; each is
+    raised by :data:`BOUND_RELATIVE` and :data:`BOUND_ABSOLUTE` so that
+    round-off never makes a computed ``g`` exceed it. The bands are chosen so
+    that the bound times the width is about the same in each (a ziggurat: the
+    widths in proportion to the inverse bounds, a few times over), which
+    accepts about 86 to 95 % of the proposals for the Formica angles (the rest
+    go to the search). A ``g`` computed at or below 0 (at the ends of the range,
+    by round-off) counts as 0 (never accepted). For the masses the proposal is
+    the target: ``lam = 0``, and every proposal is accepted (``g = cos b > 0``
+    as computed with ``alpha = 1``, ``beta = 0``)."""
 
     surface: Sampler
     particle: Sampler  # rows + (P1, P2) of the masses
     sine: Sampler | None  # rows + (P1, P2) of the sine weight ("weighted")
+
+    #: How the pairs are drawn (in checkpoint fingerprints: a checkpoint of an
+    #: earlier way, whose draws gave other pairs, is not resumed).
+    ALGORITHM = f"pair search: banded rejection ({PAIR_BANDS}), range [m, n)"
 
     @property
     def values(self) -> np.ndarray:
@@ -368,7 +449,7 @@ def _prefix_sampler(b: Sampler, one, two) -> Sampler:
 
 def _pair_search(ta: CellTable, tb: CellTable, shadowing: str) -> PairSearch:
     a, b = _angle_sampler(ta), _angle_sampler(tb)
-    v = tb.widths()
+    v = tb.widths()  # the table's integer cells: the masses the proposal draws
     particle = _prefix_sampler(b, v, np.zeros_like(v))
     sine = None
     if shadowing == "weighted":
@@ -383,29 +464,148 @@ def _search_top(n: int) -> int:
     return 1 << ((n - 1).bit_length() - 1) if n > 1 else 0
 
 
-def search_pairs(surface: Sampler, particle: Sampler, r):
-    """``(surface cell, particle atom)`` of draws `r` from :class:`PairSearch`
-    tables: the cell ``i`` and fraction ``f`` of `r`, then the largest ``J`` in
-    ``[m_i, n_i)`` with ``alpha_i P1[J] + beta_i P2[J] <= C_i(m_i) + f * total_i``,
-    by steps of decreasing powers of two from ``m_i`` (what the compiled kernel
-    does, operation for operation)."""
+def _band_bits() -> int:
+    bits = PAIR_BANDS.bit_length() - 1
+    if PAIR_BANDS < 2 or PAIR_BANDS != 1 << bits:
+        raise ValueError("PAIR_BANDS must be a power of two >= 2 (internal)")
+    return bits
+
+
+def search_pairs(surface: Sampler, particle: Sampler, r, r2, *, detail=False):
+    """``(surface cell, particle atom)`` of draws `r` (the surface) and `r2` (the
+    particle's proposal) from :class:`PairSearch` tables: the cell ``i`` and
+    fraction ``f`` of `r`; the band ``k`` (the top bits of `r2`) and the proposal
+    ``j``, the particle cell of ``y_k + floor(z w_k / 2^64)`` (``z``: the other
+    bits of `r2`), accepted where ``f lam_i < g_ij w_k``; for the others the
+    largest ``J`` in ``[m_i, n_i)`` with ``alpha_i P1[J] + beta_i P2[J] <=
+    C_i(m_i) + u' total_i``, ``u' = (f lam_i - g_ij w_k) / (lam_i - g_ij w_k)``,
+    by steps of decreasing powers of two from ``m_i`` over the rejected draws only
+    (what the compiled kernel does, operation for operation). With
+    ``detail=True`` the proposals and the mask of the accepted ones follow (for
+    inspection)."""
+    bits = _band_bits()
     i, f = surface.table.locate(r)
     q = surface.rows[i]
-    alpha, beta = q[:, Q_ALPHA], q[:, Q_BETA]
+    alpha, beta, bound = q[:, Q_ALPHA], q[:, Q_BETA], q[:, Q_BOUND]
+    r2 = np.asarray(r2, dtype=np.uint64)
+    band = (r2 >> np.uint64(64 - bits)).astype(np.intp) + Q_BANDS
+    z = r2 << np.uint64(bits)
+    at = np.arange(i.size)
+    y0 = q[at, band].view(np.uint64)
+    w = q[at, band + 1].view(np.uint64) - y0  # modulo 2^64
+    x = y0 + mulhi64(z, w)
+    j = particle.table.cells(x)
+    prow = particle.rows
+    g = alpha * prow[j, A_COS] + beta * prow[j, A_SIN]
+    g = np.where(g > 0.0, g, 0.0)
+    gw = g * w.astype(float)
+    t = f * bound
+    accepted = t < gw
+    proposal = j.astype(np.intp)
+    rejected = np.flatnonzero(~accepted)
+    if rejected.size == 0:
+        return (i, proposal, proposal, accepted) if detail else (i, proposal)
+    t, gw, bound = t[rejected], gw[rejected], bound[rejected]
+    alpha, beta, q = alpha[rejected], beta[rejected], q[rejected]
+    fresh = (t - gw) / (bound - gw)  # u', uniform on [0, 1) whatever j was
     count = q[:, Q_COUNT].astype(np.int64)
     base = q[:, Q_FIRST].astype(np.int64)
-    p1, p2 = particle.rows[:, P_ONE], particle.rows[:, P_TWO]
+    p1, p2 = prow[:, P_ONE], prow[:, P_TWO]
     u = alpha * p1[base] + beta * p2[base]  # C_i(m_i)
-    u += f * q[:, Q_TOTAL]
+    u += fresh * q[:, Q_TOTAL]
     step = _search_top(particle.table.size)
     while step:
         cand = base + step
         ok = cand < count
-        at = np.where(ok, cand, 0)
-        cm = alpha * p1[at] + beta * p2[at]
-        base = np.where(ok & (cm <= u), cand, base)
+        cm = alpha * p1[cand * ok] + beta * p2[cand * ok]
+        base += step * (ok & (cm <= u))
         step >>= 1
-    return i, base.astype(np.intp)
+    j[rejected] = base
+    j = j.astype(np.intp)
+    return (i, j, proposal, accepted) if detail else (i, j)
+
+
+#: The bands' fractions are iterated on every ``BAND_ROWS``-th surface row and
+#: taken by its neighbours (whose ``psi`` is nearly the same), then bounded
+#: exactly in every row.
+BAND_ROWS = 8
+
+
+def _search_bands(part: Sampler, alpha, beta, first, counts, weighted: bool):
+    """``(ends, lam)`` of :class:`PairSearch`'s proposal per surface row: the
+    ``PAIR_BANDS + 1`` integer ends of its bands in the particle table (uint64,
+    ``2^64`` written 0) and the bound ``lam >= g_ij w_k`` over every atom ``j`` of
+    every band ``k`` as the kernels compute ``g`` (rows with ``counts >
+    first``). The bands start equal (and stay so for the masses, whose proposal
+    is the target: ``lam = 0``); for the sine they are then resized a few times
+    towards widths in proportion to the inverse of their bound on ``g`` (damped:
+    the plain fixed point oscillates), from float positions, on every
+    :data:`BAND_ROWS`-th row; each row takes the fractions with the smallest
+    ``lam`` of its nearest such row, as integers, and its bounds are then found
+    exactly."""
+    nb_ = PAIR_BANDS
+    table = part.table
+    n_rows = alpha.size
+    cum = table.cum.copy()
+    cum[-1] = 0  # the end of the table, 2^64, wrapped
+    low = cum[first]
+    mass = cum[counts] - low  # modulo 2^64: 0 is 2^64
+    span = np.where(mass == 0, 2.0**64, mass.astype(float)) / 2.0**64
+    most = np.where(mass == 0, np.uint64(2**64 - 1), mass)[:, None]
+    bv = part.values[:, 0]
+    cos_b = np.ascontiguousarray(part.rows[:-1, A_COS])
+    sin_b = np.ascontiguousarray(part.rows[:-1, A_SIN])
+
+    def bound(rows, j_a, j_b):
+        """The bound on g over the atoms ``j_a..j_b`` of `rows` (unimodal: the
+        ends, or the peak between them), with its margins."""
+        al, be = alpha[rows, None], beta[rows, None]
+        g_a = al * cos_b[j_a] + be * sin_b[j_a]
+        g_b = al * cos_b[j_b] + be * sin_b[j_b]
+        # alpha cos b + beta sin b = R cos(b - b*): its peak R at b*
+        b_star = np.arctan2(be, al)
+        inside = (bv[j_a] <= b_star) & (b_star <= bv[j_b])
+        top = np.where(inside, np.hypot(al, be), np.maximum(g_a, g_b))
+        return np.maximum(top, 0.0) * (1.0 + BOUND_RELATIVE) + BOUND_ABSOLUTE
+
+    frac = np.broadcast_to(np.arange(nb_ + 1) / nb_, (n_rows, nb_ + 1))
+    if weighted:  # the bands' fractions of the range, from float positions
+        sub = np.unique(np.r_[np.arange(0, n_rows, BAND_ROWS), n_rows - 1])
+        lo_atom, hi_atom = first[sub, None], counts[sub, None] - 1
+        start = np.cumsum(np.r_[0.0, table.widths()])  # of each atom
+        f = frac[sub]
+        best_lam = np.full(sub.size, np.inf)
+        best = f
+        for _ in range(4):
+            at = start[first[sub], None] + f * span[sub, None]
+            if table.kind == table.EQUAL:
+                j = (at * table.size).astype(np.int64)  # the atom, near enough
+            else:
+                j = np.searchsorted(start, at, side="right") - 1
+            j = np.clip(j, lo_atom, hi_atom)
+            top = bound(sub, j[:, :-1], j[:, 1:])
+            lam = np.max(top * np.diff(f, axis=1), axis=1)
+            better = lam < best_lam
+            best_lam = np.where(better, lam, best_lam)
+            best = np.where(better[:, None], f, best)
+            share = 1.0 / np.maximum(top, 1e-300)
+            share /= share.sum(axis=1, keepdims=True)
+            share = 0.3 * np.diff(f, axis=1) + 0.7 * share
+            f = np.concatenate([np.zeros((sub.size, 1)), np.cumsum(share, axis=1)], 1)
+        near = np.minimum(np.rint(np.arange(n_rows) / BAND_ROWS), sub.size - 1)
+        frac = best[near.astype(np.intp)]
+    off = np.minimum(fraction_to_integer(frac * span[:, None]), most)  # rounded
+    off[:, 0] = 0
+    ends = low[:, None] + np.maximum.accumulate(off, axis=1)
+    ends[:, -1] = low + mass  # exactly the end of atom n - 1
+    if not weighted:
+        return ends, np.zeros(n_rows)
+    width = ends[:, 1:] - ends[:, :-1]  # modulo 2^64
+    j_a = np.clip(table.cells(ends[:, :-1]), first[:, None], counts[:, None] - 1)
+    j_b = np.clip(table.cells(ends[:, 1:] - np.uint64(1)), j_a, counts[:, None] - 1)
+    top = np.where(width > 0, bound(np.arange(n_rows), j_a, j_b), 0.0)
+    lam = np.max(top * width.astype(float), axis=1) * (1.0 + BOUND_RELATIVE)
+    return ends, lam
 
 
 @dataclass(frozen=True, eq=False)
@@ -572,8 +772,10 @@ def _pair_tables(pair: PairSampler, st, ct, angle_deg, shadowing) -> AngleTables
 
 def _search_tables(pair: PairSearch, st, ct, angle_deg, shadowing) -> AngleTables:
     """The per-angle table of a :class:`PairSearch`: surface atom ``i`` with
-    probability ``w_i C_i(n_i)`` (normalised), its rows extended by ``alpha_i``,
-    ``beta_i``, ``n_i`` and ``C_i(n_i)``."""
+    probability ``w_i (C_i(n_i) - C_i(m_i))`` (normalised), its rows extended by
+    ``alpha_i``, ``beta_i``, the rejection's bound, ``n_i``, ``C_i(n_i) -
+    C_i(m_i)``, ``m_i`` and the ends of the proposal's bands (:data:`Q_ALPHA`
+    ...)."""
     a = pair.surface
     n_b = pair.particle.table.size
     counts = _reachable_counts(a, pair.particle, st, ct, angle_deg)
@@ -610,7 +812,7 @@ def _search_tables(pair: PairSearch, st, ct, angle_deg, shadowing) -> AngleTable
     sub = CellTable.from_cells(cum, a.table.left[keep], a.table.right[keep])
     cells = keep[nonempty_cells(cum)]
     n = sub.size
-    rows = np.zeros((n + 1, 13))
+    rows = np.zeros((n + 1, Q_BANDS + PAIR_BANDS + 1))
     rows[:, R_CUM] = sub.cum.view(np.float64)
     rows[:n, R_INVW] = sub.inv_width
     rows[:n, 2:8] = a.rows[cells, 2:8]
@@ -619,6 +821,13 @@ def _search_tables(pair: PairSearch, st, ct, angle_deg, shadowing) -> AngleTable
     rows[:n, Q_COUNT] = counts[cells]
     rows[:n, Q_TOTAL] = total[cells]
     rows[:n, Q_FIRST] = first[cells]
+    first, counts = first[cells], counts[cells]
+    weighted = part is not pair.particle  # else the masses: the proposal is the
+    ends, lam = _search_bands(  # target (lam = 0: every proposal accepted)
+        part, alpha[cells], beta[cells], first, counts, weighted
+    )
+    rows[:n, Q_BOUND] = lam
+    rows[:n, Q_BANDS:] = ends.view(np.float64)
     sampler = Sampler(sub, rows, np.ascontiguousarray(a.values[cells]))
     return AngleTables(
         sampler,
