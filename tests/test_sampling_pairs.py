@@ -447,6 +447,161 @@ def test_pair_search_bits_do_not_depend_on_workers_or_grouping(formica, monkeypa
             np.testing.assert_array_equal(e_hist, ref.accumulators[k].e_hist)
 
 
+# ------------------------------------------ equal masses: pair ranks (PairSampler)
+def _steep(seed=7, sizes=(60, 50)):
+    """Equal-mass measured sets with steep facets on both sides: near grazing
+    incidence some pairs lean back past -90 deg (``a + b < theta - 180``)."""
+    rng = np.random.default_rng(seed)
+    return (
+        angles_from_sample(rng.uniform(-88.0, 80.0, sizes[0])),
+        angles_from_sample(rng.uniform(-88.0, 80.0, sizes[1])),
+    )
+
+
+def rank_pair_probabilities(tables, a, b):
+    """The exact probability of every pair ``(a_i, b_j)`` (sorted atoms) under
+    the engine's rank mapping (``AngleTables.pair_draws``): draw ``r`` has rank
+    ``floor(r T / 2^64)``, so rank ``k`` holds the draws ``[ceil(k 2^64 / T),
+    ceil((k + 1) 2^64 / T))``; the first and the last draw of each rank give the
+    same pair, read from the engine's own answers."""
+    total = tables.pair_total
+    first = [(k * TWO64 + total - 1) // total for k in range(total + 1)]
+    lo = np.array(first[:-1], dtype=np.uint64)
+    hi = np.array([x - 1 for x in first[1:]], dtype=np.uint64)
+    _, i, j = tables.pair_draws(lo)
+    _, i2, j2 = tables.pair_draws(hi)
+    assert np.array_equal(i, i2) and np.array_equal(j, j2)
+    rows = np.searchsorted(a, tables.sampler.values[i, 0])
+    cols = np.searchsorted(b, tables.pair.values[j, 0])
+    assert np.array_equal(a[rows], tables.sampler.values[i, 0])
+    assert np.array_equal(b[cols], tables.pair.values[j, 0])
+    got = np.zeros((a.size, b.size), dtype=object)
+    for r, c, n in zip(rows, cols, np.diff(np.array(first, dtype=object)), strict=True):
+        got[r, c] += n
+    return np.array([[float(x) for x in row] for row in got]) / 2.0**64
+
+
+@pytest.mark.parametrize("shadowing", ["reject", "none"])
+@pytest.mark.parametrize("theta_deg", [5.0, 35.0, 80.0, 85.0, 90.0])
+def test_rank_pairs_leave_out_the_pairs_leaning_back(shadowing, theta_deg):
+    """Equal masses, pairs drawn by rank: a pair is reachable when ``sin(theta -
+    a - b) > 0``, which for each surface atom is a range of the sorted particle
+    atoms (the pairs leaning back past -90 deg, ``a + b < theta - 180``, are
+    not). 'reject' draws each reachable pair with probability ``1 / #reachable``
+    and no other; 'none' draws every pair. The shadowed fraction is the mass of
+    the unreachable pairs, the leaning-back ones included."""
+    surf, part = _steep()
+    sc = scenario(
+        surfaces=(SurfaceVariant("s", surf),),
+        particle_roughness=part,
+        angles_deg=(theta_deg,),
+        shadowing=shadowing,
+    )
+    plan = build_plan(sc, kernel="numpy")
+    assert isinstance(plan.surfaces[0], plan_module.PairSampler)
+    tables = plan.angle_tables(0, theta_deg)
+    a, b = np.sort(surf.atoms), np.sort(part.atoms)
+    theta = np.deg2rad(theta_deg)
+    phi = a[:, None] + b[None, :]
+    reach = np.sin(theta - phi) > 0.0
+    lean = (phi < theta - np.pi).sum()
+    assert (lean > 0) == (theta_deg > 5.0)  # 10 to 13 % of the pairs at 80-90 deg
+    want = reach / reach.sum() if shadowing == "reject" else np.ones_like(phi)
+    want = want / want.sum()
+    got = rank_pair_probabilities(tables, a, b)
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-15)
+    assert tables.pair_total == (reach.sum() if shadowing == "reject" else phi.size)
+    assert abs(tables.shadowed_mass - (1.0 - reach.mean())) < 1e-15
+    # the kernel: no impact under 'reject' on a pair it cannot reach (such a
+    # draw was counted as a capture: u = speed sin(theta - a - b) <= v_c); under
+    # 'none' the unreachable ones, leaning back or not, are the shadowed ones
+    out = kernel.simulate_block(plan, 0, 0, 0, 20_000, store=True)
+    drawn = np.sin(theta - out["roughness_angle"]) > 0.0
+    if shadowing == "reject":
+        assert drawn.all()
+    else:
+        np.testing.assert_array_equal(out["shadowed"], ~drawn)
+
+
+def test_both_kernels_draw_the_same_rank_pairs():
+    """Compiled and NumPy kernels: the same pair ranks, the same bits, where
+    pairs lean back past -90 deg (steep facets on both sides; none at 5 deg)."""
+    if kernel.KERNEL != "compiled":
+        pytest.skip("compiled kernel not built")
+    surf, part = _steep()
+    for shadowing in ("reject", "none"):
+        sc = scenario(
+            coefficients=PowerCoefficients(friction=0.15),
+            surfaces=(SurfaceVariant("s", surf),),
+            particle_roughness=part,
+            speeds_m_s=(0.3, 3.0),
+            angles_deg=(5.0, 35.0, 80.0, 85.0, 90.0),
+            shadowing=shadowing,
+            speed_spread=0.05,
+        )
+        plan = build_plan(sc, kernel="numpy")
+        assert isinstance(plan.surfaces[0], plan_module.PairSampler)
+        compiled = dataclasses.replace(plan, kernel="compiled")
+        for point in range(len(plan.points)):
+            want = kernel.simulate_block(plan, point, 0, 0, 5000).to_arrays()
+            got = kernel.simulate_block(compiled, point, 0, 0, 5000).to_arrays()
+            for key, value in got.items():
+                np.testing.assert_array_equal(value, want[key], err_msg=key)
+
+
+def test_checkpoints_know_where_rank_pairs_changed(monkeypatch):
+    """The plans whose rank tables left out pairs leaning back past -90 deg
+    ('reject' at an angle where some do: the paper's Formica x Formica preset
+    from 70 deg) carry ``PairSampler.ALGORITHM`` in their checkpoint
+    fingerprint, so that a checkpoint written before is not resumed; every
+    other plan keeps its fingerprint."""
+    from microimpact.engine.checkpoint import plan_fingerprint
+
+    surf, part = _steep()
+    preset = Scenario.from_preset("lycopodium-formica-oblique")
+    cases = {
+        "steep, reject": (
+            scenario(
+                surfaces=(SurfaceVariant("s", surf),),
+                particle_roughness=part,
+                angles_deg=(5.0, 35.0),
+            ),
+            True,
+        ),
+        "steep, none": (
+            scenario(
+                surfaces=(SurfaceVariant("s", surf),),
+                particle_roughness=part,
+                angles_deg=(5.0, 35.0),
+                shadowing="none",
+            ),
+            False,
+        ),
+        "steep, reject, 5 deg": (
+            scenario(
+                surfaces=(SurfaceVariant("s", surf),),
+                particle_roughness=part,
+                angles_deg=(5.0,),
+            ),
+            False,
+        ),
+        "Formica, 10-90 deg": (preset, True),
+        "Formica, 10-65 deg": (
+            dataclasses.replace(preset, angles_deg=(10.0, 40.0, 65.0)),
+            False,
+        ),
+    }
+    for name, (sc, changed) in cases.items():
+        plan = build_plan(sc)
+        assert isinstance(plan.surfaces[0], plan_module.PairSampler), name
+        want = plan_module.PairSampler.ALGORITHM if changed else None
+        assert plan.pair_algorithm(0) == want, name
+        before = plan_fingerprint(plan, 100)["scenario"]
+        monkeypatch.setattr(plan_module.PairSampler, "ALGORITHM", "ranks, prefix")
+        assert (plan_fingerprint(plan, 100)["scenario"] != before) == changed, name
+        monkeypatch.undo()
+
+
 # ------------------------------------------------------ Formica x Formica, 16 M
 THETA_DEG = 30.0
 

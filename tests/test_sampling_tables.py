@@ -390,7 +390,11 @@ def test_rough_particle_pairs_are_drawn_exactly(shadowing):
     assert isinstance(plan.surfaces[0], plan_module.PairSampler)
     theta = np.deg2rad(15.0)
     tables = plan.angle_tables(0, 15.0)
-    reach = np.searchsorted(b, theta - a, side="left")  # b_j < theta - a_i
+    # reachable, sin(theta - a_i - b_j) > 0: theta - pi < a_i + b_j < theta, a
+    # range of the sorted b_j for each a_i (no pair leans back past -90 deg here)
+    reach = np.searchsorted(b, theta - a, side="left") - np.searchsorted(
+        b, theta - np.pi - a, side="right"
+    )
     assert abs(tables.shadowed_mass - (1 - reach.sum() / (a.size * b.size))) < 1e-12
     # each surface atom's cell holds exactly its reachable (or all) partner atoms
     starts = tables.sampler.table.starts >> np.uint64(tables.pair_shift)

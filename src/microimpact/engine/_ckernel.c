@@ -792,6 +792,9 @@ lookup(const sampler_t *s, const uint64_t *r, int one, int c, uint64_t cut,
  * P1, P2 of the atoms before them. */
 enum { Q_ALPHA = 8, Q_BETA, Q_BOUND, Q_COUNT, Q_TOTAL, Q_FIRST, Q_BANDS };
 enum { P_ONE = 8, P_TWO };
+/* Column of a pair-rank surface row (plan.PairSampler): the first particle atom
+ * m_i of the surface atom's pairs. */
+enum { PAIR_FIRST = 8 };
 
 /* sin, cos (theta - a - b) and tan(a + b) of impact k from the rows of its
  * surface atom a and particle atom b (as for pair ranks). */
@@ -975,7 +978,8 @@ run_block(block_args *a, scratch_t *s)
         } else if (a->angle_random && a->pair_shift) {
             /* a pair: its rank k among the pairs, placed in the top bits, gives
              * the surface cell i (a table with a start per surface atom) and the
-             * particle atom j = rank - start(i) */
+             * particle atom j = m_i + rank - start(i) (its pairs are the range
+             * [m_i, n_i) of the particle atoms) */
             const uint64_t *ra = i_a;
             for (int k = 0; k < c; k++)
                 s->ra[k] = mulhi64(ra[k], a->pair_total) << a->pair_shift;
@@ -984,8 +988,11 @@ run_block(block_args *a, scratch_t *s)
             for (int k = 0; k < c; k++) {
                 uint64_t j = (s->ra[k] - cell_start(&a->a, s->g[1][k])) >>
                              a->pair_shift;
-                /* below b.n for any plan's tables; the clamp keeps a malformed
-                 * call inside the buffer */
+                double first =
+                    a->a.rows[(Py_ssize_t)s->g[1][k] * a->a.stride + PAIR_FIRST];
+                /* m_i and j below b.n for any plan's tables; the clamps keep a
+                 * malformed call inside the buffer */
+                j += first >= 0.0 && first < (double)a->b.n ? (uint64_t)first : 0;
                 j = j < (uint64_t)a->b.n ? j : (uint64_t)a->b.n - 1;
                 const double *rb = a->b.rows + (Py_ssize_t)j * a->b.stride;
                 double sa = ws[W_SIN * CHUNK + k], ca = ws[W_COT * CHUNK + k];
@@ -1121,8 +1128,9 @@ release_sampler(Py_buffer *bufs)
 }
 
 /* Pairs: every rank < pair_total, shifted, must stay below 2^64, and every
- * particle atom index (rank - start, at most pair_total - 1) must have a row;
- * the surface table is searched through its guide (kind 0). A pair search
+ * particle atom index (m_i + rank - start, clamped) must have a row; the surface
+ * table is searched through its guide (kind 0) and its rows hold m_i
+ * (PAIR_FIRST). A pair search
  * (shift -1) needs the columns of its layout (P_TWO; Q_BANDS and a power of two
  * >= 2 of bands, at most 64) and a surface
  * table searched through its guide. */
@@ -1140,7 +1148,7 @@ check_pairs(int shift, unsigned long long total, const sampler_t *surface,
     }
     if (shift < 0 || shift > 63 ||
         (shift && (total < 1 || (((uint64_t)total - 1) >> (64 - shift)) ||
-                   surface->kind != 0))) {
+                   surface->kind != 0 || surface->stride <= PAIR_FIRST))) {
         PyErr_SetString(PyExc_ValueError, "_ckernel: bad pair layout");
         return -1;
     }

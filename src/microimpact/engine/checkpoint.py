@@ -86,8 +86,8 @@ def plan_fingerprint(plan, targets) -> dict[str, str]:
         h.update(b"|" if arr is None else np.ascontiguousarray(arr).tobytes())
     for atoms in plan.surface_atoms:
         h.update(b"|" if atoms is None else np.ascontiguousarray(atoms).tobytes())
-    for surface in plan.surfaces:  # how a pair is drawn, where it has changed
-        algorithm = getattr(surface, "ALGORITHM", None)
+    for k in range(len(plan.surfaces)):  # how a pair is drawn, where it changed
+        algorithm = plan.pair_algorithm(k)
         if algorithm:
             h.update(algorithm.encode())
     return {

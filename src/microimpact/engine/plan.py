@@ -221,6 +221,7 @@ class AngleTables:
         k = mulhi64(r, self.pair_total) << np.uint64(self.pair_shift)
         i, _ = self.sampler.table.locate(k)
         j = (k - self.sampler.table.cum[i]) >> np.uint64(self.pair_shift)
+        j += self.sampler.rows[i, PAIR_FIRST].astype(np.uint64)  # from m_i
         return k, i, j.astype(np.intp)
 
     def areal_cells(self, r) -> np.ndarray:
@@ -268,17 +269,45 @@ class AngleTables:
         return self.sampler.value(r)
 
 
+#: Column of a :class:`PairSampler` surface row (per apparent angle): the first
+#: particle atom ``m_i`` of the surface atom's pairs (its rank ``r`` in the cell
+#: is the particle atom ``m_i + r``).
+PAIR_FIRST = 8
+
+
 @dataclass(frozen=True, eq=False)
 class PairSampler:
     """A rough particle on a surface whose angle distributions are both discrete
     with equal masses (the paper's *Lycopodium* on Formica): the roughness angle is
     ``a_i + b_j`` for a pair drawn exactly, from one 64-bit draw, among the
-    ``n_a n_b`` equiprobable pairs (``"reject"``: among the reachable ones; for each
-    ``i`` they are a prefix of the sorted ``b``). The kernels combine the two angles
-    with the angle-addition formulas, so nothing is convolved or re-tabulated."""
+    ``n_a n_b`` equiprobable pairs (``"reject"``: among the reachable ones,
+    ``sin(theta - a_i - b_j) > 0`` as the kernels compute it). For each ``i``
+    the reachable pairs are a range ``m_i <= j < n_i`` of the sorted ``b``: below
+    ``theta`` (``a_i + b_j < theta``) but not leaning back past -90 deg (``a_i +
+    b_j < theta - pi``, steep facets on both sides, where the sine is negative
+    too). The per-angle table has one cell per surface atom holding its
+    ``n_i - m_i`` ranks (``n_b`` for ``"none"``, from ``m_i = 0``) and the rows
+    carry ``m_i`` (:data:`PAIR_FIRST`); a rank ``r`` within the cell is the
+    particle atom ``m_i + r``. The kernels combine the two angles with the
+    angle-addition formulas, so nothing is convolved or re-tabulated.
+    :data:`ALGORITHM` is in the checkpoint fingerprint of the plans whose
+    tables this range changed ("reject" where some pairs lean back: see
+    :meth:`Plan.pair_algorithm`)."""
 
     surface: Sampler
     particle: Sampler
+
+    #: How the pairs are drawn where that changed (see the class).
+    ALGORITHM = "pair ranks: range [m, n), leaning back left out"
+
+    def leans_back(self, angle_deg: float) -> bool:
+        """Whether some pairs lean back past -90 deg at `angle_deg` (reachable
+        by the sum, ``a_i + b_j < theta``, but not by the sine)."""
+        theta = np.deg2rad(angle_deg)
+        st, ct = float(np.sin(theta)), float(np.cos(theta))
+        a, b = self.surface, self.particle
+        counts = _reachable_counts(a, b, st, ct, angle_deg)
+        return bool(np.minimum(_leaning_back(a, b, st, ct, angle_deg), counts).any())
 
     @property
     def values(self) -> np.ndarray:
@@ -682,6 +711,25 @@ class Plan:
             )
         return tables
 
+    def pair_algorithm(self, surface: int) -> str | None:
+        """How the pairs of surface `surface` are drawn, for the checkpoint
+        fingerprint where that changed (a checkpoint written before, whose tables
+        gave other pairs, is not resumed): :attr:`PairSearch.ALGORITHM`;
+        :attr:`PairSampler.ALGORITHM` under ``"reject"`` where some pairs lean
+        back past -90 deg at one of the surface's apparent angles (their ranks
+        used to be drawn); else None (the fingerprint is what it was)."""
+        s = self.surfaces[surface]
+        if isinstance(s, PairSampler):
+            if self.shadowing != "reject":
+                return None
+            low = float(s.surface.values[:, 0].min() + s.particle.values[:, 0].min())
+            angles = {sp.angle_deg for sp in self.points if sp.surface == surface}
+            # none can lean back where the steepest pair is well above theta - pi
+            near = [t for t in angles if low < np.deg2rad(t) - np.pi + 1e-6]
+            if not any(s.leans_back(t) for t in sorted(near, reverse=True)):
+                return None
+        return getattr(s, "ALGORITHM", None)
+
     def __getstate__(self):
         state = dict(self.__dict__)
         state["_cache"] = {}
@@ -752,22 +800,33 @@ def _leaning_back(a: Sampler, b: Sampler, st, ct, angle_deg):
 
 
 def _pair_tables(pair: PairSampler, st, ct, angle_deg, shadowing) -> AngleTables:
+    """The per-angle table of a :class:`PairSampler`: one cell per surface atom
+    with its ``n_i - m_i`` reachable pairs (every pair for ``"none"``, or where
+    none is reachable), the ranks placed in the top bits, and ``m_i`` in the
+    rows (:data:`PAIR_FIRST`). The shadowed mass is that of the unreachable
+    pairs, the ones leaning back past -90 deg included."""
     a, b = pair.surface, pair.particle
     n_a, n_b = a.table.size, b.table.size
     counts = _reachable_counts(a, b, st, ct, angle_deg)
-    shadowed = 1.0 - int(counts.sum()) / (n_a * n_b)
-    count = shadowing == "none" or not counts.any()  # nothing reachable: count
+    first = np.minimum(_leaning_back(a, b, st, ct, angle_deg), counts)
+    reach = counts - first
+    shadowed = 1.0 - int(reach.sum()) / (n_a * n_b)
+    count = shadowing == "none" or not reach.any()  # nothing reachable: count
     if count:  # every pair; the unreachable ones are counted as shadowed
-        counts = np.full(n_a, n_b, dtype=np.int64)
-    total = int(counts.sum())
+        first = np.zeros(n_a, dtype=np.int64)
+        reach = np.full(n_a, n_b, dtype=np.int64)
+    total = int(reach.sum())
     shift = 64 - (total - 1).bit_length() if total > 1 else 63
-    starts = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.uint64)
+    starts = np.concatenate([[0], np.cumsum(reach)[:-1]]).astype(np.uint64)
     cum = starts << np.uint64(shift)
     sub = CellTable.from_cells(cum, a.table.left, a.table.right)
     cells = np.flatnonzero(nonempty_cells(cum))
-    return AngleTables(
-        a.subset(sub, cells), 0, st, ct, shadowed, True, b, total, shift, count
-    )
+    plain = a.subset(sub, cells)
+    rows = np.zeros((sub.size + 1, PAIR_FIRST + 1))
+    rows[:, :PAIR_FIRST] = plain.rows
+    rows[:-1, PAIR_FIRST] = first[cells]
+    sampler = Sampler(sub, rows, plain.values)
+    return AngleTables(sampler, 0, st, ct, shadowed, True, b, total, shift, count)
 
 
 def _search_tables(pair: PairSearch, st, ct, angle_deg, shadowing) -> AngleTables:
