@@ -8,7 +8,9 @@ themselves: 16 M pairs), the engine draws the pair ``(a_i, b_j)`` by a search
 
 * ``"weighted"``: ``P(i, j) ∝ w_i v_j sin(theta - a_i - b_j)_+`` (Sommerfeld &
   Huber), with ``np.sin`` of the sum;
-* ``"reject"``: ``∝ w_i v_j`` over the reachable pairs; ``"none"``: ``w_i v_j``.
+* ``"reject"``: ``∝ w_i v_j`` over the reachable pairs, ``sin(theta - a_i - b_j)
+  > 0`` (not the pairs leaning back past -90 deg, ``a + b < theta - 180``);
+  ``"none"``: ``w_i v_j``.
 
 The search draws the particle atom by rejection from its masses (a second 64-bit
 draw per impact), with an exact binary search as the fallback. The probability the
@@ -59,7 +61,7 @@ def brute_force(a, w, b, v, theta, shadowing):
     if shadowing == "weighted":
         mass = mass * np.maximum(np.sin(theta - phi), 0.0)
     elif shadowing == "reject":
-        mass = mass * (phi < theta)
+        mass = mass * (np.sin(theta - phi) > 0.0)
     return mass / mass.sum()
 
 
@@ -174,15 +176,18 @@ def _moderate(shadowing, weighted_masses=False, wide=False, sizes=(90, 70)):
         ("reject", True, False),
         ("none", True, False),
         ("weighted", True, True),
+        ("reject", True, True),
+        ("none", True, True),
     ],
 )
 @pytest.mark.parametrize("theta_deg", [12.0, 35.0, 80.0])
 def test_search_draws_each_pair_with_its_exact_probability(
     monkeypatch, shadowing, weighted_masses, wide, theta_deg
 ):
-    """With ``wide``, at 80 deg some pairs lean back past -90 deg (``a + b <
-    theta - 180``): ``sin(theta - a - b) < 0`` although ``a + b < theta``, and
-    'weighted' gives them no weight."""
+    """With ``wide`` some pairs lean back past -90 deg (``a + b < theta -
+    180``): ``sin(theta - a - b) < 0`` although ``a + b < theta``; 'weighted'
+    gives them no weight, 'reject' does not draw them, and the shadowed
+    fraction counts them."""
     monkeypatch.setattr(plan_module, "MAX_SUM_ATOMS", 0)  # a search at any size
     surf, part = _moderate(shadowing, weighted_masses, wide, sizes=(30, 24))
     sc = scenario(
@@ -206,10 +211,13 @@ def test_search_draws_each_pair_with_its_exact_probability(
     got[rows] = engine_pair_probabilities(tables, b.size)
     assert abs(got.sum() - 1.0) < 1e-15
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-15)
-    # the shadowed fraction: P(phi >= theta) of the unweighted pairs
+    # the shadowed fraction: the unweighted mass of the unreachable pairs
     plain = brute_force(a, w / w.sum(), b, v / v.sum(), theta, "none")
-    shadowed = plain[(a[:, None] + b[None, :]) >= theta].sum()
+    phi = a[:, None] + b[None, :]
+    shadowed = plain[~(np.sin(theta - phi) > 0.0)].sum()
     assert abs(tables.shadowed_mass - shadowed) < 1e-13
+    if wide and theta_deg == 80.0:  # the case is what it claims
+        assert (phi < theta - np.pi).any()
 
 
 def test_search_is_used_beyond_max_sum_atoms_only():
@@ -229,7 +237,10 @@ def test_both_kernels_draw_the_same_pairs(monkeypatch):
         (_moderate("weighted", weighted_masses=True), shadowing)
         for shadowing in ("weighted", "reject", "none")
     ]
-    cases.append((_moderate("weighted", weighted_masses=True, wide=True), "weighted"))
+    for shadowing in ("weighted", "reject", "none"):
+        cases.append(
+            (_moderate("weighted", weighted_masses=True, wide=True), shadowing)
+        )
     for (surf, part), shadowing in cases:
         sc = scenario(
             coefficients=PowerCoefficients(friction=0.15),
@@ -259,7 +270,12 @@ def test_both_kernels_agree_on_the_fallback_of_every_cell(monkeypatch):
         pytest.skip("compiled kernel not built")
     monkeypatch.setattr(plan_module, "MAX_SUM_ATOMS", 0)
     rng = np.random.default_rng(11)
-    for wide, shadowing in ((False, "reject"), (False, "weighted"), (True, "weighted")):
+    for wide, shadowing in (
+        (False, "reject"),
+        (False, "weighted"),
+        (True, "weighted"),
+        (True, "reject"),
+    ):
         surf, part = _moderate(shadowing, weighted_masses=True, wide=wide)
         sc = scenario(
             coefficients=PowerCoefficients(friction=0.15),
@@ -384,10 +400,11 @@ def test_proposal_masses_are_the_particle_cells(monkeypatch):
     """The proposal draws the particle table's integer cells; the prefix sums the
     search reads are the same masses (``v = table.widths()``); each surface row's
     bands run from the start of atom ``m_i`` to the end of atom ``n_i - 1``, and
-    for the masses (whose proposal is the target, ``lam = 0``) they are equal."""
+    for the masses (whose proposal is the target, ``lam = 0``) they are equal
+    (to round-off)."""
     monkeypatch.setattr(plan_module, "MAX_SUM_ATOMS", 0)
     P = plan_module
-    for shadowing, wide in (("weighted", True), ("reject", False)):
+    for shadowing, wide in (("weighted", True), ("reject", False), ("reject", True)):
         surf, part = _moderate(shadowing, weighted_masses=True, wide=wide)
         sc = scenario(
             surfaces=(SurfaceVariant("s", surf),),
@@ -413,11 +430,13 @@ def test_proposal_masses_are_the_particle_cells(monkeypatch):
         assert np.array_equal(ends[:, -1], cum[count])
         width = np.diff(ends, axis=1)
         assert np.all(width >= 0)
+        assert first.any() == wide  # some pairs lean back past -90 deg
         if shadowing == "weighted":
-            assert first.any()  # some pairs lean back past -90 deg
             assert np.all(rows[:, P.Q_BOUND] > 0)
-        else:
-            assert np.all(width.max(axis=1) - width.min(axis=1) <= 1)
+        else:  # equal, to the round-off of the range's float span (~1e-15)
+            spread = (width.max(axis=1) - width.min(axis=1)).astype(float)
+            top = width.max(axis=1).astype(float)
+            assert np.all(spread <= 1.0 + 2.0**-47 * top)
             assert not rows[:, P.Q_BOUND].any()
 
 
@@ -600,6 +619,31 @@ def test_checkpoints_know_where_rank_pairs_changed(monkeypatch):
         monkeypatch.setattr(plan_module.PairSampler, "ALGORITHM", "ranks, prefix")
         assert (plan_fingerprint(plan, 100)["scenario"] != before) == changed, name
         monkeypatch.undo()
+
+
+def test_checkpoints_know_where_searched_pairs_changed(monkeypatch):
+    """A pair search under 'reject' where some pairs lean back past -90 deg
+    (they used to be drawn) adds ``PairSearch.REJECT_RANGE`` to its algorithm
+    in the fingerprint; 'weighted' (whose range already left them out) and
+    'reject' where none leans back keep ``PairSearch.ALGORITHM`` alone."""
+    monkeypatch.setattr(plan_module, "MAX_SUM_ATOMS", 0)
+    S = plan_module.PairSearch
+    for shadowing, wide, want in (
+        ("reject", True, f"{S.ALGORITHM}; {S.REJECT_RANGE}"),
+        ("reject", False, S.ALGORITHM),
+        ("weighted", True, S.ALGORITHM),
+        ("none", True, S.ALGORITHM),
+    ):
+        surf, part = _moderate(shadowing, weighted_masses=True, wide=wide)
+        sc = scenario(
+            surfaces=(SurfaceVariant("s", surf),),
+            particle_roughness=part,
+            angles_deg=(12.0, 80.0),
+            shadowing=shadowing,
+        )
+        plan = build_plan(sc)
+        assert isinstance(plan.surfaces[0], S)
+        assert plan.pair_algorithm(0) == want, (shadowing, wide)
 
 
 # ------------------------------------------------------ Formica x Formica, 16 M

@@ -39,7 +39,9 @@ the table computes it:
   ``shadowed``.
 
 In the first two cases the removed probability ``P(phi >= theta)`` of the table is
-reported as the shadowed fraction.
+reported as the shadowed fraction (for a pair of angles, :class:`PairSampler` and
+:class:`PairSearch`, that of the pairs with ``sin(theta - a - b) <= 0``: the pairs
+leaning back past -90 deg, ``a + b < theta - pi``, included).
 """
 
 from __future__ import annotations
@@ -301,13 +303,9 @@ class PairSampler:
     ALGORITHM = "pair ranks: range [m, n), leaning back left out"
 
     def leans_back(self, angle_deg: float) -> bool:
-        """Whether some pairs lean back past -90 deg at `angle_deg` (reachable
-        by the sum, ``a_i + b_j < theta``, but not by the sine)."""
-        theta = np.deg2rad(angle_deg)
-        st, ct = float(np.sin(theta)), float(np.cos(theta))
-        a, b = self.surface, self.particle
-        counts = _reachable_counts(a, b, st, ct, angle_deg)
-        return bool(np.minimum(_leaning_back(a, b, st, ct, angle_deg), counts).any())
+        """Whether some pairs lean back past -90 deg at `angle_deg` (below
+        ``theta``, ``a_i + b_j < theta``, but not reachable by the sine)."""
+        return _leans_back(self.surface, self.particle, angle_deg)
 
     @property
     def values(self) -> np.ndarray:
@@ -388,12 +386,12 @@ class PairSearch:
     draw, without forming the pairs.
 
     The pair weight is ``w_i v_j g_ij``, with ``g = 1`` for the reachable pairs
-    (``"reject"``: ``a_i + b_j < theta``; every pair for ``"none"``) and ``g =
-    sin(theta - a_i - b_j)_+`` for ``"weighted"``. For each surface atom ``i``
-    the particle atoms of positive weight are a range ``m_i <= j < n_i`` of the
-    sorted ``b``: a prefix (``m_i = 0``) but for ``"weighted"``, where the pairs
+    (``"reject"``: ``sin(theta - a_i - b_j) > 0``; every pair for ``"none"``)
+    and ``g = sin(theta - a_i - b_j)_+`` for ``"weighted"``. For each surface
+    atom ``i`` the particle atoms of positive weight are a range ``m_i <= j <
+    n_i`` of the sorted ``b``: below ``theta`` (``a_i + b_j < theta``) but not
     leaning back past -90 deg (``a_i + b_j < theta - pi``, steep facets on both
-    sides) have ``sin(theta - a_i - b_j) < 0`` and are left out as well. The
+    sides, where the sine is negative too; ``m_i = 0`` for ``"none"``). The
     cumulative weight of the atoms before ``J`` is ``C_i(J) - C_i(m_i)``,
     ``C_i(J) = alpha_i P1[J] + beta_i P2[J]`` with angle-independent prefix sums:
     ``P1 = cumsum(v)``, ``P2 = 0``, ``alpha = 1``, ``beta = 0`` for the masses;
@@ -454,6 +452,13 @@ class PairSearch:
     #: How the pairs are drawn (in checkpoint fingerprints: a checkpoint of an
     #: earlier way, whose draws gave other pairs, is not resumed).
     ALGORITHM = f"pair search: banded rejection ({PAIR_BANDS}), range [m, n)"
+    #: Added to :data:`ALGORITHM` for ``"reject"`` where some pairs lean back
+    #: past -90 deg (their range used to start at 0: :meth:`Plan.pair_algorithm`).
+    REJECT_RANGE = "'reject': range [m, n) too"
+
+    def leans_back(self, angle_deg: float) -> bool:
+        """Whether some pairs lean back past -90 deg at `angle_deg`."""
+        return _leans_back(self.surface, self.particle, angle_deg)
 
     @property
     def values(self) -> np.ndarray:
@@ -714,21 +719,31 @@ class Plan:
     def pair_algorithm(self, surface: int) -> str | None:
         """How the pairs of surface `surface` are drawn, for the checkpoint
         fingerprint where that changed (a checkpoint written before, whose tables
-        gave other pairs, is not resumed): :attr:`PairSearch.ALGORITHM`;
-        :attr:`PairSampler.ALGORITHM` under ``"reject"`` where some pairs lean
-        back past -90 deg at one of the surface's apparent angles (their ranks
-        used to be drawn); else None (the fingerprint is what it was)."""
+        gave other pairs, is not resumed): :attr:`PairSearch.ALGORITHM`, with
+        :attr:`PairSearch.REJECT_RANGE` under ``"reject"`` where some pairs lean
+        back past -90 deg at one of the surface's apparent angles (they used to
+        be drawn); :attr:`PairSampler.ALGORITHM` there too; else None (the
+        fingerprint is what it was)."""
         s = self.surfaces[surface]
+        if not isinstance(s, PairSampler | PairSearch):
+            return None
+        algorithm = getattr(s, "ALGORITHM", None)
+        leaning = self.shadowing == "reject" and self._leans_back(surface)
         if isinstance(s, PairSampler):
-            if self.shadowing != "reject":
-                return None
-            low = float(s.surface.values[:, 0].min() + s.particle.values[:, 0].min())
-            angles = {sp.angle_deg for sp in self.points if sp.surface == surface}
-            # none can lean back where the steepest pair is well above theta - pi
-            near = [t for t in angles if low < np.deg2rad(t) - np.pi + 1e-6]
-            if not any(s.leans_back(t) for t in sorted(near, reverse=True)):
-                return None
-        return getattr(s, "ALGORITHM", None)
+            return algorithm if leaning else None
+        if algorithm and leaning:
+            algorithm = f"{algorithm}; {s.REJECT_RANGE}"
+        return algorithm
+
+    def _leans_back(self, surface: int) -> bool:
+        """Whether some pairs of surface `surface` (a pair sampler or search)
+        lean back past -90 deg at one of its apparent angles."""
+        s = self.surfaces[surface]
+        low = float(s.surface.values[:, 0].min() + s.particle.values[:, 0].min())
+        angles = {sp.angle_deg for sp in self.points if sp.surface == surface}
+        # none can lean back where the steepest pair is well above theta - pi
+        near = [t for t in angles if low < np.deg2rad(t) - np.pi + 1e-6]
+        return any(s.leans_back(t) for t in sorted(near, reverse=True))
 
     def __getstate__(self):
         state = dict(self.__dict__)
@@ -799,6 +814,15 @@ def _leaning_back(a: Sampler, b: Sampler, st, ct, angle_deg):
     return first
 
 
+def _leans_back(a: Sampler, b: Sampler, angle_deg) -> bool:
+    """Whether some pairs of the atoms of `a` and `b` lean back past -90 deg at
+    `angle_deg` (the range ``[m_i, n_i)`` of some surface atom starts above 0)."""
+    theta = np.deg2rad(angle_deg)
+    st, ct = float(np.sin(theta)), float(np.cos(theta))
+    counts = _reachable_counts(a, b, st, ct, angle_deg)
+    return bool(np.minimum(_leaning_back(a, b, st, ct, angle_deg), counts).any())
+
+
 def _pair_tables(pair: PairSampler, st, ct, angle_deg, shadowing) -> AngleTables:
     """The per-angle table of a :class:`PairSampler`: one cell per surface atom
     with its ``n_i - m_i`` reachable pairs (every pair for ``"none"``, or where
@@ -838,22 +862,22 @@ def _search_tables(pair: PairSearch, st, ct, angle_deg, shadowing) -> AngleTable
     a = pair.surface
     n_b = pair.particle.table.size
     counts = _reachable_counts(a, pair.particle, st, ct, angle_deg)
+    lean = np.minimum(_leaning_back(a, pair.particle, st, ct, angle_deg), counts)
     w = a.table.widths()
     masses = pair.particle.rows[:, P_ONE]  # cumsum of v, from 0
-    shadowed = max(0.0, 1.0 - float(np.sum(w * masses[counts])))
-    count = shadowing == "none" or not counts.any()  # nothing reachable: count
+    # the unreachable pairs: at or above theta, and leaning back past -90 deg
+    shadowed = max(0.0, 1.0 - float(np.sum(w * (masses[counts] - masses[lean]))))
+    count = shadowing == "none" or not (counts > lean).any()  # nothing reachable
     ra = a.rows[:-1]
     while True:
-        first = np.zeros(a.table.size, dtype=np.int64)
+        first = lean
         if count:  # every pair, by mass; the unreachable ones are counted
             counts = np.full(a.table.size, n_b, dtype=np.int64)
+            first = np.zeros(a.table.size, dtype=np.int64)
         if shadowing == "weighted" and not count:
             part = pair.sine
             alpha = st * ra[:, A_COS] - ct * ra[:, A_SIN]  # sin(theta - a_i)
             beta = -(ct * ra[:, A_COS] + st * ra[:, A_SIN])  # -cos(theta - a_i)
-            first = np.minimum(
-                _leaning_back(a, pair.particle, st, ct, angle_deg), counts
-            )
         else:
             part = pair.particle
             alpha = np.ones(a.table.size)
