@@ -458,6 +458,7 @@ class _Job:
         #: worker, an executor or Dask)
         self.local_workers = None
         self._background = None  # see in_background
+        self._background_policy = "now"  # the runner's (see _start_background)
 
     def provenance(self) -> dict:
         out = {
@@ -504,7 +505,8 @@ class _Job:
             self.local_workers = "threads"
         elif isinstance(runner, PoolRunner):
             self.local_workers = "processes"
-        if not runner.forks:
+        self._background_policy = runner.background
+        if runner.background == "now":
             self._start_background()  # no fork to come: the kernel frees the GIL
         bar = _Progress(
             self.progress,
@@ -584,7 +586,10 @@ class _Job:
         self._background = _Background(fn)
 
     def _start_background(self) -> None:
-        if self._background is not None:
+        """Start the background work unless the runner wants it at the end
+        (:attr:`~.parallel.ThreadRunner.background`): then
+        :meth:`background_result` computes it in the caller."""
+        if self._background is not None and self._background_policy != "end":
             self._background.start()
 
     def background_result(self):

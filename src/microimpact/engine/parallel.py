@@ -131,7 +131,7 @@ class SerialRunner:
     """Run tasks in this process."""
 
     workers = 1
-    forks = False
+    background = "now"  # see ThreadRunner.background
 
     def __init__(self, plan):
         self.plan = plan
@@ -191,7 +191,15 @@ class ThreadRunner:
     two worker processes (docs/performance.md). The results are those of any other
     runner, bit for bit: a task's rows depend on its specs alone."""
 
-    forks = False
+    #: When the driver's own work that does not depend on the results (the
+    #: scenario's description: SciPy quadratures, Python-heavy) may run in a
+    #: thread of its own: ``"now"`` (no fork to come), ``"later"`` (after the first
+    #: result: a process pool forks on its first task, and a thread must not be
+    #: running then) or ``"end"`` (after the last result: here, a Python-heavy
+    #: thread beside the worker threads makes them wait for the GIL after each
+    #: kernel call; on a 10^4-point grid it cost ~1,500 more context switches and
+    #: more time than doing its ~30 ms of work at the end).
+    background = "end"
 
     def __init__(self, plan, workers: int):
         from concurrent.futures import ThreadPoolExecutor
@@ -220,7 +228,7 @@ class ThreadRunner:
 class PoolRunner:
     """Run tasks on a :class:`concurrent.futures.ProcessPoolExecutor`."""
 
-    forks = True
+    background = "later"  # see ThreadRunner.background
 
     def __init__(self, plan, workers: int):
         self.workers = workers
@@ -249,7 +257,7 @@ class ExecutorRunner:
     """Run tasks on any user object with a ``map(fn, iterable)`` method (emcee-style
     pools, ``concurrent.futures`` executors, ``multiprocessing.Pool``...)."""
 
-    forks = True  # it may start processes on its first task
+    background = "later"  # it may start processes on its first task
 
     def __init__(self, plan, executor):
         self.plan = plan
@@ -279,7 +287,7 @@ class DaskRunner:
     ``LocalCluster`` with `workers` single-threaded worker processes.
     """
 
-    forks = True  # kept as before: the driver's thread starts with the first result
+    background = "later"  # as before: the driver's thread starts with the first result
 
     def __init__(self, plan, *, address=None, workers: int = 2):
         try:
