@@ -226,7 +226,11 @@ def test_tasks_return_rows():
 
 def test_the_description_is_prepared_while_the_workers_run(monkeypatch):
     """The scenario's description (slow: quadratures) is computed in a thread
-    during the run, once, and an error in it reaches the caller."""
+    during the run, once, for one worker and for worker processes; on worker
+    threads it waits for the end of the run in the caller (beside them it would
+    make them wait for the GIL); an error in it reaches the caller."""
+    import dataclasses
+
     sc = _grid()
     seen = []
     real = SimulationResult.prepare
@@ -239,7 +243,28 @@ def test_the_description_is_prepared_while_the_workers_run(monkeypatch):
     ref = run(sc, seed=4)
     assert seen == [False]
     seen.clear()
-    _same_dataset(ref.dataset, run(sc, seed=4, workers=2).dataset)
+    two = run(sc, seed=4, workers=2)
+    _same_dataset(ref.dataset, two.dataset)
+    assert two.provenance["local_workers"] == "threads"
+    assert seen == [True]
+    # worker processes (the NumPy kernel): in a thread, once the pool has forked
+    seen.clear()
+    job = montecarlo._Job(
+        sc,
+        samples=None,
+        seed=4,
+        workers=2,
+        backend="process",
+        executor=None,
+        address=None,
+        checkpoint=None,
+        progress=False,
+        plan=dataclasses.replace(build_plan(sc, seed=4), kernel="numpy"),
+    )
+    job.in_background(lambda: prepare(sc))
+    job.drain()
+    job.background_result()
+    assert job.local_workers == "processes"
     assert seen == [False]
 
     def broken(scenario):
