@@ -670,24 +670,29 @@ def _common_args(plan: Plan):
 def _point_args(tables, speed: float):
     """The point tuple of ``_ckernel.specs`` (cached per angle tables and speed:
     the same object for every block of a point, which the C side parses once)."""
-    by_speed = _POINT_ARGS.get(tables)
-    if by_speed is None:
-        by_speed = _POINT_ARGS[tables] = {}
+    cached = _POINT_ARGS.get(tables)
+    if cached is None:
+        _no_areal(tables)
+        # what does not depend on the speed, once per tables (a sweep grid has a
+        # new speed at nearly every point), and the tuples built by speed
+        cached = _POINT_ARGS[tables] = (
+            (
+                bool(tables.random),
+                _sampler_args(tables.sampler),
+                int(tables.cut),
+                _sampler_args(tables.pair),
+                int(tables.pair_total),
+                tables.pair_mode,
+                float(tables.sin_theta),
+                float(tables.cos_theta),
+            ),
+            (bool(tables.random and tables.count_shadowed),),
+            {},
+        )
+    head, tail, by_speed = cached
     args = by_speed.get(speed)
     if args is None:
-        _no_areal(tables)
-        args = by_speed[speed] = (
-            bool(tables.random),
-            _sampler_args(tables.sampler),
-            int(tables.cut),
-            _sampler_args(tables.pair),
-            int(tables.pair_total),
-            tables.pair_mode,
-            float(tables.sin_theta),
-            float(tables.cos_theta),
-            float(speed),
-            bool(tables.random and tables.count_shadowed),
-        )
+        args = by_speed[speed] = (*head, float(speed), *tail)
     return args
 
 
