@@ -249,23 +249,17 @@ def test_the_description_is_prepared_while_the_workers_run(monkeypatch):
     assert seen == [True]
     # worker processes (the NumPy kernel): in a thread, once the pool has forked
     seen.clear()
-    job = montecarlo._Job(
-        sc,
-        samples=None,
-        seed=4,
-        workers=2,
-        backend="process",
-        executor=None,
-        address=None,
-        checkpoint=None,
-        progress=False,
-        plan=dataclasses.replace(build_plan(sc, seed=4), kernel="numpy"),
+    real_plan = montecarlo.build_plan
+    monkeypatch.setattr(
+        montecarlo,
+        "build_plan",
+        lambda sc, seed=None: dataclasses.replace(
+            real_plan(sc, seed=seed), kernel="numpy"
+        ),
     )
-    job.in_background(lambda: prepare(sc))
-    job.drain()
-    job.background_result()
-    assert job.local_workers == "processes"
+    assert run(sc, seed=4, workers=2).provenance["local_workers"] == "processes"
     assert seen == [False]
+    monkeypatch.setattr(montecarlo, "build_plan", real_plan)
 
     def broken(scenario):
         raise RuntimeError("describe failed")

@@ -153,6 +153,29 @@ def engine_pair_probabilities(tables, n_b):
     return np.array([[float(x) for x in r] for r in got]) / 2.0**128
 
 
+def _same_blocks_in_both_kernels(plan, n):
+    """Every point's first block of `n` impacts, per impact, is bit for bit the
+    same from the NumPy kernel (`plan`) and the compiled one."""
+    compiled = dataclasses.replace(plan, kernel="compiled")
+    for point in range(len(plan.points)):
+        want = kernel.simulate_block(plan, point, 0, 0, n).to_arrays()
+        got = kernel.simulate_block(compiled, point, 0, 0, n).to_arrays()
+        for key, value in got.items():
+            np.testing.assert_array_equal(value, want[key], err_msg=key)
+
+
+def _pair_plan(surf, part, shadowing, theta_deg):
+    """The NumPy-kernel plan of the surface roughness `surf` and the particle
+    roughness `part` at one apparent angle."""
+    sc = scenario(
+        surfaces=(SurfaceVariant("s", surf),),
+        particle_roughness=part,
+        angles_deg=(theta_deg,),
+        shadowing=shadowing,
+    )
+    return build_plan(sc, kernel="numpy")
+
+
 def _moderate(shadowing, weighted_masses=False, wide=False, sizes=(90, 70)):
     rng = np.random.default_rng(4)
     a_deg = rng.normal(2.0, 14.0, sizes[0])
@@ -190,13 +213,7 @@ def test_search_draws_each_pair_with_its_exact_probability(
     fraction counts them."""
     monkeypatch.setattr(plan_module, "MAX_SUM_ATOMS", 0)  # a search at any size
     surf, part = _moderate(shadowing, weighted_masses, wide, sizes=(30, 24))
-    sc = scenario(
-        surfaces=(SurfaceVariant("s", surf),),
-        particle_roughness=part,
-        angles_deg=(theta_deg,),
-        shadowing=shadowing,
-    )
-    plan = build_plan(sc, kernel="numpy")
+    plan = _pair_plan(surf, part, shadowing, theta_deg)
     assert isinstance(plan.surfaces[0], plan_module.PairSearch)
     tables = plan.angle_tables(0, theta_deg)
     a, b = np.asarray(surf.atoms), np.asarray(part.atoms)
@@ -253,12 +270,7 @@ def test_both_kernels_draw_the_same_pairs(monkeypatch):
         plan = build_plan(sc, kernel="numpy")
         if kernel.KERNEL != "compiled":
             pytest.skip("compiled kernel not built")
-        compiled = dataclasses.replace(plan, kernel="compiled")
-        for point in range(len(plan.points)):
-            want = kernel.simulate_block(plan, point, 0, 0, 3000).to_arrays()
-            got = kernel.simulate_block(compiled, point, 0, 0, 3000).to_arrays()
-            for key, value in got.items():
-                np.testing.assert_array_equal(value, want[key], err_msg=key)
+        _same_blocks_in_both_kernels(plan, 3000)
 
 
 def test_both_kernels_agree_on_the_fallback_of_every_cell(monkeypatch):
@@ -510,13 +522,7 @@ def test_rank_pairs_leave_out_the_pairs_leaning_back(shadowing, theta_deg):
     and no other; 'none' draws every pair. The shadowed fraction is the mass of
     the unreachable pairs, the leaning-back ones included."""
     surf, part = _steep()
-    sc = scenario(
-        surfaces=(SurfaceVariant("s", surf),),
-        particle_roughness=part,
-        angles_deg=(theta_deg,),
-        shadowing=shadowing,
-    )
-    plan = build_plan(sc, kernel="numpy")
+    plan = _pair_plan(surf, part, shadowing, theta_deg)
     assert isinstance(plan.surfaces[0], plan_module.PairSampler)
     tables = plan.angle_tables(0, theta_deg)
     a, b = np.sort(surf.atoms), np.sort(part.atoms)
@@ -560,12 +566,7 @@ def test_both_kernels_draw_the_same_rank_pairs():
         )
         plan = build_plan(sc, kernel="numpy")
         assert isinstance(plan.surfaces[0], plan_module.PairSampler)
-        compiled = dataclasses.replace(plan, kernel="compiled")
-        for point in range(len(plan.points)):
-            want = kernel.simulate_block(plan, point, 0, 0, 5000).to_arrays()
-            got = kernel.simulate_block(compiled, point, 0, 0, 5000).to_arrays()
-            for key, value in got.items():
-                np.testing.assert_array_equal(value, want[key], err_msg=key)
+        _same_blocks_in_both_kernels(plan, 5000)
 
 
 def test_checkpoints_know_where_rank_pairs_changed(monkeypatch):
