@@ -494,3 +494,28 @@ def test_a_misspelt_preset_name_is_a_did_you_mean_error():
         )
     with pytest.raises(InputError, match="did you mean 'sst65-silicon-normal'"):
         calibrate("sst65-silicon-normall", "x.csv", ["coefficients.friction"])
+
+
+def test_parameter_flag_shares_the_calibration_parser():
+    """``--parameter KEY=LOW:HIGH`` is read by the calibration's parser (one reader
+    of the syntax, one set of messages) and then needs both limits, finite, with
+    LOW < HIGH (a uniform range)."""
+    import argparse
+
+    from microimpact.cli.sensitivity import _parameter
+
+    assert _parameter(" particles.median_um = 8 : 12 ") == (
+        "particles.median_um",
+        {"low": 8.0, "high": 12.0},
+    )
+    for bad, says in [
+        ("k1=x:2", "lower bound 'x' is not a number"),  # the calibration's message
+        ("k1=nan:2", "NaN"),
+        ("k1=:2", "both limits finite"),
+        ("k1", "both limits finite"),
+        ("k1=1:inf", "both limits finite"),
+        ("k1=2:1", "LOW < HIGH"),
+        ("=1:2", "KEY=LOW:HIGH"),
+    ]:
+        with pytest.raises(argparse.ArgumentTypeError, match=says):
+            _parameter(bad)

@@ -20,22 +20,25 @@ HELP = "Sobol' sensitivity indices of capture, e and mu to uncertain scenario in
 
 
 def _parameter(text):
-    """``KEY=LOW:HIGH`` -> (key, {"low": LOW, "high": HIGH})."""
-    key, sep, rng = text.partition("=")
-    low, sep2, high = rng.partition(":")
+    """``KEY=LOW:HIGH`` -> (key, {"low": LOW, "high": HIGH}): the calibration's
+    parser (:func:`microimpact.calibration.parse_parameter`), with both limits
+    required (a uniform range) and LOW < HIGH."""
+    from ..calibration import parse_parameter
+    from ..errors import InputError
+
     try:
-        lo, hi = float(low), float(high)
-    except ValueError:
-        lo = hi = math.nan
-    if not (sep and sep2 and key.strip()) or not (
-        math.isfinite(lo) and math.isfinite(hi)
-    ):
+        key, bounds = parse_parameter(text)
+    except InputError as exc:
+        raise argparse.ArgumentTypeError(exc.message) from None
+    lo, hi = bounds if bounds is not None else (None, None)
+    if lo is None or hi is None or not (math.isfinite(lo) and math.isfinite(hi)):
         raise argparse.ArgumentTypeError(
-            f"expected KEY=LOW:HIGH, e.g. particles.median_um=8:12; got {text!r}"
+            f"expected KEY=LOW:HIGH with both limits finite (a uniform range), "
+            f"e.g. particles.median_um=8:12; got {text!r}"
         )
     if not hi > lo:
         raise argparse.ArgumentTypeError(f"needs LOW < HIGH; got {text!r}")
-    return key.strip(), {"low": lo, "high": hi}
+    return key, {"low": lo, "high": hi}
 
 
 def _power_of_two(text):
