@@ -338,3 +338,25 @@ def test_an_undefined_model_value_is_a_rejected_step_not_a_crash():
     assert obj(np.array([1.5])).tolist() == [1.5, UNDEFINED_RESIDUAL]
     J = obj.jac(np.array([0.99]))
     assert np.allclose(J[:, 0], [1.0, 2.0])
+
+
+def test_cli_backend_options(tmp_path, capsys, monkeypatch):
+    """``calibrate`` takes ``--backend``/``--scheduler`` as ``run`` does: a
+    scheduler without ``--backend dask`` and an unreachable scheduler are the
+    user's errors (exit 2, one line naming the flag or the address)."""
+    from microimpact.cli import main
+    from microimpact.engine import parallel
+
+    pytest.importorskip("dask.distributed")
+    monkeypatch.setattr(parallel, "DASK_CONNECT_TIMEOUT", 1)
+    scen = tmp_path / "small.toml"
+    scen.write_text(to_toml(small()))
+    exp = tmp_path / "exp.csv"
+    measured(small(), {STD: 11.0}, seed=21).to_csv(exp, index=False)
+    argv = ["calibrate", str(scen), str(exp), "--parameter", f"{STD}=2:30"]
+    argv += ["--out", str(tmp_path / "o"), "--bootstrap", "0", "--no-figures"]
+    assert main([*argv, "--scheduler", "tcp://127.0.0.1:9"]) == 2
+    assert "--scheduler" in capsys.readouterr().err
+    assert main([*argv, "--backend", "dask", "--scheduler", "tcp://127.0.0.1:9"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "127.0.0.1:9" in err

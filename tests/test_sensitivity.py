@@ -519,3 +519,22 @@ def test_parameter_flag_shares_the_calibration_parser():
     ]:
         with pytest.raises(argparse.ArgumentTypeError, match=says):
             _parameter(bad)
+
+
+def test_cli_unreachable_scheduler_is_the_users_error(tmp_path, capsys, monkeypatch):
+    """``--backend dask --scheduler ADDRESS`` goes through the engine's Dask
+    connection: an unreachable scheduler is exit 2 with one line naming it."""
+    from pathlib import Path
+
+    from microimpact.cli import main
+    from microimpact.engine import parallel
+
+    pytest.importorskip("dask.distributed")
+    monkeypatch.setattr(parallel, "DASK_CONNECT_TIMEOUT", 1)
+    path = Path(__file__).parent / "data" / "sensitivity_small.toml"
+    argv = ["sensitivity", str(path), "--out", str(tmp_path / "o"), "--quiet"]
+    assert main([*argv, "--backend", "dask", "--scheduler", "tcp://127.0.0.1:9"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "127.0.0.1:9" in err
+    assert main([*argv, "--scheduler", "tcp://127.0.0.1:9"]) == 2
+    assert "needs --backend dask" in capsys.readouterr().err

@@ -627,3 +627,20 @@ def test_a_bad_node_value_is_named_plainly():
         WallLawSpec(diameters_um=(-1.0,), speeds_m_s=(1.0,), angles_deg=(9.0,))
     assert "value -1 is outside (0, inf)" in str(err.value)
     assert "np.float64" not in str(err.value)
+
+
+def test_cli_wall_law_scheduler_goes_through_the_engines_dask_connection(
+    tmp_path, capsys, monkeypatch
+):
+    """``--scheduler ADDRESS`` alone still means Dask (as before ``--backend``
+    existed for this verb); an unreachable scheduler is the user's error: exit 2,
+    one line naming the address."""
+    from microimpact.engine import parallel
+
+    pytest.importorskip("dask.distributed")
+    monkeypatch.setattr(parallel, "DASK_CONNECT_TIMEOUT", 1)
+    path = _toml(tmp_path, "[wall_law]\ndiameter_um = [5, 20]\nreservoir = 16")
+    argv = ["wall-law", str(path), "--out", str(tmp_path / "out"), "--quiet"]
+    assert main([*argv, "--scheduler", "tcp://127.0.0.1:9"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "127.0.0.1:9" in err

@@ -17,6 +17,7 @@ Exit codes (documented in docs/cli.md):
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 from pathlib import Path
 
@@ -109,12 +110,7 @@ def add_run_options(sp, *, seed_help="root seed (overrides the file)"):
         default=1,
         help="worker processes (default 1; capped at the number of cores)",
     )
-    sp.add_argument("--backend", choices=("process", "dask"), default="process")
-    sp.add_argument(
-        "--scheduler",
-        metavar="ADDRESS",
-        help="Dask scheduler address (default: a LocalCluster)",
-    )
+    add_backend_options(sp)
     sp.add_argument("--quiet", action="store_true", help="no progress bar or summary")
     sp.add_argument(
         "--formats",
@@ -125,14 +121,44 @@ def add_run_options(sp, *, seed_help="root seed (overrides the file)"):
     )
 
 
-def run_options(args) -> dict:
-    """Keyword arguments of :func:`microimpact.run` from the common options."""
+def add_backend_options(sp):
+    """``--backend {process,dask}`` and ``--scheduler ADDRESS``."""
+    sp.add_argument("--backend", choices=("process", "dask"), default="process")
+    sp.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="Dask scheduler address (default: a LocalCluster of --workers workers)",
+    )
+
+
+def _check_scheduler(args) -> None:
     from ..errors import InputError
 
     if args.scheduler is not None and args.backend != "dask":
         raise InputError(
             f"{args.scheduler!r} needs --backend dask", field="--scheduler"
         )
+
+
+@contextlib.contextmanager
+def executor_of(args):
+    """The executor that ``--backend``/``--scheduler`` ask for: None for
+    ``process`` (the library's own pool of ``--workers``), else a Dask client's
+    executor (the scheduler at ``--scheduler``, or a local cluster of
+    ``--workers`` single-threaded workers), closed on exit."""
+    _check_scheduler(args)
+    if args.backend != "dask":
+        yield None
+        return
+    from ..engine.parallel import dask_client
+
+    with dask_client(address=args.scheduler, workers=args.workers) as client:
+        yield client.get_executor()
+
+
+def run_options(args) -> dict:
+    """Keyword arguments of :func:`microimpact.run` from the common options."""
+    _check_scheduler(args)
     return {
         "seed": args.seed,
         "workers": args.workers,

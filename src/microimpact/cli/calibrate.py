@@ -46,8 +46,9 @@ def cli_parse(sp):
         "--workers",
         type=c.positive_int,
         default=1,
-        help="processes for the model runs (default 1; capped at the cores)",
+        help="workers for the model runs (default 1; capped at the cores)",
     )
+    c.add_backend_options(sp)
     sp.add_argument("--no-figures", action="store_true", help="write no figure")
     sp.add_argument("--quiet", action="store_true", help="print nothing but errors")
 
@@ -64,17 +65,19 @@ def cli_action(args) -> int:
             raise InputError(f"{key!r} is given twice", field="--parameter")
         parameters[key] = bounds
     t0 = time.perf_counter()
-    result = calibrate(
-        args.scenario,
-        args.experiments,
-        parameters,
-        samples=args.samples,
-        seed=args.seed,
-        workers=args.workers,
-        bootstrap=args.bootstrap,
-        confidence=args.confidence,
-        progress=None if args.quiet else (lambda msg: c.say(args, f"  {msg}")),
-    )
+    with c.executor_of(args) as executor:
+        result = calibrate(
+            args.scenario,
+            args.experiments,
+            parameters,
+            samples=args.samples,
+            seed=args.seed,
+            workers=args.workers,
+            executor=executor,
+            bootstrap=args.bootstrap,
+            confidence=args.confidence,
+            progress=None if args.quiet else (lambda msg: c.say(args, f"  {msg}")),
+        )
     result.write(args.out, figure=not args.no_figures)
     if not args.quiet:
         for k, key in enumerate(result.keys):

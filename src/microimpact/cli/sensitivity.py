@@ -95,41 +95,6 @@ def cli_parse(sp):
     c.add_run_options(sp, seed_help="root seed (default: the file's seed)")
 
 
-def _executor(args):
-    """``(executor, closer)`` for --backend dask, else ``(None, None)``."""
-    if args.backend != "dask":
-        if args.scheduler is not None:
-            from ..errors import InputError
-
-            raise InputError(
-                f"{args.scheduler!r} needs --backend dask", field="--scheduler"
-            )
-        return None, None
-    try:
-        from dask.distributed import Client, LocalCluster
-    except ImportError:  # pragma: no cover - only without the extra
-        from ..errors import InputError
-
-        raise InputError(
-            "needs Dask distributed: pip install 'microimpact[dask]'",
-            field="--backend",
-        ) from None
-    if args.scheduler is None:
-        cluster = LocalCluster(
-            n_workers=args.workers, threads_per_worker=1, dashboard_address=":0"
-        )
-        client = Client(cluster)
-    else:
-        cluster, client = None, Client(args.scheduler, timeout=10)
-
-    def close():
-        client.close()
-        if cluster is not None:
-            cluster.close()
-
-    return client.get_executor(), close
-
-
 def write_sensitivity(result, out, formats=("png",)):
     """Write ``out/sensitivity.csv`` and ``out/sensitivity_ST.<format>``, each
     atomically; return the paths."""
@@ -149,7 +114,6 @@ def cli_action(args) -> int:
     from ..sensitivity import sobol_sensitivity
 
     parameters = dict(args.parameter) if args.parameter else None
-    executor, close = _executor(args)
     t0 = time.perf_counter()
     last = [0.0]
 
@@ -159,7 +123,7 @@ def cli_action(args) -> int:
             last[0] = now
             print(f"  {done}/{total} design rows", file=sys.stderr)
 
-    try:
+    with c.executor_of(args) as executor:
         result = sobol_sensitivity(
             args.scenario,
             parameters,
@@ -173,9 +137,6 @@ def cli_action(args) -> int:
             impacts=args.impacts,
             progress=progress,
         )
-    finally:
-        if close is not None:
-            close()
     write_sensitivity(result, args.out, args.formats or ("png",))
     c.say(
         args,

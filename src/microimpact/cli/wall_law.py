@@ -25,7 +25,7 @@ def cli_parse(sp):
         default=1,
         help="worker processes (default 1; capped at the number of cores)",
     )
-    sp.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler address")
+    c.add_backend_options(sp)  # --scheduler alone implies --backend dask
     for flag, what in (
         ("--diameter-um", "diameter [um]"),
         ("--speed-m-s", "speed [m/s]"),
@@ -75,17 +75,14 @@ def cli_action(args) -> int:
         )
     if condition:
         _check_condition(spec, condition)
-    executor = None
-    if args.scheduler is not None:
-        from dask.distributed import Client
-
-        executor = Client(args.scheduler)
+    if args.scheduler is not None:  # as before --backend existed here
+        args.backend = "dask"
 
     def progress(done, total):
         if not args.quiet:
             print(f"\r  diameters {done}/{total}", end="", file=sys.stderr, flush=True)
 
-    with OutputFolder(args.out) as folder:
+    with OutputFolder(args.out) as folder, c.executor_of(args) as executor:
         law = build_wall_law(
             scenario,
             spec,

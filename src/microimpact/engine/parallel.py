@@ -21,6 +21,7 @@ initializer, and to Dask workers by ``Client.scatter(..., broadcast=True)``.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import warnings
 
@@ -280,6 +281,52 @@ class ExecutorRunner:
         pass
 
 
+def dask_connect(*, address=None, workers: int = 2):
+    """``(client, cluster)``: a Dask ``Client`` connected to the scheduler at
+    `address` (``"tcp://host:8786"``; `cluster` is None), or to a new
+    ``LocalCluster`` of `workers` single-threaded worker processes. The caller
+    closes both (:func:`dask_client` does). An unreachable address is the user's
+    :class:`~microimpact.errors.InputError`; a missing Dask an ``ImportError``
+    naming the extra."""
+    try:
+        from dask.distributed import Client, LocalCluster
+    except ImportError:  # pragma: no cover - exercised only without the extra
+        raise ImportError(
+            "backend='dask' requires Dask distributed: pip install 'microimpact[dask]'"
+        ) from None
+    if address is None:
+        cluster = LocalCluster(
+            n_workers=workers,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=":0",
+        )
+        return Client(cluster), cluster
+    try:
+        return Client(address, timeout=DASK_CONNECT_TIMEOUT), None
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise InputError(
+            f"cannot connect to a Dask scheduler at {address!r} within "
+            f"{DASK_CONNECT_TIMEOUT} s ({type(exc).__name__}); give the "
+            "address of a running scheduler, e.g. 'tcp://host:8786', or "
+            "none to start a local cluster",
+            field="address",
+        ) from None
+
+
+@contextlib.contextmanager
+def dask_client(*, address=None, workers: int = 2):
+    """:func:`dask_connect` as a context manager: the client (and the local
+    cluster it started) is closed on exit."""
+    client, cluster = dask_connect(address=address, workers=workers)
+    try:
+        yield client
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
 class DaskRunner:
     """Run tasks on a Dask distributed cluster.
 
@@ -290,33 +337,7 @@ class DaskRunner:
     background = "later"  # as before: the driver's thread starts with the first result
 
     def __init__(self, plan, *, address=None, workers: int = 2):
-        try:
-            from dask.distributed import Client, LocalCluster
-        except ImportError:  # pragma: no cover - exercised only without the extra
-            raise ImportError(
-                "backend='dask' requires Dask distributed: "
-                "pip install 'microimpact[dask]'"
-            ) from None
-        self._cluster = None
-        if address is None:
-            self._cluster = LocalCluster(
-                n_workers=workers,
-                threads_per_worker=1,
-                processes=True,
-                dashboard_address=":0",
-            )
-            self._client = Client(self._cluster)
-        else:
-            try:
-                self._client = Client(address, timeout=DASK_CONNECT_TIMEOUT)
-            except (OSError, TimeoutError, ValueError) as exc:
-                raise InputError(
-                    f"cannot connect to a Dask scheduler at {address!r} within "
-                    f"{DASK_CONNECT_TIMEOUT} s ({type(exc).__name__}); give the "
-                    "address of a running scheduler, e.g. 'tcp://host:8786', or "
-                    "none to start a local cluster",
-                    field="address",
-                ) from None
+        self._client, self._cluster = dask_connect(address=address, workers=workers)
         self.workers = max(1, len(self._client.scheduler_info()["workers"]))
         [self._plan] = self._client.scatter([plan], broadcast=True)
 
