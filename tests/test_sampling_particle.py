@@ -344,3 +344,32 @@ def test_discrete_plus_a_density_with_jumps_is_exact(law, recwarn):
     pp = np.where(use_f, f, s)
     keep = pp >= P_MIN
     assert_within(err[keep], pp[keep], 1.0, "random points")
+
+
+@pytest.mark.parametrize("std_deg, warns", [(10.0, False), (20.0, True)])
+def test_summed_angles_beyond_vertical_are_announced(std_deg, warns):
+    """The summed-angle table clips facets beyond +-90 deg to +-90 deg; when that
+    mass exceeds 1e-9 the build says so, with its probability: for two N(0, s)
+    laws it is 2 Phi(-90 / (s sqrt 2)) (1.5e-3 at s = 20 deg; 1.5e-10 at 10 deg,
+    silent)."""
+    import warnings
+
+    from microimpact import SurfaceVariant, normal_angles
+    from microimpact.engine.plan import build_plan
+
+    sc = scenario(
+        surfaces=(SurfaceVariant("s", normal_angles(std_deg)),),
+        particle_roughness=normal_angles(std_deg),
+        angles_deg=(60.0,),
+        shadowing="weighted",
+    )
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        build_plan(sc)
+    said = [str(w.message) for w in caught if "beyond +-90 deg" in str(w.message)]
+    assert bool(said) == warns
+    if warns:
+        exact = 2 * stats.norm.cdf(-90.0 / (std_deg * math.sqrt(2.0)))
+        p = float(said[0].split("probability ")[1].split(" ")[0])
+        assert p == pytest.approx(exact, rel=0.05)
+        assert "surface 's'" in said[0]
