@@ -108,7 +108,8 @@ def add_run_options(sp, *, seed_help="root seed (overrides the file)"):
         "--workers",
         type=positive_int,
         default=1,
-        help="worker processes (default 1; capped at the number of cores)",
+        help="workers (default 1; capped at the number of cores): threads of this "
+        "process for the compiled kernel, else processes",
     )
     add_backend_options(sp)
     sp.add_argument("--quiet", action="store_true", help="no progress bar or summary")
@@ -123,7 +124,12 @@ def add_run_options(sp, *, seed_help="root seed (overrides the file)"):
 
 def add_backend_options(sp):
     """``--backend {process,dask}`` and ``--scheduler ADDRESS``."""
-    sp.add_argument("--backend", choices=("process", "dask"), default="process")
+    sp.add_argument(
+        "--backend",
+        choices=("process", "dask"),
+        default="process",
+        help="process: this machine (default); dask: a Dask cluster",
+    )
     sp.add_argument(
         "--scheduler",
         metavar="ADDRESS",
