@@ -14,9 +14,7 @@ Run ``python docs/figures/conventions.py [OUT_DIR]``; the default output directo
 from __future__ import annotations
 
 import math
-import os
 import sys
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +22,7 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Arc, Circle, FancyArrowPatch, Polygon
 
 import microimpact as mi
+from microimpact._files import atomic_write
 
 FILENAME = "conventions.png"
 THETA_DEG = 40.0  # apparent incidence angle, from the nominal plane
@@ -159,17 +158,6 @@ def draw(ax, *, theta_deg=THETA_DEG, phi_deg=PHI_DEG):
     return ax
 
 
-def _save_atomic(fig, path: Path) -> None:
-    fd, tmp = tempfile.mkstemp(suffix=".png", dir=path.parent)
-    os.close(fd)
-    try:
-        fig.savefig(tmp, dpi=150, bbox_inches="tight", format="png")
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
 def main(out_dir=None) -> Path:
     """Draw the conventions figure into `out_dir` (default ``docs/img``)."""
     if out_dir is None:
@@ -179,7 +167,10 @@ def main(out_dir=None) -> Path:
     fig = Figure(figsize=(9.0, 4.8))
     draw(fig.add_subplot())
     path = out_dir / FILENAME
-    _save_atomic(fig, path)
+    atomic_write(
+        path,
+        lambda tmp: fig.savefig(tmp, dpi=150, bbox_inches="tight", format="png"),
+    )
     return path
 
 

@@ -15,9 +15,7 @@ directory is ``docs/img``. ``main(out_dir)`` returns the path of the PNG written
 from __future__ import annotations
 
 import math
-import os
 import sys
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -25,6 +23,7 @@ from matplotlib.figure import Figure
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
 import microimpact as mi
+from microimpact._files import atomic_write
 
 FILENAME = "conventions_3d.png"
 THETA_DEG = 35.0  # apparent incidence angle, from the nominal plane
@@ -107,17 +106,6 @@ def draw(
     return ax
 
 
-def _save_atomic(fig, path: Path) -> None:
-    fd, tmp = tempfile.mkstemp(suffix=".png", dir=path.parent)
-    os.close(fd)
-    try:
-        fig.savefig(tmp, dpi=150, bbox_inches="tight", format="png")
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
 def main(out_dir=None) -> Path:
     """Draw the 3-D frame figure into `out_dir` (default ``docs/img``)."""
     if out_dir is None:
@@ -127,7 +115,10 @@ def main(out_dir=None) -> Path:
     fig = Figure(figsize=(8.0, 6.0))
     draw(fig.add_subplot(projection="3d"))
     path = out_dir / FILENAME
-    _save_atomic(fig, path)
+    atomic_write(
+        path,
+        lambda tmp: fig.savefig(tmp, dpi=150, bbox_inches="tight", format="png"),
+    )
     return path
 
 
