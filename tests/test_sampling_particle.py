@@ -191,17 +191,9 @@ def _mixture_oracle(atoms, sigma):
     return cdf, sf
 
 
-@pytest.mark.parametrize("sigma_deg", [0.5, 4.0])
-def test_discrete_plus_normal_is_the_mixture(sigma_deg):
-    rng = np.random.default_rng(7)
-    surf = angles_from_sample(rng.normal(3.0, 15.0, 300))
-    sigma = np.deg2rad(sigma_deg)
-    table = plan_module.convolve_angles(surf, normal_angles(sigma_deg))
-    cdf, sf = _mixture_oracle(surf.atoms, sigma)
-    err, p = node_errors(table, cdf, sf)
-    assert_within(err, p, 1e-2, "nodes")
-    # random points: the table's own quantiles at random probabilities, then the
-    # oracle's CDF there against the table's
+def _check_random_points(table, cdf, sf):
+    """The oracle's CDF (SF in the upper half) at the table's own quantiles of
+    random probabilities, body and both tails to 1e-9, against the table's."""
     rng = np.random.default_rng(1)
     q = np.concatenate([10 ** rng.uniform(-9, -0.3, 2000), rng.random(2000)])
     q = np.concatenate([q, 1.0 - 10 ** rng.uniform(-9, -0.3, 2000)])
@@ -213,6 +205,18 @@ def test_discrete_plus_normal_is_the_mixture(sigma_deg):
     pp = np.where(use_f, f, s)
     keep = pp >= P_MIN
     assert_within(err[keep], pp[keep], 1.0, "random points")
+
+
+@pytest.mark.parametrize("sigma_deg", [0.5, 4.0])
+def test_discrete_plus_normal_is_the_mixture(sigma_deg):
+    rng = np.random.default_rng(7)
+    surf = angles_from_sample(rng.normal(3.0, 15.0, 300))
+    sigma = np.deg2rad(sigma_deg)
+    table = plan_module.convolve_angles(surf, normal_angles(sigma_deg))
+    cdf, sf = _mixture_oracle(surf.atoms, sigma)
+    err, p = node_errors(table, cdf, sf)
+    assert_within(err, p, 1e-2, "nodes")
+    _check_random_points(table, cdf, sf)
 
 
 def test_discrete_plus_normal_either_way_round():
@@ -333,17 +337,7 @@ def test_discrete_plus_a_density_with_jumps_is_exact(law, recwarn):
 
     err, p = node_errors(table, cdf, sf)
     assert_within(err, p, 1e-2, "nodes")
-    rng = np.random.default_rng(1)
-    q = np.concatenate([10 ** rng.uniform(-9, -0.3, 2000), rng.random(2000)])
-    q = np.concatenate([q, 1.0 - 10 ** rng.uniform(-9, -0.3, 2000)])
-    x = table.quantile(q)
-    t_cdf, t_sf = table_cdf_sf(table, x)
-    f, s = cdf(x), sf(x)
-    use_f = f <= s
-    err = np.where(use_f, np.abs(t_cdf - f), np.abs(t_sf - s))
-    pp = np.where(use_f, f, s)
-    keep = pp >= P_MIN
-    assert_within(err[keep], pp[keep], 1.0, "random points")
+    _check_random_points(table, cdf, sf)
 
 
 @pytest.mark.parametrize("std_deg, warns", [(10.0, False), (20.0, True)])
