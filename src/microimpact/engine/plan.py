@@ -279,7 +279,25 @@ PAIR_FIRST = 8
 
 
 @dataclass(frozen=True, eq=False)
-class PairSampler:
+class _Pairs:
+    """Two discrete angle sets, the surface's and the particle's, whose pairs
+    ``(a_i, b_j)`` are drawn exactly (:class:`PairSampler`, :class:`PairSearch`)."""
+
+    surface: Sampler
+    particle: Sampler
+
+    def leans_back(self, angle_deg: float) -> bool:
+        """Whether some pairs lean back past -90 deg at `angle_deg` (below
+        ``theta``, ``a_i + b_j < theta``, but not reachable by the sine)."""
+        return _leans_back(self.surface, self.particle, angle_deg)
+
+    @property
+    def values(self) -> np.ndarray:
+        return np.concatenate([self.surface.values, self.particle.values])
+
+
+@dataclass(frozen=True, eq=False)
+class PairSampler(_Pairs):
     """A rough particle on a surface whose angle distributions are both discrete
     with equal masses (the paper's *Lycopodium* on Formica): the roughness angle is
     ``a_i + b_j`` for a pair drawn exactly, from one 64-bit draw, among the
@@ -297,20 +315,8 @@ class PairSampler:
     tables this range changed ("reject" where some pairs lean back: see
     :meth:`Plan.pair_algorithm`)."""
 
-    surface: Sampler
-    particle: Sampler
-
     #: How the pairs are drawn where that changed (see the class).
     ALGORITHM = "pair ranks: range [m, n), leaning back left out"
-
-    def leans_back(self, angle_deg: float) -> bool:
-        """Whether some pairs lean back past -90 deg at `angle_deg` (below
-        ``theta``, ``a_i + b_j < theta``, but not reachable by the sine)."""
-        return _leans_back(self.surface, self.particle, angle_deg)
-
-    @property
-    def values(self) -> np.ndarray:
-        return np.concatenate([self.surface.values, self.particle.values])
 
     @property
     def nbytes(self) -> int:
@@ -379,7 +385,7 @@ BOUND_RELATIVE, BOUND_ABSOLUTE = 1e-12, 1e-14
 
 
 @dataclass(frozen=True, eq=False)
-class PairSearch:
+class PairSearch(_Pairs):
     """A rough particle on a surface whose angle distributions are both discrete,
     where :class:`PairSampler` does not apply (``"weighted"`` shadowing, or unequal
     masses) and the pairs are too many to tabulate their sums exactly (more than
@@ -446,8 +452,7 @@ class PairSearch:
     the target: ``lam = 0``, and every proposal is accepted (``g = cos b > 0``
     as computed with ``alpha = 1``, ``beta = 0``)."""
 
-    surface: Sampler
-    particle: Sampler  # rows + (P1, P2) of the masses
+    # surface: Sampler; particle: Sampler, rows + (P1, P2) of the masses
     sine: Sampler | None  # rows + (P1, P2) of the sine weight ("weighted")
 
     #: How the pairs are drawn (in checkpoint fingerprints: a checkpoint of an
@@ -456,14 +461,6 @@ class PairSearch:
     #: Added to :data:`ALGORITHM` for ``"reject"`` where some pairs lean back
     #: past -90 deg (their range used to start at 0: :meth:`Plan.pair_algorithm`).
     REJECT_RANGE = "'reject': range [m, n) too"
-
-    def leans_back(self, angle_deg: float) -> bool:
-        """Whether some pairs lean back past -90 deg at `angle_deg`."""
-        return _leans_back(self.surface, self.particle, angle_deg)
-
-    @property
-    def values(self) -> np.ndarray:
-        return np.concatenate([self.surface.values, self.particle.values])
 
     @property
     def nbytes(self) -> int:
