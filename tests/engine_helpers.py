@@ -78,3 +78,16 @@ def scenario(**kw):
 
 def rough(std_deg=10.0, mean_deg=0.0, name="rough"):
     return SurfaceVariant(name, normal_angles(std_deg, mean_deg))
+
+
+def correlated_areal_angles(n, seed=5, std_par=18.0, std_perp=14.0, rho=0.3):
+    """An areal angle set of `n` joint (phi_par, phi_perp) [deg] draws: bivariate
+    normal, standard deviations `std_par`, `std_perp`, correlation `rho`."""
+    from microimpact.surface.areal_angles import areal_angles_from_sample
+
+    rng = np.random.default_rng(seed)
+    a = rng.normal(0.0, std_par, n)
+    b = rho * a * std_perp / std_par + rng.normal(
+        0.0, std_perp * np.sqrt(1 - rho**2), n
+    )
+    return areal_angles_from_sample(a, b)

@@ -19,7 +19,7 @@ import dataclasses
 
 import numpy as np
 import pytest
-from engine_helpers import PowerCoefficients, scenario
+from engine_helpers import PowerCoefficients, correlated_areal_angles, scenario
 from numpy.testing import assert_allclose, assert_array_equal
 
 import microimpact as mi
@@ -45,12 +45,7 @@ K = 4.0
 
 
 def _pairs(n=400, seed=5, std_par=18.0, std_perp=14.0, rho=0.3):
-    rng = np.random.default_rng(seed)
-    a = rng.normal(0.0, std_par, n)
-    b = rho * a * std_perp / std_par + rng.normal(
-        0.0, std_perp * np.sqrt(1 - rho**2), n
-    )
-    return areal_angles_from_sample(a, b)
+    return correlated_areal_angles(n, seed, std_par, std_perp, rho)
 
 
 def _wrap(d):

@@ -17,7 +17,7 @@ import zipfile
 
 import numpy as np
 import pytest
-from engine_helpers import PowerCoefficients, rough, scenario
+from engine_helpers import PowerCoefficients, correlated_areal_angles, rough, scenario
 from numpy.testing import assert_allclose, assert_array_equal
 
 import microimpact as mi
@@ -37,18 +37,12 @@ from microimpact.engine.kernel import simulate_block
 from microimpact.engine.montecarlo import build_plan, run
 from microimpact.engine.statistics import point_row
 from microimpact.scenario import SurfaceVariant
-from microimpact.surface.areal_angles import areal_angles_from_sample
 
 K = 4.0
 
 
 def _areal(n=600, seed=5, std_par=18.0, std_perp=14.0, rho=0.3):
-    rng = np.random.default_rng(seed)
-    a = rng.normal(0.0, std_par, n)
-    b = rho * a * std_perp / std_par + rng.normal(
-        0.0, std_perp * np.sqrt(1 - rho**2), n
-    )
-    return areal_angles_from_sample(a, b)
+    return correlated_areal_angles(n, seed, std_par, std_perp, rho)
 
 
 def _areal_scenario(**kw):
