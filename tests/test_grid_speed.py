@@ -163,17 +163,26 @@ def test_stacked_rows_round_trip_take_and_concat(rng):
 
 
 # ------------------------------------------------------------------ the driver
+def _accumulator_path(sc, seed):
+    """The result built the old way: from the iter_blocks totals
+    (PointAccumulator objects), one worker."""
+    plan = build_plan(sc, seed=seed)
+    totals = {
+        (br.point, br.replicate): br.total
+        for br in iter_blocks(sc, seed=seed)
+        if br.done
+    }
+    return SimulationResult.from_accumulators(sc, plan, totals, elapsed=0.0)
+
+
 def test_run_equals_the_accumulator_path():
     """run() builds the result from the tasks' rows; building it from the
     iter_blocks totals (PointAccumulator objects) gives the same bits."""
     sc = _grid()
     res = run(sc, seed=3)
-    plan = build_plan(sc, seed=3)
-    totals = {
-        (br.point, br.replicate): br.total for br in iter_blocks(sc, seed=3) if br.done
-    }
-    ref = SimulationResult.from_accumulators(sc, plan, totals, elapsed=0.0)
+    ref = _accumulator_path(sc, 3)
     _same_dataset(ref.dataset, res.dataset)
+    plan = build_plan(sc, seed=3)
     assert len(res.accumulators) == len(plan.points)
     assert all(res.accumulators[k] == ref.accumulators[k] for k in ref.accumulators)
     with pytest.raises(KeyError):
@@ -191,27 +200,13 @@ def test_mixed_streams_are_gathered_in_key_order(monkeypatch, workers):
     sc_small = _grid(speeds_m_s=(0.2, 0.5), angles_deg=(30.0, 60.0), samples=BLOCK_SIZE)
     for s in (sc, sc_small):
         res = run(s, seed=9, workers=workers)
-        plan = build_plan(s, seed=9)
-        totals = {
-            (br.point, br.replicate): br.total
-            for br in iter_blocks(s, seed=9)
-            if br.done
-        }
-        _same_dataset(
-            SimulationResult.from_accumulators(s, plan, totals, elapsed=0.0).dataset,
-            res.dataset,
-        )
+        _same_dataset(_accumulator_path(s, 9).dataset, res.dataset)
 
 
 def test_qmc_replicates_pool_as_before():
     sc = _grid(sampling="qmc", qmc_replicates=4, samples=2048, speeds_m_s=(0.3, 0.6))
     res = run(sc, seed=2)
-    plan = build_plan(sc, seed=2)
-    totals = {
-        (br.point, br.replicate): br.total for br in iter_blocks(sc, seed=2) if br.done
-    }
-    ref = SimulationResult.from_accumulators(sc, plan, totals, elapsed=0.0)
-    _same_dataset(ref.dataset, res.dataset)
+    _same_dataset(_accumulator_path(sc, 2).dataset, res.dataset)
 
 
 def test_tasks_return_rows():
