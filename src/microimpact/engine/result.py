@@ -542,6 +542,19 @@ def _with_lateral(ds):
     return ds
 
 
+def dataset_surface_flags(result, variable: str) -> dict[str, bool] | None:
+    """``{surface name: flag}`` from the result Dataset's per-surface boolean
+    `variable` (``surface_is_smooth``, ``surface_is_areal``), or None when the
+    result has no Dataset or the Dataset not that variable (an older file)."""
+    ds = getattr(result, "dataset", None)
+    if ds is None or variable not in ds:
+        return None
+    return {
+        str(n): bool(v)
+        for n, v in zip(ds["surface"].values, ds[variable].values, strict=True)
+    }
+
+
 def is_areal_surface(surface) -> bool:
     """An areal (3-D) surface, recognised by structure: its angle distribution is
     a joint facet-angle one (``is_areal``)."""

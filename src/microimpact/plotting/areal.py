@@ -26,15 +26,11 @@ def areal_surfaces(result) -> dict[str, bool]:
     """``{surface name: areal}``, recognised by structure, never by name: the
     Dataset's ``surface_is_areal`` flag, else the scenario surfaces' ``areal``
     attribute or angle distribution (``is_areal``); otherwise not areal."""
-    ds = getattr(result, "dataset", None)
-    if ds is not None and "surface_is_areal" in ds:
-        return {
-            str(n): bool(v)
-            for n, v in zip(
-                ds["surface"].values, ds["surface_is_areal"].values, strict=True
-            )
-        }
-    from ..engine.result import is_areal_surface
+    from ..engine.result import dataset_surface_flags, is_areal_surface
+
+    flags = dataset_surface_flags(result, "surface_is_areal")
+    if flags is not None:
+        return flags
 
     out = {}
     for s in getattr(result.scenario, "surfaces", ()):

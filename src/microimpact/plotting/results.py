@@ -77,14 +77,11 @@ def smooth_surfaces(result) -> dict[str, bool]:
     """``{surface name: molecularly smooth}``, recognised by structure, never by
     name: the Dataset's ``surface_is_smooth`` flag, else the scenario surfaces'
     ``smooth`` attribute; a surface with neither counts as rough."""
-    ds = getattr(result, "dataset", None)
-    if ds is not None and "surface_is_smooth" in ds:
-        return {
-            str(n): bool(v)
-            for n, v in zip(
-                ds["surface"].values, ds["surface_is_smooth"].values, strict=True
-            )
-        }
+    from ..engine.result import dataset_surface_flags
+
+    flags = dataset_surface_flags(result, "surface_is_smooth")
+    if flags is not None:
+        return flags
     return {
         str(s.name): bool(getattr(s, "smooth", False))
         for s in getattr(result.scenario, "surfaces", ())
