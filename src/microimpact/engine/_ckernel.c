@@ -796,13 +796,12 @@ enum { P_ONE = 8, P_TWO };
  * m_i of the surface atom's pairs. */
 enum { PAIR_FIRST = 8 };
 
-/* sin, cos (theta - a - b) and tan(a + b) of impact k from the rows of its
- * surface atom a and particle atom b (as for pair ranks). */
+/* sin, cos (theta - a - b) and tan(a + b) of impact k from sin, cos, tan of its
+ * surface atom a and the row of its particle atom b (pair ranks and searches). */
 ALWAYS_INLINE void
-pair_angles(double *restrict ws, int k, double st, double ct, const double *ra,
-            const double *rb)
+pair_angles(double *restrict ws, int k, double st, double ct, double sa, double ca,
+            double ta, const double *rb)
 {
-    double sa = ra[2], ca = ra[4], ta = ra[6];
     double s1 = st * ca - ct * sa; /* sin(theta - a) */
     double c1 = ct * ca + st * sa;
     ws[W_SIN * CHUNK + k] = s1 * rb[4] - c1 * rb[2];
@@ -885,7 +884,8 @@ pair_search(const block_args *a, scratch_t *s, const uint64_t *restrict r,
         g = g > 0.0 ? g : 0.0;
         double gwk = g * gw[k];
         double t = f * lam;
-        pair_angles(ws, k, st, ct, row, pr); /* the proposal's (kept if accepted) */
+        /* the proposal's angles (kept if accepted) */
+        pair_angles(ws, k, st, ct, row[2], row[4], row[6], pr);
         /* written for every impact, kept (m advanced) for the rejected */
         at[m] = k;
         num[m] = t - gwk;
@@ -925,8 +925,8 @@ pair_search(const block_args *a, scratch_t *s, const uint64_t *restrict r,
     }
     for (int q = 0; q < m; q++) {
         int k = at[q];
-        pair_angles(ws, k, st, ct, A->rows + (Py_ssize_t)cell[k] * A->stride,
-                    prow + base[q] * pstride);
+        const double *ra = A->rows + (Py_ssize_t)cell[k] * A->stride;
+        pair_angles(ws, k, st, ct, ra[2], ra[4], ra[6], prow + base[q] * pstride);
     }
 }
 
@@ -994,14 +994,9 @@ run_block(block_args *a, scratch_t *s)
                  * malformed call inside the buffer */
                 j += first >= 0.0 && first < (double)a->b.n ? (uint64_t)first : 0;
                 j = j < (uint64_t)a->b.n ? j : (uint64_t)a->b.n - 1;
-                const double *rb = a->b.rows + (Py_ssize_t)j * a->b.stride;
-                double sa = ws[W_SIN * CHUNK + k], ca = ws[W_COT * CHUNK + k];
-                double ta = ws[W_TAN * CHUNK + k];
-                double s1 = st * ca - ct * sa; /* sin(theta - a) */
-                double c1 = ct * ca + st * sa;
-                ws[W_SIN * CHUNK + k] = s1 * rb[4] - c1 * rb[2];
-                ws[W_COT * CHUNK + k] = c1 * rb[4] + s1 * rb[2];
-                ws[W_TAN * CHUNK + k] = (ta + rb[6]) / (1.0 - ta * rb[6]);
+                pair_angles(ws, k, st, ct, ws[W_SIN * CHUNK + k],
+                            ws[W_COT * CHUNK + k], ws[W_TAN * CHUNK + k],
+                            a->b.rows + (Py_ssize_t)j * a->b.stride);
             }
         } else if (a->angle_random) {
             lookup(&a->a, i_a, 0, c, a->cut, s->ra, s->g[1],
