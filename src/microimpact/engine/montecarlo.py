@@ -43,8 +43,6 @@ from .accumulators import PointAccumulator
 from .checkpoint import Checkpoint, CheckpointWarning, plan_fingerprint
 from .parallel import (
     BACKENDS,
-    PoolRunner,
-    ThreadRunner,
     available_cores,
     cap_workers,
     make_runner,
@@ -501,10 +499,7 @@ class _Job:
             executor=self.executor,
             address=self.address,
         )
-        if isinstance(runner, ThreadRunner):
-            self.local_workers = "threads"
-        elif isinstance(runner, PoolRunner):
-            self.local_workers = "processes"
+        self.local_workers = runner.local_workers
         self._background_policy = runner.background
         if runner.background == "now":
             self._start_background()  # no fork to come: the kernel frees the GIL

@@ -133,6 +133,7 @@ class SerialRunner:
 
     workers = 1
     background = "now"  # see ThreadRunner.background
+    local_workers = None  # see ThreadRunner.local_workers
 
     def __init__(self, plan):
         self.plan = plan
@@ -201,6 +202,9 @@ class ThreadRunner:
     #: kernel call; on a 10^4-point grid it cost ~1,500 more context switches and
     #: more time than doing its ~30 ms of work at the end).
     background = "end"
+    #: What the provenance records as ``local_workers``: ``"threads"`` or
+    #: ``"processes"`` for several workers on this machine, None otherwise.
+    local_workers = "threads"
 
     def __init__(self, plan, workers: int):
         from concurrent.futures import ThreadPoolExecutor
@@ -230,6 +234,7 @@ class PoolRunner:
     """Run tasks on a :class:`concurrent.futures.ProcessPoolExecutor`."""
 
     background = "later"  # see ThreadRunner.background
+    local_workers = "processes"
 
     def __init__(self, plan, workers: int):
         self.workers = workers
@@ -259,6 +264,7 @@ class ExecutorRunner:
     pools, ``concurrent.futures`` executors, ``multiprocessing.Pool``...)."""
 
     background = "later"  # it may start processes on its first task
+    local_workers = None
 
     def __init__(self, plan, executor):
         self.plan = plan
@@ -335,6 +341,7 @@ class DaskRunner:
     """
 
     background = "later"  # as before: the driver's thread starts with the first result
+    local_workers = None
 
     def __init__(self, plan, *, address=None, workers: int = 2):
         self._client, self._cluster = dask_connect(address=address, workers=workers)
