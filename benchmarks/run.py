@@ -28,7 +28,7 @@ process once with ``--smoke``):
    impacts per replicate, against an independent quadrature of the exact
    expectation (> 1 means QMC is better).
 8. ``paper_reproduction_s``: the four presets at 4,000 impacts per point, if
-   ``microimpact.config.load_preset`` exists.
+   ``microimpact.scenario.scenario.file.load_preset`` exists.
 9. ``grid_per_s``: ``microimpact.run(workers=1)`` over a sweep grid of 100 speeds
    x 100 angles (10^4 points) at 4,000 impacts per point on the same rough surface
    (``grid_all_cores_per_s``: ``workers=os.cpu_count()``); ``grid_ratio`` is
@@ -480,7 +480,7 @@ def paper_reproduction(samples: int, *, max_presets=None, cli_out=None) -> dict:
     point (engine only) and, with `cli_out`, ``microimpact reproduce`` as a user
     runs it."""
     try:
-        from microimpact.config import PRESETS, load_preset
+        from microimpact.scenario.scenario.file import PRESETS, load_preset
     except ImportError as exc:
         return {"skipped": f"presets not available ({exc})"}
     import microimpact as mi
@@ -629,7 +629,7 @@ def check_agreement(a: dict, b: dict, what: str) -> dict:
 
 
 def write_json_atomic(path, data) -> None:
-    from microimpact._files import atomic_write
+    from microimpact._core.files import atomic_write
 
     text = json.dumps(data, indent=2) + "\n"
     atomic_write(path, lambda tmp: Path(tmp).write_text(text))

@@ -10,8 +10,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from microimpact._tables import QuantileTable
-from microimpact.scenario import Scenario, SurfaceVariant
+from microimpact._core.tables import QuantileTable
+from microimpact.scenario.scenario import Scenario, SurfaceVariant
 
 
 @dataclass(frozen=True)

@@ -9,7 +9,7 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy import integrate, stats
 
-from microimpact._tables import QuantileTable
+from microimpact._core.tables import QuantileTable
 from microimpact.surface.angles import (
     AngleDistribution,
     angles_from_file,

@@ -13,15 +13,20 @@ import pandas as pd
 import pytest
 
 import microimpact
-from microimpact.calibration import (
+from microimpact.analysis.calibration import (
     calibrate,
     default_bounds,
     parse_parameter,
     to_toml,
 )
-from microimpact.config import PRESETS, _load_toml, preset_path, scenario_from_dict
 from microimpact.errors import InputError
-from microimpact.parameters import with_values
+from microimpact.scenario.file import (
+    PRESETS,
+    _load_toml,
+    preset_path,
+    scenario_from_dict,
+)
+from microimpact.scenario.parameters import with_values
 
 STD = "surfaces.rough.std_deg"
 
@@ -315,7 +320,7 @@ def test_an_undefined_model_value_is_a_rejected_step_not_a_crash():
     """A trial point where the model leaves a measured statistic undefined (every
     particle captured: no e) gives a large finite residual, and the Jacobian a
     one-sided slope, so that least_squares does not fail on NaN."""
-    from microimpact.calibration import UNDEFINED_RESIDUAL, _Objective
+    from microimpact.analysis.calibration import UNDEFINED_RESIDUAL, _Objective
 
     class Stub:
         def summaries(self, xs):

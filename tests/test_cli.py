@@ -470,7 +470,7 @@ def test_experiments_are_read_once(tmp_path, monkeypatch):
 
 
 def test_precision_flag_keeps_the_scenario_precision(tmp_path, monkeypatch):
-    import microimpact.study as study
+    import microimpact.pipeline.study as study
     from microimpact.errors import InputError
 
     p = _scenario(tmp_path)

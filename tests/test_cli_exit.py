@@ -49,7 +49,7 @@ def test_user_error_is_2_with_one_line(tmp_path, capsys):
 def test_environment_error_is_3_naming_the_path_and_cause(
     tmp_path, capsys, monkeypatch
 ):
-    import microimpact._outdir as outdir
+    import microimpact.pipeline.folder as outdir
 
     def full(path, write):
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))

@@ -1,4 +1,4 @@
-"""Tests for microimpact.compare: simulated vs experimental means.
+"""Tests for microimpact.analysis.compare: simulated vs experimental means.
 
 The oracle is a summary table built by hand with known means and standard errors,
 so the z statistics, agreement flags and interpolated values are computed here on
@@ -15,7 +15,7 @@ import pandas as pd
 import pytest
 from numpy.testing import assert_allclose
 
-from microimpact.compare import compare
+from microimpact.analysis.compare import compare
 from microimpact.plotting.comparison import plot_comparison
 
 matplotlib.use("Agg")

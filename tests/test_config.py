@@ -1,4 +1,4 @@
-"""Tests of microimpact.config: TOML scenario files -> Scenario.
+"""Tests of microimpact.scenario.file: TOML scenario files -> Scenario.
 
 Every documented error has one ``pytest.raises(ScenarioError, match=...)`` and the
 corpus ``tests/data/bad_scenarios/*.toml`` (first line ``# expect: <key path>``)
@@ -16,7 +16,8 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from microimpact.config import (
+from microimpact.errors import ScenarioError
+from microimpact.scenario.file import (
     PRESET_DIR,
     PRESETS,
     list_presets,
@@ -26,9 +27,8 @@ from microimpact.config import (
     scenario_from_dict,
     scenario_from_toml,
 )
-from microimpact.errors import ScenarioError
-from microimpact.outputs import Outputs
-from microimpact.scenario import Scenario
+from microimpact.scenario.outputs import Outputs
+from microimpact.scenario.scenario import Scenario
 from microimpact.units import deg_to_rad, um_to_m
 
 BAD_DIR = Path(__file__).parent / "data" / "bad_scenarios"
@@ -614,7 +614,7 @@ def test_examples_are_relative_symlinks_to_the_presets():
         link = examples / file
         assert link.is_symlink()
         target = os.readlink(link)
-        assert target == f"../src/microimpact/presets/{file}"
+        assert target == f"../src/microimpact/scenario/presets/{file}"
         assert link.resolve() == (PRESET_DIR / file).resolve()
         a, b = scenario_from_toml(link), scenario_from_toml(PRESET_DIR / file)
         assert_allclose(a.particles.table().values, b.particles.table().values, rtol=0)
@@ -622,7 +622,7 @@ def test_examples_are_relative_symlinks_to_the_presets():
 
 # --------------------------------------------------------------------- review fixes
 def test_precision_checks_itself():
-    from microimpact.scenario import Precision
+    from microimpact.scenario.scenario import Precision
 
     for bad in (True, False):
         with pytest.raises(ScenarioError, match=r"precision\.half_width: must be a"):
@@ -646,7 +646,7 @@ def test_precision_min_above_max_in_a_file():
 
 
 def test_figure_formats_are_those_save_figure_writes():
-    from microimpact._formats import FIGURE_FORMATS
+    from microimpact._core.formats import FIGURE_FORMATS
     from microimpact.plotting.results import FIGURE_FORMATS as PLOTTED
 
     assert FIGURE_FORMATS == PLOTTED == ("png", "pdf", "svg")

@@ -1,4 +1,4 @@
-"""Tests for microimpact._distributions: the one core behind sizes and angles.
+"""Tests for microimpact._core.distributions: the one core behind sizes and angles.
 
 Oracles are independent of the core: closed forms in ``scipy.special`` on the
 standardised variable, mpmath at 50 digits (when installed), hand-computed sums for
@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 from scipy import special, stats
 
-from microimpact._distributions import DiscreteAtoms, TruncatedContinuous
+from microimpact._core.distributions import DiscreteAtoms, TruncatedContinuous
 from microimpact.population.distributions import (
     empirical_diameters,
     lognormal_diameters,

@@ -10,7 +10,7 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy import special, stats
 
-from microimpact._tables import TABLE_SIZE, mid_probabilities
+from microimpact._core.tables import TABLE_SIZE, mid_probabilities
 from microimpact.population.distributions import (
     CUT_WARN_THRESHOLD,
     SizeDistribution,
@@ -483,7 +483,7 @@ def test_table_is_evaluated_in_slices_with_unchanged_values():
     # atoms must be the values of one whole-array call
     from scipy import stats
 
-    from microimpact._tables import (
+    from microimpact._core.tables import (
         PPF_SLICE,
         TABLE_SIZE,
         QuantileTable,

@@ -262,7 +262,7 @@ def test_entry_points_take_a_preset_name_or_a_scenario_file(tmp_path):
     """run, iter_blocks, sample_point, estimate_duration and convergence_study all
     normalise their scenario (a Scenario, a TOML path or a preset name)."""
     import microimpact as mi
-    from microimpact.config import preset_path
+    from microimpact.scenario.file import preset_path
 
     name = "sst65-silicon-normal"
     by_name = run(name, samples=300, seed=1)

@@ -32,7 +32,7 @@ from microimpact.engine.plan import (
     build_plan,
 )
 from microimpact.errors import InputError, ScenarioError
-from microimpact.scenario import SurfaceVariant
+from microimpact.scenario.scenario import SurfaceVariant
 from microimpact.surface.angles import angles_from_sample
 from microimpact.surface.areal_angles import (
     ArealAngles,

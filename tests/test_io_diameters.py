@@ -291,7 +291,7 @@ def test_histogram_reads_the_same_messy_style(write_file):
     ],
 )
 def test_sniff_delimiter(line, expected):
-    from microimpact._files import sniff_delimiter
+    from microimpact._core.files import sniff_delimiter
 
     assert sniff_delimiter(line) == expected
 
@@ -314,6 +314,6 @@ def test_semicolon_file_with_decimal_commas_names_the_cell(write_file):
     ],
 )
 def test_csv_cells_padding(text, delimiter, cells):
-    from microimpact._files import csv_cells
+    from microimpact._core.files import csv_cells
 
     assert csv_cells(text, source="f", line=1, delimiter=delimiter) == cells

@@ -16,7 +16,7 @@ from engine_helpers import PowerCoefficients, rough, scenario
 from numpy.testing import assert_allclose, assert_array_equal
 
 from microimpact import SurfaceVariant
-from microimpact._tables import CellTable
+from microimpact._core.tables import CellTable
 from microimpact.engine import kernel
 from microimpact.engine.plan import Sampler, build_plan, resolve_kernel
 from microimpact.errors import InputError

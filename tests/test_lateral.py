@@ -36,7 +36,7 @@ from microimpact.engine.dataset import LATERAL_VARIABLES
 from microimpact.engine.kernel import simulate_block
 from microimpact.engine.montecarlo import build_plan, run
 from microimpact.engine.statistics import point_row
-from microimpact.scenario import SurfaceVariant
+from microimpact.scenario.scenario import SurfaceVariant
 
 K = 4.0
 
@@ -200,7 +200,7 @@ def test_ragged_layout_reads_back(monkeypatch, areal_result):
 
 
 def test_mirror_symmetry_of_the_isotropic_preset_surface():
-    from microimpact.config import load_preset
+    from microimpact.scenario.file import load_preset
 
     sc = load_preset("sst76-formica-areal")
     import dataclasses
@@ -300,9 +300,9 @@ def test_profile_vs_areal_figure_and_report(tmp_path, areal_result):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from microimpact.pipeline.report import write_report
     from microimpact.plotting.areal import plot_profile_vs_areal
     from microimpact.plotting.results import figures_for_result, result_figures
-    from microimpact.report import write_report
 
     paths = figures_for_result(areal_result, tmp_path, formats=("png",))
     assert tmp_path / "profile_vs_areal.png" in paths

@@ -30,7 +30,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
 from microimpact.cli import main
-from microimpact.config import scenario_from_toml
+from microimpact.scenario.file import scenario_from_toml
 
 CHECKPOINT = ".microimpact-checkpoint.npz"
 _FAST = settings(
@@ -235,8 +235,8 @@ def test_opened_result_gives_the_same_figures_and_report(tmp_path):
     figures included) and a report with the same tables as the fresh one."""
     from microimpact.engine.montecarlo import run
     from microimpact.engine.result import open_result
+    from microimpact.pipeline.report import input_figures, write_report
     from microimpact.plotting.results import figures_for_result
-    from microimpact.report import input_figures, write_report
 
     path = tmp_path / "s.toml"
     path.write_text(
@@ -303,8 +303,8 @@ def test_capture_marker_and_table_handle_open_and_refused(tmp_path):
     that would give a negative error bar."""
     from types import SimpleNamespace
 
+    from microimpact.pipeline.report import _capture_table, summary_text
     from microimpact.plotting.results import plot_capture
-    from microimpact.report import _capture_table, summary_text
 
     rows = pd.DataFrame(
         {

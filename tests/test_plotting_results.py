@@ -24,7 +24,7 @@ from microimpact.plotting.results import (
     rebin,
     save_figure,
 )
-from microimpact.scenario import SurfaceVariant
+from microimpact.scenario.scenario import SurfaceVariant
 
 
 @pytest.fixture(scope="module")

@@ -18,8 +18,8 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy import stats
 
-from microimpact.config import PRESET_DIR, list_presets, load_preset
 from microimpact.engine.montecarlo import run
+from microimpact.scenario.file import PRESET_DIR, list_presets, load_preset
 
 N = 4000  # the paper's 4,000 simulation points
 SEED = 12345
@@ -80,7 +80,7 @@ def _raw(res):
     """The preset's scenario file as parsed TOML (read independently of config)."""
     import tomllib
 
-    from microimpact.config import PRESETS
+    from microimpact.scenario.file import PRESETS
 
     return tomllib.loads((PRESET_DIR / PRESETS[res.scenario.name]).read_text())
 
@@ -203,8 +203,8 @@ def test_lycopodium_preset(results):
 
 @pytest.mark.parametrize("name", list_presets())
 def test_preset_figure_formats(name):
-    from microimpact.config import outputs_from_toml, preset_path
     from microimpact.plotting.results import FIGURE_FORMATS
+    from microimpact.scenario.file import outputs_from_toml, preset_path
 
     figures = outputs_from_toml(preset_path(name)).figures
     assert figures == ("png",)  # what `microimpact reproduce` (make demo) writes
@@ -215,7 +215,7 @@ def test_areal_preset_matches_the_profile_in_plane_roughness():
     """sst76-formica-areal: its synthetic areal surface has the profile's in-plane
     roughness spread (the claim of the preset file), and its facets also tilt out
     of the plane of incidence; reproduce (make demo) keeps to the paper's cases."""
-    from microimpact.config import PAPER_PRESETS
+    from microimpact.scenario.file import PAPER_PRESETS
 
     sc = load_preset("sst76-formica-areal")
     profile, areal = (s.angles for s in sc.surfaces)

@@ -1,4 +1,5 @@
-"""Tests for microimpact.report: self-contained HTML report and text summary."""
+"""Tests for microimpact.pipeline.report: the self-contained HTML report and text
+summary."""
 
 from __future__ import annotations
 
@@ -22,9 +23,9 @@ from engine_helpers import (
 )
 
 from microimpact.engine.montecarlo import run
+from microimpact.pipeline.report import summary_text, write_report
 from microimpact.plotting.results import figures_for_result
-from microimpact.report import summary_text, write_report
-from microimpact.scenario import SurfaceVariant
+from microimpact.scenario.scenario import SurfaceVariant
 
 DIAM = FrozenDist(normal_diameters().dist, label="test <b>bold</b>")
 
@@ -211,7 +212,7 @@ def test_input_figure_names_are_file_names(results):
     ``surface_is_smooth`` flag, not the name), names safe for files."""
     from types import SimpleNamespace
 
-    from microimpact.report import input_figures
+    from microimpact.pipeline.report import input_figures
 
     ds = results[1].dataset
     q = ds["roughness_angle_quantile"].values

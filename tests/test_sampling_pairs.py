@@ -31,11 +31,11 @@ import pytest
 from engine_helpers import PowerCoefficients, scenario
 
 from microimpact import SurfaceVariant
-from microimpact._distributions import DiscreteAtoms
+from microimpact._core.distributions import DiscreteAtoms
 from microimpact.engine import kernel
 from microimpact.engine import plan as plan_module
 from microimpact.engine.plan import build_plan
-from microimpact.scenario import Scenario
+from microimpact.scenario.scenario import Scenario
 from microimpact.surface.angles import AngleDistribution, angles_from_sample
 
 TWO64 = 2**64

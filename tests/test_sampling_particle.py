@@ -29,7 +29,7 @@ from engine_helpers import scenario
 from scipy import stats
 
 from microimpact import SurfaceVariant
-from microimpact._tables import CellTable
+from microimpact._core.tables import CellTable
 from microimpact.engine import _convolution, kernel
 from microimpact.engine import plan as plan_module
 from microimpact.engine.plan import build_plan

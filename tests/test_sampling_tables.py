@@ -30,7 +30,7 @@ from numpy.testing import assert_allclose
 from scipy import integrate, stats
 
 from microimpact import SurfaceVariant
-from microimpact._tables import CellTable, QuantileTable, mulhi64
+from microimpact._core.tables import CellTable, QuantileTable, mulhi64
 from microimpact.engine import kernel
 from microimpact.engine import plan as plan_module
 from microimpact.engine.plan import D_VC, build_plan

@@ -11,10 +11,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from microimpact._config_sensitivity import sensitivity_from_dict
+from microimpact.analysis.sensitivity import COLUMNS, sobol_analysis, sobol_sensitivity
 from microimpact.errors import ScenarioError
-from microimpact.parameters import get_value, numeric_keys, with_values
-from microimpact.sensitivity import COLUMNS, sobol_analysis, sobol_sensitivity
+from microimpact.scenario.parameters import get_value, numeric_keys, with_values
+from microimpact.scenario.sensitivity import sensitivity_from_dict
 
 BASE = {
     "seed": 11,
@@ -101,7 +101,7 @@ def test_surface_typo_suggests_the_surface():
 
 
 def test_a_bad_value_gets_the_scenario_error_naming_the_key():
-    from microimpact.config import scenario_from_dict
+    from microimpact.scenario.file import scenario_from_dict
 
     with pytest.raises(ScenarioError, match=r"particles\.median_um: must be > 0"):
         scenario_from_dict(with_values(BASE, {"particles.median_um": -1.0}))
@@ -173,7 +173,7 @@ def test_sensitivity_table_errors(table, expected):
 # ---------------------------------------------------------------- known answers
 class Ishigami:
     """The Ishigami function (a = 7, b = 0.1) as a stand-in model: the same
-    interface as :class:`microimpact.sensitivity.EngineModel`."""
+    interface as :class:`microimpact.analysis.sensitivity.EngineModel`."""
 
     outputs = pd.DataFrame(
         {"statistic": ["y"], "speed_m_s": [np.nan], "angle_deg": [np.nan]}
@@ -484,9 +484,9 @@ def test_a_misspelt_preset_name_is_a_did_you_mean_error():
     preset gets the same did-you-mean line, not 'file not found'."""
     import pytest
 
-    from microimpact.calibration import calibrate
+    from microimpact.analysis.calibration import calibrate
+    from microimpact.analysis.sensitivity import sobol_sensitivity
     from microimpact.errors import InputError
-    from microimpact.sensitivity import sobol_sensitivity
 
     with pytest.raises(InputError, match="did you mean 'sst65-silicon-normal'"):
         sobol_sensitivity(

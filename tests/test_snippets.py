@@ -1,4 +1,4 @@
-"""Tests for microimpact.snippets: each snippet loads back through the scenario
+"""Tests for microimpact.scenario.snippets: each snippet loads back through the scenario
 parser and gives back what it was written from."""
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from microimpact.physics.coefficients import (
     TableLaw,
 )
 from microimpact.population import distributions as pd_
-from microimpact.snippets import (
+from microimpact.scenario.snippets import (
     coefficients_snippet,
     particles_snippet,
     surface_snippet,

@@ -16,12 +16,17 @@ from engine_helpers import scenario
 from numpy.testing import assert_allclose, assert_array_equal
 
 import microimpact as mi
-from microimpact._outdir import LOCK_NAME, MANIFEST_NAME, OutputFolder, OutputFolderBusy
 from microimpact.engine.dataset import SUMMARY_COLUMNS, VARIABLES
 from microimpact.engine.result import open_result
 from microimpact.engine.statistics import point_row
-from microimpact.grid import SweepGrid
-from microimpact.study import Outputs, Study
+from microimpact.pipeline.folder import (
+    LOCK_NAME,
+    MANIFEST_NAME,
+    OutputFolder,
+    OutputFolderBusy,
+)
+from microimpact.pipeline.study import Outputs, Study
+from microimpact.scenario.grid import SweepGrid
 
 
 @pytest.fixture(scope="module")
@@ -280,7 +285,7 @@ def test_a_second_run_into_a_locked_folder_is_refused(tmp_path):
     code = textwrap.dedent(
         f"""
         import sys, time
-        from microimpact._outdir import OutputFolder
+        from microimpact.pipeline.folder import OutputFolder
         with OutputFolder({str(tmp_path)!r}):
             print("locked", flush=True)
             time.sleep(30)

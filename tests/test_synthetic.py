@@ -120,7 +120,7 @@ def test_formica_profile_layout():
     z = np.concatenate([p.z - p.z.mean() for p in ps])
     assert_allclose(np.sqrt(np.mean(z**2)), 45e-6, rtol=1e-4)  # the paper's 45 µm
     ref = resources.files("microimpact").joinpath(
-        "data", "formica_synthetic_profile.csv"
+        "surface", "data", "formica_synthetic_profile.csv"
     )
     head = ref.read_text(encoding="utf-8")[:200]
     assert "SYNTHETIC" in head
@@ -128,7 +128,9 @@ def test_formica_profile_layout():
 
 
 def test_formica_file_matches_generator():
-    ref = resources.files("microimpact").joinpath("data", "make_formica_profile.py")
+    ref = resources.files("microimpact").joinpath(
+        "surface", "data", "make_formica_profile.py"
+    )
     with resources.as_file(ref) as path:
         spec = importlib.util.spec_from_file_location("_make_formica", path)
         mod = importlib.util.module_from_spec(spec)

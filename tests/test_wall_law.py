@@ -385,7 +385,7 @@ angle_deg = [30, 90]
 
 
 def test_toml_wall_law_table(tmp_path):
-    from microimpact.config import wall_law_from_toml
+    from microimpact.scenario.file import wall_law_from_toml
 
     path = _toml(
         tmp_path,

@@ -15,9 +15,9 @@ from pathlib import Path
 import pandas as pd
 
 import microimpact
-from microimpact.calibration import calibrate
-from microimpact.config import _load_toml, preset_path, scenario_from_dict
-from microimpact.parameters import with_values
+from microimpact.analysis.calibration import calibrate
+from microimpact.scenario.scenario.file import _load_toml, preset_path, scenario_from_dict
+from microimpact.scenario.scenario.parameters import with_values
 
 KEY = "surfaces.formica.contact_length_um"
 TRUTH = 30.0

@@ -22,7 +22,7 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Arc, Circle, FancyArrowPatch, Polygon
 
 import microimpact as mi
-from microimpact._files import atomic_write
+from microimpact._core.files import atomic_write
 
 FILENAME = "conventions.png"
 THETA_DEG = 40.0  # apparent incidence angle, from the nominal plane

@@ -23,7 +23,7 @@ from matplotlib.figure import Figure
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
 import microimpact as mi
-from microimpact._files import atomic_write
+from microimpact._core.files import atomic_write
 
 FILENAME = "conventions_3d.png"
 THETA_DEG = 35.0  # apparent incidence angle, from the nominal plane

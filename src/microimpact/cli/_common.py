@@ -75,7 +75,7 @@ def fraction(text):
 
 
 def formats(text):
-    from .._formats import FIGURE_FORMATS
+    from .._core.formats import FIGURE_FORMATS
 
     fmts = [f.strip().lower() for f in text.split(",") if f.strip()]
     bad = [f for f in fmts if f not in FIGURE_FORMATS]
@@ -186,8 +186,8 @@ def write_outputs(out, *, tables=None, texts=None, figures=None):
     `figures` maps a file stem to a zero-argument function that draws and returns
     an Axes; matplotlib is imported (with the Agg backend) only when needed.
     """
-    from .._files import atomic_write
-    from .._formats import DEFAULT_FIGURE_FORMATS
+    from .._core.files import atomic_write
+    from .._core.formats import DEFAULT_FIGURE_FORMATS
 
     out.mkdir(parents=True, exist_ok=True)
     for name, table in (tables or {}).items():
@@ -245,7 +245,7 @@ def announce(args, scenario, *, samples=None):
     except ImportError:  # pragma: no cover - older engine
         return
     from ..engine.parallel import available_cores
-    from ..grid import SweepGrid
+    from ..scenario.grid import SweepGrid
 
     workers = min(args.workers, available_cores())
     points = SweepGrid.from_scenario(scenario).size

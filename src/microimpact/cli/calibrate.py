@@ -54,7 +54,7 @@ def cli_parse(sp):
 
 
 def cli_action(args) -> int:
-    from ..calibration import calibrate, parse_parameter
+    from ..analysis.calibration import calibrate, parse_parameter
 
     parameters = {}
     for text in args.parameter:

@@ -17,7 +17,7 @@ def cli_parse(sp):
 
 
 def cli_action(args) -> int:
-    from ..compare import compare
+    from ..analysis.compare import compare
     from ..io.experiments import read_experiments
     from ..plotting.comparison import plot_comparison
 

@@ -25,8 +25,8 @@ def cli_action(args) -> int:
     from ..engine.convergence import convergence_study
     from ..engine.montecarlo import run
     from ..errors import InputError
-    from ..grid import SweepGrid
-    from ..scenario import as_scenario
+    from ..scenario.grid import SweepGrid
+    from ..scenario.scenario import as_scenario
 
     scenario = as_scenario(args.scenario)
     point = args.point

@@ -12,7 +12,7 @@ def cli_parse(sp):
 
 
 def cli_action(args) -> int:
-    from ..config import PRESETS, load_preset
+    from ..scenario.file import PRESETS, load_preset
 
     for name in PRESETS:
         print(f"{name:28s} {load_preset(name).description}")

@@ -26,10 +26,10 @@ def cli_parse(sp):
 
 
 def cli_action(args) -> int:
-    from .._formats import DEFAULT_FIGURE_FORMATS
+    from .._core.formats import DEFAULT_FIGURE_FORMATS
     from ..engine.result import open_result
-    from ..outputs import Outputs
-    from ..study import Study
+    from ..pipeline.study import Study
+    from ..scenario.outputs import Outputs
 
     figures = () if args.no_figures else (args.formats or DEFAULT_FIGURE_FORMATS)
     outputs = Outputs(figures=figures, experiments=tuple(args.experiments))

@@ -21,7 +21,7 @@ def cli_parse(sp):
 
 
 def cli_action(args) -> int:
-    from ..study import reproduce
+    from ..pipeline.study import reproduce
 
     t0 = time.perf_counter()
     samples = args.samples or (1000 if args.quick else None)

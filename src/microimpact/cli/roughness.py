@@ -52,10 +52,10 @@ def cli_parse(sp):
 
 
 def cli_action(args) -> int:
-    from .._files import atomic_write
+    from .._core.files import atomic_write
     from ..io.profiles import read_profiles
     from ..plotting.roughness import plot_angle_pdf, plot_profile
-    from ..snippets import surface_snippet
+    from ..scenario.snippets import surface_snippet
     from ..surface.roughness import characterise, write_angle_file
     from ..units import um_to_m
 

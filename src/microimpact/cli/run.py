@@ -26,7 +26,7 @@ def cli_parse(sp):
 
 
 def cli_action(args) -> int:
-    from ..study import Study
+    from ..pipeline.study import Study
 
     t0 = time.perf_counter()
     study = Study(args.scenario)
@@ -56,7 +56,7 @@ def _apply_flags(args, study):
     from dataclasses import replace
 
     from ..errors import InputError
-    from ..scenario import Precision
+    from ..scenario.scenario import Precision
 
     scenario, outputs = study.scenario, study.outputs
     if args.precision is not None:

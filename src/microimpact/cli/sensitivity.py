@@ -1,7 +1,7 @@
 """``microimpact sensitivity SCENARIO --out DIR``: Sobol' indices of the statistics.
 
-Writes ``DIR/sensitivity.csv`` (see :data:`microimpact.sensitivity.COLUMNS`) and
-``DIR/sensitivity_ST.png`` (total indices against speed, or angle when the sweep has
+Writes ``DIR/sensitivity.csv`` (see :data:`microimpact.analysis.sensitivity.COLUMNS`)
+and ``DIR/sensitivity_ST.png`` (total indices against speed, or angle when the sweep has
 one speed), each atomically. The uncertain inputs come from the scenario's
 ``[sensitivity]`` table or from ``--parameter KEY=LOW:HIGH`` flags (uniform ranges;
 they replace the table's parameters). See ``docs/sensitivity.md``.
@@ -21,9 +21,9 @@ HELP = "Sobol' sensitivity indices of capture, e and mu to uncertain scenario in
 
 def _parameter(text):
     """``KEY=LOW:HIGH`` -> (key, {"low": LOW, "high": HIGH}): the calibration's
-    parser (:func:`microimpact.calibration.parse_parameter`), with both limits
+    parser (:func:`microimpact.analysis.calibration.parse_parameter`), with both limits
     required (a uniform range) and LOW < HIGH."""
-    from ..calibration import parse_parameter
+    from ..analysis.calibration import parse_parameter
     from ..errors import InputError
 
     try:
@@ -111,7 +111,7 @@ def write_sensitivity(result, out, formats=("png",)):
 
 
 def cli_action(args) -> int:
-    from ..sensitivity import sobol_sensitivity
+    from ..analysis.sensitivity import sobol_sensitivity
 
     parameters = dict(args.parameter) if args.parameter else None
     t0 = time.perf_counter()

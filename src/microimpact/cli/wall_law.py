@@ -44,10 +44,10 @@ def cli_parse(sp):
 def cli_action(args) -> int:
     import dataclasses
 
-    from .._outdir import OutputFolder
-    from ..config import wall_law_from_toml
     from ..errors import ScenarioError
-    from ..scenario import as_scenario, scenario_file
+    from ..pipeline.folder import OutputFolder
+    from ..scenario.file import wall_law_from_toml
+    from ..scenario.scenario import as_scenario, scenario_file
     from ..wall_law import build_wall_law
 
     t0 = time.perf_counter()

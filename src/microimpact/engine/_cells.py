@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._tables import CellTable, QuantileTable
+from .._core.tables import CellTable, QuantileTable
 
 __all__ = ["cell_table"]
 
@@ -25,7 +25,7 @@ def _histogram_breaks(dist):
 
 
 def cell_table(dist) -> CellTable:
-    """The :class:`~microimpact._tables.CellTable` of a size or angle distribution.
+    """The :class:`~microimpact._core.tables.CellTable` of a size or angle distribution.
 
     Discrete distributions (``is_discrete`` with their atoms) give one cell per
     atom, continuous ones (``ppf``, and ``isf`` when it has one) the refined grid;

@@ -4,7 +4,7 @@ A rough particle's own roughness angle adds to the surface's,
 :math:`\phi = \phi_s + \phi_p` (the paper's *Lycopodium* case). When both are
 discrete with equal masses the engine draws the pair exactly
 (:class:`~microimpact.engine.plan.PairSampler`); otherwise the law of the sum is
-tabulated here as a :class:`~microimpact._tables.CellTable` on the refined grid,
+tabulated here as a :class:`~microimpact._core.tables.CellTable` on the refined grid,
 exact at its nodes to far below 0.1 standard error at 10⁹ impacts:
 
 * **discrete + continuous** (atoms :math:`y_i`, weights :math:`w_i`; continuous
@@ -53,7 +53,7 @@ import warnings
 
 import numpy as np
 
-from .._tables import CellTable, mid_probabilities
+from .._core.tables import CellTable, mid_probabilities
 from ._cells import cell_table
 
 #: Grid points of the inversion grid per scale of the continuous part.
@@ -255,7 +255,7 @@ def _tolerance(p):
 def check_nodes(mix: Mixture, inverse, stride: int = CHECK_STRIDE):
     """Worst ratio of the exact CDF error to the tolerance at every `stride`-th
     node of the refined grid (lower half through ``F``, upper through ``S``)."""
-    from .._tables import refined_probabilities
+    from .._core.tables import refined_probabilities
 
     p, s = refined_probabilities()
     p, s = p[1:-1:stride], s[1:-1:stride]
@@ -327,7 +327,7 @@ def exact_node_table(mix: Mixture, inverse, jumps) -> tuple[CellTable, float]:
     (constant for a uniform law, which the table's linear cells then reproduce
     exactly). The check evaluates the exact CDF at the middle of every
     :data:`CHECK_STRIDE`-th cell and of every cell next to a jump."""
-    from .._tables import _integer_probabilities, refined_probabilities
+    from .._core.tables import _integer_probabilities, refined_probabilities
 
     lo, hi = mix.bounds()
     p, sv = refined_probabilities()
@@ -409,7 +409,7 @@ def reduced_convolution(a, b) -> CellTable:
 
 
 def sum_table(a, b) -> CellTable:
-    """The :class:`~microimpact._tables.CellTable` of the sum of two independent
+    """The :class:`~microimpact._core.tables.CellTable` of the sum of two independent
     angle distributions `a`, `b` (see the module docstring)."""
     best = None
     for mix, scale, x_nodes in sum_mixtures(a, b):

@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._files import atomic_write
+from .._core.files import atomic_write
 from .accumulators import E_BINS, LATERAL_BINS, MU_BINS, Moments, PointAccumulator
 
 #: Version of the file layout; a file of another version is reported, not read.

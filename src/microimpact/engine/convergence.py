@@ -26,8 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from .._validation import check_int
-from ..grid import SweepGrid
+from .._core.validation import check_int
+from ..scenario.grid import SweepGrid
 from .kernel import simulate_block
 from .montecarlo import build_plan, iter_point_samples
 from .statistics import wilson_interval, z_value
@@ -92,7 +92,7 @@ def convergence_study(
     grid : int
         Number of log-spaced N values in the returned table.
     """
-    from ..scenario import as_scenario
+    from ..scenario.scenario import as_scenario
 
     scenario = as_scenario(scenario)
     n_max = check_int(n_max, "n_max", minimum=10)

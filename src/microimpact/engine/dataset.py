@@ -1,6 +1,6 @@
 """The canonical result: one CF-1.10 :class:`xarray.Dataset` built from accumulators.
 
-Dimensions are those of the sweep grid (:class:`microimpact.grid.SweepGrid`:
+Dimensions are those of the sweep grid (:class:`microimpact.scenario.grid.SweepGrid`:
 ``surface`` x ``speed_m_s`` x ``angle_deg``) plus the histogram bins. Every variable
 carries ``units`` and ``long_name``; counts are integers; the global attributes hold
 the provenance. ``summary.csv`` is derived from this Dataset

@@ -31,7 +31,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from .._tables import fraction_to_integer, mulhi64
+from .._core.tables import fraction_to_integer, mulhi64
 from .accumulators import (
     E_BINS,
     E_EDGES,
@@ -499,7 +499,7 @@ def constant_columns(sampler) -> int:
 @lru_cache(maxsize=4)
 def _refined_starts(levels: int, cells_log2: int) -> np.ndarray:
     """The cell starts of the canonical refined grid (``CellTable.DYADIC``)."""
-    from .._tables import _integer_probabilities, refined_probabilities
+    from .._core.tables import _integer_probabilities, refined_probabilities
 
     p, s = refined_probabilities(levels, 1 << cells_log2)
     return _integer_probabilities(p[:-1], s[:-1])
@@ -541,7 +541,7 @@ def _sampler_args(sampler):
     global _NO_SAMPLER
     if sampler is None:
         if _NO_SAMPLER is None:
-            from .._tables import CellTable
+            from .._core.tables import CellTable
             from .plan import Sampler
 
             one = ([1.0], [1.0])

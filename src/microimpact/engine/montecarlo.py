@@ -37,7 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validation import check_choice, check_int
+from .._core.validation import check_choice, check_int
 from ..errors import ConvergenceWarning, InputError
 from .accumulators import PointAccumulator
 from .checkpoint import Checkpoint, CheckpointWarning, plan_fingerprint
@@ -415,7 +415,7 @@ class _Job:
         progress,
         plan,
     ):
-        from ..scenario import as_scenario
+        from ..scenario.scenario import as_scenario
 
         self.scenario = scenario = as_scenario(scenario)
         if samples is not None:
@@ -803,7 +803,7 @@ def estimate_duration(scenario, *, samples=None, workers=1, seed=None, plan=None
     plan (pass `plan` to reuse one). Accurate to a factor of about 2: meant to warn
     that a run will take minutes or hours, not to schedule it.
     """
-    from ..scenario import as_scenario
+    from ..scenario.scenario import as_scenario
     from .parallel import _simulate
 
     scenario = as_scenario(scenario)
@@ -843,7 +843,7 @@ def sample_point(scenario, point=0, n=4000, *, seed=None, replicate=0):
     ``speed`` [m s-1], ``e_m``, ``mu_m``, ``captured``, ``shadowed``, ``reimpact``).
     The draws are exactly those :func:`run` makes for the same seed and point.
     """
-    from ..scenario import as_scenario
+    from ..scenario.scenario import as_scenario
 
     scenario = as_scenario(scenario)
     plan = build_plan(scenario, seed=seed)

@@ -1,6 +1,6 @@
 """The engine's plan: everything a worker needs, precomputed once.
 
-Every random input is a :class:`~microimpact._tables.CellTable`: cells whose
+Every random input is a :class:`~microimpact._core.tables.CellTable`: cells whose
 probabilities are 64-bit integers (exact to ``2^-64``) and whose values are linear
 inside the cell. A draw is one 64-bit integer ``r``: it selects the cell ``j`` with
 ``cum[j] <= r < cum[j+1]`` and the fraction ``f = (r - cum[j]) / width_j`` in [0, 1),
@@ -9,7 +9,7 @@ and every tabulated quantity is read as ``lo_j + f * span_j``:
 * a continuous distribution (normal, truncated normal, lognormal, uniform, a SciPy
   distribution, the speed-spread factor) is its quantile function on a grid that is
   uniform in the body and refined geometrically into both tails
-  (:func:`~microimpact._tables.refined_probabilities`), interpolated linearly; a
+  (:func:`~microimpact._core.tables.refined_probabilities`), interpolated linearly; a
   histogram has a node at every bin edge as well, so it is sampled exactly;
 * a discrete distribution (an empirical sample, a monodisperse population, measured
   angles) has one zero-length cell per distinct atom: its atoms are drawn with their
@@ -53,7 +53,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from .._tables import (
+from .._core.tables import (
     CellTable,
     fraction_to_integer,
     linear_columns,
@@ -62,7 +62,7 @@ from .._tables import (
     nonempty_cells,
 )
 from ..errors import InputError, ScenarioError
-from ..grid import GridPoint, SweepGrid
+from ..scenario.grid import GridPoint, SweepGrid
 from ._cells import cell_table
 from ._convolution import MAX_SUM_ATOMS, discrete_atoms, sum_table
 
@@ -81,7 +81,7 @@ WEIGHTED_CACHE_BYTES = 64 << 20
 VAR_DIAMETER, VAR_ANGLE, VAR_SPEED, VAR_PAIR = 0, 1, 2, 3
 
 
-#: One sweep point (the grid owns the numbering; see :mod:`microimpact.grid`).
+#: One sweep point (the grid owns the numbering; see :mod:`microimpact.scenario.grid`).
 SweepPoint = GridPoint
 
 #: Every kernel row starts with the cell's start (its uint64 bits) and 1/width.
@@ -106,7 +106,7 @@ KERNEL_CHOICES = ("auto", "compiled", "numpy")
 
 @dataclass(frozen=True, eq=False)
 class Sampler:
-    """A :class:`~microimpact._tables.CellTable` laid out for the kernels.
+    """A :class:`~microimpact._core.tables.CellTable` laid out for the kernels.
 
     ``rows`` has one row per cell plus a sentinel row: the cell's start (the bits of
     its uint64 ``cum``), ``1/width``, then ``(lo, span)`` pairs of the quantities the

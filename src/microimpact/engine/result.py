@@ -20,10 +20,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .._files import atomic_write
-from .._json import dumps as json_dumps
-from .._json import restore_nonfinite
-from ..grid import SweepGrid
+from .._core.files import atomic_write
+from .._core.json import dumps as json_dumps
+from .._core.json import restore_nonfinite
+from ..scenario.grid import SweepGrid
 from .accumulators import E_EDGES, LATERAL_EDGES, MU_EDGES
 from .dataset import (
     INPUT_QUANTILES,
@@ -86,8 +86,8 @@ class ScenarioRecord:
     """What a saved result knows of its scenario (read from ``results.nc``).
 
     It has the attributes the outputs use (the same names as
-    :class:`~microimpact.scenario.Scenario`), not the model objects: a result loaded
-    with :func:`open_result` can be summarised, plotted and reported, not re-run.
+    :class:`~microimpact.scenario.scenario.Scenario`), not the model objects: a result
+    loaded with :func:`open_result` can be summarised, plotted and reported, not re-run.
     """
 
     name: str

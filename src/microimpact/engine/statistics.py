@@ -166,7 +166,7 @@ def capture_speed(summary, quantile: float = 0.5, *, confidence=None, by=None):
         Confidence level; default ``summary.attrs["confidence"]``, else 0.95.
     by : sequence of str, optional, keyword-only
         Columns that identify one curve; default every sweep axis of
-        :data:`microimpact.grid.DIMS` present in `summary` except ``speed_m_s``
+        :data:`microimpact.scenario.grid.DIMS` present in `summary` except ``speed_m_s``
         (today ``surface`` and ``angle_deg``), so a new sweep axis is grouped by
         without a change here.
 
@@ -187,7 +187,7 @@ def capture_speed(summary, quantile: float = 0.5, *, confidence=None, by=None):
     """
     import pandas as pd
 
-    from ..grid import DIMS
+    from ..scenario.grid import DIMS
     from .capture import estimate_capture_speed
 
     if confidence is None:

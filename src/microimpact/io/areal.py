@@ -51,8 +51,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .._files import MISSING, check_delimiter, parse_number, read_lines, split_rows
-from .._validation import as_float_array
+from .._core.files import MISSING, check_delimiter, parse_number, read_lines, split_rows
+from .._core.validation import as_float_array
 from ..errors import ProfileFormatError
 from ..units import length_factor
 from .profiles import header_unit

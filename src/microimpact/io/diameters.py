@@ -33,7 +33,7 @@ import os
 
 import numpy as np
 
-from .._files import (
+from .._core.files import (
     SNIFF,
     delimiter_name,
     is_number,

@@ -41,8 +41,8 @@ from __future__ import annotations
 import math
 import os
 
-from .._files import Table, parse_number, read_table
-from .._validation import did_you_mean
+from .._core.files import Table, parse_number, read_table
+from .._core.validation import did_you_mean
 from ..errors import DataFormatError
 
 __all__ = [

@@ -5,8 +5,9 @@ columns ``diameter_um`` (particle diameter [µm]), ``v_n_m_s`` (normal impact
 speed [m s⁻¹], a positive magnitude) and ``e`` (coefficient of restitution [-],
 0 for a captured particle); column names are matched case-insensitively and may
 appear once. Other columns are ignored. The delimiter rules are those of every reader
-of the package (:mod:`microimpact._files`): ``;``, tab, ``,`` or whitespace, sniffed
-from the header line outside quotes. Cells may be quoted; the decimal separator is
+of the package (:mod:`microimpact._core.files`): ``;``, tab, ``,`` or whitespace,
+sniffed from the header line outside quotes. Cells may be quoted; the decimal separator
+is
 ``.`` (a row with more cells than the header is an error). Blank lines, lines whose
 first non-blank character is ``#`` and trailing ``# ...`` comments are skipped::
 
@@ -20,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._files import parse_number, read_table
+from .._core.files import parse_number, read_table
 from ..errors import DataFormatError
 from ..units import um_to_m
 

@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._files import (
+from .._core.files import (
     SNIFF,
     check_delimiter,
     looks_like_header,
@@ -46,7 +46,7 @@ from .._files import (
     resolve_column,
     split_rows,
 )
-from .._validation import as_float_array
+from .._core.validation import as_float_array
 from ..errors import ProfileFormatError
 from ..units import LENGTH_UNITS, length_factor
 

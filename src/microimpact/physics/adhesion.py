@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validation import (
+from .._core.validation import (
     as_float_array,
     check_nonnegative,
     check_positive,

@@ -36,7 +36,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from .._validation import (
+from .._core.validation import (
     as_float_array,
     check_choice,
     check_scalar,

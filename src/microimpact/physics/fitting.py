@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validation import (
+from .._core.validation import (
     as_float_array,
     check_choice,
     check_int,
@@ -636,13 +636,13 @@ class CoefficientLawsFit:
 
     def to_json(self, *, indent=2) -> str:
         """:meth:`to_dict` as standard JSON (NaN and infinities as ``null``)."""
-        from .._json import dumps
+        from .._core.json import dumps
 
         return dumps(self.to_dict(), indent=indent)
 
     def toml(self) -> str:
         """The ``[coefficients]`` table to paste into a scenario file."""
-        from ..snippets import coefficients_snippet
+        from ..scenario.snippets import coefficients_snippet
 
         return coefficients_snippet(
             self.laws,

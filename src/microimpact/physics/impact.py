@@ -52,7 +52,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validation import as_float_array, check_nonnegative, check_positive
+from .._core.validation import as_float_array, check_nonnegative, check_positive
 from ..units import deg_to_rad, rad_to_deg
 
 __all__ = [

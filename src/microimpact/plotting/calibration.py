@@ -1,10 +1,10 @@
 """The calibration figure: measured points with their intervals against the
 calibrated model and its band.
 
-Draws a :class:`~microimpact.calibration.CalibrationResult` through its two tables
-(``points``: the experimental points with the fitted model there; ``curves``: the
+Draws a :class:`~microimpact.analysis.calibration.CalibrationResult` through its two
+tables (``points``: the experimental points with the fitted model there; ``curves``: the
 model at every sweep point with the band of the parameters' uncertainty). This
-module imports nothing from :mod:`microimpact.calibration` (the tables are the
+module imports nothing from :mod:`microimpact.analysis.calibration` (the tables are the
 interface).
 """
 
@@ -39,7 +39,7 @@ def plot_calibration(result, *, axes=None):
     Parameters
     ----------
     result : CalibrationResult
-        Output of :func:`microimpact.calibration.calibrate` (its ``points`` and
+        Output of :func:`microimpact.analysis.calibration.calibrate` (its ``points`` and
         ``curves`` tables and ``confidence``).
     axes : sequence of matplotlib Axes, optional
         One per statistic; a new figure is made if omitted.

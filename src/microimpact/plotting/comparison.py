@@ -1,8 +1,9 @@
 """The comparison figure: simulated against experimental means (parity plot).
 
-Draws the table of :func:`microimpact.compare.compare`. matplotlib is imported only
-when a figure is made. This module imports nothing from :mod:`microimpact.compare`
-(the table is the interface), so comparing never loads plotting and plotting never
+Draws the table of :func:`microimpact.analysis.compare.compare`. matplotlib is imported
+only when a figure is made. This module imports nothing from
+:mod:`microimpact.analysis.compare` (the table is the interface), so comparing never
+loads plotting and plotting never
 imports the comparison at module level.
 """
 
@@ -27,7 +28,7 @@ def plot_comparison(table, *, ax=None):
     Parameters
     ----------
     table : pandas.DataFrame
-        Output of :func:`microimpact.compare.compare`.
+        Output of :func:`microimpact.analysis.compare.compare`.
     ax : matplotlib.axes.Axes, optional
         Axes to draw on; a new figure is made if omitted.
 

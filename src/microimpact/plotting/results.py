@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._formats import FIGURE_FORMATS
+from .._core.formats import FIGURE_FORMATS
 from ..io.experiments import combine_experiments
 from ._style import STYLE, colour
 
@@ -679,8 +679,8 @@ def save_figure(fig, path_without_ext, formats=("png", "pdf")):
     -------
     list of pathlib.Path
     """
-    from .._files import atomic_write
-    from .._validation import check_subset
+    from .._core.files import atomic_write
+    from .._core.validation import check_subset
 
     formats = check_subset(formats, "formats", FIGURE_FORMATS)
     base = Path(path_without_ext)
@@ -845,7 +845,7 @@ def result_figures(result, *, experiments=None):
         if has_areal_surface(result):  # not in the paper (issue 14)
             add("profile_vs_areal", plot_profile_vs_areal(result))
     if exp is not None and len(exp):
-        from ..compare import compare
+        from ..analysis.compare import compare
         from .comparison import plot_comparison
 
         add("comparison", plot_comparison(compare(result, exp)))

@@ -1,6 +1,6 @@
 """Plot total Sobol' indices against speed (or angle): one panel per statistic.
 
-The table is :attr:`microimpact.sensitivity.SensitivityResult.table` (or the
+The table is :attr:`microimpact.analysis.sensitivity.SensitivityResult.table` (or the
 ``sensitivity.csv`` read back with pandas).
 """
 
@@ -40,7 +40,7 @@ def plot_sensitivity(table, *, statistic=None, index="ST", ax=None):
     Parameters
     ----------
     table : pandas.DataFrame
-        The columns of :data:`microimpact.sensitivity.COLUMNS`.
+        The columns of :data:`microimpact.analysis.sensitivity.COLUMNS`.
     statistic : str or sequence of str, optional
         Statistics to draw (default: all in the table, in order).
     index : {"ST", "S1"}

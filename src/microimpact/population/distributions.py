@@ -2,7 +2,7 @@
 
 A :class:`SizeDistribution` is a distribution of particle **diameter in metres**, a
 thin wrapper over the package's one distribution core
-(:mod:`microimpact._distributions`, shared with the roughness-angle distributions):
+(:mod:`microimpact._core.distributions`, shared with the roughness-angle distributions):
 a SciPy frozen distribution (``norm``,
 ``lognorm``, ``uniform``, ``rv_histogram`` or one supplied by the user) truncated
 through its CDF, or, for the discrete kinds (``empirical``, ``monodisperse``), the
@@ -43,8 +43,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
-from .._distributions import CoreMethods, DiscreteAtoms, TruncatedContinuous
-from .._validation import as_float_array, check_choice, check_scalar
+from .._core.distributions import CoreMethods, DiscreteAtoms, TruncatedContinuous
+from .._core.validation import as_float_array, check_choice, check_scalar
 from ..units import length_factor, m_to_um, um_to_m
 
 #: The distribution kinds.
@@ -75,7 +75,7 @@ class SizeDistribution(CoreMethods):
 
     The methods (``ppf``, ``isf``, ``cdf``, ``sf``, ``pdf``, ``rvs``, ``mean``,
     ``std``, ``median``, ``support``, ``table``) take and return diameters in metres;
-    they are those of :class:`microimpact._distributions.CoreMethods`, shared with
+    they are those of :class:`microimpact._core.distributions.CoreMethods`, shared with
     :class:`~microimpact.surface.angles.AngleDistribution`.
 
     Attributes

@@ -6,8 +6,9 @@ An :class:`AngleDistribution` is the distribution of the roughness angle
 facets tilted away from particles travelling in :math:`-x`). Like the population
 module's size distribution it is a thin wrapper (``kind``, ``params`` in degrees,
 ``describe()`` in degrees) over the package's one distribution core
-(:mod:`microimpact._distributions`): a truncated continuous distribution or discrete
-atoms, with the same vectorised protocol in SI units, ``ppf``, ``isf`` (accurate in
+(:mod:`microimpact._core.distributions`): a truncated continuous distribution or
+discrete atoms, with the same vectorised protocol in SI units, ``ppf``, ``isf``
+(accurate in
 the upper tail), ``cdf``, ``sf``, ``pdf`` (``inf`` at discrete atoms), ``rvs``,
 ``mean``, ``std``, ``median``, ``support``, ``is_discrete``, ``atoms``, ``weights``
 and ``table()``. A molecularly smooth surface is recognised structurally by
@@ -41,14 +42,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._distributions import (
+from .._core.distributions import (
     CONTINUOUS_METHODS,
     CoreMethods,
     DiscreteAtoms,
     Rescaled,
     TruncatedContinuous,
 )
-from .._validation import as_float_array, check_choice, check_scalar
+from .._core.validation import as_float_array, check_choice, check_scalar
 from ..units import deg_to_rad, rad_to_deg
 
 __all__ = [
@@ -85,7 +86,7 @@ class AngleDistribution(CoreMethods):
     Build it with a factory (:func:`angles_from_sample`, :func:`normal_angles`, ...).
     The methods (``ppf``, ``isf``, ``cdf``, ``sf``, ``pdf``, ``rvs``, ``mean``,
     ``std``, ``median``, ``support``, ``table``) take and return angles in radians;
-    they are those of :class:`microimpact._distributions.CoreMethods`, shared with
+    they are those of :class:`microimpact._core.distributions.CoreMethods`, shared with
     :class:`~microimpact.population.distributions.SizeDistribution`.
 
     Attributes

@@ -56,7 +56,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validation import check_choice, check_int, check_positive
+from .._core.validation import check_choice, check_int, check_positive
 from ..io.areal import HeightMap
 from ..units import deg_to_rad, rad_to_deg, um_to_m
 

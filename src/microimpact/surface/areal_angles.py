@@ -10,7 +10,7 @@ across it; the facet normal is :math:`n' \propto (-\tan\phi_\parallel,
 ``roughness_angle_deg`` and ``out_of_plane_angle_deg`` of
 :func:`microimpact.apparent_rebound`.
 
-It is what a :class:`~microimpact.scenario.SurfaceVariant` holds for an areal
+It is what a :class:`~microimpact.scenario.scenario.SurfaceVariant` holds for an areal
 surface; the engine draws one pair per impact, with one uniform, from the table of
 the pairs (:mod:`microimpact.engine.plan`, ``ArealSampler``). A profile surface
 keeps its one-angle :class:`~microimpact.surface.angles.AngleDistribution`
@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._validation import as_float_array
+from .._core.validation import as_float_array
 from ..units import deg_to_rad, rad_to_deg
 from .areal import FacetAnglePairs
 

@@ -51,8 +51,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .._files import atomic_write, data_lines, parse_number, read_lines
-from .._validation import as_float_array, check_choice, check_int, check_positive
+from .._core.files import atomic_write, data_lines, parse_number, read_lines
+from .._core.validation import as_float_array, check_choice, check_int, check_positive
 from ..errors import DataFormatError, ProfileFormatError
 from ..io.profiles import Profile, ProfileSet, as_profiles, check_xz, sources_of
 from ..units import m_to_um, rad_to_deg, um_to_m
@@ -494,7 +494,7 @@ class RoughnessCharacterisation:
     def to_json(self, *, units=None, indent=2) -> str:
         """:meth:`to_dict` as standard JSON (NaN, e.g. the skewness of too few
         angles, is ``null``)."""
-        from .._json import dumps
+        from .._core.json import dumps
 
         return dumps(self.to_dict(units=units), indent=indent)
 

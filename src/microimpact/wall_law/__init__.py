@@ -7,8 +7,8 @@ joint rebound samples that :meth:`WallLaw.sample` (and the C sampler it exports)
 draw from.
 """
 
+from ..scenario.wall_law import WallLawSpec
 from .build import build_wall_law
 from .law import WallLaw, WallLawSample
-from .spec import WallLawSpec
 
 __all__ = ["WallLaw", "WallLawSample", "WallLawSpec", "build_wall_law"]

@@ -25,10 +25,10 @@ from pathlib import Path
 import numpy as np
 
 from ..engine.plan import build_plan, diameter_sampler, resolve_entropy
-from ..grid import SweepGrid
 from ..population.distributions import monodisperse
+from ..scenario.grid import SweepGrid
+from ..scenario.wall_law import REBOUND_VARIABLES, RESERVOIR_VARIABLES, WallLawSpec
 from .law import WallLaw, wall_law_dataset
-from .spec import REBOUND_VARIABLES, RESERVOIR_VARIABLES, WallLawSpec
 
 __all__ = ["build_wall_law", "node_outcomes"]
 
@@ -200,7 +200,7 @@ class _Partial:
         """Record the build's entropy (a fresh build only)."""
         import json
 
-        from .._files import atomic_write
+        from .._core.files import atomic_write
 
         if self.entropy is not None:
             return
@@ -224,7 +224,7 @@ class _Partial:
             return None
 
     def save(self, j, arrays):
-        from .._files import atomic_write
+        from .._core.files import atomic_write
 
         def write(tmp):
             with open(tmp, "wb") as fh:
@@ -240,7 +240,7 @@ def _fingerprint(scenario, spec, seed) -> str:
     import hashlib
 
     from .. import __version__
-    from .._json import dumps
+    from .._core.json import dumps
 
     text = dumps(
         {
@@ -292,10 +292,10 @@ def build_wall_law(
     -------
     WallLaw
     """
-    from ..config import wall_law_from_toml
     from ..engine.parallel import cap_workers
     from ..errors import ScenarioError
-    from ..scenario import as_scenario
+    from ..scenario.file import wall_law_from_toml
+    from ..scenario.scenario import as_scenario
 
     scenario = as_scenario(scenario)  # a path or a preset name is loaded
     if spec is None and scenario.source is not None:

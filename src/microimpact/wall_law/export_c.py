@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._files import atomic_write
+from .._core.files import atomic_write
 from ..errors import DataFormatError
 
 __all__ = ["read_binary", "write_binary", "write_c"]

@@ -22,7 +22,7 @@ from .. import __version__
 from ..engine.dataset import CONVENTIONS, encoding
 from ..engine.statistics import wilson_interval
 from ..errors import DataFormatError
-from .spec import REBOUND_VARIABLES, RESERVOIR_VARIABLES
+from ..scenario.wall_law import REBOUND_VARIABLES, RESERVOIR_VARIABLES
 
 __all__ = ["WallLaw", "WallLawSample", "wall_law_dataset"]
 
@@ -100,7 +100,7 @@ def wall_law_dataset(
     """
     import xarray as xr
 
-    from .._json import dumps
+    from .._core.json import dumps
 
     n_s, n_v, n_a = len(grid.surfaces), len(grid.speeds_m_s), len(grid.angles_deg)
     n_d = len(spec.diameters_um)
@@ -471,7 +471,7 @@ class WallLaw:
         ``angle_deg``: where the OpenFOAM constant coefficients are taken.
         Returns the paths written.
         """
-        from .._files import atomic_write
+        from .._core.files import atomic_write
 
         out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)

@@ -56,8 +56,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .._files import atomic_write
-from .._validation import did_you_mean
+from .._core.files import atomic_write
+from .._core.validation import did_you_mean
 
 __all__ = [
     "LOCAL_INTERACTION_FILE",

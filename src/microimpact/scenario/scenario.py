@@ -17,8 +17,8 @@ from typing import Any
 
 import numpy as np
 
-from ._validation import check_scalar
-from .errors import ScenarioError
+from .._core.validation import check_scalar
+from ..errors import ScenarioError
 
 SHADOWING_OPTIONS = ("reject", "weighted", "none")
 SAMPLING_OPTIONS = ("mc", "qmc")
@@ -210,7 +210,7 @@ class Scenario:
 
     def __post_init__(self):
         # Every check raises ScenarioError(field=...) without a file: the TOML layer
-        # (microimpact.config) adds the file and the key path; an edit in Python
+        # (microimpact.scenario.file) adds the file and the key path; an edit in Python
         # (with_options) is never blamed on the file the scenario came from.
         set_ = object.__setattr__
         if not isinstance(self.name, str) or not self.name.strip():
@@ -310,14 +310,14 @@ class Scenario:
     @classmethod
     def from_toml(cls, path) -> Scenario:
         """Load and validate a scenario file (see ``docs/scenarios.md``)."""
-        from .config import scenario_from_toml
+        from .file import scenario_from_toml
 
         return scenario_from_toml(Path(path))
 
     @classmethod
     def from_preset(cls, name: str) -> Scenario:
         """A shipped preset reproducing the paper (see ``docs/presets.md``)."""
-        from .config import load_preset
+        from .file import load_preset
 
         return load_preset(name)
 
@@ -388,7 +388,7 @@ def scenario_file(scenario) -> Path:
             "`scenario` must be a Scenario, a path to a scenario file or a preset "
             f"name; got {type(scenario).__name__}."
         )
-    from .config import PRESETS, preset_path
+    from .file import PRESETS, preset_path
 
     text = os.fspath(scenario)
     path = Path(text)
@@ -396,7 +396,7 @@ def scenario_file(scenario) -> Path:
         return path
     if text in PRESETS:
         return preset_path(text)
-    from ._validation import did_you_mean
+    from .._core.validation import did_you_mean
 
     raise ScenarioError(
         "not a scenario file and not a preset name; presets: "

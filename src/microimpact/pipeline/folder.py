@@ -22,9 +22,9 @@ import os
 import re
 from pathlib import Path
 
-from ._files import atomic_write
-from ._formats import FIGURE_FORMATS
-from .errors import InputError
+from .._core.files import atomic_write
+from .._core.formats import FIGURE_FORMATS
+from ..errors import InputError
 
 __all__ = [
     "CHECKPOINT_NAME",

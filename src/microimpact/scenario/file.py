@@ -1,4 +1,4 @@
-"""Scenario files: TOML -> validated :class:`~microimpact.scenario.Scenario`.
+"""Scenario files: TOML -> validated :class:`~microimpact.scenario.scenario.Scenario`.
 
 Every key, its unit, default and allowed values are documented in
 ``docs/scenarios.md``; the shipped presets in ``docs/presets.md``. In short::
@@ -36,8 +36,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ._validation import did_you_mean
-from .errors import ScenarioError
+from .._core.validation import did_you_mean
+from ..errors import ScenarioError
 from .scenario import (
     PRECISION_STATISTICS,
     Precision,
@@ -58,7 +58,8 @@ __all__ = [
     "wall_law_from_toml",
 ]
 
-from ._config_base import (
+from .._core.formats import FIGURE_FORMATS
+from ._file_base import (
     _TOML_EOF,
     _TOML_POSITION,
     COEFFICIENT_KEYS,
@@ -78,13 +79,12 @@ from ._config_base import (
     _one_line,
     _show,
 )
-from ._config_surfaces import _angles, _exactly_one, _surfaces
-from ._formats import FIGURE_FORMATS
+from ._file_surfaces import _angles, _exactly_one, _surfaces
 from .outputs import Outputs
 
 
 def _particles(ctx: _Ctx, data, where="particles"):
-    from .population import distributions as pd_
+    from ..population import distributions as pd_
 
     t = ctx.table(data, where)
     kind = ctx.kind(t, where, "distribution", PARTICLE_KEYS)
@@ -127,8 +127,8 @@ def _particles(ctx: _Ctx, data, where="particles"):
                 t["diameters_um"], _join(where, "diameters_um"), low=0, strict=True
             )
         else:
-            from .io.diameters import read_diameters
-            from .units import m_to_um
+            from ..io.diameters import read_diameters
+            from ..units import m_to_um
 
             path = ctx.path(t["file"], _join(where, "file"))
             column = t.get("column")
@@ -148,8 +148,8 @@ def _particles(ctx: _Ctx, data, where="particles"):
         edges = ctx.numbers(t["edges_um"], _join(where, "edges_um"), low=0, minimum=2)
         counts = ctx.numbers(t["counts"], _join(where, "counts"), low=0)
     else:
-        from .io.diameters import read_histogram
-        from .units import m_to_um
+        from ..io.diameters import read_histogram
+        from ..units import m_to_um
 
         if "counts" in t:
             raise ctx.error(_join(where, "counts"), "only allowed with 'edges_um'")
@@ -250,7 +250,7 @@ def _sweep(ctx: _Ctx, data) -> dict:
 
 # ---------------------------------------------------------------------- coefficients
 def _coefficients(ctx: _Ctx, data):
-    from .physics.coefficients import ImpactCoefficients
+    from ..physics.coefficients import ImpactCoefficients
 
     if "coefficients" not in data:
         raise ctx.error("coefficients", "missing required table [coefficients]")
@@ -309,7 +309,7 @@ def _precision(ctx: _Ctx, data):
 
 
 def _outputs(ctx: _Ctx, data):
-    """The ``[outputs]`` table as :class:`~microimpact.outputs.Outputs`."""
+    """The ``[outputs]`` table as :class:`~microimpact.scenario.outputs.Outputs`."""
     t = ctx.table(data.get("outputs", {}), "outputs")
     ctx.keys(t, "outputs", OUTPUT_KEYS)
     kw = {}
@@ -356,22 +356,22 @@ def _read_table(read, data, source, base_dir):
 
 
 def outputs_from_dict(data: dict, *, source=None, base_dir=None):
-    """The :class:`~microimpact.study.Outputs` of parsed scenario data (its
+    """The :class:`~microimpact.pipeline.study.Outputs` of parsed scenario data (its
     ``[outputs]`` table; defaults where absent). Relative experiment paths resolve
     from `base_dir` (default: the folder of `source`)."""
     return _read_table(_outputs, data, source, base_dir)
 
 
 def outputs_from_toml(path):
-    """The :class:`~microimpact.study.Outputs` of a scenario file."""
+    """The :class:`~microimpact.pipeline.study.Outputs` of a scenario file."""
     path = Path(path)
     return _read_table(_outputs, _load_toml(path), path, path.resolve().parent)
 
 
 def _wall_law(ctx: _Ctx, data):
-    """The ``[wall_law]`` table as :class:`~microimpact.wall_law.spec.WallLawSpec`
+    """The ``[wall_law]`` table as :class:`~microimpact.scenario.wall_law.WallLawSpec`
     (None if absent). Speeds and angles default to the ``[sweep]``'s."""
-    from .wall_law.spec import WallLawSpec
+    from .wall_law import WallLawSpec
 
     if "wall_law" not in data:
         return None
@@ -399,13 +399,13 @@ def _wall_law(ctx: _Ctx, data):
 
 
 def wall_law_from_dict(data: dict, *, source=None, base_dir=None):
-    """The :class:`~microimpact.wall_law.spec.WallLawSpec` of parsed scenario data
+    """The :class:`~microimpact.scenario.wall_law.WallLawSpec` of parsed scenario data
     (its ``[wall_law]`` table), or None if it has none."""
     return _read_table(_wall_law, data, source, base_dir)
 
 
 def wall_law_from_toml(path):
-    """The :class:`~microimpact.wall_law.spec.WallLawSpec` of a scenario file, or
+    """The :class:`~microimpact.scenario.wall_law.WallLawSpec` of a scenario file, or
     None if it has no ``[wall_law]`` table."""
     path = Path(path)
     return _read_table(_wall_law, _load_toml(path), path, path.resolve().parent)
@@ -430,7 +430,7 @@ def scenario_from_dict(data: dict, *, source=None, base_dir=None) -> Scenario:
     Scenario
         The physics of the study. The ``[outputs]`` table is validated here and
         read by :func:`outputs_from_dict` (output settings belong to
-        :class:`~microimpact.study.Study`, not to the Scenario).
+        :class:`~microimpact.pipeline.study.Study`, not to the Scenario).
 
     Raises
     ------
@@ -484,7 +484,7 @@ def scenario_from_dict(data: dict, *, source=None, base_dir=None) -> Scenario:
     _outputs(ctx, data)  # validated with the file; kept by microimpact.Study
     _wall_law(ctx, data)  # validated with the file; read by microimpact wall-law
     if "sensitivity" in data:  # validated with the file; microimpact sensitivity
-        from ._config_sensitivity import sensitivity_from_dict
+        from .sensitivity import sensitivity_from_dict
 
         sensitivity_from_dict(data, source=ctx.source)
     kw["source"] = ctx.source

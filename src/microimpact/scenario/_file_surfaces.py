@@ -1,11 +1,12 @@
 """Scenario files: the surface, particle-roughness and profile tables.
 
-Part of :mod:`microimpact.config`, split out to keep modules small.
+Part of :mod:`microimpact.scenario.file`, split out to keep modules small.
 """
 
 from __future__ import annotations
 
-from ._config_base import (
+from .._core.validation import did_you_mean
+from ._file_base import (
     ANGLE_METHODS,
     AREAL_FILE_KEYS,
     AREAL_LEVEL,
@@ -18,7 +19,6 @@ from ._config_base import (
     _join,
     _show,
 )
-from ._validation import did_you_mean
 from .scenario import SurfaceVariant
 
 
@@ -35,7 +35,7 @@ def _exactly_one(ctx, t, where, keys):
 # ---------------------------------------------------------------------- surfaces
 def _angles(ctx: _Ctx, t, where):
     """An angle distribution from a surface table, or None (molecularly smooth)."""
-    from .surface import angles as ang
+    from ..surface import angles as ang
 
     kind = ctx.kind(t, where, "kind", SURFACE_KEYS, also=("name",))
 
@@ -113,7 +113,7 @@ def _areal(ctx, t, where):
     """Joint facet angles of an areal surface: a height-map file or a seeded
     Gaussian areal surface, at the contact diameter, for a fixed or random impact
     azimuth (docs/scenarios.md)."""
-    from .surface import areal_angles as aa
+    from ..surface import areal_angles as aa
 
     _exactly_one(ctx, t, where, ("file", "synthetic"))
     _exactly_one(ctx, t, where, ("contact_diameter_um", "contact_length_um"))
@@ -164,8 +164,8 @@ def _areal(ctx, t, where):
             patch=patch,
             step_um=step,
         )
-    from ._files import check_delimiter
-    from .io.areal import FORMATS, read_height_map
+    from .._core.files import check_delimiter
+    from ..io.areal import FORMATS, read_height_map
 
     path = ctx.path(t["file"], _join(where, "file"))
     kw = {}
@@ -204,7 +204,7 @@ def _areal(ctx, t, where):
 
 
 def _read_profiles(ctx, t, where):
-    from .io.profiles import read_profiles
+    from ..io.profiles import read_profiles
 
     files = t["file"]
     key = _join(where, "file")
@@ -227,8 +227,8 @@ def _read_profiles(ctx, t, where):
 
 
 def _synthetic(ctx, t, where):
-    from .surface import synthetic
-    from .units import um_to_m
+    from ..surface import synthetic
+    from ..units import um_to_m
 
     kind = ctx.choice(
         t.get("profile", "formica"), _join(where, "profile"), SYNTHETIC_PROFILES

@@ -2,12 +2,12 @@
 ``docs/calibration.md``).
 
 The parameters are numbers of the scenario file named by their dotted keys
-(:mod:`microimpact.parameters`). The measurements are an experiment table
+(:mod:`microimpact.scenario.parameters`). The measurements are an experiment table
 (:func:`microimpact.io.experiments.read_experiments`): any of ``e``, ``mu``,
 ``e_relative``, ``mu_relative`` and ``capture_fraction`` with their intervals, at
 speeds and angles of the scenario's sweep, matched to the simulation exactly as
-:func:`microimpact.compare.compare` matches them (interpolated between neighbouring
-sweep points).
+:func:`microimpact.analysis.compare.compare` matches them (interpolated between
+neighbouring sweep points).
 
 **Forward model.** The engine with *common random numbers*: every parameter value is
 run with the same seed and the same number of impacts per sweep point, so every
@@ -54,7 +54,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError
+from ..errors import InputError
 
 __all__ = [
     "CalibrationResult",
@@ -174,8 +174,8 @@ def default_bounds(key: str, value: float) -> tuple[float, float]:
 
 def _load(scenario, source=None, base_dir=None):
     """``(data, source, base_dir)`` of a scenario file, preset name or parsed dict."""
-    from .config import _load_toml
-    from .scenario import scenario_file
+    from ..scenario.file import _load_toml
+    from ..scenario.scenario import scenario_file
 
     if isinstance(scenario, Mapping):
         if base_dir is None and source is not None:
@@ -186,7 +186,7 @@ def _load(scenario, source=None, base_dir=None):
 
 
 def _check_key(data, key, source):
-    from .parameters import get_value
+    from ..scenario.parameters import get_value
 
     if (
         key in NOT_PARAMETERS
@@ -209,7 +209,7 @@ def _simulate(task):
     -> the summary table."""
     import microimpact
 
-    from .config import scenario_from_dict
+    from ..scenario.file import scenario_from_dict
 
     data, source, base_dir, seed, samples = task
     scenario = scenario_from_dict(data, source=source, base_dir=base_dir)
@@ -239,7 +239,7 @@ class _Model:
         return dict(zip(self.keys, (float(v) for v in x), strict=True))
 
     def scenario_data(self, x):
-        from .parameters import with_values
+        from ..scenario.parameters import with_values
 
         return with_values(self.data, self.values(x), source=self.source)
 
@@ -272,7 +272,7 @@ def _mapper(workers, executor):
     if executor is not None:
         return executor.map, None
     if workers > 1:
-        from .engine.parallel import cap_workers, process_pool
+        from ..engine.parallel import cap_workers, process_pool
 
         pool = process_pool(cap_workers(int(workers)))
         return pool.map, pool
@@ -334,7 +334,7 @@ class CalibrationResult:
 
     def scenario(self):
         """The calibrated :class:`~microimpact.Scenario`."""
-        from .config import scenario_from_dict
+        from ..scenario.file import scenario_from_dict
 
         return scenario_from_dict(self.data, base_dir=self.base_dir)
 
@@ -446,8 +446,8 @@ class CalibrationResult:
     def write(self, out, *, figure=True) -> Path:
         """Write ``calibration.json``, ``calibration.md`` and (with `figure`)
         ``calibration.png`` to folder `out`, each atomically."""
-        from . import _json
-        from ._files import atomic_write
+        from .._core import json as _json
+        from .._core.files import atomic_write
 
         out = Path(out)
         out.mkdir(parents=True, exist_ok=True)
@@ -456,12 +456,12 @@ class CalibrationResult:
         report = self.report()
         atomic_write(out / "calibration.md", lambda t: Path(t).write_text(report))
         if figure:
-            from .plotting._style import use_agg
+            from ..plotting._style import use_agg
 
             use_agg()
             import matplotlib.pyplot as plt
 
-            from .plotting.calibration import plot_calibration
+            from ..plotting.calibration import plot_calibration
 
             fig = plot_calibration(self)
             try:
@@ -724,10 +724,10 @@ def calibrate(
     """
     from scipy import stats
 
+    from ..engine.statistics import z_value
+    from ..scenario.file import scenario_from_dict
+    from ..scenario.parameters import with_values
     from .compare import _experiments_iv
-    from .config import scenario_from_dict
-    from .engine.statistics import z_value
-    from .parameters import with_values
 
     say = progress or (lambda msg: None)
     if not (isinstance(confidence, float | int) and 0 < confidence < 1):
@@ -810,7 +810,7 @@ def calibrate(
     h = rel_step * scale
 
     # experiments
-    from .io.experiments import read_experiments
+    from ..io.experiments import read_experiments
 
     if isinstance(experiments, str | os.PathLike):
         exp_source = str(experiments)

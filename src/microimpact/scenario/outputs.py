@@ -1,8 +1,9 @@
 """Output settings of a study: what is written besides the results themselves.
 
-They are not physics, so they are not part of :class:`~microimpact.scenario.Scenario`;
-:class:`~microimpact.study.Study` owns them. A scenario file's ``[outputs]`` table is
-read into this object by :func:`microimpact.config.outputs_from_toml`.
+They are not physics, so they are not part of
+:class:`~microimpact.scenario.scenario.Scenario`;
+:class:`~microimpact.pipeline.study.Study` owns them. A scenario file's ``[outputs]``
+table is read into this object by :func:`microimpact.scenario.file.outputs_from_toml`.
 """
 
 from __future__ import annotations
@@ -11,7 +12,7 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from ._formats import DEFAULT_FIGURE_FORMATS, FIGURE_FORMATS
+from .._core.formats import DEFAULT_FIGURE_FORMATS, FIGURE_FORMATS
 
 __all__ = ["Outputs"]
 

@@ -19,8 +19,8 @@ anything else is a :class:`~microimpact.errors.ScenarioError` naming the key, wi
 "did you mean" among the numeric keys of the data.
 
 :func:`with_values` only replaces numbers: the scenario built from its result by
-:func:`~microimpact.config.scenario_from_dict` validates the new values, so a value
-out of range gets the scenario's own one-line message naming the key::
+:func:`~microimpact.scenario.file.scenario_from_dict` validates the new values, so a
+value out of range gets the scenario's own one-line message naming the key::
 
     scenario = scenario_from_dict(with_values(data, {"particles.median_um": 12}),
                                   source=path)
@@ -34,8 +34,8 @@ import copy
 import numbers
 from collections.abc import Iterator, Mapping
 
-from ._validation import did_you_mean
-from .errors import ScenarioError
+from .._core.validation import did_you_mean
+from ..errors import ScenarioError
 
 __all__ = [
     "get_value",
@@ -158,8 +158,8 @@ def with_values(data: Mapping, values: Mapping[str, float], *, source=None) -> d
 
     A whole-number value replacing an integer stays an integer (so integer keys
     keep their type); other values are stored as floats. The values are not
-    validated here: build the scenario (:func:`~microimpact.config.scenario_from_dict`)
-    for that.
+    validated here: build the scenario
+    (:func:`~microimpact.scenario.file.scenario_from_dict`) for that.
 
     Raises
     ------

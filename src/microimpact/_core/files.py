@@ -30,8 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ._validation import did_you_mean
-from .errors import DataFormatError
+from ..errors import DataFormatError
+from .validation import did_you_mean
 
 #: Cells that mean "no value" (compared case-insensitively, after stripping).
 MISSING = frozenset({"", "nan", "na", "n/a", "null", "none", "-", "?"})

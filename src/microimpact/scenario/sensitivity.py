@@ -24,8 +24,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from ._config_base import _Ctx, _join, _show
-from .errors import ScenarioError
+from ..errors import ScenarioError
+from ._file_base import _Ctx, _join, _show
 
 __all__ = [
     "DEFAULT_RESAMPLES",

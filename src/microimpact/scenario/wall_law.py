@@ -4,7 +4,7 @@ A wall law tabulates, at every node (surface, diameter, speed, angle), the outco
 of an impact at that *fixed* diameter, with every other random input (the roughness
 angle, the particle's roughness, the speed scatter) kept at its distribution. The
 nodes are the product of three sorted axes; :class:`WallLawSpec` holds them and
-validates itself (the TOML layer, :mod:`microimpact.config`, only maps its errors
+validates itself (the TOML layer, :mod:`microimpact.scenario.file`, only maps its errors
 onto key paths).
 """
 
@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ScenarioError
-from ..scenario import _integer, _positive_tuple
+from .scenario import _integer, _positive_tuple
 
 __all__ = ["DEFAULT_QUANTILES", "WallLawSpec"]
 

@@ -25,7 +25,7 @@ import os
 
 import numpy as np
 
-from .engine.statistics import z_value
+from ..engine.statistics import z_value
 
 __all__ = ["SIMULATED", "compare"]
 
@@ -67,7 +67,7 @@ def _summary_iv(summary_or_result):
         )
     summary = summary.reset_index(drop=True).copy()
     if "capture_se" not in summary and "capture_ci_low" in summary:
-        from .engine.statistics import interval_se
+        from ..engine.statistics import interval_se
 
         summary["capture_se"] = interval_se(
             summary["capture_ci_low"], summary["capture_ci_high"], sim_conf
@@ -78,7 +78,7 @@ def _summary_iv(summary_or_result):
 def _experiments_iv(experiments):
     import pandas as pd
 
-    from .io.experiments import read_experiments
+    from ..io.experiments import read_experiments
 
     if isinstance(experiments, str | os.PathLike):
         experiments = read_experiments(experiments)

@@ -83,7 +83,7 @@ class SweepGrid:
 
     @classmethod
     def from_scenario(cls, scenario) -> SweepGrid:
-        """The grid of a :class:`~microimpact.scenario.Scenario`."""
+        """The grid of a :class:`~microimpact.scenario.scenario.Scenario`."""
         return cls(
             tuple(s.name for s in scenario.surfaces),
             tuple(float(v) for v in scenario.speeds_m_s),

@@ -2,12 +2,13 @@
 ``docs/sensitivity.md``).
 
 Each uncertain input is a number of the scenario file named by its dotted key
-(:mod:`microimpact.parameters`) with a distribution. A Sobol' design of base size
-n (matrices A, B and the d matrices AB_i, Saltelli et al. 2010) gives
+(:mod:`microimpact.scenario.parameters`) with a distribution. A Sobol' design of base
+size n (matrices A, B and the d matrices AB_i, Saltelli et al. 2010) gives
 ``n * (d + 2)`` design rows; each row is one *model evaluation*. For the engine
 (:class:`EngineModel`) an evaluation builds the scenario with the row's values
-(:func:`~microimpact.config.scenario_from_dict` validates them) and runs every sweep
-point at once with the same seed for every row (common random numbers), keeping only
+(:func:`~microimpact.scenario.file.scenario_from_dict` validates them) and runs every
+sweep point at once with the same seed for every row (common random numbers), keeping
+only
 the statistics. First-order (S1) and total (ST) indices and their bootstrap (BCa)
 intervals come from :func:`scipy.stats.sobol_indices` (Saltelli 2010 estimator for
 S1, Jansen for ST) on those evaluations.
@@ -27,7 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ._config_sensitivity import (
+from ..errors import InputError, ScenarioError
+from ..scenario.sensitivity import (
     DEFAULT_RESAMPLES,
     DEFAULT_SAMPLES,
     DEFAULT_STATISTICS,
@@ -36,7 +38,6 @@ from ._config_sensitivity import (
     parameter_distribution,
     sensitivity_from_dict,
 )
-from .errors import InputError, ScenarioError
 
 __all__ = [
     "COLUMNS",
@@ -89,7 +90,7 @@ class EngineModel:
     keys : sequence of str
         Dotted keys of the parameters, in the column order of the rows.
     statistics : sequence of str
-        Names among :data:`microimpact._config_sensitivity.STATISTICS`.
+        Names among :data:`microimpact.scenario.sensitivity.STATISTICS`.
     seed : int
         The engine seed. With `common_random_numbers` (the default) every row is
         run with this same seed; otherwise each row gets its own seed, derived from
@@ -98,7 +99,7 @@ class EngineModel:
         Impacts per sweep point (default: the scenario's ``samples``); a
         ``[precision]`` target is not used, so every row draws the same impacts.
     source, base_dir :
-        As for :func:`~microimpact.config.scenario_from_dict`.
+        As for :func:`~microimpact.scenario.file.scenario_from_dict`.
 
     Attributes
     ----------
@@ -121,8 +122,8 @@ class EngineModel:
     ):
         import pandas as pd
 
-        from .config import scenario_from_dict
-        from .grid import SweepGrid
+        from ..scenario.file import scenario_from_dict
+        from ..scenario.grid import SweepGrid
 
         self.data = {k: v for k, v in data.items() if k != "sensitivity"}
         self.keys = tuple(keys)
@@ -166,8 +167,8 @@ class EngineModel:
     def scenario(self, values):
         """The validated scenario at parameter `values` (a row, or a mapping of
         key -> value)."""
-        from .config import scenario_from_dict
-        from .parameters import with_values
+        from ..scenario.file import scenario_from_dict
+        from ..scenario.parameters import with_values
 
         if not isinstance(values, Mapping):
             values = dict(zip(self.keys, (float(v) for v in values), strict=True))
@@ -217,7 +218,7 @@ class EngineModel:
         return np.concatenate([np.asarray(v, dtype=float) for v in out])
 
     def __call__(self, rows) -> np.ndarray:
-        from .engine.montecarlo import run
+        from ..engine.montecarlo import run
 
         rows = np.atleast_2d(np.asarray(rows, dtype=float))
         out = np.empty((len(rows), len(self.outputs)))
@@ -245,7 +246,7 @@ def _check_statistics(statistics) -> tuple:
     statistics = tuple(dict.fromkeys(statistics))
     if not statistics:
         raise InputError("must name at least one statistic", field="statistics")
-    from ._validation import did_you_mean
+    from .._core.validation import did_you_mean
 
     for s in statistics:
         if s not in STATISTICS:
@@ -298,14 +299,14 @@ class SensitivityResult:
 
     def to_csv(self, path) -> Path:
         """Write :attr:`table` to `path` (CSV), atomically."""
-        from ._files import atomic_write
+        from .._core.files import atomic_write
 
         return atomic_write(path, lambda t: self.table.to_csv(t, index=False))
 
     def plot(self, statistic=None, *, ax=None):
         """ST against speed (or angle); see
         :func:`microimpact.plotting.sensitivity.plot_sensitivity`."""
-        from .plotting.sensitivity import plot_sensitivity
+        from ..plotting.sensitivity import plot_sensitivity
 
         return plot_sensitivity(self.table, statistic=statistic, ax=ax)
 
@@ -343,7 +344,7 @@ def _chunks(rows: np.ndarray, workers: int) -> list[np.ndarray]:
 def _map(executor, model, chunks, in_flight):
     """``model(chunk)`` of every chunk in order, on `executor` (``submit`` with at
     most `in_flight` chunks ahead, else ``map``)."""
-    from .engine.parallel import _ordered
+    from ..engine.parallel import _ordered
 
     if not hasattr(executor, "submit"):
         return executor.map(model, chunks)
@@ -356,7 +357,7 @@ def _evaluate(model, rows, *, workers, executor, progress) -> np.ndarray:
     out = np.empty((len(rows), n_out))
     own = None
     if executor is None and workers > 1:
-        from .engine.parallel import process_pool
+        from ..engine.parallel import process_pool
 
         executor = own = process_pool(workers)
     try:
@@ -466,7 +467,7 @@ def sobol_analysis(
         See :class:`EngineModel`.
     parameters : mapping
         Name -> distribution: a table ``{low, high}`` or ``{distribution = ...}``
-        (see :func:`~microimpact._config_sensitivity.parameter_distribution`) or a
+        (see :func:`~microimpact.scenario.sensitivity.parameter_distribution`) or a
         frozen ``scipy.stats`` distribution.
     samples : int
         Base size n of the design, a power of 2; the model is evaluated
@@ -495,7 +496,7 @@ def sobol_analysis(
     """
     import pandas as pd
 
-    from ._validation import check_int
+    from .._core.validation import check_int
 
     if not parameters:
         raise InputError("must name at least one parameter", field="parameters")
@@ -511,7 +512,7 @@ def sobol_analysis(
         raise InputError(f"must be in (0, 1); got {confidence!r}", field="confidence")
     n_resamples = check_int(n_resamples, "n_resamples", minimum=10)
     if executor is None:
-        from .engine.parallel import cap_workers
+        from ..engine.parallel import cap_workers
 
         workers = cap_workers(check_int(workers, "workers", minimum=1))
     root = np.random.SeedSequence(seed)
@@ -573,8 +574,8 @@ def _load(scenario):
     """``(data, source)`` of a scenario file, preset name or parsed dict."""
     if isinstance(scenario, Mapping):
         return dict(scenario), None
-    from .config import _load_toml
-    from .scenario import scenario_file
+    from ..scenario.file import _load_toml
+    from ..scenario.scenario import scenario_file
 
     path = scenario_file(scenario)
     return _load_toml(path), path
@@ -614,7 +615,7 @@ def sobol_sensitivity(
         1024). The engine runs ``n * (d + 2)`` times, each time every sweep point.
     statistics : sequence of str, optional
         Default ``("capture_fraction", "e_rebound_mean", "mu_mean")``; see
-        :data:`microimpact._config_sensitivity.STATISTICS`.
+        :data:`microimpact.scenario.sensitivity.STATISTICS`.
     workers, executor :
         Processes (or any executor with ``submit``/``map``, e.g. Dask's
         ``client.get_executor()``) running batches of design rows; each engine

@@ -15,8 +15,8 @@ or the measured surface can be simulated without retyping a number:
 
 Each function is pure and returns text. Floats are written with ``repr`` (the
 shortest text that reads back to the same float), so a snippet parsed by
-:func:`microimpact.config.scenario_from_dict` gives back exactly the values it was
-written from.
+:func:`microimpact.scenario.file.scenario_from_dict` gives back exactly the values it
+was written from.
 """
 
 from __future__ import annotations
@@ -92,7 +92,7 @@ def _table(header: str, items: dict, comment: str | None) -> str:
 
 
 def _distribution_items(dist, *, file=None, column=None, unit=None) -> dict:
-    from .units import m_to_um
+    from ..units import m_to_um
 
     p = dict(dist.params)
     limits = {"min_um": p.get("min_um"), "max_um": p.get("max_um")}

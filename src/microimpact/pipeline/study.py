@@ -2,8 +2,8 @@
 
 In the spirit of pvlib's ``ModelChain``, :class:`Study` sequences the steps that
 ``microimpact run`` performs and owns the output settings (:class:`Outputs`), which
-are not part of the physics (:class:`~microimpact.scenario.Scenario`). Each step is a
-method that returns the study, so they chain::
+are not part of the physics (:class:`~microimpact.scenario.scenario.Scenario`). Each
+step is a method that returns the study, so they chain::
 
     import microimpact as mi
 
@@ -24,8 +24,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ._outdir import CHECKPOINT_NAME, OutputFolder
-from .outputs import Outputs
+from ..scenario.outputs import Outputs
+from .folder import CHECKPOINT_NAME, OutputFolder
 
 __all__ = ["CHECKPOINT_NAME", "Outputs", "Study", "reproduce"]
 
@@ -40,7 +40,7 @@ class Study:
     Parameters
     ----------
     scenario : Scenario, path or str
-        A :class:`~microimpact.scenario.Scenario`, a scenario TOML file (its
+        A :class:`~microimpact.scenario.scenario.Scenario`, a scenario TOML file (its
         ``[outputs]`` table gives the default `outputs`), or a preset name.
     outputs : Outputs, optional
         Output settings; default: the file's ``[outputs]`` table, else
@@ -57,13 +57,13 @@ class Study:
     """
 
     def __init__(self, scenario, *, outputs: Outputs | None = None):
-        from .scenario import Scenario, scenario_file
+        from ..scenario.scenario import Scenario, scenario_file
 
         _outputs_iv(outputs)
         if not isinstance(scenario, Scenario):
             path = scenario_file(scenario)
             if outputs is None:
-                from .config import outputs_from_toml
+                from ..scenario.file import outputs_from_toml
 
                 outputs = outputs_from_toml(path)
             scenario = Scenario.from_toml(path)
@@ -94,7 +94,7 @@ class Study:
     def experiments(self):
         """The experiments table (read once, before any output), or None."""
         if self._experiments is None and self.outputs.experiments:
-            from .io.experiments import combine_experiments
+            from ..io.experiments import combine_experiments
 
             self._experiments = combine_experiments(list(self.outputs.experiments))
         return self._experiments
@@ -102,7 +102,7 @@ class Study:
     def run(self, **options) -> Study:
         """Run the simulation (:func:`microimpact.run` with `options`: samples,
         seed, workers, backend, executor, address, checkpoint, progress)."""
-        from .engine.montecarlo import run
+        from ..engine.montecarlo import run
 
         self.experiments()  # a bad experiments file fails before the simulation
         self.result = run(self.scenario, **options)
@@ -148,7 +148,7 @@ class Study:
         called once it is loaded (before any block runs), e.g. to say how much
         was restored.
         """
-        from .engine.checkpoint import Checkpoint
+        from ..engine.checkpoint import Checkpoint
 
         self.experiments()
         with OutputFolder(out_dir) as folder:
@@ -198,8 +198,8 @@ class Study:
         self.files = written
 
     def _figures(self, folder):
-        from .plotting._style import use_agg
-        from .plotting.results import figures_for_result, save_figures
+        from ..plotting._style import use_agg
+        from ..plotting.results import figures_for_result, save_figures
         from .report import input_figures
 
         use_agg()
@@ -215,7 +215,7 @@ class Study:
         return [Path(p) for p in paths]
 
     def _report(self, path, *, figures, folder=None):
-        from .plotting._style import use_agg
+        from ..plotting._style import use_agg
         from .report import write_report
 
         use_agg()
@@ -238,7 +238,7 @@ def _outputs_iv(outputs):
 
 
 def _parts_iv(parts):
-    from ._validation import check_subset
+    from .._core.validation import check_subset
 
     return check_subset(parts, "parts", PARTS)
 
@@ -259,7 +259,7 @@ def reproduce(out_dir="out", *, samples=None, figures=None, **options) -> list[S
     """
     from dataclasses import replace
 
-    from .config import PAPER_PRESETS
+    from ..scenario.file import PAPER_PRESETS
     from .report import write_report
 
     out = Path(out_dir)

@@ -49,8 +49,8 @@ from typing import NamedTuple
 import numpy as np
 from scipy import integrate
 
-from ._tables import TABLE_SIZE, QuantileTable
-from ._validation import as_float_array
+from .tables import TABLE_SIZE, QuantileTable
+from .validation import as_float_array
 
 #: The methods a continuous parent distribution must have (a frozen scipy.stats
 #: distribution has them all).
@@ -599,7 +599,7 @@ class CoreMethods:
         return out
 
     def table(self, size: int = TABLE_SIZE) -> QuantileTable:
-        """The equiprobable :class:`~microimpact._tables.QuantileTable` the engine
+        """The equiprobable :class:`~microimpact._core.tables.QuantileTable` the engine
         samples: a discrete distribution's own atoms (``from_sample``, or
         ``from_weights``), otherwise ``from_ppf(self.ppf)``."""
         return self._core.table(size)

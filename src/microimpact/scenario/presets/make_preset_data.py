@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from microimpact._files import atomic_write
+from microimpact._core.files import atomic_write
 
 SEED = 20000376
 HERE = Path(__file__).resolve().parent

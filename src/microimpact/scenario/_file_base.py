@@ -1,6 +1,6 @@
 """Scenario files: shared constants and the validation context.
 
-Part of :mod:`microimpact.config`, split out to keep modules small.
+Part of :mod:`microimpact.scenario.file`, split out to keep modules small.
 """
 
 from __future__ import annotations
@@ -10,9 +10,9 @@ import numbers
 import re
 from pathlib import Path
 
-from ._validation import did_you_mean
-from .errors import InputError, ScenarioError, _one_line
-from .units import LENGTH_UNITS
+from .._core.validation import did_you_mean
+from ..errors import InputError, ScenarioError, _one_line
+from ..units import LENGTH_UNITS
 
 #: Folder of the shipped preset scenario files.
 PRESET_DIR = Path(__file__).resolve().parent / "presets"

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._files import atomic_write
+from .._core.files import atomic_write
 
 __all__ = ["summary_text", "write_report"]
 
@@ -146,7 +146,7 @@ def _short(v) -> str:
 
 
 def _png_data_uri(fig) -> str:
-    from .plotting.results import STYLE
+    from ..plotting.results import STYLE
 
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=STYLE["savefig.dpi"] * 0.75)
@@ -219,7 +219,7 @@ def _provenance(result) -> str:
 
 
 def _confidence(result) -> float:
-    from .plotting.results import _confidence
+    from ..plotting.results import _confidence
 
     return _confidence(result)
 
@@ -400,10 +400,10 @@ def input_figures(result):
     (characters other than letters, digits, ``-`` and ``_`` become ``_``; a name
     that clashes with an earlier one gets ``_2``, ``_3``, ...).
     """
-    from .plotting.results import smooth_surfaces
-    from .plotting.roughness import plot_angle_pdf
-    from .plotting.sizes import plot_size_quantiles
-    from .units import m_to_um, rad_to_deg
+    from ..plotting.results import smooth_surfaces
+    from ..plotting.roughness import plot_angle_pdf
+    from ..plotting.sizes import plot_size_quantiles
+    from ..units import m_to_um, rad_to_deg
 
     out = []
     ds = getattr(result, "dataset", None)
@@ -466,7 +466,7 @@ def _try_draw(draw, errors):
 def _experiments_for(result, experiments):
     """The experiments table of `result` (`experiments` may map scenario names to
     experiments); None: none (the scenario's files are not read here)."""
-    from .io.experiments import combine_experiments
+    from ..io.experiments import combine_experiments
 
     if isinstance(experiments, dict):
         experiments = experiments.get(result.scenario.name)
@@ -497,7 +497,7 @@ def _embed(fig, caption) -> str:
 def _result_section(result, k, csv_href, experiments, saved) -> str:
     import matplotlib.pyplot as plt
 
-    from .plotting.results import figure_caption, result_figures
+    from ..plotting.results import figure_caption, result_figures
 
     sc = result.scenario
     anchor = f"r{k}-{_slug(sc.name)}"
@@ -510,7 +510,7 @@ def _result_section(result, k, csv_href, experiments, saved) -> str:
     parts += ["<h3>Summary</h3>", _summary_table(result, csv_href)]
     exp = _experiments_for(result, experiments)
     if exp is not None and len(exp):
-        from .compare import compare
+        from ..analysis.compare import compare
 
         parts += [
             "<h3>Comparison with experiments</h3>",
@@ -525,7 +525,7 @@ def _result_section(result, k, csv_href, experiments, saved) -> str:
         figs = [(c, f) for _, c, f in result_figures(result, experiments=exp)]
     import matplotlib as mpl
 
-    from .plotting.results import STYLE
+    from ..plotting.results import STYLE
 
     rc = {**STYLE, "figure.figsize": (5.0, 3.4), "figure.constrained_layout.use": True}
     if saved is None:  # otherwise the caller wrote the input figures too
@@ -533,7 +533,7 @@ def _result_section(result, k, csv_href, experiments, saved) -> str:
             figs += [(c, f) for _, c, f in input_figures(result)]
     areal = [(c, f) for c, f in figs if _stem_of(f) == "profile_vs_areal"]
     if not areal and saved is None:
-        from .plotting.areal import CAPTION
+        from ..plotting.areal import CAPTION
 
         areal = [(c, f) for c, f in figs if c == CAPTION]
     if areal:  # its own section: a comparison the paper does not make
@@ -661,7 +661,7 @@ def write_report(
     pathlib.Path
         `out_path`.
     """
-    from . import __version__
+    from .. import __version__
 
     if hasattr(results, "summary"):
         results = [results]
