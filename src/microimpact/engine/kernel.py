@@ -641,7 +641,7 @@ def entropy_words(entropy: int) -> bytes:
 
 def compiled_stream_raw(entropy, key, n) -> np.ndarray:
     """``PCG64(SeedSequence(entropy, spawn_key=key)).random_raw(n)`` computed by the
-    compiled kernel (the same bits; tests/test_rng_streams.py)."""
+    compiled kernel (the same bits; tests/engine/test_rng_streams.py)."""
     out = np.empty(n, dtype=np.uint64)
     _ckernel().stream(entropy_words(entropy), tuple(int(k) for k in key), out)
     return out

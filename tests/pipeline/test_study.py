@@ -322,7 +322,7 @@ def test_outputs_validate():
 
 
 def test_every_summary_variable_is_documented():
-    text = (Path(__file__).resolve().parents[1] / "docs" / "outputs.md").read_text()
+    text = (Path(__file__).resolve().parents[2] / "docs" / "outputs.md").read_text()
     for name in VARIABLES:
         if name.startswith(("e_relative", "mu_relative")):
             name = name.split("_se")[0]

@@ -27,7 +27,7 @@ from microimpact.surface.areal import (
     plane_fit,
 )
 
-DATA = Path(__file__).parent / "data"
+DATA = Path(__file__).parents[1] / "data"
 
 
 def _write(tmp_path, text, name="map.txt"):

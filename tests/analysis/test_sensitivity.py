@@ -431,7 +431,7 @@ def test_cli_sensitivity_through_main(tmp_path, capsys):
 
     from microimpact.cli import main
 
-    scenario = Path(__file__).parent / "data" / "sensitivity_small.toml"
+    scenario = Path(__file__).parents[1] / "data" / "sensitivity_small.toml"
     out = tmp_path / "out"
     assert main(["sensitivity", str(scenario), "--out", str(out), "--quiet"]) == 0
     import pandas as pd
@@ -531,7 +531,7 @@ def test_cli_unreachable_scheduler_is_the_users_error(tmp_path, capsys, monkeypa
 
     pytest.importorskip("dask.distributed")
     monkeypatch.setattr(parallel, "DASK_CONNECT_TIMEOUT", 1)
-    path = Path(__file__).parent / "data" / "sensitivity_small.toml"
+    path = Path(__file__).parents[1] / "data" / "sensitivity_small.toml"
     argv = ["sensitivity", str(path), "--out", str(tmp_path / "o"), "--quiet"]
     assert main([*argv, "--backend", "dask", "--scheduler", "tcp://127.0.0.1:9"]) == 2
     err = capsys.readouterr().err.strip()

@@ -30,7 +30,7 @@ import xarray as xr
 from microimpact.wall_law import export_c
 from microimpact.wall_law.export_c import read_binary, write_binary, write_c
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 C_DIR = ROOT / "src" / "microimpact" / "wall_law" / "c"
 MOCK_UDF = ROOT / "tests" / "c" / "mock_udf"
 CC = shutil.which("cc") or shutil.which("gcc") or shutil.which("clang")

@@ -19,7 +19,7 @@ from numpy.testing import assert_array_equal
 
 from microimpact.cli import main
 
-BAD = Path(__file__).parent / "data" / "bad_scenarios"
+BAD = Path(__file__).parents[1] / "data" / "bad_scenarios"
 
 SMALL = """\
 name = "cli-test"

@@ -19,7 +19,7 @@ import microimpact as mi
 
 matplotlib.use("Agg")
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 ELASTIC = {"k1": math.inf, "k2": 0.0, "v_c": 0.0}  # e = 1
 SOFT = {"k1": 2.0, "k2": 0.05, "v_c": 0.1}
 

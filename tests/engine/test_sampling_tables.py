@@ -215,8 +215,9 @@ def test_none_counts_the_exact_shadowed_fraction():
 
 def test_particle_roughness_convolution_error_is_bounded():
     """Surface + particle roughness (two normals): the combined table is the exact
-    convolution to far below the Monte Carlo error (tests/test_sampling_particle.py
-    checks it against 0.1 SE at 1e9; this is a coarse, independent check)."""
+    convolution to far below the Monte Carlo error
+    (tests/engine/test_sampling_particle.py checks it against 0.1 SE at 1e9; this is a
+    coarse, independent check)."""
     a, b = normal_angles(8.0), normal_angles(6.0)
     table = plan_module.convolve_angles(a, b)
     exact = stats.norm(0.0, np.deg2rad(10.0))

@@ -31,7 +31,7 @@ from microimpact.scenario.outputs import Outputs
 from microimpact.scenario.scenario import Scenario
 from microimpact.units import deg_to_rad, um_to_m
 
-BAD_DIR = Path(__file__).parent / "data" / "bad_scenarios"
+BAD_DIR = Path(__file__).parents[1] / "data" / "bad_scenarios"
 BAD_FILES = sorted(BAD_DIR.glob("*.toml"))
 
 MINIMAL = """
@@ -609,7 +609,7 @@ def test_load_preset_unknown_name():
 
 
 def test_examples_are_relative_symlinks_to_the_presets():
-    examples = Path(__file__).resolve().parents[1] / "examples"
+    examples = Path(__file__).resolve().parents[2] / "examples"
     for file in PRESETS.values():
         link = examples / file
         assert link.is_symlink()

@@ -100,7 +100,7 @@ def test_simulate_specs_is_used_when_the_kernel_has_it(monkeypatch):
 
     monkeypatch.setattr(kernel, "simulate_specs", simulate_specs, raising=False)
     # the per-accumulator path (the stacked one, tested against it in
-    # tests/test_grid_speed.py, is switched off here)
+    # tests/engine/test_grid_speed.py, is switched off here)
     monkeypatch.setattr(kernel, "simulate_specs_stacked", lambda plan, specs: None)
     _same(ref, run(sc))
     assert len(calls) == 1 and len(calls[0]) == 36
