@@ -28,7 +28,7 @@ process once with ``--smoke``):
    impacts per replicate, against an independent quadrature of the exact
    expectation (> 1 means QMC is better).
 8. ``paper_reproduction_s``: the four presets at 4,000 impacts per point, if
-   ``microimpact.scenario.scenario.file.load_preset`` exists.
+   ``microimpact.scenario.file.load_preset`` exists.
 9. ``grid_per_s``: ``microimpact.run(workers=1)`` over a sweep grid of 100 speeds
    x 100 angles (10^4 points) at 4,000 impacts per point on the same rough surface
    (``grid_all_cores_per_s``: ``workers=os.cpu_count()``); ``grid_ratio`` is
@@ -480,7 +480,8 @@ def paper_reproduction(samples: int, *, max_presets=None, cli_out=None) -> dict:
     point (engine only) and, with `cli_out`, ``microimpact reproduce`` as a user
     runs it."""
     try:
-        from microimpact.scenario.scenario.file import PRESETS, load_preset
+        from microimpact.scenario.file import PRESETS
+        from microimpact.scenario.scenario import load_preset
     except ImportError as exc:
         return {"skipped": f"presets not available ({exc})"}
     import microimpact as mi

@@ -61,9 +61,8 @@ def _pair_plans(theta_deg: float):
     """The three plans of ``--pairs`` (see the module docstring)."""
     import dataclasses
 
-    from microimpact.scenario.scenario.scenario import Scenario
-
     from microimpact.engine import plan as plan_module
+    from microimpact.scenario.scenario import Scenario
 
     sc = Scenario.from_preset("lycopodium-formica-oblique")
     sc = dataclasses.replace(

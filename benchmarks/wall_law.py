@@ -20,9 +20,9 @@ import math
 import time
 
 import numpy as np
-from microimpact.scenario.scenario.file import load_preset
 
 import microimpact as mi
+from microimpact.scenario.scenario import load_preset
 from microimpact.wall_law import WallLawSpec, build_wall_law
 from microimpact.wall_law.build import node_outcomes
 

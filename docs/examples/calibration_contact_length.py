@@ -16,8 +16,9 @@ import pandas as pd
 
 import microimpact
 from microimpact.analysis.calibration import calibrate
-from microimpact.scenario.scenario.file import _load_toml, preset_path, scenario_from_dict
-from microimpact.scenario.scenario.parameters import with_values
+from microimpact.scenario.file import preset_path, read_toml
+from microimpact.scenario.parameters import with_values
+from microimpact.scenario.scenario import scenario_from_dict
 
 KEY = "surfaces.formica.contact_length_um"
 TRUTH = 30.0
@@ -25,7 +26,7 @@ TRUTH = 30.0
 
 def scenario_data():
     path = preset_path("sst76-formica-oblique")
-    data = _load_toml(path)
+    data = read_toml(path)
     data["surfaces"] = [
         {"name": "formica", "kind": "synthetic", "contact_length_um": 20.0}
     ]

@@ -105,7 +105,7 @@ _EXPORTS: dict[str, str] = {
     "Scenario": "scenario.scenario",
     "SurfaceVariant": "scenario.scenario",
     "Precision": "scenario.scenario",
-    "scenario_from_dict": "scenario.file",
+    "scenario_from_dict": "scenario.scenario",
     "list_presets": "scenario.file",
     "SweepGrid": "scenario.grid",
     "GridPoint": "scenario.grid",

@@ -20,13 +20,9 @@ from microimpact.analysis.calibration import (
     to_toml,
 )
 from microimpact.errors import InputError
-from microimpact.scenario.file import (
-    PRESETS,
-    _load_toml,
-    preset_path,
-    scenario_from_dict,
-)
+from microimpact.scenario.file import PRESETS, preset_path, read_toml
 from microimpact.scenario.parameters import with_values
+from microimpact.scenario.scenario import scenario_from_dict
 
 STD = "surfaces.rough.std_deg"
 
@@ -218,7 +214,7 @@ def test_default_bounds():
     ("keys", "bounds", "match"),
     [
         (["surfaces.rough.std_dge"], None, "did you mean"),
-        (["seed"], None, "not a model parameter"),
+        (["seed"], None, "cannot be a parameter"),
         (["coefficients.v_c"], None, "table"),
         ([STD], {STD: (5, 5)}, "empty range"),
         ([STD], {STD: (-5, 20)}, "bound -5 is not allowed"),
@@ -301,7 +297,7 @@ def test_cli_exit_code_2(tmp_path, capsys):
 # ---------------------------------------------------------------------- TOML
 @pytest.mark.parametrize("name", sorted(PRESETS))
 def test_to_toml_round_trips_the_presets(name):
-    data = _load_toml(preset_path(name))
+    data = read_toml(preset_path(name))
     assert tomllib.loads(to_toml(data, header=["a note"])) == data
 
 

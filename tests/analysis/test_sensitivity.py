@@ -101,7 +101,7 @@ def test_surface_typo_suggests_the_surface():
 
 
 def test_a_bad_value_gets_the_scenario_error_naming_the_key():
-    from microimpact.scenario.file import scenario_from_dict
+    from microimpact.scenario.scenario import scenario_from_dict
 
     with pytest.raises(ScenarioError, match=r"particles\.median_um: must be > 0"):
         scenario_from_dict(with_values(BASE, {"particles.median_um": -1.0}))
@@ -111,7 +111,7 @@ def test_a_bad_value_gets_the_scenario_error_naming_the_key():
 def test_sensitivity_table():
     data = scenario(
         sensitivity={
-            "samples": 64,
+            "base_size": 64,
             "statistics": ["capture_fraction"],
             "parameters": {
                 "particles.median_um": {"low": 8, "high": 12},
@@ -130,7 +130,7 @@ def test_sensitivity_table():
         }
     )
     s = sensitivity_from_dict(data, source="s.toml")
-    assert s.samples == 64 and s.statistics == ("capture_fraction",)
+    assert s.base_size == 64 and s.statistics == ("capture_fraction",)
     assert s.parameters["particles.median_um"].ppf(0.5) == pytest.approx(10)
     assert s.parameters["coefficients.k1"].ppf(1e-9) >= 0
     assert s.parameters["coefficients.v_c.a_m_s"].median() == pytest.approx(0.5)
@@ -140,8 +140,16 @@ def test_sensitivity_table():
     "table, expected",
     [
         (
-            {"samples": 100, "parameters": {"coefficients.k1": {"low": 1, "high": 2}}},
-            "sensitivity.samples: must be a power of 2",
+            {
+                "base_size": 100,
+                "parameters": {"coefficients.k1": {"low": 1, "high": 2}},
+            },
+            "sensitivity.base_size: must be a power of 2",
+        ),
+        (
+            {"samples": 64, "parameters": {"coefficients.k1": {"low": 1, "high": 2}}},
+            "sensitivity.samples: renamed: the Sobol' design's base size is "
+            "`base_size`",
         ),
         (
             {"parameters": {"coefficients.kk1": {"low": 1, "high": 2}}},
@@ -159,8 +167,8 @@ def test_sensitivity_table():
         ({"parameters": {"seed": {"low": 1, "high": 2}}}, "cannot be a parameter"),
         ({"parameters": {}}, "must name at least one parameter"),
         (
-            {"parameters": {"coefficients.k1": {"low": 1, "high": 2}}, "sample": 4},
-            "(did you mean 'samples'?)",
+            {"parameters": {"coefficients.k1": {"low": 1, "high": 2}}, "base": 4},
+            "(did you mean 'base_size'?)",
         ),
     ],
 )
@@ -198,7 +206,7 @@ U = {"low": -np.pi, "high": np.pi}
 
 def ishigami_indices(model, executor=None):
     res = sobol_analysis(
-        model, {"x1": U, "x2": U, "x3": U}, samples=2048, seed=4, executor=executor
+        model, {"x1": U, "x2": U, "x3": U}, base_size=2048, seed=4, executor=executor
     )
     return res.table
 
@@ -253,7 +261,7 @@ def test_normal_incidence_smooth_capture_ignores_friction_and_k1():
             "coefficients.friction": {"low": 0.1, "high": 0.4},
             "coefficients.k1": {"low": 2, "high": 6},
         },
-        samples=32,
+        base_size=32,
         statistics=("capture_fraction",),
         seed=2,
         n_resamples=200,
@@ -274,27 +282,31 @@ def test_normal_incidence_smooth_capture_ignores_friction_and_k1():
 
 
 def test_an_input_without_effect_has_zero_total_index():
-    """``confidence`` sets only the engine's intervals, never a mean: ST = 0."""
+    """One surface's roughness never changes another surface's statistics (each
+    sweep point has its own keyed stream): ST = 0 there, and > 0 on its own."""
     res = sobol_sensitivity(
         scenario(
-            surfaces=[{"name": "rough", "kind": "normal", "std_deg": 8}],
+            surfaces=[
+                {"name": "rough", "kind": "normal", "std_deg": 8},
+                {"name": "other", "kind": "normal", "std_deg": 5},
+            ],
             sweep={"speed_m_s": [0.5, 1.0], "angle_deg": [30, 90]},
-            confidence=0.95,
         ),
         {
-            "confidence": {"low": 0.8, "high": 0.99},
+            "surfaces.other.std_deg": {"low": 2, "high": 10},
             "surfaces.rough.std_deg": {"low": 4, "high": 12},
         },
-        samples=16,
+        base_size=16,
         seed=5,
         n_resamples=100,
     )
     t = res.table
-    none = t[t["parameter"] == "confidence"]
-    assert np.allclose(none["ST"], 0, atol=1e-12)
+    none = t[(t["parameter"] == "surfaces.other.std_deg") & (t["surface"] == "rough")]
+    assert len(none) and np.allclose(none["ST"], 0, atol=1e-12)
     assert (none["ST_ci_low"] <= 1e-12).all() and (none["ST_ci_high"] >= -1e-12).all()
     rough = t[
         (t["parameter"] == "surfaces.rough.std_deg")
+        & (t["surface"] == "rough")
         & (t["statistic"] == "mu_mean")
         & (t["angle_deg"] == 30)
     ]
@@ -313,7 +325,7 @@ def test_undefined_indices_are_nan_and_surface_column():
             sweep={"speed_m_s": [0.01, 0.6], "angle_deg": [90]},
         ),
         {"particles.median_um": {"low": 8, "high": 12}},
-        samples=8,
+        base_size=8,
         statistics=("capture_fraction", "e_rebound_mean"),
         seed=1,
         n_resamples=50,
@@ -335,7 +347,7 @@ def test_undefined_indices_are_nan_and_surface_column():
 def test_design_values_the_scenario_refuses_fail_before_any_run():
     with pytest.raises(ScenarioError, match=r"particles\.median_um: must be > 0"):
         sobol_sensitivity(
-            scenario(), {"particles.median_um": {"low": -12, "high": -1}}, samples=4
+            scenario(), {"particles.median_um": {"low": -12, "high": -1}}, base_size=4
         )
     with pytest.raises(ScenarioError, match=r"did you mean 'coefficients\.k1'"):
         sobol_sensitivity(scenario(), {"coefficients.kk1": {"low": 1, "high": 2}})
@@ -391,7 +403,7 @@ def test_cli_action_writes_csv_and_figure(tmp_path, capsys):
     data = scenario(
         sweep={"speed_m_s": [0.6], "angle_deg": [45, 90]},
         sensitivity={
-            "samples": 4,
+            "base_size": 4,
             "resamples": 20,
             "parameters": {"particles.median_um": {"low": 8, "high": 12}},
         },
@@ -421,7 +433,7 @@ def test_cli_action_writes_csv_and_figure(tmp_path, capsys):
     with pytest.raises(SystemExit):
         parser.parse_args([str(path), "--out", "x", "--parameter", "k1=3"])
     with pytest.raises(SystemExit):
-        parser.parse_args([str(path), "--out", "x", "--samples", "100"])
+        parser.parse_args([str(path), "--out", "x", "--base-size", "100"])
 
 
 def test_cli_sensitivity_through_main(tmp_path, capsys):

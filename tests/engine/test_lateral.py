@@ -200,7 +200,7 @@ def test_ragged_layout_reads_back(monkeypatch, areal_result):
 
 
 def test_mirror_symmetry_of_the_isotropic_preset_surface():
-    from microimpact.scenario.file import load_preset
+    from microimpact.scenario.scenario import load_preset
 
     sc = load_preset("sst76-formica-areal")
     import dataclasses

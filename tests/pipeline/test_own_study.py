@@ -30,7 +30,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
 from microimpact.cli import main
-from microimpact.scenario.file import scenario_from_toml
+from microimpact.scenario.scenario import scenario_from_toml
 
 CHECKPOINT = ".microimpact-checkpoint.npz"
 _FAST = settings(

@@ -19,7 +19,8 @@ from numpy.testing import assert_allclose
 from scipy import stats
 
 from microimpact.engine.montecarlo import run
-from microimpact.scenario.file import PRESET_DIR, list_presets, load_preset
+from microimpact.scenario.file import PRESET_DIR, list_presets
+from microimpact.scenario.scenario import load_preset
 
 N = 4000  # the paper's 4,000 simulation points
 SEED = 12345

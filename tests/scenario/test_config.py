@@ -21,14 +21,16 @@ from microimpact.scenario.file import (
     PRESET_DIR,
     PRESETS,
     list_presets,
-    load_preset,
     outputs_from_dict,
     outputs_from_toml,
+)
+from microimpact.scenario.outputs import Outputs
+from microimpact.scenario.scenario import (
+    Scenario,
+    load_preset,
     scenario_from_dict,
     scenario_from_toml,
 )
-from microimpact.scenario.outputs import Outputs
-from microimpact.scenario.scenario import Scenario
 from microimpact.units import deg_to_rad, um_to_m
 
 BAD_DIR = Path(__file__).parents[1] / "data" / "bad_scenarios"

@@ -53,8 +53,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from scipy import stats
 
+from .._core.progress import Progress, check_progress
+from ..engine.statistics import z_value
 from ..errors import InputError
+from ..io.experiments import read_experiments
+from ..scenario.parameters import check_parameter_key, with_values
+from .compare import _experiments_iv, compare
+from .model import ScenarioModel
 
 __all__ = [
     "CalibrationResult",
@@ -80,16 +87,6 @@ BAND_DRAWS = 20
 UNDEFINED_RESIDUAL = 1e3
 
 #: Scenario keys that are not model parameters (sampling, reporting, the design).
-NOT_PARAMETERS = (
-    "seed",
-    "samples",
-    "qmc_replicates",
-    "confidence",
-    "reference_angle_deg",
-    "capture_quantiles",
-)
-_NOT_PARAMETER_TABLES = ("precision.", "outputs.", "wall_law.", "sensitivity.")
-
 #: experimental statistic -> summary column of its model curve
 _CURVE = {
     "e": "e_rebound_mean",
@@ -172,76 +169,31 @@ def default_bounds(key: str, value: float) -> tuple[float, float]:
     )
 
 
-def _load(scenario, source=None, base_dir=None):
-    """``(data, source, base_dir)`` of a scenario file, preset name or parsed dict."""
-    from ..scenario.file import _load_toml
-    from ..scenario.scenario import scenario_file
-
-    if isinstance(scenario, Mapping):
-        if base_dir is None and source is not None:
-            base_dir = Path(source).resolve().parent
-        return dict(scenario), source, base_dir
-    path = scenario_file(scenario)
-    return _load_toml(path), path, path.resolve().parent
-
-
 def _check_key(data, key, source):
-    from ..scenario.parameters import get_value
-
-    if (
-        key in NOT_PARAMETERS
-        or key.startswith(_NOT_PARAMETER_TABLES)
-        or (key.startswith("sweep.") and key != "sweep.speed_spread")
-    ):
-        raise InputError(
-            "is not a model parameter (sampling, reporting or the sweep design); "
-            "calibrate physics numbers such as surfaces.<name>.std_deg or "
-            "coefficients.v_c.a_m_s",
-            source=source,
-            field=key,
-        )
-    return float(get_value(data, key, source=source))
+    return check_parameter_key(data, key, source=source)
 
 
 # ---------------------------------------------------------------------- the model
 def _simulate(task):
-    """One engine run (a worker task): ``(data, source, base_dir, seed, samples)``
-    -> the summary table."""
-    import microimpact
-
-    from ..scenario.file import scenario_from_dict
-
-    data, source, base_dir, seed, samples = task
-    scenario = scenario_from_dict(data, source=source, base_dir=base_dir)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        result = microimpact.run(
-            scenario, samples=samples, seed=seed, workers=1, progress=False
-        )
-    return result.summary
+    """One engine run (a worker task): ``(scenario model, values)`` -> the summary
+    table."""
+    model, values = task
+    return model.summary(values)
 
 
 class _Model:
-    """The engine at parameter vectors, with common random numbers, a cache, and
-    batches mapped on an executor."""
+    """The engine at parameter vectors (a
+    :class:`~microimpact.analysis.model.ScenarioModel`: common random numbers,
+    tables built once), with a cache of summaries and batches mapped on an
+    executor."""
 
-    def __init__(
-        self, data, source, base_dir, keys, seed, samples, experiments, mapper
-    ):
-        self.data, self.source, self.base_dir = data, source, base_dir
-        self.keys, self.seed, self.samples = tuple(keys), seed, samples
+    def __init__(self, scenario_model, experiments, mapper):
+        self.scenario_model = scenario_model
+        self.keys = scenario_model.keys
         self.exp = experiments
         self.map = mapper
         self.cache: dict = {}
         self.runs = 0
-
-    def values(self, x):
-        return dict(zip(self.keys, (float(v) for v in x), strict=True))
-
-    def scenario_data(self, x):
-        from ..scenario.parameters import with_values
-
-        return with_values(self.data, self.values(x), source=self.source)
 
     def summaries(self, xs):
         """The summary at every parameter vector of `xs` (cached)."""
@@ -250,10 +202,7 @@ class _Model:
             k = tuple(np.asarray(x, dtype=float).tolist())
             if k not in self.cache and k not in todo:
                 todo.append(k)
-        tasks = [
-            (self.scenario_data(k), self.source, self.base_dir, self.seed, self.samples)
-            for k in todo
-        ]
+        tasks = [(self.scenario_model, self.scenario_model.values(k)) for k in todo]
         for k, s in zip(todo, self.map(_simulate, tasks), strict=True):
             self.cache[k] = s
         self.runs += len(todo)
@@ -261,8 +210,6 @@ class _Model:
 
     def points(self, summary):
         """``(m_sim, s_sim)`` at the experimental points."""
-        from .compare import compare
-
         t = compare(summary, self.exp)
         return t["sim_mean"].to_numpy(float), t["sim_se"].to_numpy(float)
 
@@ -334,7 +281,7 @@ class CalibrationResult:
 
     def scenario(self):
         """The calibrated :class:`~microimpact.Scenario`."""
-        from ..scenario.file import scenario_from_dict
+        from ..scenario.scenario import scenario_from_dict
 
         return scenario_from_dict(self.data, base_dir=self.base_dir)
 
@@ -675,8 +622,9 @@ def calibrate(
 
     Parameters
     ----------
-    scenario : path, preset name or dict
-        The scenario file (or its parsed TOML data, with `source`/`base_dir`).
+    scenario : ScenarioFile, path, preset name or dict
+        The scenario file, read once (or its parsed TOML data, with
+        `source`/`base_dir`).
         Its sweep must contain the experimental points' speeds and angles (or
         bracket them: the simulation is interpolated as by ``compare``).
     experiments : path or pandas.DataFrame
@@ -708,8 +656,10 @@ def calibrate(
     band_draws : int
         Without enough bootstrap refits (fewer than this), the model band comes
         from this many parameter draws from the covariance (0: no band).
-    progress : callable, optional
-        ``progress(message)`` at each stage.
+    progress : bool or callable, optional
+        Progress of the steps (the fit, each bootstrap refit, the band): ``True``
+        shows a bar (tqdm, on stderr), a callable is called as
+        ``progress(done, total)``; default: a bar only when stderr is a terminal.
 
     Returns
     -------
@@ -722,25 +672,126 @@ def calibrate(
         bounds that are empty or that the scenario rejects, an experiment file
         that cannot be read or whose points are not in the sweep.
     """
-    from scipy import stats
-
-    from ..engine.statistics import z_value
-    from ..scenario.file import scenario_from_dict
-    from ..scenario.parameters import with_values
-    from .compare import _experiments_iv
-
-    say = progress or (lambda msg: None)
     if not (isinstance(confidence, float | int) and 0 < confidence < 1):
         raise InputError(f"must be in (0, 1); got {confidence!r}", field="confidence")
     if isinstance(bootstrap, bool) or not isinstance(bootstrap, int) or bootstrap < 0:
         raise InputError(
             f"must be an integer >= 0; got {bootstrap!r}", field="bootstrap"
         )
-    data, source, base_dir = _load(scenario, source, base_dir)
-    data = {k: v for k, v in data.items() if k != "sensitivity"}
-    base = scenario_from_dict(data, source=source, base_dir=base_dir)
+    check_progress(progress)
+    smodel = ScenarioModel(scenario, samples=samples, source=source, base_dir=base_dir)
+    source, base_dir = smodel.source, smodel.base_dir
+    keys, x0, B = _parameters(smodel, parameters, bounds)
+    smodel.set_keys(keys)
+    width = B[:, 1] - B[:, 0]
+    scale = _scale(x0, B)
+    x0 = np.clip(x0, B[:, 0], B[:, 1])
+    h = rel_step * scale
+    exp, exp_source = _read_experiments(experiments)
+    base = smodel.base
+    if seed is None:
+        seed = base.seed if base.seed is not None else 0
+    smodel.seed = seed = int(seed)
+    samples = smodel.samples
 
-    # parameters and bounds
+    mapper, pool = _mapper(workers, executor)
+    steps = Progress(progress, total=2 + bootstrap, unit="steps", desc="calibrate")
+    try:
+        model = _Model(smodel, exp, mapper)
+        y, s_exp, s_sim = _start(model, x0, exp_source)
+        exp = model.exp
+        fit, x, sx, s_sim = _fit(model, y, s_exp, s_sim, x0, h, B, scale)
+        steps.update()
+        u = _uncertainty(
+            model, y, s_exp, s_sim, x, h, B, width, scale, confidence, rcond
+        )
+        boot, boot_curves = _bootstrap(
+            model,
+            sx,
+            y,
+            s_exp,
+            s_sim,
+            x,
+            h,
+            B,
+            scale,
+            u["idx"],
+            bootstrap,
+            bootstrap_seed,
+            steps,
+        )
+        b_lo, b_hi = _bootstrap_intervals(boot, u["idx"], len(keys), confidence)
+        band_summaries, band_from = _band(
+            model, boot, boot_curves, x, B, u, band_draws, bootstrap_seed
+        )
+        curves = _curves(sx, band_summaries, exp, 1 - confidence)
+        points = _points_table(model, sx, exp, y, s_exp, s_sim)
+        steps.update()
+        runs = model.runs
+    finally:
+        steps.close()
+        if pool is not None:
+            pool.shutdown(wait=True, cancel_futures=True)
+
+    calibrated = with_values(
+        smodel.data, dict(zip(keys, x.tolist(), strict=True)), source=source
+    )
+    svals, undefined = u["svals"], u["undefined"]
+    info = {
+        "optimizer": {
+            "status": int(fit.status),
+            "message": str(fit.message),
+            "nfev": int(fit.nfev),
+            "njev": int(fit.njev) if fit.njev is not None else None,
+        },
+        "model_runs": int(runs),
+        "finite_difference_steps": dict(zip(keys, h.tolist(), strict=True)),
+        "singular_values_normalised": (svals / svals[0]).tolist()
+        if svals.size and svals[0] > 0
+        else [],
+        "condition_number": float(svals[0] / svals[-1])
+        if svals.size and svals[-1] > 0
+        else None,
+        "jacobian_fd_error_normalised": u["fd_noise"],
+        "band": band_from,
+        "undefined_at_optimum": [int(v) for v in exp["line"].to_numpy()[undefined]],
+        "experiments": exp_source,
+        "scenario": None if source is None else str(source),
+    }
+    ok, se = u["ok"], u["se"]
+    return CalibrationResult(
+        keys=tuple(keys),
+        estimate=x,
+        identifiable=ok,
+        reasons=u["reasons"],
+        std_error=se,
+        ci_low=np.where(ok, u["ci_low"], np.nan),
+        ci_high=np.where(ok, u["ci_high"], np.nan),
+        covariance=u["cov"],
+        correlation=u["corr"],
+        bounds=B,
+        at_bound=u["at_bound"],
+        chi2=u["chi2"],
+        dof=int(u["dof"]),
+        p_value=u["p_value"],
+        confidence=float(confidence),
+        points=points,
+        curves=curves,
+        data=calibrated,
+        seed=seed,
+        samples=samples,
+        bootstrap=boot,
+        bootstrap_ci_low=b_lo,
+        bootstrap_ci_high=b_hi,
+        info=info,
+        base_dir=None if base_dir is None else str(base_dir),
+    )
+
+
+def _parameters(smodel, parameters, bounds):
+    """``(keys, x0, B)``: the parameters' keys, file values and bounds (each bound
+    checked to be a value the scenario accepts, with its one-line error)."""
+    source = smodel.source
     if isinstance(parameters, str):
         parameters = [parameters]
     given = dict(bounds or {})
@@ -748,9 +799,7 @@ def calibrate(
         for k, b in parameters.items():
             if b is not None:
                 given.setdefault(k, b)
-        keys = list(parameters)
-    else:
-        keys = list(parameters)
+    keys = list(parameters)
     if not keys:
         raise InputError("give at least one parameter", field="--parameter")
     dup = {k for k in keys if keys.count(k) > 1}
@@ -762,7 +811,7 @@ def calibrate(
             f"bounds for keys that are not parameters: {sorted(unknown)}",
             field="bounds",
         )
-    x0 = np.array([_check_key(data, k, source) for k in keys])
+    x0 = np.array([_check_key(smodel.data, k, source) for k in keys])
     B = np.empty((len(keys), 2))
     for j, key in enumerate(keys):
         b = given.get(key)
@@ -788,11 +837,7 @@ def calibrate(
         for v in (lo, hi):  # the scenario must accept its bounds (one-line error)
             if math.isfinite(v):
                 try:
-                    scenario_from_dict(
-                        with_values(data, {key: v}, source=source),
-                        source=source,
-                        base_dir=base_dir,
-                    )
+                    smodel.scenario({key: v})
                 except InputError as exc:
                     raise InputError(
                         f"the bound {v:g} is not allowed: {exc.message}"
@@ -804,209 +849,172 @@ def calibrate(
                         source=source,
                         field=key,
                     ) from None
-    width = B[:, 1] - B[:, 0]
-    scale = _scale(x0, B)
-    x0 = np.clip(x0, B[:, 0], B[:, 1])
-    h = rel_step * scale
+    return keys, x0, B
 
-    # experiments
-    from ..io.experiments import read_experiments
 
+def _read_experiments(experiments):
+    """``(table, file name or None)`` of the experiments."""
     if isinstance(experiments, str | os.PathLike):
         exp_source = str(experiments)
         experiments = read_experiments(experiments)
     else:
         exp_source = None
     try:
-        exp = _experiments_iv(experiments)
+        return _experiments_iv(experiments), exp_source
     except (TypeError, ValueError) as exc:
         raise InputError(str(exc), source=exp_source) from None
-    if seed is None:
-        seed = base.seed if base.seed is not None else 0
-    seed = int(seed)
-    samples = int(samples if samples is not None else base.samples)
 
-    mapper, pool = _mapper(workers, executor)
+
+def _start(model, x0, exp_source):
+    """The model at the start: ``(y, s_exp, s_sim)`` at the experimental points
+    that carry an error (``model.exp`` keeps only those); a point the sweep cannot
+    serve is the user's error."""
+    exp = model.exp
+    (s0,) = model.summaries([x0])
     try:
-        model = _Model(data, source, base_dir, keys, seed, samples, exp, mapper)
-        (s0,) = model.summaries([x0])
-        try:
-            _, s_sim = model.points(s0)
-        except ValueError as exc:
-            raise InputError(str(exc), source=exp_source) from None
-        y = exp["mean"].to_numpy(float)
-        s_exp = exp["se"].to_numpy(float)
-        bad = np.flatnonzero(~np.isfinite(s_sim))
-        if bad.size:
-            from .compare import compare
+        _, s_sim = model.points(s0)
+    except ValueError as exc:
+        raise InputError(str(exc), source=exp_source) from None
+    y = exp["mean"].to_numpy(float)
+    s_exp = exp["se"].to_numpy(float)
+    bad = np.flatnonzero(~np.isfinite(s_sim))
+    if bad.size:
+        t = compare(s0, exp)
+        i = int(bad[0])
+        raise InputError(
+            f"experimental point (line {exp['line'].iloc[i]}): {t['note'].iloc[i]}",
+            source=exp_source,
+        )
+    use = np.sqrt(s_exp**2 + s_sim**2) > 0  # e.g. e_relative at the reference angle
+    if not use.all():
+        model.exp = exp[use].reset_index(drop=True)
+        y, s_exp, s_sim = y[use], s_exp[use], s_sim[use]
+    if len(y) == 0:
+        raise InputError(
+            "no experimental point with a nonzero error", source=exp_source
+        )
+    return y, s_exp, s_sim
 
-            t = compare(s0, exp)
-            i = int(bad[0])
-            raise InputError(
-                f"experimental point (line {exp['line'].iloc[i]}): {t['note'].iloc[i]}",
-                source=exp_source,
-            )
-        use = np.sqrt(s_exp**2 + s_sim**2) > 0  # e.g. e_relative at the reference angle
-        if not use.all():
-            exp = exp[use].reset_index(drop=True)
-            model.exp = exp
-            y, s_exp, s_sim = y[use], s_exp[use], s_sim[use]
-        m, n = len(y), len(keys)
-        if m == 0:
-            raise InputError(
-                "no experimental point with a nonzero error", source=exp_source
-            )
-        free = np.arange(n)
 
-        # fit: weights at the start, then once more at the first optimum
-        say("fitting")
-        x = x0.copy()
-        for _ in range(3):
-            obj = _Objective(model, y, s_exp, s_sim, free, x, h, B)
-            fit = _least_squares(obj, x, B, scale)
-            x = fit.x.copy()
-            (sx,) = model.summaries([x])
-            _, s_new = model.points(sx)
-            old_sigma = np.sqrt(s_exp**2 + s_sim**2)
-            s_sim = s_new
-            if np.max(np.abs(np.sqrt(s_exp**2 + s_sim**2) / old_sigma - 1)) < 0.01:
-                break  # the weights hardly moved: no refit
+def _fit(model, y, s_exp, s_sim, x0, h, B, scale):
+    """The least-squares fit: weights at the start, then once more at the first
+    optimum. Returns ``(fit, x, summary at x, s_sim at x)``."""
+    free = np.arange(len(x0))
+    x = x0.copy()
+    for _ in range(3):
         obj = _Objective(model, y, s_exp, s_sim, free, x, h, B)
-        r = obj.residual_of(model.summaries([x])[0])
-        undefined = ~np.isfinite(r)  # no model value at the optimum: not in chi2
-        r = r[~undefined]
-        J = obj.jac(x)[~undefined]
-        obj2 = _Objective(model, y, s_exp, s_sim, free, x, 2 * h, B)
-        J2 = (
-            obj2.jac(x)[~undefined] if n > 1 else None
-        )  # the FD error (only matters for n > 1)
-        chi2 = float(r @ r)
-        z = z_value(confidence)
-        ok, reasons, cov, svals, fd_noise = _identify(
-            J, h, width, rcond=rcond, z=z, J2=J2
-        )
-        for j, why in enumerate(reasons):  # name partners by key, not index
-            if why:
-                reasons[j] = re.sub(r"#(\d+)", lambda mm: keys[int(mm.group(1))], why)
-        n_id = int(ok.sum())
-        dof = int((~undefined).sum()) - n_id
-        p_value = float(stats.chi2.sf(chi2, dof)) if dof > 0 else math.nan
-        se = np.sqrt(np.where(ok, np.diag(cov), np.nan))
-        ci_low, ci_high = x - z * se, x + z * se
-        corr = np.full((n, n), np.nan)
-        idx = np.flatnonzero(ok)
-        if idx.size:
-            d = se[idx]
-            corr[np.ix_(idx, idx)] = cov[np.ix_(idx, idx)] / np.outer(d, d)
-            corr[idx, idx] = 1.0
-        at_bound = np.isclose(x, B[:, 0], rtol=0, atol=1e-9 * scale) | np.isclose(
-            x, B[:, 1], rtol=0, atol=1e-9 * scale
-        )
+        fit = _least_squares(obj, x, B, scale)
+        x = fit.x.copy()
+        (sx,) = model.summaries([x])
+        _, s_new = model.points(sx)
+        old_sigma = np.sqrt(s_exp**2 + s_sim**2)
+        s_sim = s_new
+        if np.max(np.abs(np.sqrt(s_exp**2 + s_sim**2) / old_sigma - 1)) < 0.01:
+            break  # the weights hardly moved: no refit
+    return fit, x, sx, s_sim
 
-        # parametric bootstrap: data from the fitted model with the combined noise
-        m_hat, _ = model.points(sx)
-        sigma = np.sqrt(s_exp**2 + s_sim**2)
-        boot = np.empty((0, n))
-        boot_curves = []
-        if bootstrap and idx.size:
-            say(f"bootstrap: {bootstrap} refits")
-            rng = np.random.default_rng(bootstrap_seed)
-            fits = []
-            for _b in range(bootstrap):
-                yb = m_hat + sigma * rng.standard_normal(m)
-                ob = _Objective(model, yb, s_exp, s_sim, idx, x, h, B)
-                fb = _least_squares(ob, x[idx], B[idx], scale[idx], xtol=1e-4)
-                xb = ob.full(fb.x)
-                fits.append(xb)
-                boot_curves.append(model.summaries([xb])[0])
-                if len(model.cache) > 256:  # bound the memory: keep the optimum
-                    keep = tuple(x.tolist())
-                    model.cache = {keep: model.cache[keep]}
-            boot = np.array(fits)
-        alpha = 1 - confidence
-        b_lo = np.full(n, np.nan)
-        b_hi = np.full(n, np.nan)
-        if len(boot):
-            b_lo[idx] = np.quantile(boot[:, idx], alpha / 2, axis=0)
-            b_hi[idx] = np.quantile(boot[:, idx], 1 - alpha / 2, axis=0)
 
-        # the model band at every sweep point
-        if len(boot) >= max(band_draws, 1):
-            band_summaries = boot_curves
-            band_from = "bootstrap refits"
-        elif idx.size and band_draws > 0:
-            rng = np.random.default_rng(
-                1 if bootstrap_seed is None else bootstrap_seed + 1
-            )
-            c = cov[np.ix_(idx, idx)]
-            draws = rng.multivariate_normal(x[idx], c, size=band_draws, method="svd")
-            pts = []
-            for dv in draws:
-                xd = x.copy()
-                xd[idx] = np.clip(dv, B[idx, 0], B[idx, 1])
-                pts.append(xd)
-            band_summaries = model.summaries(pts)
-            band_from = "parameter draws from the covariance"
-        else:
-            band_summaries, band_from = [], "none"
-        curves = _curves(sx, band_summaries, exp, alpha)
-        points = _points_table(model, sx, exp, y, s_exp, s_sim)
-        runs = model.runs
-    finally:
-        if pool is not None:
-            pool.shutdown(wait=True, cancel_futures=True)
-
-    calibrated = with_values(
-        data, dict(zip(keys, x.tolist(), strict=True)), source=source
+def _uncertainty(model, y, s_exp, s_sim, x, h, B, width, scale, confidence, rcond):
+    """chi2, identifiability, covariance, intervals and correlations at `x`."""
+    keys, n = model.keys, len(x)
+    free = np.arange(n)
+    obj = _Objective(model, y, s_exp, s_sim, free, x, h, B)
+    r = obj.residual_of(model.summaries([x])[0])
+    undefined = ~np.isfinite(r)  # no model value at the optimum: not in chi2
+    r = r[~undefined]
+    J = obj.jac(x)[~undefined]
+    obj2 = _Objective(model, y, s_exp, s_sim, free, x, 2 * h, B)
+    J2 = obj2.jac(x)[~undefined] if n > 1 else None  # the FD error (n > 1 only)
+    chi2 = float(r @ r)
+    z = z_value(confidence)
+    ok, reasons, cov, svals, fd_noise = _identify(J, h, width, rcond=rcond, z=z, J2=J2)
+    for j, why in enumerate(reasons):  # name partners by key, not index
+        if why:
+            reasons[j] = re.sub(r"#(\d+)", lambda mm: keys[int(mm.group(1))], why)
+    n_id = int(ok.sum())
+    dof = int((~undefined).sum()) - n_id
+    p_value = float(stats.chi2.sf(chi2, dof)) if dof > 0 else math.nan
+    se = np.sqrt(np.where(ok, np.diag(cov), np.nan))
+    corr = np.full((n, n), np.nan)
+    idx = np.flatnonzero(ok)
+    if idx.size:
+        d = se[idx]
+        corr[np.ix_(idx, idx)] = cov[np.ix_(idx, idx)] / np.outer(d, d)
+        corr[idx, idx] = 1.0
+    at_bound = np.isclose(x, B[:, 0], rtol=0, atol=1e-9 * scale) | np.isclose(
+        x, B[:, 1], rtol=0, atol=1e-9 * scale
     )
-    info = {
-        "optimizer": {
-            "status": int(fit.status),
-            "message": str(fit.message),
-            "nfev": int(fit.nfev),
-            "njev": int(fit.njev) if fit.njev is not None else None,
-        },
-        "model_runs": int(runs),
-        "finite_difference_steps": dict(zip(keys, h.tolist(), strict=True)),
-        "singular_values_normalised": (svals / svals[0]).tolist()
-        if svals.size and svals[0] > 0
-        else [],
-        "condition_number": float(svals[0] / svals[-1])
-        if svals.size and svals[-1] > 0
-        else None,
-        "jacobian_fd_error_normalised": fd_noise,
-        "band": band_from,
-        "undefined_at_optimum": [int(v) for v in exp["line"].to_numpy()[undefined]],
-        "experiments": exp_source,
-        "scenario": None if source is None else str(source),
+    return {
+        "undefined": undefined,
+        "chi2": chi2,
+        "ok": ok,
+        "reasons": reasons,
+        "cov": cov,
+        "svals": svals,
+        "fd_noise": fd_noise,
+        "dof": dof,
+        "p_value": p_value,
+        "se": se,
+        "ci_low": x - z * se,
+        "ci_high": x + z * se,
+        "corr": corr,
+        "idx": idx,
+        "at_bound": at_bound,
     }
-    return CalibrationResult(
-        keys=tuple(keys),
-        estimate=x,
-        identifiable=ok,
-        reasons=reasons,
-        std_error=se,
-        ci_low=np.where(ok, ci_low, np.nan),
-        ci_high=np.where(ok, ci_high, np.nan),
-        covariance=cov,
-        correlation=corr,
-        bounds=B,
-        at_bound=at_bound,
-        chi2=chi2,
-        dof=int(dof),
-        p_value=p_value,
-        confidence=float(confidence),
-        points=points,
-        curves=curves,
-        data=calibrated,
-        seed=seed,
-        samples=samples,
-        bootstrap=boot,
-        bootstrap_ci_low=b_lo,
-        bootstrap_ci_high=b_hi,
-        info=info,
-        base_dir=None if base_dir is None else str(base_dir),
-    )
+
+
+def _bootstrap(model, sx, y, s_exp, s_sim, x, h, B, scale, idx, bootstrap, seed, steps):
+    """Parametric bootstrap: data drawn from the fitted model with the combined
+    noise, refitted `bootstrap` times. Returns ``(refits (B, n), their summaries)``.
+    """
+    n = len(x)
+    m_hat, _ = model.points(sx)
+    sigma = np.sqrt(s_exp**2 + s_sim**2)
+    if not (bootstrap and idx.size):
+        return np.empty((0, n)), []
+    rng = np.random.default_rng(seed)
+    fits, curves = [], []
+    for _b in range(bootstrap):
+        yb = m_hat + sigma * rng.standard_normal(len(y))
+        ob = _Objective(model, yb, s_exp, s_sim, idx, x, h, B)
+        fb = _least_squares(ob, x[idx], B[idx], scale[idx], xtol=1e-4)
+        xb = ob.full(fb.x)
+        fits.append(xb)
+        curves.append(model.summaries([xb])[0])
+        if len(model.cache) > 256:  # bound the memory: keep the optimum
+            keep = tuple(x.tolist())
+            model.cache = {keep: model.cache[keep]}
+        steps.update()
+    return np.array(fits), curves
+
+
+def _bootstrap_intervals(boot, idx, n, confidence):
+    """Percentile intervals of the bootstrap refits (NaN without refits)."""
+    alpha = 1 - confidence
+    b_lo = np.full(n, np.nan)
+    b_hi = np.full(n, np.nan)
+    if len(boot):
+        b_lo[idx] = np.quantile(boot[:, idx], alpha / 2, axis=0)
+        b_hi[idx] = np.quantile(boot[:, idx], 1 - alpha / 2, axis=0)
+    return b_lo, b_hi
+
+
+def _band(model, boot, boot_curves, x, B, u, band_draws, bootstrap_seed):
+    """The summaries the model band at every sweep point comes from, and how."""
+    idx, cov = u["idx"], u["cov"]
+    if len(boot) >= max(band_draws, 1):
+        return boot_curves, "bootstrap refits"
+    if idx.size and band_draws > 0:
+        rng = np.random.default_rng(1 if bootstrap_seed is None else bootstrap_seed + 1)
+        c = cov[np.ix_(idx, idx)]
+        draws = rng.multivariate_normal(x[idx], c, size=band_draws, method="svd")
+        pts = []
+        for dv in draws:
+            xd = x.copy()
+            xd[idx] = np.clip(dv, B[idx, 0], B[idx, 1])
+            pts.append(xd)
+        return model.summaries(pts), "parameter draws from the covariance"
+    return [], "none"
 
 
 def _points_table(model, summary, exp, y, s_exp, s_sim):

@@ -27,17 +27,21 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
+from .._core.progress import Progress
+from .._core.validation import check_int
 from ..errors import InputError, ScenarioError
+from ..scenario.grid import SweepGrid
+from ..scenario.parameters import check_parameter_key
 from ..scenario.sensitivity import (
+    DEFAULT_BASE_SIZE,
     DEFAULT_RESAMPLES,
-    DEFAULT_SAMPLES,
     DEFAULT_STATISTICS,
     STATISTICS,
-    check_parameter_key,
     parameter_distribution,
-    sensitivity_from_dict,
 )
+from .model import ScenarioModel
 
 __all__ = [
     "COLUMNS",
@@ -76,17 +80,17 @@ class EngineModel:
 
     ``model(rows)`` takes an array of shape ``(m, d)`` (one row of parameter values
     per evaluation, in the order of `keys`) and returns an array of shape
-    ``(m, len(model.outputs))``: for each row, the scenario `data` with those values
-    is built and validated, run with ``microimpact.run(scenario, samples=impacts,
-    seed=seed, workers=1, progress=False)`` and reduced to its statistics; the run
-    itself is dropped, so memory stays bounded whatever the design size. Warnings
-    are shown once, for the file's own scenario when the model is made; those of
-    the design rows (the same ones, thousands of times) are not repeated.
+    ``(m, len(model.outputs))``: each row is run by the
+    :class:`~microimpact.analysis.model.ScenarioModel` (the file read once, each of
+    its tables built once and again only when a parameter changes it; one worker,
+    no progress bar) and reduced to its statistics; the run itself is dropped, so
+    memory stays bounded whatever the design size.
 
     Parameters
     ----------
-    data : dict
-        The parsed scenario (without ``[sensitivity]``).
+    scenario : ScenarioModel, ScenarioFile, path, preset name or dict
+        The scenario (a dict is parsed TOML data; its ``[sensitivity]`` table is
+        ignored).
     keys : sequence of str
         Dotted keys of the parameters, in the column order of the rows.
     statistics : sequence of str
@@ -95,11 +99,11 @@ class EngineModel:
         The engine seed. With `common_random_numbers` (the default) every row is
         run with this same seed; otherwise each row gets its own seed, derived from
         `seed` and the row's values (to measure what common random numbers save).
-    impacts : int, optional
-        Impacts per sweep point (default: the scenario's ``samples``); a
-        ``[precision]`` target is not used, so every row draws the same impacts.
+    samples : int, optional
+        Impacts per sweep point (default: the scenario's ``samples``).
     source, base_dir :
-        As for :func:`~microimpact.scenario.file.scenario_from_dict`.
+        For a dict `scenario`, as for
+        :func:`~microimpact.scenario.scenario.scenario_from_dict`.
 
     Attributes
     ----------
@@ -110,41 +114,29 @@ class EngineModel:
 
     def __init__(
         self,
-        data: Mapping,
+        scenario,
         keys,
         statistics=DEFAULT_STATISTICS,
         *,
         seed: int,
-        impacts: int | None = None,
+        samples: int | None = None,
         source=None,
         base_dir=None,
         common_random_numbers: bool = True,
     ):
-        import pandas as pd
-
-        from ..scenario.file import scenario_from_dict
-        from ..scenario.grid import SweepGrid
-
-        self.data = {k: v for k, v in data.items() if k != "sensitivity"}
+        if isinstance(scenario, ScenarioModel):
+            self.model = scenario
+        else:
+            self.model = ScenarioModel(
+                scenario, keys, samples=samples, source=source, base_dir=base_dir
+            )
         self.keys = tuple(keys)
         self.statistics = _check_statistics(statistics)
         self.seed = int(seed)
-        self.source = None if source is None else str(source)
-        if base_dir is None and source is not None:
-            base_dir = Path(source).resolve().parent
-        self.base_dir = None if base_dir is None else str(base_dir)
+        self.source = self.model.source
+        self.samples = self.model.samples
         self.common_random_numbers = bool(common_random_numbers)
-        for key in self.keys:
-            check_parameter_key(self.data, key, source=self.source)
-        base = scenario_from_dict(self.data, source=source, base_dir=base_dir)
-        if impacts is None:
-            impacts = base.samples
-        if isinstance(impacts, bool) or not isinstance(impacts, int) or impacts < 1:
-            raise InputError(
-                f"must be an integer >= 1; got {impacts!r}", field="impacts"
-            )
-        self.impacts = impacts
-        grid = SweepGrid.from_scenario(base)
+        grid = SweepGrid.from_scenario(self.model.base)
         if "capture_speed_m_s" in self.statistics and len(grid.speeds_m_s) < 2:
             raise ScenarioError(
                 "the statistic 'capture_speed_m_s' needs a sweep of at least two "
@@ -167,16 +159,7 @@ class EngineModel:
     def scenario(self, values):
         """The validated scenario at parameter `values` (a row, or a mapping of
         key -> value)."""
-        from ..scenario.file import scenario_from_dict
-        from ..scenario.parameters import with_values
-
-        if not isinstance(values, Mapping):
-            values = dict(zip(self.keys, (float(v) for v in values), strict=True))
-        return scenario_from_dict(
-            with_values(self.data, values, source=self.source),
-            source=self.source,
-            base_dir=self.base_dir,
-        )
+        return self.model.scenario(values)
 
     def check_rows(self, rows):
         """Build the scenario at each parameter's smallest and largest value in
@@ -218,24 +201,11 @@ class EngineModel:
         return np.concatenate([np.asarray(v, dtype=float) for v in out])
 
     def __call__(self, rows) -> np.ndarray:
-        from ..engine.montecarlo import run
-
         rows = np.atleast_2d(np.asarray(rows, dtype=float))
         out = np.empty((len(rows), len(self.outputs)))
         for k, row in enumerate(rows):
-            # the warnings of the file's scenario were shown once, when this model
-            # was made; the same warnings for thousands of design rows are not
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                scenario = self.scenario(row)
-                result = run(
-                    scenario,
-                    samples=self.impacts,
-                    seed=self._seed(row),
-                    workers=1,
-                    progress=False,
-                )
-                out[k] = self._statistics(result)
+            result = self.model.run(row, seed=self._seed(row))
+            out[k] = self._statistics(result)
             del result
         return out
 
@@ -276,7 +246,7 @@ class SensitivityResult:
         evaluations, and ``defined`` (whether its indices are).
     parameters : dict
         Dotted key -> frozen distribution.
-    samples : int
+    base_size : int
         Base size n of the design.
     evaluations : int
         Model evaluations, ``n * (d + 2)``.
@@ -285,13 +255,14 @@ class SensitivityResult:
     confidence : float
         Level of the intervals.
     info : dict
-        Further provenance (engine seed, impacts per point, common random numbers).
+        Further provenance (engine seed, impacts per point ``samples``, common
+        random numbers).
     """
 
     table: object
     outputs: object
     parameters: dict
-    samples: int
+    base_size: int
     evaluations: int
     seed: int
     confidence: float
@@ -367,12 +338,12 @@ def _evaluate(model, rows, *, workers, executor, progress) -> np.ndarray:
         else:
             results = _map(executor, model, chunks, 4 * max(workers, 1))
         k = 0
-        for chunk, y in zip(chunks, results, strict=True):
-            y = np.asarray(y, dtype=float).reshape(len(chunk), n_out)
-            out[k : k + len(chunk)] = y
-            k += len(chunk)
-            if progress is not None:
-                progress(k, len(rows))
+        with Progress(progress, total=len(rows), unit="rows") as bar:
+            for chunk, y in zip(chunks, results, strict=True):
+                y = np.asarray(y, dtype=float).reshape(len(chunk), n_out)
+                out[k : k + len(chunk)] = y
+                k += len(chunk)
+                bar.update(len(chunk))
     finally:
         if own is not None:
             own.shutdown(wait=True, cancel_futures=True)
@@ -446,7 +417,7 @@ def sobol_analysis(
     model,
     parameters: Mapping,
     *,
-    samples: int = DEFAULT_SAMPLES,
+    base_size: int = DEFAULT_BASE_SIZE,
     workers: int = 1,
     executor=None,
     seed=None,
@@ -469,7 +440,7 @@ def sobol_analysis(
         Name -> distribution: a table ``{low, high}`` or ``{distribution = ...}``
         (see :func:`~microimpact.scenario.sensitivity.parameter_distribution`) or a
         frozen ``scipy.stats`` distribution.
-    samples : int
+    base_size : int
         Base size n of the design, a power of 2; the model is evaluated
         ``n * (d + 2)`` times.
     workers : int
@@ -485,8 +456,10 @@ def sobol_analysis(
         Level of the bootstrap (BCa) intervals.
     n_resamples : int
         Bootstrap resamples.
-    progress : callable, optional
-        ``progress(done, total)`` after each chunk of design rows.
+    progress : bool or callable, optional
+        ``True`` shows a progress bar of the design rows (tqdm, on stderr), a
+        callable is called as ``progress(done, total)`` after each chunk of rows;
+        default: a bar only when stderr is a terminal.
     info : dict, optional
         Provenance stored in :attr:`SensitivityResult.info`.
 
@@ -494,19 +467,15 @@ def sobol_analysis(
     -------
     SensitivityResult
     """
-    import pandas as pd
-
-    from .._core.validation import check_int
-
     if not parameters:
         raise InputError("must name at least one parameter", field="parameters")
     names = list(parameters)
     dists = [parameter_distribution(parameters[k], k) for k in names]
-    n = check_int(samples, "samples", minimum=2)
+    n = check_int(base_size, "base_size", minimum=2)
     if n & (n - 1):
         raise InputError(
             f"must be a power of 2 (the balance of Sobol' points); got {n}",
-            field="samples",
+            field="base_size",
         )
     if not 0 < confidence < 1:
         raise InputError(f"must be in (0, 1); got {confidence!r}", field="confidence")
@@ -561,7 +530,7 @@ def sobol_analysis(
         table=table,
         outputs=outputs,
         parameters=dict(zip(names, dists, strict=True)),
-        samples=n,
+        base_size=n,
         evaluations=len(rows),
         seed=int(root.entropy) if isinstance(root.entropy, int) else root.entropy,
         confidence=float(confidence),
@@ -570,21 +539,11 @@ def sobol_analysis(
 
 
 # ---------------------------------------------------------------------- the engine
-def _load(scenario):
-    """``(data, source)`` of a scenario file, preset name or parsed dict."""
-    if isinstance(scenario, Mapping):
-        return dict(scenario), None
-    from ..scenario.file import _load_toml
-    from ..scenario.scenario import scenario_file
-
-    path = scenario_file(scenario)
-    return _load_toml(path), path
-
-
 def sobol_sensitivity(
     scenario,
     parameters: Mapping | None = None,
     *,
+    base_size: int | None = None,
     samples: int | None = None,
     statistics=None,
     workers: int = 1,
@@ -592,7 +551,6 @@ def sobol_sensitivity(
     seed=None,
     confidence: float = 0.95,
     n_resamples: int | None = None,
-    impacts: int | None = None,
     common_random_numbers: bool = True,
     base_dir=None,
     progress=None,
@@ -601,18 +559,21 @@ def sobol_sensitivity(
 
     Parameters
     ----------
-    scenario : path, preset name or dict
-        A scenario file (or its parsed TOML data). Its ``[sensitivity]`` table,
-        if any, gives the defaults of `parameters`, `samples`, `statistics` and
-        `n_resamples`.
+    scenario : ScenarioFile, path, preset name or dict
+        A scenario file (or its parsed TOML data), read once. Its
+        ``[sensitivity]`` table, if any, gives the defaults of `parameters`,
+        `base_size`, `statistics` and `n_resamples`.
     parameters : mapping, optional
         Dotted scenario key -> distribution (``{"low": 8, "high": 12}``,
         ``{"distribution": "normal", "mean": ..., "std": ...}``, a frozen
         ``scipy.stats`` distribution...). Required unless the file has a
         ``[sensitivity.parameters]`` table.
-    samples : int, optional
+    base_size : int, optional
         Base size n of the Sobol' design (a power of 2; default the file's, else
         1024). The engine runs ``n * (d + 2)`` times, each time every sweep point.
+    samples : int, optional
+        Impacts per sweep point and design row (default: the scenario's
+        ``samples``), as in :func:`microimpact.run`.
     statistics : sequence of str, optional
         Default ``("capture_fraction", "e_rebound_mean", "mu_mean")``; see
         :data:`microimpact.scenario.sensitivity.STATISTICS`.
@@ -627,16 +588,13 @@ def sobol_sensitivity(
         Level of the bootstrap intervals.
     n_resamples : int, optional
         Bootstrap resamples (default the file's, else 999).
-    impacts : int, optional
-        Impacts per sweep point and design row (default: the scenario's
-        ``samples``).
     common_random_numbers : bool
         Run every design row with the same engine seed (default). False gives each
         row its own seed; only useful to see the noise this avoids.
     base_dir : path, optional
         Folder of relative paths of a dict scenario.
-    progress : callable, optional
-        ``progress(done, total)`` design rows.
+    progress : bool or callable, optional
+        As for :func:`sobol_analysis` (design rows).
 
     Returns
     -------
@@ -648,9 +606,11 @@ def sobol_sensitivity(
         A parameter key that is not a number of the scenario, a bad distribution,
         or a value of the design the scenario does not allow (naming the key).
     """
-    data, source = _load(scenario)
-    settings = sensitivity_from_dict(data, source=source)
-    data = {k: v for k, v in data.items() if k != "sensitivity"}
+    # the file is read once, its tables built once: physics and [sensitivity]
+    scenario_model = ScenarioModel(scenario, samples=samples, base_dir=base_dir)
+    file = scenario_model.file
+    settings, source = file.sensitivity, file.source
+    data = {k: v for k, v in file.data.items() if k != "sensitivity"}
     if parameters is None:
         if settings is None:
             raise ScenarioError(
@@ -663,8 +623,8 @@ def sobol_sensitivity(
     else:
         for key in parameters:
             check_parameter_key(data, key, source=source)
-    if samples is None:
-        samples = settings.samples if settings else DEFAULT_SAMPLES
+    if base_size is None:
+        base_size = settings.base_size if settings else DEFAULT_BASE_SIZE
     if statistics is None:
         statistics = settings.statistics if settings else DEFAULT_STATISTICS
     if n_resamples is None:
@@ -673,14 +633,12 @@ def sobol_sensitivity(
         seed = data["seed"]
     root = np.random.SeedSequence(seed)
     engine_seed = int(root.spawn(3)[2].generate_state(1)[0])
+    scenario_model.set_keys(parameters)
     model = EngineModel(
-        data,
+        scenario_model,
         list(parameters),
         statistics,
         seed=engine_seed,
-        impacts=impacts,
-        source=source,
-        base_dir=base_dir,
         common_random_numbers=common_random_numbers,
     )
     dists = {
@@ -689,7 +647,7 @@ def sobol_sensitivity(
     return sobol_analysis(
         model,
         dists,
-        samples=samples,
+        base_size=base_size,
         workers=workers,
         executor=executor,
         seed=root.entropy,
@@ -699,7 +657,7 @@ def sobol_sensitivity(
         info={
             "source": None if source is None else str(source),
             "engine_seed": engine_seed,
-            "impacts": model.impacts,
+            "samples": model.samples,
             "common_random_numbers": model.common_random_numbers,
             "statistics": list(model.statistics),
         },

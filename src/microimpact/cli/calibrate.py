@@ -76,7 +76,7 @@ def cli_action(args) -> int:
             executor=executor,
             bootstrap=args.bootstrap,
             confidence=args.confidence,
-            progress=None if args.quiet else (lambda msg: c.say(args, f"  {msg}")),
+            progress=False if args.quiet else None,
         )
     result.write(args.out, figure=not args.no_figures)
     if not args.quiet:

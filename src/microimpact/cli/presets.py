@@ -12,7 +12,8 @@ def cli_parse(sp):
 
 
 def cli_action(args) -> int:
-    from ..scenario.file import PRESETS, load_preset
+    from ..scenario.file import PRESETS
+    from ..scenario.scenario import load_preset
 
     for name in PRESETS:
         print(f"{name:28s} {load_preset(name).description}")

@@ -67,7 +67,7 @@ def cli_parse(sp):
         "the [sensitivity.parameters] table)",
     )
     sp.add_argument(
-        "--samples",
+        "--base-size",
         type=_power_of_two,
         help="base size n of the Sobol' design, a power of 2 (default: the "
         "file's, else 1024); the engine runs n * (parameters + 2) times",
@@ -79,7 +79,7 @@ def cli_parse(sp):
         help="statistics to analyse (default capture_fraction,e_rebound_mean,mu_mean)",
     )
     sp.add_argument(
-        "--impacts",
+        "--samples",
         type=c.count,
         help="impacts per sweep point in each run (default: the scenario's samples)",
     )
@@ -127,6 +127,7 @@ def cli_action(args) -> int:
         result = sobol_sensitivity(
             args.scenario,
             parameters,
+            base_size=args.base_size,
             samples=args.samples,
             statistics=args.statistics,
             workers=args.workers,
@@ -134,13 +135,12 @@ def cli_action(args) -> int:
             seed=args.seed,
             confidence=args.confidence,
             n_resamples=args.resamples,
-            impacts=args.impacts,
             progress=progress,
         )
     write_sensitivity(result, args.out, args.formats or ("png",))
     c.say(
         args,
-        f"{len(result.parameters)} parameters, n = {result.samples}, "
+        f"{len(result.parameters)} parameters, n = {result.base_size}, "
         f"{result.evaluations} engine runs, seed {result.seed}, "
         f"{time.perf_counter() - t0:.1f} s -> {args.out}",
     )

@@ -46,19 +46,17 @@ def cli_action(args) -> int:
 
     from ..errors import ScenarioError
     from ..pipeline.folder import OutputFolder
-    from ..scenario.file import wall_law_from_toml
-    from ..scenario.scenario import as_scenario, scenario_file
+    from ..scenario.scenario import read_scenario
     from ..wall_law import build_wall_law
 
     t0 = time.perf_counter()
-    path = scenario_file(args.scenario)
-    scenario = as_scenario(path)
-    spec = wall_law_from_toml(path)
+    file = read_scenario(args.scenario)  # read once: physics and [wall_law]
+    scenario, spec = file.scenario, file.wall_law
     if spec is None:
         raise ScenarioError(
             "has no [wall_law] table (give diameter_um, and optionally speed_m_s, "
             "angle_deg, reservoir, samples; see docs/wall-law.md)",
-            source=path,
+            source=file.source,
             field="wall_law",
         )
     changes = {k: getattr(args, k) for k in ("samples", "reservoir")}
@@ -84,7 +82,7 @@ def cli_action(args) -> int:
 
     with OutputFolder(args.out) as folder, c.executor_of(args) as executor:
         law = build_wall_law(
-            scenario,
+            file,
             spec,
             workers=args.workers,
             seed=args.seed,

@@ -16,7 +16,6 @@ The driver is made of small pieces with one job each:
   into tasks (:func:`_pack`);
 * :class:`~microimpact.engine.checkpoint.Checkpoint` restores, and decides when to
   write;
-* :class:`_Progress` drives the progress bar;
 * :class:`_Job` wires them together for :func:`iter_blocks` and :func:`run`.
 """
 
@@ -28,7 +27,6 @@ import gc
 import itertools
 import math
 import os
-import sys
 import threading
 import time
 import warnings
@@ -37,6 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._core.progress import Progress, check_progress
 from .._core.validation import check_choice, check_int
 from ..errors import ConvergenceWarning, InputError
 from .accumulators import PointAccumulator
@@ -368,35 +367,6 @@ def _precision_wave(streams: _Streams, per_key: int, workers: int) -> list[tuple
     return list(_pack(groups, max(1, len(groups) // (4 * workers))))
 
 
-class _Progress:
-    """A tqdm bar over impacts, or nothing."""
-
-    def __init__(self, enabled, *, total, desc, initial):
-        self.bar = None
-        if enabled is None:
-            enabled = sys.stderr.isatty()
-        if enabled:
-            from tqdm.auto import tqdm
-
-            self.bar = tqdm(
-                total=total,
-                unit="impacts",
-                unit_scale=True,
-                delay=1.0,
-                desc=desc,
-                leave=False,
-            )
-            self.bar.update(initial)
-
-    def update(self, n):
-        if self.bar is not None:
-            self.bar.update(n)
-
-    def close(self):
-        if self.bar is not None:
-            self.bar.close()
-
-
 # ------------------------------------------------------------------- one run
 class _Job:
     """One run: validated arguments, the plan, the streams, the checkpoint."""
@@ -450,7 +420,7 @@ class _Job:
                     None if self.precision is None else vars(self.precision),
                 ),
             )
-        self.progress = progress
+        self.progress = check_progress(progress)
         self.resumed_blocks = 0
         #: how several local workers ran: "threads" or "processes" (None: one
         #: worker, an executor or Dask)
@@ -503,11 +473,12 @@ class _Job:
         self._background_policy = runner.background
         if runner.background == "now":
             self._start_background()  # no fork to come: the kernel frees the GIL
-        bar = _Progress(
+        bar = Progress(
             self.progress,
             total=sum(st.max_samples for st in streams.by_key.values())
             if fixed
             else None,
+            unit="impacts",
             desc=self.scenario.name,
             initial=streams.samples_done(),
         )
@@ -747,8 +718,10 @@ def run(
         Pass a :class:`~microimpact.engine.checkpoint.Checkpoint` to learn what was
         restored (``restored_blocks``, ``total_blocks``, ``rejected``). A file of
         another run is moved aside with a ``CheckpointWarning``.
-    progress : bool, optional
-        Show a progress bar; default: only when stderr is a terminal.
+    progress : bool or callable, optional
+        ``True`` shows a progress bar (tqdm, on stderr), ``False`` nothing, a
+        callable is called with ``(impacts done, total)`` as blocks finish;
+        default: a bar only when stderr is a terminal.
 
     Returns
     -------

@@ -25,6 +25,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..scenario.outputs import Outputs
+from ..scenario.scenario import Scenario, read_scenario
 from .folder import CHECKPOINT_NAME, OutputFolder
 
 __all__ = ["CHECKPOINT_NAME", "Outputs", "Study", "reproduce"]
@@ -57,16 +58,12 @@ class Study:
     """
 
     def __init__(self, scenario, *, outputs: Outputs | None = None):
-        from ..scenario.scenario import Scenario, scenario_file
-
         _outputs_iv(outputs)
         if not isinstance(scenario, Scenario):
-            path = scenario_file(scenario)
+            file = read_scenario(scenario)  # the file is opened once, here
             if outputs is None:
-                from ..scenario.file import outputs_from_toml
-
-                outputs = outputs_from_toml(path)
-            scenario = Scenario.from_toml(path)
+                outputs = file.outputs
+            scenario = file.scenario
         self._setup(scenario, outputs)
 
     @classmethod

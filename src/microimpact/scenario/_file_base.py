@@ -165,9 +165,24 @@ def _type_name(value) -> str:
 class _Ctx:
     """Where the data came from: the file for messages, the folder for paths."""
 
-    def __init__(self, source, base_dir):
+    def __init__(self, source, base_dir, cache=None):
         self.source = None if source is None else str(source)
         self.base_dir = Path(base_dir) if base_dir is not None else Path.cwd()
+        self.cache = cache
+
+    def cached(self, where, table, build, *args):
+        """``build(self, *args)``, the model object of the table `table` at key
+        path `where`; with a cache, built once per content of the table (and
+        folder its file names resolve from) and given back unchanged after."""
+        if self.cache is None:
+            return build(self, *args)
+        try:
+            key = (where, _frozen(table), str(self.base_dir))
+        except TypeError:  # not plain TOML data: build it, the checks name it
+            return build(self, *args)
+        if key not in self.cache:
+            self.cache[key] = build(self, *args)
+        return self.cache[key]
 
     def error(self, key, message) -> ScenarioError:
         return ScenarioError(_one_line(message), source=self.source, field=key)
@@ -306,6 +321,16 @@ class _Ctx:
                     key = _join(where, name)
                     break
             raise self.error(key, msg) from None
+
+
+def _frozen(value):
+    """Plain TOML data as a hashable value (tables and arrays as tuples)."""
+    if isinstance(value, dict):
+        return ("{", tuple((k, _frozen(v)) for k, v in value.items()))
+    if isinstance(value, list | tuple):
+        return ("[", tuple(_frozen(v) for v in value))
+    hash(value)
+    return (type(value).__name__, value)
 
 
 def _join(where, key) -> str:

@@ -19,7 +19,7 @@ from ._file_base import (
     _join,
     _show,
 )
-from .scenario import SurfaceVariant
+from .parts import SurfaceVariant
 
 
 def _exactly_one(ctx, t, where, keys):
@@ -287,7 +287,7 @@ def _surfaces(ctx: _Ctx, data) -> tuple:
                 f"duplicate surface name {name!r} (also used by {seen[name]})",
             )
         seen[name] = key
-        out.append(SurfaceVariant(name, _angles(ctx, t, key)))
+        out.append(SurfaceVariant(name, ctx.cached(key, t, _angles, t, key)))
     return tuple(out)
 
 

@@ -1,4 +1,4 @@
-"""Scenario files: TOML -> validated :class:`~microimpact.scenario.scenario.Scenario`.
+"""Scenario files: TOML -> validated objects, every table read once.
 
 Every key, its unit, default and allowed values are documented in
 ``docs/scenarios.md``; the shipped presets in ``docs/presets.md``. In short::
@@ -32,28 +32,27 @@ from __future__ import annotations
 
 import math
 import tomllib
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from .._core.validation import did_you_mean
 from ..errors import ScenarioError
-from .scenario import (
-    PRECISION_STATISTICS,
-    Precision,
-    Scenario,
-)
+from .parts import PRECISION_STATISTICS, Precision
 
 __all__ = [
     "PAPER_PRESETS",
     "PRESETS",
     "PRESET_DIR",
+    "ParsedScenario",
     "list_presets",
-    "load_preset",
     "outputs_from_dict",
     "outputs_from_toml",
-    "scenario_from_dict",
-    "scenario_from_toml",
+    "parse_scenario",
+    "preset_path",
+    "read_toml",
+    "read_toml_text",
     "wall_law_from_dict",
     "wall_law_from_toml",
 ]
@@ -81,6 +80,8 @@ from ._file_base import (
 )
 from ._file_surfaces import _angles, _exactly_one, _surfaces
 from .outputs import Outputs
+from .sensitivity import SensitivitySettings, sensitivity_from_dict
+from .wall_law import WallLawSpec
 
 
 def _particles(ctx: _Ctx, data, where="particles"):
@@ -365,13 +366,12 @@ def outputs_from_dict(data: dict, *, source=None, base_dir=None):
 def outputs_from_toml(path):
     """The :class:`~microimpact.pipeline.study.Outputs` of a scenario file."""
     path = Path(path)
-    return _read_table(_outputs, _load_toml(path), path, path.resolve().parent)
+    return _read_table(_outputs, read_toml(path), path, path.resolve().parent)
 
 
 def _wall_law(ctx: _Ctx, data):
     """The ``[wall_law]`` table as :class:`~microimpact.scenario.wall_law.WallLawSpec`
     (None if absent). Speeds and angles default to the ``[sweep]``'s."""
-    from .wall_law import WallLawSpec
 
     if "wall_law" not in data:
         return None
@@ -408,29 +408,49 @@ def wall_law_from_toml(path):
     """The :class:`~microimpact.scenario.wall_law.WallLawSpec` of a scenario file, or
     None if it has no ``[wall_law]`` table."""
     path = Path(path)
-    return _read_table(_wall_law, _load_toml(path), path, path.resolve().parent)
+    return _read_table(_wall_law, read_toml(path), path, path.resolve().parent)
 
 
-def scenario_from_dict(data: dict, *, source=None, base_dir=None) -> Scenario:
-    """Build a :class:`Scenario` from parsed TOML data (see ``docs/scenarios.md``).
+@dataclass(frozen=True)
+class ParsedScenario:
+    """A scenario file's tables, each read and validated once: the keyword arguments
+    of :class:`~microimpact.scenario.scenario.Scenario` (the physics), the output
+    settings, the wall law's and the sensitivity study's tables, and where they came
+    from. :func:`~microimpact.scenario.scenario.read_scenario` assembles the
+    Scenario; this module stays below it."""
+
+    arguments: dict
+    outputs: Outputs
+    wall_law: WallLawSpec | None
+    sensitivity: SensitivitySettings | None
+    data: dict
+    source: str | None
+    base_dir: Path
+
+    def error(self, field, message) -> ScenarioError:
+        """A ScenarioError naming this file and the key path `field`."""
+        return _Ctx(self.source, self.base_dir).error(field, message)
+
+
+def parse_scenario(data: dict, *, source=None, base_dir=None, cache=None):
+    """Read and validate every table of parsed scenario data (see
+    ``docs/scenarios.md``) into a :class:`ParsedScenario`.
 
     Parameters
     ----------
     data : dict
         The scenario, as :func:`tomllib.load` returns it.
     source : str or path-like, optional
-        The file `data` came from; named in every error message and recorded as
-        ``Scenario.source``.
+        The file `data` came from; named in every error message.
     base_dir : path-like, optional
         Folder that relative file names resolve from (default: the folder of
         `source`, else the current directory).
-
-    Returns
-    -------
-    Scenario
-        The physics of the study. The ``[outputs]`` table is validated here and
-        read by :func:`outputs_from_dict` (output settings belong to
-        :class:`~microimpact.pipeline.study.Study`, not to the Scenario).
+    cache : dict, optional
+        Model objects built from earlier data, by table and content: a table whose
+        content is unchanged gives back the same object (a size distribution, the
+        coefficient laws, a surface's angles) instead of building it again. Used by
+        :class:`~microimpact.analysis.model.ScenarioModel`, which parses the same
+        file at many parameter values.
 
     Raises
     ------
@@ -439,7 +459,7 @@ def scenario_from_dict(data: dict, *, source=None, base_dir=None) -> Scenario:
     """
     if base_dir is None and source is not None:
         base_dir = Path(source).resolve().parent
-    ctx = _Ctx(source, base_dir)
+    ctx = _Ctx(source, base_dir, cache=cache)
     ctx.table(data, "(top level)")
     ctx.keys(data, "", TOP_KEYS, ("particles",))
     kw = {}
@@ -454,7 +474,7 @@ def scenario_from_dict(data: dict, *, source=None, base_dir=None) -> Scenario:
             )
         kw["description"] = data["description"]
     # plain values go to the Scenario as they are: it validates itself, and its
-    # errors are mapped onto this file's key paths below (one validation layer)
+    # errors are mapped onto this file's key paths (one validation layer)
     for key in (
         "seed",
         "samples",
@@ -470,8 +490,12 @@ def scenario_from_dict(data: dict, *, source=None, base_dir=None) -> Scenario:
         ref = data["reference_angle_deg"]
         kw["reference_angle_deg"] = None if ref is False else ref
     kw["precision"] = _precision(ctx, data)
-    kw["particles"] = _particles(ctx, data["particles"])
-    kw["coefficients"] = _coefficients(ctx, data)
+    kw["particles"] = ctx.cached(
+        "particles", data["particles"], _particles, data["particles"]
+    )
+    kw["coefficients"] = ctx.cached(
+        "coefficients", data.get("coefficients"), _coefficients, data
+    )
     kw["surfaces"] = _surfaces(ctx, data)
     if "particle_roughness" in data:
         t = ctx.table(data["particle_roughness"], "particle_roughness")
@@ -479,39 +503,32 @@ def scenario_from_dict(data: dict, *, source=None, base_dir=None) -> Scenario:
             raise ctx.error(
                 "particle_roughness.name", "not allowed here (only for surfaces)"
             )
-        kw["particle_roughness"] = _angles(ctx, t, "particle_roughness")
+        kw["particle_roughness"] = ctx.cached(
+            "particle_roughness", t, _angles, t, "particle_roughness"
+        )
     kw.update(_sweep(ctx, data))
-    _outputs(ctx, data)  # validated with the file; kept by microimpact.Study
-    _wall_law(ctx, data)  # validated with the file; read by microimpact wall-law
-    if "sensitivity" in data:  # validated with the file; microimpact sensitivity
-        from .sensitivity import sensitivity_from_dict
-
-        sensitivity_from_dict(data, source=ctx.source)
     kw["source"] = ctx.source
-    try:
-        return Scenario(**kw)
-    except ScenarioError as exc:
-        raise ctx.error(exc.field, exc.message) from None
+    return ParsedScenario(
+        arguments=kw,
+        outputs=_outputs(ctx, data),
+        wall_law=_wall_law(ctx, data),
+        sensitivity=sensitivity_from_dict(data, source=ctx.source)
+        if "sensitivity" in data
+        else None,
+        data=data,
+        source=ctx.source,
+        base_dir=ctx.base_dir,
+    )
 
 
-def scenario_from_toml(path) -> Scenario:
-    """Load and validate a TOML scenario file (see ``docs/scenarios.md``).
-
-    Relative paths inside the file resolve from the file's own folder.
-
-    Raises
-    ------
-    ScenarioError
-        File not found or unreadable, TOML syntax errors (with line and column), and
-        every invalid key or value (naming the key path).
-    """
-    path = Path(path)
-    data = _load_toml(path)
-    return scenario_from_dict(data, source=path, base_dir=path.resolve().parent)
-
-
-def _load_toml(path: Path) -> dict:
+def read_toml(path) -> dict:
     """Parse a TOML file; every problem is a ScenarioError naming the file."""
+    return read_toml_text(path)[1]
+
+
+def read_toml_text(path) -> tuple[str, dict]:
+    """``(text, data)`` of a TOML file, read once; every problem is a ScenarioError
+    naming the file."""
     path = Path(path)
     try:
         raw = path.read_bytes()
@@ -543,7 +560,7 @@ def _load_toml(path: Path) -> dict:
         raise ScenarioError(
             f"TOML syntax error: {_one_line(msg)}", source=path, line=line
         ) from None
-    return data
+    return text, data
 
 
 # ---------------------------------------------------------------------- presets
@@ -560,12 +577,3 @@ def preset_path(name: str) -> Path:
             f"got {name!r}{did_you_mean(name, PRESETS)}."
         )
     return PRESET_DIR / PRESETS[name]
-
-
-def load_preset(name: str) -> Scenario:
-    """Load a shipped preset reproducing the paper by name (see ``docs/presets.md``).
-
-    >>> load_preset("sst65-silicon-normal").samples
-    4000
-    """
-    return scenario_from_toml(preset_path(name))

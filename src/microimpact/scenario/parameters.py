@@ -38,10 +38,30 @@ from .._core.validation import did_you_mean
 from ..errors import ScenarioError
 
 __all__ = [
+    "NOT_PARAMETERS",
+    "check_parameter_key",
     "get_value",
     "numeric_keys",
     "with_values",
 ]
+
+#: Keys (and tables, with everything under them) that cannot be parameters: they
+#: fix the sweep points, the sampling or the reporting, which must be the same at
+#: every parameter value. ``sweep.speed_spread`` is physics and may vary.
+NOT_PARAMETERS = (
+    "seed",
+    "samples",
+    "qmc_replicates",
+    "confidence",
+    "reference_angle_deg",
+    "capture_quantiles",
+    "precision",
+    "outputs",
+    "wall_law",
+    "sensitivity",
+    "sweep.speed_m_s",
+    "sweep.angle_deg",
+)
 
 
 def _is_number(value) -> bool:
@@ -180,3 +200,31 @@ def with_values(data: Mapping, values: Mapping[str, float], *, source=None) -> d
         else:
             container[slot] = float(value)
     return out
+
+
+def check_parameter_key(data: Mapping, key: str, *, source=None, where=None) -> float:
+    """The file value of the parameter at dotted `key` of the parsed scenario
+    `data`, after checking that it may vary (it is a number, and neither it nor its
+    table is one of :data:`NOT_PARAMETERS`); `where` is the key path named in the
+    message (default: the key).
+
+    Raises
+    ------
+    ScenarioError
+        Naming `where`, the reason and what may vary instead.
+    """
+    where = key if where is None else where
+    for bad in NOT_PARAMETERS:
+        if key == bad or str(key).startswith(bad + "."):
+            raise ScenarioError(
+                "cannot be a parameter: it fixes the sweep points, the sampling or "
+                "the reporting, which must be the same at every parameter value; "
+                "vary physics numbers such as surfaces.<name>.std_deg or "
+                "coefficients.v_c.a_m_s",
+                source=source,
+                field=where,
+            )
+    try:
+        return float(get_value(data, key, source=source))
+    except ScenarioError as exc:
+        raise ScenarioError(exc.message, source=source, field=where) from None

@@ -10,137 +10,27 @@ is allowed.
 
 from __future__ import annotations
 
-import math
+import os
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from .._core.validation import check_scalar
+from .._core.validation import did_you_mean
 from ..errors import ScenarioError
-
-SHADOWING_OPTIONS = ("reject", "weighted", "none")
-SAMPLING_OPTIONS = ("mc", "qmc")
-PRECISION_STATISTICS = ("capture_fraction", "e_mean", "e_rebound_mean", "mu_mean")
-
-
-@dataclass(frozen=True)
-class SurfaceVariant:
-    """A named surface: a roughness-angle distribution, or None for molecularly
-    smooth (phi = 0 exactly)."""
-
-    name: str
-    angles: Any = None
-
-    @property
-    def smooth(self) -> bool:
-        """Molecularly smooth, by structure: no angle distribution, or one whose
-        only value is exactly 0 (never by name)."""
-        if self.angles is None:
-            return True
-        flag = getattr(self.angles, "is_smooth", None)
-        if flag is not None:
-            return bool(flag)
-        try:
-            return tuple(self.angles.support()) == (0.0, 0.0)
-        except (AttributeError, TypeError, ValueError):
-            return False
-
-    def describe(self) -> dict:
-        if self.angles is None:
-            return {"name": self.name, "kind": "smooth"}
-        d = dict(self.angles.describe())
-        d["name"] = self.name
-        return d
-
-
-@dataclass(frozen=True)
-class Precision:
-    """Automatic sample size: stop a sweep point once the confidence-interval
-    half-width of `statistic` is at most `half_width` (or `max_samples` is reached).
-    """
-
-    statistic: str = "capture_fraction"
-    half_width: float = 0.01
-    max_samples: int = 10_000_000
-    min_samples: int = 1000
-
-    def __post_init__(self):
-        if self.statistic not in PRECISION_STATISTICS:
-            raise ScenarioError(
-                f"must be one of {', '.join(PRECISION_STATISTICS)}; "
-                f"got {self.statistic!r}",
-                field="precision.statistic",
-            )
-        hw = self.half_width
-        if isinstance(hw, bool) or not (isinstance(hw, int | float) and hw > 0):
-            raise ScenarioError(
-                f"must be a number > 0; got {hw!r}", field="precision.half_width"
-            )
-        for name in ("max_samples", "min_samples"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
-                raise ScenarioError(
-                    f"must be an integer >= 1; got {v!r}", field=f"precision.{name}"
-                )
-        if self.min_samples > self.max_samples:
-            default = Precision.__dataclass_fields__["min_samples"].default
-            raise ScenarioError(
-                f"must be <= max_samples ({self.max_samples}); got {self.min_samples}"
-                + (" (the default)" if self.min_samples == default else ""),
-                field="precision.min_samples",
-            )
-
-
-def _positive_tuple(values, name, *, lo=0.0, hi=math.inf, hi_inclusive=False):
-    try:
-        arr = np.atleast_1d(np.asarray(values, dtype=float))
-    except (TypeError, ValueError):
-        raise ScenarioError(f"must be numbers; got {values!r}", field=name) from None
-    if arr.ndim != 1 or arr.size == 0:
-        raise ScenarioError(f"must be a non-empty list; got {values!r}", field=name)
-    for v in arr:
-        ok = np.isfinite(v) and v > lo and (v <= hi if hi_inclusive else v < hi)
-        if not ok:
-            rng = f"({lo}, {hi}{']' if hi_inclusive else ')'}"
-            raise ScenarioError(f"value {float(v):g} is outside {rng}", field=name)
-    return tuple(float(v) for v in arr)
-
-
-def _choice(value, field, options):
-    if value not in options:
-        raise ScenarioError(
-            f"must be one of {', '.join(repr(o) for o in options)}; got {value!r}",
-            field=field,
-        )
-    return value
-
-
-def _integer(value, field, low):
-    if isinstance(value, bool) or not isinstance(value, int | np.integer):
-        raise ScenarioError(f"must be an integer >= {low}; got {value!r}", field=field)
-    if value < low:
-        raise ScenarioError(f"must be an integer >= {low}; got {value!r}", field=field)
-    return int(value)
-
-
-def _number(value, field, *, low, high, open_=False, open_low=False):
-    """A real number in [low, high] ((low, high) if `open_`, (low, high] if
-    `open_low`), else ScenarioError naming `field`."""
-    try:
-        x = check_scalar(value, field)
-    except (TypeError, ValueError):
-        raise ScenarioError(f"must be a number; got {value!r}", field=field) from None
-    lo_ok = x > low if (open_ or open_low) else x >= low
-    hi_ok = x < high if open_ else x <= high
-    if not (lo_ok and hi_ok):
-        left = "(" if (open_ or open_low) else "["
-        right = ")" if open_ else "]"
-        raise ScenarioError(
-            f"must be in {left}{low:g}, {high:g}{right}; got {value!r}", field=field
-        )
-    return x
+from .file import PRESETS, parse_scenario, preset_path, read_toml, read_toml_text
+from .outputs import Outputs
+from .parts import (
+    SAMPLING_OPTIONS,
+    SHADOWING_OPTIONS,
+    Precision,
+    SurfaceVariant,
+    _choice,
+    _integer,
+    _number,
+    _positive_tuple,
+)
+from .sensitivity import SensitivitySettings
+from .wall_law import WallLawSpec
 
 
 @dataclass(frozen=True)
@@ -310,15 +200,11 @@ class Scenario:
     @classmethod
     def from_toml(cls, path) -> Scenario:
         """Load and validate a scenario file (see ``docs/scenarios.md``)."""
-        from .file import scenario_from_toml
-
         return scenario_from_toml(Path(path))
 
     @classmethod
     def from_preset(cls, name: str) -> Scenario:
         """A shipped preset reproducing the paper (see ``docs/presets.md``)."""
-        from .file import load_preset
-
         return load_preset(name)
 
     def with_options(self, **changes) -> Scenario:
@@ -352,6 +238,133 @@ class Scenario:
         }
 
 
+@dataclass(frozen=True)
+class ScenarioFile:
+    """A scenario file read and validated once: the physics (:attr:`scenario`) and
+    the tables the other verbs use, so that no command reads the file twice.
+
+    Attributes
+    ----------
+    scenario : Scenario
+        The physics of the study.
+    outputs : Outputs
+        The ``[outputs]`` table (figure formats, report, experiment files).
+    wall_law : WallLawSpec or None
+        The ``[wall_law]`` table, if any.
+    sensitivity : SensitivitySettings or None
+        The ``[sensitivity]`` table, if any.
+    data : dict
+        The parsed TOML (what parameters are substituted into).
+    source : str or None
+        The file, as named in messages.
+    base_dir : Path
+        The folder relative file names resolve from.
+    text : str or None
+        The file's text as read (None for data that came as a dict).
+    """
+
+    scenario: Scenario
+    outputs: Outputs
+    wall_law: WallLawSpec | None
+    sensitivity: SensitivitySettings | None
+    data: dict
+    source: str | None
+    base_dir: Path
+    text: str | None = None
+
+
+def scenario_file_from_dict(
+    data: dict, *, source=None, base_dir=None, cache=None, text=None
+) -> ScenarioFile:
+    """A :class:`ScenarioFile` from parsed TOML data (see
+    :func:`~microimpact.scenario.file.parse_scenario` for the arguments); the
+    Scenario's own errors are mapped onto the file's key paths."""
+    parsed = parse_scenario(data, source=source, base_dir=base_dir, cache=cache)
+    try:
+        scenario = Scenario(**parsed.arguments)
+    except ScenarioError as exc:
+        raise parsed.error(exc.field, exc.message) from None
+    return ScenarioFile(
+        scenario=scenario,
+        outputs=parsed.outputs,
+        wall_law=parsed.wall_law,
+        sensitivity=parsed.sensitivity,
+        data=parsed.data,
+        source=parsed.source,
+        base_dir=parsed.base_dir,
+        text=text,
+    )
+
+
+def read_scenario(scenario, *, cache=None) -> ScenarioFile:
+    """Read a scenario file (a path, or the name of a shipped preset) once into a
+    :class:`ScenarioFile` (`cache`: see
+    :func:`~microimpact.scenario.file.parse_scenario`).
+
+    Raises
+    ------
+    ScenarioError
+        File not found or unreadable, TOML syntax errors (with line and column), and
+        every invalid key or value (naming the key path).
+    """
+    if isinstance(scenario, ScenarioFile):
+        return scenario
+    path = scenario_file(scenario)
+    text, data = read_toml_text(path)
+    return scenario_file_from_dict(
+        data, source=path, base_dir=path.resolve().parent, text=text, cache=cache
+    )
+
+
+def scenario_from_dict(data: dict, *, source=None, base_dir=None) -> Scenario:
+    """Build a :class:`Scenario` from parsed TOML data (see ``docs/scenarios.md``).
+
+    Parameters
+    ----------
+    data : dict
+        The scenario, as :func:`tomllib.load` returns it.
+    source : str or path-like, optional
+        The file `data` came from; named in every error message and recorded as
+        ``Scenario.source``.
+    base_dir : path-like, optional
+        Folder that relative file names resolve from (default: the folder of
+        `source`, else the current directory).
+
+    Returns
+    -------
+    Scenario
+        The physics of the study. The ``[outputs]``, ``[wall_law]`` and
+        ``[sensitivity]`` tables are validated too (:func:`read_scenario` keeps
+        them).
+
+    Raises
+    ------
+    ScenarioError
+        One line naming the file, the key path, the bad value and what is allowed.
+    """
+    return scenario_file_from_dict(data, source=source, base_dir=base_dir).scenario
+
+
+def scenario_from_toml(path) -> Scenario:
+    """Load and validate a TOML scenario file (see ``docs/scenarios.md``).
+
+    Relative paths inside the file resolve from the file's own folder.
+    """
+    path = Path(path)
+    return scenario_file_from_dict(
+        read_toml(path), source=path, base_dir=path.resolve().parent
+    ).scenario
+
+
+def load_preset(name: str) -> Scenario:
+    """Load a shipped preset reproducing the paper by name (see ``docs/presets.md``).
+
+    >>> load_preset("sst65-silicon-normal").samples
+    4000
+    """
+    return scenario_from_toml(preset_path(name))
+
+
 def as_scenario(scenario) -> Scenario:
     """`scenario` as a :class:`Scenario`: a Scenario is returned as it is, a path to
     a ``.toml`` file is loaded, and any other string names a shipped preset.
@@ -381,23 +394,17 @@ def scenario_file(scenario) -> Path:
     TypeError
         For anything but a str or path.
     """
-    import os
-
     if not isinstance(scenario, str | os.PathLike):
         raise TypeError(
             "`scenario` must be a Scenario, a path to a scenario file or a preset "
             f"name; got {type(scenario).__name__}."
         )
-    from .file import PRESETS, preset_path
-
     text = os.fspath(scenario)
     path = Path(text)
     if path.suffix.lower() == ".toml" or path.exists():
         return path
     if text in PRESETS:
         return preset_path(text)
-    from .._core.validation import did_you_mean
-
     raise ScenarioError(
         "not a scenario file and not a preset name; presets: "
         f"{', '.join(sorted(PRESETS))}{did_you_mean(text, PRESETS)}",

@@ -3,7 +3,7 @@
 ::
 
     [sensitivity]
-    samples = 1024                  # base size n of the Sobol' design (a power of 2)
+    base_size = 1024                # base size n of the Sobol' design (a power of 2)
     statistics = ["capture_fraction", "e_rebound_mean", "mu_mean"]   # optional
     resamples = 999                 # bootstrap resamples (optional)
     [sensitivity.parameters]
@@ -24,26 +24,24 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from ..errors import ScenarioError
 from ._file_base import _Ctx, _join, _show
+from .parameters import check_parameter_key
 
 __all__ = [
+    "DEFAULT_BASE_SIZE",
     "DEFAULT_RESAMPLES",
-    "DEFAULT_SAMPLES",
     "DEFAULT_STATISTICS",
     "DISTRIBUTIONS",
-    "NOT_PARAMETERS",
     "SENSITIVITY_KEYS",
     "STATISTICS",
     "SensitivitySettings",
-    "check_parameter_key",
     "parameter_distribution",
     "sensitivity_from_dict",
 ]
 
-SENSITIVITY_KEYS = ("samples", "statistics", "resamples", "parameters")
-#: Base size of the design when ``samples`` is not given.
-DEFAULT_SAMPLES = 1024
+SENSITIVITY_KEYS = ("base_size", "statistics", "resamples", "parameters")
+#: Base size of the design when ``base_size`` is not given.
+DEFAULT_BASE_SIZE = 1024
 #: Bootstrap resamples of the confidence intervals.
 DEFAULT_RESAMPLES = 999
 #: The statistics of the issue: analysed when ``statistics`` is not given.
@@ -77,15 +75,6 @@ DISTRIBUTIONS = {
     "lognormal": ({"median", "geometric_std"}, set()),
     "triangular": ({"low", "mode", "high"}, set()),
 }
-#: Keys that cannot be parameters: they define the sweep points or the sampling.
-NOT_PARAMETERS = (
-    "seed",
-    "samples",
-    "qmc_replicates",
-    "precision",
-    "sweep.speed_m_s",
-    "sweep.angle_deg",
-)
 
 
 @dataclass(frozen=True)
@@ -94,7 +83,7 @@ class SensitivitySettings:
 
     Attributes
     ----------
-    samples : int
+    base_size : int
         Base size n of the Sobol' design (a power of 2); the model is run
         ``n * (d + 2)`` times for d parameters.
     parameters : dict
@@ -105,31 +94,10 @@ class SensitivitySettings:
         Bootstrap resamples of the confidence intervals.
     """
 
-    samples: int = DEFAULT_SAMPLES
+    base_size: int = DEFAULT_BASE_SIZE
     parameters: dict = field(default_factory=dict)
     statistics: tuple = DEFAULT_STATISTICS
     resamples: int = DEFAULT_RESAMPLES
-
-
-def check_parameter_key(data, key, *, source=None, where=None):
-    """Raise ScenarioError unless dotted `key` names a number of the scenario
-    `data` that may vary (not one of :data:`NOT_PARAMETERS`); `where` is the key
-    path named in the message (default: the key)."""
-    from .parameters import get_value
-
-    where = key if where is None else where
-    for bad in NOT_PARAMETERS:
-        if key == bad or str(key).startswith(bad + "."):
-            raise ScenarioError(
-                "cannot be a parameter: it fixes the sweep points or the sampling, "
-                "which must be the same for every design point",
-                source=source,
-                field=where,
-            )
-    try:
-        get_value(data, key, source=source)
-    except ScenarioError as exc:
-        raise ScenarioError(exc.message, source=source, field=where) from None
 
 
 def _number(ctx, t, where, key, **kw):
@@ -206,17 +174,23 @@ def sensitivity_from_dict(data: dict, *, source=None) -> SensitivitySettings | N
         return None
     ctx = _Ctx(source, None)
     t = ctx.table(data["sensitivity"], "sensitivity")
+    if "samples" in t:
+        raise ctx.error(
+            "sensitivity.samples",
+            "renamed: the Sobol' design's base size is `base_size` (`samples` means "
+            "impacts per sweep point everywhere, as in the scenario's own `samples`)",
+        )
     ctx.keys(t, "sensitivity", SENSITIVITY_KEYS, ("parameters",))
     kw = {}
-    if "samples" in t:
-        n = ctx.integer(t["samples"], "sensitivity.samples", low=2)
+    if "base_size" in t:
+        n = ctx.integer(t["base_size"], "sensitivity.base_size", low=2)
         if n & (n - 1):
             raise ctx.error(
-                "sensitivity.samples",
+                "sensitivity.base_size",
                 f"must be a power of 2 (the balance of Sobol' points); got {n} "
                 f"(e.g. {1 << (n.bit_length() - 1)} or {1 << n.bit_length()})",
             )
-        kw["samples"] = n
+        kw["base_size"] = n
     if "resamples" in t:
         kw["resamples"] = ctx.integer(t["resamples"], "sensitivity.resamples", low=10)
     if "statistics" in t:

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ScenarioError
-from .scenario import _integer, _positive_tuple
+from .parts import _integer, _positive_tuple
 
 __all__ = ["DEFAULT_QUANTILES", "WallLawSpec"]
 

@@ -17,16 +17,19 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import os
 import shutil
 import time
 from pathlib import Path
 
 import numpy as np
 
+from .._core.progress import Progress
+from ..engine.parallel import cap_workers
 from ..engine.plan import build_plan, diameter_sampler, resolve_entropy
+from ..errors import ScenarioError
 from ..population.distributions import monodisperse
 from ..scenario.grid import SweepGrid
+from ..scenario.scenario import Scenario, read_scenario
 from ..scenario.wall_law import REBOUND_VARIABLES, RESERVOIR_VARIABLES, WallLawSpec
 from .law import WallLaw, wall_law_dataset
 
@@ -267,10 +270,11 @@ def build_wall_law(
 
     Parameters
     ----------
-    scenario : Scenario, path or preset name
+    scenario : ScenarioFile, Scenario, path or preset name
         The physics: coefficient laws against diameter, surfaces, particle
         roughness, speed scatter, shadowing, seed. Its particle size distribution
-        is not used (the diameter is a node coordinate).
+        is not used (the diameter is a node coordinate). A path or a preset name
+        is read once (:func:`~microimpact.scenario.scenario.read_scenario`).
     spec : WallLawSpec, optional
         The nodes (default: the scenario file's ``[wall_law]`` table).
     workers : int
@@ -281,8 +285,10 @@ def build_wall_law(
     executor : concurrent.futures.Executor, optional
         Any executor with ``submit`` (e.g. ``dask.distributed.Client``); the table
         is the same as with local workers.
-    progress : callable, optional
-        Called with ``(done, total)`` diameters after each one.
+    progress : bool or callable, optional
+        ``True`` shows a progress bar of the diameters (tqdm, on stderr), a
+        callable is called with ``(done, total)`` diameters after each one;
+        ``False`` or None shows nothing.
     checkpoint : path-like, optional
         A folder where each finished diameter is kept until the table is complete:
         an interrupted build re-run with the same arguments simulates only the
@@ -292,14 +298,17 @@ def build_wall_law(
     -------
     WallLaw
     """
-    from ..engine.parallel import cap_workers
-    from ..errors import ScenarioError
-    from ..scenario.file import wall_law_from_toml
-    from ..scenario.scenario import as_scenario
-
-    scenario = as_scenario(scenario)  # a path or a preset name is loaded
-    if spec is None and scenario.source is not None:
-        spec = wall_law_from_toml(scenario.source)
+    if not isinstance(scenario, Scenario):
+        file = read_scenario(scenario)  # a path or a preset name, read once
+    elif spec is None and scenario.source is not None:
+        file = read_scenario(scenario.source)  # its [wall_law] table
+    else:
+        file = None
+    source_text = None
+    if file is not None:
+        scenario = file.scenario if not isinstance(scenario, Scenario) else scenario
+        spec = file.wall_law if spec is None else spec
+        source_text = file.text
     if spec is None:
         raise ScenarioError(
             "no wall-law nodes: give `spec=WallLawSpec(...)` or a [wall_law] table "
@@ -309,10 +318,6 @@ def build_wall_law(
         )
     if not isinstance(spec, WallLawSpec):
         raise TypeError(f"`spec` must be a WallLawSpec; got {type(spec).__name__}")
-    source_text = None
-    if scenario.source is not None and os.path.isfile(scenario.source):
-        with open(scenario.source, encoding="utf-8") as fh:
-            source_text = fh.read()
     samples = spec.samples if spec.samples is not None else scenario.samples
     spec.check_size(len(scenario.surfaces))
     nodes_scenario = scenario.with_options(
@@ -349,16 +354,16 @@ def build_wall_law(
             todo.append(j)
         else:
             keep(j, arrays)
-    done = total - len(todo)
-    for j, arrays in _results(
-        plan, nodes_scenario, spec, samples, workers, executor, todo
-    ):
-        keep(j, arrays)
-        if partial is not None:
-            partial.save(j, arrays)
-        done += 1
-        if progress is not None:
-            progress(done, total)
+    with Progress(
+        progress, total=total, unit="diameters", initial=total - len(todo)
+    ) as bar:
+        for j, arrays in _results(
+            plan, nodes_scenario, spec, samples, workers, executor, todo
+        ):
+            keep(j, arrays)
+            if partial is not None:
+                partial.save(j, arrays)
+            bar.update()
     ds = wall_law_dataset(
         grid,
         spec,
