@@ -13,11 +13,11 @@ import pandas as pd
 import pytest
 
 import microimpact
+from microimpact._core.toml import to_toml
 from microimpact.analysis.calibration import (
     calibrate,
     default_bounds,
     parse_parameter,
-    to_toml,
 )
 from microimpact.errors import InputError
 from microimpact.scenario.file import PRESETS, preset_path, read_toml

@@ -77,12 +77,12 @@ def test_closed_pipe_is_an_environment_error(tmp_path):
 
 
 def test_library_bug_is_1_with_the_traceback_saved(tmp_path, capsys, monkeypatch):
-    import microimpact.engine.montecarlo as mc
+    import microimpact.pipeline.study as study
 
     def broken(*args, **kwargs):
         raise ValueError("a bug of ours")  # a ValueError is not the user's mistake
 
-    monkeypatch.setattr(mc, "run", broken)
+    monkeypatch.setattr(study, "run", broken)
     p = _scenario(tmp_path)
     assert main(["run", str(p), "--out", str(tmp_path / "o"), "--quiet"]) == 1
     err = capsys.readouterr().err

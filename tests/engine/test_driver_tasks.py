@@ -216,7 +216,7 @@ def test_estimate_scales_the_timed_blocks(monkeypatch):
             seen.add(point)
         return [None] * len(specs)
 
-    monkeypatch.setattr(parallel, "_simulate", fake)
+    monkeypatch.setattr(montecarlo, "_simulate", fake)
     monkeypatch.setattr(montecarlo.time, "perf_counter", lambda: clock[0])
     sc = _grid(samples=100_000)  # 4 blocks per point, 36 points
     est = estimate_duration(sc)

@@ -300,9 +300,9 @@ def test_profile_vs_areal_figure_and_report(tmp_path, areal_result):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from microimpact.pipeline.figures import figures_for_result, result_figures
     from microimpact.pipeline.report import write_report
     from microimpact.plotting.areal import plot_profile_vs_areal
-    from microimpact.plotting.results import figures_for_result, result_figures
 
     paths = figures_for_result(areal_result, tmp_path, formats=("png",))
     assert tmp_path / "profile_vs_areal.png" in paths
@@ -325,8 +325,8 @@ def test_profile_vs_areal_figure_and_report(tmp_path, areal_result):
 def test_no_profile_vs_areal_figure_without_an_areal_surface():
     import matplotlib.pyplot as plt
 
+    from microimpact.pipeline.figures import result_figures
     from microimpact.plotting.areal import plot_profile_vs_areal
-    from microimpact.plotting.results import result_figures
 
     res = run(scenario(surfaces=(rough(10.0),), angles_deg=(30.0, 60.0)), samples=500)
     assert "profile_vs_areal" not in [s for s, _, _ in result_figures(res)]

@@ -235,8 +235,8 @@ def test_opened_result_gives_the_same_figures_and_report(tmp_path):
     figures included) and a report with the same tables as the fresh one."""
     from microimpact.engine.montecarlo import run
     from microimpact.engine.result import open_result
+    from microimpact.pipeline.figures import figures_for_result
     from microimpact.pipeline.report import input_figures, write_report
-    from microimpact.plotting.results import figures_for_result
 
     path = tmp_path / "s.toml"
     path.write_text(

@@ -23,8 +23,8 @@ from engine_helpers import (
 )
 
 from microimpact.engine.montecarlo import run
+from microimpact.pipeline.figures import figures_for_result
 from microimpact.pipeline.report import summary_text, write_report
-from microimpact.plotting.results import figures_for_result
 from microimpact.scenario.scenario import SurfaceVariant
 
 DIAM = FrozenDist(normal_diameters().dist, label="test <b>bold</b>")

@@ -15,8 +15,8 @@ import matplotlib.pyplot as plt
 from engine_helpers import PowerCoefficients, rough, scenario
 
 from microimpact.engine.montecarlo import run
+from microimpact.pipeline.figures import figures_for_result
 from microimpact.plotting.results import (
-    figures_for_result,
     plot_capture,
     plot_coefficients_vs_angle,
     plot_convergence,
@@ -249,7 +249,7 @@ def test_save_figures_closes_every_figure(tmp_path):
 
 def test_result_figures_take_experiments_explicitly(capture_result, tmp_path):
     """Experiments are an argument; a scenario's own ``experiments`` are never read."""
-    from microimpact.plotting.results import result_figures
+    from microimpact.pipeline.figures import result_figures
 
     exp = tmp_path / "exp.csv"
     exp.write_text("speed_m_s,statistic,mean,half_width\n0.5,e,0.7,0.05\n")

@@ -44,6 +44,7 @@ identifiable: ``estimate`` None, with the reason.
 
 from __future__ import annotations
 
+import copy
 import math
 import os
 import re
@@ -55,11 +56,18 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
+from .._core import json as _json
+from .._core.files import atomic_write
 from .._core.progress import Progress, check_progress
+from .._core.toml import to_toml
+from ..engine.parallel import cap_workers, process_pool
 from ..engine.statistics import z_value
 from ..errors import InputError
 from ..io.experiments import read_experiments
+from ..plotting._style import use_agg
+from ..plotting.calibration import plot_calibration
 from ..scenario.parameters import check_parameter_key, with_values
+from ..scenario.scenario import scenario_from_dict
 from .compare import _experiments_iv, compare
 from .model import ScenarioModel
 
@@ -68,7 +76,6 @@ __all__ = [
     "calibrate",
     "default_bounds",
     "parse_parameter",
-    "to_toml",
 ]
 
 #: Relative finite-difference step of the Jacobian (times the parameter's scale,
@@ -219,8 +226,6 @@ def _mapper(workers, executor):
     if executor is not None:
         return executor.map, None
     if workers > 1:
-        from ..engine.parallel import cap_workers, process_pool
-
         pool = process_pool(cap_workers(int(workers)))
         return pool.map, pool
     return (lambda f, it: list(map(f, it))), None
@@ -281,11 +286,11 @@ class CalibrationResult:
 
     def scenario(self):
         """The calibrated :class:`~microimpact.Scenario`."""
-        from ..scenario.scenario import scenario_from_dict
 
         return scenario_from_dict(self.data, base_dir=self.base_dir)
 
     def parameters_table(self):
+        # deferred: pandas loads only where a table is made (import time)
         import pandas as pd
 
         return pd.DataFrame(
@@ -393,8 +398,6 @@ class CalibrationResult:
     def write(self, out, *, figure=True) -> Path:
         """Write ``calibration.json``, ``calibration.md`` and (with `figure`)
         ``calibration.png`` to folder `out`, each atomically."""
-        from .._core import json as _json
-        from .._core.files import atomic_write
 
         out = Path(out)
         out.mkdir(parents=True, exist_ok=True)
@@ -403,12 +406,9 @@ class CalibrationResult:
         report = self.report()
         atomic_write(out / "calibration.md", lambda t: Path(t).write_text(report))
         if figure:
-            from ..plotting._style import use_agg
-
             use_agg()
+            # deferred: matplotlib loads only when a figure is drawn
             import matplotlib.pyplot as plt
-
-            from ..plotting.calibration import plot_calibration
 
             fig = plot_calibration(self)
             try:
@@ -508,6 +508,7 @@ class _Objective:
 
 
 def _least_squares(obj, x0f, bounds_f, scale_f, *, xtol=1e-5):
+    # deferred: this SciPy submodule loads only when it is used (import time)
     from scipy.optimize import least_squares
 
     lo, hi = bounds_f[:, 0], bounds_f[:, 1]
@@ -1018,6 +1019,7 @@ def _band(model, boot, boot_curves, x, B, u, band_draws, bootstrap_seed):
 
 
 def _points_table(model, summary, exp, y, s_exp, s_sim):
+    # deferred: pandas loads only where a table is made (import time)
     import pandas as pd
 
     m, _ = model.points(summary)
@@ -1045,6 +1047,7 @@ def _points_table(model, summary, exp, y, s_exp, s_sim):
 def _curves(summary, band_summaries, exp, alpha):
     """The model at every sweep point for each statistic of the data, with the
     band (quantiles over `band_summaries`)."""
+    # deferred: pandas loads only where a table is made (import time)
     import pandas as pd
 
     rows = []
@@ -1069,76 +1072,9 @@ def _curves(summary, band_summaries, exp, alpha):
     return pd.concat(rows, ignore_index=True) if rows else pd.DataFrame()
 
 
-# ---------------------------------------------------------------------- TOML
-_BARE = re.compile(r"^[A-Za-z0-9_-]+$")
-
-
-def _key(k) -> str:
-    k = str(k)
-    return k if _BARE.match(k) else _string(k)
-
-
-def _string(s: str) -> str:
-    import json
-
-    return json.dumps(s, ensure_ascii=False)
-
-
-def _value(v) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, int | np.integer):
-        return str(int(v))
-    if isinstance(v, float | np.floating):
-        v = float(v)
-        if math.isnan(v):
-            return "nan"
-        if math.isinf(v):
-            return "inf" if v > 0 else "-inf"
-        return repr(v)
-    if isinstance(v, str):
-        return _string(v)
-    if isinstance(v, Mapping):
-        return "{ " + ", ".join(f"{_key(k)} = {_value(x)}" for k, x in v.items()) + " }"
-    if isinstance(v, list | tuple):
-        return "[" + ", ".join(_value(x) for x in v) + "]"
-    raise TypeError(f"cannot write a {type(v).__name__} as TOML")
-
-
-def to_toml(data: Mapping, *, header: Sequence[str] = ()) -> str:
-    """Parsed TOML data as TOML text (``tomllib.loads`` gives `data` back).
-
-    Top-level tables become ``[table]`` sections, arrays of tables ``[[array]]``
-    sections; tables inside a section are written inline. `header` lines are
-    written first as comments.
-    """
-    out = [f"# {line}" for line in header]
-    scalars = {
-        k: v
-        for k, v in data.items()
-        if not isinstance(v, Mapping) and not _table_array(v)
-    }
-    for k, v in scalars.items():
-        out.append(f"{_key(k)} = {_value(v)}")
-    for k, v in data.items():
-        if isinstance(v, Mapping):
-            out += ["", f"[{_key(k)}]"]
-            out += [f"{_key(a)} = {_value(b)}" for a, b in v.items()]
-        elif _table_array(v):
-            for entry in v:
-                out += ["", f"[[{_key(k)}]]"]
-                out += [f"{_key(a)} = {_value(b)}" for a, b in entry.items()]
-    return "\n".join(out) + "\n"
-
-
-def _table_array(v) -> bool:
-    return isinstance(v, list) and bool(v) and all(isinstance(e, Mapping) for e in v)
-
-
 def _absolute_files(data, base_dir):
     """A copy of `data` whose ``file`` values are absolute paths (the calibrated
     TOML is written elsewhere than the scenario)."""
-    import copy
 
     if base_dir is None:
         return data

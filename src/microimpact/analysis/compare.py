@@ -25,7 +25,8 @@ import os
 
 import numpy as np
 
-from ..engine.statistics import z_value
+from ..engine.statistics import interval_se, z_value
+from ..io.experiments import read_experiments
 
 __all__ = ["SIMULATED", "compare"]
 
@@ -47,6 +48,7 @@ _COORDS = ("speed_m_s", "angle_deg")
 
 
 def _summary_iv(summary_or_result):
+    # deferred: pandas loads only where a table is made (import time)
     import pandas as pd
 
     if isinstance(summary_or_result, pd.DataFrame):
@@ -67,8 +69,6 @@ def _summary_iv(summary_or_result):
         )
     summary = summary.reset_index(drop=True).copy()
     if "capture_se" not in summary and "capture_ci_low" in summary:
-        from ..engine.statistics import interval_se
-
         summary["capture_se"] = interval_se(
             summary["capture_ci_low"], summary["capture_ci_high"], sim_conf
         )
@@ -76,9 +76,8 @@ def _summary_iv(summary_or_result):
 
 
 def _experiments_iv(experiments):
+    # deferred: pandas loads only where a table is made (import time)
     import pandas as pd
-
-    from ..io.experiments import read_experiments
 
     if isinstance(experiments, str | os.PathLike):
         experiments = read_experiments(experiments)
@@ -208,6 +207,7 @@ def compare(summary_or_result, experiments, *, confidence=0.95):
     ``sqrt(w² s_a² + (1 - w)² s_b²)`` (independent points); the error of the
     linear interpolation itself is not included.
     """
+    # deferred: pandas loads only where a table is made (import time)
     import pandas as pd
 
     if not (isinstance(confidence, float | int) and 0 < confidence < 1):

@@ -29,9 +29,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from .._core.files import atomic_write
 from .._core.progress import Progress
-from .._core.validation import check_int
+from .._core.validation import check_int, did_you_mean
+from ..engine.parallel import _ordered, cap_workers, process_pool
 from ..errors import InputError, ScenarioError
+from ..plotting.sensitivity import plot_sensitivity
 from ..scenario.grid import SweepGrid
 from ..scenario.parameters import check_parameter_key
 from ..scenario.sensitivity import (
@@ -216,7 +219,6 @@ def _check_statistics(statistics) -> tuple:
     statistics = tuple(dict.fromkeys(statistics))
     if not statistics:
         raise InputError("must name at least one statistic", field="statistics")
-    from .._core.validation import did_you_mean
 
     for s in statistics:
         if s not in STATISTICS:
@@ -270,14 +272,12 @@ class SensitivityResult:
 
     def to_csv(self, path) -> Path:
         """Write :attr:`table` to `path` (CSV), atomically."""
-        from .._core.files import atomic_write
 
         return atomic_write(path, lambda t: self.table.to_csv(t, index=False))
 
     def plot(self, statistic=None, *, ax=None):
         """ST against speed (or angle); see
         :func:`microimpact.plotting.sensitivity.plot_sensitivity`."""
-        from ..plotting.sensitivity import plot_sensitivity
 
         return plot_sensitivity(self.table, statistic=statistic, ax=ax)
 
@@ -287,6 +287,7 @@ def _design(dists, n: int, rng) -> np.ndarray:
     """The ``n * (d + 2)`` design rows: A, B, then AB_1 ... AB_d (A with column i
     from B), from one scrambled Sobol' sequence of 2d columns (as
     ``scipy.stats.sobol_indices`` draws A and B)."""
+    # deferred: this SciPy submodule loads only when it is used (import time)
     from scipy.stats import qmc
 
     d = len(dists)
@@ -315,7 +316,6 @@ def _chunks(rows: np.ndarray, workers: int) -> list[np.ndarray]:
 def _map(executor, model, chunks, in_flight):
     """``model(chunk)`` of every chunk in order, on `executor` (``submit`` with at
     most `in_flight` chunks ahead, else ``map``)."""
-    from ..engine.parallel import _ordered
 
     if not hasattr(executor, "submit"):
         return executor.map(model, chunks)
@@ -328,8 +328,6 @@ def _evaluate(model, rows, *, workers, executor, progress) -> np.ndarray:
     out = np.empty((len(rows), n_out))
     own = None
     if executor is None and workers > 1:
-        from ..engine.parallel import process_pool
-
         executor = own = process_pool(workers)
     try:
         chunks = _chunks(rows, workers if executor is not None else 1)
@@ -354,6 +352,7 @@ def _evaluate(model, rows, *, workers, executor, progress) -> np.ndarray:
 def _indices(f_A, f_B, f_AB, *, confidence, n_resamples, seed):
     """S1, ST and their BCa intervals, each of shape (s, d), for outputs whose
     evaluations are all finite and vary (NaN elsewhere)."""
+    # deferred: this SciPy submodule loads only when it is used (import time)
     from scipy.stats import sobol_indices
 
     d, s, n = f_AB.shape
@@ -481,8 +480,6 @@ def sobol_analysis(
         raise InputError(f"must be in (0, 1); got {confidence!r}", field="confidence")
     n_resamples = check_int(n_resamples, "n_resamples", minimum=10)
     if executor is None:
-        from ..engine.parallel import cap_workers
-
         workers = cap_workers(check_int(workers, "workers", minimum=1))
     root = np.random.SeedSequence(seed)
     design_ss, boot_ss = root.spawn(2)

@@ -17,6 +17,7 @@ and turns exceptions into one-line messages and exit codes (see
 from __future__ import annotations
 
 import argparse
+import errno
 import importlib
 import os
 import signal
@@ -102,8 +103,6 @@ def _environment_message(err) -> str | None:
     if isinstance(err, BrokenPipeError):
         return "the output pipe was closed"
     if isinstance(err, OSError):
-        import errno
-
         causes = {
             errno.ENOSPC: "no space left on the device",
             errno.EDQUOT: "disk quota exceeded",

@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import math
+import sys
 from pathlib import Path
 
 EXIT_OK, EXIT_INTERNAL, EXIT_USER, EXIT_ENVIRONMENT = 0, 1, 2, 3
@@ -75,6 +76,7 @@ def fraction(text):
 
 
 def formats(text):
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from .._core.formats import FIGURE_FORMATS
 
     fmts = [f.strip().lower() for f in text.split(",") if f.strip()]
@@ -138,6 +140,7 @@ def add_backend_options(sp):
 
 
 def _check_scheduler(args) -> None:
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..errors import InputError
 
     if args.scheduler is not None and args.backend != "dask":
@@ -156,6 +159,7 @@ def executor_of(args):
     if args.backend != "dask":
         yield None
         return
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..engine.parallel import dask_client
 
     with dask_client(address=args.scheduler, workers=args.workers) as client:
@@ -186,7 +190,10 @@ def write_outputs(out, *, tables=None, texts=None, figures=None):
     `figures` maps a file stem to a zero-argument function that draws and returns
     an Axes; matplotlib is imported (with the Agg backend) only when needed.
     """
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from .._core.files import atomic_write
+
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from .._core.formats import DEFAULT_FIGURE_FORMATS
 
     out.mkdir(parents=True, exist_ok=True)
@@ -195,7 +202,10 @@ def write_outputs(out, *, tables=None, texts=None, figures=None):
     for name, text in (texts or {}).items():
         atomic_write(out / name, lambda t, x=text: Path(t).write_text(x))
     if figures:
+        # deferred: the verb's library loads only when the verb runs (fast --help)
         from ..plotting._style import use_agg
+
+        # deferred: the verb's library loads only when the verb runs (fast --help)
         from ..plotting.results import save_figures
 
         use_agg()
@@ -238,13 +248,16 @@ QUICK_POINTS = 10_000
 def announce(args, scenario, *, samples=None):
     """Say at the start when a run is expected to take more than a few minutes
     (impacts / measured throughput)."""
-    import sys
 
     try:
+        # deferred: the verb's library loads only when the verb runs (fast --help)
         from ..engine.montecarlo import estimate_duration
     except ImportError:  # pragma: no cover - older engine
         return
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..engine.parallel import available_cores
+
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..scenario.grid import SweepGrid
 
     workers = min(args.workers, available_cores())
@@ -267,7 +280,6 @@ def announce(args, scenario, *, samples=None):
 def resume_reporter(out):
     """A ``checkpoint=`` callback for :meth:`Study.execute` that says on stderr how
     much was restored, before any block runs."""
-    import sys
 
     def report(checkpoint):
         if checkpoint.resumed:

@@ -54,12 +54,14 @@ def cli_parse(sp):
 
 
 def cli_action(args) -> int:
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..analysis.calibration import calibrate, parse_parameter
 
     parameters = {}
     for text in args.parameter:
         key, bounds = parse_parameter(text)
         if key in parameters:
+            # deferred: the verb's library loads only when the verb runs (fast --help)
             from ..errors import InputError
 
             raise InputError(f"{key!r} is given twice", field="--parameter")

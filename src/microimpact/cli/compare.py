@@ -17,8 +17,13 @@ def cli_parse(sp):
 
 
 def cli_action(args) -> int:
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..analysis.compare import compare
+
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..io.experiments import read_experiments
+
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..plotting.comparison import plot_comparison
 
     summary = _read_results(args.results)
@@ -41,9 +46,13 @@ def cli_action(args) -> int:
 
 def _read_results(path: Path):
     """The summary table of a run folder, results.nc or summary.csv."""
+    # deferred: pandas loads only where a table is made (import time)
     import pandas as pd
 
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..engine.result import open_result
+
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..errors import InputError
 
     if path.is_dir() or path.suffix == ".nc":

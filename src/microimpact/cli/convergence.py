@@ -22,10 +22,19 @@ def cli_parse(sp):
 
 
 def cli_action(args) -> int:
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..engine.convergence import convergence_study
+
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..engine.montecarlo import run
+
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..errors import InputError
+
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..scenario.grid import SweepGrid
+
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..scenario.scenario import as_scenario
 
     scenario = as_scenario(args.scenario)
@@ -57,6 +66,7 @@ def cli_action(args) -> int:
         f"{res.n_required} (worst case {res.n_required_worst_case})"
     )
     if args.out is not None:
+        # deferred: the verb's library loads only when the verb runs (fast --help)
         from ..plotting.results import plot_convergence
 
         c.write_outputs(

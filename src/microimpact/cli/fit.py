@@ -28,7 +28,10 @@ def cli_parse(sp):
 
 
 def cli_action(args) -> int:
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..io.impact_data import read_impact_data
+
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..physics.fitting import (
         IdentifiabilityError,
         coefficient_laws_fit,

@@ -12,7 +12,10 @@ def cli_parse(sp):
 
 
 def cli_action(args) -> int:
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..scenario.file import PRESETS
+
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..scenario.scenario import load_preset
 
     for name in PRESETS:

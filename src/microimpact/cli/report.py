@@ -26,9 +26,16 @@ def cli_parse(sp):
 
 
 def cli_action(args) -> int:
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from .._core.formats import DEFAULT_FIGURE_FORMATS
+
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..engine.result import open_result
+
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..pipeline.study import Study
+
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..scenario.outputs import Outputs
 
     figures = () if args.no_figures else (args.formats or DEFAULT_FIGURE_FORMATS)

@@ -21,6 +21,7 @@ def cli_parse(sp):
 
 
 def cli_action(args) -> int:
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..pipeline.study import reproduce
 
     t0 = time.perf_counter()

@@ -11,6 +11,7 @@ HELP = "characterise a profilometer scan (roughness angles, statistics, Fig. 4)"
 
 
 def cli_parse(sp):
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..units import LENGTH_UNITS
 
     units = tuple(LENGTH_UNITS)
@@ -52,11 +53,22 @@ def cli_parse(sp):
 
 
 def cli_action(args) -> int:
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from .._core.files import atomic_write
+
+    # deferred: the verb's library loads only when the verb runs (fast --help)
+    from .._core.toml import surface_snippet
+
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..io.profiles import read_profiles
+
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..plotting.roughness import plot_angle_pdf, plot_profile
-    from ..scenario.snippets import surface_snippet
+
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..surface.roughness import characterise, write_angle_file
+
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..units import um_to_m
 
     kw = {"unit": args.unit, "x_unit": args.x_unit, "z_unit": args.z_unit}
@@ -98,7 +110,10 @@ def cli_action(args) -> int:
         "is relative to the scenario file: copy angles.txt next to it",
     )
     atomic_write(out / "surface.toml", lambda t: Path(t).write_text(snippet))
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..plotting._style import use_agg
+
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..plotting.results import save_figures
 
     use_agg()

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import sys
 import time
+from dataclasses import replace
 
 from . import _common as c
 
@@ -26,6 +27,7 @@ def cli_parse(sp):
 
 
 def cli_action(args) -> int:
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..pipeline.study import Study
 
     t0 = time.perf_counter()
@@ -53,9 +55,11 @@ def cli_action(args) -> int:
 
 def _apply_flags(args, study):
     """The scenario and outputs after --precision, --formats, --no-figures."""
-    from dataclasses import replace
 
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..errors import InputError
+
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..scenario.scenario import Precision
 
     scenario, outputs = study.scenario, study.outputs

@@ -23,7 +23,10 @@ def _parameter(text):
     """``KEY=LOW:HIGH`` -> (key, {"low": LOW, "high": HIGH}): the calibration's
     parser (:func:`microimpact.analysis.calibration.parse_parameter`), with both limits
     required (a uniform range) and LOW < HIGH."""
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..analysis.calibration import parse_parameter
+
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..errors import InputError
 
     try:
@@ -98,7 +101,10 @@ def cli_parse(sp):
 def write_sensitivity(result, out, formats=("png",)):
     """Write ``out/sensitivity.csv`` and ``out/sensitivity_ST.<format>``, each
     atomically; return the paths."""
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..plotting._style import use_agg
+
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..plotting.results import save_figures
 
     out.mkdir(parents=True, exist_ok=True)
@@ -111,6 +117,7 @@ def write_sensitivity(result, out, formats=("png",)):
 
 
 def cli_action(args) -> int:
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..analysis.sensitivity import sobol_sensitivity
 
     parameters = dict(args.parameter) if args.parameter else None

@@ -18,6 +18,7 @@ HELP = "fit measured diameters (normal, log-normal), chi-squared test, plot"
 
 
 def cli_parse(sp):
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..units import LENGTH_UNITS
 
     units = tuple(LENGTH_UNITS)
@@ -54,8 +55,13 @@ def _data_of(path):
 
 
 def cli_action(args) -> int:
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..io.diameters import read_diameters
+
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..population.sizes_report import describe_sizes
+
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..units import m_to_um
 
     column = column_arg(args.column) if args.column is not None else None
@@ -65,6 +71,7 @@ def cli_action(args) -> int:
         report = describe_sizes(d_um, alpha=args.alpha, source=args.data)
     print(f"{args.data}: {report.summary()}")
     if args.out is not None:
+        # deferred: the verb's library loads only when the verb runs (fast --help)
         from ..plotting.sizes import plot_size_distribution
 
         ref = {"file": str(Path(args.data).resolve()), "unit": args.unit}

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 import time
 
@@ -42,11 +43,17 @@ def cli_parse(sp):
 
 
 def cli_action(args) -> int:
-    import dataclasses
 
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..errors import ScenarioError
+
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..pipeline.folder import OutputFolder
+
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..scenario.scenario import read_scenario
+
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..wall_law import build_wall_law
 
     t0 = time.perf_counter()
@@ -108,7 +115,10 @@ def cli_action(args) -> int:
 
 def _check_condition(spec, condition):
     """Refuse condition flags the table cannot serve, before it is built."""
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..errors import InputError
+
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..wall_law.openfoam import fallback_condition
 
     coords = {

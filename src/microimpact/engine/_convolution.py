@@ -53,7 +53,12 @@ import warnings
 
 import numpy as np
 
-from .._core.tables import CellTable, mid_probabilities
+from .._core.tables import (
+    CellTable,
+    _integer_probabilities,
+    mid_probabilities,
+    refined_probabilities,
+)
 from ._cells import cell_table
 
 #: Grid points of the inversion grid per scale of the continuous part.
@@ -255,7 +260,6 @@ def _tolerance(p):
 def check_nodes(mix: Mixture, inverse, stride: int = CHECK_STRIDE):
     """Worst ratio of the exact CDF error to the tolerance at every `stride`-th
     node of the refined grid (lower half through ``F``, upper through ``S``)."""
-    from .._core.tables import refined_probabilities
 
     p, s = refined_probabilities()
     p, s = p[1:-1:stride], s[1:-1:stride]
@@ -327,8 +331,6 @@ def exact_node_table(mix: Mixture, inverse, jumps) -> tuple[CellTable, float]:
     (constant for a uniform law, which the table's linear cells then reproduce
     exactly). The check evaluates the exact CDF at the middle of every
     :data:`CHECK_STRIDE`-th cell and of every cell next to a jump."""
-    from .._core.tables import _integer_probabilities, refined_probabilities
-
     lo, hi = mix.bounds()
     p, sv = refined_probabilities()
     lower = p[1:-1] <= 0.5

@@ -28,6 +28,7 @@ import pandas as pd
 
 from .._core.validation import check_int
 from ..scenario.grid import SweepGrid
+from ..scenario.scenario import as_scenario
 from .kernel import simulate_block
 from .montecarlo import build_plan, iter_point_samples
 from .statistics import wilson_interval, z_value
@@ -92,7 +93,6 @@ def convergence_study(
     grid : int
         Number of log-spaced N values in the returned table.
     """
-    from ..scenario.scenario import as_scenario
 
     scenario = as_scenario(scenario)
     n_max = check_int(n_max, "n_max", minimum=10)

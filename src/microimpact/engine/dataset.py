@@ -180,6 +180,7 @@ def build_dataset(
     areal : sequence of bool, optional
         Per surface: an areal (3-D) surface of joint facet angles.
     """
+    # deferred: xarray loads only where a dataset is made (import time)
     import xarray as xr
 
     dims = grid.dims
@@ -380,6 +381,7 @@ def scalar_variables(ds) -> list[str]:
 def summary_frame(ds):
     """``summary.csv``'s table: one row per sweep point (grid order), derived from the
     Dataset."""
+    # deferred: pandas loads only where a table is made (import time)
     import pandas as pd
 
     names = scalar_variables(ds)

@@ -26,12 +26,20 @@ formulas, so one angle table serves every apparent angle.
 
 from __future__ import annotations
 
+import warnings
 import weakref
 from functools import lru_cache
 
 import numpy as np
 
-from .._core.tables import fraction_to_integer, mulhi64
+from .._core.tables import (
+    CellTable,
+    _integer_probabilities,
+    fraction_to_integer,
+    mulhi64,
+    refined_probabilities,
+)
+from . import _compiled
 from .accumulators import (
     E_BINS,
     E_EDGES,
@@ -63,9 +71,11 @@ from .plan import (
     VAR_PAIR,
     VAR_SPEED,
     Plan,
+    Sampler,
     pair_sin,
     resolve_kernel,
 )
+from .summary import Spans, Stacked, gather_segments
 
 #: spawn-key slot that separates QMC scrambles from MC block streams
 QMC_TAG = 0xFFFF_FFFF
@@ -84,13 +94,13 @@ def stream_raw(entropy, point, block, var, n):
 
 def qmc_uniforms(entropy, point, rep, block, n, dim, block_size):
     """Scrambled Sobol points ``[block*B, block*B + n)`` of replicate `rep`."""
+    # deferred: this SciPy submodule loads only when it is used (import time)
     from scipy.stats import qmc  # lazily: scipy.stats costs 0.6 s and ~80 MB
 
     ss = np.random.SeedSequence(entropy, spawn_key=(point, QMC_TAG, rep))
     engine = qmc.Sobol(dim, scramble=True, rng=np.random.default_rng(ss))
     if block:
         engine.fast_forward(block * block_size)
-    import warnings
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)  # balance warning for n != 2^k
@@ -472,9 +482,9 @@ _NO_SAMPLER = None
 
 
 def _ckernel():
-    from . import _ckernel
-
-    return _ckernel
+    if _compiled.ckernel is None:
+        raise ImportError(f"the compiled kernel is not installed ({_compiled.ERROR})")
+    return _compiled.ckernel
 
 
 _SAMPLER_ARGS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
@@ -499,7 +509,6 @@ def constant_columns(sampler) -> int:
 @lru_cache(maxsize=4)
 def _refined_starts(levels: int, cells_log2: int) -> np.ndarray:
     """The cell starts of the canonical refined grid (``CellTable.DYADIC``)."""
-    from .._core.tables import _integer_probabilities, refined_probabilities
 
     p, s = refined_probabilities(levels, 1 << cells_log2)
     return _integer_probabilities(p[:-1], s[:-1])
@@ -541,9 +550,6 @@ def _sampler_args(sampler):
     global _NO_SAMPLER
     if sampler is None:
         if _NO_SAMPLER is None:
-            from .._core.tables import CellTable
-            from .plan import Sampler
-
             one = ([1.0], [1.0])
             _NO_SAMPLER = Sampler.of(CellTable.from_atoms([1.0]), one, one, one, one)
         sampler = _NO_SAMPLER
@@ -781,7 +787,6 @@ def simulate_specs_stacked(plan: Plan, specs):
     built from the compiled kernel's arrays without an object per block: exactly
     ``Stacked.of(simulate_specs(plan, specs))``. Plain Monte Carlo on the compiled
     kernel only (None otherwise)."""
-    from .summary import Spans, Stacked, gather_segments
 
     if plan.kernel != "compiled" or plan.sampling == "qmc":
         return None

@@ -38,15 +38,19 @@ import numpy as np
 from .._core.progress import Progress, check_progress
 from .._core.validation import check_choice, check_int
 from ..errors import ConvergenceWarning, InputError
+from ..scenario.scenario import as_scenario
 from .accumulators import PointAccumulator
 from .checkpoint import Checkpoint, CheckpointWarning, plan_fingerprint
+from .kernel import simulate_block
 from .parallel import (
     BACKENDS,
+    _simulate,
     available_cores,
     cap_workers,
     make_runner,
 )
 from .plan import BLOCK_SIZE, Plan, build_plan, resolve_entropy  # noqa: F401
+from .result import SimulationResult
 from .statistics import wilson_interval, z_value
 from .summary import Stacked
 
@@ -385,7 +389,6 @@ class _Job:
         progress,
         plan,
     ):
-        from ..scenario.scenario import as_scenario
 
         self.scenario = scenario = as_scenario(scenario)
         if samples is not None:
@@ -729,7 +732,6 @@ def run(
         Its provenance records ``resumed_blocks`` (0 for a fresh run),
         ``total_blocks`` and the effective ``workers``.
     """
-    from .result import SimulationResult
 
     t0 = time.perf_counter()
     with _defer_full_collections():
@@ -776,8 +778,6 @@ def estimate_duration(scenario, *, samples=None, workers=1, seed=None, plan=None
     plan (pass `plan` to reuse one). Accurate to a factor of about 2: meant to warn
     that a run will take minutes or hours, not to schedule it.
     """
-    from ..scenario.scenario import as_scenario
-    from .parallel import _simulate
 
     scenario = as_scenario(scenario)
     workers = min(check_int(workers, "workers"), available_cores())
@@ -816,7 +816,6 @@ def sample_point(scenario, point=0, n=4000, *, seed=None, replicate=0):
     ``speed`` [m s-1], ``e_m``, ``mu_m``, ``captured``, ``shadowed``, ``reimpact``).
     The draws are exactly those :func:`run` makes for the same seed and point.
     """
-    from ..scenario.scenario import as_scenario
 
     scenario = as_scenario(scenario)
     plan = build_plan(scenario, seed=seed)
@@ -830,7 +829,6 @@ def sample_point(scenario, point=0, n=4000, *, seed=None, replicate=0):
 def iter_point_samples(plan, point, n, *, replicate=0) -> Iterator[dict]:
     """Per-impact arrays of the first `n` draws at `point`, one dict per block (the
     blocks :func:`run` simulates, in order): bounded memory for any `n`."""
-    from .kernel import simulate_block
 
     for b in range(math.ceil(n / plan.block_size)):
         m = min(plan.block_size, n - b * plan.block_size)

@@ -21,9 +21,15 @@ initializer, and to Dask workers by ``Client.scatter(..., broadcast=True)``.
 
 from __future__ import annotations
 
+import collections
 import contextlib
+import functools
+import itertools
+import multiprocessing as mp
 import os
+import threading
 import warnings
+from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 
 from ..errors import InputError
 from . import kernel
@@ -112,7 +118,6 @@ def _run_task_global(task):
 def _ordered(submit, tasks, in_flight):
     """Yield ``submit(task).result()`` in task order, keeping at most `in_flight`
     tasks submitted ahead (bounded memory, no barrier between waves)."""
-    import collections
 
     pending = collections.deque()
     it = iter(tasks)
@@ -152,8 +157,6 @@ def start_method() -> str:
     """How the project starts worker processes: ``"fork"`` (instant, and the
     workers inherit the tables already built) while no other thread runs, else
     ``"forkserver"`` (``"spawn"`` on Windows)."""
-    import multiprocessing as mp
-    import threading
 
     if os.name == "nt":  # pragma: no cover - not tested here
         return "spawn"
@@ -165,8 +168,6 @@ def start_method() -> str:
 def process_pool(workers: int, **kwargs):
     """A :class:`concurrent.futures.ProcessPoolExecutor` of `workers` processes
     started with :func:`start_method` (`kwargs` go to the executor)."""
-    import multiprocessing as mp
-    from concurrent.futures import ProcessPoolExecutor
 
     return ProcessPoolExecutor(
         max_workers=workers, mp_context=mp.get_context(start_method()), **kwargs
@@ -207,7 +208,6 @@ class ThreadRunner:
     local_workers = "threads"
 
     def __init__(self, plan, workers: int):
-        from concurrent.futures import ThreadPoolExecutor
 
         self.plan = plan
         self.workers = workers
@@ -272,12 +272,10 @@ class ExecutorRunner:
         self.workers = getattr(executor, "_max_workers", None) or os.cpu_count() or 1
 
     def map(self, tasks):
-        import functools
 
         return list(self.executor.map(functools.partial(run_task, self.plan), tasks))
 
     def imap(self, tasks):
-        import itertools
 
         it = iter(tasks)
         while batch := list(itertools.islice(it, 8 * self.workers)):
@@ -295,6 +293,7 @@ def dask_connect(*, address=None, workers: int = 2):
     :class:`~microimpact.errors.InputError`; a missing Dask an ``ImportError``
     naming the extra."""
     try:
+        # deferred: optional extra [dask]
         from dask.distributed import Client, LocalCluster
     except ImportError:  # pragma: no cover - exercised only without the extra
         raise ImportError(

@@ -63,6 +63,7 @@ from .._core.tables import (
 )
 from ..errors import InputError, ScenarioError
 from ..scenario.grid import GridPoint, SweepGrid
+from . import _compiled
 from ._cells import cell_table
 from ._convolution import MAX_SUM_ATOMS, discrete_atoms, sum_table
 
@@ -1032,6 +1033,7 @@ def convolve_angles(a, b) -> CellTable:
 def _speed_factor_table(relative_std: float) -> CellTable:
     """Normal speed factor N(1, relative_std) truncated to (0, 2) (symmetric, so the
     upper half is ``2 - ppf(s)``)."""
+    # deferred: this SciPy submodule loads only when it is used (import time)
     from scipy.special import ndtr, ndtri
 
     lo, hi = ndtr(-1.0 / relative_std), ndtr(1.0 / relative_std)
@@ -1069,14 +1071,13 @@ def resolve_kernel(kernel=None) -> str:
         raise InputError(f"{source}: expected one of {', '.join(KERNEL_CHOICES)}")
     if kernel == "numpy":
         return "numpy"
-    try:
-        from . import _ckernel  # noqa: F401
-    except ImportError as exc:
+    if _compiled.ckernel is None:
         if kernel == "compiled":
             raise InputError(
                 f"{source} asks for the compiled kernel, but it is not installed "
-                f"({exc}); reinstall microimpact on a machine with a C compiler"
-            ) from exc
+                f"({_compiled.ERROR}); reinstall microimpact on a machine with a C "
+                "compiler"
+            ) from _compiled.ERROR
         return "numpy"
     return "compiled"
 

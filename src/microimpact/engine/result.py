@@ -23,6 +23,7 @@ import numpy as np
 from .._core.files import atomic_write
 from .._core.json import dumps as json_dumps
 from .._core.json import restore_nonfinite
+from ..errors import InputError
 from ..scenario.grid import SweepGrid
 from .accumulators import E_EDGES, LATERAL_EDGES, MU_EDGES
 from .dataset import (
@@ -35,7 +36,9 @@ from .dataset import (
     point_histogram,
     summary_frame,
 )
+from .kernel import KERNEL
 from .plan import BLOCK_SIZE
+from .statistics import capture_speed, relative_coefficients
 from .summary import (
     Stacked,
     point_statistics,
@@ -337,7 +340,7 @@ class SimulationResult:
                 columns[f"{name}_se"] = rel_se.ravel()
         kernel = getattr(plan, "kernel", None)
         if kernel is None:
-            from .kernel import KERNEL as kernel
+            kernel = KERNEL
         vers = prepared["versions"]
         prov = {
             "scenario": prepared["description"],
@@ -466,9 +469,8 @@ class SimulationResult:
     def capture_speed(self, quantile: float | None = None):
         """Speed at a capture fraction (default: the scenario's quantiles), with its
         interval; see :func:`microimpact.engine.statistics.capture_speed`."""
+        # deferred: pandas loads only where a table is made (import time)
         import pandas as pd
-
-        from .statistics import capture_speed
 
         qs = self.scenario.capture_quantiles if quantile is None else (quantile,)
         return pd.concat(
@@ -478,8 +480,6 @@ class SimulationResult:
 
     def relative(self, reference_angle_deg: float = 85.0):
         """The paper's relative coefficients against `reference_angle_deg`."""
-        from .statistics import relative_coefficients
-
         return relative_coefficients(self.summary, reference_angle_deg)
 
     def histogram(self, point: int, name: str = "e"):
@@ -612,9 +612,8 @@ def open_result(path) -> SimulationResult:
     InputError
         If the file is missing or is not a microimpact result.
     """
+    # deferred: xarray loads only where a dataset is read (import time)
     import xarray as xr
-
-    from ..errors import InputError
 
     path = Path(path)
     if path.is_dir():

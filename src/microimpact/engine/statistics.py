@@ -21,6 +21,7 @@ import math
 import numpy as np
 from scipy.special import ndtri
 
+from ..scenario.grid import DIMS
 from .accumulators import (
     E_EDGES,
     LATERAL_EDGES,
@@ -28,6 +29,7 @@ from .accumulators import (
     PointAccumulator,
     histogram_quantile,
 )
+from .capture import estimate_capture_speed
 
 #: Histogram quantiles reported per point (``e_p05`` ...).
 QUANTILES = (0.05, 0.5, 0.95)
@@ -185,10 +187,8 @@ def capture_speed(summary, quantile: float = 0.5, *, confidence=None, by=None):
     ValueError
         If a needed column is missing, or `quantile`/`confidence` is outside (0, 1).
     """
+    # deferred: pandas loads only where a table is made (import time)
     import pandas as pd
-
-    from ..scenario.grid import DIMS
-    from .capture import estimate_capture_speed
 
     if confidence is None:
         confidence = summary.attrs.get("confidence", 0.95)
@@ -261,6 +261,7 @@ def relative_coefficients(summary, reference_angle_deg: float = 85.0):
     fills the result's own columns on the sweep grid), for any summary table, also
     one that is not a full grid.
     """
+    # deferred: pandas loads only where a table is made (import time)
     import pandas as pd
 
     out = summary.copy()

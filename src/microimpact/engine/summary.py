@@ -542,6 +542,7 @@ def replicate_statistics(
     intervals and SEs of the four main statistics from the spread of the
     `n_replicates` independent scrambles (``replicates`` rows are point-major:
     row ``p * R + r``)."""
+    # deferred: this SciPy submodule loads only when it is used (import time)
     from scipy.stats import t as student_t
 
     out = point_statistics(pooled, confidence)

@@ -55,7 +55,7 @@ from .._core.files import MISSING, check_delimiter, parse_number, read_lines, sp
 from .._core.validation import as_float_array
 from ..errors import ProfileFormatError
 from ..units import length_factor
-from .profiles import header_unit
+from .profiles import header_unit, open_x3p
 
 __all__ = ["HeightMap", "read_height_map"]
 
@@ -381,7 +381,6 @@ def _read_text(path, *, dx_um, dy_um, z_unit, delimiter) -> HeightMap:
 
 
 def _read_x3p(path) -> HeightMap:
-    from .profiles import open_x3p
 
     f = open_x3p(path)
     kind = type(f).__name__
@@ -424,6 +423,7 @@ def _read_x3p(path) -> HeightMap:
 
 def _read_surfacetopography(path) -> HeightMap:
     try:
+        # deferred: optional extra [areal]
         from SurfaceTopography import read_topography
     except ImportError:
         raise ProfileFormatError(

@@ -166,7 +166,10 @@ def _parse_row(cells, index, *, source, line):
 
 def _interval(row, *, source):
     """Fill ``ci_low``, ``ci_high`` and ``se`` from whichever form the row uses."""
+    # deferred: this SciPy submodule loads only when it is used (import time)
     from scipy.special import ndtri
+
+    # deferred: this SciPy submodule loads only when it is used (import time)
     from scipy.stats import t as student_t
 
     line, mean, n, conf = row["line"], row["mean"], row["n"], row["confidence"]
@@ -237,6 +240,7 @@ def read_experiments(path):
         is malformed or out of range, a row has no interval, or an interval does not
         contain its mean.
     """
+    # deferred: pandas loads only where a table is made (import time)
     import pandas as pd
 
     source = os.fspath(path)
@@ -268,6 +272,7 @@ def combine_experiments(experiments):
     """
     if experiments is None:
         return None
+    # deferred: pandas loads only where a table is made (import time)
     import pandas as pd
 
     items = (

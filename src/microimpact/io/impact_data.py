@@ -66,6 +66,7 @@ def read_impact_data(path):
         finite, a diameter is <= 0, a speed is negative, or ``e`` lies outside
         ``[0, 1.5]``.
     """
+    # deferred: pandas loads only where a table is made (import time)
     import pandas as pd
 
     table = read_table(path, REQUIRED_COLUMNS, error=DataFormatError)

@@ -538,6 +538,7 @@ def open_x3p(path):
     """The x3pio object of an ``.x3p`` file; a missing package, a missing or an
     unreadable file is a :class:`ProfileFormatError` naming the file."""
     try:
+        # deferred: optional extra [x3p]
         import x3pio
     except ImportError:
         raise ProfileFormatError(

@@ -22,6 +22,8 @@ from typing import Any
 
 import numpy as np
 
+from .._core.json import dumps
+from .._core.toml import coefficients_snippet
 from .._core.validation import (
     as_float_array,
     check_choice,
@@ -223,6 +225,7 @@ def fit_restitution(
         ``e > 0``: three parameters cannot be identified (e.g. every impact at
         one speed).
     """
+    # deferred: this SciPy submodule loads only when it is used (import time)
     from scipy.optimize import least_squares
 
     v = np.abs(as_float_array(v_n, "v_n")).ravel()
@@ -346,6 +349,7 @@ def fit_impact_coefficients(
         a group that cannot, among others that can, is skipped with an
         :class:`IdentifiabilityWarning`.
     """
+    # deferred: pandas loads only where a table is made (import time)
     import pandas as pd
 
     d = as_float_array(diameter, "diameter").ravel()
@@ -636,13 +640,11 @@ class CoefficientLawsFit:
 
     def to_json(self, *, indent=2) -> str:
         """:meth:`to_dict` as standard JSON (NaN and infinities as ``null``)."""
-        from .._core.json import dumps
 
         return dumps(self.to_dict(), indent=indent)
 
     def toml(self) -> str:
         """The ``[coefficients]`` table to paste into a scenario file."""
-        from ..scenario.snippets import coefficients_snippet
 
         return coefficients_snippet(
             self.laws,

@@ -21,7 +21,16 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import __version__
 from .._core.files import atomic_write
+from ..analysis.compare import compare
+from ..io.experiments import combine_experiments
+from ..plotting.areal import CAPTION
+from ..plotting.results import STYLE, _confidence, smooth_surfaces
+from ..plotting.roughness import plot_angle_pdf
+from ..plotting.sizes import plot_size_quantiles
+from ..units import m_to_um, rad_to_deg
+from .figures import figure_caption, result_figures
 
 __all__ = ["summary_text", "write_report"]
 
@@ -146,7 +155,6 @@ def _short(v) -> str:
 
 
 def _png_data_uri(fig) -> str:
-    from ..plotting.results import STYLE
 
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=STYLE["savefig.dpi"] * 0.75)
@@ -216,12 +224,6 @@ def _provenance(result) -> str:
         ("Created", _e(p.get("created", "–"))),
     ]
     return _kv(pairs)
-
-
-def _confidence(result) -> float:
-    from ..plotting.results import _confidence
-
-    return _confidence(result)
 
 
 def _num(x) -> float:
@@ -400,10 +402,6 @@ def input_figures(result):
     (characters other than letters, digits, ``-`` and ``_`` become ``_``; a name
     that clashes with an earlier one gets ``_2``, ``_3``, ...).
     """
-    from ..plotting.results import smooth_surfaces
-    from ..plotting.roughness import plot_angle_pdf
-    from ..plotting.sizes import plot_size_quantiles
-    from ..units import m_to_um, rad_to_deg
 
     out = []
     ds = getattr(result, "dataset", None)
@@ -452,6 +450,7 @@ def input_figures(result):
 def _try_draw(draw, errors):
     """``draw()`` (an Axes), or None if it raises one of `errors`; then any figure it
     opened is closed."""
+    # deferred: matplotlib loads only when a figure is drawn
     import matplotlib.pyplot as plt
 
     before = set(plt.get_fignums())
@@ -466,7 +465,6 @@ def _try_draw(draw, errors):
 def _experiments_for(result, experiments):
     """The experiments table of `result` (`experiments` may map scenario names to
     experiments); None: none (the scenario's files are not read here)."""
-    from ..io.experiments import combine_experiments
 
     if isinstance(experiments, dict):
         experiments = experiments.get(result.scenario.name)
@@ -484,6 +482,7 @@ def _stem_of(fig):
 
 def _embed(fig, caption) -> str:
     """A figure (a PNG file or a matplotlib Figure, closed here) as HTML."""
+    # deferred: matplotlib loads only when a figure is drawn
     import matplotlib.pyplot as plt
 
     if isinstance(fig, Path):
@@ -495,9 +494,8 @@ def _embed(fig, caption) -> str:
 
 
 def _result_section(result, k, csv_href, experiments, saved) -> str:
+    # deferred: matplotlib loads only when a figure is drawn
     import matplotlib.pyplot as plt
-
-    from ..plotting.results import figure_caption, result_figures
 
     sc = result.scenario
     anchor = f"r{k}-{_slug(sc.name)}"
@@ -510,8 +508,6 @@ def _result_section(result, k, csv_href, experiments, saved) -> str:
     parts += ["<h3>Summary</h3>", _summary_table(result, csv_href)]
     exp = _experiments_for(result, experiments)
     if exp is not None and len(exp):
-        from ..analysis.compare import compare
-
         parts += [
             "<h3>Comparison with experiments</h3>",
             _comparison_html(compare(result, exp)),
@@ -523,9 +519,8 @@ def _result_section(result, k, csv_href, experiments, saved) -> str:
         figs = [(figure_caption(p.stem, result), p) for p in pngs]
     else:
         figs = [(c, f) for _, c, f in result_figures(result, experiments=exp)]
+    # deferred: matplotlib loads only when a figure is drawn
     import matplotlib as mpl
-
-    from ..plotting.results import STYLE
 
     rc = {**STYLE, "figure.figsize": (5.0, 3.4), "figure.constrained_layout.use": True}
     if saved is None:  # otherwise the caller wrote the input figures too
@@ -533,8 +528,6 @@ def _result_section(result, k, csv_href, experiments, saved) -> str:
             figs += [(c, f) for _, c, f in input_figures(result)]
     areal = [(c, f) for c, f in figs if _stem_of(f) == "profile_vs_areal"]
     if not areal and saved is None:
-        from ..plotting.areal import CAPTION
-
         areal = [(c, f) for c, f in figs if c == CAPTION]
     if areal:  # its own section: a comparison the paper does not make
         figs = [x for x in figs if x not in areal]
@@ -601,6 +594,7 @@ def _extra_items(extra_figures):
 
 
 def _extra_figures_html(items) -> str:
+    # deferred: matplotlib loads only when a figure is drawn
     import matplotlib.pyplot as plt
 
     if not items:
@@ -661,7 +655,6 @@ def write_report(
     pathlib.Path
         `out_path`.
     """
-    from .. import __version__
 
     if hasattr(results, "summary"):
         results = [results]

@@ -22,11 +22,21 @@ the folder are never touched.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
+from .._core.validation import check_subset
+from ..engine.checkpoint import Checkpoint
+from ..engine.montecarlo import run
+from ..io.experiments import combine_experiments
+from ..plotting._style import use_agg
+from ..plotting.results import save_figures
+from ..scenario.file import PAPER_PRESETS
 from ..scenario.outputs import Outputs
 from ..scenario.scenario import Scenario, read_scenario
+from .figures import figures_for_result
 from .folder import CHECKPOINT_NAME, OutputFolder
+from .report import input_figures, write_report
 
 __all__ = ["CHECKPOINT_NAME", "Outputs", "Study", "reproduce"]
 
@@ -91,15 +101,12 @@ class Study:
     def experiments(self):
         """The experiments table (read once, before any output), or None."""
         if self._experiments is None and self.outputs.experiments:
-            from ..io.experiments import combine_experiments
-
             self._experiments = combine_experiments(list(self.outputs.experiments))
         return self._experiments
 
     def run(self, **options) -> Study:
         """Run the simulation (:func:`microimpact.run` with `options`: samples,
         seed, workers, backend, executor, address, checkpoint, progress)."""
-        from ..engine.montecarlo import run
 
         self.experiments()  # a bad experiments file fails before the simulation
         self.result = run(self.scenario, **options)
@@ -145,7 +152,6 @@ class Study:
         called once it is loaded (before any block runs), e.g. to say how much
         was restored.
         """
-        from ..engine.checkpoint import Checkpoint
 
         self.experiments()
         with OutputFolder(out_dir) as folder:
@@ -195,9 +201,6 @@ class Study:
         self.files = written
 
     def _figures(self, folder):
-        from ..plotting._style import use_agg
-        from ..plotting.results import figures_for_result, save_figures
-        from .report import input_figures
 
         use_agg()
         exp = self.experiments()
@@ -212,8 +215,6 @@ class Study:
         return [Path(p) for p in paths]
 
     def _report(self, path, *, figures, folder=None):
-        from ..plotting._style import use_agg
-        from .report import write_report
 
         use_agg()
         name = self.result.scenario.name
@@ -235,7 +236,6 @@ def _outputs_iv(outputs):
 
 
 def _parts_iv(parts):
-    from .._core.validation import check_subset
 
     return check_subset(parts, "parts", PARTS)
 
@@ -254,10 +254,6 @@ def reproduce(out_dir="out", *, samples=None, figures=None, **options) -> list[S
     **options
         As for :meth:`Study.run` (seed, workers, backend, ...).
     """
-    from dataclasses import replace
-
-    from ..scenario.file import PAPER_PRESETS
-    from .report import write_report
 
     out = Path(out_dir)
     studies = [Study(name) for name in PAPER_PRESETS]

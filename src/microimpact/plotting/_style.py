@@ -1,5 +1,7 @@
 """The house style of every figure: palette and local rcParams (a leaf module)."""
 
+import sys
+
 #: Okabe-Ito colours (distinguishable with colour-vision deficiency).
 PALETTE = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#000000")
 #: Local rcParams of every figure made here.
@@ -31,9 +33,9 @@ def colour(k: int) -> str:
 def use_agg():
     """Draw without a display (files only), unless a backend is already in use:
     pyplot imported means the caller chose one, which is left as it is."""
-    import sys
 
     if "matplotlib.pyplot" not in sys.modules:
+        # deferred: matplotlib loads only when a figure is drawn
         import matplotlib
 
         matplotlib.use("Agg")

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..engine.result import dataset_surface_flags, is_areal_surface
 from ._style import STYLE, colour
 
 #: Caption of the figure (also used by the report).
@@ -26,7 +27,6 @@ def areal_surfaces(result) -> dict[str, bool]:
     """``{surface name: areal}``, recognised by structure, never by name: the
     Dataset's ``surface_is_areal`` flag, else the scenario surfaces' ``areal``
     attribute or angle distribution (``is_areal``); otherwise not areal."""
-    from ..engine.result import dataset_surface_flags, is_areal_surface
 
     flags = dataset_surface_flags(result, "surface_is_areal")
     if flags is not None:
@@ -66,7 +66,10 @@ def plot_profile_vs_areal(result, *, speed_m_s=None, axes=None):
     ValueError
         If the result has no areal surface.
     """
+    # deferred: matplotlib loads only when a figure is drawn
     import matplotlib as mpl
+
+    # deferred: matplotlib loads only when a figure is drawn
     import matplotlib.pyplot as plt
 
     areal = areal_surfaces(result)

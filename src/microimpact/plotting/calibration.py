@@ -14,6 +14,8 @@ import math
 
 import numpy as np
 
+from ._style import STYLE, colour
+
 __all__ = ["plot_calibration"]
 
 _LABELS = {
@@ -51,10 +53,11 @@ def plot_calibration(result, *, axes=None):
         parameters (sweep points joined); shaded: the band of the model over the
         bootstrap refits (or parameter draws from the covariance).
     """
+    # deferred: matplotlib loads only when a figure is drawn
     import matplotlib as mpl
-    import matplotlib.pyplot as plt
 
-    from ._style import STYLE, colour
+    # deferred: matplotlib loads only when a figure is drawn
+    import matplotlib.pyplot as plt
 
     points, curves = result.points, result.curves
     stats = list(dict.fromkeys(points["statistic"]))

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._style import STYLE, colour
+
 __all__ = ["plot_comparison"]
 
 _STAT_LABELS = {
@@ -39,10 +41,11 @@ def plot_comparison(table, *, ax=None):
         bars; filled markers agree, open markers do not. The dashed line is
         simulated = experimental.
     """
+    # deferred: matplotlib loads only when a figure is drawn
     import matplotlib as mpl
-    import matplotlib.pyplot as plt
 
-    from ._style import STYLE, colour
+    # deferred: matplotlib loads only when a figure is drawn
+    import matplotlib.pyplot as plt
 
     need = {"statistic", "exp_mean", "sim_mean", "agree"}
     if not hasattr(table, "columns") or not need <= set(table.columns):

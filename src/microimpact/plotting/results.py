@@ -20,19 +20,20 @@ from pathlib import Path
 
 import numpy as np
 
+from .._core.files import atomic_write
 from .._core.formats import FIGURE_FORMATS
+from .._core.validation import check_subset
+from ..engine.result import dataset_surface_flags
+from ..engine.statistics import capture_speed, z_value
 from ..io.experiments import combine_experiments
 from ._style import STYLE, colour
 
 __all__ = [
     "FIGURE_FORMATS",
-    "figure_caption",
-    "figures_for_result",
     "plot_capture",
     "plot_coefficients_vs_angle",
     "plot_convergence",
     "plot_distributions",
-    "result_figures",
     "save_figure",
     "save_figures",
     "smooth_surfaces",
@@ -43,7 +44,10 @@ _BAND_ALPHA = 0.22
 
 
 def _mpl():
+    # deferred: matplotlib loads only when a figure is drawn
     import matplotlib as mpl
+
+    # deferred: matplotlib loads only when a figure is drawn
     import matplotlib.pyplot as plt
 
     return mpl, plt
@@ -68,7 +72,6 @@ def _confidence(result) -> float:
 
 
 def _z(result) -> float:
-    from ..engine.statistics import z_value
 
     return z_value(_confidence(result))
 
@@ -77,7 +80,6 @@ def smooth_surfaces(result) -> dict[str, bool]:
     """``{surface name: molecularly smooth}``, recognised by structure, never by
     name: the Dataset's ``surface_is_smooth`` flag, else the scenario surfaces'
     ``smooth`` attribute; a surface with neither counts as rough."""
-    from ..engine.result import dataset_surface_flags
 
     flags = dataset_surface_flags(result, "surface_is_smooth")
     if flags is not None:
@@ -180,7 +182,6 @@ def plot_capture(result, *, surface=None, angle_deg=90, experiments=None, axes=N
     numpy.ndarray of matplotlib.axes.Axes
         The two panels.
     """
-    from ..engine.statistics import capture_speed
 
     mpl, _ = _mpl()
     summary = _summary(result)
@@ -232,6 +233,7 @@ def plot_capture(result, *, surface=None, angle_deg=90, experiments=None, axes=N
         ax_c.axhline(50.0, color="0.5", lw=0.7, ls=":")
         speeds = summary["speed_m_s"].to_numpy(dtype=float)
         if speeds.min() > 0 and speeds.max() / speeds.min() > 20:
+            # deferred: matplotlib loads only when a figure is drawn
             from matplotlib import ticker
 
             ax_c.set_xscale("log")
@@ -679,8 +681,6 @@ def save_figure(fig, path_without_ext, formats=("png", "pdf")):
     -------
     list of pathlib.Path
     """
-    from .._core.files import atomic_write
-    from .._core.validation import check_subset
 
     formats = check_subset(formats, "formats", FIGURE_FORMATS)
     base = Path(path_without_ext)
@@ -744,147 +744,3 @@ def save_figures(items, out_dir, formats=("png", "pdf")):
             if not callable(fig):
                 plt.close(_figure_of(fig))
     return paths
-
-
-def _angle_tag(a: float) -> str:
-    return f"{a:g}".replace(".", "p") + "deg"
-
-
-def figure_caption(stem, result) -> str:
-    """Caption of the figure file `stem` (see :func:`figures_for_result`)."""
-    sc = result.scenario
-    conf = _conf_label(result)
-    ref = getattr(sc, "reference_angle_deg", None)
-    speeds = np.unique(_summary(result)["speed_m_s"].to_numpy(dtype=float))
-    if stem == "capture":
-        return (
-            "Normal (90°) impact against speed (paper Figs. 5, 6). Upper: mean "
-            "coefficient of restitution of the rebounding particles; lower: "
-            f"percentage captured. Bands: {conf} confidence intervals; diamond: "
-            "speed of 50 % capture with its interval (dotted with an arrow: a side "
-            "the data do not bound; no diamond: no estimate, the legend says "
-            "why); squares: experiments."
-        )
-    if stem == "coefficients_relative":
-        return (
-            f"Relative coefficients e − e({ref:g}°) and μ − μ({ref:g}°) "
-            "against apparent incidence angle (paper Figs. 8, 11). Solid: rough "
-            f"surface; dashed: molecularly smooth. Bands: {conf} intervals; "
-            "squares: experiments."
-        )
-    if stem == "coefficients":
-        return (
-            "Mean apparent coefficient of restitution and impulse ratio of the "
-            "rebounding particles against apparent incidence angle. Solid: rough "
-            f"surface; dashed: molecularly smooth. Bands: {conf} intervals."
-        )
-    if stem.startswith("distributions_"):
-        a = stem.removeprefix("distributions_").removesuffix("deg").replace("p", ".")
-        return (
-            f"Frequency distributions of e_m and μ_m at θ = {a}°, "
-            f"{speeds[0]:g} m s⁻¹ (paper Figs. 9, 10); rough surfaces only when "
-            "there are any."
-        )
-    if stem == "profile_vs_areal":
-        from .areal import CAPTION
-
-        return CAPTION
-    if stem == "comparison":
-        return (
-            "Simulated against experimental means with their intervals; "
-            "filled markers agree at the 95 % level."
-        )
-    return stem.replace("_", " ")
-
-
-def result_figures(result, *, experiments=None):
-    """The figures that apply to `result`, made in memory.
-
-    Returns a list of ``(stem, caption, Figure)``; see :func:`figures_for_result`
-    for the rules and names. Only `result` and `experiments` are used (a fresh
-    result and one opened from ``results.nc`` give the same figures). The caller
-    closes the figures.
-    """
-    summary = _summary(result)
-    speeds = np.unique(summary["speed_m_s"].to_numpy(dtype=float))
-    angles = np.unique(summary["angle_deg"].to_numpy(dtype=float))
-    exp = combine_experiments(experiments)
-    out = []
-
-    def add(stem, axes):
-        fig = np.ravel(axes)[0].figure
-        out.append((stem, figure_caption(stem, result), fig))
-
-    if speeds.size >= 2 and np.isclose(angles, 90.0).any():
-        add("capture", plot_capture(result, experiments=exp))
-    if angles.size >= 2:
-        relative = "e_relative" in summary and summary["e_relative"].notna().any()
-        if relative:
-            add(
-                "coefficients_relative",
-                plot_coefficients_vs_angle(result, relative=True, experiments=exp),
-            )
-        add(
-            "coefficients",
-            plot_coefficients_vs_angle(result, relative=False, experiments=exp),
-        )
-        rough = [n for n in dict.fromkeys(summary["surface"]) if not _smooth(result, n)]
-        ref = getattr(result.scenario, "reference_angle_deg", None)
-        high = angles.max()
-        if ref is not None and np.isclose(angles, ref).any():
-            high = float(angles[np.isclose(angles, ref)][0])  # the paper's 85°
-        for a in dict.fromkeys((float(angles.min()), float(high))):
-            add(
-                f"distributions_{_angle_tag(a)}",
-                plot_distributions(
-                    result, angle_deg=a, speed_m_s=speeds[0], surface=rough or None
-                ),
-            )
-        from .areal import has_areal_surface, plot_profile_vs_areal
-
-        if has_areal_surface(result):  # not in the paper (issue 14)
-            add("profile_vs_areal", plot_profile_vs_areal(result))
-    if exp is not None and len(exp):
-        from ..analysis.compare import compare
-        from .comparison import plot_comparison
-
-        add("comparison", plot_comparison(compare(result, exp)))
-    return out
-
-
-def figures_for_result(result, out_dir, *, formats=("png", "pdf"), experiments=None):
-    """Make and save every figure that applies to `result`.
-
-    ===============================  =============================================
-    file stem                        made when; what it shows
-    ===============================  =============================================
-    ``capture``                      ≥ 2 speeds and 90° simulated: Figs. 5/6
-    ``coefficients_relative``        ≥ 2 angles and the reference angle in the
-                                     sweep: Figs. 8/11, relative e and μ
-    ``coefficients``                 ≥ 2 angles: absolute e_m and μ_m vs angle
-    ``distributions_<a>deg``         ≥ 2 angles, at the smallest angle and at the
-                                     reference angle (the largest if it is not
-                                     swept), first speed, rough surfaces only if
-                                     any: Figs. 9/10 (``12p5deg`` for 12.5°)
-    ``profile_vs_areal``             ≥ 2 angles and an areal surface: e_m, μ_m,
-                                     capture and lateral scatter against angle,
-                                     one line per surface (not in the paper)
-    ``comparison``                   experiments given
-    ===============================  =============================================
-
-    Parameters
-    ----------
-    result : SimulationResult
-    out_dir : str or path-like
-        Folder for the files (created if needed).
-    formats : sequence of {"png", "pdf", "svg"}
-    experiments : DataFrame, path or sequence of them, optional
-        Experimental points to overlay and compare (default: none).
-
-    Returns
-    -------
-    list of pathlib.Path
-        Every file written, in the order of the table above.
-    """
-    figures = result_figures(result, experiments=experiments)
-    return save_figures([(stem, fig) for stem, _, fig in figures], out_dir, formats)

@@ -15,6 +15,7 @@ __all__ = ["plot_angle_pdf", "plot_profile"]
 
 def _axes(ax):
     if ax is None:
+        # deferred: matplotlib loads only when a figure is drawn
         import matplotlib.pyplot as plt
 
         _, ax = plt.subplots()

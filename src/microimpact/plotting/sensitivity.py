@@ -51,7 +51,10 @@ def plot_sensitivity(table, *, statistic=None, index="ST", ax=None):
     -------
     numpy.ndarray of matplotlib.axes.Axes
     """
+    # deferred: matplotlib loads only when a figure is drawn
     import matplotlib as mpl
+
+    # deferred: matplotlib loads only when a figure is drawn
     import matplotlib.pyplot as plt
 
     if index not in ("ST", "S1"):

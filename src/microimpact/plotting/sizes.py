@@ -64,6 +64,7 @@ def plot_size_distribution(data, *, fit=None, ax=None, bins="sturges"):
     -------
     matplotlib.axes.Axes
     """
+    # deferred: matplotlib loads only when a figure is drawn
     import matplotlib.pyplot as plt  # lazy: plotting is optional at import time
 
     if ax is None:
@@ -154,6 +155,7 @@ def plot_size_quantiles(quantiles_um, *, ax=None, bins=40):
         A density [µm⁻¹] as steps; a single line when every quantile is the same
         diameter (monodisperse).
     """
+    # deferred: matplotlib loads only when a figure is drawn
     import matplotlib.pyplot as plt
 
     q = np.asarray(quantiles_um, dtype=float).ravel()

@@ -32,6 +32,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._core.json import dumps
+from .._core.toml import particles_snippet
 from .._core.validation import as_float_array
 from .distributions import (
     Chi2NormalityResult,
@@ -103,10 +105,9 @@ class SizesReport:
 
     def particles_toml(self, *, file=None, column=None, unit=None) -> str:
         """The recommended ``[particles]`` table as TOML text
-        (:func:`microimpact.scenario.snippets.particles_snippet`); for an empirical
+        (:func:`microimpact.scenario.particles_snippet`); for an empirical
         recommendation `file` (and `column`, `unit`) refer to the measured file
         instead of listing every diameter."""
-        from ..scenario.snippets import particles_snippet
 
         return particles_snippet(self, file=file, column=column, unit=unit)
 
@@ -149,7 +150,6 @@ class SizesReport:
 
     def to_json(self, *, indent=2, file=None, column=None, unit=None) -> str:
         """:meth:`to_dict` as standard JSON (no NaN or Infinity: ``null``)."""
-        from .._core.json import dumps
 
         return dumps(self.to_dict(file=file, column=column, unit=unit), indent=indent)
 

@@ -2,6 +2,7 @@
 sweep grid, output settings, the wall law's and the sensitivity study's tables, and
 the scenario file (TOML -> these objects, read once)."""
 
+from .._core.toml import coefficients_snippet, particles_snippet, surface_snippet
 from .file import PRESETS, list_presets, preset_path
 from .grid import GridPoint, SweepGrid
 from .outputs import Outputs
@@ -41,12 +42,15 @@ __all__ = [
     "SweepGrid",
     "WallLawSpec",
     "as_scenario",
+    "coefficients_snippet",
     "list_presets",
     "load_preset",
+    "particles_snippet",
     "preset_path",
     "read_scenario",
     "scenario_file",
     "scenario_file_from_dict",
     "scenario_from_dict",
     "scenario_from_toml",
+    "surface_snippet",
 ]

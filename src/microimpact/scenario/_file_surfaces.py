@@ -5,7 +5,14 @@ Part of :mod:`microimpact.scenario.file`, split out to keep modules small.
 
 from __future__ import annotations
 
+from .._core.files import check_delimiter
 from .._core.validation import did_you_mean
+from ..io.areal import FORMATS, read_height_map
+from ..io.profiles import read_profiles
+from ..surface import angles as ang
+from ..surface import areal_angles as aa
+from ..surface import synthetic
+from ..units import um_to_m
 from ._file_base import (
     ANGLE_METHODS,
     AREAL_FILE_KEYS,
@@ -35,7 +42,6 @@ def _exactly_one(ctx, t, where, keys):
 # ---------------------------------------------------------------------- surfaces
 def _angles(ctx: _Ctx, t, where):
     """An angle distribution from a surface table, or None (molecularly smooth)."""
-    from ..surface import angles as ang
 
     kind = ctx.kind(t, where, "kind", SURFACE_KEYS, also=("name",))
 
@@ -68,6 +74,7 @@ def _angles(ctx: _Ctx, t, where):
         a = ctx.numbers(t["angles_deg"], _join(where, "angles_deg"))
         return ctx.build(_join(where, "angles_deg"), t, ang.angles_from_sample, a)
     if kind == "scipy":
+        # deferred: this SciPy submodule loads only when it is used (import time)
         from scipy import stats
 
         name = ctx.string(t["distribution"], _join(where, "distribution"))
@@ -113,7 +120,6 @@ def _areal(ctx, t, where):
     """Joint facet angles of an areal surface: a height-map file or a seeded
     Gaussian areal surface, at the contact diameter, for a fixed or random impact
     azimuth (docs/scenarios.md)."""
-    from ..surface import areal_angles as aa
 
     _exactly_one(ctx, t, where, ("file", "synthetic"))
     _exactly_one(ctx, t, where, ("contact_diameter_um", "contact_length_um"))
@@ -164,8 +170,6 @@ def _areal(ctx, t, where):
             patch=patch,
             step_um=step,
         )
-    from .._core.files import check_delimiter
-    from ..io.areal import FORMATS, read_height_map
 
     path = ctx.path(t["file"], _join(where, "file"))
     kw = {}
@@ -204,7 +208,6 @@ def _areal(ctx, t, where):
 
 
 def _read_profiles(ctx, t, where):
-    from ..io.profiles import read_profiles
 
     files = t["file"]
     key = _join(where, "file")
@@ -227,8 +230,6 @@ def _read_profiles(ctx, t, where):
 
 
 def _synthetic(ctx, t, where):
-    from ..surface import synthetic
-    from ..units import um_to_m
 
     kind = ctx.choice(
         t.get("profile", "formica"), _join(where, "profile"), SYNTHETIC_PROFILES

@@ -58,6 +58,10 @@ __all__ = [
 ]
 
 from .._core.formats import FIGURE_FORMATS
+from ..io.diameters import read_diameters, read_histogram
+from ..physics.coefficients import ImpactCoefficients
+from ..population import distributions as pd_
+from ..units import m_to_um
 from ._file_base import (
     _TOML_EOF,
     _TOML_POSITION,
@@ -85,7 +89,6 @@ from .wall_law import WallLawSpec
 
 
 def _particles(ctx: _Ctx, data, where="particles"):
-    from ..population import distributions as pd_
 
     t = ctx.table(data, where)
     kind = ctx.kind(t, where, "distribution", PARTICLE_KEYS)
@@ -128,9 +131,6 @@ def _particles(ctx: _Ctx, data, where="particles"):
                 t["diameters_um"], _join(where, "diameters_um"), low=0, strict=True
             )
         else:
-            from ..io.diameters import read_diameters
-            from ..units import m_to_um
-
             path = ctx.path(t["file"], _join(where, "file"))
             column = t.get("column")
             if column is not None:
@@ -149,9 +149,6 @@ def _particles(ctx: _Ctx, data, where="particles"):
         edges = ctx.numbers(t["edges_um"], _join(where, "edges_um"), low=0, minimum=2)
         counts = ctx.numbers(t["counts"], _join(where, "counts"), low=0)
     else:
-        from ..io.diameters import read_histogram
-        from ..units import m_to_um
-
         if "counts" in t:
             raise ctx.error(_join(where, "counts"), "only allowed with 'edges_um'")
         path = ctx.path(t["file"], _join(where, "file"))
@@ -251,7 +248,6 @@ def _sweep(ctx: _Ctx, data) -> dict:
 
 # ---------------------------------------------------------------------- coefficients
 def _coefficients(ctx: _Ctx, data):
-    from ..physics.coefficients import ImpactCoefficients
 
     if "coefficients" not in data:
         raise ctx.error("coefficients", "missing required table [coefficients]")

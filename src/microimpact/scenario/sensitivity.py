@@ -114,6 +114,7 @@ def parameter_distribution(spec, where="parameter", *, source=None):
     high}``. An object with a ``ppf`` method (a frozen distribution) is returned
     as it is.
     """
+    # deferred: this SciPy submodule loads only when it is used (import time)
     from scipy import stats
 
     if not isinstance(spec, dict) and hasattr(spec, "ppf"):

@@ -50,7 +50,8 @@ from .._core.distributions import (
     TruncatedContinuous,
 )
 from .._core.validation import as_float_array, check_choice, check_scalar
-from ..units import deg_to_rad, rad_to_deg
+from ..units import deg_to_rad, rad_to_deg, um_to_m
+from .roughness import read_angle_file, surface_angles
 
 __all__ = [
     "AngleDistribution",
@@ -203,7 +204,6 @@ def angles_from_sample(angles_deg, *, source=None) -> AngleDistribution:
 def angles_from_file(path) -> AngleDistribution:
     """Empirical distribution of the angles in an angle file (see
     :func:`~microimpact.surface.roughness.read_angle_file`)."""
-    from .roughness import read_angle_file
 
     return angles_from_sample(read_angle_file(path), source=str(path))
 
@@ -231,8 +231,6 @@ def angles_from_profile(
     cutoff_um : float, optional
         Per-scan Gaussian filter cutoff [µm].
     """
-    from ..units import um_to_m
-    from .roughness import surface_angles
 
     phi = surface_angles(
         profile_or_set,
@@ -268,6 +266,7 @@ def normal_angles(std_deg, *, mean_deg=0.0) -> AngleDistribution:
     params = {"mean_deg": m, "std_deg": s}
     if s == 0:
         return AngleDistribution("normal", params, 0.0, DiscreteAtoms([deg_to_rad(m)]))
+    # deferred: this SciPy submodule loads only when it is used (import time)
     from scipy import stats
 
     dist = stats.norm(loc=deg_to_rad(m), scale=deg_to_rad(s))

@@ -59,6 +59,7 @@ import numpy as np
 from .._core.validation import check_choice, check_int, check_positive
 from ..io.areal import HeightMap
 from ..units import deg_to_rad, rad_to_deg, um_to_m
+from .contact import hertz_contact_diameter
 
 __all__ = [
     "ArealParameters",
@@ -185,6 +186,7 @@ def autocorrelation(height_map):
     acf : ndarray, shape (2 ny - 1, 2 nx - 1)
         Lag ``(0, 0)`` at the centre ``[ny - 1, nx - 1]``.
     """
+    # deferred: this SciPy submodule loads only when it is used (import time)
     from scipy.signal import fftconvolve
 
     hm = _as_height_map(height_map)
@@ -200,6 +202,7 @@ def autocorrelation(height_map):
 
 def _decay_lengths(acf, dx, dy, s, n_directions=180):
     """Distance to the first fall of `acf` below `s` along rays in [0, 180) deg."""
+    # deferred: this SciPy submodule loads only when it is used (import time)
     from scipy.ndimage import map_coordinates
 
     cy, cx = (acf.shape[0] - 1) // 2, (acf.shape[1] - 1) // 2
@@ -322,6 +325,7 @@ def contact_patch_means(
         points across, the one just before the centre); NaN where the patch leaves
         the map or is too sparsely measured.
     """
+    # deferred: this SciPy submodule loads only when it is used (import time)
     from scipy.signal import fftconvolve
 
     hm = _as_height_map(height_map)
@@ -470,7 +474,6 @@ def _contact_length(contact_diameter_um, hertz):
         return float(
             um_to_m(check_positive(contact_diameter_um, "contact_diameter_um"))
         )
-    from .contact import hertz_contact_diameter
 
     need = ("diameter", "density", "contact_modulus", "normal_speed")
     missing = [k for k in need if k not in hertz]

@@ -35,7 +35,7 @@ import numpy as np
 
 from .._core.validation import as_float_array
 from ..units import deg_to_rad, rad_to_deg
-from .areal import FacetAnglePairs
+from .areal import FacetAnglePairs, facet_angles, gaussian_areal_surface
 
 __all__ = [
     "ArealAngles",
@@ -248,7 +248,6 @@ def areal_angles_from_height_map(
     """The contact-scale facet-angle pairs of a height map
     (:func:`~microimpact.surface.areal.facet_angles` with these arguments;
     ``azimuth_deg=None`` draws a uniform azimuth per sample with `seed`)."""
-    from .areal import facet_angles
 
     facets = facet_angles(
         height_map,
@@ -290,7 +289,6 @@ def gaussian_areal_angles(
     :func:`~microimpact.surface.areal.facet_angles`; for ``azimuth_deg=None`` the
     azimuths are drawn from a stream derived from `seed`,
     ``SeedSequence(seed, spawn_key=(1,))``)."""
-    from .areal import gaussian_areal_surface
 
     hm = gaussian_areal_surface(
         nx,
@@ -302,7 +300,6 @@ def gaussian_areal_angles(
         corr_y_um=corr_y_um,
         seed=seed,
     )
-    from .areal import facet_angles
 
     # the azimuth draws (azimuth_deg=None) get a stream of their own
     az_rng = None if seed is None else np.random.SeedSequence(seed, spawn_key=(1,))

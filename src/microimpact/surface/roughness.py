@@ -51,7 +51,9 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import __version__
 from .._core.files import atomic_write, data_lines, parse_number, read_lines
+from .._core.json import dumps
 from .._core.validation import as_float_array, check_choice, check_int, check_positive
 from ..errors import DataFormatError, ProfileFormatError
 from ..io.profiles import Profile, ProfileSet, as_profiles, check_xz, sources_of
@@ -138,6 +140,7 @@ def gaussian_filter_profile(x, z, *, cutoff):
     ndarray, shape (n,)
         Roughness profile [m].
     """
+    # deferred: this SciPy submodule loads only when it is used (import time)
     from scipy.signal import fftconvolve
 
     x, z = check_xz(x, z)
@@ -494,7 +497,6 @@ class RoughnessCharacterisation:
     def to_json(self, *, units=None, indent=2) -> str:
         """:meth:`to_dict` as standard JSON (NaN, e.g. the skewness of too few
         angles, is ``null``)."""
-        from .._core.json import dumps
 
         return dumps(self.to_dict(units=units), indent=indent)
 
@@ -542,6 +544,7 @@ def characterise(
     -------
     RoughnessCharacterisation
     """
+    # deferred: this SciPy submodule loads only when it is used (import time)
     from scipy import stats
 
     phi = surface_angles(
@@ -619,7 +622,6 @@ def write_angle_file(path, angles_deg, *, n=4000, rng=None, metadata=None):
         n = check_int(n, "n", minimum=1)
         gen = np.random.default_rng(rng)
         out = gen.choice(a, size=n, replace=True)
-    from .. import __version__
 
     header = [
         "microimpact roughness-angle sample",

@@ -16,16 +16,23 @@ diameter, and the seed reproduces the table bit for bit for any worker count.
 from __future__ import annotations
 
 import dataclasses
+import hashlib
+import json
 import math
 import shutil
 import time
+from concurrent.futures import as_completed
 from pathlib import Path
 
 import numpy as np
 
+from .. import __version__
+from .._core.files import atomic_write
+from .._core.json import dumps
 from .._core.progress import Progress
-from ..engine.parallel import cap_workers
-from ..engine.plan import build_plan, diameter_sampler, resolve_entropy
+from ..engine.montecarlo import iter_point_samples
+from ..engine.parallel import cap_workers, process_pool
+from ..engine.plan import ArealSampler, build_plan, diameter_sampler, resolve_entropy
 from ..errors import ScenarioError
 from ..population.distributions import monodisperse
 from ..scenario.grid import SweepGrid
@@ -78,8 +85,6 @@ def node_outcomes(e_m, mu_m, angle_deg: float, psi_deg=None) -> dict:
 
 def _node(plan, point: int, angle_deg: float, spec: WallLawSpec, samples: int):
     """Counts, statistics and reservoir of one node."""
-    from ..engine.montecarlo import iter_point_samples
-    from ..engine.plan import ArealSampler
 
     parts = list(iter_point_samples(plan, point, samples))
     draws = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
@@ -157,9 +162,6 @@ def _results(plan, scenario, spec, samples, workers, executor, indices):
         for j in indices:
             yield j, _diameter_task(plan, scenario, spec, samples, j)
         return
-    from concurrent.futures import as_completed
-
-    from ..engine.parallel import process_pool
 
     with process_pool(
         min(workers, len(indices)),
@@ -184,7 +186,6 @@ class _Partial:
     the same table)."""
 
     def __init__(self, folder, fingerprint: str):
-        import json
 
         self.folder = Path(folder)
         self.fingerprint = fingerprint
@@ -201,9 +202,6 @@ class _Partial:
 
     def start(self, entropy: int) -> None:
         """Record the build's entropy (a fresh build only)."""
-        import json
-
-        from .._core.files import atomic_write
 
         if self.entropy is not None:
             return
@@ -227,7 +225,6 @@ class _Partial:
             return None
 
     def save(self, j, arrays):
-        from .._core.files import atomic_write
 
         def write(tmp):
             with open(tmp, "wb") as fh:
@@ -240,10 +237,6 @@ class _Partial:
 
 
 def _fingerprint(scenario, spec, seed) -> str:
-    import hashlib
-
-    from .. import __version__
-    from .._core.json import dumps
 
     text = dumps(
         {

@@ -124,6 +124,7 @@ def read_binary(path):
     Raises :class:`~microimpact.errors.DataFormatError` where ``swl_load`` would
     return an error (values are not re-checked).
     """
+    # deferred: xarray loads only where a dataset is made (import time)
     import xarray as xr
 
     def bad(message):

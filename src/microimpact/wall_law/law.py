@@ -19,10 +19,14 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
+from .._core.files import atomic_write
+from .._core.json import dumps
 from ..engine.dataset import CONVENTIONS, encoding
 from ..engine.statistics import wilson_interval
 from ..errors import DataFormatError
 from ..scenario.wall_law import REBOUND_VARIABLES, RESERVOIR_VARIABLES
+from .export_c import write_c
+from .openfoam import write_openfoam
 
 __all__ = ["WallLaw", "WallLawSample", "wall_law_dataset"]
 
@@ -98,9 +102,8 @@ def wall_law_dataset(
     `columns` maps each node variable to an array of shape (diameters, points,
     ...) with the points in ``grid`` order (surface x speed x angle).
     """
+    # deferred: xarray loads only where a dataset is made (import time)
     import xarray as xr
-
-    from .._core.json import dumps
 
     n_s, n_v, n_a = len(grid.surfaces), len(grid.speeds_m_s), len(grid.angles_deg)
     n_d = len(spec.diameters_um)
@@ -274,6 +277,7 @@ class WallLaw:
     @classmethod
     def open(cls, path):
         """Load a ``wall_law.nc`` (or the folder holding one)."""
+        # deferred: xarray loads only where a dataset is made (import time)
         import xarray as xr
 
         path = Path(path)
@@ -434,6 +438,7 @@ class WallLaw:
     # ----------------------------------------------------------------- tables
     def to_frame(self):
         """The long table of ``wall_law.csv``: one row per node."""
+        # deferred: pandas loads only where a table is made (import time)
         import pandas as pd
 
         ds = self.dataset.transpose(*DIMS, ...)
@@ -471,7 +476,6 @@ class WallLaw:
         ``angle_deg``: where the OpenFOAM constant coefficients are taken.
         Returns the paths written.
         """
-        from .._core.files import atomic_write
 
         out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
@@ -485,12 +489,8 @@ class WallLaw:
             ),
         ]
         if c:
-            from .export_c import write_c
-
             written.extend(write_c(self, out))
         if openfoam:
-            from .openfoam import write_openfoam
-
             try:
                 written.extend(write_openfoam(self, out, **(condition or {})))
             except ValueError as err:

@@ -56,6 +56,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import __version__
 from .._core.files import atomic_write
 from .._core.validation import did_you_mean
 
@@ -251,7 +252,6 @@ def _fmt(x: float) -> str:
 
 
 def _header(ds, cond, coeffs, requested) -> list[str]:
-    from .. import __version__
 
     attrs = ds.attrs
     scenario = str(attrs.get("scenario", "") or "")

@@ -1,4 +1,5 @@
-"""TOML snippets ready to paste into a scenario file (``docs/scenarios.md``).
+"""The one TOML writer: values, tables, whole documents, and the snippets ready to
+paste into a scenario file (``docs/scenarios.md``).
 
 ``microimpact sizes`` and ``microimpact fit`` (and ``roughness``) write what they
 found as scenario tables, so the measured population, the fitted coefficient laws
@@ -24,15 +25,23 @@ from __future__ import annotations
 import math
 import numbers
 import os
+import re
+from collections.abc import Mapping, Sequence
 
 import numpy as np
+
+from ..units import m_to_um
 
 __all__ = [
     "coefficients_snippet",
     "particles_snippet",
     "surface_snippet",
+    "to_toml",
+    "toml_key",
     "toml_value",
 ]
+
+_BARE = re.compile(r"^[A-Za-z0-9_-]+$")
 
 
 def _toml_string(text: str) -> str:
@@ -47,14 +56,21 @@ def _toml_string(text: str) -> str:
     return '"' + "".join(out) + '"'
 
 
-def toml_value(value) -> str:
-    """One TOML value: a string, boolean, number (``inf`` allowed, NaN not), array
-    or inline table.
+def toml_key(key) -> str:
+    """A TOML key: bare where it can be, else a quoted string."""
+    key = str(key)
+    return key if _BARE.match(key) else _toml_string(key)
+
+
+def toml_value(value, *, allow_nan=False) -> str:
+    """One TOML value: a string, boolean, number (``inf`` allowed, NaN only with
+    `allow_nan`), array or inline table.
 
     Raises
     ------
     ValueError
-        For NaN (TOML could hold it, but no scenario key accepts it).
+        For NaN without `allow_nan` (TOML could hold it, but no scenario key
+        accepts it).
     TypeError
         For any other type.
     """
@@ -69,6 +85,8 @@ def toml_value(value) -> str:
     if isinstance(value, numbers.Real):
         x = float(value)
         if math.isnan(x):
+            if allow_nan:
+                return "nan"
             raise ValueError("NaN cannot be written to a scenario snippet.")
         if math.isinf(x):
             return "inf" if x > 0 else "-inf"
@@ -76,12 +94,44 @@ def toml_value(value) -> str:
     if isinstance(value, np.ndarray):
         value = value.tolist()
     if isinstance(value, list | tuple):
-        return "[" + ", ".join(toml_value(v) for v in value) + "]"
-    if isinstance(value, dict):
-        return (
-            "{ " + ", ".join(f"{k} = {toml_value(v)}" for k, v in value.items()) + " }"
+        return "[" + ", ".join(toml_value(v, allow_nan=allow_nan) for v in value) + "]"
+    if isinstance(value, Mapping):
+        items = (
+            f"{toml_key(k)} = {toml_value(v, allow_nan=allow_nan)}"
+            for k, v in value.items()
         )
+        return "{ " + ", ".join(items) + " }"
     raise TypeError(f"cannot write a {type(value).__name__} as a TOML value.")
+
+
+def to_toml(data: Mapping, *, header: Sequence[str] = ()) -> str:
+    """Parsed TOML data as TOML text (``tomllib.loads`` gives `data` back).
+
+    Top-level tables become ``[table]`` sections, arrays of tables ``[[array]]``
+    sections; tables inside a section are written inline. `header` lines are
+    written first as comments.
+    """
+
+    def line(k, v):
+        return f"{toml_key(k)} = {toml_value(v, allow_nan=True)}"
+
+    out = [f"# {h}" for h in header]
+    for k, v in data.items():
+        if not isinstance(v, Mapping) and not _table_array(v):
+            out.append(line(k, v))
+    for k, v in data.items():
+        if isinstance(v, Mapping):
+            out += ["", f"[{toml_key(k)}]"]
+            out += [line(a, b) for a, b in v.items()]
+        elif _table_array(v):
+            for entry in v:
+                out += ["", f"[[{toml_key(k)}]]"]
+                out += [line(a, b) for a, b in entry.items()]
+    return "\n".join(out) + "\n"
+
+
+def _table_array(v) -> bool:
+    return isinstance(v, list) and bool(v) and all(isinstance(e, Mapping) for e in v)
 
 
 def _table(header: str, items: dict, comment: str | None) -> str:
@@ -92,7 +142,6 @@ def _table(header: str, items: dict, comment: str | None) -> str:
 
 
 def _distribution_items(dist, *, file=None, column=None, unit=None) -> dict:
-    from ..units import m_to_um
 
     p = dict(dist.params)
     limits = {"min_um": p.get("min_um"), "max_um": p.get("max_um")}

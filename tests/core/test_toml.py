@@ -1,5 +1,5 @@
-"""Tests for microimpact.scenario.snippets: each snippet loads back through the scenario
-parser and gives back what it was written from."""
+"""Tests for microimpact._core.toml (the snippets): each snippet loads back through
+the scenario parser and gives back what it was written from."""
 
 from __future__ import annotations
 
@@ -11,6 +11,12 @@ import pytest
 from numpy.testing import assert_allclose
 
 from microimpact import scenario_from_dict
+from microimpact._core.toml import (
+    coefficients_snippet,
+    particles_snippet,
+    surface_snippet,
+    toml_value,
+)
 from microimpact.physics.coefficients import (
     ConstantLaw,
     ImpactCoefficients,
@@ -19,12 +25,6 @@ from microimpact.physics.coefficients import (
     TableLaw,
 )
 from microimpact.population import distributions as pd_
-from microimpact.scenario.snippets import (
-    coefficients_snippet,
-    particles_snippet,
-    surface_snippet,
-    toml_value,
-)
 
 PARTICLES = '[particles]\ndistribution = "monodisperse"\ndiameter_um = 50\n'
 COEFFICIENTS = "[coefficients]\nk1 = 4.0\nk2 = 0.05\nv_c = 0.2\n"
