@@ -109,7 +109,7 @@ _EXPORTS: dict[str, str] = {
     "list_presets": "scenario.file",
     "SweepGrid": "scenario.grid",
     "GridPoint": "scenario.grid",
-    "QuantileTable": "_core.tables",
+    "QuantileTable": "population",
     "run": "engine.montecarlo",
     "iter_blocks": "engine.montecarlo",
     "BlockResult": "engine.montecarlo",

@@ -972,6 +972,7 @@ def _bootstrap(model, sx, y, s_exp, s_sim, x, h, B, scale, idx, bootstrap, seed,
     m_hat, _ = model.points(sx)
     sigma = np.sqrt(s_exp**2 + s_sim**2)
     if not (bootstrap and idx.size):
+        steps.update(bootstrap)  # nothing identified: no refits to make
         return np.empty((0, n)), []
     rng = np.random.default_rng(seed)
     fits, curves = [], []

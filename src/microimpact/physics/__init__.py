@@ -1,1 +1,80 @@
-"""microimpact.physics subpackage."""
+"""The impact model (paper Eqs. 1-9), the coefficient laws against diameter, their
+fitting, adhesion and contact mechanics."""
+
+from .adhesion import (
+    MATERIALS,
+    Material,
+    contact_modulus,
+    geometric_mean_work_of_adhesion,
+    hertz_contact_radius,
+    hertz_max_compression,
+    material,
+    thornton_ning_sticking_velocity,
+)
+from .coefficients import (
+    COEFFICIENT_SETS,
+    LAWS,
+    CallableLaw,
+    CoefficientValues,
+    ConstantLaw,
+    ImpactCoefficients,
+    PolynomialLaw,
+    PowerLaw,
+    TableLaw,
+    ThorntonNingLaw,
+    law_from_dict,
+)
+from .fitting import (
+    CoefficientLawsFit,
+    IdentifiabilityError,
+    IdentifiabilityWarning,
+    LawFit,
+    RestitutionFit,
+    coefficient_laws_fit,
+    fit_coefficient_laws,
+    fit_impact_coefficients,
+    fit_law,
+    fit_restitution,
+)
+from .impact import (
+    ApparentReboundResult,
+    ReboundResult,
+    apparent_rebound,
+    rebound,
+)
+
+__all__ = [
+    "COEFFICIENT_SETS",
+    "LAWS",
+    "MATERIALS",
+    "ApparentReboundResult",
+    "CallableLaw",
+    "CoefficientLawsFit",
+    "CoefficientValues",
+    "ConstantLaw",
+    "IdentifiabilityError",
+    "IdentifiabilityWarning",
+    "ImpactCoefficients",
+    "LawFit",
+    "Material",
+    "PolynomialLaw",
+    "PowerLaw",
+    "ReboundResult",
+    "RestitutionFit",
+    "TableLaw",
+    "ThorntonNingLaw",
+    "apparent_rebound",
+    "coefficient_laws_fit",
+    "contact_modulus",
+    "fit_coefficient_laws",
+    "fit_impact_coefficients",
+    "fit_law",
+    "fit_restitution",
+    "geometric_mean_work_of_adhesion",
+    "hertz_contact_radius",
+    "hertz_max_compression",
+    "law_from_dict",
+    "material",
+    "rebound",
+    "thornton_ning_sticking_velocity",
+]

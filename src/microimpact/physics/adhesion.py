@@ -276,6 +276,7 @@ class Material:
     source: str
 
 
+#: Material name -> elastic and surface properties (``docs/adhesion.md``).
 MATERIALS: dict[str, Material] = {
     "stainless_steel_304": Material(
         "stainless_steel_304",

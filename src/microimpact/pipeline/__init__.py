@@ -1,1 +1,39 @@
-"""pipeline"""
+"""The pipeline of `microimpact run`: study, output folder, figures, report."""
+
+from .figures import (
+    figure_caption,
+    figures_for_result,
+    result_figures,
+)
+from .folder import (
+    CHECKPOINT_NAME,
+    LOCK_NAME,
+    MANIFEST_NAME,
+    OutputFolder,
+    OutputFolderBusy,
+)
+from .report import (
+    summary_text,
+    write_report,
+)
+from .study import (
+    Outputs,
+    Study,
+    reproduce,
+)
+
+__all__ = [
+    "CHECKPOINT_NAME",
+    "LOCK_NAME",
+    "MANIFEST_NAME",
+    "OutputFolder",
+    "OutputFolderBusy",
+    "Outputs",
+    "Study",
+    "figure_caption",
+    "figures_for_result",
+    "reproduce",
+    "result_figures",
+    "summary_text",
+    "write_report",
+]

@@ -39,7 +39,9 @@ __all__ = [
     "OutputFolderBusy",
 ]
 
+#: The lock file that keeps a second study out of a folder while one writes.
 LOCK_NAME = ".microimpact.lock"
+#: The list of files the last study wrote (removed again by the next one).
 MANIFEST_NAME = ".microimpact-manifest.json"
 #: The checkpoint file a study keeps in its output folder while it runs.
 CHECKPOINT_NAME = ".microimpact-checkpoint.npz"

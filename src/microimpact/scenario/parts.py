@@ -22,8 +22,11 @@ __all__ = [
     "SurfaceVariant",
 ]
 
+#: How a facet shadowed from the incoming particle is treated (``docs/engine.md``).
 SHADOWING_OPTIONS = ("reject", "weighted", "none")
+#: Monte Carlo or scrambled-Sobol' quasi-Monte Carlo sampling.
 SAMPLING_OPTIONS = ("mc", "qmc")
+#: Statistics a ``[precision]`` target may name.
 PRECISION_STATISTICS = ("capture_fraction", "e_mean", "e_rebound_mean", "mu_mean")
 
 

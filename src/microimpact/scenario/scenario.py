@@ -32,6 +32,18 @@ from .parts import (
 from .sensitivity import SensitivitySettings
 from .wall_law import WallLawSpec
 
+__all__ = [
+    "Scenario",
+    "ScenarioFile",
+    "as_scenario",
+    "load_preset",
+    "read_scenario",
+    "scenario_file",
+    "scenario_file_from_dict",
+    "scenario_from_dict",
+    "scenario_from_toml",
+]
+
 
 @dataclass(frozen=True)
 class Scenario:

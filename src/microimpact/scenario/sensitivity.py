@@ -39,6 +39,7 @@ __all__ = [
     "sensitivity_from_dict",
 ]
 
+#: Keys of the ``[sensitivity]`` table.
 SENSITIVITY_KEYS = ("base_size", "statistics", "resamples", "parameters")
 #: Base size of the design when ``base_size`` is not given.
 DEFAULT_BASE_SIZE = 1024

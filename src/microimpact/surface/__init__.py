@@ -1,1 +1,94 @@
-"""microimpact.surface subpackage."""
+"""Roughness: profiles and height maps to local roughness angles, their distributions,
+synthetic surfaces."""
+
+from .angles import (
+    AngleDistribution,
+    angles_from_file,
+    angles_from_profile,
+    angles_from_sample,
+    normal_angles,
+    scipy_angles,
+    smooth_surface,
+)
+from .areal import (
+    ArealParameters,
+    FacetAngles,
+    FacetAngleStatistics,
+    areal_parameters,
+    autocorrelation,
+    contact_patch_means,
+    facet_angle_statistics,
+    facet_angles,
+    gaussian_areal_surface,
+    level_plane,
+    plane_fit,
+)
+from .areal_angles import (
+    ArealAngles,
+    areal_angles_from_facets,
+    areal_angles_from_height_map,
+    areal_angles_from_sample,
+    gaussian_areal_angles,
+)
+from .contact import (
+    hertz_contact_diameter,
+    hertz_max_compression,
+)
+from .roughness import (
+    RoughnessCharacterisation,
+    characterise,
+    condition,
+    detrend,
+    gaussian_filter_profile,
+    profile_angles,
+    profile_parameters,
+    read_angle_file,
+    surface_angles,
+    write_angle_file,
+)
+from .synthetic import (
+    formica_profile,
+    gaussian_profile,
+    weierstrass_mandelbrot_profile,
+)
+
+__all__ = [
+    "AngleDistribution",
+    "ArealAngles",
+    "ArealParameters",
+    "FacetAngleStatistics",
+    "FacetAngles",
+    "RoughnessCharacterisation",
+    "angles_from_file",
+    "angles_from_profile",
+    "angles_from_sample",
+    "areal_angles_from_facets",
+    "areal_angles_from_height_map",
+    "areal_angles_from_sample",
+    "areal_parameters",
+    "autocorrelation",
+    "characterise",
+    "condition",
+    "contact_patch_means",
+    "detrend",
+    "facet_angle_statistics",
+    "facet_angles",
+    "formica_profile",
+    "gaussian_areal_angles",
+    "gaussian_areal_surface",
+    "gaussian_filter_profile",
+    "gaussian_profile",
+    "hertz_contact_diameter",
+    "hertz_max_compression",
+    "level_plane",
+    "normal_angles",
+    "plane_fit",
+    "profile_angles",
+    "profile_parameters",
+    "read_angle_file",
+    "scipy_angles",
+    "smooth_surface",
+    "surface_angles",
+    "weierstrass_mandelbrot_profile",
+    "write_angle_file",
+]

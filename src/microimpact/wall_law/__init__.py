@@ -7,8 +7,42 @@ joint rebound samples that :meth:`WallLaw.sample` (and the C sampler it exports)
 draw from.
 """
 
-from ..scenario.wall_law import WallLawSpec
-from .build import build_wall_law
-from .law import WallLaw, WallLawSample
+from .build import (
+    build_wall_law,
+    node_outcomes,
+)
+from .export_c import (
+    read_binary,
+    write_binary,
+    write_c,
+)
+from .law import (
+    WallLaw,
+    WallLawSample,
+    wall_law_dataset,
+)
+from .openfoam import (
+    LOCAL_INTERACTION_FILE,
+    LOCAL_PATCHES_FILE,
+    STOCHASTIC_FILE,
+    fallback_condition,
+    openfoam_coefficients,
+    write_openfoam,
+)
 
-__all__ = ["WallLaw", "WallLawSample", "WallLawSpec", "build_wall_law"]
+__all__ = [
+    "LOCAL_INTERACTION_FILE",
+    "LOCAL_PATCHES_FILE",
+    "STOCHASTIC_FILE",
+    "WallLaw",
+    "WallLawSample",
+    "build_wall_law",
+    "fallback_condition",
+    "node_outcomes",
+    "openfoam_coefficients",
+    "read_binary",
+    "wall_law_dataset",
+    "write_binary",
+    "write_c",
+    "write_openfoam",
+]
