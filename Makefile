@@ -26,8 +26,8 @@ demo: $(VENV)/.installed
 	$(BIN)/microimpact reproduce --out out
 
 lint: $(VENV)/.installed-test
-	$(BIN)/ruff check setup.py src tests benchmarks docs/figures
-	$(BIN)/ruff format --check setup.py src tests benchmarks docs/figures
+	$(BIN)/ruff check setup.py src tests benchmarks docs/figures docs/examples docs/make_api.py
+	$(BIN)/ruff format --check setup.py src tests benchmarks docs/figures docs/examples docs/make_api.py
 
 test: lint
 	$(BIN)/python -m pytest -n 2 -q

@@ -69,8 +69,9 @@ def page() -> str:
         "`__all__` (written by `python docs/make_api.py`; `tests/test_docs_api.py`",
         "checks that this page lists exactly those names). The names marked **top**",
         "are also importable from the top level (`import microimpact as mi;",
-        "mi.run(...)`), as the README and the other pages use them; everything else",
-        "is imported from its folder, e.g. `from microimpact.engine import Checkpoint`.",
+        "mi.run(...)`), as the README and the other pages use them; everything",
+        "else is imported from its folder, e.g.",
+        "`from microimpact.engine import Checkpoint`.",
         "",
     ]
     for pkg in PACKAGES:
