@@ -64,7 +64,6 @@ TEXT_SUFFIXES = (".txt", ".csv", ".tsv", ".dat", ".asc")
 FORMATS = ("text", "x3p", "surfacetopography")
 _HEADER_LINE = re.compile(r"^#\s*(?P<key>[^=:]+?)\s*[=:]\s*(?P<value>.+?)\s*$")
 _KEY_NAME = re.compile(r"^[A-Za-z]+")
-_KNOWN_KEYS = ("dx", "dy", "xy_unit", "z_unit")
 _POSITIVE = "a finite number > 0"
 
 

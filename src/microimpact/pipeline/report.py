@@ -447,21 +447,6 @@ def input_figures(result):
     return out
 
 
-def _try_draw(draw, errors):
-    """``draw()`` (an Axes), or None if it raises one of `errors`; then any figure it
-    opened is closed."""
-    # deferred: matplotlib loads only when a figure is drawn
-    import matplotlib.pyplot as plt
-
-    before = set(plt.get_fignums())
-    try:
-        return draw()
-    except errors:
-        for num in set(plt.get_fignums()) - before:
-            plt.close(num)
-        return None
-
-
 def _experiments_for(result, experiments):
     """The experiments table of `result` (`experiments` may map scenario names to
     experiments); None: none (the scenario's files are not read here)."""

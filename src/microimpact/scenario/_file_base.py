@@ -335,6 +335,3 @@ def _frozen(value):
 
 def _join(where, key) -> str:
     return f"{where}.{key}" if where else key
-
-
-# ---------------------------------------------------------------------- particles

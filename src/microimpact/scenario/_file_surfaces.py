@@ -290,6 +290,3 @@ def _surfaces(ctx: _Ctx, data) -> tuple:
         seen[name] = key
         out.append(SurfaceVariant(name, ctx.cached(key, t, _angles, t, key)))
     return tuple(out)
-
-
-# ---------------------------------------------------------------------- sweep
