@@ -41,6 +41,20 @@ DATA = {
     },
 }
 
+
+def _experiments():
+    return pd.DataFrame(
+        {
+            "statistic": ["e"],
+            "speed_m_s": [1.0],
+            "angle_deg": [45.0],
+            "mean": [0.5],
+            "ci_low": [0.45],
+            "ci_high": [0.55],
+        }
+    )
+
+
 _OPENED: list = []
 _WATCHED: set = set()
 
@@ -83,16 +97,7 @@ def test_sensitivity_opens_the_scenario_file_once(scenario_path):
 
 
 def test_calibration_opens_the_scenario_file_once(scenario_path):
-    exp = pd.DataFrame(
-        {
-            "statistic": ["e"],
-            "speed_m_s": [1.0],
-            "angle_deg": [45.0],
-            "mean": [0.5],
-            "ci_low": [0.45],
-            "ci_high": [0.55],
-        }
-    )
+    exp = _experiments()
     mi.calibrate(
         scenario_path,
         exp,
@@ -120,16 +125,7 @@ def test_progress_in_every_long_call(scenario_path, progress, capsys):
     mi.run(file.scenario, samples=200, progress=cb)
     mi.build_wall_law(file, progress=cb)
     mi.sobol_sensitivity(file, samples=50, progress=cb)
-    exp = pd.DataFrame(
-        {
-            "statistic": ["e"],
-            "speed_m_s": [1.0],
-            "angle_deg": [45.0],
-            "mean": [0.5],
-            "ci_low": [0.45],
-            "ci_high": [0.55],
-        }
-    )
+    exp = _experiments()
     mi.calibrate(
         file,
         exp,

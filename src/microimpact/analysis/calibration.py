@@ -60,7 +60,11 @@ from .._core import json as _json
 from .._core.files import atomic_write
 from .._core.progress import Progress, check_progress
 from .._core.toml import to_toml
-from ..engine.parallel import cap_workers, process_pool
+from ..engine.parallel import (
+    cap_workers,
+    map_tasks,
+    scenario_releases_gil,
+)
 from ..engine.statistics import z_value
 from ..errors import InputError
 from ..io.experiments import read_experiments
@@ -221,14 +225,19 @@ class _Model:
         return t["sim_mean"].to_numpy(float), t["sim_se"].to_numpy(float)
 
 
-def _mapper(workers, executor):
-    """``(map, close)``: the executor's map, a pool of our own, or the builtin."""
-    if executor is not None:
-        return executor.map, None
-    if workers > 1:
-        pool = process_pool(cap_workers(int(workers)))
-        return pool.map, pool
-    return (lambda f, it: list(map(f, it))), None
+def _mapper(workers, executor, scenario):
+    """``(map, close)``: `map(func, items)` spreads model runs as every engine
+    caller does (:func:`~microimpact.engine.parallel.map_tasks`: the executor,
+    else threads where the runs free the GIL, else processes)."""
+    threads = scenario_releases_gil(scenario)
+    workers = cap_workers(int(workers)) if executor is None else workers
+
+    def mapper(func, items):
+        return list(
+            map_tasks(func, items, workers=workers, executor=executor, threads=threads)
+        )
+
+    return mapper, None
 
 
 # ---------------------------------------------------------------------- result
@@ -695,7 +704,7 @@ def calibrate(
     smodel.seed = seed = int(seed)
     samples = smodel.samples
 
-    mapper, pool = _mapper(workers, executor)
+    mapper, pool = _mapper(workers, executor, smodel.base)
     steps = Progress(progress, total=2 + bootstrap, unit="steps", desc="calibrate")
     try:
         model = _Model(smodel, exp, mapper)

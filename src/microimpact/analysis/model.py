@@ -16,6 +16,8 @@ callers spread evaluations, not impacts, over workers.
 
 from __future__ import annotations
 
+import contextlib
+import threading
 import warnings
 from collections.abc import Mapping
 from pathlib import Path
@@ -127,8 +129,16 @@ class ScenarioModel:
         progress bar, `samples` impacts per point (default :attr:`samples`) and
         `seed` (default :attr:`seed`). The scenario's warnings were shown once,
         when the model read the file; they are not repeated for every row."""
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
+        # warnings.catch_warnings swaps process-wide filters: only the main thread
+        # may (on worker threads, each warning shows once per place, as by default)
+        quiet = (
+            warnings.catch_warnings()
+            if threading.current_thread() is threading.main_thread()
+            else contextlib.nullcontext()
+        )
+        with quiet:
+            if isinstance(quiet, warnings.catch_warnings):
+                warnings.simplefilter("ignore")
             scenario = self.scenario(row)
             return run(
                 scenario,

@@ -32,7 +32,11 @@ import pandas as pd
 from .._core.files import atomic_write
 from .._core.progress import Progress
 from .._core.validation import check_int, did_you_mean
-from ..engine.parallel import _ordered, cap_workers, process_pool
+from ..engine.parallel import (
+    cap_workers,
+    map_tasks,
+    scenario_releases_gil,
+)
 from ..errors import InputError, ScenarioError
 from ..plotting.sensitivity import plot_sensitivity
 from ..scenario.grid import SweepGrid
@@ -313,38 +317,27 @@ def _chunks(rows: np.ndarray, workers: int) -> list[np.ndarray]:
     return [rows[i : i + size] for i in range(0, len(rows), size)]
 
 
-def _map(executor, model, chunks, in_flight):
-    """``model(chunk)`` of every chunk in order, on `executor` (``submit`` with at
-    most `in_flight` chunks ahead, else ``map``)."""
-
-    if not hasattr(executor, "submit"):
-        return executor.map(model, chunks)
-    return _ordered(lambda chunk: executor.submit(model, chunk), chunks, in_flight)
-
-
 def _evaluate(model, rows, *, workers, executor, progress) -> np.ndarray:
-    """The model at every design row: an array ``(len(rows), n_outputs)``."""
+    """The model at every design row: an array ``(len(rows), n_outputs)``, chunks of
+    rows spread as every engine caller spreads work
+    (:func:`~microimpact.engine.parallel.map_tasks`: threads where the runs free
+    the GIL, else processes, or the executor)."""
     n_out = len(model.outputs)
     out = np.empty((len(rows), n_out))
-    own = None
-    if executor is None and workers > 1:
-        executor = own = process_pool(workers)
-    try:
-        chunks = _chunks(rows, workers if executor is not None else 1)
-        if executor is None:
-            results = (model(c) for c in chunks)
-        else:
-            results = _map(executor, model, chunks, 4 * max(workers, 1))
-        k = 0
-        with Progress(progress, total=len(rows), unit="rows") as bar:
-            for chunk, y in zip(chunks, results, strict=True):
-                y = np.asarray(y, dtype=float).reshape(len(chunk), n_out)
-                out[k : k + len(chunk)] = y
-                k += len(chunk)
-                bar.update(len(chunk))
-    finally:
-        if own is not None:
-            own.shutdown(wait=True, cancel_futures=True)
+    parallel = executor is not None or workers > 1
+    chunks = _chunks(rows, workers if parallel else 1)
+    scenario = getattr(getattr(model, "model", None), "base", None)
+    threads = scenario is not None and scenario_releases_gil(scenario)
+    results = map_tasks(
+        model, chunks, workers=workers, executor=executor, threads=threads
+    )
+    k = 0
+    with Progress(progress, total=len(rows), unit="rows") as bar:
+        for chunk, y in zip(chunks, results, strict=True):
+            y = np.asarray(y, dtype=float).reshape(len(chunk), n_out)
+            out[k : k + len(chunk)] = y
+            k += len(chunk)
+            bar.update(len(chunk))
     return out
 
 

@@ -303,6 +303,169 @@ def _none(note):
 
 
 # ----------------------------------------------------------------- public
+class _NoEstimate(Exception):
+    """No estimate: `message`, then the `notes` gathered so far."""
+
+    def __init__(self, message, notes=()):
+        super().__init__(message)
+        self.message, self.notes = message, list(notes)
+
+
+def _pooled_counts(v, y, n, se, se_df, notes):
+    """Effective binomial counts where a non-binomial SE is given; speeds without
+    impacts dropped; repeated speeds pooled, sorted by speed."""
+    if se is not None:
+        with np.errstate(invalid="ignore", divide="ignore"):
+            p = np.where(n > 0, y / np.where(n > 0, n, 1.0), np.nan)
+            n_eff = p * (1.0 - p) / (se * se)
+        use = np.isfinite(n_eff) & (n_eff > 0) & (p > 0) & (p < 1)
+        n = np.where(use, n_eff, n)
+        y = np.where(use, p * n_eff, y)
+        if not np.any(use):
+            se_df = None
+        else:
+            notes.append("effective counts from capture_se")
+    has = n > 0
+    if not np.all(has):
+        notes.append(f"{int(np.sum(~has))} speed(s) without impacts ignored")
+    v, y, n = v[has], y[has], n[has]
+    if v.size == 0:
+        raise _NoEstimate("no impacts at any speed", notes[:-1])
+    v, inv = np.unique(v, return_inverse=True)
+    y = np.bincount(inv, weights=y)
+    n = np.bincount(inv, weights=n)
+    if v.size == 1:
+        raise _NoEstimate(
+            f"one speed only ({_fmt(v[0])} m/s, capture "
+            f"{y[0] / n[0]:.3g}): a capture speed needs a sweep that "
+            "brackets the quantile",
+            notes,
+        )
+    return v, y, n, se_df
+
+
+def _window(v, frac, q, notes):
+    """The sweep points fitted (:func:`crossing_window`), or no estimate when the
+    capture fraction does not cross `q` within the sweep."""
+    window = crossing_window(frac, q)
+    if window is not None:
+        return window
+    if np.all(frac > q):
+        msg = (
+            f"capture stays above {q:g} up to the fastest speed "
+            f"({_fmt(v[-1])} m/s, capture {frac[-1]:.3g}): the {q:g}-capture "
+            f"speed is above the sweep; extend the sweep upwards"
+        )
+    else:
+        msg = (
+            f"capture stays below {q:g} down to the slowest speed "
+            f"({_fmt(v[0])} m/s, capture {frac[0]:.3g}): the {q:g}-capture "
+            f"speed is below the sweep; extend the sweep downwards"
+        )
+    raise _NoEstimate(msg, notes)
+
+
+def _check_resolved(v, frac, q, i0, i1, yw, nw, notes):
+    """No estimate where the window's data are separated (the crossing is not
+    resolved by partially captured speeds)."""
+    if not _separated(yw, nw):
+        return
+    partial = np.flatnonzero((yw > 0) & (yw < nw))
+    s = np.sign(frac[i0 : i1 + 1] - q)
+    k = next(j for j in range(s.size - 1) if s[j] == 0 or s[j] != s[j + 1])
+    lo_v, hi_v = v[i0 + k], v[i0 + k + 1]
+    raise _NoEstimate(
+        f"not resolved: capture falls from {frac[i0 + k]:.3g} to "
+        f"{frac[i0 + k + 1]:.3g} between {_fmt(lo_v)} and {_fmt(hi_v)} "
+        f"m/s with {partial.size} partially captured speed(s) in the "
+        f"window; the {q:g}-capture speed lies between them; refine the "
+        "sweep there",
+        notes,
+    )
+
+
+def _crossing(alpha, beta, z_q, xw, v, q, i0, i1, notes) -> float:
+    """The log speed where the fitted probit crosses `q`: never extrapolated."""
+    theta = (z_q - alpha) / beta if beta != 0 else math.nan
+    x_lo, x_hi = float(xw[0]), float(xw[-1])
+    if np.isfinite(theta) and x_lo <= theta <= x_hi:
+        return theta
+    if not np.isfinite(theta):
+        where = "nowhere (flat fit) within"
+    elif theta > 709.0:  # exp() would overflow: a nearly flat fit
+        where = "above 1e308 m/s, outside"
+    else:
+        where = f"at {_fmt(math.exp(theta))} m/s, outside"
+    raise _NoEstimate(
+        f"the fitted curve crosses {q:g} {where} the fitted speeds "
+        f"{_fmt(v[i0])}-{_fmt(v[i1])} m/s: not extrapolated; extend or "
+        "refine the sweep",
+        notes,
+    )
+
+
+def _criterion(xw, yw, nw, ll_hat, conf, se_df, notes):
+    """``(critical value, method)`` of the likelihood-ratio interval: chi2 (or F
+    for an estimated SE), widened by the heterogeneity factor on a significant
+    lack of fit (residual deviance against the saturated model)."""
+    df = xw.size - 2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        pw = yw / nw
+        sat = np.where(yw > 0, yw * np.log(pw), 0.0) + np.where(
+            yw < nw, (nw - yw) * np.log1p(-pw), 0.0
+        )
+    g2 = max(2.0 * (float(np.sum(sat)) - ll_hat), 0.0)
+    method = METHOD_PROFILE
+    crit = float(
+        stats.chi2.ppf(conf, 1) if se_df is None else stats.f.ppf(conf, 1, se_df)
+    )
+    if df == 0:
+        notes.append(
+            "two speeds in the window: the probit shape is assumed, not checked"
+        )
+    elif stats.chi2.sf(g2, df) < LACK_OF_FIT_LEVEL:
+        h = g2 / df
+        crit = float(stats.f.ppf(conf, 1, df)) * h
+        if se_df is not None:  # the more conservative of the two corrections
+            crit = max(crit, float(stats.f.ppf(conf, 1, se_df)) * h)
+        method = METHOD_SCALED
+        notes.append(
+            f"lack of fit (deviance {g2:.3g} on {df} df): interval widened by the "
+            f"heterogeneity factor {h:.3g}"
+        )
+    return crit, method
+
+
+def _profile_interval(theta, xw, yw, nw, z_q, beta, ll_hat, crit, notes):
+    """``(lo, hi)`` log speeds of the profile-likelihood interval, NaN on a side
+    the data do not bound within the window."""
+    x_lo, x_hi = float(xw[0]), float(xw[-1])
+
+    def excess(t):
+        return 2.0 * (ll_hat - _profile_loglik(t, xw, yw, nw, z_q, beta)) - crit
+
+    limits = []
+    for bound, side in ((x_lo, "below"), (x_hi, "above")):
+        limit = math.nan
+        prev = theta
+        # walk outwards (fine steps first), then refine the first crossing
+        for frac_step in (1 / 256, 1 / 64, 1 / 16, 1 / 4, 1 / 2, 1.0):
+            t = theta + (bound - theta) * frac_step
+            if t == prev:
+                continue
+            if excess(t) > 0:
+                limit = optimize.brentq(excess, prev, t, xtol=1e-12, rtol=1e-10)
+                break
+            prev = t
+        if math.isnan(limit):
+            notes.append(
+                f"open {side}: not bounded by the data within "
+                f"{_fmt(math.exp(bound))} m/s"
+            )
+        limits.append(limit)
+    return limits[0], limits[1]
+
+
 def estimate_capture_speed(
     speed_m_s: ArrayLike,
     captured: ArrayLike,
@@ -374,147 +537,20 @@ def estimate_capture_speed(
                 f"`capture_se_df` must be a finite number > 0; got {capture_se_df!r}."
             )
     notes = []
-    if se is not None:
-        with np.errstate(invalid="ignore", divide="ignore"):
-            p = np.where(n > 0, y / np.where(n > 0, n, 1.0), np.nan)
-            n_eff = p * (1.0 - p) / (se * se)
-        use = np.isfinite(n_eff) & (n_eff > 0) & (p > 0) & (p < 1)
-        n = np.where(use, n_eff, n)
-        y = np.where(use, p * n_eff, y)
-        if not np.any(use):
-            se_df = None
-        else:
-            notes.append("effective counts from capture_se")
-    has = n > 0
-    if not np.all(has):
-        notes.append(f"{int(np.sum(~has))} speed(s) without impacts ignored")
-    v, y, n = v[has], y[has], n[has]
-    if v.size == 0:
-        return _none("; ".join(["no impacts at any speed", *notes[:-1]]))
-    # pool repeated speeds, sort by speed
-    v, inv = np.unique(v, return_inverse=True)
-    y = np.bincount(inv, weights=y)
-    n = np.bincount(inv, weights=n)
-    if v.size == 1:
-        return _none(
-            "; ".join(
-                [
-                    f"one speed only ({_fmt(v[0])} m/s, capture "
-                    f"{y[0] / n[0]:.3g}): a capture speed needs a sweep that "
-                    "brackets the quantile",
-                    *notes,
-                ]
-            )
-        )
-    frac = y / n
-    window = crossing_window(frac, q)
-    if window is None:
-        if np.all(frac > q):
-            msg = (
-                f"capture stays above {q:g} up to the fastest speed "
-                f"({_fmt(v[-1])} m/s, capture {frac[-1]:.3g}): the {q:g}-capture "
-                f"speed is above the sweep; extend the sweep upwards"
-            )
-        else:
-            msg = (
-                f"capture stays below {q:g} down to the slowest speed "
-                f"({_fmt(v[0])} m/s, capture {frac[0]:.3g}): the {q:g}-capture "
-                f"speed is below the sweep; extend the sweep downwards"
-            )
-        return _none("; ".join([msg, *notes]))
-    i0, i1 = window
-    xw, yw, nw = np.log(v[i0 : i1 + 1]), y[i0 : i1 + 1], n[i0 : i1 + 1]
-    if _separated(yw, nw):
-        partial = np.flatnonzero((yw > 0) & (yw < nw))
-        s = np.sign(frac[i0 : i1 + 1] - q)
-        k = next(j for j in range(s.size - 1) if s[j] == 0 or s[j] != s[j + 1])
-        lo_v, hi_v = v[i0 + k], v[i0 + k + 1]
-        return _none(
-            "; ".join(
-                [
-                    f"not resolved: capture falls from {frac[i0 + k]:.3g} to "
-                    f"{frac[i0 + k + 1]:.3g} between {_fmt(lo_v)} and {_fmt(hi_v)} "
-                    f"m/s with {partial.size} partially captured speed(s) in the "
-                    f"window; the {q:g}-capture speed lies between them; refine the "
-                    "sweep there",
-                    *notes,
-                ]
-            )
-        )
-    z_q = float(special.ndtri(q))
-    alpha, beta, ll_hat = _fit_probit(xw, yw, nw)
-    theta = (z_q - alpha) / beta if beta != 0 else math.nan
-    x_lo, x_hi = float(xw[0]), float(xw[-1])
-    if not (np.isfinite(theta) and x_lo <= theta <= x_hi):
-        if not np.isfinite(theta):
-            where = "nowhere (flat fit) within"
-        elif theta > 709.0:  # exp() would overflow: a nearly flat fit
-            where = "above 1e308 m/s, outside"
-        else:
-            where = f"at {_fmt(math.exp(theta))} m/s, outside"
-        return _none(
-            "; ".join(
-                [
-                    f"the fitted curve crosses {q:g} {where} the fitted speeds "
-                    f"{_fmt(v[i0])}-{_fmt(v[i1])} m/s: not extrapolated; extend or "
-                    "refine the sweep",
-                    *notes,
-                ]
-            )
-        )
+    try:
+        v, y, n, se_df = _pooled_counts(v, y, n, se, se_df, notes)
+        i0, i1 = _window(v, y / n, q, notes)
+        xw, yw, nw = np.log(v[i0 : i1 + 1]), y[i0 : i1 + 1], n[i0 : i1 + 1]
+        _check_resolved(v, y / n, q, i0, i1, yw, nw, notes)
+        z_q = float(special.ndtri(q))
+        alpha, beta, ll_hat = _fit_probit(xw, yw, nw)
+        theta = _crossing(alpha, beta, z_q, xw, v, q, i0, i1, notes)
+    except _NoEstimate as exc:
+        return _none("; ".join([exc.message, *exc.notes]))
     if beta > 0:
         notes.append("capture rises with speed in the fitted window")
-    m = xw.size
-    df = m - 2
-    # residual deviance against the saturated model
-    with np.errstate(divide="ignore", invalid="ignore"):
-        pw = yw / nw
-        sat = np.where(yw > 0, yw * np.log(pw), 0.0) + np.where(
-            yw < nw, (nw - yw) * np.log1p(-pw), 0.0
-        )
-    g2 = max(2.0 * (float(np.sum(sat)) - ll_hat), 0.0)
-    method = METHOD_PROFILE
-    crit = float(
-        stats.chi2.ppf(conf, 1) if se_df is None else stats.f.ppf(conf, 1, se_df)
-    )
-    if df == 0:
-        notes.append(
-            "two speeds in the window: the probit shape is assumed, not checked"
-        )
-    elif stats.chi2.sf(g2, df) < LACK_OF_FIT_LEVEL:
-        h = g2 / df
-        crit = float(stats.f.ppf(conf, 1, df)) * h
-        if se_df is not None:  # the more conservative of the two corrections
-            crit = max(crit, float(stats.f.ppf(conf, 1, se_df)) * h)
-        method = METHOD_SCALED
-        notes.append(
-            f"lack of fit (deviance {g2:.3g} on {df} df): interval widened by the "
-            f"heterogeneity factor {h:.3g}"
-        )
-
-    def excess(t):
-        return 2.0 * (ll_hat - _profile_loglik(t, xw, yw, nw, z_q, beta)) - crit
-
-    limits = []
-    for bound, side in ((x_lo, "below"), (x_hi, "above")):
-        limit = math.nan
-        prev = theta
-        # walk outwards (fine steps first), then refine the first crossing
-        for frac_step in (1 / 256, 1 / 64, 1 / 16, 1 / 4, 1 / 2, 1.0):
-            t = theta + (bound - theta) * frac_step
-            if t == prev:
-                continue
-            if excess(t) > 0:
-                limit = optimize.brentq(excess, prev, t, xtol=1e-12, rtol=1e-10)
-                break
-            prev = t
-        if math.isnan(limit):
-            notes.append(
-                f"open {side}: not bounded by the data within "
-                f"{_fmt(math.exp(bound))} m/s"
-            )
-        limits.append(limit)
-    lo, hi = limits
+    crit, method = _criterion(xw, yw, nw, ll_hat, conf, se_df, notes)
+    lo, hi = _profile_interval(theta, xw, yw, nw, z_q, beta, ll_hat, crit, notes)
     # the interval holds the estimate by construction (the walk starts at theta)
     return CaptureSpeedEstimate(
         float(math.exp(theta)),

@@ -33,6 +33,7 @@ from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 
 from ..errors import InputError
 from . import kernel
+from .plan import resolve_kernel
 from .summary import Stacked
 
 _WORKER_PLAN = None
@@ -171,6 +172,49 @@ def process_pool(workers: int, **kwargs):
 
     return ProcessPoolExecutor(
         max_workers=workers, mp_context=mp.get_context(start_method()), **kwargs
+    )
+
+
+def map_tasks(func, items, *, workers=1, executor=None, threads=False, in_flight=None):
+    """``func(item)`` for every item, yielded in order: the one way the engine's
+    callers (runs, the wall law, sensitivity, calibration) spread work.
+
+    On `executor` (anything with ``submit``, e.g. a ``concurrent.futures``
+    executor or Dask's client, else ``map``); else on `workers` threads of this
+    process when `threads` (the work frees the GIL: the compiled kernel, see
+    :func:`releases_gil`) or a process pool; one worker runs in this process. At
+    most `in_flight` items (default ``4 * workers``) are submitted ahead, so memory
+    stays bounded; a pool of our own is shut down at the end (or on an error).
+    """
+    items = list(items)
+    if in_flight is None:
+        in_flight = 4 * max(int(workers), 1)
+    if executor is not None:
+        if hasattr(executor, "submit"):
+            yield from _ordered(lambda it: executor.submit(func, it), items, in_flight)
+        else:
+            yield from executor.map(func, items)
+        return
+    workers = min(int(workers), len(items))
+    if workers <= 1:
+        for item in items:
+            yield func(item)
+        return
+    pool = ThreadPoolExecutor(workers) if threads else process_pool(workers)
+    try:
+        yield from _ordered(lambda it: pool.submit(func, it), items, in_flight)
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+def scenario_releases_gil(scenario) -> bool:
+    """Whether runs of `scenario` spend their time in the compiled kernel with the
+    GIL released (Monte Carlo sampling, no areal surface, the compiled kernel
+    installed and chosen), so that worker threads serve them."""
+    return (
+        resolve_kernel() == "compiled"
+        and scenario.sampling == "mc"
+        and not any(getattr(v.angles, "is_areal", False) for v in scenario.surfaces)
     )
 
 

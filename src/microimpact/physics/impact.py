@@ -478,7 +478,34 @@ def apparent_rebound(
     speed, theta_deg, phi_deg, perp_deg = np.broadcast_arrays(
         speed, theta_deg, phi_deg, perp_deg
     )
+    g = _incoming_on_facet(speed, theta_deg, phi_deg, perp_deg)
+    slip_t, slip_b, slip = _contact_slip(
+        g["v_t_true"], g["v_b_true"], g["cos_chi"], radius, spin
+    )
+    facet = rebound(
+        g["v_n_true"],
+        slip,
+        k1=k1,
+        k2=k2,
+        v_c=v_c,
+        p=p,
+        q=q,
+        friction=friction,
+    )
+    # rebound broadcasts with the coefficients, so its outputs have the full shape;
+    # the geometry is broadcast to it
+    shape = np.shape(facet.e)
+    g = {k: np.broadcast_to(v, shape) for k, v in g.items()}
+    slip_t, slip_b, slip = (np.broadcast_to(a, shape) for a in (slip_t, slip_b, slip))
+    out = _rebound_on_facet(facet, g, slip_t, slip_b, slip)
+    out |= _apparent(facet, g, out)
+    final = _final_spin(facet.captured, g, out, radius, spin, shape)
+    return _apparent_result(facet, g, out, final)
 
+
+def _incoming_on_facet(speed, theta_deg, phi_deg, perp_deg) -> dict:
+    """The facet's geometry and the incoming velocity on it: the paper's facet
+    (n_phi, t') at phi, tilted by chi about t' (issue 14's areal facet)."""
     in_domain = (
         (speed > 0)
         & np.isfinite(speed)
@@ -503,42 +530,39 @@ def apparent_rebound(
         v_t_true = np.where(reachable, -speed * np.cos(true_angle), np.nan)
         v_n_true = cos_chi * v_n_phi  # u . n'
         v_b_true = sin_chi * v_n_phi  # u . b'
+    return {
+        "in_domain": in_domain,
+        "shadowed": shadowed,
+        "phi": phi,
+        "true_angle": true_angle,
+        "cos_chi": cos_chi,
+        "sin_chi": sin_chi,
+        "v_n_phi": v_n_phi,
+        "v_t_true": v_t_true,
+        "v_n_true": v_n_true,
+        "v_b_true": v_b_true,
+    }
 
-    # slip of the contact point: w = u_t' + omega x (-r n'), with omega about b and
-    # b x n' = cos(chi) t'
+
+def _contact_slip(v_t_true, v_b_true, cos_chi, radius, spin):
+    """``(slip_t, slip_b, slip)``: the slip of the contact point
+    w = u_t' + omega x (-r n') (omega about b, and b x n' = cos(chi) t'), and the
+    slip speed signed like its t' component (so that it is the 2-D slip itself when
+    slip_b = 0)."""
     if radius is None:
         slip_t = v_t_true
     else:
         slip_t = v_t_true - radius * (spin * cos_chi)
     slip_b = v_b_true
-    # the slip speed, signed like its t' component (so that it is the 2-D slip
-    # itself when slip_b = 0)
     slip = np.copysign(np.hypot(slip_t, slip_b), slip_t)
+    return slip_t, slip_b, slip
 
-    facet = rebound(
-        v_n_true,
-        slip,
-        k1=k1,
-        k2=k2,
-        v_c=v_c,
-        p=p,
-        q=q,
-        friction=friction,
-    )
-    # rebound broadcasts with the coefficients, so its outputs have the full shape;
-    # the geometry is broadcast to it
+
+def _rebound_on_facet(facet, g, slip_t, slip_b, slip) -> dict:
+    """The rebound velocity on the facet (n', t', b'): [1] Eqs. 1-2 along each
+    facet tangent, the impulse ratio split along the slip direction."""
     e, mu, captured = facet.e, facet.mu, facet.captured
-    shape = np.shape(e)
-
-    def full(a):
-        return np.broadcast_to(a, shape)
-
-    phi_b, cos_chi, sin_chi = full(phi), full(cos_chi), full(sin_chi)
-    v_n_phi, v_t_true, v_n_true, v_b_true = (
-        full(v_n_phi), full(v_t_true), full(v_n_true), full(v_b_true)
-    )  # fmt: skip
-    slip, slip_t, slip_b = full(slip), full(slip_t), full(slip_b)
-
+    v_t_true, v_n_true, v_b_true = g["v_t_true"], g["v_n_true"], g["v_b_true"]
     with np.errstate(divide="ignore", invalid="ignore"):
         # unit slip direction (w_t', w_b') * sign: (1, 0) exactly when slip_b = 0
         moving = slip != 0
@@ -550,9 +574,26 @@ def apparent_rebound(
         # [1], Eq. 2 along each facet tangent; 0 where captured
         V_t_true = np.where(captured, 0.0, v_t_true - mu_t * (1.0 + e) * v_n_true)
         V_b_true = np.where(captured, 0.0, v_b_true - mu_b * (1.0 + e) * v_n_true)
+    return {
+        "mu_t": mu_t,
+        "mu_b": mu_b,
+        "V_n_true": V_n_true,
+        "V_t_true": V_t_true,
+        "V_b_true": V_b_true,
+    }
 
-        cos_phi, sin_phi = np.cos(phi_b), np.sin(phi_b)
-        tan_phi = np.tan(phi_b)
+
+def _apparent(facet, g, f) -> dict:
+    """The nominal velocity ([1], Eq. 7) and the apparent e_m and mu_m ([1],
+    Eqs. 8-9, with e -> e_phi and mu -> mu_phi on a tilted facet)."""
+    e = facet.e
+    cos_chi, sin_chi, v_n_phi = g["cos_chi"], g["sin_chi"], g["v_n_phi"]
+    V_n_true, V_t_true, V_b_true = f["V_n_true"], f["V_t_true"], f["V_b_true"]
+    mu_t, mu_b = f["mu_t"], f["mu_b"]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        phi = g["phi"]
+        cos_phi, sin_phi = np.cos(phi), np.sin(phi)
+        tan_phi = np.tan(phi)
         # component of U along the paper's facet normal n_phi
         A = V_n_true * cos_chi + V_b_true * sin_chi
         # [1], Eq. 7 (with V_n' -> A): nominal components from the facet components
@@ -562,50 +603,76 @@ def apparent_rebound(
         # [1], Eq. 8 with e -> e_phi
         e_phi = e * cos_chi**2 - sin_chi * V_b_true / v_n_phi
         e_m = (e_phi - tan_phi * V_t_true / v_n_phi) / (
-            1.0 + tan_phi * v_t_true / v_n_phi
+            1.0 + tan_phi * g["v_t_true"] / v_n_phi
         )
         # [1], Eq. 9 with mu -> mu_phi
         mu_phi = mu_t / (cos_chi + mu_b * sin_chi)
         mu_m = (mu_phi - tan_phi) / (mu_phi * tan_phi + 1.0)
+    return {
+        "cos_phi": cos_phi,
+        "sin_phi": sin_phi,
+        "V_n": V_n,
+        "V_t": V_t,
+        "V_b": V_b,
+        "e_m": e_m,
+        "mu_m": mu_m,
+    }
 
-        final = {}
-        if radius is not None:
-            r = full(radius)
-            spin0 = full(spin)
-            dV_t = V_t_true - v_t_true
-            dV_b = V_b_true - v_b_true
-            k = SOLID_SPHERE_INERTIA * r
-            # omega' = omega + (dV x n') / ((2/5) r), dV = dV_t t' + dV_b b':
-            # dV x n' = dV_b t' - dV_t b', resolved on (t, b, n)
-            final["spin"] = spin0 - dV_t * cos_chi / k
-            final["spin_t"] = (dV_b * cos_phi + dV_t * sin_chi * sin_phi) / k
-            final["spin_n"] = (dV_b * sin_phi - dV_t * sin_chi * cos_phi) / k
-            for key, value in final.items():
-                final[key] = np.where(captured, 0.0, value)[()]
 
-    e_m = np.where(captured, 0.0, e_m)
+def _final_spin(captured, g, f, radius, spin, shape) -> dict:
+    """The spin after the impact (about b, t and n), where a radius is given."""
+    if radius is None:
+        return {}
+    cos_chi, sin_chi = g["cos_chi"], g["sin_chi"]
+    cos_phi, sin_phi = f["cos_phi"], f["sin_phi"]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = np.broadcast_to(radius, shape)
+        spin0 = np.broadcast_to(spin, shape)
+        dV_t = f["V_t_true"] - g["v_t_true"]
+        dV_b = f["V_b_true"] - g["v_b_true"]
+        k = SOLID_SPHERE_INERTIA * r
+        # omega' = omega + (dV x n') / ((2/5) r), dV = dV_t t' + dV_b b':
+        # dV x n' = dV_b t' - dV_t b', resolved on (t, b, n)
+        final = {
+            "spin": spin0 - dV_t * cos_chi / k,
+            "spin_t": (dV_b * cos_phi + dV_t * sin_chi * sin_phi) / k,
+            "spin_n": (dV_b * sin_phi - dV_t * sin_chi * cos_phi) / k,
+        }
+    return {key: np.where(captured, 0.0, v)[()] for key, v in final.items()}
+
+
+def _apparent_result(facet, g, f, final) -> ApparentReboundResult:
+    """The result: e_m = 0 and V = 0 where captured; the lateral angle and the
+    elevation of a particle that leaves."""
+    captured = facet.captured
+    V_n, V_t, V_b = f["V_n"], f["V_t"], f["V_b"]
+    e_m = np.where(captured, 0.0, f["e_m"])
+    mu_m = f["mu_m"]
     reimpact = ~captured & (V_n < 0)  # NaN compares False
     leaves = ~captured & np.isfinite(V_n)
     # + 0.0 turns a -0.0 lateral component into +0.0: psi = 180, not -180
     psi = np.arctan2(V_b + 0.0, -V_t)
     elevation = np.arctan2(V_n, np.hypot(V_t, V_b))
-
+    mu_t, mu_b = f["mu_t"], f["mu_b"]
+    v_n_true, v_t_true, v_b_true = g["v_n_true"], g["v_t_true"], g["v_b_true"]
+    in_domain, true_angle, shadowed = g["in_domain"], g["true_angle"], g["shadowed"]
+    e = facet.e
     return ApparentReboundResult(
         e_m=e_m[()],
         mu_m=mu_m[()],
         e=e,
         mu=np.array(mu_t)[()],
         captured=captured,
-        shadowed=np.array(full(shadowed))[()],
+        shadowed=np.array(shadowed)[()],
         rolling=facet.rolling,
         reimpact=reimpact[()],
         V_n=V_n[()],
         V_t=V_t[()],
         v_n_true=np.array(v_n_true)[()],
         v_t_true=np.array(v_t_true)[()],
-        true_incidence_angle_deg=np.where(
-            full(in_domain), full(rad_to_deg(true_angle)), np.nan
-        )[()],
+        true_incidence_angle_deg=np.where(in_domain, rad_to_deg(true_angle), np.nan)[
+            ()
+        ],
         mu_b=np.array(mu_b)[()],
         V_b=V_b[()],
         v_b_true=np.array(v_b_true)[()],

@@ -7,6 +7,7 @@ joint rebound samples that :meth:`WallLaw.sample` (and the C sampler it exports)
 draw from.
 """
 
+from ..scenario.wall_law import WallLawSpec
 from .build import (
     build_wall_law,
     node_outcomes,
@@ -36,6 +37,7 @@ __all__ = [
     "STOCHASTIC_FILE",
     "WallLaw",
     "WallLawSample",
+    "WallLawSpec",
     "build_wall_law",
     "fallback_condition",
     "node_outcomes",
