@@ -13,9 +13,12 @@ import matplotlib
 import numpy as np
 import pandas as pd
 import pytest
+from engine_helpers import scenario
 from numpy.testing import assert_allclose
 
+import microimpact as mi
 from microimpact.analysis.compare import compare
+from microimpact.io.experiments import read_experiments
 from microimpact.plotting.comparison import plot_comparison
 
 matplotlib.use("Agg")
@@ -191,3 +194,77 @@ def test_mc_summary_capture_se_is_the_wilson_width_over_2z():
     assert_allclose(with_col["sim_se"], s["capture_se"].iloc[:1], rtol=1e-12)
     # a table without attrs is taken at 95 %
     assert_allclose(without["sim_se"], width.iloc[:1] / (2 * Z95), rtol=1e-12)
+
+
+# ------------------------------------------------ experiments that do not match
+def _exp_file(
+    tmp_path, rows, header="statistic,speed_m_s,angle_deg,mean,ci_low,ci_high"
+):
+    path = tmp_path / "exp.csv"
+    path.write_text(header + "\n" + "\n".join(rows) + "\n")
+    return path
+
+
+@pytest.mark.parametrize(
+    "header, row, expected",
+    [
+        (
+            "surface,statistic,speed_m_s,angle_deg,mean,ci_low,ci_high",
+            "glass,e,1.0,90,0.5,0.4,0.6",
+            "exp.csv:2: surface 'glass' is not simulated; choose one of ['silicon']",
+        ),
+        (
+            "statistic,speed_m_s,angle_deg,mean,ci_low,ci_high",
+            "e_relative,1.0,90,0.5,0.4,0.6",
+            "exp.csv:2: the simulation has no 'e_relative' column; relative "
+            "coefficients need the reference angle",
+        ),
+        (
+            "statistic,speed_m_s,angle_deg,mean,ci_low,ci_high",
+            "e,5.0,90,0.5,0.4,0.6",
+            "exp.csv:2: speed_m_s = 5 is outside the simulated range [0.2, 1]",
+        ),
+    ],
+)
+def test_mismatched_experiments_are_the_users_error_before_any_impact(
+    tmp_path, monkeypatch, header, row, expected
+):
+    """Issue 22: exit 2 naming the file and the row, before the simulation (the
+    engine is never called), in run, compare and report alike."""
+    import microimpact.pipeline.study as study_module
+    from microimpact.analysis.compare import check_experiments
+    from microimpact.cli import main
+    from microimpact.errors import InputError
+
+    sc = scenario(
+        surfaces=(mi.SurfaceVariant("silicon"),),
+        speeds_m_s=(0.2, 0.6, 1.0),
+        angles_deg=(90.0,),
+        reference_angle_deg=None,
+    )
+    path = _exp_file(tmp_path, [row], header)
+    with pytest.raises(InputError) as err:
+        check_experiments(sc, read_experiments(path))
+    assert expected in str(err.value)
+
+    def no_run(*a, **k):  # the check must come before any impact
+        raise AssertionError("the engine ran")
+
+    monkeypatch.setattr(study_module, "run", no_run)
+    study = mi.Study(sc, outputs=mi.Outputs(figures=(), experiments=(str(path),)))
+    with pytest.raises(InputError, match=r"exp\.csv:2"):
+        study.execute(tmp_path / "out", samples=100)
+    monkeypatch.undo()
+    res = mi.run(sc, samples=200, seed=1, progress=False)
+    if "outside" in expected:  # compare itself reports the point, z undefined
+        table = mi.compare(res, path)
+        assert np.isnan(table["z"].iloc[0]) and not table["agree"].iloc[0]
+    else:
+        with pytest.raises(InputError, match=r"exp\.csv:2"):
+            mi.compare(res, path)
+        out = tmp_path / "r"
+        res_dir = tmp_path / "res"
+        mi.Study.from_result(res, outputs=mi.Outputs(figures=())).write(res_dir)
+        assert main(["compare", str(res_dir), str(path)]) == 2
+        assert main(["report", str(res_dir), "--experiments", str(path)]) == 2
+        assert not out.exists()

@@ -26,9 +26,11 @@ import os
 import numpy as np
 
 from ..engine.statistics import interval_se, z_value
+from ..errors import InputError
 from ..io.experiments import read_experiments
+from ..scenario.grid import SweepGrid
 
-__all__ = ["SIMULATED", "compare"]
+__all__ = ["SIMULATED", "check_experiments", "compare"]
 
 #: experimental statistic -> (summary column of the estimate, column of its SE).
 #: The capture fraction's SE is the summary's ``capture_se``; a summary without it
@@ -93,6 +95,8 @@ def _experiments_iv(experiments):
             f"and/or angle_deg; got {list(experiments.columns)}."
         )
     exp = experiments.reset_index(drop=True).copy()
+    if "source" not in exp and "source" in experiments.attrs:
+        exp["source"] = experiments.attrs["source"]  # named in messages
     for c in (*_COORDS, "se", "n"):
         if c not in exp:
             exp[c] = math.nan
@@ -112,22 +116,32 @@ def _where(row):
     return f"experimental point (line {row['line']})"
 
 
+def _mismatch(row, message):
+    """An experimental point the simulation cannot serve: the user's input
+    (:class:`~microimpact.errors.InputError`, exit 2 on the command line), naming
+    the experiments file and the row where they are known."""
+    source = row.get("source")
+    if isinstance(source, str):
+        return InputError(message.lstrip(": "), source=source, line=int(row["line"]))
+    return InputError(f"{_where(row)}{message}")
+
+
 def _select(summary, row):
     """Rows of `summary` for this point, the axis to interpolate on (or None)."""
     surface = row["surface"]
     surfaces = list(dict.fromkeys(summary["surface"]))
     if surface is None or (isinstance(surface, float) and math.isnan(surface)):
         if len(surfaces) != 1:
-            raise ValueError(
-                f"{_where(row)} names no surface but the simulation has surfaces "
-                f"{surfaces}; add a `surface` column to the experiments."
+            raise _mismatch(
+                row,
+                f": names no surface but the simulation has surfaces {surfaces}; "
+                "add a `surface` column to the experiments",
             )
         surface = surfaces[0]
     g = summary[summary["surface"] == surface]
     if g.empty:
-        raise ValueError(
-            f"{_where(row)}: surface {surface!r} is not simulated; "
-            f"choose one of {surfaces}."
+        raise _mismatch(
+            row, f": surface {surface!r} is not simulated; choose one of {surfaces}"
         )
     axis = []
     for c in _COORDS:
@@ -135,9 +149,10 @@ def _select(summary, row):
         values = np.unique(g[c].to_numpy(dtype=float))
         if np.isnan(x):
             if values.size != 1:
-                raise ValueError(
-                    f"{_where(row)} has no {c} but the simulation sweeps {c} over "
-                    f"{values.tolist()}; add a `{c}` column to the experiments."
+                raise _mismatch(
+                    row,
+                    f": has no {c} but the simulation sweeps {c} over "
+                    f"{values.tolist()}; add a `{c}` column to the experiments",
                 )
             continue
         exact = np.isclose(g[c].to_numpy(dtype=float), x, rtol=1e-9, atol=1e-12)
@@ -219,28 +234,31 @@ def compare(summary_or_result, experiments, *, confidence=0.95):
     for _, row in exp.iterrows():
         stat = row["statistic"]
         if stat not in SIMULATED:
-            raise ValueError(
-                f"{_where(row)}: unknown statistic {stat!r}; "
-                f"allowed: {', '.join(SIMULATED)}."
+            raise _mismatch(
+                row,
+                f": unknown statistic {stat!r}; allowed: {', '.join(SIMULATED)}",
             )
         col, se_col = SIMULATED[stat]
         if col not in summary or se_col not in summary:
-            raise ValueError(
-                f"{_where(row)}: the simulation has no {col!r} column"
+            raise _mismatch(
+                row,
+                f": the simulation has no {col!r} column"
                 + (
-                    "; relative coefficients need the reference angle in the sweep."
+                    "; relative coefficients need the reference angle "
+                    "(reference_angle_deg) in the sweep's angles"
                     if "relative" in stat
-                    else "."
-                )
+                    else ""
+                ),
             )
         surface, g, axis = _select(summary, row)
         coords = {c: float(row[c]) for c in _COORDS}
         interpolated = False
         if not axis:
             if len(g) != 1:
-                raise ValueError(
-                    f"{_where(row)} matches {len(g)} simulated points; "
-                    "give both speed_m_s and angle_deg."
+                raise _mismatch(
+                    row,
+                    f": matches {len(g)} simulated points; give both speed_m_s and "
+                    "angle_deg",
                 )
             sim, sim_se, note = float(g[col].iloc[0]), float(g[se_col].iloc[0]), ""
             for c in _COORDS:
@@ -252,9 +270,7 @@ def compare(summary_or_result, experiments, *, confidence=0.95):
             (ax_name,) = axis
             other = next(c for c in _COORDS if c != ax_name)
             if np.unique(g[other].to_numpy(dtype=float)).size != 1:
-                raise ValueError(
-                    f"{_where(row)} matches several {other} values; give {other}."
-                )
+                raise _mismatch(row, f": matches several {other} values; give {other}")
             coords[other] = float(g[other].iloc[0])
             sim, sim_se, note = _interpolate(g, ax_name, coords[ax_name], col, se_col)
             interpolated = not math.isnan(sim)
@@ -262,7 +278,9 @@ def compare(summary_or_result, experiments, *, confidence=0.95):
             note = f"no simulated value ({col} is NaN)"
         d = sim - float(row["mean"])
         comb = math.hypot(sim_se, float(row["se"]))
-        if comb > 0:
+        if math.isnan(d) or math.isnan(comb):
+            z = math.nan  # no simulated value: nothing to test
+        elif comb > 0:
             z = d / comb
         else:
             z = 0.0 if d == 0 else math.copysign(math.inf, d)
@@ -294,3 +312,42 @@ def compare(summary_or_result, experiments, *, confidence=0.95):
     if "source" in exp.attrs:
         table.attrs["source"] = exp.attrs["source"]
     return table
+
+
+def check_experiments(scenario, experiments):
+    """Check experiments against a scenario's sweep before any impact is drawn.
+
+    Every experimental point must name a simulated surface, a statistic the run
+    will have (the relative ones need the reference angle in the sweep) and a
+    speed and angle inside the swept ranges (the comparison interpolates between
+    sweep points, never beyond them).
+
+    Raises
+    ------
+    InputError
+        For the first point that does not match, naming the experiments file, the
+        row and what would match.
+    """
+    # deferred: pandas loads only where a table is made (import time)
+    import pandas as pd
+
+    exp = _experiments_iv(experiments)
+    grid = SweepGrid.from_scenario(scenario)
+    rows = [
+        {"surface": s, "speed_m_s": v, "angle_deg": a}
+        for s in grid.surfaces
+        for v in grid.speeds_m_s
+        for a in grid.angles_deg
+    ]
+    skeleton = pd.DataFrame(rows)
+    ref = getattr(scenario, "reference_angle_deg", None)
+    relative = ref is not None and any(math.isclose(a, ref) for a in grid.angles_deg)
+    for stat, (col, se_col) in SIMULATED.items():
+        if "relative" in stat and not relative:
+            continue
+        skeleton[col], skeleton[se_col] = 0.5, 0.01
+    table = compare(skeleton, exp)
+    for k, note in enumerate(table["note"]):
+        if not math.isnan(table["sim_mean"].iloc[k]):
+            continue
+        raise _mismatch(exp.iloc[k], f": {note}; the sweep cannot serve it")

@@ -283,6 +283,12 @@ def combine_experiments(experiments):
     tables = [
         read_experiments(x) if isinstance(x, str | os.PathLike) else x for x in items
     ]
+    tables = [  # each row keeps the file it came from, for messages
+        t.assign(source=t.attrs["source"])
+        if isinstance(t, pd.DataFrame) and "source" in t.attrs and "source" not in t
+        else t
+        for t in tables
+    ]
     for t in tables:
         if not isinstance(t, pd.DataFrame) or not {
             "statistic",

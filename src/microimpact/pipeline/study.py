@@ -26,6 +26,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from .._core.validation import check_subset
+from ..analysis.compare import check_experiments
 from ..engine.checkpoint import Checkpoint
 from ..engine.montecarlo import run
 from ..io.experiments import combine_experiments
@@ -108,7 +109,9 @@ class Study:
         """Run the simulation (:func:`microimpact.run` with `options`: samples,
         seed, workers, backend, executor, address, checkpoint, progress)."""
 
-        self.experiments()  # a bad experiments file fails before the simulation
+        exp = self.experiments()  # a bad experiments file fails before the run
+        if exp is not None:  # and so does one the sweep cannot serve
+            check_experiments(self.scenario, exp)
         self.result = run(self.scenario, **options)
         return self
 
