@@ -7,6 +7,7 @@ import argparse
 import json
 import math
 import tomllib
+import warnings
 
 import numpy as np
 import pandas as pd
@@ -361,3 +362,30 @@ def test_cli_backend_options(tmp_path, capsys, monkeypatch):
     assert main([*argv, "--backend", "dask", "--scheduler", "tcp://127.0.0.1:9"]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "127.0.0.1:9" in err
+
+
+def test_a_rejected_fit_warns_on_the_terminal(tmp_path, capsys):
+    """Issue 22: when the goodness-of-fit test rejects (here mu from a surface
+    whose spread no single std_deg reproduces, with tiny errors), calibrate warns,
+    and the command line shows it; data drawn from the model itself do not."""
+    from microimpact.cli import main
+
+    scen = tmp_path / "small.toml"
+    scen.write_text(to_toml(small()))
+    exp = tmp_path / "exp.csv"
+    exp.write_text(
+        "angle_deg,statistic,mean,ci_low,ci_high\n"
+        "45,mu,0.9,0.899,0.901\n60,mu,-0.9,-0.901,-0.899\n85,mu,0.9,0.899,0.901\n"
+    )
+    with pytest.warns(RuntimeWarning, match="the fit is rejected"):
+        res = calibrate(small(), exp, [STD], samples=400, bootstrap=0, band_draws=0)
+    assert res.p_value < 0.05
+    out = tmp_path / "out"
+    argv = [str(scen), str(exp), "--parameter", f"{STD}=2:30", "--out", str(out)]
+    assert main(["calibrate", *argv, "--bootstrap", "0", "--no-figures"]) == 0
+    assert "warning: the fit is rejected" in capsys.readouterr().err
+    good = measured(small(), {STD: 11.0}, seed=21)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        ok = calibrate(small(), good, [STD], samples=2000, bootstrap=0, band_draws=0)
+    assert ok.p_value >= 0.05

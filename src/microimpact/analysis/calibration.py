@@ -730,6 +730,7 @@ def calibrate(
             bootstrap_seed,
             steps,
         )
+        _warn_if_rejected(u["chi2"], u["dof"], u["p_value"], confidence)
         b_lo, b_hi = _bootstrap_intervals(boot, u["idx"], len(keys), confidence)
         band_summaries, band_from = _band(
             model, boot, boot_curves, x, B, u, band_draws, bootstrap_seed
@@ -997,6 +998,22 @@ def _bootstrap(model, sx, y, s_exp, s_sim, x, h, B, scale, idx, bootstrap, seed,
             model.cache = {keep: model.cache[keep]}
         steps.update()
     return np.array(fits), curves
+
+
+def _warn_if_rejected(chi2, dof, p_value, confidence):
+    """A warning (shown on the terminal by the CLI) where the goodness-of-fit test
+    rejects the fit at level ``1 - confidence``: the intervals assume the model
+    describes the data within their errors."""
+    if not (math.isfinite(p_value) and p_value < 1.0 - confidence):
+        return
+    warnings.warn(
+        f"the fit is rejected: chi2 = {chi2:.4g} on {dof} degrees of freedom, "
+        f"p = {_fmt(p_value)} < {1.0 - confidence:g}; the model does not describe "
+        "the data within their errors, so the intervals (which assume it does) are "
+        "too narrow; see docs/calibration.md",
+        RuntimeWarning,
+        stacklevel=3,
+    )
 
 
 def _bootstrap_intervals(boot, idx, n, confidence):

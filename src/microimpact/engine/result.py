@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import datetime as _dt
 import functools
+import html
 import json
 import math
 import platform
@@ -50,6 +51,9 @@ __all__ = ["SUMMARY_COLUMNS", "ScenarioRecord", "SimulationResult", "open_result
 
 #: Provenance keys stored as JSON text in the NetCDF attributes.
 _JSON_ATTRS = ("scenario", "versions")
+
+#: Rows of the summary a notebook shows (the rest stay in ``.summary``).
+HTML_ROWS = 12
 
 
 def versions() -> dict[str, str]:
@@ -454,6 +458,32 @@ class SimulationResult:
             df.attrs["confidence"] = self.confidence
             self._summary = df
         return self._summary
+
+    def _repr_html_(self) -> str:
+        """The repr line, then the first rows of the summary (notebooks)."""
+        cols = [
+            c
+            for c in (
+                "surface",
+                "speed_m_s",
+                "angle_deg",
+                "n",
+                "capture_fraction",
+                "capture_ci_low",
+                "capture_ci_high",
+                "e_rebound_mean",
+                "mu_mean",
+            )
+            if c in self.summary
+        ]
+        table = self.summary[cols]
+        more = len(table) - HTML_ROWS
+        note = f"<p>… {more} more rows in <code>.summary</code></p>" if more > 0 else ""
+        return (
+            f"<p>{html.escape(repr(self))}</p>"
+            + table.head(HTML_ROWS).to_html(index=False, float_format="{:.4g}".format)
+            + note
+        )
 
     def __repr__(self) -> str:
         ds = self.dataset

@@ -52,6 +52,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._core.reprs import dataclass_repr
 from .._core.validation import as_float_array, check_nonnegative, check_positive
 from ..units import deg_to_rad, rad_to_deg
 
@@ -66,7 +67,7 @@ __all__ = [
 SOLID_SPHERE_INERTIA = 2.0 / 5.0
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class ReboundResult:
     """Outcome of :func:`rebound`, in the frame of the struck surface.
 
@@ -107,7 +108,7 @@ class ReboundResult:
     spin: np.ndarray | None = None
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class ApparentReboundResult:
     """Outcome of :func:`apparent_rebound`, seen on the nominal (apparent) surface.
 
@@ -682,3 +683,7 @@ def _apparent_result(facet, g, f, final) -> ApparentReboundResult:
         spin_t=final.get("spin_t"),
         spin_n=final.get("spin_n"),
     )
+
+
+ReboundResult.__repr__ = dataclass_repr
+ApparentReboundResult.__repr__ = dataclass_repr

@@ -15,6 +15,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+from .._core.reprs import html_table, value_text
 from .._core.validation import did_you_mean
 from ..errors import ScenarioError
 from .file import PRESETS, parse_scenario, preset_path, read_toml, read_toml_text
@@ -45,7 +46,7 @@ __all__ = [
 ]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class Scenario:
     """A Monte Carlo study.
 
@@ -218,6 +219,61 @@ class Scenario:
     def from_preset(cls, name: str) -> Scenario:
         """A shipped preset reproducing the paper (see ``docs/presets.md``)."""
         return load_preset(name)
+
+    def _parts_text(self) -> list[tuple[str, str]]:
+        """(label, text) of each part, in the user's units (um, deg, m/s)."""
+
+        def law(spec):
+            if not isinstance(spec, dict):
+                return value_text(spec)
+            kind = spec.get("law", "")
+            args = ", ".join(
+                f"{k}={value_text(v)}" for k, v in spec.items() if k != "law"
+            )
+            return f"{kind}({args})"
+
+        p = self.particles.describe()
+        params = ", ".join(
+            f"{k}={value_text(v)}"
+            for k, v in (p.get("params") or {}).items()
+            if v is not None and not isinstance(v, list | tuple)
+        )
+        c = self.coefficients.describe()
+        coeffs = "; ".join(
+            f"{k} {law(c[k])}" for k in ("k1", "k2", "v_c") if k in c
+        ) + "".join(
+            f"; {k} {value_text(c[k])}" for k in ("p", "q", "friction") if k in c
+        )
+        surfaces = ", ".join(
+            f"{s.name} ({s.describe().get('kind', '?')})" for s in self.surfaces
+        )
+
+        def axis(values, unit):
+            lo, hi = min(values), max(values)
+            span = f"{lo:g}" if lo == hi else f"{lo:g}-{hi:g}"
+            return f"{span} {unit} ({len(values)})"
+
+        sampling = f"{self.samples} impacts per point, {self.sampling}"
+        if self.precision is not None:
+            sampling += f", precision target on {self.precision.statistic}"
+        return [
+            ("particles", f"{p.get('kind', '?')}({params})"),
+            ("coefficients", coeffs),
+            ("surfaces", surfaces),
+            ("speeds", axis(self.speeds_m_s, "m/s")),
+            ("angles", axis(self.angles_deg, "deg")),
+            ("sampling", f"{sampling}, shadowing {self.shadowing!r}, seed {self.seed}"),
+        ]
+
+    def __repr__(self) -> str:
+        parts = "; ".join(f"{k} {v}" for k, v in self._parts_text())
+        return f"<Scenario {self.name!r}: {parts}>"
+
+    def _repr_html_(self) -> str:
+        rows = self._parts_text()
+        if self.description:
+            rows.insert(0, ("description", self.description))
+        return html_table(f"Scenario {self.name!r}", rows)
 
     def with_options(self, **changes) -> Scenario:
         """A copy with some fields changed (validated again)."""
