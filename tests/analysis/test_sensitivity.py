@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import copy
+import re
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -550,3 +551,55 @@ def test_cli_unreachable_scheduler_is_the_users_error(tmp_path, capsys, monkeypa
     assert err.count("\n") == 0 and "127.0.0.1:9" in err
     assert main([*argv, "--scheduler", "tcp://127.0.0.1:9"]) == 2
     assert "needs --backend dask" in capsys.readouterr().err
+
+
+class TwoOutputs:
+    """Two outputs with known indices: y1 = x1 (variance 1/12) at one sweep
+    point, y2 = 10 x2 (variance 100/12) at another, y3 = 1e-9 x1 (hardly varies)."""
+
+    outputs = pd.DataFrame(
+        {
+            "statistic": ["y", "y", "y"],
+            "speed_m_s": [1.0, 2.0, 3.0],
+            "angle_deg": [90.0, 90.0, 90.0],
+        }
+    )
+
+    def __call__(self, rows):
+        x = np.asarray(rows, dtype=float)
+        return np.column_stack([x[:, 0], 10 * x[:, 1], 1e-9 * x[:, 0]])
+
+
+def test_aggregated_indices_weigh_points_by_their_variance():
+    """Issue 22: the headline ranks by the variance-weighted index over the sweep
+    (Gamboa et al. 2014), in [0, 1], ignoring points that hardly vary: here the
+    closed form is ST(x2) = 100/101, ST(x1) = 1/101, whatever the third point."""
+    res = sobol_analysis(
+        TwoOutputs(),
+        {"x1": {"low": 0, "high": 1}, "x2": {"low": 0, "high": 1}},
+        base_size=1024,
+        seed=3,
+        n_resamples=20,
+    )
+    agg = res.aggregated("y").set_index("parameter")
+    assert list(agg.index) == ["x2", "x1"]
+    assert agg.loc["x2", "ST"] == pytest.approx(100 / 101, abs=0.01)
+    assert agg.loc["x1", "ST"] == pytest.approx(1 / 101, abs=0.01)
+    assert (agg["points"] == 2).all()  # the third point carries no weight
+    assert ((agg["ST"] >= 0) & (agg["ST"] <= 1)).all()
+
+
+def test_the_cli_headline_never_prints_an_index_above_one(tmp_path, capsys):
+    from microimpact.cli import sensitivity as verb
+
+    res = sobol_analysis(
+        TwoOutputs(),
+        {"x1": {"low": 0, "high": 1}, "x2": {"low": 0, "high": 1}},
+        base_size=4,  # tiny: the pointwise estimates stray far beyond [0, 1]
+        seed=3,
+        n_resamples=20,
+    )
+    verb._print_top(res)
+    line = capsys.readouterr().out
+    values = [float(v) for v in re.findall(r" (-?\d+\.\d+)", line)]
+    assert values and all(0.0 <= v <= 1.0 for v in values), line

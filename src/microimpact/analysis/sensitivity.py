@@ -77,6 +77,10 @@ MAX_ROWS_PER_TASK = 16
 #: An output whose standard deviation over the design is at most this times
 #: ``max(1, max |output|)`` is constant (rounding only): its indices are NaN.
 CONSTANT_RTOL = 1e-12
+#: Sweep points whose output's standard deviation over the design is at most this
+#: times the statistic's largest carry no weight in :meth:`SensitivityResult.
+#: aggregated` (the output hardly varies there: its indices are mostly noise).
+AGGREGATE_MIN_STD = 0.01
 #: The capture fraction whose speed the ``capture_speed_m_s`` statistic is.
 CAPTURE_SPEED_QUANTILE = 0.5
 
@@ -273,6 +277,63 @@ class SensitivityResult:
     seed: int
     confidence: float
     info: dict = field(default_factory=dict)
+
+    def aggregated(self, statistic=None, *, min_std=AGGREGATE_MIN_STD):
+        """Indices of each parameter over all the sweep points of a statistic,
+        weighted by each point's output variance (the aggregated Sobol' indices
+        of Gamboa, Janon, Klein & Lagnoux 2014: ``sum_p Var_p S_p / sum_p Var_p``,
+        the share of the total output variance over the sweep that the parameter
+        explains), each point's index clipped to [0, 1] first.
+
+        Points whose output hardly varies over the design (standard deviation at
+        most `min_std` times the largest of that statistic) or whose indices are
+        undefined carry no weight, so a noisy index where capture hardly changes
+        cannot lead the ranking.
+
+        Returns
+        -------
+        pandas.DataFrame
+            ``statistic``, ``parameter``, ``S1``, ``ST`` (each in [0, 1]) and
+            ``points`` (the sweep points weighed), sorted by ``ST`` within each
+            statistic, largest first.
+        """
+        out = []
+        stats = (
+            [statistic]
+            if statistic is not None
+            else list(dict.fromkeys(self.outputs["statistic"]))
+        )
+        coords = [c for c in ("surface", "speed_m_s", "angle_deg") if c in self.table]
+        for stat in stats:
+            o = self.outputs[self.outputs["statistic"] == stat]
+            std = o["std"].to_numpy(dtype=float)
+            top = np.nanmax(std) if np.isfinite(std).any() else 0.0
+            use = o["defined"].to_numpy(bool) & (std > min_std * top)
+            w = pd.Series(np.where(use, std**2, 0.0), index=o.index)
+            weights = o.assign(weight=w.to_numpy())[[*coords, "weight"]]
+            t = self.table[self.table["statistic"] == stat].merge(
+                weights, on=coords, how="left"
+            )
+            for name, g in t.groupby("parameter", sort=False):
+                wt = g["weight"].to_numpy(float)
+                total = wt.sum()
+                row = {
+                    "statistic": stat,
+                    "parameter": name,
+                    "points": int((wt > 0).sum()),
+                }
+                for col in ("S1", "ST"):
+                    v = np.clip(np.nan_to_num(g[col].to_numpy(float)), 0.0, 1.0)
+                    row[col] = float((wt * v).sum() / total) if total > 0 else np.nan
+                out.append(row)
+        res = pd.DataFrame(
+            out, columns=["statistic", "parameter", "S1", "ST", "points"]
+        )
+        order = res.groupby("statistic", sort=False).cumcount()
+        res = res.assign(_o=order).sort_values(
+            ["statistic", "ST"], ascending=[True, False], kind="stable"
+        )
+        return res.drop(columns="_o").reset_index(drop=True)
 
     def to_csv(self, path) -> Path:
         """Write :attr:`table` to `path` (CSV), atomically."""

@@ -157,11 +157,15 @@ def cli_action(args) -> int:
 
 
 def _print_top(result):
-    """Per statistic, the parameters by their largest total index."""
-    t = result.table
-    for stat, sub in t.groupby("statistic", sort=False):
-        best = sub.groupby("parameter", sort=False)["ST"].max().sort_values()[::-1]
+    """Per statistic, the parameters ranked by their aggregated total index (the
+    share of the statistic's variance over the sweep they explain; see
+    SensitivityResult.aggregated): never above 1, and points where the statistic
+    hardly varies do not count."""
+    agg = result.aggregated()
+    for stat, sub in agg.groupby("statistic", sort=False):
         ranked = ", ".join(
-            f"{p} {v:.2f}" if math.isfinite(v) else f"{p} -" for p, v in best.items()
+            f"{p} {v:.2f}" if math.isfinite(v) else f"{p} -"
+            for p, v in zip(sub["parameter"], sub["ST"], strict=True)
         )
-        print(f"  {stat}: max ST  {ranked}")
+        points = int(sub["points"].max()) if len(sub) else 0
+        print(f"  {stat}: ST over {points} sweep point(s)  {ranked}")
