@@ -317,3 +317,63 @@ def test_csv_cells_padding(text, delimiter, cells):
     from microimpact._core.files import csv_cells
 
     assert csv_cells(text, source="f", line=1, delimiter=delimiter) == cells
+
+
+# ---------------------------------------------------------- units (issue 22, item 2)
+def test_header_unit_is_honoured_and_a_contradiction_is_an_error(tmp_path):
+    from microimpact.errors import DataFormatError
+
+    p = tmp_path / "d.csv"
+    p.write_text("diameter_mm\n0.041\n0.039\n0.050\n")
+    d, meta = read_diameters(p)
+    assert meta["unit"] == "mm" and meta["unit_from"] == "header"
+    np.testing.assert_allclose(d, [41e-6, 39e-6, 50e-6])
+    with pytest.raises(DataFormatError, match="gives the unit 'mm' but the unit given"):
+        read_diameters(p, unit="um")
+    assert read_diameters(p, unit="mm")[1]["unit_from"] == "argument"
+
+
+def test_metres_under_a_micrometre_header_are_refused_and_the_hints_work(tmp_path):
+    """A diameter file holding metres under ``diameter_um`` was accepted; now it is
+    refused with a hint, and following the hint reads the right diameters."""
+    from microimpact.errors import DataFormatError
+
+    p = tmp_path / "d.csv"
+    p.write_text("diameter_um\n4.1e-05\n3.9e-05\n5.0e-05\n")
+    with pytest.raises(DataFormatError, match="correct the header"):
+        read_diameters(p)
+    p.write_text("diameter_m\n4.1e-05\n3.9e-05\n5.0e-05\n")  # the hint, followed
+    np.testing.assert_allclose(read_diameters(p)[0], [41e-6, 39e-6, 50e-6])
+    q = tmp_path / "plain.csv"
+    q.write_text("4.1e-05\n3.9e-05\n5.0e-05\n")
+    with pytest.raises(
+        DataFormatError, match=r"give the unit the file holds \(unit='m'"
+    ):
+        read_diameters(q)
+    np.testing.assert_allclose(read_diameters(q, unit="m")[0], [41e-6, 39e-6, 50e-6])
+
+
+@pytest.mark.parametrize(
+    "particles, key",
+    [
+        ({"distribution": "normal", "mean_um": 40e-6, "std_um": 5e-6}, "mean_um"),
+        (
+            {"distribution": "lognormal", "median_um": 3e-6, "geometric_std": 1.5},
+            "median_um",
+        ),
+        ({"distribution": "monodisperse", "diameter_um": 40000.0}, "diameter_um"),
+        ({"distribution": "uniform", "min_um": 1e-6, "max_um": 5e-6}, "max_um"),
+    ],
+)
+def test_implausible_diameters_in_a_scenario_are_refused(particles, key):
+    """``mean_um = 40e-6`` (metres typed as um) ran and reported 100 % capture."""
+    from microimpact.errors import ScenarioError
+    from microimpact.scenario import scenario_from_dict
+
+    data = {
+        "particles": particles,
+        "coefficients": {"k1": 4.0, "k2": 0.05, "v_c": 0.2},
+        "sweep": {"speed_m_s": [1.0]},
+    }
+    with pytest.raises(ScenarioError, match=rf"particles\.{key}: .* not a particle"):
+        scenario_from_dict(data)

@@ -27,10 +27,11 @@ def cli_parse(sp):
     sp.add_argument("--column", default=None, help="column name or 0-based index")
     sp.add_argument(
         "--unit",
-        default="um",
+        default=None,
         choices=units,
         metavar="UNIT",
-        help=f"length unit of the data, one of {', '.join(units)} (default um)",
+        help=f"length unit of the data, one of {', '.join(units)} (default: the "
+        "unit the column's header names, e.g. diameter_um, else um)",
     )
     sp.add_argument("--alpha", type=c.fraction, default=0.05)
 
@@ -74,7 +75,7 @@ def cli_action(args) -> int:
         # deferred: the verb's library loads only when the verb runs (fast --help)
         from ..plotting.sizes import plot_size_distribution
 
-        ref = {"file": str(Path(args.data).resolve()), "unit": args.unit}
+        ref = {"file": str(Path(args.data).resolve()), "unit": meta["unit"]}
         if column is not None:
             ref["column"] = meta["column"]
         snippet = report.particles_toml(**ref)

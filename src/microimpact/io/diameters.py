@@ -45,6 +45,7 @@ from .._core.files import (
 )
 from ..errors import DataFormatError
 from ..units import length_factor
+from .profiles import header_unit
 
 __all__ = ["read_diameters", "read_histogram"]
 
@@ -102,7 +103,7 @@ def _choose_column(path, header, n_columns, column) -> tuple[int, str]:
     return j, names[j]
 
 
-def read_diameters(path, *, column=None, unit="um"):
+def read_diameters(path, *, column=None, unit=None):
     """Read raw measured diameters, one per row.
 
     Parameters
@@ -113,8 +114,10 @@ def read_diameters(path, *, column=None, unit="um"):
         Header name (exact, else case-insensitive) or 0-based index of the diameter
         column; needed when there are several columns and no header name containing
         "diam".
-    unit : str
+    unit : str, optional
         Length unit of the values in the file (``"um"``, ``"mm"``, ``"m"``, ...).
+        Default: the unit the column's header names (``diameter_um``,
+        ``d [mm]``), else µm. A unit that contradicts the header's is an error.
 
     Returns
     -------
@@ -122,17 +125,21 @@ def read_diameters(path, *, column=None, unit="um"):
         The diameters [m], in file order.
     metadata : dict
         ``source``, ``column`` (name or index), ``column_index``, ``header``,
-        ``delimiter``, ``unit`` and ``n``.
+        ``delimiter``, ``unit``, ``unit_from`` (``"header"``, ``"argument"`` or
+        ``"default"``) and ``n``.
 
     Raises
     ------
     DataFormatError
         Empty file; several columns and no `column`; unknown column; missing,
         non-numeric, non-finite, zero or negative diameters (naming file, line and
-        column).
+        column); a unit that contradicts the header's; diameters whose median is
+        not a particle diameter in the unit used (below 10 nm or above 10 mm: a
+        probable unit mistake).
     """
     path = os.fspath(path)
-    factor = _factor(unit, path)
+    if unit is not None:
+        _factor(unit, path)
     table = read_table(
         path,
         header=None,
@@ -144,6 +151,8 @@ def read_diameters(path, *, column=None, unit="um"):
     header, data = table.header, table.rows
     j, name = _choose_column(path, header, table.width, column)
     field = f"column {name!r}" if header else f"column {j}"
+    unit, unit_from = _diameter_unit(path, header, j, name, unit)
+    factor = _factor(unit, path)
     allowed = f"a diameter > 0 in {unit}"
     values = np.empty(len(data))
     for k, (line, cells) in enumerate(data):
@@ -158,9 +167,54 @@ def read_diameters(path, *, column=None, unit="um"):
         "header": header,
         "delimiter": delimiter_name(table.delimiter),
         "unit": unit,
+        "unit_from": unit_from,
         "n": int(values.size),
     }
+    _check_plausible(path, field, values * factor, unit, unit_from)
     return values * factor, metadata
+
+
+def _diameter_unit(path, header, j, name, unit):
+    """``(unit, where it came from)``: the header's unit is honoured, an explicit
+    one must agree with it, else µm."""
+    from_header = header_unit(header[j])[0] if header else None
+    if unit is not None:
+        if from_header is not None and length_factor(from_header) != length_factor(
+            unit
+        ):
+            raise DataFormatError(
+                f"the header {name!r} gives the unit {from_header!r} but the unit "
+                f"given is {unit!r}; allowed: the same unit, or leave the unit out "
+                "to use the header's",
+                source=path,
+                field="unit",
+            )
+        return unit, "argument"
+    if from_header is not None:
+        return from_header, "header"
+    return "um", "default"
+
+
+def _check_plausible(path, field, diameters_m, unit, unit_from):
+    """DataFormatError where the median diameter is not a particle's (10 nm to
+    10 mm): the file probably holds another unit than the one used."""
+    median_um = float(np.median(diameters_m)) * 1e6
+    if 0.01 <= median_um <= 10_000.0:
+        return
+    side = "below 10 nm" if median_um < 0.01 else "above 10 mm"
+    if unit_from == "header":
+        fix = (
+            f"the header names {unit!r}; if the file holds another unit, correct the "
+            "header (e.g. diameter_m, diameter_mm)"
+        )
+    else:
+        fix = "give the unit the file holds (unit='m', 'mm', 'nm'; --unit on the CLI)"
+    raise DataFormatError(
+        f"the median diameter read as {unit!r} is {median_um:g} um, {side}, which is "
+        f"not a particle diameter: the values are probably in another unit; {fix}",
+        source=path,
+        field=field,
+    )
 
 
 def read_histogram(path, *, unit="um"):

@@ -217,9 +217,39 @@ def _continuous(kind, dist, lower, upper, params, stacklevel) -> SizeDistributio
 
 
 # -- factories -------------------------------------------------------------------------
+#: Plausible particle diameters [µm]: 10 nm to 10 mm. A location parameter (mean,
+#: median, single diameter, largest bin edge, median of measurements) outside is
+#: refused as a probable unit mistake (metres or millimetres typed as µm).
+PLAUSIBLE_DIAMETER_UM = (0.01, 10_000.0)
+
+
+def _plausible_um(value_um: float, name: str, what: str = "") -> None:
+    """ValueError naming `name` if `value_um` is not a plausible diameter [µm]."""
+    lo, hi = PLAUSIBLE_DIAMETER_UM
+    if lo <= value_um <= hi:
+        return
+    if value_um < lo:
+        guess = (
+            f"was it given in metres? {value_um:g} m is {value_um * 1e6:g} um"
+            if value_um < 1e-3
+            else f"was it given in millimetres? {value_um:g} mm is "
+            f"{value_um * 1e3:g} um"
+        )
+        side = "below 10 nm (0.01 um)"
+    else:
+        guess = f"was it given in nanometres? {value_um:g} nm is {value_um / 1e3:g} um"
+        side = "above 10 mm (10000 um)"
+    raise ValueError(
+        f"`{name}` = {value_um:g}{what} is {side}, not a particle diameter; {guess}; "
+        f"diameters are in micrometres here (allowed: {lo:g} to {hi:g} um)."
+    )
+
+
 def _normal(mean_um, std_um, min_um, max_um, stacklevel) -> SizeDistribution:
     mean_um = check_scalar(mean_um, "mean_um")
     std_um = check_scalar(std_um, "std_um", minimum=0, strict=True)
+    if mean_um > 0:  # a mean <= 0 is the truncation's business (its own message)
+        _plausible_um(mean_um, "mean_um")
     lower, upper = _limits_iv(min_um, max_um)
     dist = stats.norm(loc=float(um_to_m(mean_um)), scale=float(um_to_m(std_um)))
     params = {"mean_um": mean_um, "std_um": std_um, "min_um": min_um, "max_um": max_um}
@@ -270,6 +300,7 @@ def lognormal_diameters(
         Truncation limits [µm], applied through the CDF (see module notes).
     """
     median_um = check_scalar(median_um, "median_um", minimum=0, strict=True)
+    _plausible_um(median_um, "median_um")
     gsd = check_scalar(geometric_std, "geometric_std", minimum=0, strict=True)
     if not gsd > 1:
         raise ValueError(
@@ -291,6 +322,7 @@ def uniform_diameters(min_um, max_um) -> SizeDistribution:
     """Diameters uniform on ``[min_um, max_um]`` [µm] (``scipy.stats.uniform``)."""
     lo = check_scalar(min_um, "min_um", minimum=0)
     hi = check_scalar(max_um, "max_um", minimum=0, strict=True)
+    _plausible_um(hi, "max_um")
     if not hi > lo:
         raise ValueError(
             f"`max_um` must be > `min_um`; got min_um={min_um!r}, max_um={max_um!r}."
@@ -304,6 +336,7 @@ def uniform_diameters(min_um, max_um) -> SizeDistribution:
 def monodisperse(diameter_um) -> SizeDistribution:
     """A single diameter [µm]: the degenerate distribution (``ppf`` is constant)."""
     d = check_scalar(diameter_um, "diameter_um", minimum=0, strict=True)
+    _plausible_um(d, "diameter_um")
     return SizeDistribution(
         "monodisperse", atoms=np.array([um_to_m(d)]), params={"diameter_um": d}
     )
@@ -324,6 +357,7 @@ def empirical_diameters(diameters_um, *, min_um=None, max_um=None) -> SizeDistri
         ``truncated_mass``.
     """
     x = _diameters_iv(diameters_um)
+    _plausible_um(float(np.median(x)), "diameters_um", " (their median)")
     lower, upper = _limits_iv(min_um, max_um)
     d = um_to_m(x)
     keep = (d >= lower) & (d <= upper)

@@ -135,7 +135,9 @@ def _particles(ctx: _Ctx, data, where="particles"):
             column = t.get("column")
             if column is not None:
                 column = ctx.column(column, _join(where, "column"))
-            unit = ctx.unit(t.get("unit", "um"), _join(where, "unit"))
+            unit = t.get("unit")  # default: the header's, else um
+            if unit is not None:
+                unit = ctx.unit(unit, _join(where, "unit"))
             d_m, _ = ctx.build(
                 _join(where, "file"), t, read_diameters, path, column=column, unit=unit
             )
