@@ -497,10 +497,13 @@ class WallLaw:
                 if condition:  # the caller's condition: their error to fix
                     raise
                 warnings.warn(
-                    f"no OpenFOAM dictionaries written: {err}",
+                    f"no OpenFOAM localInteraction dictionaries written: {err}",
                     RuntimeWarning,
                     stacklevel=2,
                 )
+                from .openfoam import write_stochastic_model
+
+                written.extend(write_stochastic_model(self, out))
         return written
 
     def _write_netcdf(self, path):
