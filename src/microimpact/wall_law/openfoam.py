@@ -477,12 +477,9 @@ def write_stochastic_model(law, out_dir, *, patches=None) -> list[Path]:
         data = src.read_bytes()
         written.append(atomic_write(dst, lambda tmp, b=data: Path(tmp).write_bytes(b)))
     script = (MODEL_SOURCES / BUILD_SCRIPT).read_bytes()
-
-    def put_script(tmp):
-        Path(tmp).write_bytes(script)
-        Path(tmp).chmod(0o755)
-
-    written.append(atomic_write(folder / BUILD_SCRIPT, put_script))
+    path = atomic_write(folder / BUILD_SCRIPT, lambda tmp: Path(tmp).write_bytes(script))
+    path.chmod(path.stat().st_mode | 0o111)  # executable, as `bash build.sh` needs not
+    written.append(path)
     return written
 
 

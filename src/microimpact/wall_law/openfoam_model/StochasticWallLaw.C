@@ -49,8 +49,8 @@ void Foam::StochasticWallLaw<CloudType>::readPatches()
                     names[j] = swl_surface_name(law_.get(), j);
                 }
                 FatalIOErrorInFunction(coeffs)
-                    << "patches entry " << name << ": surface \"" << surface
-                    << "\" is not in the table " << table_
+                    << "patches entry " << name << ": surface " << surface
+                    << " is not in the table " << table_
                     << "; its surfaces are " << names << exit(FatalIOError);
             }
             const word captured(d.lookupOrDefault<word>("captured", "stick"));
