@@ -114,7 +114,12 @@ _FACES = {
 
 
 def _case(
-    case: Path, out: Path, speed: float, *, coeffs: str | None = None, max_reimpacts=None
+    case: Path,
+    out: Path,
+    speed: float,
+    *,
+    coeffs: str | None = None,
+    max_reimpacts=None,
 ):
     """A 0.1 m box (4 x 4 x 4 cells): the floor (y = 0) a wall named after the
     table's surface (formica), the other faces one patch (outer). N_PARCELS parcels start 1 cm above the floor on a grid and fly at
@@ -162,8 +167,7 @@ def _case(
     put(
         "system/decomposeParDict",
         "dictionary",
-        "numberOfSubdomains 2;\nmethod simple;\n"
-        "coeffs { n (1 1 2); delta 0.001; }\n",
+        "numberOfSubdomains 2;\nmethod simple;\ncoeffs { n (1 1 2); delta 0.001; }\n",
     )
     put(
         "0/U",
@@ -189,7 +193,9 @@ def _case(
     put(
         "constant/kinematicCloudPositions",
         "vectorField",
-        f"{len(pts)}\n(\n" + "".join(f"({x!r} {y!r} {z!r})\n" for x, y, z in pts) + ")\n",
+        f"{len(pts)}\n(\n"
+        + "".join(f"({x!r} {y!r} {z!r})\n" for x, y, z in pts)
+        + ")\n",
     )
     shutil.copy(out / "c" / "wall_law.swl", case / "constant" / "wall_law.swl")
     text = (out / "openfoam" / STOCHASTIC_FILE).read_text()
@@ -245,9 +251,9 @@ def _run(case: Path, libdir: Path, parallel=False, check=True):
             timeout=600,
         )
         log = proc.stdout + proc.stderr
-        (case / f"log.{cmd[-2] if parallel and cmd[0] == 'mpirun' else cmd[0]}").write_text(
-            log
-        )
+        (
+            case / f"log.{cmd[-2] if parallel and cmd[0] == 'mpirun' else cmd[0]}"
+        ).write_text(log)
         if proc.returncode != 0:
             if check:
                 raise AssertionError(f"{' '.join(cmd)} failed:\n{log[-4000:]}")
@@ -409,7 +415,9 @@ def test_parallel_counters_sum_to_the_serial_statistics(tmp_path, library, law):
     se = math.sqrt(2 * p * (1 - p) / N_PARCELS)
     assert abs(k1 - k2) / N_PARCELS < 4 * se
     p_node = float(_node(law, 1.0).capture_probability)
-    assert abs(k2 / N_PARCELS - p_node) < 4 * math.sqrt(p_node * (1 - p_node) / N_PARCELS)
+    assert abs(k2 / N_PARCELS - p_node) < 4 * math.sqrt(
+        p_node * (1 - p_node) / N_PARCELS
+    )
 
 
 @needs_openfoam
@@ -420,9 +428,14 @@ def test_captured_escape_removes_parcels_and_bad_surface_is_named(
     text = (out / "openfoam" / STOCHASTIC_FILE).read_text()
     text = text.replace("// the mesh's other patches, e.g. outlet { type escape; }", "")
     # the mesh's patches named by regular expression, captured parcels removed
-    good = text.replace("captured    stick;", "captured    escape;").replace(
-        "        formica\n", '        "(formica|ground)"\n'
-    ).replace("    );\n    maxReimpacts", '        "out.*" { type escape; }\n    );\n    maxReimpacts')
+    good = (
+        text.replace("captured    stick;", "captured    escape;")
+        .replace("        formica\n", '        "(formica|ground)"\n')
+        .replace(
+            "    );\n    maxReimpacts",
+            '        "out.*" { type escape; }\n    );\n    maxReimpacts',
+        )
+    )
     case = tmp_path / "escape"
     _case(case, out, 1.0, coeffs=good)
     log, _ = _run(case, libdir)

@@ -65,6 +65,7 @@ __all__ = [
     "STOCHASTIC_FILE",
     "fallback_condition",
     "openfoam_coefficients",
+    "write_demo_case",
     "write_openfoam",
     "write_stochastic_model",
 ]
@@ -477,9 +478,12 @@ def write_stochastic_model(law, out_dir, *, patches=None) -> list[Path]:
         data = src.read_bytes()
         written.append(atomic_write(dst, lambda tmp, b=data: Path(tmp).write_bytes(b)))
     script = (MODEL_SOURCES / BUILD_SCRIPT).read_bytes()
-    path = atomic_write(folder / BUILD_SCRIPT, lambda tmp: Path(tmp).write_bytes(script))
+    path = atomic_write(
+        folder / BUILD_SCRIPT, lambda tmp: Path(tmp).write_bytes(script)
+    )
     path.chmod(path.stat().st_mode | 0o111)  # executable, as `bash build.sh` needs not
     written.append(path)
+    written.extend(write_demo_case(law, folder / DEMO_CASE))
     return written
 
 
@@ -544,3 +548,160 @@ def _stochastic_text(surfaces, names, header) -> str:
 def _quote(text: str) -> str:
     """An OpenFOAM string: double quotes, with ``\\`` and ``"`` escaped."""
     return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+#: The demonstration case written by :func:`write_stochastic_model`.
+DEMO_CASE = "demoCase"
+
+_DEMO_HEAD = (
+    "FoamFile\n{{\n    version     2.0;\n    format      ascii;\n"
+    "    class       {cls};\n    object      {obj};\n}}\n"
+    "// microimpact: demonstration case of the stochasticWallLaw model\n\n"
+)
+
+
+def _demo_condition(ds) -> dict:
+    """The node of the first surface whose capture probability is nearest 0.5,
+    among the oblique angles (below 90 deg) where the table has any; the first
+    such node in (d, v, angle) order on a tie."""
+    p = np.asarray(ds["capture_probability"].isel(surface=0).values, dtype=float)
+    angles = np.asarray(ds["angle_deg"].values, dtype=float)
+    dist = np.abs(p - 0.5)
+    dist[~np.isfinite(dist)] = np.inf
+    if np.any(angles < 90.0):
+        dist[..., angles >= 90.0] = np.inf
+    i, j, k = np.unravel_index(int(np.argmin(dist)), dist.shape)
+    return {
+        "diameter_um": float(ds["diameter_um"].values[i]),
+        "speed_m_s": float(ds["speed_m_s"].values[j]),
+        "angle_deg": float(angles[k]),
+    }
+
+
+def write_demo_case(law, case_dir, *, parcels: int = 1000) -> list[Path]:
+    """Write a small OpenFOAM case that runs the stochastic model: a 0.1 m box
+    (4 x 4 x 4 cells) whose floor (y = 0) is the wall patch of the table's first
+    surface and whose other faces (patch ``outer``) let parcels escape. `parcels`
+    parcels start 1 cm above the floor and strike it once, at the diameter, speed
+    and angle of the node of that surface whose capture probability is nearest
+    0.5 (oblique angles only); no drag, no gravity, under
+    ``icoUncoupledKinematicParcelFoam``; the run ends 4 steps after the strike.
+
+    The case holds ``constant/stochasticWallLawCoeffs`` (the exported
+    coefficients with ``outer { type escape; }`` added) but **not** the table:
+    copy ``c/wall_law.swl`` to ``constant/wall_law.swl`` (docs/wall-law.md).
+    Returns the paths written."""
+    ds = law.dataset
+    surfaces = [str(s) for s in np.asarray(ds["surface"].values).tolist()]
+    names = _patch_names(surfaces, None)
+    wall = names[surfaces[0]]
+    cond = _demo_condition(ds)
+    theta = math.radians(cond["angle_deg"])
+    speed = cond["speed_m_s"]
+    u_n, u_t = speed * math.sin(theta), speed * math.cos(theta)
+    h = 0.01
+    dt = h / u_n / 9.5  # every parcel strikes in step 10
+    steps = 14
+    case = Path(case_dir)
+    files: dict[str, tuple[str, str]] = {}
+    files["system/blockMeshDict"] = (
+        "dictionary",
+        "scale 1;\n\nvertices\n(\n    (0 0 0) (0.1 0 0) (0.1 0.1 0) "
+        "(0 0.1 0)\n    (0 0 0.1) (0.1 0 0.1) (0.1 0.1 0.1) (0 0.1 0.1)\n);\n\n"
+        "blocks ( hex (0 1 2 3 4 5 6 7) (4 4 4) simpleGrading (1 1 1) );\n\n"
+        "boundary\n(\n"
+        f"    {wall} {{ type wall; faces ( (0 1 5 4) ); }}\n"
+        "    outer\n    {\n        type patch;\n        faces ( (3 7 6 2) (0 4 7 3) "
+        "(2 6 5 1) (0 3 2 1) (4 5 6 7) );\n    }\n);\n",
+    )
+    files["system/controlDict"] = (
+        "dictionary",
+        "application     icoUncoupledKinematicParcelFoam;\n"
+        "startFrom       startTime;\nstartTime       0;\nstopAt          endTime;\n"
+        f"endTime         {steps * dt!r};\ndeltaT          {dt!r};\n"
+        f"writeControl    timeStep;\nwriteInterval   {steps};\npurgeWrite      0;\n"
+        "writeFormat     ascii;\nwritePrecision  12;\nwriteCompression off;\n"
+        "timeFormat      general;\ntimePrecision   12;\nrunTimeModifiable no;\n\n"
+        "// the model, built by ../build.sh LIBDIR: LIBDIR on LD_LIBRARY_PATH, or\n"
+        "// the library copied into $FOAM_USER_LIBBIN\n"
+        'libs ("libstochasticWallLaw.so");\n',
+    )
+    files["system/fvSchemes"] = (
+        "dictionary",
+        "ddtSchemes { default none; }\ngradSchemes { default none; }\n"
+        "divSchemes { default none; }\nlaplacianSchemes { default none; }\n"
+        "interpolationSchemes { default linear; }\n",
+    )
+    files["system/fvSolution"] = ("dictionary", "solvers { }\n")
+    files["system/decomposeParDict"] = (
+        "dictionary",
+        "numberOfSubdomains 2;\nmethod          simple;\n"
+        "coeffs { n (1 1 2); delta 0.001; }\n",
+    )
+    files["0/U"] = (
+        "volVectorField",
+        "dimensions      [0 1 -1 0 0 0 0];\ninternalField   uniform (0 0 0);\n"
+        f"boundaryField\n{{\n    {wall} {{ type zeroGradient; }}\n"
+        "    outer { type zeroGradient; }\n}\n",
+    )
+    files["constant/g"] = (
+        "uniformDimensionedVectorField",
+        "dimensions      [0 1 -2 0 0 0 0];\nvalue           (0 0 0);\n",
+    )
+    files["constant/transportProperties"] = (
+        "dictionary",
+        "rhoInf          1.2;\ntransportModel  Newtonian;\nnu              1e-05;\n",
+    )
+    files["constant/turbulenceProperties"] = (
+        "dictionary",
+        "simulationType  laminar;\n",
+    )
+    side = max(1, int(math.ceil(math.sqrt(parcels))))
+    xs = np.linspace(0.005, 0.08, side)
+    zs = np.linspace(0.005, 0.095, side)
+    pts = [(float(x), h, float(z)) for z in zs for x in xs][:parcels]
+    files["constant/kinematicCloudPositions"] = (
+        "vectorField",
+        f"{len(pts)}\n(\n"
+        + "".join(f"({x:.6g} {y:.6g} {z:.6g})\n" for x, y, z in pts)
+        + ")\n",
+    )
+    d_m = cond["diameter_um"] * 1e-6
+    files["constant/kinematicCloudProperties"] = (
+        "dictionary",
+        "solution\n{\n    active          true;\n    coupled         false;\n"
+        "    transient       yes;\n    cellValueSourceCorrection off;\n"
+        "    maxCo           0.3;\n"
+        "    interpolationSchemes { rho cell; U cellPoint; mu cell; }\n"
+        "    integrationSchemes { U Euler; }\n    sourceTerms { schemes { } }\n}\n\n"
+        "constantProperties\n{\n    rho0            2500;\n"
+        "    youngsModulus   1e8;\n    poissonsRatio   0.35;\n}\n\n"
+        "subModels\n{\n    particleForces { }    // no drag, no gravity\n\n"
+        "    injectionModels\n    {\n        model1\n        {\n"
+        "            type            manualInjection;\n"
+        "            massTotal       0;\n            parcelBasisType fixed;\n"
+        "            nParticle       1;\n            SOI             0;\n"
+        '            positionsFile   "kinematicCloudPositions";\n'
+        f"            U0              ({u_t:.12g} {-u_n:.12g} 0);  "
+        f"// {speed:g} m/s at {cond['angle_deg']:g} deg\n"
+        "            sizeDistribution\n            {\n"
+        "                type fixedValue;\n"
+        f"                fixedValueDistribution {{ value {d_m:.12g}; }}  "
+        f"// {cond['diameter_um']:g} um\n            }}\n        }}\n    }}\n\n"
+        "    dispersionModel none;\n"
+        "    patchInteractionModel stochasticWallLaw;\n"
+        f'    #include "{STOCHASTIC_FILE}"\n\n'
+        "    heatTransferModel none;\n    surfaceFilmModel none;\n"
+        "    stochasticCollisionModel none;\n    collisionModel none;\n"
+        "    radiation off;\n}\n\ncloudFunctions { }\n",
+    )
+    coeffs = _stochastic_text(surfaces, names, _provenance(ds)).replace(
+        "        // the mesh's other patches, e.g. outlet { type escape; }\n",
+        "        outer { type escape; }\n",
+    )
+    written = []
+    for rel, (cls, body) in files.items():
+        text = _DEMO_HEAD.format(cls=cls, obj=Path(rel).name) + body
+        written.append(_write_text(case / rel, text))
+    written.append(_write_text(case / "constant" / STOCHASTIC_FILE, coeffs))
+    return written
