@@ -28,11 +28,11 @@ import pytest
 
 pytest.importorskip("xarray")
 
-from microimpact.wall_law.openfoam import (  # noqa: E402
+from microimpact.wall_law.openfoam import (
     CASE_TABLE,
+    DEMO_CASE,
     STOCHASTIC_FILE,
     write_openfoam,
-    write_stochastic_model,
 )
 
 SOLVER = "icoUncoupledKinematicParcelFoam"
@@ -122,8 +122,9 @@ def _case(
     max_reimpacts=None,
 ):
     """A 0.1 m box (4 x 4 x 4 cells): the floor (y = 0) a wall named after the
-    table's surface (formica), the other faces one patch (outer). N_PARCELS parcels start 1 cm above the floor on a grid and fly at
-    `speed` and ANGLE_DEG towards it; all strike at step 10 of 14. The exported
+    table's surface (formica), the other faces one patch (outer). N_PARCELS
+    parcels start 1 cm above the floor on a grid and fly at `speed` and
+    ANGLE_DEG towards it; all strike at step 10 of 14. The exported
     stochasticWallLawCoeffs is copied into constant/ with the mesh's other patch
     added (`coeffs` replaces it) and the table into constant/wall_law.swl."""
     for sub in ("0", "constant", "system"):
@@ -173,7 +174,8 @@ def _case(
         "0/U",
         "volVectorField",
         "dimensions [0 1 -1 0 0 0 0];\ninternalField uniform (0 0 0);\n"
-        "boundaryField { formica { type zeroGradient; } outer { type zeroGradient; } }\n",
+        "boundaryField { formica { type zeroGradient; } "
+        "outer { type zeroGradient; } }\n",
     )
     put(
         "constant/g",
@@ -186,7 +188,7 @@ def _case(
         "rhoInf 1.2; transportModel Newtonian; nu 1e-05;\n",
     )
     put("constant/turbulenceProperties", "dictionary", "simulationType laminar;\n")
-    side = int(round(math.sqrt(N_PARCELS / 2)))  # 63 x 127 > N_PARCELS
+    side = round(math.sqrt(N_PARCELS / 2))  # 63 x 127 > N_PARCELS
     xs = np.linspace(0.005, 0.08, side)
     zs = np.linspace(0.004, 0.096, 2 * side + 1)
     pts = [(float(x), h, float(z)) for z in zs for x in xs][:N_PARCELS]
@@ -273,8 +275,8 @@ def _counters(log: str) -> dict:
         log,
     )
     fates = re.findall(
-        r"Parcel fate: patch \(number, mass\) (\S+)\s*\n\s*- escape\s*=\s*(\d+), \S+\s*\n"
-        r"\s*- stick\s*=\s*(\d+),",
+        r"Parcel fate: patch \(number, mass\) (\S+)\s*\n"
+        r"\s*- escape\s*=\s*(\d+), \S+\s*\n\s*- stick\s*=\s*(\d+),",
         log,
     )
     assert first and rest, f"no stochasticWallLaw summary in the log:\n{log[-3000:]}"
@@ -343,7 +345,7 @@ def test_capture_at_a_node_and_mean_rebound(tmp_path, library, law):
     assert 0.3 < p < 0.9  # a node where capture is far from 0 and 1
     # maxReimpacts 0: a rebound back into the wall is a forced capture, so the
     # rebounds are the reservoir's samples with e_n >= 0, drawn uniformly
-    case, c, u_n, u_t = _run_law(tmp_path, library, 1.0, max_reimpacts=0)
+    case, c, u_n, _ = _run_law(tmp_path, library, 1.0, max_reimpacts=0)
     assert c["first"] == N_PARCELS == c["strikes"]
     se = math.sqrt(p * (1 - p) / N_PARCELS)
     assert abs(c["captured_first"] / c["first"] - p) < 4 * se
@@ -483,3 +485,18 @@ def test_export_writes_the_model_and_a_case_relative_table(tmp_path, law):
     assert (folder / "stochasticWallLaw" / "swl.c").read_bytes() == (
         Path(__file__).parents[1] / "src/microimpact/wall_law/c/swl.c"
     ).read_bytes()
+
+
+@needs_openfoam
+def test_demo_case_runs_as_the_docs_say(tmp_path, library):
+    """docs/wall-law.md: copy demoCase, put the table into its constant/, run
+    blockMesh and the solver with the library on LD_LIBRARY_PATH."""
+    out, libdir, _ = library
+    case = tmp_path / "case"
+    shutil.copytree(out / "openfoam" / DEMO_CASE, case)
+    shutil.copy(out / "c" / "wall_law.swl", case / "constant" / "wall_law.swl")
+    log, _ = _run(case, libdir)
+    c = _counters(log)
+    assert c["first"] == c["strikes"] == 1000
+    # the demo's node captures about half the parcels (the node nearest 0.5)
+    assert 0.2 < c["captured_first"] / c["first"] < 0.8

@@ -656,7 +656,7 @@ def write_demo_case(law, case_dir, *, parcels: int = 1000) -> list[Path]:
         "dictionary",
         "simulationType  laminar;\n",
     )
-    side = max(1, int(math.ceil(math.sqrt(parcels))))
+    side = max(1, math.ceil(math.sqrt(parcels)))
     xs = np.linspace(0.005, 0.08, side)
     zs = np.linspace(0.005, 0.095, side)
     pts = [(float(x), h, float(z)) for z in zs for x in xs][:parcels]
