@@ -500,3 +500,39 @@ def test_demo_case_runs_as_the_docs_say(tmp_path, library):
     assert c["first"] == c["strikes"] == 1000
     # the demo's node captures about half the parcels (the node nearest 0.5)
     assert 0.2 < c["captured_first"] / c["first"] < 0.8
+
+
+def _script(tmp_path, law):
+    out = tmp_path / "law"
+    write_openfoam(law, out)
+    return out / "openfoam" / "build.sh"
+
+
+def test_build_script_usage_is_exit_2(tmp_path, law):
+    proc = subprocess.run(
+        ["bash", str(_script(tmp_path, law))], capture_output=True, text=True
+    )
+    assert proc.returncode == 2
+    assert "usage: bash build.sh LIBDIR" in proc.stderr
+
+
+def test_build_script_names_a_missing_openfoam(tmp_path, law):
+    """Without OpenFOAM on the PATH (only the few tools the script needs first):
+    exit 3 and a message that names what is missing."""
+    tools = tmp_path / "bin"
+    tools.mkdir()
+    for tool in ("dirname", "mkdir", "sed", "cat"):
+        found = shutil.which(tool)
+        assert found is not None
+        (tools / tool).symlink_to(found)
+    env = {"PATH": str(tools), "HOME": str(tmp_path)}
+    proc = subprocess.run(
+        [shutil.which("bash"), str(_script(tmp_path, law)), str(tmp_path / "lib")],
+        capture_output=True,
+        text=True,
+        env=env,
+    )
+    assert proc.returncode == 3, proc.stdout + proc.stderr
+    assert "no OpenFOAM on the PATH" in proc.stderr
+    assert "apt-get install openfoam" in proc.stderr
+    assert not (tmp_path / "lib" / "libstochasticWallLaw.so").exists()
