@@ -26,7 +26,7 @@ from ..engine.statistics import wilson_interval
 from ..errors import DataFormatError
 from ..scenario.wall_law import REBOUND_VARIABLES, RESERVOIR_VARIABLES
 from .export_c import write_c
-from .openfoam import write_openfoam
+from .openfoam import write_openfoam, write_stochastic_model
 
 __all__ = ["WallLaw", "WallLawSample", "wall_law_dataset"]
 
@@ -501,8 +501,6 @@ class WallLaw:
                     RuntimeWarning,
                     stacklevel=2,
                 )
-                from .openfoam import write_stochastic_model
-
                 written.extend(write_stochastic_model(self, out))
         return written
 

@@ -56,8 +56,10 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import __version__
 from .._core.files import atomic_write
 from .._core.validation import did_you_mean
+from .export_c import C_SOURCES
 
 __all__ = [
     "LOCAL_INTERACTION_FILE",
@@ -272,8 +274,6 @@ def _fmt(x: float) -> str:
 
 def _provenance(ds) -> list[str]:
     """The first lines of every file's header: versions, scenario, seed."""
-    from .. import __version__
-
     attrs = ds.attrs
     scenario = str(attrs.get("scenario", "") or "")
     digest = hashlib.sha256(scenario.encode()).hexdigest()[:16] if scenario else "-"
@@ -459,8 +459,6 @@ def write_stochastic_model(law, out_dir, *, patches=None) -> list[Path]:
     ``LIBDIR/libstochasticWallLaw.so``). Needs no condition: every node is used.
     `patches` maps surfaces to mesh patch names as in :func:`write_openfoam`.
     Returns the paths written."""
-    from .export_c import C_SOURCES
-
     ds = law.dataset
     surfaces = [str(s) for s in np.asarray(ds["surface"].values).tolist()]
     names = _patch_names(surfaces, patches)

@@ -28,6 +28,7 @@ import pytest
 
 pytest.importorskip("xarray")
 
+from microimpact.wall_law.export_c import C_SOURCES
 from microimpact.wall_law.openfoam import (
     CASE_TABLE,
     DEMO_CASE,
@@ -483,7 +484,7 @@ def test_export_writes_the_model_and_a_case_relative_table(tmp_path, law):
         assert (folder / "stochasticWallLaw" / source).is_file()
     # the sampler in the model's folder is the one in c/
     assert (folder / "stochasticWallLaw" / "swl.c").read_bytes() == (
-        Path(__file__).parents[1] / "src/microimpact/wall_law/c/swl.c"
+        C_SOURCES / "swl.c"
     ).read_bytes()
 
 
