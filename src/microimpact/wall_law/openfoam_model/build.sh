@@ -176,7 +176,7 @@ while IFS= read -r f; do
             gcc "${cflags[@]}" -I"$model" -c "$model/$f" -o "$objdir/${f%.c}.o" \
                 || { printf 'build.sh: error: compiling %s failed\n' "$f" >&2; exit 1; } ;;
         *.C)
-            say "step: g++ ${f} (about a minute)"
+            say "step: g++ ${f} (up to a minute)"
             g++ "${cxxflags[@]}" "${incs[@]}" -c "$model/$f" -o "$objdir/${f%.C}.o" \
                 || { printf 'build.sh: error: compiling %s failed\n' "$f" >&2; exit 1; } ;;
         *) continue ;;
