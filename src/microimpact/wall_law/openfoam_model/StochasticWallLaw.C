@@ -148,6 +148,8 @@ void Foam::StochasticWallLaw<CloudType>::removeParcel
         keepParticle = false;
         nEscape_[entryi]++;
         massEscape_[entryi] += dm;
+        // a removed parcel strikes no more: forget it
+        struck_.erase(labelPair(p.origProc(), p.origId()));
     }
     else
     {
