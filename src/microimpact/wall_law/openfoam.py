@@ -35,10 +35,13 @@ Two kinds of file:
   and ``PatchInteractionModel::wordToInteractionType`` knows ``none``, ``rebound``,
   ``stick`` and ``escape``. Hence ``e = mean e_n`` and ``mu = 1 - mean e_t``.
 
-* **The stochastic model's dictionary** (``stochasticWallLawCoeffs``), for an
-  out-of-tree patch interaction model that samples the C table
-  (``c/wall_law.swl``, read by ``c/swl.h``'s ``swl_rebound_velocity``) at every wall
-  strike. Its keys are described in the file itself and in docs/wall-law.md.
+* **The stochastic model**: the C++ patch interaction model ``stochasticWallLaw``
+  (shipped in ``openfoam_model/``, written to ``openfoam/stochasticWallLaw/`` with
+  ``build.sh`` and a demo case), which samples the C table (``c/wall_law.swl``,
+  through ``c/swl.h``'s ``swl_rebound_velocity``) at every wall strike, and its
+  coefficients ``stochasticWallLawCoeffs``, whose table path is the case's
+  ``$FOAM_CASE/constant/wall_law.swl``. The keys are described in the file itself
+  and in docs/wall-law.md.
 
 The condition of the fallback: on each axis the node nearest the middle of the
 axis' range, measured in the axis' interpolation variable (log d, log v, angle in
@@ -76,7 +79,7 @@ __all__ = [
 LOCAL_INTERACTION_FILE = "localInteractionCoeffs"
 #: The same patch entries alone, to ``#include`` inside the user's ``patches ( )``.
 LOCAL_PATCHES_FILE = "localInteractionPatches"
-#: The out-of-tree stochastic model's coefficients.
+#: The stochastic model's coefficients (the model: ``stochasticWallLaw/``).
 STOCHASTIC_FILE = "stochasticWallLawCoeffs"
 #: The binary table of the C sampler, relative to the wall law's folder.
 C_TABLE = ("c", "wall_law.swl")
@@ -377,8 +380,10 @@ def write_openfoam(
       at one condition, for OpenFOAM's ``localInteraction`` model;
     * ``localInteractionPatches``: the same patch entries alone, to ``#include``
       inside a ``patches ( ... )`` list that also names the mesh's other patches;
-    * ``stochasticWallLawCoeffs``: the dictionary of an out-of-tree model that
-      samples ``c/wall_law.swl`` at every wall strike.
+    * the stochastic model (:func:`write_stochastic_model`):
+      ``stochasticWallLawCoeffs`` (its coefficients), ``stochasticWallLaw/`` (the
+      C++ patch interaction model, which samples the table at every wall strike),
+      ``build.sh`` and ``demoCase/``.
 
     Parameters
     ----------
