@@ -101,6 +101,12 @@ api="$(printf '%s' "$srcver" | sed -n 's/^\([0-9]\{4\}\).*/\1/p')"
 [ -n "$api" ] || missing "cannot read the OpenFOAM API (e.g. 1912) from the source version $srcver"
 
 cache="${MICROIMPACT_OPENFOAM_SRC:-${XDG_CACHE_HOME:-${HOME:-/tmp}/.cache}/microimpact/openfoam-$srcver}"
+mkdir -p -- "$(dirname -- "$cache")" || missing "cannot create the cache folder $(dirname -- "$cache")"
+# one build at a time fills the cache (parallel test workers, two users' shells)
+exec 9> "$cache.lock" || missing "cannot write the cache lock $cache.lock"
+if command -v flock >/dev/null 2>&1; then
+    flock 9
+fi
 if [ -f "$cache/.complete" ]; then
     say "OpenFOAM $api sources: cached in $cache"
 else
@@ -158,6 +164,7 @@ for d in "${dirs[@]}"; do
     fi
     incs+=(-I"$src/$d")
 done
+exec 9>&-  # the cache is complete: release the lock
 
 # wmake/rules of the release: linux64Gcc c++ + c++Opt + General/Gcc/c++, DP, Int32
 cxxflags=(-std=c++11 -m64 -pthread "-DOPENFOAM=$api" -DWM_DP -DWM_LABEL_SIZE=32
