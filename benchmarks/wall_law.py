@@ -4,6 +4,7 @@ nodes against direct runs of the engine (docs/wall-law.md).
     python benchmarks/wall_law.py build         # seconds for 20^3 nodes x 4,000
     python benchmarks/wall_law.py interpolation # error at mid-cell points
     python benchmarks/wall_law.py spacing       # the speed step a tolerance needs
+    python benchmarks/wall_law.py axes          # diameter step: speed vs v/v_c(d)
 
 The interpolation study builds tables of one preset's physics (sst76 Formica) at
 three node spacings and, at the centres of 16 random cells of each spacing and at 16
@@ -180,15 +181,72 @@ def speed_spacing(diameter_um: float = 52.8, samples: int = 20_000) -> list[dict
     return rows
 
 
+def speed_axes(
+    d_mid_um: float = 52.8,
+    samples: int = 10_000,
+    angles=(90.0, 45.0, 20.0),
+    d_ratios=(1.1, 1.35, 1.82, 3.0),
+) -> list[dict]:
+    """Capture interpolation error across one diameter cell, for a table whose
+    speed axis is the speed v and for one whose axis is the reduced speed
+    r = v / v_c(d) (the nodes of each diameter at r v_c(d)).
+
+    At the cell's middle diameter (log scale) d_mid, for speeds v on a dense grid
+    (r = v / v_c(d_mid) from 0.3 to 30), the direct capture probability p(d_mid, v)
+    against the sampler's mix at t = 1/2 of the two diameter nodes d_mid / sqrt(q)
+    and d_mid sqrt(q): at the same v (speed axis) or at the same r (reduced axis).
+    Every direct run uses the same seed (common random numbers), so the
+    difference is the interpolation's, not the Monte Carlo noise. Along the speed
+    axis at a fixed diameter the two axes are the same up to a scale (ratios of
+    r are ratios of v): see ``spacing``."""
+    scenario = load_preset(PRESET)
+    scenario = scenario.with_options(surfaces=scenario.surfaces[:1])  # Formica
+
+    def v_c(d_um):
+        return float(scenario.coefficients.v_c(np.array([d_um * 1e-6]))[0])
+
+    def p(d, v, a):
+        return _direct(scenario, d, v, a, samples, 3)[0]
+
+    r_grid = np.geomspace(0.3, 30.0, 81)
+    rows = []
+    for angle in angles:
+        mid = {r: p(d_mid_um, r * v_c(d_mid_um), angle) for r in r_grid}
+        for q in d_ratios:
+            d_lo, d_hi = d_mid_um / math.sqrt(q), d_mid_um * math.sqrt(q)
+            err_v, err_r = [], []
+            for r in r_grid:
+                v = r * v_c(d_mid_um)
+                err_v.append(0.5 * (p(d_lo, v, angle) + p(d_hi, v, angle)) - mid[r])
+                mix_r = 0.5 * (
+                    p(d_lo, r * v_c(d_lo), angle) + p(d_hi, r * v_c(d_hi), angle)
+                )
+                err_r.append(mix_r - mid[r])
+            rows.append(
+                {
+                    "angle_deg": angle,
+                    "d_ratio": q,
+                    "speed_axis_capture_max_err": round(float(np.abs(err_v).max()), 4),
+                    "reduced_axis_capture_max_err": round(
+                        float(np.abs(err_r).max()), 4
+                    ),
+                }
+            )
+            print(json.dumps(rows[-1]), flush=True)
+    return rows
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("what", choices=("build", "interpolation", "spacing"))
+    p.add_argument("what", choices=("build", "interpolation", "spacing", "axes"))
     p.add_argument("--workers", type=int, default=2)
     args = p.parse_args()
     if args.what == "build":
         print(json.dumps(build_seconds(args.workers)))
     elif args.what == "spacing":
         speed_spacing()
+    elif args.what == "axes":
+        speed_axes()
     else:
         interpolation()
 

@@ -269,10 +269,11 @@ def _patches(path):
 def test_default_condition_e_and_mu_match_the_rebounds(tmp_path, name):
     ds, raw = make_dataset()
     files = write_openfoam(_law(ds), tmp_path)
-    assert sorted(p.name for p in files) == sorted(
-        [LOCAL_INTERACTION_FILE, LOCAL_PATCHES_FILE, STOCHASTIC_FILE]
+    top = [p for p in files if p.parent == tmp_path / "openfoam"]
+    assert sorted(p.name for p in top) == sorted(
+        [LOCAL_INTERACTION_FILE, LOCAL_PATCHES_FILE, STOCHASTIC_FILE, "build.sh"]
     )
-    assert all(p.parent == tmp_path / "openfoam" for p in files)
+    assert all(p.is_relative_to(tmp_path / "openfoam") for p in files)
     # middle of each axis: log d -> 3 um (nearer sqrt(10) than 10), log v -> a tie
     # between 1 and 5 at sqrt(5), the lower node; angle 37.5 -> 30 deg
     node = (1, 0, 1)
@@ -426,9 +427,9 @@ def test_stochastic_dictionary_keys(tmp_path):
     text = (tmp_path / "law" / "openfoam" / STOCHASTIC_FILE).read_text()
     d = parse_foam(text)["stochasticWallLawCoeffs"]
     assert set(d) == {"table", "patches", "maxReimpacts", "warnClamped"}
-    table = d["table"][1]
-    assert Path(table).is_absolute()
-    assert Path(table) == (tmp_path / "law" / "c" / "wall_law.swl").resolve()
+    # the case's copy of the table, not a path of the machine that built it
+    assert d["table"] == ("string", "$FOAM_CASE/constant/wall_law.swl")
+    assert str(tmp_path) not in text
     assert dict(d["patches"]) == {
         "steel": {"surface": ("string", "steel"), "captured": "stick"},
         "glass": {"surface": ("string", "glass"), "captured": "stick"},
@@ -451,8 +452,17 @@ def test_rewrite_is_atomic_and_leaves_no_temporary_files(tmp_path):
     write_openfoam(_law(ds), tmp_path, angle_deg=60)
     names = sorted(p.name for p in (tmp_path / "openfoam").iterdir())
     assert names == sorted(
-        [LOCAL_INTERACTION_FILE, LOCAL_PATCHES_FILE, STOCHASTIC_FILE]
+        [
+            LOCAL_INTERACTION_FILE,
+            LOCAL_PATCHES_FILE,
+            STOCHASTIC_FILE,
+            "build.sh",
+            "demoCase",
+            "stochasticWallLaw",
+        ]
     )
+    model = tmp_path / "openfoam" / "stochasticWallLaw"
+    assert not [p for p in model.rglob("*") if p.name.endswith(".tmp")]
     assert "angle 60 deg" in (tmp_path / "openfoam" / LOCAL_PATCHES_FILE).read_text()
 
 
@@ -716,8 +726,9 @@ def test_openfoam_reads_the_stochastic_dictionary(tmp_path):
         assert proc.returncode == 0, proc.stdout + proc.stderr
         return proc.stdout.strip()
 
-    table = (tmp_path / "c" / "wall_law.swl").resolve().as_posix()
-    assert entry("stochasticWallLawCoeffs/table") == f'"{table}"'
+    assert entry("stochasticWallLawCoeffs/table") == (
+        '"$FOAM_CASE/constant/wall_law.swl"'
+    )
     patches = entry("stochasticWallLawCoeffs/patches")
     assert re.fullmatch(
         r'\(\s*steel\s*\{\s*surface\s*"steel"\s*;\s*captured\s*stick\s*;\s*\}'

@@ -28,7 +28,9 @@ from .openfoam import (
     STOCHASTIC_FILE,
     fallback_condition,
     openfoam_coefficients,
+    write_demo_case,
     write_openfoam,
+    write_stochastic_model,
 )
 
 __all__ = [
@@ -46,5 +48,7 @@ __all__ = [
     "wall_law_dataset",
     "write_binary",
     "write_c",
+    "write_demo_case",
     "write_openfoam",
+    "write_stochastic_model",
 ]

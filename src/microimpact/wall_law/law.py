@@ -26,7 +26,7 @@ from ..engine.statistics import wilson_interval
 from ..errors import DataFormatError
 from ..scenario.wall_law import REBOUND_VARIABLES, RESERVOIR_VARIABLES
 from .export_c import write_c
-from .openfoam import write_openfoam
+from .openfoam import write_openfoam, write_stochastic_model
 
 __all__ = ["WallLaw", "WallLawSample", "wall_law_dataset"]
 
@@ -497,10 +497,11 @@ class WallLaw:
                 if condition:  # the caller's condition: their error to fix
                     raise
                 warnings.warn(
-                    f"no OpenFOAM dictionaries written: {err}",
+                    f"no OpenFOAM localInteraction dictionaries written: {err}",
                     RuntimeWarning,
                     stacklevel=2,
                 )
+                written.extend(write_stochastic_model(self, out))
         return written
 
     def _write_netcdf(self, path):
