@@ -452,7 +452,7 @@ def test_without_any_unit_the_error_names_the_arguments_and_following_it_works(
     assert prof.metadata["x_unit_from"] == "dx_um"
     assert_allclose(prof.z, [1e-9, 2e-9], rtol=1e-12)
     h = write_file("h.txt", "1\n2\n3\n")
-    with pytest.raises(ProfileFormatError, match="no length unit for z.*`z_unit`"):
+    with pytest.raises(ProfileFormatError, match=r"no length unit for z.*`z_unit`"):
         read_profile(h, dx_um=0.5)
     assert_allclose(read_profile(h, dx_um=0.5, z_unit="nm").z[-1], 3e-9, rtol=1e-12)
 
