@@ -204,6 +204,17 @@ def _condition_one(p: Profile, detrend_method, cutoff) -> Profile:
     if detrend_method is not None:
         z = detrend(p.x, z, method=detrend_method)
     if cutoff is not None:
+        if not p.is_uniform:
+            d = np.diff(p.x)
+            where = "" if p.scan is None else f" (scan {p.scan!r})"
+            raise ProfileFormatError(
+                "the Gaussian filter needs a uniformly spaced scan; this one"
+                f"{where} has intervals from {m_to_um(d.min()):.4g} to "
+                f"{m_to_um(d.max()):.4g} µm; allowed: no cutoff (leave `cutoff_um` "
+                "out; detrending works on any spacing), or a uniformly resampled scan",
+                source=p.source,
+                field="cutoff_um",
+            )
         z = gaussian_filter_profile(p.x, z, cutoff=cutoff)
     if z is p.z:
         return p
