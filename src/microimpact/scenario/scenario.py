@@ -17,6 +17,7 @@ from typing import Any
 
 from .._core.validation import did_you_mean
 from ..errors import ScenarioError
+from ..io.provenance import file_sha256
 from .file import PRESETS, parse_scenario, preset_path, read_toml, read_toml_text
 from .outputs import Outputs
 from .parts import (
@@ -246,7 +247,11 @@ class Scenario:
             "confidence": self.confidence,
             "reference_angle_deg": self.reference_angle_deg,
             "capture_quantiles": list(self.capture_quantiles),
-            "source": self.source,
+            # the file's name and hash, never the folders of the machine that ran it
+            "source": None if self.source is None else Path(str(self.source)).name,
+            "source_sha256": None
+            if self.source is None
+            else file_sha256(self.source),
         }
 
 

@@ -29,6 +29,7 @@ Factories
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -266,6 +267,25 @@ def areal_angles_from_height_map(
         params["step_um"] = float(step_um)
     if source is None:
         source = getattr(height_map, "source", None)
+    meta = getattr(height_map, "metadata", {}) or {}
+    if source is not None and os.path.exists(str(source)):
+        from ..io.provenance import file_provenance
+
+        prov = file_provenance(source)
+        source = prov["file"]  # the name only: no folders in any output
+        params["sha256"] = prov["sha256"]
+    from .angles import data_provenance
+
+    params.update(data_provenance(meta, ("xy_unit", "z_unit")))
+    for key in ("dx", "dy"):
+        if meta.get(f"{key}_from"):
+            params[f"{key}_um"] = (
+                f"{getattr(height_map, key) * 1e6:.6g} ({meta[f'{key}_from']})"
+            )
+    if meta.get("reader"):
+        params["reader"] = f"{meta['reader']} ({meta.get('format')})"
+    if "masked_fraction" in meta:
+        params["masked_fraction"] = float(meta["masked_fraction"])
     return areal_angles_from_facets(facets, source=source, params=params)
 
 
