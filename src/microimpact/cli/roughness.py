@@ -116,7 +116,7 @@ def cli_action(args) -> int:
         n=args.n_angles,
         rng=args.seed,
         metadata={
-            "source": ", ".join(map(str, args.profile)),
+            "source": ", ".join(p.name for p in args.profile),
             "contact_length_um": args.contact_length_um,
             "method": args.method,
             "detrend": args.detrend,
@@ -128,7 +128,7 @@ def cli_action(args) -> int:
     snippet = surface_snippet(
         "angles.txt",
         name="measured",
-        comment=f"roughness angles of {', '.join(map(str, args.profile))} "
+        comment=f"roughness angles of {', '.join(p.name for p in args.profile)} "
         f"({args.method}, contact length {args.contact_length_um:g} um); the path "
         "is relative to the scenario file: copy angles.txt next to it",
     )
