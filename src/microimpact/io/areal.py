@@ -546,7 +546,7 @@ def read_height_map(
         from .profiles import instrument_reader
 
         reader = instrument_reader(path)
-        if reader is None or int(reader.default_channel.dim) != 2:
+        if reader is None:
             raise ours from None
         own = reader.default_channel.unit is not None or "UTF-8" in ours.message
         given = any(v is not None for v in (dx_um, dy_um, z_unit))

@@ -795,8 +795,7 @@ def _read_any(
             raise ours from None
     meta.update(format="text", reader="microimpact", comments=comments, **cols)
     if cols["x_unit"] is None or cols["z_unit"] is None:
-        # structural problems (order, too few points) first, then the unit
-        _build_profiles(path, scans, xf=1.0, zf=1.0, dx=dx, meta=meta)
+        # an export whose header (in comments) gives the unit: SurfaceTopography
         reader = instrument_reader(path)
         if reader is not None and reader.default_channel.unit is not None:
             from .instruments import read_instrument
@@ -809,6 +808,8 @@ def _read_any(
                 dx_um=dx_um,
                 reader=reader,
             )
+        # structural problems (order, too few points) first, then the unit
+        _build_profiles(path, scans, xf=1.0, zf=1.0, dx=dx, meta=meta)
         axes = [a for a, k in (("x", "x_unit"), ("z", "z_unit")) if cols[k] is None]
         raise ProfileFormatError(
             f"the file gives no length unit for {' and '.join(axes)}; give `unit` "

@@ -56,7 +56,6 @@ from .._core.files import atomic_write, data_lines, parse_number, read_lines
 from .._core.json import dumps
 from .._core.validation import as_float_array, check_choice, check_int, check_positive
 from ..errors import DataFormatError, ProfileFormatError
-from ..io.provenance import file_sha256
 from ..io.profiles import (
     UNIFORM_RTOL,
     Profile,
@@ -65,6 +64,7 @@ from ..io.profiles import (
     check_xz,
     sources_of,
 )
+from ..io.provenance import file_sha256
 from ..units import m_to_um, rad_to_deg, um_to_m
 
 __all__ = [
@@ -256,13 +256,16 @@ def condition(profile_or_set, *, detrend="line", cutoff=None) -> ProfileSet:
 def _segment_means(x, z, length, min_coverage=0.5):
     """Means of the heights in complete segments of `length`, from the scan start.
 
-    Each sample stands for its cell (:func:`cell_weights`: ``[x - dx/2, x + dx/2)``
-    on a uniform scan); segment ``k`` holds the samples whose positions fall in
-    ``[a + kL, a + (k+1)L)`` with ``a`` the start of the first cell, and its mean
-    weights each measured sample by the length of its cell (the real positions of
-    a non-uniform scan). A segment with less than `min_coverage` of its length
-    measured (missing points, gaps) gives ``nan``, as a height-map patch does.
+    Uniform scan: each sample stands for ``[x - dx/2, x + dx/2)``; segment ``k``
+    holds the samples whose positions fall in ``[a + kL, a + (k+1)L)`` with ``a``
+    the start of the first cell, and its mean is their mean. Non-uniform scan:
+    the mean of the piecewise-linear profile through the real positions over
+    ``[x0 + kL, x0 + (k+1)L)`` (:func:`_segment_means_nonuniform`). A segment with
+    less than `min_coverage` of its length measured (missing points, gaps) gives
+    ``nan``, as a height-map patch does.
     """
+    if not _is_uniform(x):
+        return _segment_means_nonuniform(x, z, length, min_coverage)
     w = cell_weights(x)
     start = x[0] - 0.5 * w[0]
     span = x[-1] + 0.5 * w[-1] - start
@@ -277,6 +280,30 @@ def _segment_means(x, z, length, min_coverage=0.5):
     with np.errstate(invalid="ignore", divide="ignore"):
         means = sums / covered
     return np.where(covered >= min_coverage * length * (1 - 1e-9), means, np.nan)
+
+
+def _segment_means_nonuniform(x, z, length, min_coverage):
+    """Segment means of a non-uniform scan from its real positions: the mean of
+    the piecewise-linear profile over ``[x0 + kL, x0 + (k+1)L)`` (exact for a
+    ramp), over the intervals whose two ends are measured; ``nan`` where less than
+    `min_coverage` of the segment is measured."""
+    d = np.diff(x)
+    a, b = z[:-1], z[1:]
+    ok = np.isfinite(a) & np.isfinite(b)
+    a0, b0, dd = np.where(ok, a, 0.0), np.where(ok, b, 0.0), np.where(ok, d, 0.0)
+    integral = np.concatenate([[0.0], np.cumsum(0.5 * (a0 + b0) * d)])
+    measured = np.concatenate([[0.0], np.cumsum(dd)])
+    nseg = math.floor((x[-1] - x[0]) / length + 1e-9)
+    if nseg < 1:
+        return np.empty(0)
+    edges = np.minimum(x[0] + np.arange(nseg + 1) * length, x[-1])
+    i = np.clip(np.searchsorted(x, edges, side="right") - 1, 0, x.size - 2)
+    t = (edges - x[i]) / d[i]
+    at = integral[i] + d[i] * (a0[i] * t + 0.5 * (b0[i] - a0[i]) * t * t)
+    cover = np.diff(measured[i] + dd[i] * t)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        means = np.diff(at) / cover
+    return np.where(cover >= min_coverage * length * (1 - 1e-9), means, np.nan)
 
 
 def _check_contact_length(x, length, *, source=None, scan=None):
