@@ -59,7 +59,9 @@ def _cf_messages(path, tmp_path):
 
     def msgs(level):
         return [
-            f"{r['name']}: {m}" for r in report[f"{level}_priorities"] for m in r["msgs"]
+            f"{r['name']}: {m}"
+            for r in report[f"{level}_priorities"]
+            for m in r["msgs"]
         ]
 
     return msgs("high"), msgs("medium")
@@ -79,7 +81,8 @@ def _all_text(path) -> str:
 def outputs(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("cf")
     (tmp / "scan.csv").write_text(
-        "x_um,z_nm\n" + "".join(f"{i * 0.5},{(i * 37) % 101 - 50}\n" for i in range(800))
+        "x_um,z_nm\n"
+        + "".join(f"{i * 0.5},{(i * 37) % 101 - 50}\n" for i in range(800))
     )
     (tmp / "study.toml").write_text(SCENARIO)
     run, law = tmp / "run", tmp / "law"

@@ -49,10 +49,8 @@ def test_contact_length_below_the_spacing_is_refused_naming_both_numbers():
 
 def test_metres_typed_as_micrometres_on_the_cli_is_a_clear_exit_2(tmp_path, capsys):
     scan = _scan(tmp_path / "scan.csv")
-    code = main(
-        ["roughness", str(scan), "--out", str(tmp_path / "o")]
-        + ["--contact-length-um", "20e-6"]
-    )
+    args = ["roughness", str(scan), "--out", str(tmp_path / "o")]
+    code = main([*args, "--contact-length-um", "20e-6"])
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1
     assert "2e-05 µm" in err and "0.5 µm" in err and "internal error" not in err

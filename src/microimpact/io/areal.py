@@ -446,7 +446,7 @@ def _read_x3p(path) -> HeightMap:
 def _read_surfacetopography(path, *, dx_um=None, dy_um=None, z_unit=None, reader=None):
     from .instruments import read_instrument
 
-    return read_instrument(
+    data = read_instrument(
         path,
         want="map",
         z_unit=None if z_unit is None else (z_unit, "z_unit"),
@@ -454,6 +454,7 @@ def _read_surfacetopography(path, *, dx_um=None, dy_um=None, z_unit=None, reader
         dy_um=dy_um,
         reader=reader,
     )
+    return HeightMap(data.z, data.dx, data.dy, data.metadata)
 
 
 # --------------------------------------------------------------------------- API

@@ -25,13 +25,39 @@ from __future__ import annotations
 import os
 import warnings
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
 from ..errors import ProfileFormatError
 from ..units import LENGTH_UNITS
 
-__all__ = ["read_instrument", "surfacetopography_unit_factor"]
+__all__ = [
+    "InstrumentMap",
+    "InstrumentScan",
+    "read_instrument",
+    "surfacetopography_unit_factor",
+]
+
+
+class InstrumentScan(NamedTuple):
+    """One line scan: positions and heights [m] (NaN: missing) and its metadata;
+    :mod:`microimpact.io.profiles` makes a ``Profile`` of it."""
+
+    x: np.ndarray
+    z: np.ndarray
+    metadata: dict
+
+
+class InstrumentMap(NamedTuple):
+    """A height map ``z[y, x]`` [m] (NaN: missing), its spacings [m] and its
+    metadata; :mod:`microimpact.io.areal` makes a ``HeightMap`` of it."""
+
+    z: np.ndarray
+    dx: float
+    dy: float
+    metadata: dict
+
 
 _UNIFORM_RTOL = 1e-3
 
@@ -107,10 +133,9 @@ def read_instrument(
     ----------
     path : str or path-like
     want : {'profiles', 'map'}
-        ``'profiles'``: a list of :class:`~microimpact.io.profiles.Profile` (a line
-        scan gives one, a map one per row); ``'map'``: a
-        :class:`~microimpact.io.areal.HeightMap` (a line scan is refused, naming
-        ``read_profiles``).
+        ``'profiles'``: a list of :class:`InstrumentScan` (a line scan gives one, a
+        map one per row); ``'map'``: an :class:`InstrumentMap` (a line scan is
+        refused, naming ``read_profiles``).
     x_unit, z_unit : (str, argument name) or None
         Units given by the user, with the argument's name for messages.
     dx_um, dy_um : float, optional
@@ -124,9 +149,6 @@ def read_instrument(
         One line naming the file: not readable, no unit and none given, an argument
         that disagrees with the file, a line scan asked for as a map, ...
     """
-    from .areal import HeightMap
-    from .profiles import Profile
-
     path = os.fspath(path)
     if reader is None:
         reader = _open(path)
@@ -273,12 +295,12 @@ def read_instrument(
         if want == "map":
             meta["xy_unit"] = meta.pop("x_unit")
             meta["xy_unit_from"] = meta.pop("x_unit_from")
-            return HeightMap(z, spacings[0], spacings[1], meta)
+            return InstrumentMap(z, spacings[0], spacings[1], meta)
         x = np.arange(z.shape[1]) * spacings[0]
         out = []
         for row, zr in enumerate(z):
             if np.count_nonzero(np.isfinite(zr)) >= 2:
-                out.append(Profile(x, zr, {**meta, "scan": row}))
+                out.append(InstrumentScan(x, zr, {**meta, "scan": row}))
         if not out:
             raise ProfileFormatError("no row has 2 measured points", source=path)
         return out
@@ -306,4 +328,4 @@ def read_instrument(
         raise ProfileFormatError(
             "fewer than 2 measured points; allowed: a scan of at least 2", source=path
         )
-    return [Profile(x, heights, {**meta, "scan": None})]
+    return [InstrumentScan(x, heights, {**meta, "scan": None})]

@@ -748,8 +748,14 @@ def _read_any(
     if suffix not in TEXT_SUFFIXES:
         from .instruments import read_instrument
 
-        return read_instrument(
-            path, want="profiles", x_unit=explicit[0], z_unit=explicit[1], dx_um=dx_um
+        return _profiles_of(
+            read_instrument(
+                path,
+                want="profiles",
+                x_unit=explicit[0],
+                z_unit=explicit[1],
+                dx_um=dx_um,
+            )
         )
     try:
         scans, cols, comments = _parse_text(
@@ -781,13 +787,15 @@ def _read_any(
         from .instruments import read_instrument
 
         try:
-            return read_instrument(
-                path,
-                want="profiles",
-                x_unit=explicit[0],
-                z_unit=explicit[1],
-                dx_um=dx_um,
-                reader=reader,
+            return _profiles_of(
+                read_instrument(
+                    path,
+                    want="profiles",
+                    x_unit=explicit[0],
+                    z_unit=explicit[1],
+                    dx_um=dx_um,
+                    reader=reader,
+                )
             )
         except ProfileFormatError:
             if own:
@@ -800,13 +808,15 @@ def _read_any(
         if reader is not None and reader.default_channel.unit is not None:
             from .instruments import read_instrument
 
-            return read_instrument(
-                path,
-                want="profiles",
-                x_unit=explicit[0],
-                z_unit=explicit[1],
-                dx_um=dx_um,
-                reader=reader,
+            return _profiles_of(
+                read_instrument(
+                    path,
+                    want="profiles",
+                    x_unit=explicit[0],
+                    z_unit=explicit[1],
+                    dx_um=dx_um,
+                    reader=reader,
+                )
             )
         # structural problems (order, too few points) first, then the unit
         _build_profiles(path, scans, xf=1.0, zf=1.0, dx=dx, meta=meta)
@@ -828,6 +838,12 @@ def _read_any(
     xf = length_factor(cols["x_unit"])
     zf = length_factor(cols["z_unit"])
     return _build_profiles(path, scans, xf=xf, zf=zf, dx=dx, meta=meta)
+
+
+def _profiles_of(scans) -> list[Profile]:
+    """Profiles of the scans read by SurfaceTopography, with their spacing and
+    masked share."""
+    return [Profile(x, z, {**meta, **_spacing_meta(x, z)}) for x, z, meta in scans]
 
 
 def instrument_reader(path):
