@@ -9,8 +9,11 @@ the provenance. ``summary.csv`` is derived from this Dataset
 
 from __future__ import annotations
 
+import datetime as _dt
+
 import numpy as np
 
+from .. import __version__
 from .accumulators import E_EDGES, LATERAL_EDGES, MU_EDGES
 
 #: CF conventions version the files follow.
@@ -419,9 +422,5 @@ def encoding(ds) -> dict:
 
 def history_line(command: str) -> str:
     """A CF ``history`` entry: the UTC time and what wrote the file."""
-    import datetime as _dt
-
-    from .. import __version__
-
     now = _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
     return f"{now}: {command} (microimpact {__version__})"

@@ -55,7 +55,8 @@ from .._core.files import MISSING, check_delimiter, parse_number, read_lines, sp
 from .._core.validation import as_float_array
 from ..errors import ProfileFormatError
 from ..units import length_factor
-from .profiles import header_unit, open_x3p
+from .instruments import read_instrument
+from .profiles import header_unit, instrument_reader, open_x3p
 
 __all__ = ["HeightMap", "read_height_map"]
 
@@ -444,8 +445,6 @@ def _read_x3p(path) -> HeightMap:
 
 
 def _read_surfacetopography(path, *, dx_um=None, dy_um=None, z_unit=None, reader=None):
-    from .instruments import read_instrument
-
     data = read_instrument(
         path,
         want="map",
@@ -544,8 +543,6 @@ def read_height_map(
         # grid we cannot read keeps our message (it names the line and the cell)
         if delimiter is not None:
             raise
-        from .profiles import instrument_reader
-
         reader = instrument_reader(path)
         if reader is None:
             raise ours from None

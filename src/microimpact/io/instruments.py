@@ -30,7 +30,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..errors import ProfileFormatError
-from ..units import LENGTH_UNITS
+from ..units import LENGTH_UNITS, length_factor
 
 __all__ = [
     "InstrumentMap",
@@ -68,6 +68,7 @@ def surfacetopography_unit_factor(unit) -> float | None:
     if unit in LENGTH_UNITS:
         return LENGTH_UNITS[unit]
     try:
+        # deferred: SurfaceTopography takes 1-2 s to import; only for its files
         from SurfaceTopography.Support.UnitConversion import (
             get_unit_conversion_factor,
         )
@@ -86,10 +87,14 @@ def _short(exc) -> str:
     return text if len(text) <= 200 else text[:197] + "..."
 
 
-def _open(path):
+def open_instrument(path):
+    """SurfaceTopography's reader of `path`; ProfileFormatError naming the file if
+    it is missing or no reader recognises it."""
     try:
-        import SurfaceTopography  # noqa: F401
+        # deferred: SurfaceTopography takes 1-2 s to import; only for its files
         from SurfaceTopography import open_topography
+
+        # deferred: as above
         from SurfaceTopography.Exceptions import CannotDetectFileFormat
     except ImportError:  # a core dependency: only a broken installation gets here
         raise ProfileFormatError(
@@ -151,7 +156,7 @@ def read_instrument(
     """
     path = os.fspath(path)
     if reader is None:
-        reader = _open(path)
+        reader = open_instrument(path)
     channel = reader.default_channel
     fmt = f"SurfaceTopography:{reader.format()}"
     dim = int(channel.dim)
@@ -179,8 +184,6 @@ def read_instrument(
             value, arg = given
             factor = LENGTH_UNITS.get(value)
             if factor is None:
-                from ..units import length_factor
-
                 try:
                     length_factor(value)
                 except ValueError as exc:

@@ -50,6 +50,7 @@ from .._core.files import (
 from .._core.validation import as_float_array
 from ..errors import ProfileFormatError
 from ..units import LENGTH_UNITS, length_factor
+from .instruments import open_instrument, read_instrument
 
 __all__ = ["Profile", "ProfileSet", "read_profile", "read_profiles"]
 
@@ -746,8 +747,6 @@ def _read_any(
             )
         return _read_x3p(path, meta=meta)
     if suffix not in TEXT_SUFFIXES:
-        from .instruments import read_instrument
-
         return _profiles_of(
             read_instrument(
                 path,
@@ -784,8 +783,6 @@ def _read_any(
         given = any(e is not None for e in explicit) or dx_um is not None
         if not (own or given):
             raise ours from None
-        from .instruments import read_instrument
-
         try:
             return _profiles_of(
                 read_instrument(
@@ -806,8 +803,6 @@ def _read_any(
         # an export whose header (in comments) gives the unit: SurfaceTopography
         reader = instrument_reader(path)
         if reader is not None and reader.default_channel.unit is not None:
-            from .instruments import read_instrument
-
             return _profiles_of(
                 read_instrument(
                     path,
@@ -850,11 +845,7 @@ def instrument_reader(path):
     """SurfaceTopography's reader of `path`, or ``None`` if none recognises it (or
     SurfaceTopography is not installed)."""
     try:
-        from .instruments import _open
-    except ImportError:  # pragma: no cover
-        return None
-    try:
-        return _open(os.fspath(path))
+        return open_instrument(os.fspath(path))
     except ProfileFormatError:
         return None
 

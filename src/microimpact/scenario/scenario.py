@@ -249,9 +249,7 @@ class Scenario:
             "capture_quantiles": list(self.capture_quantiles),
             # the file's name and hash, never the folders of the machine that ran it
             "source": None if self.source is None else Path(str(self.source)).name,
-            "source_sha256": None
-            if self.source is None
-            else file_sha256(self.source),
+            "source_sha256": None if self.source is None else file_sha256(self.source),
         }
 
 

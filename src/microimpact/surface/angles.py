@@ -50,6 +50,8 @@ from .._core.distributions import (
     TruncatedContinuous,
 )
 from .._core.validation import as_float_array, check_choice, check_scalar
+from ..io.profiles import as_profiles
+from ..io.provenance import file_provenance
 from ..units import deg_to_rad, rad_to_deg, um_to_m
 from .roughness import read_angle_file, surface_angles
 
@@ -204,8 +206,6 @@ def angles_from_sample(angles_deg, *, source=None) -> AngleDistribution:
 def angles_from_file(path) -> AngleDistribution:
     """Empirical distribution of the angles in an angle file (see
     :func:`~microimpact.surface.roughness.read_angle_file`)."""
-    from ..io.provenance import file_provenance
-
     dist = angles_from_sample(read_angle_file(path))
     prov = file_provenance(path)  # the name and hash: no folders in any output
     params = {**dist.params, "source": prov["file"], "sha256": prov["sha256"]}
@@ -265,9 +265,6 @@ def data_provenance(metadata: dict, keys) -> dict:
 def profile_provenance(profile_or_set) -> dict:
     """The files (names and SHA-256, no folders), units with their origin, reader,
     masked share and spacing of the scans, for a surface's description."""
-    from ..io.profiles import as_profiles
-    from ..io.provenance import file_provenance
-
     scans = as_profiles(profile_or_set)
     out = {}
     sources = []

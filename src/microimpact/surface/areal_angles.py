@@ -35,7 +35,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._core.validation import as_float_array
+from ..io.provenance import file_provenance
 from ..units import deg_to_rad, rad_to_deg
+from .angles import data_provenance
 from .areal import FacetAnglePairs, facet_angles, gaussian_areal_surface
 
 __all__ = [
@@ -269,13 +271,9 @@ def areal_angles_from_height_map(
         source = getattr(height_map, "source", None)
     meta = getattr(height_map, "metadata", {}) or {}
     if source is not None and os.path.exists(str(source)):
-        from ..io.provenance import file_provenance
-
         prov = file_provenance(source)
         source = prov["file"]  # the name only: no folders in any output
         params["sha256"] = prov["sha256"]
-    from .angles import data_provenance
-
     params.update(data_provenance(meta, ("xy_unit", "z_unit")))
     for key in ("dx", "dy"):
         if meta.get(f"{key}_from"):

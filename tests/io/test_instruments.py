@@ -25,7 +25,7 @@ from SurfaceTopography.Support.UnitConversion import (  # noqa: E402
     get_unit_conversion_factor,
 )
 
-DATA = Path(__file__).parent / "data" / "instruments"
+DATA = Path(__file__).parents[1] / "data" / "instruments"
 # SurfaceTopography's own rms_* functions warn that they are being renamed
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
 
