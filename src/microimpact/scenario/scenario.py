@@ -10,6 +10,7 @@ is allowed.
 
 from __future__ import annotations
 
+import hashlib
 import os
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -17,7 +18,6 @@ from typing import Any
 
 from .._core.validation import did_you_mean
 from ..errors import ScenarioError
-from ..io.provenance import file_sha256
 from .file import PRESETS, parse_scenario, preset_path, read_toml, read_toml_text
 from .outputs import Outputs
 from .parts import (
@@ -110,6 +110,9 @@ class Scenario:
     capture_quantiles: tuple = (0.5,)
     description: str = ""
     source: str | None = None
+    #: SHA-256 of the scenario file's text (UTF-8), recorded with the file's name
+    #: instead of its path in every output (set by :func:`read_scenario`).
+    source_sha256: str | None = None
 
     def __post_init__(self):
         # Every check raises ScenarioError(field=...) without a file: the TOML layer
@@ -249,7 +252,7 @@ class Scenario:
             "capture_quantiles": list(self.capture_quantiles),
             # the file's name and hash, never the folders of the machine that ran it
             "source": None if self.source is None else Path(str(self.source)).name,
-            "source_sha256": None if self.source is None else file_sha256(self.source),
+            "source_sha256": self.source_sha256,
         }
 
 
@@ -295,8 +298,9 @@ def scenario_file_from_dict(
     :func:`~microimpact.scenario.file.parse_scenario` for the arguments); the
     Scenario's own errors are mapped onto the file's key paths."""
     parsed = parse_scenario(data, source=source, base_dir=base_dir, cache=cache)
+    digest = None if text is None else hashlib.sha256(text.encode()).hexdigest()
     try:
-        scenario = Scenario(**parsed.arguments)
+        scenario = Scenario(**parsed.arguments, source_sha256=digest)
     except ScenarioError as exc:
         raise parsed.error(exc.field, exc.message) from None
     return ScenarioFile(

@@ -572,8 +572,8 @@ def facet_angles(
             f"the contact diameter {length * 1e6:.6g} µm is smaller than the map's "
             f"spacing (dx = {hm.dx * 1e6:.6g} µm, dy = {hm.dy * 1e6:.6g} µm): a "
             "contact patch would be one pixel; allowed: a contact diameter of at "
-            f"least {spacing * 1e6:.6g} µm (`contact_diameter_um`, in µm), or a map "
-            "sampled more finely."
+            f"least {spacing * 1e6:.6g} µm (the contact length or diameter is in "
+            "µm), or a map sampled more finely."
         )
     if level_first:
         hm = level_plane(hm)
