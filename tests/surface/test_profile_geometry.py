@@ -202,3 +202,37 @@ def test_header_dx_alone_sets_dy(tmp_path):
     hm = mi.read_height_map(f)
     assert hm.dy == hm.dx == pytest.approx(0.5e-6)
     assert hm.metadata["dy_from"] == "dx"
+
+
+def test_an_areal_contact_below_the_pixel_in_a_scenario_names_both_numbers(tmp_path):
+    rows = np.random.default_rng(5).normal(0, 1, (20, 20))
+    text = "# dx_um = 200\n# z_unit = um\n" + "\n".join(
+        " ".join(f"{v:.4f}" for v in r) for r in rows
+    )
+    (tmp_path / "map.txt").write_text(text + "\n")
+    scenario = """name = "a"
+[particles]
+distribution = "monodisperse"
+diameter_um = 10
+[coefficients]
+k1 = 4.0
+k2 = 0.05
+v_c = 0.4
+[[surfaces]]
+name = "map"
+kind = "areal"
+file = "map.txt"
+contact_length_um = CONTACT
+[sweep]
+speed_m_s = [1.0]
+angle_deg = [45]
+"""
+    path = tmp_path / "s.toml"
+    path.write_text(scenario.replace("CONTACT", "20"))
+    with pytest.raises(ScenarioError) as info:
+        mi.Scenario.from_toml(path)
+    msg = str(info.value)
+    assert "20 µm" in msg and "200 µm" in msg and "at least 200 µm" in msg
+    assert "contact_diameter_um" not in msg and "\n" not in msg
+    path.write_text(scenario.replace("CONTACT", "400"))  # the hint, followed
+    assert mi.Scenario.from_toml(path).surfaces[0].angles is not None
