@@ -441,7 +441,7 @@ def test_scenario_file_with_areal_surfaces_runs_end_to_end(tmp_path):
     assert_array_equal(sc.surfaces[0].angles.phi_par, gauss.phi_par)
     assert_array_equal(sc.surfaces[0].angles.phi_perp, gauss.phi_perp)
     facets = mi.facet_angles(
-        mi.read_height_map(tmp_path / "map.txt", dx_um=1.0),
+        mi.read_height_map(tmp_path / "map.txt", dx_um=1.0, z_unit="um"),
         contact_diameter_um=4.0,
         azimuth_deg=30.0,
     )

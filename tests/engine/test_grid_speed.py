@@ -55,6 +55,7 @@ def _same_dataset(a, b):
         assert_array_equal(_bits(a[v].values), _bits(b[v].values), err_msg=v)
     skip = {
         "created",
+        "history",  # a time stamp, like created
         "elapsed_s",
         "resumed_blocks",
         "total_blocks",

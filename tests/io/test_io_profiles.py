@@ -27,7 +27,7 @@ def _one_line_error(excinfo, path, line=None):
 
 def test_csv_with_header_in_um(write_file):
     p = write_file("a.csv", "# a comment\nx,z\n0,1.5\n0.5,-2\n1.0,3 # note\n")
-    prof = read_profile(p)
+    prof = read_profile(p, unit="um")
     assert isinstance(prof, Profile)
     assert_allclose(prof.x, [0.0, 0.5e-6, 1.0e-6], rtol=0, atol=1e-18)
     assert_allclose(prof.z, [1.5e-6, -2e-6, 3e-6], rtol=1e-15)
@@ -75,23 +75,23 @@ def test_separate_units_paper_angstrom(write_file):
 
 def test_heights_only_with_dx(write_file):
     p = write_file("h.txt", "# heights only\n1\n2\n3\n4\n")
-    prof = read_profile(p, dx_um=0.5)
+    prof = read_profile(p, dx_um=0.5, z_unit="um")
     assert_allclose(prof.x, np.arange(4) * 0.5e-6, rtol=1e-15)
     assert_allclose(prof.z, [1e-6, 2e-6, 3e-6, 4e-6], rtol=1e-15)
 
 
 def test_named_columns(write_file):
     p = write_file("a.csv", "t,height,pos\n9,1,0\n9,2,1\n9,3,2\n")
-    prof = read_profile(p, x_column="pos", z_column="Height")
+    prof = read_profile(p, x_column="pos", z_column="Height", unit="um")
     assert_allclose(prof.x, [0, 1e-6, 2e-6], rtol=1e-15)
     assert_allclose(prof.z, [1e-6, 2e-6, 3e-6], rtol=1e-15)
-    prof2 = read_profile(p, x_column=2, z_column=1)
+    prof2 = read_profile(p, x_column=2, z_column=1, unit="um")
     assert_allclose(prof2.z, prof.z, rtol=0)
 
 
 def test_decreasing_positions_are_reversed(write_file):
     p = write_file("a.csv", "2,30\n1,20\n0,10\n")
-    prof = read_profile(p)
+    prof = read_profile(p, unit="um")
     assert_allclose(prof.x, [0, 1e-6, 2e-6], rtol=1e-15)
     # (x, z) pairs are kept, so slopes keep their sign
     assert_allclose(prof.z, [10e-6, 20e-6, 30e-6], rtol=1e-15)
@@ -116,7 +116,7 @@ def test_scan_column_gives_separate_scans(write_file):
 def test_several_files(write_file):
     p1 = write_file("1.csv", "0,1\n1,2\n2,3\n")
     p2 = write_file("2.csv", "0,4\n1,5\n")
-    ps = read_profiles([p1, p2])
+    ps = read_profiles([p1, p2], unit="um")
     assert len(ps) == 2
     assert ps.sources == [str(p1), str(p2)]
     assert ps.n_points == 5
@@ -129,9 +129,9 @@ def test_several_files(write_file):
     ("text", "line", "match"),
     [
         ("x,z\n0,1\n1,abc\n", 3, "non-numeric value 'abc'"),
-        ("x,z\n0,1\n1,\n", 3, "missing value"),
-        ("0,1\n1,NaN\n", 2, "missing or infinite"),
-        ("0,1\n1,NA\n", 2, "missing value"),
+        ("x,z\n0,1\n,2\n", 3, "column 'x': missing value ''"),
+        ("0,1\nNaN,2\n", 2, "missing value 'NaN'.*every point needs a position"),
+        ("0,1\n1,NA\n2,\n", 1, "1 measured point"),
         ("0,1\n2,2\n1,3\n", 3, "not strictly monotonic"),
         ("0,1\n1,2\n1,3\n", 3, "not strictly monotonic"),
         ("0,1\n1,2,3\n", 2, "expected 2 columns, found 3"),
@@ -140,7 +140,7 @@ def test_several_files(write_file):
 def test_bad_cells_one_line_error(write_file, text, line, match):
     p = write_file("bad.csv", text)
     with pytest.raises(ProfileFormatError, match=match) as excinfo:
-        read_profile(p)
+        read_profile(p, unit="um")
     _one_line_error(excinfo, p, line)
 
 
@@ -183,8 +183,8 @@ def test_missing_file_and_binary(tmp_path):
 
 def test_bad_dx(write_file):
     p = write_file("h.txt", "1\n2\n")
-    with pytest.raises(ValueError, match="`dx_um` must be a number > 0"):
-        read_profile(p, dx_um=-1)
+    with pytest.raises(ProfileFormatError, match="dx_um: bad value -1"):
+        read_profile(p, dx_um=-1, z_unit="um")
 
 
 # ------------------------------------------------------------------ x3p
@@ -265,8 +265,14 @@ def test_profile_validation():
         Profile([0.0, 0.0], [1.0, 2.0])
     with pytest.raises(ValueError, match="same length"):
         Profile([0.0, 1.0], [1.0])
-    with pytest.raises(ValueError, match="finite"):
+    with pytest.raises(ValueError, match="at least 2 measured"):
         Profile([0.0, 1.0], [1.0, np.nan])
+    with pytest.raises(ValueError, match="inf"):
+        Profile([0.0, 1.0, 2.0], [1.0, np.inf, 0.0])
+    with pytest.raises(ValueError, match="positions"):
+        Profile([0.0, np.nan, 2.0], [1.0, 2.0, 0.0])
+    masked = Profile([0.0, 1.0, 2.0, 3.0], [1.0, np.nan, 0.0, 2.0])
+    assert masked.masked_fraction == 0.25 and masked.valid.sum() == 3
     p = Profile([0.0, 1.0, 2.0], [0.0, 1.0, 0.0])
     with pytest.raises(ValueError):
         p.z[0] = 5.0  # read-only
@@ -277,7 +283,7 @@ def test_profile_validation():
 
 def test_quoted_numbers_and_case_insensitive_names(write_file):
     p = write_file("q.csv", '"X","Z"\n"0","1.5"\n"0.5", "-2"\n')
-    prof = read_profile(p, x_column="x", z_column="z")
+    prof = read_profile(p, x_column="x", z_column="z", unit="um")
     assert_allclose(prof.z, [1.5e-6, -2e-6], rtol=1e-15)
     assert prof.metadata["x_column"] == "X"
 
@@ -314,7 +320,7 @@ def test_bad_text_names_line_and_column(write_file, text, kwargs, line, match):
 def test_column_choice(write_file, text, kwargs, match):
     p = write_file("c.csv", text)
     if match is None:
-        read_profile(p, **{"x_column": 0, **kwargs})
+        read_profile(p, **{"x_column": 0, "unit": "um", **kwargs})
         return
     with pytest.raises(ProfileFormatError, match=match) as excinfo:
         read_profile(p, **kwargs)
@@ -345,7 +351,7 @@ def test_bad_delimiter_argument(write_file):
 
 def test_profile_set_metadata_is_not_duplicated(write_file):
     p1 = write_file("1.csv", "0,1\n1,2\n2,3\n")
-    ps = read_profiles([p1, p1])
+    ps = read_profiles([p1, p1], unit="um")
     assert ps.sources == [str(p1)] and ps.n_points == 6 and len(ps) == 2
     assert ps.metadata == {}
     assert ProfileSet((Profile([0.0, 1.0], [0.0, 1.0]),)).sources == []
@@ -428,15 +434,27 @@ def test_unknown_bracketed_unit_needs_an_explicit_one(write_file):
     assert_allclose(read_profile(p, z_unit="nm").z, [1e-9, 2e-9, 3e-9], rtol=1e-12)
 
 
-def test_without_header_units_the_default_is_um_and_recorded(write_file):
+def test_without_any_unit_the_error_names_the_arguments_and_following_it_works(
+    write_file,
+):
     p = write_file("a.csv", "x,z\n0,1\n1,2\n")
-    prof = read_profile(p)
+    with pytest.raises(ProfileFormatError) as info:
+        read_profile(p)
+    msg = _one_line_error(info, p)
+    assert "no length unit" in msg and "`unit`" in msg and "`x_unit`" in msg
+    prof = read_profile(p, unit="um")  # the hint, followed
     assert prof.metadata["x_unit"] == "um" and prof.metadata["z_unit"] == "um"
-    assert prof.metadata["x_unit_from"] == prof.metadata["z_unit_from"] == "default"
+    assert prof.metadata["x_unit_from"] == prof.metadata["z_unit_from"] == "argument"
     assert_allclose(prof.z, [1e-6, 2e-6], rtol=1e-12)
+    prof = read_profile(p, x_unit="mm", z_unit="nm")  # the other hint
+    assert_allclose(prof.x, [0.0, 1e-3], rtol=1e-12)
     prof = read_profile(write_file("b.csv", "z_nm\n1\n2\n"), dx_um=0.5)
     assert prof.metadata["x_unit_from"] == "dx_um"
     assert_allclose(prof.z, [1e-9, 2e-9], rtol=1e-12)
+    h = write_file("h.txt", "1\n2\n3\n")
+    with pytest.raises(ProfileFormatError, match=r"no length unit for z.*`z_unit`"):
+        read_profile(h, dx_um=0.5)
+    assert_allclose(read_profile(h, dx_um=0.5, z_unit="nm").z[-1], 3e-9, rtol=1e-12)
 
 
 def test_scan_column_file_with_header_units_through_read_profiles(write_file):

@@ -146,7 +146,10 @@ def test_angles_from_file_and_profile(tmp_path, rng):
     path = tmp_path / "phi.txt"
     written = write_angle_file(path, rng.uniform(-40, 40, 300), n=1000, rng=rng)
     d = angles_from_file(path)
-    assert d.params["source"] == str(path)
+    assert d.params["source"] == "phi.txt"  # the name, no folders (issue 21)
+    import hashlib
+
+    assert d.params["sha256"] == hashlib.sha256(path.read_bytes()).hexdigest()
     # the atoms are the written angles (to the file's 6 decimals): each of the n
     # sorted angles is the ppf at its mid-probability, and the table holds every
     # distinct angle and nothing else

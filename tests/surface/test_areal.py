@@ -50,10 +50,13 @@ def test_read_text_height_map_with_header():
 
 def test_read_text_arguments_xy_unit_and_delimiters(tmp_path):
     p = _write(tmp_path, "1,2,3\n4,,6\n7,8,9\n")  # empty cell = missing point
-    hm = read_height_map(p, dx_um=2.0)
+    with pytest.raises(ProfileFormatError, match=r"no height unit.*`z_unit`"):
+        read_height_map(p, dx_um=2.0)  # units are never guessed
+    hm = read_height_map(p, dx_um=2.0, z_unit="um")  # the hint, followed
     assert hm.dx == pytest.approx(2e-6) and hm.dy == pytest.approx(2e-6)
-    assert np.isnan(hm.z[1, 1]) and hm.z[2, 2] == pytest.approx(9e-6)  # µm default
-    assert hm.metadata["z_unit_from"] == "default"
+    assert np.isnan(hm.z[1, 1]) and hm.z[2, 2] == pytest.approx(9e-6)
+    assert hm.metadata["z_unit_from"] == "argument"
+    assert hm.metadata["masked_fraction"] == pytest.approx(1 / 9)
     q = _write(tmp_path, "# xy_unit: nm\n# dx: 100\n# dy: 200\n1\t2\n3\t4\n", "b.tsv")
     hm = read_height_map(q, z_unit="A")
     assert (hm.dx, hm.dy) == pytest.approx((1e-7, 2e-7))
@@ -71,6 +74,7 @@ def test_read_text_arguments_xy_unit_and_delimiters(tmp_path):
         ("# dx_um = -1\n1 2\n3 4\n", {}, r":1: dx: bad value '-1'; allowed: a finite"),
         ("# dx_inch = 1\n1 2\n3 4\n", {}, r"unknown length unit 'inch'"),
         ("1 2 3\n4 5\n", {"dx_um": 1}, r"map\.txt:2: row has 2 heights"),
+        ("# dx_um = 1\n1 2\n3 4\n", {}, r"map\.txt: z_unit: .*no height unit"),
         ("1 2\n3 abc\n", {"dx_um": 1}, r":2: column 1: non-numeric height 'abc'"),
         ("1;2\n3;4,5\n", {"dx_um": 1}, r"decimal separator must be '\.'"),
         ("1 2\n3 inf\n", {"dx_um": 1}, r":2: column 1: bad height 'inf'"),

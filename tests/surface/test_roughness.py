@@ -174,12 +174,20 @@ def test_sinusoid_parameters():
     assert_allclose(par.Rq, amp / np.sqrt(2), rtol=1e-6)
     assert_allclose(par.Rsk, 0.0, atol=1e-6)
     assert_allclose(par.Rku, 1.5, rtol=1e-6)
-    # analytic RMS slope of A sin(kx): A k / sqrt(2) over whole periods; the
-    # seven-point slope exists at the interior points x[3:-3] only
+    # the interval slopes of A sin(kx) sampled at dx are exactly
+    # A (2/dx) sin(k dx/2) cos(k x_mid): RMS A (2/dx) sin(k dx/2)/sqrt(2) over
+    # whole periods (19,999 intervals: one short of 100 periods, hence 1e-4)
     k = 2 * np.pi / lam
+    dx = 0.25e-6
+    interval = amp * (2 / dx) * np.sin(k * dx / 2)
+    mids = x[:-1] + dx / 2
+    assert_allclose(par.Rdq, np.sqrt(np.mean((interval * np.cos(k * mids)) ** 2)))
+    assert_allclose(par.Rdq, interval / np.sqrt(2), rtol=1e-4)
+    # the ISO seven-point slope exists at the interior points x[3:-3] only
+    par7 = profile_parameters(p, detrend="mean", slope="iso7")
     exact = np.sqrt(np.mean((amp * k * np.cos(k * x[3:-3])) ** 2))
-    assert_allclose(par.Rdq, exact, rtol=1e-9)
-    assert_allclose(par.Rdq, amp * k / np.sqrt(2), rtol=1e-3)
+    assert_allclose(par7.Rdq, exact, rtol=1e-9)
+    assert_allclose(par7.Rdq, amp * k / np.sqrt(2), rtol=1e-3)
 
 
 def test_profile_parameters_pool_scans():
@@ -201,9 +209,11 @@ def test_cross_check_surface_topography(rng):
     t = st.UniformLineScan(z, physical_sizes=p.n_points * p.dx, periodic=False)
     par = profile_parameters(p)
     assert_allclose(par.Rq, t.rms_height_from_profile(), rtol=1e-9)
-    # SurfaceTopography differentiates with a two-point difference, we with the
-    # seven-point ISO formula: they agree to O((dx/ell)^2)
-    assert_allclose(par.Rdq, t.rms_slope_from_profile(), rtol=2e-3)
+    # both take the slope of each interval (two-point differences)
+    assert_allclose(par.Rdq, t.rms_slope_from_profile(), rtol=1e-9)
+    # the seven-point ISO formula agrees to O((dx/ell)^2)
+    par7 = profile_parameters(p, slope="iso7")
+    assert_allclose(par7.Rdq, t.rms_slope_from_profile(), rtol=2e-3)
 
 
 # ------------------------------------------------------------------ characterise

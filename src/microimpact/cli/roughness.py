@@ -19,6 +19,20 @@ def cli_parse(sp):
     sp.add_argument("--out", required=True, type=c.out_dir)
     sp.add_argument("--contact-length-um", type=c.positive_float, default=20.0)
     sp.add_argument("--method", choices=("slope", "paper"), default="slope")
+    sp.add_argument(
+        "--detrend",
+        choices=("line", "mean", "none"),
+        default="line",
+        help="per-scan form removal before the angles and parameters: the "
+        "least-squares line (default), the mean height, or none",
+    )
+    sp.add_argument(
+        "--cutoff-um",
+        type=c.positive_float,
+        default=None,
+        help="ISO 16610-21 Gaussian filter cutoff [um] applied to each scan after "
+        "detrending (default: no filter; needs a uniformly spaced scan)",
+    )
     for flag, what in (
         ("--unit", "both columns"),
         ("--x-unit", "the positions"),
@@ -30,8 +44,9 @@ def cli_parse(sp):
             choices=units,
             metavar="UNIT",
             help=f"length unit of {what}, one of {', '.join(units)} (default: the "
-            "unit in the column header, e.g. z_nm or 'height [nm]', else um; an "
-            "explicit unit that contradicts the header is an error)",
+            "unit in the file, e.g. a z_nm or 'height [nm]' column header or an "
+            "instrument file's own unit; a file without a unit needs one; an explicit "
+            "unit that contradicts the file is an error)",
         )
     sp.add_argument(
         "--scan-column",
@@ -41,7 +56,8 @@ def cli_parse(sp):
     sp.add_argument(
         "--dx-um",
         type=c.positive_float,
-        help="sampling interval when the file holds heights only",
+        help="sampling interval [um] when the file holds heights only (or gives no "
+        "lateral size)",
     )
     sp.add_argument(
         "--n-angles",
@@ -82,12 +98,15 @@ def cli_action(args) -> int:
         profile,
         contact_length=float(um_to_m(args.contact_length_um)),
         method=args.method,
+        detrend=None if args.detrend == "none" else args.detrend,
+        cutoff=None if args.cutoff_um is None else float(um_to_m(args.cutoff_um)),
     )
     out = args.out
     out.mkdir(parents=True, exist_ok=True)
     first = profiles[0].metadata
     units = {
-        k: first.get(k) for k in ("x_unit", "x_unit_from", "z_unit", "z_unit_from")
+        k: first.get(k)
+        for k in ("x_unit", "x_unit_from", "z_unit", "z_unit_from", "reader", "format")
     }
     text = ch.to_json(units=units)
     atomic_write(out / "roughness.json", lambda t: Path(t).write_text(text))
@@ -97,15 +116,19 @@ def cli_action(args) -> int:
         n=args.n_angles,
         rng=args.seed,
         metadata={
-            "source": ", ".join(map(str, args.profile)),
+            "source": ", ".join(p.name for p in args.profile),
             "contact_length_um": args.contact_length_um,
             "method": args.method,
+            "detrend": args.detrend,
+            "cutoff_um": args.cutoff_um,
+            "x_unit": f"{units['x_unit']} ({units['x_unit_from']})",
+            "z_unit": f"{units['z_unit']} ({units['z_unit_from']})",
         },
     )
     snippet = surface_snippet(
         "angles.txt",
         name="measured",
-        comment=f"roughness angles of {', '.join(map(str, args.profile))} "
+        comment=f"roughness angles of {', '.join(p.name for p in args.profile)} "
         f"({args.method}, contact length {args.contact_length_um:g} um); the path "
         "is relative to the scenario file: copy angles.txt next to it",
     )
@@ -123,7 +146,8 @@ def cli_action(args) -> int:
     print(ch.summary())
     print(
         f"  units: x in {units['x_unit']} ({units['x_unit_from']}), z in "
-        f"{units['z_unit']} ({units['z_unit_from']})"
+        f"{units['z_unit']} ({units['z_unit_from']}); read by {units['reader']} "
+        f"({units['format']})"
     )
     print(f"-> {out}")
     return c.EXIT_OK

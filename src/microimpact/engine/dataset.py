@@ -9,8 +9,11 @@ the provenance. ``summary.csv`` is derived from this Dataset
 
 from __future__ import annotations
 
+import datetime as _dt
+
 import numpy as np
 
+from .. import __version__
 from .accumulators import E_EDGES, LATERAL_EDGES, MU_EDGES
 
 #: CF conventions version the files follow.
@@ -284,13 +287,15 @@ def build_dataset(
         data_vars[f"{nm}_bin_bounds"] = (
             (f"{nm}_bin", "nv"),
             np.stack([edges[:-1], edges[1:]], axis=1),
-            {"units": units, "long_name": f"{what} bin edges"},
+            # CF 7.1: bounds carry their variable's units and long_name (or none)
+            {"units": units, "long_name": f"{what} bin centre"},
         )
     if smooth is not None:
         data_vars["surface_is_smooth"] = (
             ("surface",),
             np.asarray(smooth, dtype=np.int8),
             {
+                "units": "1",
                 "long_name": "molecularly smooth surface (roughness angle 0)",
                 "flag_values": np.array([0, 1], dtype=np.int8),
                 "flag_meanings": "rough smooth",
@@ -301,6 +306,7 @@ def build_dataset(
             ("surface",),
             np.asarray(areal, dtype=np.int8),
             {
+                "units": "1",
                 "long_name": "areal (3-D) surface of joint facet angles",
                 "flag_values": np.array([0, 1], dtype=np.int8),
                 "flag_meanings": "profile_or_smooth areal",
@@ -395,5 +401,26 @@ def summary_frame(ds):
 
 
 def encoding(ds) -> dict:
-    """NetCDF encoding: zlib-compressed data variables."""
-    return {v: {"zlib": True, "complevel": 4} for v in ds.data_vars}
+    """NetCDF encoding: zlib-compressed data variables; no ``_FillValue`` on
+    coordinates, cell bounds or any variable without a missing value (CF 1.10
+    §2.5.1 and §7.1: xarray would otherwise write NaN as the fill value of every
+    float variable)."""
+    bounds = {ds[v].attrs["bounds"] for v in ds.variables if "bounds" in ds[v].attrs}
+    out = {}
+    for name in ds.variables:
+        var = ds[name]
+        enc = {"zlib": True, "complevel": 4} if name in ds.data_vars else {}
+        if var.dtype.kind in "SUO":
+            out[name] = enc
+            continue
+        missing = var.dtype.kind == "f" and bool(np.isnan(var.values).any())
+        if name in ds.coords or name in bounds or not missing:
+            enc["_FillValue"] = None
+        out[name] = enc
+    return out
+
+
+def history_line(command: str) -> str:
+    """A CF ``history`` entry: the UTC time and what wrote the file."""
+    now = _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
+    return f"{now}: {command} (microimpact {__version__})"

@@ -34,6 +34,7 @@ from .dataset import (
     VARIABLES,
     build_dataset,
     encoding,
+    history_line,
     point_histogram,
     summary_frame,
 )
@@ -365,7 +366,7 @@ class SimulationResult:
         }
         attrs = {
             "title": f"microimpact Monte Carlo results: {scenario.name}",
-            "institution": "",
+            "history": history_line(f"Monte Carlo run of scenario {scenario.name!r}"),
             "source": f"microimpact {vers.get('microimpact', '?')}",
             "references": "Li, Dunn & Brach (2000), Aerosol Sci. Technol. 33:376-386",
             "scenario_name": scenario.name,
@@ -407,7 +408,14 @@ class SimulationResult:
         """Scenario description, versions, seed entropy, sample counts, backend."""
         if self._provenance is None:
             out = {}
-            skip = {"title", "institution", "source", "references", "Conventions"}
+            skip = {
+                "title",
+                "institution",
+                "history",
+                "source",
+                "references",
+                "Conventions",
+            }
             for key, value in self.dataset.attrs.items():
                 if key in skip:
                     continue

@@ -55,7 +55,8 @@ from .._core.files import MISSING, check_delimiter, parse_number, read_lines, sp
 from .._core.validation import as_float_array
 from ..errors import ProfileFormatError
 from ..units import length_factor
-from .profiles import header_unit, open_x3p
+from .instruments import read_instrument
+from .profiles import header_unit, instrument_reader, open_x3p
 
 __all__ = ["HeightMap", "read_height_map"]
 
@@ -317,9 +318,12 @@ def _read_text(path, *, dx_um, dy_um, z_unit, delimiter) -> HeightMap:
         _unit(value, path=path, field="xy_unit", line=lineno)
         xy_unit = value
     dx, dx_from = _spacing("dx", header, dx_um, xy_unit, path)
-    dy, dy_from = _spacing("dy", header, dy_um, xy_unit, path)
-    z_from = "default"
-    unit = "um"
+    if "dy" not in header and dy_um is None:
+        dy, dy_from = dx, "dx"  # the docs: dy defaults to dx
+    else:
+        dy, dy_from = _spacing("dy", header, dy_um, xy_unit, path)
+    z_from = None
+    unit = None
     if "z_unit" in header:
         value, _, lineno = header["z_unit"]
         _unit(value, path=path, field="z_unit", line=lineno)
@@ -355,7 +359,7 @@ def _read_text(path, *, dx_um, dy_um, z_unit, delimiter) -> HeightMap:
                 line=lineno,
             )
         grid.append(_row_values(cells, path=path, lineno=lineno))
-    z = np.vstack(grid) * length_factor(unit)
+    z = np.vstack(grid)
     if z.shape[0] < 2 or z.shape[1] < 2:
         raise ProfileFormatError(
             f"the grid is {z.shape[0]} x {z.shape[1]}; allowed: at least 2 x 2 "
@@ -364,14 +368,26 @@ def _read_text(path, *, dx_um, dy_um, z_unit, delimiter) -> HeightMap:
         )
     if not np.isfinite(z).any():
         raise ProfileFormatError("every height is missing (nan)", source=path)
+    if unit is None:
+        raise ProfileFormatError(
+            "the file gives no height unit; give a '# z_unit = ...' header line or "
+            "the argument `z_unit` (µm, nm, ...)",
+            source=path,
+            field="z_unit",
+        )
+    z = z * length_factor(unit)
     meta = {
         "source": path,
         "format": "text",
+        "reader": "microimpact",
         "z_unit": unit,
         "z_unit_from": z_from,
+        "xy_unit": xy_unit if xy_unit is not None else "um",
+        "xy_unit_from": "file" if xy_unit is not None else "key or argument",
         "dx_from": dx_from,
         "dy_from": dy_from,
         "delimiter": delim,
+        "masked_fraction": float(np.mean(~np.isfinite(z))),
     }
     return HeightMap(z, dx, dy, meta)
 
@@ -386,7 +402,8 @@ def _read_x3p(path) -> HeightMap:
     if kind != "Surface":
         raise ProfileFormatError(
             f"the file holds a {kind} (feature type {kind!r}); allowed: a Surface "
-            "(SUR) for a height map; read a profile with read_profile",
+            "(SUR) for a height map; read a line scan with read_profiles (or "
+            "`microimpact roughness`)",
             source=path,
             field="Record1/FeatureType",
         )
@@ -411,8 +428,15 @@ def _read_x3p(path) -> HeightMap:
     meta = {
         "source": path,
         "format": "x3p",
+        "reader": "x3pio",
         "layers": len(f.layers),
         "z_unit": "m",
+        "z_unit_from": "file",
+        "xy_unit": "m",
+        "xy_unit_from": "file",
+        "dx_from": "file",
+        "dy_from": "file",
+        "masked_fraction": float(np.mean(~np.isfinite(z))),
     }
     return HeightMap(z, float(dx), float(dy), meta)
 
@@ -420,39 +444,16 @@ def _read_x3p(path) -> HeightMap:
 # ---------------------------------------------------------- SurfaceTopography
 
 
-def _read_surfacetopography(path) -> HeightMap:
-    try:
-        # deferred: optional extra [areal]
-        from SurfaceTopography import read_topography
-    except ImportError:
-        raise ProfileFormatError(
-            f"reading {Path(path).suffix or 'this'} files needs the optional package "
-            "SurfaceTopography: `pip install SurfaceTopography` (or `pip install "
-            "microimpact[areal]`); plain-text and .x3p height maps need neither",
-            source=path,
-        ) from None
-    if not Path(path).exists():
-        raise ProfileFormatError("file not found", source=path)
-    try:
-        topo = read_topography(path)
-    except Exception as exc:  # SurfaceTopography raises many types for bad files
-        msg = " ".join(str(exc).split()) or type(exc).__name__
-        raise ProfileFormatError(
-            f"SurfaceTopography cannot read the file: {msg}", source=path
-        ) from None
-    if getattr(topo, "dim", 2) != 2:
-        raise ProfileFormatError(
-            "the file holds a line scan; allowed: an areal topography (read a "
-            "profile with read_profile)",
-            source=path,
-        )
-    unit = topo.unit
-    factor = _unit(unit, path=path, field="unit")
-    heights = topo.heights()  # indexed [x, y]; masked where undefined
-    z = np.ma.filled(np.ma.asarray(heights, dtype=float), np.nan).T * factor
-    dx, dy = (float(p) * factor for p in topo.pixel_size)
-    meta = {"source": path, "format": "surfacetopography", "z_unit": unit}
-    return HeightMap(z, dx, dy, meta)
+def _read_surfacetopography(path, *, dx_um=None, dy_um=None, z_unit=None, reader=None):
+    data = read_instrument(
+        path,
+        want="map",
+        z_unit=None if z_unit is None else (z_unit, "z_unit"),
+        dx_um=dx_um,
+        dy_um=dy_um,
+        reader=reader,
+    )
+    return HeightMap(data.z, data.dx, data.dy, data.metadata)
 
 
 # --------------------------------------------------------------------------- API
@@ -509,7 +510,7 @@ def read_height_map(
         raise ValueError(f"`format` must be one of {allowed}; got {format!r}.")
     if format == "text":
         check_delimiter(delimiter)
-    else:
+    elif format == "x3p":
         for name, value in (
             ("dx_um", dx_um),
             ("dy_um", dy_um),
@@ -518,17 +519,42 @@ def read_height_map(
         ):
             if value is not None:
                 raise ProfileFormatError(
-                    f"`{name}` applies to plain-text height maps only; a {format} "
-                    "file carries its own grid and units",
+                    f"`{name}` applies to plain-text height maps only; an x3p "
+                    f"file carries its own grid and units: leave `{name}` out",
                     source=path,
                     field=name,
                 )
-        return _read_x3p(path) if format == "x3p" else _read_surfacetopography(path)
-    if dy_um is None and dx_um is not None:
-        # dy defaults to the header's dy, else to dx_um: look at the header first
-        lines = read_lines(path, error=ProfileFormatError)
-        if "dy" not in _header(lines, path):
-            dy_um = dx_um
-    return _read_text(
-        path, dx_um=dx_um, dy_um=dy_um, z_unit=z_unit, delimiter=delimiter
-    )
+        return _read_x3p(path)
+    else:
+        if delimiter is not None:
+            raise ProfileFormatError(
+                "`delimiter` applies to plain-text height maps only; leave it out",
+                source=path,
+                field="delimiter",
+            )
+        return _read_surfacetopography(path, dx_um=dx_um, dy_um=dy_um, z_unit=z_unit)
+    try:
+        return _read_text(
+            path, dx_um=dx_um, dy_um=dy_um, z_unit=z_unit, delimiter=delimiter
+        )
+    except ProfileFormatError as ours:
+        # not our plain text: an export SurfaceTopography knows (Gwyddion ASCII
+        # with its '# Width: ...' header, ...)? Its units are honoured; a plain
+        # grid we cannot read keeps our message (it names the line and the cell)
+        if delimiter is not None:
+            raise
+        reader = instrument_reader(path)
+        if reader is None:
+            raise ours from None
+        own = reader.default_channel.unit is not None or "UTF-8" in ours.message
+        given = any(v is not None for v in (dx_um, dy_um, z_unit))
+        if not (own or given):
+            raise ours from None
+        try:
+            return _read_surfacetopography(
+                path, dx_um=dx_um, dy_um=dy_um, z_unit=z_unit, reader=reader
+            )
+        except ProfileFormatError:
+            if own:
+                raise
+            raise ours from None

@@ -38,6 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from .._core.files import (
+    MISSING,
     SNIFF,
     check_delimiter,
     looks_like_header,
@@ -49,16 +50,22 @@ from .._core.files import (
 from .._core.validation import as_float_array
 from ..errors import ProfileFormatError
 from ..units import LENGTH_UNITS, length_factor
+from .instruments import open_instrument, read_instrument
 
 __all__ = ["Profile", "ProfileSet", "read_profile", "read_profiles"]
 
+#: Relative tolerance on the intervals of a uniformly spaced scan.
+UNIFORM_RTOL = 1e-3
+#: Suffixes read as plain text by our reader first (then by SurfaceTopography).
+TEXT_SUFFIXES = (".txt", ".csv", ".tsv", ".dat", ".asc", "")
 _SCAN_NAMES = ("scan", "scan_id", "scanid", "scan_no", "scan_number")
 _DECIMAL = "; the decimal separator must be '.'"
 
 
 def check_xz(x, z):
-    """`x`, `z` as float arrays, or ``ValueError`` unless they are finite 1-d arrays
-    of the same length (>= 2) with `x` strictly increasing."""
+    """`x`, `z` as float arrays, or ``ValueError`` unless they are 1-d arrays of the
+    same length (>= 2) with `x` finite and strictly increasing and `z` finite or NaN
+    (a missing point, masked as a height map masks it), at least 2 measured."""
     x = as_float_array(x, "x")
     z = as_float_array(z, "z")
     if x.ndim != 1 or z.ndim != 1 or x.shape != z.shape:
@@ -68,8 +75,13 @@ def check_xz(x, z):
         )
     if x.size < 2:
         raise ValueError(f"a profile needs at least 2 points; got {x.size}.")
-    if not (np.isfinite(x).all() and np.isfinite(z).all()):
-        raise ValueError("`x` and `z` must be finite (no NaN or inf).")
+    if not np.isfinite(x).all() or np.isinf(z).any():
+        raise ValueError(
+            "`x` must be finite and `z` finite or NaN (a missing point); got inf or "
+            "NaN positions."
+        )
+    if np.count_nonzero(np.isfinite(z)) < 2:
+        raise ValueError("a profile needs at least 2 measured (non-NaN) heights.")
     if not np.all(np.diff(x) > 0):
         raise ValueError("`x` must be strictly increasing.")
     return x, z
@@ -82,13 +94,16 @@ class Profile:
     Attributes
     ----------
     x : ndarray, shape (n,)
-        Positions along the scan [m], strictly increasing.
+        Positions along the scan [m], strictly increasing (not necessarily
+        uniformly spaced: :attr:`is_uniform`).
     z : ndarray, shape (n,)
-        Heights [m].
+        Heights [m]; NaN marks a missing (not measured) point, left out of every
+        fit, mean and slope (:attr:`valid`, :attr:`masked_fraction`).
     metadata : dict
         Provenance: ``source`` (file), ``scan`` (scan id), ``x_unit`` and ``z_unit``
-        (units in the file), ``format``, ... The number of points and the median
-        sampling interval [m] are the properties :attr:`n_points` and :attr:`dx`.
+        (units in the file) and where they came from, ``format``, ... The number of
+        points and the median sampling interval [m] are the properties
+        :attr:`n_points` and :attr:`dx`.
     """
 
     x: np.ndarray
@@ -112,6 +127,22 @@ class Profile:
     def dx(self) -> float:
         """Median sampling interval [m]."""
         return float(np.median(np.diff(self.x)))
+
+    @property
+    def is_uniform(self) -> bool:
+        """True if every interval is within 0.1 % of the median :attr:`dx`."""
+        d = np.diff(self.x)
+        return bool(np.max(np.abs(d - self.dx)) <= UNIFORM_RTOL * self.dx)
+
+    @property
+    def valid(self) -> np.ndarray:
+        """True where a height was measured."""
+        return np.isfinite(self.z)
+
+    @property
+    def masked_fraction(self) -> float:
+        """Fraction of missing (NaN) heights."""
+        return float(1.0 - self.valid.mean())
 
     @property
     def length(self) -> float:
@@ -266,6 +297,11 @@ def header_unit(cell: str) -> tuple[str | None, str | None]:
     return None, None
 
 
+class _ArgumentError(ProfileFormatError):
+    """A problem with the units of our plain text (never handed on to another
+    reader)."""
+
+
 def _same_unit(a: str, b: str) -> bool:
     return length_factor(a) == length_factor(b)
 
@@ -276,7 +312,8 @@ def _column_unit(path, names, idx, axis, explicit):
     The header's unit is honoured; an explicit unit (`explicit`: ``(value, argument
     name)`` or ``None``, already checked by :func:`_unit_factor`) must agree with it,
     else ProfileFormatError naming the file, the column and both units. Without
-    either: µm, recorded as the default.
+    either: ``(None, None)`` (the caller refuses the file: units are never
+    guessed).
     """
     from_header = bad = None
     if names is not None and idx is not None:
@@ -285,7 +322,7 @@ def _column_unit(path, names, idx, axis, explicit):
     if explicit is not None:
         value, arg = explicit
         if from_header is not None and not _same_unit(from_header, value):
-            raise ProfileFormatError(
+            raise _ArgumentError(
                 f"the header of {label} gives the unit {from_header!r} but "
                 f"`{arg}` is {value!r}; allowed: the same unit, or leave `{arg}` out "
                 "to use the header's",
@@ -297,7 +334,7 @@ def _column_unit(path, names, idx, axis, explicit):
         try:
             length_factor(bad)  # its message lists the allowed units
         except ValueError as exc:
-            raise ProfileFormatError(
+            raise _ArgumentError(
                 f"{exc}, or give the {axis} unit explicitly (`{axis}_unit`) instead "
                 "of the header's",
                 source=path,
@@ -305,7 +342,7 @@ def _column_unit(path, names, idx, axis, explicit):
             ) from None
     if from_header is not None:
         return from_header, "header"
-    return "um", "default"
+    return None, None
 
 
 # --------------------------------------------------------------------------- text
@@ -433,12 +470,18 @@ def _parse_text(path, *, x_column, z_column, scan_column, dx_um, delimiter, expl
         (
             i,
             None if i is None else _label(names, i),
-            f"a finite {what} in {unit} (a profile cannot have "
-            "missing or infinite values)",
+            f"a finite {what} in {unit}{extra}",
+            missing_ok,
         )
-        for i, what, unit in (
-            (x_idx, "position", units[0]),
-            (z_idx, "height", units[1]),
+        for i, what, unit, extra, missing_ok in (
+            (x_idx, "position", units[0], " (every point needs a position)", False),
+            (
+                z_idx,
+                "height",
+                units[1],
+                ", or nan / an empty cell for a missing point",
+                True,
+            ),
         )
     ]
     scans: dict = {}
@@ -453,6 +496,8 @@ def _parse_text(path, *, x_column, z_column, scan_column, dx_um, delimiter, expl
         vals = [
             None
             if i is None
+            else math.nan
+            if missing_ok and cells[i].strip().lower() in MISSING
             else parse_number(
                 cells[i],
                 source=path,
@@ -461,7 +506,7 @@ def _parse_text(path, *, x_column, z_column, scan_column, dx_um, delimiter, expl
                 allowed=allowed,
                 error=ProfileFormatError,
             )
-            for i, label, allowed in wanted
+            for i, label, allowed, missing_ok in wanted
         ]
         sid = cells[scan_idx] if scan_idx is not None else None
         if sid is not None and sid == "":
@@ -524,14 +569,27 @@ def _build_profiles(path, scans, *, xf, zf, dx, meta):
             xr, order = _check_monotonic(xr, linenos, path, sid)
             x = xr[order] * xf
             z = z[order]
-        if z.size < 2:
+        measured = int(np.count_nonzero(np.isfinite(z)))
+        if measured < 2:
             raise ProfileFormatError(
-                f"scan {sid!r} has {z.size} point(s); at least 2 are needed",
+                f"scan {sid!r} has {measured} measured point(s) of {z.size}; at "
+                "least 2 are needed",
                 source=path,
                 line=linenos[0],
             )
-        out.append(Profile(x, z, {**meta, "scan": sid}))
+        out.append(Profile(x, z, {**meta, **_spacing_meta(x, z), "scan": sid}))
     return out
+
+
+def _spacing_meta(x, z) -> dict:
+    """``spacing`` ('uniform' or 'non-uniform') and ``masked_fraction`` of a scan."""
+    d = np.diff(x)
+    med = float(np.median(d))
+    uniform = bool(np.max(np.abs(d - med)) <= UNIFORM_RTOL * med)
+    return {
+        "spacing": "uniform" if uniform else "non-uniform",
+        "masked_fraction": float(np.mean(~np.isfinite(z))),
+    }
 
 
 def open_x3p(path):
@@ -558,37 +616,81 @@ def open_x3p(path):
     return f
 
 
+def _x3p_line_of_points(f, path):
+    """Positions along the line and heights of a point cloud whose points lie on a
+    straight line in the x-y plane; ProfileFormatError otherwise."""
+    layer = f.layers[0]
+    pts = np.asarray(layer.points(), dtype=float).reshape(-1, 3)
+    pts = pts[np.isfinite(pts).all(axis=1)]
+    if pts.shape[0] < 2:
+        raise ProfileFormatError(
+            "the point cloud has fewer than 2 points", source=path, field="Record3"
+        )
+    xy = pts[:, :2] - pts[:, :2].mean(axis=0)
+    _, sv, vt = np.linalg.svd(xy, full_matrices=False)
+    if sv[0] == 0 or sv[-1] > 1e-6 * sv[0]:
+        width = float(2 * sv[-1] / np.sqrt(pts.shape[0])) * 1e6 if sv[0] else 0.0
+        raise ProfileFormatError(
+            "the point cloud is not a line scan: its points spread across the x-y "
+            f"plane (RMS width {width:.3g} µm across the main direction); allowed: "
+            "points along one line (a profile), or a surface on a regular grid; "
+            "resample the cloud onto a grid (e.g. with Gwyddion or Open3D) and "
+            "export it as an x3p surface",
+            source=path,
+            field="Record3",
+        )
+    direction = vt[0] if vt[0][np.argmax(np.abs(vt[0]))] > 0 else -vt[0]
+    s = xy @ direction
+    order = np.argsort(s, kind="stable")
+    s, z = s[order] - s[order][0], pts[order, 2]
+    if np.any(np.diff(s) <= 0):
+        raise ProfileFormatError(
+            "the point cloud holds two points at the same place along its line",
+            source=path,
+            field="Record3",
+        )
+    return s, z
+
+
 def _read_x3p(path, *, meta):
     f = open_x3p(path)
+    kind = type(f).__name__
+    base = dict(meta, x_unit="m", z_unit="m", x_unit_from="file", z_unit_from="file")
+    base.update(format="x3p", reader="x3pio", feature_type=kind)
+    if kind == "PointCloud":
+        x, z = _x3p_line_of_points(f, path)
+        return [Profile(x, z, {**base, **_spacing_meta(x, z), "scan": None})]
     layer = f.layers[0]
     z = np.asarray(layer.z, dtype=float)
-    x = np.asarray(layer.x_values, dtype=float)
+    if layer.x is not None:
+        x = np.asarray(layer.x, dtype=float)
+    else:
+        x = np.asarray(layer.x_values, dtype=float)
     if z.ndim == 1:
         zs = [z]
+        xs = [x.ravel()]
     else:
         zs = list(z)
-        if x.ndim == 2:
-            x = x[0]
+        xs = list(x) if x.ndim == 2 else [x] * len(zs)
     out = []
-    for row, zr in enumerate(zs):
-        bad = ~np.isfinite(zr)
-        if bad.any():
+    for row, (xr, zr) in enumerate(zip(xs, zs, strict=True)):
+        if np.count_nonzero(np.isfinite(zr)) < 2:
+            if len(zs) > 1:
+                continue  # a row without 2 measured points holds no slope
             raise ProfileFormatError(
-                f"missing value (invalid point) at index {int(np.argmax(bad))} of "
-                f"row {row}",
-                source=path,
-                field="Record3",
+                "fewer than 2 valid points", source=path, field="Record3"
             )
-        xr, order = _check_monotonic(np.asarray(x, dtype=float), None, path, row)
-        m = dict(meta)
-        m.update(
-            scan=row if len(zs) > 1 else None,
-            x_unit="m",
-            z_unit="m",
-            format="x3p",
-            feature_type=type(f).__name__,
+        keep = np.isfinite(xr)  # an absolute axis has no position where invalid
+        xr, zr = xr[keep], zr[keep]
+        xr, order = _check_monotonic(np.asarray(xr, dtype=float), None, path, row)
+        zr = zr[order]
+        m = dict(base, scan=row if len(zs) > 1 else None)
+        m.update(_spacing_meta(xr[order], zr))
+        out.append(Profile(xr[order], zr, m))
+    if not out:
+        raise ProfileFormatError(
+            "no row has 2 valid points", source=path, field="Record3"
         )
-        out.append(Profile(xr[order], zr[order], m))
     return out
 
 
@@ -606,8 +708,6 @@ def _read_any(
 ):
     path = os.fspath(path)
     meta = {"source": path}
-    if Path(path).suffix.lower() == ".x3p":
-        return _read_x3p(path, meta=meta)
     explicit = [
         (u, name) if u is not None else ((unit, "unit") if unit is not None else None)
         for u, name in ((x_unit, "x_unit"), (z_unit, "z_unit"))
@@ -623,21 +723,131 @@ def _read_any(
         except (TypeError, ValueError):
             dx_f = float("nan")
         if not (math.isfinite(dx_f) and dx_f > 0):
-            raise ValueError(f"`dx_um` must be a number > 0; got {dx_um!r}.")
+            raise ProfileFormatError(
+                f"bad value {dx_um!r}; allowed: a number > 0 (µm)",
+                source=path,
+                field="dx_um",
+            )
         dx = dx_f * 1e-6  # [µm] -> [m]
-    scans, cols, comments = _parse_text(
-        path,
-        x_column=x_column,
-        z_column=z_column,
-        scan_column=scan_column,
-        dx_um=dx_um,
-        delimiter=delimiter,
-        explicit=explicit,
-    )
-    meta.update(format="text", comments=comments, **cols)
+    suffix = Path(path).suffix.lower()
+    if suffix == ".x3p":
+        for name, value in (("unit", unit), ("x_unit", x_unit), ("z_unit", z_unit)):
+            if value is not None and length_factor(value) != 1.0:
+                raise ProfileFormatError(
+                    f"an x3p file stores metres but `{name}` is {value!r}; allowed: "
+                    f"leave `{name}` out",
+                    source=path,
+                    field=name,
+                )
+        if dx_um is not None:
+            raise ProfileFormatError(
+                "an x3p file stores its own spacing; leave `dx_um` out",
+                source=path,
+                field="dx_um",
+            )
+        return _read_x3p(path, meta=meta)
+    if suffix not in TEXT_SUFFIXES:
+        return _profiles_of(
+            read_instrument(
+                path,
+                want="profiles",
+                x_unit=explicit[0],
+                z_unit=explicit[1],
+                dx_um=dx_um,
+            )
+        )
+    try:
+        scans, cols, comments = _parse_text(
+            path,
+            x_column=x_column,
+            z_column=z_column,
+            scan_column=scan_column,
+            dx_um=dx_um,
+            delimiter=delimiter,
+            explicit=explicit,
+        )
+    except ProfileFormatError as ours:
+        # not our plain text: an instrument export (Dektak CSV, Gwyddion, ...)?
+        if isinstance(ours, _ArgumentError) or any(
+            v is not None for v in (x_column, z_column, scan_column, delimiter)
+        ):
+            raise
+        # a plain table that we cannot read keeps our message (it names the line
+        # and the cell), unless SurfaceTopography knows the format's unit, the
+        # file is not UTF-8 text (an instrument's own encoding), or the units are
+        # given and SurfaceTopography reads the file
+        reader = instrument_reader(path)
+        if reader is None:
+            raise ours from None
+        own = reader.default_channel.unit is not None or "UTF-8" in ours.message
+        given = any(e is not None for e in explicit) or dx_um is not None
+        if not (own or given):
+            raise ours from None
+        try:
+            return _profiles_of(
+                read_instrument(
+                    path,
+                    want="profiles",
+                    x_unit=explicit[0],
+                    z_unit=explicit[1],
+                    dx_um=dx_um,
+                    reader=reader,
+                )
+            )
+        except ProfileFormatError:
+            if own:
+                raise
+            raise ours from None
+    meta.update(format="text", reader="microimpact", comments=comments, **cols)
+    if cols["x_unit"] is None or cols["z_unit"] is None:
+        # an export whose header (in comments) gives the unit: SurfaceTopography
+        reader = instrument_reader(path)
+        if reader is not None and reader.default_channel.unit is not None:
+            return _profiles_of(
+                read_instrument(
+                    path,
+                    want="profiles",
+                    x_unit=explicit[0],
+                    z_unit=explicit[1],
+                    dx_um=dx_um,
+                    reader=reader,
+                )
+            )
+        # structural problems (order, too few points) first, then the unit
+        _build_profiles(path, scans, xf=1.0, zf=1.0, dx=dx, meta=meta)
+        axes = [a for a, k in (("x", "x_unit"), ("z", "z_unit")) if cols[k] is None]
+        raise ProfileFormatError(
+            f"the file gives no length unit for {' and '.join(axes)}; give `unit` "
+            "(both columns)"
+            + (" or `x_unit`" if "x" in axes else "")
+            + (" and `z_unit`" if axes == ["x", "z"] else "")
+            + (" or `z_unit`" if axes == ["z"] else "")
+            + (
+                ", or name it in the header (e.g. x_um, z_nm)"
+                if cols.get("x_column") is not None or cols.get("z_column") is not None
+                else ""
+            ),
+            source=path,
+            field="unit",
+        )
     xf = length_factor(cols["x_unit"])
     zf = length_factor(cols["z_unit"])
     return _build_profiles(path, scans, xf=xf, zf=zf, dx=dx, meta=meta)
+
+
+def _profiles_of(scans) -> list[Profile]:
+    """Profiles of the scans read by SurfaceTopography, with their spacing and
+    masked share."""
+    return [Profile(x, z, {**meta, **_spacing_meta(x, z)}) for x, z, meta in scans]
+
+
+def instrument_reader(path):
+    """SurfaceTopography's reader of `path`, or ``None`` if none recognises it (or
+    SurfaceTopography is not installed)."""
+    try:
+        return open_instrument(os.fspath(path))
+    except ProfileFormatError:
+        return None
 
 
 def read_profile(

@@ -10,6 +10,7 @@ is allowed.
 
 from __future__ import annotations
 
+import hashlib
 import os
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -110,6 +111,9 @@ class Scenario:
     capture_quantiles: tuple = (0.5,)
     description: str = ""
     source: str | None = None
+    #: SHA-256 of the scenario file's text (UTF-8), recorded with the file's name
+    #: instead of its path in every output (set by :func:`read_scenario`).
+    source_sha256: str | None = None
 
     def __post_init__(self):
         # Every check raises ScenarioError(field=...) without a file: the TOML layer
@@ -302,7 +306,9 @@ class Scenario:
             "confidence": self.confidence,
             "reference_angle_deg": self.reference_angle_deg,
             "capture_quantiles": list(self.capture_quantiles),
-            "source": self.source,
+            # the file's name and hash, never the folders of the machine that ran it
+            "source": None if self.source is None else Path(str(self.source)).name,
+            "source_sha256": self.source_sha256,
         }
 
 
@@ -348,8 +354,9 @@ def scenario_file_from_dict(
     :func:`~microimpact.scenario.file.parse_scenario` for the arguments); the
     Scenario's own errors are mapped onto the file's key paths."""
     parsed = parse_scenario(data, source=source, base_dir=base_dir, cache=cache)
+    digest = None if text is None else hashlib.sha256(text.encode()).hexdigest()
     try:
-        scenario = Scenario(**parsed.arguments)
+        scenario = Scenario(**parsed.arguments, source_sha256=digest)
     except ScenarioError as exc:
         raise parsed.error(exc.field, exc.message) from None
     return ScenarioFile(

@@ -50,6 +50,8 @@ from .._core.distributions import (
     TruncatedContinuous,
 )
 from .._core.validation import as_float_array, check_choice, check_scalar
+from ..io.profiles import as_profiles
+from ..io.provenance import file_provenance
 from ..units import deg_to_rad, rad_to_deg, um_to_m
 from .roughness import read_angle_file, surface_angles
 
@@ -204,8 +206,10 @@ def angles_from_sample(angles_deg, *, source=None) -> AngleDistribution:
 def angles_from_file(path) -> AngleDistribution:
     """Empirical distribution of the angles in an angle file (see
     :func:`~microimpact.surface.roughness.read_angle_file`)."""
-
-    return angles_from_sample(read_angle_file(path), source=str(path))
+    dist = angles_from_sample(read_angle_file(path))
+    prov = file_provenance(path)  # the name and hash: no folders in any output
+    params = {**dist.params, "source": prov["file"], "sha256": prov["sha256"]}
+    return AngleDistribution("empirical", params, dist.truncated_mass, dist._core)
 
 
 def angles_from_profile(
@@ -242,7 +246,47 @@ def angles_from_profile(
     dist = angles_from_sample(rad_to_deg(phi))
     params = dict(dist.params)
     params.update(method=method, contact_length_um=float(contact_length_um))
+    params.update(profile_provenance(profile_or_set))
     return AngleDistribution("empirical", params, dist.truncated_mass, dist._core)
+
+
+def data_provenance(metadata: dict, keys) -> dict:
+    """``unit (origin)`` strings of the `keys` units of a reader's metadata, e.g.
+    ``{"z_unit": "nm (file)"}``: every unit used, with where it came from."""
+    out = {}
+    for key in keys:
+        unit = metadata.get(key)
+        if unit is not None:
+            origin = metadata.get(f"{key}_from")
+            out[key] = f"{unit} ({origin})" if origin else str(unit)
+    return out
+
+
+def profile_provenance(profile_or_set) -> dict:
+    """The files (names and SHA-256, no folders), units with their origin, reader,
+    masked share and spacing of the scans, for a surface's description."""
+    scans = as_profiles(profile_or_set)
+    out = {}
+    sources = []
+    for p in scans:
+        if p.source is not None and p.source not in sources:
+            sources.append(p.source)
+    if sources:
+        prov = [file_provenance(src) for src in sources]
+        out["files"] = ", ".join(f["file"] for f in prov)
+        out["sha256"] = ", ".join(str(f["sha256"]) for f in prov)
+    first = scans[0].metadata
+    out.update(data_provenance(first, ("x_unit", "z_unit")))
+    if first.get("reader"):
+        out["reader"] = f"{first['reader']} ({first.get('format')})"
+    n = sum(p.n_points for p in scans)
+    out["masked_fraction"] = float(sum(np.count_nonzero(~p.valid) for p in scans) / n)
+    irregular = sum(not p.is_uniform for p in scans)
+    if irregular:
+        out["spacing"] = (
+            f"{irregular} non-uniform scan(s): real positions used (no resampling)"
+        )
+    return out
 
 
 def normal_angles(std_deg, *, mean_deg=0.0) -> AngleDistribution:

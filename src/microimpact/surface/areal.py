@@ -566,6 +566,15 @@ def facet_angles(
     """
     hm = _as_height_map(height_map)
     length = _contact_length(contact_diameter_um, hertz)
+    spacing = max(hm.dx, hm.dy)
+    if length < spacing * (1 - 1e-9):
+        raise ValueError(
+            f"the contact diameter {length * 1e6:.6g} µm is smaller than the map's "
+            f"spacing (dx = {hm.dx * 1e6:.6g} µm, dy = {hm.dy * 1e6:.6g} µm): a "
+            "contact patch would be one pixel; allowed: a contact diameter of at "
+            f"least {spacing * 1e6:.6g} µm (the contact length or diameter is in "
+            "µm), or a map sampled more finely."
+        )
     if level_first:
         hm = level_plane(hm)
     means = contact_patch_means(

@@ -29,12 +29,15 @@ Factories
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from .._core.validation import as_float_array
+from ..io.provenance import file_provenance
 from ..units import deg_to_rad, rad_to_deg
+from .angles import data_provenance
 from .areal import FacetAnglePairs, facet_angles, gaussian_areal_surface
 
 __all__ = [
@@ -266,6 +269,21 @@ def areal_angles_from_height_map(
         params["step_um"] = float(step_um)
     if source is None:
         source = getattr(height_map, "source", None)
+    meta = getattr(height_map, "metadata", {}) or {}
+    if source is not None and os.path.exists(str(source)):
+        prov = file_provenance(source)
+        source = prov["file"]  # the name only: no folders in any output
+        params["sha256"] = prov["sha256"]
+    params.update(data_provenance(meta, ("xy_unit", "z_unit")))
+    for key in ("dx", "dy"):
+        if meta.get(f"{key}_from"):
+            params[f"{key}_um"] = (
+                f"{getattr(height_map, key) * 1e6:.6g} ({meta[f'{key}_from']})"
+            )
+    if meta.get("reader"):
+        params["reader"] = f"{meta['reader']} ({meta.get('format')})"
+    if "masked_fraction" in meta:
+        params["masked_fraction"] = float(meta["masked_fraction"])
     return areal_angles_from_facets(facets, source=source, params=params)
 
 

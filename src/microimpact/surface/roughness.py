@@ -56,7 +56,15 @@ from .._core.files import atomic_write, data_lines, parse_number, read_lines
 from .._core.json import dumps
 from .._core.validation import as_float_array, check_choice, check_int, check_positive
 from ..errors import DataFormatError, ProfileFormatError
-from ..io.profiles import Profile, ProfileSet, as_profiles, check_xz, sources_of
+from ..io.profiles import (
+    UNIFORM_RTOL,
+    Profile,
+    ProfileSet,
+    as_profiles,
+    check_xz,
+    sources_of,
+)
+from ..io.provenance import file_sha256
 from ..units import m_to_um, rad_to_deg, um_to_m
 
 __all__ = [
@@ -98,15 +106,43 @@ def detrend(x, z, *, method="line"):
     Returns
     -------
     ndarray, shape (n,)
-        Heights about the mean line [m]; they sum to zero.
+        Heights about the mean line [m] (NaN stays NaN; the fit uses the measured
+        points, with the trapezoidal weights of :func:`trapezoid_weights`: plain
+        least squares on a uniform scan, the piecewise-linear profile's mean on a
+        non-uniform one).
     """
     x, z = check_xz(x, z)
     check_choice(method, "method", ("line", "mean"))
+    w = trapezoid_weights(x) * np.isfinite(z)
+    zc = np.where(w > 0, z, 0.0)
+    mean = (w * zc).sum() / w.sum()
     if method == "mean":
-        return z - z.mean()
-    xc = x - x.mean()
-    slope = (xc * (z - z.mean())).sum() / (xc * xc).sum()
-    return z - z.mean() - slope * xc
+        return z - mean
+    xm = (w * x).sum() / w.sum()
+    xc = x - xm
+    slope = (w * xc * (zc - mean)).sum() / (w * xc * xc).sum()
+    return z - mean - slope * xc
+
+
+def cell_weights(x) -> np.ndarray:
+    """The length each sample of a scan stands for [m]: half the intervals to its
+    neighbours (the whole interval at the two ends). Equal for a uniform scan, so
+    weighted means are then plain means; for a non-uniform scan they make every
+    mean a mean over the length of the scan, not over its points."""
+    x = np.asarray(x, dtype=float)
+    d = np.diff(x)
+    if _is_uniform(x):
+        return np.full(x.size, float(np.median(d)))
+    w = np.empty(d.size + 1)
+    w[0], w[-1] = d[0], d[-1]
+    w[1:-1] = 0.5 * (d[:-1] + d[1:])
+    return w
+
+
+def _is_uniform(x) -> bool:
+    d = np.diff(x)
+    med = float(np.median(d))
+    return bool(np.max(np.abs(d - med)) <= UNIFORM_RTOL * med)
 
 
 def gaussian_filter_profile(x, z, *, cutoff):
@@ -147,15 +183,23 @@ def gaussian_filter_profile(x, z, *, cutoff):
     lam = float(check_positive(cutoff, "cutoff"))
     d = np.diff(x)
     dx = float(np.median(d))
-    if np.max(np.abs(d - dx)) > 1e-3 * dx:
-        raise ValueError("gaussian_filter_profile needs uniformly spaced `x`.")
+    if not _is_uniform(x):
+        raise ValueError(
+            "the Gaussian filter (`cutoff`) needs a uniformly spaced scan; this one "
+            f"has intervals from {m_to_um(d.min()):.4g} to {m_to_um(d.max()):.4g} µm: "
+            "leave `cutoff` out (detrending works on any spacing)"
+        )
     half = math.ceil(lam / dx)
     u = np.arange(-half, half + 1) * dx / (GAUSSIAN_ALPHA * lam)
     w = np.exp(-np.pi * u * u)  # [2], weighting function
     w /= w.sum()
-    mean_line = fftconvolve(z, w, mode="same")
-    norm = fftconvolve(np.ones_like(z), w, mode="same")
-    return z - mean_line / norm
+    valid = np.isfinite(z)
+    # missing points carry no weight: the mean line is the weighted mean of the
+    # measured heights inside the window (as at the ends of the scan)
+    mean_line = fftconvolve(np.where(valid, z, 0.0), w, mode="same")
+    norm = fftconvolve(valid.astype(float), w, mode="same")
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(valid, z - mean_line / norm, np.nan)
 
 
 def _condition_one(p: Profile, detrend_method, cutoff) -> Profile:
@@ -163,6 +207,17 @@ def _condition_one(p: Profile, detrend_method, cutoff) -> Profile:
     if detrend_method is not None:
         z = detrend(p.x, z, method=detrend_method)
     if cutoff is not None:
+        if not p.is_uniform:
+            d = np.diff(p.x)
+            where = "" if p.scan is None else f" (scan {p.scan!r})"
+            raise ProfileFormatError(
+                "the Gaussian filter needs a uniformly spaced scan; this one"
+                f"{where} has intervals from {m_to_um(d.min()):.4g} to "
+                f"{m_to_um(d.max()):.4g} µm; allowed: no cutoff (leave `cutoff_um` "
+                "out; detrending works on any spacing), or a uniformly resampled scan",
+                source=p.source,
+                field="cutoff_um",
+            )
         z = gaussian_filter_profile(p.x, z, cutoff=cutoff)
     if z is p.z:
         return p
@@ -198,27 +253,78 @@ def condition(profile_or_set, *, detrend="line", cutoff=None) -> ProfileSet:
 # ------------------------------------------------------------------ angles
 
 
-def _segment_means(x, z, length):
+def _segment_means(x, z, length, min_coverage=0.5):
     """Means of the heights in complete segments of `length`, from the scan start.
 
-    Each sample stands for the interval ``[x - dx/2, x + dx/2)``; segment ``k``
-    holds the samples whose centres fall in ``[x0 - dx/2 + kL, x0 - dx/2 + (k+1)L)``.
-    Empty segments (gaps) give ``nan``.
+    Uniform scan: each sample stands for ``[x - dx/2, x + dx/2)``; segment ``k``
+    holds the samples whose positions fall in ``[a + kL, a + (k+1)L)`` with ``a``
+    the start of the first cell, and its mean is their mean. Non-uniform scan:
+    the mean of the piecewise-linear profile through the real positions over
+    ``[x0 + kL, x0 + (k+1)L)`` (:func:`_segment_means_nonuniform`). A segment with
+    less than `min_coverage` of its length measured (missing points, gaps) gives
+    ``nan``, as a height-map patch does.
     """
-    dx = float(np.median(np.diff(x)))
-    span = x[-1] - x[0] + dx
+    if not _is_uniform(x):
+        return _segment_means_nonuniform(x, z, length, min_coverage)
+    w = cell_weights(x)
+    start = x[0] - 0.5 * w[0]
+    span = x[-1] + 0.5 * w[-1] - start
     nseg = math.floor(span / length + 1e-9)
     if nseg < 1:
         return np.empty(0)
-    idx = np.floor((x - x[0] + 0.5 * dx) / length + 1e-9).astype(np.intp)
+    idx = np.floor((x - start) / length + 1e-9).astype(np.intp)
     keep = idx < nseg
-    counts = np.bincount(idx[keep], minlength=nseg)
-    sums = np.bincount(idx[keep], weights=z[keep], minlength=nseg)
+    valid = keep & np.isfinite(z)
+    covered = np.bincount(idx[valid], weights=w[valid], minlength=nseg)
+    sums = np.bincount(idx[valid], weights=w[valid] * z[valid], minlength=nseg)
     with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(counts > 0, sums / np.maximum(counts, 1), np.nan)
+        means = sums / covered
+    return np.where(covered >= min_coverage * length * (1 - 1e-9), means, np.nan)
+
+
+def _segment_means_nonuniform(x, z, length, min_coverage):
+    """Segment means of a non-uniform scan from its real positions: the mean of
+    the piecewise-linear profile over ``[x0 + kL, x0 + (k+1)L)`` (exact for a
+    ramp), over the intervals whose two ends are measured; ``nan`` where less than
+    `min_coverage` of the segment is measured."""
+    d = np.diff(x)
+    a, b = z[:-1], z[1:]
+    ok = np.isfinite(a) & np.isfinite(b)
+    a0, b0, dd = np.where(ok, a, 0.0), np.where(ok, b, 0.0), np.where(ok, d, 0.0)
+    integral = np.concatenate([[0.0], np.cumsum(0.5 * (a0 + b0) * d)])
+    measured = np.concatenate([[0.0], np.cumsum(dd)])
+    nseg = math.floor((x[-1] - x[0]) / length + 1e-9)
+    if nseg < 1:
+        return np.empty(0)
+    edges = np.minimum(x[0] + np.arange(nseg + 1) * length, x[-1])
+    i = np.clip(np.searchsorted(x, edges, side="right") - 1, 0, x.size - 2)
+    t = (edges - x[i]) / d[i]
+    at = integral[i] + d[i] * (a0[i] * t + 0.5 * (b0[i] - a0[i]) * t * t)
+    cover = np.diff(measured[i] + dd[i] * t)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        means = np.diff(at) / cover
+    return np.where(cover >= min_coverage * length * (1 - 1e-9), means, np.nan)
+
+
+def _check_contact_length(x, length, *, source=None, scan=None):
+    """A contact length shorter than the sampling interval averages nothing: each
+    segment would hold one point or none. Refused, naming both numbers."""
+    dx = float(np.median(np.diff(x)))
+    if length < dx * (1 - 1e-9):
+        where = f"scan {scan!r}" if scan is not None else "the profile"
+        raise ProfileFormatError(
+            f"the contact length {m_to_um(length):.6g} µm is shorter than the "
+            f"sampling interval {m_to_um(dx):.6g} µm of {where}: a segment would hold "
+            "one point or none; allowed: a contact length of at least "
+            f"{m_to_um(dx):.6g} µm (`contact_length_um`, in µm), or a scan sampled "
+            "more finely",
+            source=source,
+            field="contact_length_um",
+        )
 
 
 def _angles(x, z, length, method, *, source=None, scan=None):
+    _check_contact_length(x, length, source=source, scan=scan)
     h = _segment_means(x, z, length)
     need = 2 if method == "slope" else 1
     if np.count_nonzero(np.isfinite(h)) < need:
@@ -227,7 +333,7 @@ def _angles(x, z, length, method, *, source=None, scan=None):
         raise ProfileFormatError(
             f"{where} spans {m_to_um(span):.6g} µm ({x.size} points), shorter than "
             f"{need} contact length(s) of {m_to_um(length):.6g} µm needed by "
-            f"method {method!r}",
+            f"method {method!r} (with at least half of each segment measured)",
             source=source,
         )
     if method == "paper":
@@ -321,22 +427,49 @@ def surface_angles(
     check_choice(method, "method", ANGLE_METHODS)
     out = []
     for p in condition(profile_or_set, detrend=detrend, cutoff=cutoff):
-        z = p.z - p.z.mean() if method == "paper" else p.z
+        z = detrend_mean(p) if method == "paper" else p.z
         out.append(_angles(p.x, z, length, method, source=p.source, scan=p.scan))
     return np.concatenate(out)
+
+
+def detrend_mean(p: Profile) -> np.ndarray:
+    """The heights of `p` about their (length-weighted) mean; NaN stays NaN."""
+    return detrend(p.x, p.z, method="mean")
 
 
 # ------------------------------------------------------------------ statistics
 
 
-def _local_slope(x, z):
-    """dz/dx by the seven-point formula given with the ISO 4287 local slope [3]_."""
-    dx = float(np.median(np.diff(x)))
-    if z.size < 7:
-        return np.gradient(z, x)
-    return (
-        z[6:] - 9.0 * z[5:-1] + 45.0 * z[4:-2] - 45.0 * z[2:-4] + 9.0 * z[1:-5] - z[:-6]
-    ) / (60.0 * dx)
+#: Local-slope formulas of :func:`profile_parameters`.
+SLOPE_FORMULAS = ("interval", "iso7")
+
+
+def _local_slope(x, z, formula="interval"):
+    """Local slopes dz/dx and the length each stands for.
+
+    ``'interval'``: the slope of each interval between neighbouring points,
+    weighted by its length (the piecewise-linear profile through the measured
+    points; SurfaceTopography's ``rms_slope_from_profile``), on any spacing.
+    ``'iso7'``: the seven-point formula given with the ISO 4287 local slope [3]_,
+    equal weights, on a uniform scan (a non-uniform scan falls back to
+    ``'interval'``). Slopes touching a missing point are NaN.
+    """
+    if formula == "iso7" and _is_uniform(x):
+        dx = float(np.median(np.diff(x)))
+        if z.size < 7:
+            s = np.gradient(z, x)
+        else:
+            s = (
+                z[6:]
+                - 9.0 * z[5:-1]
+                + 45.0 * z[4:-2]
+                - 45.0 * z[2:-4]
+                + 9.0 * z[1:-5]
+                - z[:-6]
+            ) / (60.0 * dx)
+        return s, np.ones_like(s)
+    d = np.diff(x)
+    return np.diff(z) / d, d
 
 
 @dataclass(frozen=True)
@@ -364,32 +497,96 @@ class ProfileParameters:
     Rdq: float
 
 
-def profile_parameters(profile_or_set, *, detrend="line", cutoff=None):
+def profile_parameters(
+    profile_or_set, *, detrend="line", cutoff=None, slope="interval"
+):
     """
     Ra, Rq, Rsk, Rku and RΔq (ISO 4287 [3]_), pooled over all scans.
 
     Each scan is conditioned separately (heights about its own mean line), then the
-    sums run over all points of all scans; the local slopes (seven-point formula)
-    are computed within each scan only.
+    moments are pooled over all scans by length: sample means over the measured
+    points of a uniform scan, the exact integrals of the piecewise-linear profile
+    of a non-uniform one (as SurfaceTopography); missing (NaN) points are left
+    out. The local slopes are computed within each scan only: the
+    slope of each interval (weighted by its length, the real positions), or the
+    ISO seven-point formula on a uniform scan (`slope`).
+
+    `slope` chooses the local slope of RΔq: ``'interval'`` (default), the slope
+    of each interval between neighbouring points weighted by its length, the
+    piecewise-linear profile on any spacing, as SurfaceTopography computes it;
+    ``'iso7'``, the seven-point formula given with ISO 4287 (uniform scans), which
+    smooths the slope over six intervals and so gives less on a profile with
+    structure near the sampling interval (24 % less on a white-noise-like scan).
 
     Returns
     -------
     ProfileParameters
     """
+    check_choice(slope, "slope", SLOPE_FORMULAS)
     scans = condition(profile_or_set, detrend=detrend, cutoff=cutoff)
-    z = np.concatenate([p.z - (p.z.mean() if detrend is None else 0.0) for p in scans])
-    s = np.concatenate([_local_slope(p.x, p.z) for p in scans])
-    rq = float(np.sqrt(np.mean(z * z)))
+    sums = np.zeros(5)  # length, and the integrals of |z|, z^2, z^3, z^4
+    for p in scans:
+        z = detrend_mean(p) if detrend is None else p.z
+        sums += _moment_integrals(p.x, z)
+    slopes = [_local_slope(p.x, p.z, slope) for p in scans]
+    s = np.concatenate([a for a, _ in slopes])
+    ws = np.concatenate([b for _, b in slopes])
+    ok = np.isfinite(s)
+    s, ws = s[ok], ws[ok]
+    ra, m2, m3, m4 = sums[1:] / sums[0]
+    rq = float(np.sqrt(m2))
     with np.errstate(invalid="ignore", divide="ignore"):
-        rsk = float(np.mean(z**3) / rq**3)
-        rku = float(np.mean(z**4) / rq**4)
-    return ProfileParameters(
-        Ra=float(np.mean(np.abs(z))),
-        Rq=rq,
-        Rsk=rsk,
-        Rku=rku,
-        Rdq=float(np.sqrt(np.mean(s * s))),
+        rsk = float(m3 / rq**3)
+        rku = float(m4 / rq**4)
+        rdq = float(np.sqrt(np.sum(ws * s * s) / np.sum(ws))) if s.size else math.nan
+    return ProfileParameters(Ra=float(ra), Rq=rq, Rsk=rsk, Rku=rku, Rdq=rdq)
+
+
+def _moment_integrals(x, z) -> np.ndarray:
+    """``[length, ∫|z|, ∫z², ∫z³, ∫z⁴]`` of one scan over its measured part.
+
+    A uniform scan: sums over the measured points, each standing for one
+    interval (the ISO 4287 sample means). A non-uniform scan: the exact
+    integrals of the piecewise-linear profile over every interval whose two ends
+    are measured (as SurfaceTopography's ``rms_height_from_profile``), so that
+    densely sampled stretches do not outweigh sparse ones.
+    """
+    if _is_uniform(x):
+        v = z[np.isfinite(z)]
+        dx = float(np.median(np.diff(x)))
+        return dx * np.array(
+            [v.size, np.abs(v).sum(), (v * v).sum(), (v**3).sum(), (v**4).sum()]
+        )
+    a, b, d = z[:-1], z[1:], np.diff(x)
+    ok = np.isfinite(a) & np.isfinite(b)
+    a, b, d = a[ok], b[ok], d[ok]
+    # ∫0^1 (a + (b - a) t)^n dt = sum_k a^k b^(n-k) / (n + 1)
+    m2 = (a * a + a * b + b * b) / 3
+    m3 = (a + b) * (a * a + b * b) / 4
+    m4 = (a**4 + a**3 * b + a * a * b * b + a * b**3 + b**4) / 5
+    same = a * b >= 0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        m1 = np.where(
+            same,
+            0.5 * (np.abs(a) + np.abs(b)),
+            (a * a + b * b) / (2 * np.abs(a - b)),
+        )
+    return np.array(
+        [d.sum(), (d * m1).sum(), (d * m2).sum(), (d * m3).sum(), (d * m4).sum()]
     )
+
+
+def trapezoid_weights(x) -> np.ndarray:
+    """Weights whose sum with the heights is the integral of the piecewise-linear
+    profile (trapezoidal rule); equal on a uniform scan (then plain means)."""
+    x = np.asarray(x, dtype=float)
+    d = np.diff(x)
+    if _is_uniform(x):
+        return np.full(x.size, float(np.median(d)))
+    w = np.zeros(x.size)
+    w[:-1] += 0.5 * d
+    w[1:] += 0.5 * d
+    return w
 
 
 @dataclass(frozen=True, eq=False)
@@ -422,6 +619,11 @@ class RoughnessCharacterisation:
         ``detrend`` and ``cutoff`` used.
     sources : list
         Files the scans came from.
+    masked_fraction : float
+        Share of missing (NaN) heights over all scans, left out of every mean.
+    non_uniform_scans : int
+        Scans whose positions are not uniformly spaced: their slopes and segments
+        use the real positions (no resampling).
     """
 
     angles: np.ndarray
@@ -438,6 +640,8 @@ class RoughnessCharacterisation:
     n_segments: int
     conditioning: dict = field(default_factory=dict)
     sources: list = field(default_factory=list)
+    masked_fraction: float = 0.0
+    non_uniform_scans: int = 0
 
     @property
     def angles_deg(self) -> np.ndarray:
@@ -464,7 +668,9 @@ class RoughnessCharacterisation:
         cutoff = self.conditioning.get("cutoff")
         return {
             "schema": ROUGHNESS_SCHEMA,
-            "sources": [str(x) for x in self.sources],
+            # names and hashes of the files: no folders of the user's machine
+            "sources": [Path(str(x)).name for x in self.sources],
+            "sources_sha256": [file_sha256(x) for x in self.sources],
             "units": dict(units or {}),
             "method": self.method,
             "contact_length_um": float(m_to_um(self.contact_length)),
@@ -492,6 +698,13 @@ class RoughnessCharacterisation:
                 "detrend": self.conditioning.get("detrend"),
                 "cutoff_um": None if cutoff is None else float(m_to_um(cutoff)),
             },
+            "data": {
+                "masked_fraction": float(self.masked_fraction),
+                "non_uniform_scans": int(self.non_uniform_scans),
+                "positions": "real positions (no resampling)"
+                if self.non_uniform_scans
+                else "uniform spacing",
+            },
         }
 
     def to_json(self, *, units=None, indent=2) -> str:
@@ -513,6 +726,14 @@ class RoughnessCharacterisation:
             f"profile: Ra {m_to_um(p.Ra):.4g} µm, Rq {m_to_um(p.Rq):.4g} µm, "
             f"Rsk {p.Rsk:.3f}, Rku {p.Rku:.3f}, RΔq {p.Rdq:.4g} "
             f"({rad_to_deg(np.arctan(p.Rdq)):.2f}°)",
+            f"data: {100 * self.masked_fraction:.3g} % of the heights missing "
+            "(masked)"
+            + (
+                f"; {self.non_uniform_scans} non-uniformly spaced scan(s): slopes "
+                "and segments use the real positions (no resampling)"
+                if self.non_uniform_scans
+                else ""
+            ),
         ]
         return "\n".join(lines)
 
@@ -574,6 +795,11 @@ def characterise(
         n_segments=int(phi.size),
         conditioning={"detrend": detrend, "cutoff": cutoff},
         sources=sources_of(scans),
+        masked_fraction=float(
+            sum(np.count_nonzero(~p.valid) for p in scans)
+            / sum(p.n_points for p in scans)
+        ),
+        non_uniform_scans=sum(not p.is_uniform for p in scans),
     )
 
 

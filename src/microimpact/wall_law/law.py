@@ -21,7 +21,7 @@ import numpy as np
 from .. import __version__
 from .._core.files import atomic_write
 from .._core.json import dumps
-from ..engine.dataset import CONVENTIONS, encoding
+from ..engine.dataset import CONVENTIONS, encoding, history_line
 from ..engine.statistics import wilson_interval
 from ..errors import DataFormatError
 from ..scenario.wall_law import REBOUND_VARIABLES, RESERVOIR_VARIABLES
@@ -158,6 +158,7 @@ def wall_law_dataset(
     ds.attrs.update(
         Conventions=CONVENTIONS,
         title=f"microimpact wall law: {scenario.name}",
+        history=history_line(f"wall law of scenario {scenario.name!r}"),
         source=f"microimpact {__version__} (Li, Dunn & Brach 2000 Monte Carlo)",
         frame=FRAME,
         angle_convention=ANGLE_CONVENTION,
