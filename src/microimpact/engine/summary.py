@@ -448,6 +448,75 @@ def _span_of_dense(row):
     return int(nz[0]), row[nz[0] : nz[-1] + 1]
 
 
+#: The tail rule (docs/outputs.md, "Heavy tails"): the share of the spread held by
+#: this fraction of the rebounds, those farthest from the mean ...
+TAIL_FRACTION = 0.001
+#: ... flags a point when it exceeds this share (a Gaussian gives 0.013, an
+#: exponential 0.049).
+TAIL_SHARE_LIMIT = 0.25
+
+
+def tail_share(moments, spans: Spans, edges, fraction=TAIL_FRACTION) -> np.ndarray:
+    """Share of the sum of squared deviations from the mean, ``M2``, held by the
+    ``k = ceil(fraction n)`` values farthest from the mean, per point, from the
+    streaming moments and the histogram alone.
+
+    Each in-range value is placed at its bin's centre (plus the bin's own spread
+    ``w^2/12`` in ``M2``); the values outside the histogram's range (under- and
+    overflow) are taken as the farthest, and their summed squared deviation is
+    exact: the moments give ``sum x`` and ``sum x^2`` over all values, the bins
+    those over the in-range ones, and the difference is the out-of-range part. If
+    more than ``k`` values are out of range, their mean share times ``k`` is used
+    (a lower bound). NaN where ``M2 = 0`` or there are no values.
+
+    Parameters
+    ----------
+    moments : ndarray, shape (P, 4)
+        ``n, mean, M2, M3`` per point.
+    spans : Spans
+        The histograms (with under/overflow bins) on `edges`.
+    edges : ndarray
+        Uniform bin edges.
+    fraction : float
+
+    Returns
+    -------
+    ndarray, shape (P,)
+    """
+    out = np.full(spans.rows, np.nan)
+    mids = 0.5 * (edges[:-1] + edges[1:])
+    width2 = float(edges[1] - edges[0]) ** 2 / 12.0
+    size = spans.size
+    for i in np.flatnonzero((moments[:, 0] > 0) & (moments[:, 2] > 0)):
+        n, mean, m2 = float(moments[i, 0]), float(moments[i, 1]), float(moments[i, 2])
+        off, c = spans.row(int(i))
+        idx = off + np.arange(c.size)
+        inner = (idx > 0) & (idx < size - 1)
+        x = mids[idx[inner] - 1]
+        ci = c[inner].astype(float)
+        n_out = float(c[~inner].sum())
+        dev2 = (x - mean) ** 2 + width2
+        k = math.ceil(fraction * n)
+        tail = 0.0
+        if n_out > 0:
+            s1_out = n * mean - float(ci @ x)
+            s2_out = (m2 + n * mean * mean) - float(ci @ (x * x + width2))
+            d2_out = max(0.0, s2_out - 2.0 * mean * s1_out + n_out * mean * mean)
+            if n_out >= k:
+                out[i] = min(1.0, d2_out * k / n_out / m2)
+                continue
+            tail = d2_out
+            k -= int(n_out)
+        order = np.argsort(-dev2, kind="stable")
+        cum = np.cumsum(ci[order])
+        j = int(np.searchsorted(cum, k))  # the bin holding the k-th value
+        take = ci[order[:j]] @ dev2[order[:j]]
+        left = k - (cum[j - 1] if j > 0 else 0.0)
+        tail += float(take) + left * float(dev2[order[j]])
+        out[i] = min(1.0, tail / m2)
+    return out
+
+
 def point_statistics(stacked: Stacked, confidence: float) -> dict[str, np.ndarray]:
     """Every per-point summary statistic of plain Monte Carlo (``docs/outputs.md``).
 
@@ -518,6 +587,17 @@ def point_statistics(stacked: Stacked, confidence: float) -> dict[str, np.ndarra
     qs[constant] = stacked.lateral[constant, 1:2]
     for k, qv in enumerate(QUANTILES):
         out[f"lateral_p{round(qv * 100):02d}_deg"] = qs[:, k]
+    # heavy tails (docs/outputs.md): the share of each spread held by the 0.1 %
+    # farthest rebounds, and the flag of a point where either exceeds the limit
+    e_tail = tail_share(stacked.e, stacked.e_spans, E_EDGES)
+    mu_tail = tail_share(stacked.mu, stacked.mu_spans, MU_EDGES)
+    out["e_tail_share"] = e_tail
+    out["mu_tail_share"] = mu_tail
+    with np.errstate(invalid="ignore"):
+        flag = np.fmax(e_tail, mu_tail) > TAIL_SHARE_LIMIT
+    out["heavy_tail"] = np.where(
+        np.isnan(e_tail) & np.isnan(mu_tail), np.nan, flag.astype(float)
+    )
     return out
 
 

@@ -13,6 +13,12 @@ r"""Synthetic rough-surface profiles.
 
   whose power spectrum falls as :math:`\omega^{-(5-2D)}` and whose structure
   function :math:`\langle[z(x+\tau)-z(x)]^2\rangle` grows as :math:`\tau^{4-2D}`.
+* :func:`ripple_profile`: an asymmetric (saw-tooth) ripple: ramps that rise steeply
+  over a fraction :math:`w` of each period at the angle :math:`\alpha` and fall
+  gently over the rest, with random periods. Its slopes are :math:`\tan\alpha`
+  (a fraction :math:`w` of the length) and :math:`-\tan\alpha\,w/(1-w)` (the
+  rest): a profile whose slope distribution is asymmetric, which no Gaussian
+  (or other time-reversible) profile has.
 * :func:`formica_profile`: the shipped SYNTHETIC Formica-like profile set (10 scans x
   8,000 points at 0.5 µm; see ``surface/data/make_formica_profile.py``).
 
@@ -32,7 +38,12 @@ import numpy as np
 from .._core.validation import as_float_array, check_int, check_positive, check_scalar
 from ..io.profiles import Profile, ProfileSet, read_profiles
 
-__all__ = ["formica_profile", "gaussian_profile", "weierstrass_mandelbrot_profile"]
+__all__ = [
+    "formica_profile",
+    "gaussian_profile",
+    "ripple_profile",
+    "weierstrass_mandelbrot_profile",
+]
 
 FORMICA_FILE = "formica_synthetic_profile.csv"
 
@@ -107,6 +118,82 @@ def gaussian_profile(
     z = np.fft.irfft(np.sqrt(lam) * np.fft.rfft(w), n=n)
     meta["synthetic"] = "gaussian_profile"
     return Profile(np.arange(n) * dx, z, meta)
+
+
+def ripple_profile(
+    n, dx, *, period, rise_fraction, rise_angle, period_shape=4.0, rng=None
+) -> Profile:
+    r"""
+    Asymmetric saw-tooth ripple with random periods.
+
+    Each period :math:`P_k` (independent, gamma distributed with shape
+    `period_shape` and mean `period`) rises linearly over :math:`w P_k` at the
+    angle :math:`\alpha` (`rise_angle`, :math:`0 < \alpha < 90°`) and falls
+    linearly over :math:`(1 - w) P_k` back to its start, so the profile is
+    continuous, its amplitude :math:`h_k = w P_k \tan\alpha` varies with the
+    period, and exactly two slopes occur: :math:`\tan\alpha` on a fraction
+    :math:`w` of the length and :math:`-\tan\alpha\, w/(1-w)` on the rest (mean
+    slope zero). The first period starts at a uniformly random phase. A positive
+    slope rises along :math:`+x`: with particles travelling in :math:`-x`
+    (``docs/conventions.md``) the steep faces point away from them; negate `z` (or
+    reverse `x`) for the mirror image.
+
+    Parameters
+    ----------
+    n : int
+        Number of points.
+    dx : float
+        Sampling interval [m].
+    period : float
+        Mean period [m].
+    rise_fraction : float
+        :math:`w`, the fraction of each period that rises, 0 < w < 1.
+    rise_angle : float
+        :math:`\alpha` [rad], 0 < alpha < pi/2.
+    period_shape : float
+        Shape of the gamma distribution of the periods (their coefficient of
+        variation is ``1/sqrt(period_shape)``).
+    rng : None, int or numpy.random.Generator
+
+    Returns
+    -------
+    Profile
+        ``x = arange(n) * dx`` [m], ``z`` [m] (mean not removed).
+    """
+    n = check_int(n, "n", minimum=2)
+    dx = float(check_positive(dx, "dx"))
+    mean_p = float(check_positive(period, "period"))
+    w = check_scalar(rise_fraction, "rise_fraction")
+    if not 0.0 < w < 1.0:
+        raise ValueError(f"`rise_fraction` must lie in (0, 1); got {w!r}.")
+    alpha = check_scalar(rise_angle, "rise_angle")
+    if not 0.0 < alpha < 0.5 * np.pi:
+        raise ValueError(f"`rise_angle` must lie in (0, pi/2) rad; got {alpha!r}.")
+    shape = float(check_positive(period_shape, "period_shape"))
+    rng = np.random.default_rng(rng)
+    length = n * dx
+    # enough periods to cover the profile after a random phase, with a margin
+    k = int(np.ceil(2.0 * length / mean_p)) + 8
+    while True:
+        p = rng.gamma(shape, mean_p / shape, size=k)
+        if p.sum() > length + p[0]:
+            break
+        k *= 2
+    start = np.concatenate([[0.0], np.cumsum(p)]) - rng.uniform(0.0, p[0])
+    x = np.arange(n) * dx
+    i = np.searchsorted(start, x, side="right") - 1
+    u = x - start[i]  # position within its period
+    rise = w * p[i]
+    tan_a = math.tan(alpha)
+    z = np.where(u < rise, u * tan_a, (p[i] - u) * tan_a * w / (1.0 - w))
+    meta = {
+        "synthetic": "ripple_profile",
+        "period": mean_p,
+        "rise_fraction": w,
+        "rise_angle": alpha,
+        "period_shape": shape,
+    }
+    return Profile(x, z, meta)
 
 
 def weierstrass_mandelbrot_profile(
