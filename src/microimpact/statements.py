@@ -350,7 +350,9 @@ def _mu_m_10_skewed(ev):
     return Verdict("", g10 > lim, f"skewness {g10:+.2f} (10°)", max(0.0, lim - g10))
 
 
+_F4 = f"{OBLIQUE}/angle_pdf_formica"
 _F8 = f"{OBLIQUE}/coefficients_relative"
+_F8ABS = f"{OBLIQUE}/coefficients"
 _F9 = f"{OBLIQUE}/distributions_10deg"
 _F10 = f"{OBLIQUE}/distributions_85deg"
 
@@ -388,7 +390,7 @@ STATEMENTS: tuple[Statement, ...] = (
         "was larger than the contact diameter of a SST76 microsphere "
         "(approximately 20 µm)",
         "Formica profile height std in 43–47 µm; angles over 20 µm segments",
-        "",
+        _F4,
         _height_std,
     ),
     Statement(
@@ -398,7 +400,7 @@ STATEMENTS: tuple[Statement, ...] = (
         "asymmetries in the distributions of the apparent coefficient of "
         "restitution and the apparent impulse ratio",
         f"skewness of the Formica angle sample beyond {K_SKEW:g} standard errors",
-        "",
+        _F4,
         _angles_asymmetric,
     ),
     Statement(
@@ -436,7 +438,7 @@ STATEMENTS: tuple[Statement, ...] = (
         "for the molecularly-smooth surface case, they become constant and equal "
         "to 0.15",
         "smooth μ within 0.005 of 0.15 at every angle 10–45°",
-        _F8,
+        _F8ABS,
         _smooth_mu_flat,
     ),
     Statement(
@@ -446,7 +448,7 @@ STATEMENTS: tuple[Statement, ...] = (
         "with decreasing incident angle",
         "rough μ rises by more than 2 standard errors at every 5° step from 45° "
         "down to 10°",
-        _F8,
+        _F8ABS,
         _rough_mu_never_constant,
     ),
     Statement(
