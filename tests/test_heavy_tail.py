@@ -26,6 +26,7 @@ from microimpact.engine.summary import (
     TAIL_SHARE_LIMIT,
     Spans,
     _span_of_dense,
+    tail_pull,
     tail_share,
 )
 
@@ -38,10 +39,24 @@ def exact_share(x, fraction=TAIL_FRACTION):
     return d2[:k].sum() / d2.sum()
 
 
-def engine_share(x, edges):
+def exact_shift(x, fraction=TAIL_FRACTION):
+    """The oracle: the mean minus the mean of the values left after removing the
+    farthest from it."""
+    x = np.asarray(x, dtype=float)
+    order = np.argsort(-np.abs(x - x.mean()), kind="stable")
+    k = math.ceil(fraction * x.size)
+    return x.mean() - x[order[k:]].mean()
+
+
+def engine_pull(x, edges):
     m = Moments.of(np.asarray(x, dtype=float))
     spans = Spans.of([_span_of_dense(histogram_counts(x, edges))], edges.size + 1)
-    return float(tail_share(m.as_array()[None, :], spans, edges)[0])
+    shift, share = tail_pull(m.as_array()[None, :], spans, edges)
+    return float(shift[0]), float(share[0])
+
+
+def engine_share(x, edges):
+    return engine_pull(x, edges)[1]
 
 
 def test_normal_closed_form():
@@ -69,9 +84,15 @@ def test_a_few_wild_values_are_flagged_even_out_of_range():
     moments, exactly as the raw values do."""
     rng = np.random.default_rng(3)
     x = np.concatenate([rng.normal(0.3, 0.2, 3997), [40.0, -35.0, 60.0]])
-    got = engine_share(x, MU_EDGES)
+    shift, got = engine_pull(x, MU_EDGES)
     assert_allclose(got, exact_share(x), rtol=1e-3)
     assert got > TAIL_SHARE_LIMIT
+    # and leaving them out moves the mean by their sum over the rest
+    # (the out-of-range sum comes from the moments less the bins' centres: within
+    # half a bin per in-range value)
+    atol = 0.005 * x.size / (x.size - 3)
+    assert_allclose(shift, exact_shift(x), atol=atol * 0.01)
+    assert shift > (40.0 - 35.0 + 60.0 - 3 * x.mean()) / 3997  # k = 4: one more
 
 
 def test_more_out_of_range_values_than_the_tail_gives_a_lower_bound():
@@ -105,13 +126,20 @@ def test_matches_the_raw_values(n, shape, loc, seed):
     out_of_range = int(np.sum((x < E_EDGES[0]) | (x >= E_EDGES[-1])))
     if out_of_range >= k:  # documented lower bound
         assert got <= want + tol + 1e-9
-    else:
-        assert abs(got - want) <= tol + 1e-9
+        return
+    assert abs(got - want) <= tol + 1e-9
+    # the shift: each tail value is replaced by one whose distance from the mean is
+    # within a bin of its own, but near a tie possibly on the other side
+    shift, _ = engine_pull(x, E_EDGES)
+    assert abs(shift - exact_shift(x)) <= k * (2 * top.max() + 0.01) / (n - k)
 
 
 def test_undefined_without_spread():
     x = np.full(10, 0.5)
     assert math.isnan(engine_share(x, E_EDGES))
+    # a spread narrower than one bin (0.01) is not resolved: no share
+    x = 0.15 + np.random.default_rng(5).normal(0, 1e-4, 1000)
+    assert math.isnan(engine_share(x, MU_EDGES))
     m = np.zeros((1, 4))
     spans = Spans.of([(0, np.zeros(0, dtype=np.int64))], E_EDGES.size + 1)
     assert math.isnan(tail_share(m, spans, E_EDGES)[0])
@@ -128,7 +156,64 @@ def heavy_and_light():
 
 def test_summary_columns_at_the_end_and_the_flag(heavy_and_light):
     s = heavy_and_light.summary
-    assert list(s.columns[-3:]) == ["e_tail_share", "mu_tail_share", "heavy_tail"]
+    assert list(s.columns[-5:]) == [
+        "e_tail_share",
+        "mu_tail_share",
+        "e_tail_shift",
+        "mu_tail_shift",
+        "heavy_tail",
+    ]
     share = np.fmax(s["e_tail_share"], s["mu_tail_share"])
     assert ((share > TAIL_SHARE_LIMIT) == (s["heavy_tail"] == 1.0)).all()
     assert s["e_tail_share"].between(0, 1).all()
+
+
+def test_the_old_stand_in_is_flagged_where_a_few_impacts_rule():
+    """Issue 25: with the Formica angles shipped before it, single Lycopodium impacts
+    reach |mu_m| > 10 and the mu_m skewness swings from -29 to +48 between
+    neighbouring angles. The rule flags those points and no point whose skewness
+    stays moderate."""
+    from dataclasses import replace
+    from pathlib import Path
+
+    from microimpact.config import load_preset
+    from microimpact.engine.montecarlo import run
+    from microimpact.scenario import SurfaceVariant
+    from microimpact.surface.angles import angles_from_file
+
+    old = angles_from_file(
+        Path(__file__).parent / "data" / "formica_angles_20um_issue25_old.csv"
+    )
+    sc = load_preset("lycopodium-formica-oblique")
+    sc = replace(sc, surfaces=(SurfaceVariant("formica", old),), particle_roughness=old)
+    s = run(sc).summary
+    wild = s["mu_skewness"].abs() > 20
+    assert wild.sum() >= 2
+    assert (s.loc[wild, "heavy_tail"] == 1.0).all()
+    assert (s.loc[s["mu_skewness"].abs() < 6, "heavy_tail"] == 0.0).all()
+    # where flagged, the mean sits outside the middle of the rebounds' spread far
+    # more than where not: compare |mean - median| in units of the 5-95 % range
+    pull = (s["mu_mean"] - s["mu_p50"]).abs() / (s["mu_p95"] - s["mu_p05"])
+    assert pull[s["heavy_tail"] == 1.0].mean() > pull[s["heavy_tail"] == 0.0].mean()
+
+
+def test_report_and_text_flag_the_points(tmp_path):
+    """The reader is told: the report's summary section and the text summary name
+    the flagged points (a result whose summary flags one)."""
+    from microimpact.config import load_preset
+    from microimpact.engine.montecarlo import run
+    from microimpact.report import summary_text, write_report
+
+    res = run(load_preset("sst76-formica-oblique"), samples=500, seed=1)
+    text = summary_text(res)
+    assert "heavy tails" not in text
+    html = write_report(res, tmp_path / "r.html").read_text(encoding="utf-8")
+    assert "Heavy tails: no point flagged" in html
+    s = res.summary
+    s.loc[s.index[3], ["mu_tail_share", "heavy_tail"]] = [0.9, 1.0]
+    row = s.loc[s.index[3]]
+    text = summary_text(res)
+    assert "heavy tails: the mean of 1 point(s)" in text
+    assert f"{row['surface']} 1 m/s {row['angle_deg']:g} deg" in text
+    html = write_report(res, tmp_path / "r.html").read_text(encoding="utf-8")
+    assert "Heavy tails: the mean of 1 point(s) is at the mercy" in html

@@ -448,26 +448,42 @@ def _span_of_dense(row):
     return int(nz[0]), row[nz[0] : nz[-1] + 1]
 
 
-#: The tail rule (docs/outputs.md, "Heavy tails"): the share of the spread held by
-#: this fraction of the rebounds, those farthest from the mean ...
+#: The tail rule (docs/outputs.md, "Heavy tails"): the rebounds farthest from the
+#: mean, this fraction of them (at least one) ...
 TAIL_FRACTION = 0.001
-#: ... flags a point when it exceeds this share (a Gaussian gives 0.013, an
-#: exponential 0.049).
+#: ... flag a point when they hold more than this share of the sum of squared
+#: deviations (M2) of e_m or mu_m: the standard error, the interval and the
+#: skewness then rest on them (a normal law gives 0.013, an exponential 0.049).
 TAIL_SHARE_LIMIT = 0.25
 
 
-def tail_share(moments, spans: Spans, edges, fraction=TAIL_FRACTION) -> np.ndarray:
-    """Share of the sum of squared deviations from the mean, ``M2``, held by the
-    ``k = ceil(fraction n)`` values farthest from the mean, per point, from the
-    streaming moments and the histogram alone.
+def heavy_tail_flag(columns) -> np.ndarray:
+    """1.0 where ``e_tail_share`` or ``mu_tail_share`` exceeds
+    :data:`TAIL_SHARE_LIMIT`, 0.0 where neither does, NaN where neither is
+    defined."""
+    e = np.asarray(columns["e_tail_share"], float)
+    mu = np.asarray(columns["mu_tail_share"], float)
+    with np.errstate(invalid="ignore"):
+        flag = np.fmax(e, mu) > TAIL_SHARE_LIMIT
+    return np.where(np.isnan(e) & np.isnan(mu), np.nan, flag.astype(float))
+
+
+def tail_pull(moments, spans: Spans, edges, fraction=TAIL_FRACTION):
+    """How far the ``k = ceil(fraction n)`` values farthest from the mean pull it:
+    ``(mean - mean without them)``, and the share of ``M2`` (the sum of squared
+    deviations) they hold, per point, from the streaming moments and the
+    histogram alone.
 
     Each in-range value is placed at its bin's centre (plus the bin's own spread
-    ``w^2/12`` in ``M2``); the values outside the histogram's range (under- and
-    overflow) are taken as the farthest, and their summed squared deviation is
-    exact: the moments give ``sum x`` and ``sum x^2`` over all values, the bins
-    those over the in-range ones, and the difference is the out-of-range part. If
-    more than ``k`` values are out of range, their mean share times ``k`` is used
-    (a lower bound). NaN where ``M2 = 0`` or there are no values.
+    ``w^2/12`` in the squares); the values outside the histogram's range (under-
+    and overflow) are taken as the farthest, and their sums are exact: the moments
+    give ``sum x`` and ``sum x^2`` over all values, the bins those over the in-range
+    ones, and the difference is the out-of-range part. If more than ``k`` values
+    are out of range, ``k`` times their mean is used (for the share, a lower
+    bound). NaN where there are fewer than two values or ``M2 = 0``; the share is
+    also NaN where the standard deviation is below the bin width (the histogram
+    cannot resolve the spread: e.g. a smooth surface's sliding mu = 0.15 for every
+    rebound).
 
     Parameters
     ----------
@@ -481,13 +497,14 @@ def tail_share(moments, spans: Spans, edges, fraction=TAIL_FRACTION) -> np.ndarr
 
     Returns
     -------
-    ndarray, shape (P,)
+    shift, share : ndarray, shape (P,)
     """
-    out = np.full(spans.rows, np.nan)
+    shift = np.full(spans.rows, np.nan)
+    share = np.full(spans.rows, np.nan)
     mids = 0.5 * (edges[:-1] + edges[1:])
     width2 = float(edges[1] - edges[0]) ** 2 / 12.0
     size = spans.size
-    for i in np.flatnonzero((moments[:, 0] > 0) & (moments[:, 2] > 0)):
+    for i in np.flatnonzero((moments[:, 0] > 1) & (moments[:, 2] > 0)):
         n, mean, m2 = float(moments[i, 0]), float(moments[i, 1]), float(moments[i, 2])
         off, c = spans.row(int(i))
         idx = off + np.arange(c.size)
@@ -495,26 +512,39 @@ def tail_share(moments, spans: Spans, edges, fraction=TAIL_FRACTION) -> np.ndarr
         x = mids[idx[inner] - 1]
         ci = c[inner].astype(float)
         n_out = float(c[~inner].sum())
-        dev2 = (x - mean) ** 2 + width2
+        dev = x - mean
+        dev2 = dev * dev + width2
         k = math.ceil(fraction * n)
-        tail = 0.0
+        k_total = k
+        tail1 = tail2 = 0.0  # sums of (x - mean) and (x - mean)^2 over the tail
         if n_out > 0:
             s1_out = n * mean - float(ci @ x)
             s2_out = (m2 + n * mean * mean) - float(ci @ (x * x + width2))
-            d2_out = max(0.0, s2_out - 2.0 * mean * s1_out + n_out * mean * mean)
-            if n_out >= k:
-                out[i] = min(1.0, d2_out * k / n_out / m2)
-                continue
-            tail = d2_out
-            k -= int(n_out)
-        order = np.argsort(-dev2, kind="stable")
-        cum = np.cumsum(ci[order])
-        j = int(np.searchsorted(cum, k))  # the bin holding the k-th value
-        take = ci[order[:j]] @ dev2[order[:j]]
-        left = k - (cum[j - 1] if j > 0 else 0.0)
-        tail += float(take) + left * float(dev2[order[j]])
-        out[i] = min(1.0, tail / m2)
-    return out
+            d1 = s1_out - n_out * mean
+            d2 = max(0.0, s2_out - 2.0 * mean * s1_out + n_out * mean * mean)
+            used = min(float(k), n_out)
+            tail1, tail2 = d1 * used / n_out, d2 * used / n_out
+            k -= int(used)
+        if k > 0:
+            order = np.argsort(-dev2, kind="stable")
+            cum = np.cumsum(ci[order])
+            j = int(np.searchsorted(cum, k))  # the bin holding the k-th value
+            left = k - (cum[j - 1] if j > 0 else 0.0)
+            tail1 += float(ci[order[:j]] @ dev[order[:j]]) + left * float(dev[order[j]])
+            tail2 += float(ci[order[:j]] @ dev2[order[:j]]) + left * float(
+                dev2[order[j]]
+            )
+        # mean - mean of the others = sum over the tail of (x - mean) / (n - k)
+        shift[i] = tail1 / (n - k_total) if n > k_total else np.nan
+        if m2 / n >= 12.0 * width2:  # std >= one bin width
+            share[i] = min(1.0, tail2 / m2)
+    return shift, share
+
+
+def tail_share(moments, spans: Spans, edges, fraction=TAIL_FRACTION) -> np.ndarray:
+    """The share of ``M2`` held by the values farthest from the mean
+    (:func:`tail_pull`)."""
+    return tail_pull(moments, spans, edges, fraction)[1]
 
 
 def point_statistics(stacked: Stacked, confidence: float) -> dict[str, np.ndarray]:
@@ -587,17 +617,15 @@ def point_statistics(stacked: Stacked, confidence: float) -> dict[str, np.ndarra
     qs[constant] = stacked.lateral[constant, 1:2]
     for k, qv in enumerate(QUANTILES):
         out[f"lateral_p{round(qv * 100):02d}_deg"] = qs[:, k]
-    # heavy tails (docs/outputs.md): the share of each spread held by the 0.1 %
-    # farthest rebounds, and the flag of a point where either exceeds the limit
-    e_tail = tail_share(stacked.e, stacked.e_spans, E_EDGES)
-    mu_tail = tail_share(stacked.mu, stacked.mu_spans, MU_EDGES)
-    out["e_tail_share"] = e_tail
-    out["mu_tail_share"] = mu_tail
-    with np.errstate(invalid="ignore"):
-        flag = np.fmax(e_tail, mu_tail) > TAIL_SHARE_LIMIT
-    out["heavy_tail"] = np.where(
-        np.isnan(e_tail) & np.isnan(mu_tail), np.nan, flag.astype(float)
-    )
+    # heavy tails (docs/outputs.md): how far the 0.1 % of rebounds farthest from
+    # the mean pull it, and the share of the spread they hold
+    e_shift, e_share = tail_pull(stacked.e, stacked.e_spans, E_EDGES)
+    mu_shift, mu_share = tail_pull(stacked.mu, stacked.mu_spans, MU_EDGES)
+    out["e_tail_share"] = e_share
+    out["mu_tail_share"] = mu_share
+    out["e_tail_shift"] = e_shift
+    out["mu_tail_shift"] = mu_shift
+    out["heavy_tail"] = heavy_tail_flag(out)
     return out
 
 

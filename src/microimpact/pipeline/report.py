@@ -888,4 +888,16 @@ def summary_text(result) -> str:
             if isinstance(note, str) and note.strip():
                 line += f" ({note.strip()})"
             lines.append(line)
+    bad = heavy_tail_points(s)
+    if len(bad):
+        lines.append("")
+        lines.append(
+            f"- heavy tails: the mean of {len(bad)} point(s) is at the mercy of a few "
+            "impacts (the 0.1 % farthest rebounds hold > 25 % of the squared "
+            "deviations of e_m or mu_m; docs/outputs.md): "
+            + ", ".join(
+                f"{r['surface']} {_fmt(r['speed_m_s'])} m/s {_fmt(r['angle_deg'])} deg"
+                for _, r in bad.iterrows()
+            )
+        )
     return "\n".join(lines) + "\n"
