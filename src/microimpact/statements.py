@@ -519,6 +519,11 @@ def _mark(v):
     return "held" if v.held else f"NOT held (misses by {v.miss:.3g})"
 
 
+def _md(text) -> str:
+    """`text` safe inside a Markdown table cell."""
+    return str(text).replace("|", "\\|")
+
+
 def statement_table_markdown(verdicts, statements=STATEMENTS) -> str:
     """The statement table as Markdown (``docs/presets.md``)."""
     rows = [
@@ -529,8 +534,8 @@ def statement_table_markdown(verdicts, statements=STATEMENTS) -> str:
         v = verdicts.get(s.id)
         ours = "–" if v is None else v.ours
         rows.append(
-            f"| `{s.id}` | {s.where} | “{s.words}” | {s.reading} | {ours} | "
-            f"{_mark(v)} |"
+            f"| `{s.id}` | {s.where} | “{_md(s.words)}” | {_md(s.reading)} | "
+            f"{_md(ours)} | {_mark(v)} |"
         )
     return "\n".join(rows)
 
