@@ -591,7 +591,9 @@ def _result_section(result, k, csv_href, experiments, saved) -> str:
     rc = {**STYLE, "figure.figsize": (5.0, 3.4), "figure.constrained_layout.use": True}
     if saved is None:  # otherwise the caller wrote the input figures too
         with mpl.rc_context(rc):
-            figs += [(c, f) for _, c, f in input_figures(result)]
+            inputs = input_figures(result)
+        stems.update({id(f): stem for stem, _, f in inputs})
+        figs += [(c, f) for _, c, f in inputs]
     areal = [(c, f) for c, f in figs if _stem_of(f) == "profile_vs_areal"]
     if not areal and saved is None:
         areal = [(c, f) for c, f in figs if c == CAPTION]
