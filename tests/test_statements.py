@@ -81,6 +81,10 @@ def test_similar_then_differ_known_answers():
     rough = np.where(ANGLES <= 25, 0.2, 0.0)  # parts at 25 deg: too late
     v = held(oblique(rough, smooth), "rough-smooth-similar-above-45")
     assert not v.held and v.miss == pytest.approx(SIMILAR_TOL)
+    # the tolerance is 0.05 (5 % of unity): 0.03 apart is similar, 0.07 apart differs
+    assert SIMILAR_TOL == 0.05
+    rough = np.where(ANGLES <= 40, 0.07, 0.03)
+    assert held(oblique(rough, smooth), "rough-smooth-similar-above-45").held
     rough = np.where(ANGLES <= 60, 0.2, 0.0)  # already apart at 60 deg
     assert not held(oblique(rough, smooth), "rough-smooth-similar-above-45").held
 

@@ -15,8 +15,8 @@ from microimpact.io.profiles import ProfileSet
 from microimpact.surface.roughness import characterise, profile_parameters
 from microimpact.surface.synthetic import (
     formica_profile,
-    ripple_profile,
     gaussian_profile,
+    ripple_profile,
     weierstrass_mandelbrot_profile,
 )
 
