@@ -311,6 +311,9 @@ def checks_section(res4):
         + "; μ_rel "
         + ang(45, 30, 10, col="mu_relative", frame=ly)
         + " |",
+        "| Lycopodium capture (2 m/s) | – | largest "
+        f"{float(ly['capture_fraction'].max()):.1%}".replace("%", " %")
+        + f" (at {float(ly['capture_fraction'].idxmax()):g}°) |",
         "| heavy tails (all four presets) | – | largest share of the squared "
         "deviations held by the 0.1 % farthest rebounds: "
         + ", ".join(f"{n} {_worst_share(res):.3f}" for n, res in res4.items())
