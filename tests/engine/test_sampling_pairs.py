@@ -575,10 +575,9 @@ def test_checkpoints_know_where_rank_pairs_changed(monkeypatch):
     angles shipped before issue 25, from 70 deg) carry ``PairSampler.ALGORITHM`` in their checkpoint
     fingerprint, so that a checkpoint written before is not resumed; every
     other plan keeps its fingerprint."""
-    from microimpact.engine.checkpoint import plan_fingerprint
-
     from pathlib import Path
 
+    from microimpact.engine.checkpoint import plan_fingerprint
     from microimpact.surface.angles import angles_from_file
 
     surf, part = _steep()
