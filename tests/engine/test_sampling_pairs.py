@@ -572,9 +572,9 @@ def test_both_kernels_draw_the_same_rank_pairs():
 def test_checkpoints_know_where_rank_pairs_changed(monkeypatch):
     """The plans whose rank tables left out pairs leaning back past -90 deg
     ('reject' at an angle where some do: the Formica x Formica preset with the
-    angles shipped before issue 25, from 70 deg) carry ``PairSampler.ALGORITHM`` in their checkpoint
-    fingerprint, so that a checkpoint written before is not resumed; every
-    other plan keeps its fingerprint."""
+    angles shipped before issue 25, from 70 deg) carry ``PairSampler.ALGORITHM``
+    in their checkpoint fingerprint, so that a checkpoint written before is not
+    resumed; every other plan keeps its fingerprint."""
     from pathlib import Path
 
     from microimpact.engine.checkpoint import plan_fingerprint
