@@ -501,43 +501,156 @@ def tail_pull(moments, spans: Spans, edges, fraction=TAIL_FRACTION):
     """
     shift = np.full(spans.rows, np.nan)
     share = np.full(spans.rows, np.nan)
-    mids = 0.5 * (edges[:-1] + edges[1:])
-    width2 = float(edges[1] - edges[0]) ** 2 / 12.0
+    rows = np.flatnonzero(
+        (moments[:, 0] > 1) & (moments[:, 2] > 0) & (spans.length > 0)
+    )
+    if rows.size == 0:
+        return shift, share
+    w = float(edges[1] - edges[0])
+    width2 = w * w / 12.0
     size = spans.size
-    for i in np.flatnonzero((moments[:, 0] > 1) & (moments[:, 2] > 0)):
-        n, mean, m2 = float(moments[i, 0]), float(moments[i, 1]), float(moments[i, 2])
-        off, c = spans.row(int(i))
-        idx = off + np.arange(c.size)
-        inner = (idx > 0) & (idx < size - 1)
-        x = mids[idx[inner] - 1]
-        ci = c[inner].astype(float)
-        n_out = float(c[~inner].sum())
-        dev = x - mean
-        dev2 = dev * dev + width2
-        k = math.ceil(fraction * n)
-        k_total = k
-        tail1 = tail2 = 0.0  # sums of (x - mean) and (x - mean)^2 over the tail
-        if n_out > 0:
-            s1_out = n * mean - float(ci @ x)
-            s2_out = (m2 + n * mean * mean) - float(ci @ (x * x + width2))
-            d1 = s1_out - n_out * mean
-            d2 = max(0.0, s2_out - 2.0 * mean * s1_out + n_out * mean * mean)
-            used = min(float(k), n_out)
-            tail1, tail2 = d1 * used / n_out, d2 * used / n_out
-            k -= int(used)
-        if k > 0:
-            order = np.argsort(-dev2, kind="stable")
-            cum = np.cumsum(ci[order])
-            j = int(np.searchsorted(cum, k))  # the bin holding the k-th value
-            left = k - (cum[j - 1] if j > 0 else 0.0)
-            tail1 += float(ci[order[:j]] @ dev[order[:j]]) + left * float(dev[order[j]])
-            tail2 += float(ci[order[:j]] @ dev2[order[:j]]) + left * float(
-                dev2[order[j]]
-            )
+    counts = spans.counts
+    n, mean, m2 = moments[rows, 0], moments[rows, 1], moments[rows, 2]
+    st, ln, off = spans.start[rows], spans.length[rows], spans.offset[rows]
+    # each row's in-range bins are one contiguous run of its stored span: the
+    # underflow bin is dense index 0, the overflow bin the last
+    has_under = off == 0
+    has_over = off + ln == size
+    ia = st + has_under
+    ib = st + ln - has_over
+    nin = np.maximum(ib - ia, 0)
+    first_x = edges[0] + (off + has_under - 0.5) * w  # centre of the first one
+    n_out = np.where(has_under, counts[st], 0) + np.where(
+        has_over & (ln > has_under), counts[st + ln - 1], 0
+    )
+    n_out = n_out.astype(float)
+    k = np.ceil(fraction * n)
+    # the out-of-range values are the farthest; their sums are exact: the moments'
+    # totals less the in-range bins' (computed for those rows only: few)
+    d1_out = np.zeros(rows.size)
+    d2_out = np.zeros(rows.size)
+    for j in np.flatnonzero(n_out > 0).tolist():
+        cj = counts[ia[j] : ib[j]].astype(float)
+        xj = first_x[j] + w * np.arange(cj.size)
+        s1_out = n[j] * mean[j] - cj @ xj
+        s2_out = (m2[j] + n[j] * mean[j] ** 2) - cj @ (xj * xj + width2)
+        d1_out[j] = s1_out - n_out[j] * mean[j]
+        d2_out[j] = max(0.0, s2_out - 2.0 * mean[j] * s1_out + n_out[j] * mean[j] ** 2)
+    used = np.minimum(k, n_out)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        frac = np.where(n_out > 0, used / n_out, 0.0)  # k/n_out of them if more
+    tail1 = d1_out * frac  # sums of (x - mean) and (x - mean)^2 over the tail
+    tail2 = d2_out * frac
+    need = k - used
+    # the in-range values farthest from the mean: the distance |x - mean| falls
+    # toward the mean from either end of the run, so they are taken bin by bin
+    # from the two ends, the farther first (a tie: the left one); all rows at once,
+    # for as many steps as the most bins any row needs (few: the tails are thin)
+    left = np.zeros(rows.size, dtype=np.int64)
+    right = nin - 1
+    active = np.flatnonzero((need > 0) & (left <= right))
+    while active.size:
+        mu_a = mean[active]
+        dl = first_x[active] + w * left[active] - mu_a
+        dr = first_x[active] + w * right[active] - mu_a
+        use_r = np.abs(dr) > np.abs(dl)
+        at = ia[active] + np.where(use_r, right[active], left[active])
+        dev = np.where(use_r, dr, dl)
+        take = np.minimum(need[active], counts[at])
+        tail1[active] += take * dev
+        tail2[active] += take * (dev * dev + width2)
+        need[active] -= take
+        right[active] -= use_r
+        left[active] += ~use_r
+        active = active[(need[active] > 0) & (left[active] <= right[active])]
+    with np.errstate(invalid="ignore", divide="ignore"):
         # mean - mean of the others = sum over the tail of (x - mean) / (n - k)
-        shift[i] = tail1 / (n - k_total) if n > k_total else np.nan
-        if m2 / n >= 12.0 * width2:  # std >= one bin width
-            share[i] = min(1.0, tail2 / m2)
+        shift[rows] = np.where(n > k, tail1 / (n - k), np.nan)
+        ok = m2 / n >= 12.0 * width2  # std >= one bin width
+        share[rows] = np.where(ok, np.minimum(1.0, tail2 / m2), np.nan)
+    return shift, share
+    w = float(edges[1] - edges[0])
+    width2 = w * w / 12.0
+    size = spans.size
+    n = moments[rows, 0]
+    mean = moments[rows, 1]
+    m2 = moments[rows, 2]
+    st = spans.start[rows]
+    ln = spans.length[rows]
+    off = spans.offset[rows]
+    # each row's in-range bins are one contiguous run of its stored span
+    ia = st + (off == 0)  # the underflow bin is dense index 0
+    ib = st + ln - (off + ln == size)  # the overflow bin is the last
+    nin = np.maximum(ib - ia, 0)
+    first_x = edges[0] + (off + (off == 0) - 0.5) * w  # centre of the first one
+    counts = spans.counts
+    total_in = np.zeros(rows.size)
+    s1_in = np.zeros(rows.size)
+    s2_in = np.zeros(rows.size)
+    # rows with values out of range need the in-range sums (usually few rows)
+    n_in_stored = np.array([0.0])  # placeholder for the type checker
+    row_tot = np.add.reduceat(counts, st) if counts.size else np.zeros(0)
+    del n_in_stored
+    under = np.where(off == 0, counts[np.minimum(st, counts.size - 1)], 0)
+    over = np.where(off + ln == size, counts[np.maximum(st + ln - 1, 0)], 0)
+    n_out = (under + over).astype(float)
+    if ln.size and (ln == 1).any():  # a span of the under- or overflow bin alone
+        both = (ln == 1) & (off == 0) & (off + ln == size)
+        n_out = np.where(both, under, n_out)
+    del row_tot
+    out_rows = np.flatnonzero(n_out > 0)
+    for j in out_rows.tolist():  # the in-range sums of a row with values out of range
+        cj = counts[ia[j] : ib[j]].astype(float)
+        xj = first_x[j] + w * np.arange(cj.size)
+        total_in[j] = cj.sum()
+        s1_in[j] = cj @ xj
+        s2_in[j] = cj @ (xj * xj + width2)
+    k = np.ceil(fraction * n)
+    # the out-of-range values: exact sums, taken first (a lower bound if > k)
+    s1_out = n * mean - s1_in
+    s2_out = (m2 + n * mean * mean) - s2_in
+    d1_out = np.where(n_out > 0, s1_out - n_out * mean, 0.0)
+    d2_out = np.where(
+        n_out > 0,
+        np.maximum(0.0, s2_out - 2.0 * mean * s1_out + n_out * mean * mean),
+        0.0,
+    )
+    used = np.minimum(k, n_out)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        frac = np.where(n_out > 0, used / n_out, 0.0)
+    tail1 = d1_out * frac
+    tail2 = d2_out * frac
+    need = k - used
+    # the in-range values farthest from the mean: the distance |x - mean| falls
+    # toward the mean from either end of the run, so they are taken bin by bin
+    # from the two ends, the farther first (a tie: the left one); all rows at once,
+    # for as many steps as the most bins any row needs (a few: the tails are thin)
+    left = np.zeros(rows.size, dtype=np.int64)
+    right = nin - 1
+    t1 = np.zeros(rows.size)
+    t2 = np.zeros(rows.size)
+    active = np.flatnonzero((need > 0) & (left <= right))
+    while active.size:
+        lx = first_x[active] + w * left[active]
+        rx = first_x[active] + w * right[active]
+        dl, dr = lx - mean[active], rx - mean[active]
+        use_r = np.abs(dr) > np.abs(dl)
+        at = ia[active] + np.where(use_r, right[active], left[active])
+        dev = np.where(use_r, dr, dl)
+        take = np.minimum(need[active], counts[at])
+        t1[active] += take * dev
+        t2[active] += take * (dev * dev + width2)
+        need[active] -= take
+        right[active] -= use_r
+        left[active] += ~use_r
+        keep = (need[active] > 0) & (left[active] <= right[active])
+        active = active[keep]
+    tail1 = tail1 + t1
+    tail2 = tail2 + t2
+    with np.errstate(invalid="ignore", divide="ignore"):
+        shift[rows] = np.where(n > k, tail1 / (n - k), np.nan)
+        ok = m2 / n >= 12.0 * width2  # std >= one bin width
+        share[rows] = np.where(ok, np.minimum(1.0, tail2 / m2), np.nan)
     return shift, share
 
 
