@@ -1,7 +1,8 @@
 """The documented search behind the shipped Formica roughness (docs/presets.md).
 
-The synthetic Formica profile of ``src/microimpact/data/make_formica_profile.py`` is
-Gaussian waviness (correlation length ``ell``) plus an asymmetric saw-tooth ripple
+The synthetic Formica profile of
+``src/microimpact/surface/data/make_formica_profile.py`` is Gaussian waviness
+(correlation length ``ell``) plus an asymmetric saw-tooth ripple
 (rise fraction ``w``, rise angle ``alpha``, orientation ``+1``: steep faces away
 from the particles, ``-1``: toward them), always with a height std of 45 µm and
 angles over the paper's 20 µm contact length. For each point of a grid over these
@@ -12,7 +13,7 @@ four numbers this script
    ``presets/make_preset_data.py`` does),
 3. runs the ``sst76-formica-oblique`` preset on them (4,000 impacts per point,
    the preset's seed, one worker, the compiled kernel),
-4. evaluates the paper's statements (:mod:`microimpact.statements`),
+4. evaluates the paper's statements (:mod:`microimpact.analysis.statements`),
 
 and writes ``formica_search.csv`` (one row per point: parameters, angle std and
 skewness, the rough relative e at 10 deg, the parting angle, the e_m and mu_m
@@ -26,8 +27,8 @@ five minutes on one core (``--reuse-grid`` reads the grid's CSV back and only
 confirms)::
 
     python docs/figures/formica_search.py            # the search (writes here)
-    python src/microimpact/data/make_formica_profile.py
-    python src/microimpact/presets/make_preset_data.py
+    python src/microimpact/surface/data/make_formica_profile.py
+    python src/microimpact/scenario/presets/make_preset_data.py
 """
 
 from __future__ import annotations
@@ -77,7 +78,7 @@ def angles_of(z_um, contact_length_um=20.0):
     from microimpact.surface.roughness import surface_angles
     from microimpact.units import rad_to_deg
 
-    mk = _load(SRC / "data" / "make_formica_profile.py", "_mk")
+    mk = _load(SRC / "surface" / "data" / "make_formica_profile.py", "_mk")
     x = np.arange(z_um.shape[1]) * mk.DX_UM * 1e-6
     ps = ProfileSet(tuple(Profile(x, row * 1e-6, {}) for row in z_um))
     return rad_to_deg(
@@ -89,13 +90,13 @@ def evaluate_point(ell, w, alpha, orientation, *, samples=SAMPLES, seed=None):
     """Statement verdicts and key numbers for one point of the grid."""
     from scipy import stats
 
-    from microimpact.config import PRESET_DIR
+    from microimpact.analysis.statements import Evidence, evaluate, parting_angle
     from microimpact.engine.montecarlo import run
-    from microimpact.statements import Evidence, evaluate, parting_angle
+    from microimpact.scenario import PRESET_DIR
     from microimpact.surface.roughness import write_angle_file
 
-    mk = _load(SRC / "data" / "make_formica_profile.py", "_mk")
-    pd_ = _load(SRC / "presets" / "make_preset_data.py", "_pd")
+    mk = _load(SRC / "surface" / "data" / "make_formica_profile.py", "_mk")
+    pd_ = _load(SRC / "scenario" / "presets" / "make_preset_data.py", "_pd")
     z = mk.make_heights(
         correlation_length_um=ell,
         rise_fraction=w,

@@ -5,8 +5,9 @@ Runs the paper's four presets (their seed and 4,000 impacts per point, as
 per point, as in issue 25's acceptance) and replaces the text between these
 markers in ``docs/presets.md``:
 
-* ``statements``: the statement table of :mod:`microimpact.statements` (the paper's
-  words, our reading, our number, held or not) at 4,000 and at 40,000 impacts;
+* ``statements``: the statement table of
+  :mod:`microimpact.analysis.statements` (the paper's words, our reading, our
+  number, held or not) at 4,000 and at 40,000 impacts;
 * ``mechanism``: the e_m skewness at 10 and 85 deg of the rough surface as shipped,
   with one diameter (the sample's median), without adhesion (k2, v_c -> 0) and of
   the smooth surface: what makes e_m asymmetric;
@@ -45,14 +46,14 @@ def _sub(text, marker, body):
 
 
 def run_presets(samples=None):
-    from microimpact.config import PAPER_PRESETS, load_preset
     from microimpact.engine.montecarlo import run
+    from microimpact.scenario import PAPER_PRESETS, load_preset
 
     return {n: run(load_preset(n), samples=samples) for n in PAPER_PRESETS}
 
 
 def statements_section(res4, res40):
-    from microimpact.statements import (
+    from microimpact.analysis.statements import (
         STATEMENTS,
         Evidence,
         _md,
@@ -99,10 +100,10 @@ def _skew(x) -> str:
 
 
 def mechanism_section():
-    from microimpact.config import load_preset
     from microimpact.engine.montecarlo import run
     from microimpact.physics.coefficients import ImpactCoefficients
     from microimpact.population.distributions import monodisperse
+    from microimpact.scenario import load_preset
 
     base = load_preset("sst76-formica-oblique")
     median_um = float(np.median(base.particles.ppf(np.linspace(0.001, 0.999, 999))))
@@ -250,7 +251,7 @@ def _worst_share(res):
 
 
 def checks_section(res4):
-    from microimpact.statements import Evidence
+    from microimpact.analysis.statements import Evidence
 
     ev = Evidence.from_results(res4)
     r = ev.by_angle("formica")
@@ -276,7 +277,7 @@ def checks_section(res4):
         f"{cs125['speed_m_s']:.4f} m/s (95 % CI {cs125['speed_ci_low']:.4f}–"
         f"{cs125['speed_ci_high']:.4f}) |",
         "| SST65, SST125 closed form F_D(v_c⁻¹(v)) | within 4 SE at every speed | "
-        "yes (tests/test_presets.py) |",
+        "yes (tests/pipeline/test_presets.py) |",
         "| SST65 e against speed (Fig. 5) | rises with speed | e_mean "
         + " → ".join(
             f"{float(e65.loc[v, 'e_mean']):.3f} ({v:g} m/s)"
@@ -325,8 +326,8 @@ def checks_section(res4):
 
 
 def areal_section():
-    from microimpact.config import load_preset
     from microimpact.engine.montecarlo import run
+    from microimpact.scenario import load_preset
 
     s = run(load_preset("sst76-formica-areal")).summary.set_index(
         ["surface", "angle_deg"]
@@ -359,8 +360,8 @@ def areal_section():
 
 def main():
     res4 = run_presets()
-    from microimpact.config import load_preset
     from microimpact.engine.montecarlo import run
+    from microimpact.scenario import load_preset
 
     res40 = run(load_preset("sst76-formica-oblique"), samples=40000)
     text = DOC.read_text(encoding="utf-8")

@@ -171,21 +171,22 @@ def test_sst76_rough_surface_trends(results):
 
 
 # ------------------------------------------------------------ the paper's statements
-# One test per statement of microimpact.statements (the table docs/presets.md and
-# the reproduction report show): the paper's words, our reading, held or not.
+# One test per statement of microimpact.analysis.statements (the table
+# docs/presets.md and the reproduction report show): the paper's words, our reading,
+# held or not.
 
 
 @pytest.fixture(scope="module")
 def verdicts(results):
-    from microimpact.config import PAPER_PRESETS
-    from microimpact.statements import Evidence, evaluate
+    from microimpact.analysis.statements import Evidence, evaluate
+    from microimpact.scenario import PAPER_PRESETS
 
     res = {name: results[0][name] for name in PAPER_PRESETS}
     return evaluate(Evidence.from_results(res))
 
 
 def _statement_params():
-    from microimpact.statements import STATEMENTS
+    from microimpact.analysis.statements import STATEMENTS
 
     return [
         pytest.param(
@@ -210,7 +211,7 @@ def test_the_statements_can_fail(results):
     9 deg Gaussian angles part from the smooth surface only below 30 deg."""
     from dataclasses import replace
 
-    from microimpact.statements import Evidence, evaluate
+    from microimpact.analysis.statements import Evidence, evaluate
 
     base = load_preset("sst76-formica-oblique")
 

@@ -24,6 +24,13 @@ import numpy as np
 from .. import __version__
 from .._core.files import atomic_write
 from ..analysis.compare import compare
+from ..analysis.statements import (
+    STATEMENTS,
+    Evidence,
+    evaluate,
+    statement_table_html,
+)
+from ..engine.summary import TAIL_FRACTION, TAIL_SHARE_LIMIT
 from ..io.experiments import combine_experiments
 from ..plotting.areal import CAPTION
 from ..plotting.results import STYLE, _confidence, smooth_surfaces
@@ -181,8 +188,6 @@ def heavy_tail_points(summary):
 
 
 def _heavy_tail_note(summary) -> str:
-    from ..engine.summary import TAIL_FRACTION, TAIL_SHARE_LIMIT
-
     if "heavy_tail" not in summary or summary["heavy_tail"].isna().all():
         return ""
     bad = heavy_tail_points(summary)
@@ -530,10 +535,8 @@ def figure_anchor(k, name, stem) -> str:
 
 
 def _statements_section(results) -> str:
-    """The paper's statements beside our numbers (microimpact.statements), each
+    """The paper's statements beside our numbers (microimpact.analysis.statements), each
     linked to the figure of this report that shows it."""
-    from ..statements import STATEMENTS, Evidence, evaluate, statement_table_html
-
     names = [r.scenario.name for r in results]
     verdicts = evaluate(Evidence.from_results(results))
     anchors = {}
@@ -549,7 +552,7 @@ def _statements_section(results) -> str:
         f"<p>{held} of {len(done)} statements of Li, Dunn &amp; Brach (2000) "
         "hold here. Each row: the paper's words, our reading of them as a test, "
         "our number, held or not, and the figure below that shows it. The same "
-        "table (<code>microimpact.statements</code>) backs "
+        "table (<code>microimpact.analysis.statements</code>) backs "
         "<code>docs/presets.md</code> and the tests; where a statement fails, "
         "<code>docs/presets.md</code> shows the measured trade-off.</p>"
         + statement_table_html(verdicts, anchors=anchors)
@@ -723,7 +726,7 @@ def write_report(
         written next to the report as ``<name>_summary.csv`` and linked.
     statements : bool, default False
         Open with the table of the paper's statements beside ours
-        (:mod:`microimpact.statements`; for the paper's presets, as
+        (:mod:`microimpact.analysis.statements`; for the paper's presets, as
         ``microimpact reproduce`` writes it).
 
     Returns

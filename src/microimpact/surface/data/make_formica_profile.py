@@ -29,7 +29,7 @@ The ripple is what makes the slope (roughness-angle) distribution asymmetric; th
 waviness sets the height standard deviation and the spread of the gentle facets.
 The four numbers (ell, the ripple's rise fraction and angle, and the orientation)
 were chosen by the documented search ``docs/figures/formica_search.py`` against the
-paper's statements (``microimpact.statements``); see ``docs/presets.md``.
+paper's statements (``microimpact.analysis.statements``); see ``docs/presets.md``.
 
 Run from the repository root::
 

@@ -1,4 +1,4 @@
-"""microimpact.statements: the checkers decide on evidence built by hand (known
+"""microimpact.analysis.statements: the checkers decide on evidence built by hand (known
 answers), the docs table and the report table come from the same rows."""
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from microimpact.statements import (
+from microimpact.analysis.statements import (
     SIMILAR_TOL,
     STATEMENTS,
     Evidence,
@@ -154,7 +154,7 @@ def test_docs_table_is_this_table():
 
 
 def test_html_table_escapes_and_links():
-    from microimpact.statements import Verdict
+    from microimpact.analysis.statements import Verdict
 
     s = STATEMENTS[0]
     verdicts = {s.id: Verdict(s.id, True, "<0.2 & more>")}
@@ -168,9 +168,9 @@ def test_html_table_escapes_and_links():
 def test_reproduce_report_opens_with_the_table(tmp_path):
     """The reproduction report: the statement section comes before the first
     result, and every link it makes points at a figure of the page."""
-    from microimpact.config import PAPER_PRESETS, load_preset
     from microimpact.engine.montecarlo import run
-    from microimpact.report import write_report
+    from microimpact.pipeline.report import write_report
+    from microimpact.scenario import PAPER_PRESETS, load_preset
 
     results = [run(load_preset(n), samples=400) for n in PAPER_PRESETS]
     path = write_report(results, tmp_path / "report.html", statements=True)
@@ -189,7 +189,7 @@ def test_reproduce_report_opens_with_the_table(tmp_path):
 def test_reproduce_writes_the_table_linked_to_its_figure_files(tmp_path):
     """`microimpact reproduce` (make demo): the report opens with the table, and
     each figure link lands on a figure written by the run."""
-    from microimpact.study import reproduce
+    from microimpact.pipeline.study import reproduce
 
     reproduce(tmp_path, samples=300)
     page = (tmp_path / "report.html").read_text(encoding="utf-8")

@@ -1,7 +1,8 @@
 """The paper's statements, each with the test that decides whether we hold it.
 
 One table, three readers: ``docs/presets.md`` (its statement table, written by
-``docs/figures/paper_statements.py``), the tests (``tests/test_statements.py``) and
+``docs/figures/paper_statements.py``), the tests (``tests/pipeline/test_presets.py``,
+``tests/analysis/test_statements.py``) and
 the reproduction report (``microimpact reproduce``, :func:`statement_table_html`).
 Each :class:`Statement` carries the paper's own words (Li, Dunn & Brach 2000), our
 reading of them as a numerical test (``reading``), the figure of the reproduction
@@ -28,6 +29,11 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from ..physics.impact import apparent_rebound
+from ..scenario import PRESET_DIR
+from ..surface.roughness import read_angle_file
+from ..surface.synthetic import formica_profile
 
 __all__ = [
     "STATEMENTS",
@@ -115,10 +121,6 @@ class Evidence:
 
     def add_shipped_surface(self) -> Evidence:
         """The shipped Formica angle sample and profile (``presets/``, ``data/``)."""
-        from .config import PRESET_DIR
-        from .surface.roughness import read_angle_file
-        from .surface.synthetic import formica_profile
-
         path = PRESET_DIR / "formica_angles_20um.csv"
         self.angles_deg = read_angle_file(path)
         for line in path.read_text(encoding="utf-8").splitlines():
@@ -174,8 +176,6 @@ def _capture_order(ev):
 
 
 def _eq9(_ev):
-    from .physics.impact import apparent_rebound
-
     # an impact that slides with friction 0.3 on a facet of -20 deg (apparent
     # angle 5 deg, true angle 25 deg: mu_0 > 0.3), through the engine's physics
     res = apparent_rebound(1.0, 5.0, -20.0, k1=1.0, k2=0.0, v_c=0.0, friction=0.3)
@@ -199,6 +199,7 @@ def _height_std(ev):
 def _angles_asymmetric(ev):
     if ev.angles_deg is None:
         return None
+    # deferred: scipy loads only when a statement is checked
     from scipy import stats
 
     a = np.asarray(ev.angles_deg, dtype=float)

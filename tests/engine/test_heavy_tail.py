@@ -218,8 +218,8 @@ def test_undefined_without_spread():
 @pytest.fixture(scope="module")
 def heavy_and_light():
     """The rough spores of Fig. 11 through the engine."""
-    from microimpact.config import load_preset
     from microimpact.engine.montecarlo import run
+    from microimpact.scenario import load_preset
 
     return run(load_preset("lycopodium-formica-oblique"), samples=4000, seed=12345)
 
@@ -246,9 +246,8 @@ def test_the_old_stand_in_is_flagged_where_a_few_impacts_rule():
     from dataclasses import replace
     from pathlib import Path
 
-    from microimpact.config import load_preset
     from microimpact.engine.montecarlo import run
-    from microimpact.scenario import SurfaceVariant
+    from microimpact.scenario import SurfaceVariant, load_preset
     from microimpact.surface.angles import angles_from_file
 
     old = angles_from_file(
@@ -270,9 +269,9 @@ def test_the_old_stand_in_is_flagged_where_a_few_impacts_rule():
 def test_report_and_text_flag_the_points(tmp_path):
     """The reader is told: the report's summary section and the text summary name
     the flagged points (a result whose summary flags one)."""
-    from microimpact.config import load_preset
     from microimpact.engine.montecarlo import run
-    from microimpact.report import summary_text, write_report
+    from microimpact.pipeline.report import summary_text, write_report
+    from microimpact.scenario import load_preset
 
     res = run(load_preset("sst76-formica-oblique"), samples=500, seed=1)
     text = summary_text(res)
