@@ -22,7 +22,7 @@ from microimpact.analysis.statements import (
 )
 
 ANGLES = np.arange(10.0, 95.0, 5.0)
-DOCS = Path(__file__).resolve().parents[1] / "docs" / "presets.md"
+DOCS = Path(__file__).resolve().parents[2] / "docs" / "presets.md"
 
 
 def frame(surface, **cols):

@@ -251,7 +251,7 @@ def test_the_old_stand_in_is_flagged_where_a_few_impacts_rule():
     from microimpact.surface.angles import angles_from_file
 
     old = angles_from_file(
-        Path(__file__).parent / "data" / "formica_angles_20um_issue25_old.csv"
+        Path(__file__).parents[1] / "data" / "formica_angles_20um_issue25_old.csv"
     )
     sc = load_preset("lycopodium-formica-oblique")
     sc = replace(sc, surfaces=(SurfaceVariant("formica", old),), particle_roughness=old)

@@ -586,7 +586,7 @@ def test_checkpoints_know_where_rank_pairs_changed(monkeypatch):
     # -60 deg: Formica x Formica pairs lean back past -90 deg from 70 deg); the
     # shipped ones reach about -30 deg, so no pair leans back at any angle
     old = angles_from_file(
-        Path(__file__).parent / "data" / "formica_angles_20um_issue25_old.csv"
+        Path(__file__).parents[1] / "data" / "formica_angles_20um_issue25_old.csv"
     )
     preset = dataclasses.replace(
         shipped, surfaces=(SurfaceVariant("formica", old),), particle_roughness=old
