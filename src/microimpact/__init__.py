@@ -81,6 +81,7 @@ _EXPORTS: dict[str, str] = {
     "scipy_angles": "surface.angles",
     "smooth_surface": "surface.angles",
     "gaussian_profile": "surface.synthetic",
+    "ripple_profile": "surface.synthetic",
     "weierstrass_mandelbrot_profile": "surface.synthetic",
     "formica_profile": "surface.synthetic",
     "hertz_contact_diameter": "surface.contact",

@@ -539,3 +539,27 @@ def test_unit_must_be_a_known_length_unit(tmp_path, capsys, verb):
     assert main(argv) == 2
     err = _one_line_error(capsys)
     assert "--unit" in err and "'furlong'" in err and "'nm'" in err
+
+
+def test_run_names_the_points_with_heavy_tails(tmp_path, capsys):
+    """Issue 25: a point whose mean rests on a few impacts is named on the terminal
+    (SST65 near capture: 0.07 and 0.08 m/s leave 2 and 12 rebounds)."""
+    code = main(
+        [
+            "run",
+            "sst65-silicon-normal",
+            "--out",
+            str(tmp_path / "o"),
+            "--formats",
+            "png",
+        ]
+    )
+    assert code == 0
+    out = capsys.readouterr().out
+    line = next(x for x in out.splitlines() if "heavy tails" in x)
+    summary = pd.read_csv(tmp_path / "o" / "summary.csv")
+    flagged = summary[summary["heavy_tail"] == 1.0]
+    assert len(flagged) >= 1
+    assert f"the mean of {len(flagged)} point(s)" in line
+    for _, r in flagged.head(6).iterrows():
+        assert f"{r['speed_m_s']:g} m/s" in line

@@ -168,7 +168,11 @@ def test_summary_equals_the_point_row_oracle(areal_result):
             assert np.array_equal(
                 np.float64(row[key]), np.float64(s.loc[i, key]), equal_nan=True
             ), key
-    assert list(s.columns[-len(LATERAL_VARIABLES) :]) == list(LATERAL_VARIABLES)
+    # the lateral columns, then the heavy-tail columns added after them (issue 25)
+    from microimpact.engine.dataset import TAIL_VARIABLES
+
+    lat = list(s.columns[-len(LATERAL_VARIABLES) - len(TAIL_VARIABLES) :])
+    assert lat == list(LATERAL_VARIABLES) + list(TAIL_VARIABLES)
     areal = s[s["surface"] == "areal"]
     assert (areal["lateral_std_deg"] > 1.0).all()
     assert (areal["lateral_p05_deg"] < 0).all() and (areal["lateral_p95_deg"] > 0).all()

@@ -571,14 +571,26 @@ def test_both_kernels_draw_the_same_rank_pairs():
 
 def test_checkpoints_know_where_rank_pairs_changed(monkeypatch):
     """The plans whose rank tables left out pairs leaning back past -90 deg
-    ('reject' at an angle where some do: the paper's Formica x Formica preset
-    from 70 deg) carry ``PairSampler.ALGORITHM`` in their checkpoint
-    fingerprint, so that a checkpoint written before is not resumed; every
-    other plan keeps its fingerprint."""
+    ('reject' at an angle where some do: the Formica x Formica preset with the
+    angles shipped before issue 25, from 70 deg) carry ``PairSampler.ALGORITHM``
+    in their checkpoint fingerprint, so that a checkpoint written before is not
+    resumed; every other plan keeps its fingerprint."""
+    from pathlib import Path
+
     from microimpact.engine.checkpoint import plan_fingerprint
+    from microimpact.surface.angles import angles_from_file
 
     surf, part = _steep()
-    preset = Scenario.from_preset("lycopodium-formica-oblique")
+    shipped = Scenario.from_preset("lycopodium-formica-oblique")
+    # the Formica angles shipped before issue 25 (std 21.8 deg, down to about
+    # -60 deg: Formica x Formica pairs lean back past -90 deg from 70 deg); the
+    # shipped ones reach about -30 deg, so no pair leans back at any angle
+    old = angles_from_file(
+        Path(__file__).parents[1] / "data" / "formica_angles_20um_issue25_old.csv"
+    )
+    preset = dataclasses.replace(
+        shipped, surfaces=(SurfaceVariant("formica", old),), particle_roughness=old
+    )
     cases = {
         "steep, reject": (
             scenario(
@@ -610,6 +622,7 @@ def test_checkpoints_know_where_rank_pairs_changed(monkeypatch):
             dataclasses.replace(preset, angles_deg=(10.0, 40.0, 65.0)),
             False,
         ),
+        "shipped Formica, 10-90 deg": (shipped, False),
     }
     for name, (sc, changed) in cases.items():
         plan = build_plan(sc)

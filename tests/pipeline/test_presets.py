@@ -160,32 +160,82 @@ def test_sst76_smooth_surface_trends(results):
 
 
 def test_sst76_rough_surface_trends(results):
+    """Numbers the paper's statements do not fix but the figures need: the rough
+    surface's mu_m rises well above the smooth surface's at grazing incidence."""
     res = results[0]["sst76-formica-oblique"]
     rough = _by_angle(res, "formica")
     smooth = _by_angle(res, "smooth")
-    # similar to the smooth surface from 90 down to ~60 deg (Fig. 8)
-    assert np.all(np.abs(rough.loc[60:85, "e_relative"]) < 0.05)
-    # below 45 deg: relative e rises toward (and past) unity; mu never levels off
-    angles = [45, 40, 35, 30, 25, 20, 15, 10]
-    e_rel = rough.loc[angles, "e_relative"].to_numpy()
-    mu = rough.loc[angles, "mu_mean"].to_numpy()
-    mu_se = rough.loc[angles, "mu_se"].to_numpy()
-    assert np.all(np.diff(e_rel) > 0)
-    assert e_rel[-1] > 1.0
-    assert np.all(np.diff(mu) > 2 * np.hypot(mu_se[:-1], mu_se[1:]))
-    assert rough.loc[10, "mu_mean"] > smooth.loc[10, "mu_mean"] + 0.2
+    assert rough.loc[10, "mu_mean"] > smooth.loc[10, "mu_mean"] + 0.1
+    # rough and smooth agree at near-normal incidence (the reference angle aside)
+    assert np.all(np.abs(rough.loc[50:90, "e_relative"]) < 0.05)
 
 
-def test_sst76_asymmetric_distributions(results):
-    """Figs. 9-10: e_m skewed at 10 and 85 deg; mu_m symmetric at 85, skewed at 10."""
-    res = results[0]["sst76-formica-oblique"]
-    rough = _by_angle(res, "formica")
-    se_skew = np.sqrt(6.0 / N)
-    assert rough.loc[10, "e_skewness"] < -5 * se_skew
-    assert rough.loc[85, "e_skewness"] < -5 * se_skew
-    assert abs(rough.loc[85, "mu_skewness"]) < 4 * se_skew
-    assert abs(rough.loc[85, "mu_mean"]) < 0.05
-    assert rough.loc[10, "mu_skewness"] > 5 * se_skew
+# ------------------------------------------------------------ the paper's statements
+# One test per statement of microimpact.analysis.statements (the table
+# docs/presets.md and the reproduction report show): the paper's words, our reading,
+# held or not.
+
+
+@pytest.fixture(scope="module")
+def verdicts(results):
+    from microimpact.analysis.statements import Evidence, evaluate
+    from microimpact.scenario import PAPER_PRESETS
+
+    res = {name: results[0][name] for name in PAPER_PRESETS}
+    return evaluate(Evidence.from_results(res))
+
+
+def _statement_params():
+    from microimpact.analysis.statements import STATEMENTS
+
+    return [
+        pytest.param(
+            s,
+            id=s.id,
+            marks=() if s.holds else pytest.mark.xfail(strict=True, reason=s.why_not),
+        )
+        for s in STATEMENTS
+    ]
+
+
+@pytest.mark.parametrize("statement", _statement_params())
+def test_paper_statement(verdicts, statement):
+    v = verdicts[statement.id]
+    assert v is not None, f"no evidence for {statement.id}"
+    assert v.held, f"{statement.words!r}: ours {v.ours} (misses by {v.miss:.3g})"
+
+
+def test_the_statements_can_fail(results):
+    """The checkers are not vacuous: the previous Formica stand-in (Gaussian angles
+    of std 21.8 deg, issue 25) overshoots unity 2.4-fold and has symmetric angles;
+    9 deg Gaussian angles part from the smooth surface only below 30 deg."""
+    from dataclasses import replace
+
+    from microimpact.analysis.statements import Evidence, evaluate
+
+    base = load_preset("sst76-formica-oblique")
+
+    def verdicts_for(std_deg):
+        from microimpact.scenario import SurfaceVariant
+        from microimpact.surface.angles import normal_angles
+
+        surf = SurfaceVariant("formica", normal_angles(std_deg))
+        sc = replace(base, surfaces=(surf, base.surfaces[1]))
+        res = run(sc, samples=N, seed=SEED)
+        q = np.linspace(0.0005, 0.9995, 4000)
+        ev = Evidence(
+            summaries={"sst76-formica-oblique": res.summary},
+            angles_deg=np.degrees(surf.angles.ppf(q)),
+        )
+        return evaluate(ev)
+
+    wide = verdicts_for(21.8)
+    assert not wide["rough-e-toward-unity"].held
+    assert wide["rough-e-toward-unity"].miss > 0.5
+    assert not wide["angles-asymmetric"].held
+    narrow = verdicts_for(9.0)
+    assert not narrow["rough-smooth-similar-above-45"].held
+    assert not narrow["angles-asymmetric"].held
 
 
 def test_lycopodium_preset(results):

@@ -123,6 +123,36 @@ def test_plot_coefficients_vs_angle(angle_result):
         plot_coefficients_vs_angle(no_ref, relative=True)
 
 
+def test_coefficient_figures_draw_median_and_band_on_the_means_scale(angle_result):
+    """Issue 25: beside the rough surface's mean, its median (dotted, e_p50) and its
+    5-95 % range (hatched, e_p05..e_p95); relative: shifted by the median at the
+    reference angle. The panel's y-range holds the means and medians."""
+    s = angle_result.summary
+    rough = s[s["surface"] == "rough"].sort_values("angle_deg")
+    ax_e, ax_mu = plot_coefficients_vs_angle(angle_result, relative=False)
+    med = next(ln for ln in ax_e.get_lines() if ln.get_label() == "median of rebounds")
+    assert med.get_linestyle() == ":"
+    assert_allclose(med.get_ydata(), rough["e_p50"], rtol=0)
+    band = [c for c in ax_e.collections if c.get_label() == "5–95 % of rebounds"]
+    assert len(band) == 1 and band[0].get_hatch()
+    ys = band[0].get_paths()[0].vertices[:, 1]
+    assert_allclose(ys.min(), rough["e_p05"].min(), rtol=1e-12)
+    assert_allclose(ys.max(), rough["e_p95"].max(), rtol=1e-12)
+    # no median for the smooth surface
+    meds = [ln for ln in ax_e.get_lines() if ln.get_label() == "median of rebounds"]
+    assert len(meds) == 1
+    lo, hi = ax_e.get_ylim()
+    for col in ("e_rebound_mean", "e_p50"):
+        v = s[col].to_numpy(float)
+        v = v[np.isfinite(v)]
+        assert lo <= v.min() and v.max() <= hi
+    _, ax_mu = plot_coefficients_vs_angle(angle_result, relative=True)
+    med = next(ln for ln in ax_mu.get_lines() if ln.get_label() == "median of rebounds")
+    ref = float(angle_result.scenario.reference_angle_deg)
+    p50_ref = rough.loc[np.isclose(rough["angle_deg"], ref), "mu_p50"].iloc[0]
+    assert_allclose(med.get_ydata(), rough["mu_p50"] - p50_ref, rtol=0, atol=1e-15)
+
+
 def test_rebin_hand_computed():
     edges = np.linspace(0.0, 1.0, 11)  # 10 bins of 0.1
     counts = np.array([0, 1, 2, 3, 4, 5, 6, 7, 8, 0])

@@ -16,6 +16,7 @@ from microimpact.surface.roughness import characterise, profile_parameters
 from microimpact.surface.synthetic import (
     formica_profile,
     gaussian_profile,
+    ripple_profile,
     weierstrass_mandelbrot_profile,
 )
 
@@ -141,13 +142,45 @@ def test_formica_file_matches_generator():
     assert_allclose(stored, z_um, rtol=0, atol=5.1e-4)  # rounded to 1 nm
 
 
-def test_formica_slope_angles_tens_of_degrees():
+def test_formica_slope_angles_asymmetric():
+    """The shipped recipe (data/make_formica_profile.py): waviness plus a saw-tooth
+    ripple whose steep faces point away from the particles. Its 20 µm slope angles
+    are significantly right-skewed (the paper's "asymmetry in the local surface
+    roughness angle distribution"), centred near 0 (detrended scans), with a spread
+    of ten-odd degrees."""
     res = characterise(formica_profile(), contact_length=20e-6)
     assert res.n_segments == 10 * 199
-    # Gaussian ACF, ell = 150 µm: RMS slope sqrt(2) 45/150 = 0.42; segment-mean
-    # slopes are a little smoother; their angle spread is "tens of degrees"
-    assert 15 < math.degrees(res.std_angle) < 30
+    se = math.sqrt(6.0 / res.n_segments)
+    assert res.skewness_angle > 5 * se
     assert abs(math.degrees(res.mean_angle)) < 2
+    assert 8 < math.degrees(res.std_angle) < 20
+    # the ripple's steep faces: a tail of facets beyond +25 deg, far thinner below
+    a = res.angles_deg
+    assert np.mean(a > 25) > 3 * np.mean(a < -25)
+
+
+def test_ripple_profile_slopes():
+    """Closed form: slopes tan(alpha) on a fraction w of the length, and
+    -tan(alpha) w / (1 - w) on the rest; the profile is continuous."""
+    w, alpha, dx = 0.2, math.radians(30.0), 0.5e-6
+    p = ripple_profile(
+        200_000, dx, period=100e-6, rise_fraction=w, rise_angle=alpha, rng=4
+    )
+    s = np.diff(p.z) / dx
+    up, down = math.tan(alpha), -math.tan(alpha) * w / (1 - w)
+    on_up = np.isclose(s, up, rtol=1e-9)
+    on_down = np.isclose(s, down, rtol=1e-9)
+    kinks = ~(on_up | on_down)
+    assert kinks.mean() < 0.02  # only the steps that straddle a corner
+    assert_allclose(on_up.mean(), w, atol=0.01)
+    # continuous: no step larger than the steep slope allows
+    assert np.max(np.abs(np.diff(p.z))) <= up * dx * (1 + 1e-9)
+    # mean slope zero over whole periods: the ends differ by at most one amplitude
+    assert abs(p.z[-1] - p.z[0]) <= up * w * 100e-6 * 5
+    with pytest.raises(ValueError, match="`rise_fraction` must lie in"):
+        ripple_profile(10, dx, period=1e-4, rise_fraction=1.0, rise_angle=alpha)
+    with pytest.raises(ValueError, match="`rise_angle` must lie in"):
+        ripple_profile(10, dx, period=1e-4, rise_fraction=0.5, rise_angle=2.0)
 
 
 def test_weierstrass_mandelbrot_scalar_arguments():

@@ -1,5 +1,6 @@
 """Studies over studies: the scenario model at parameter values, comparison with
-experiments, Sobol' sensitivity, calibration."""
+experiments, Sobol' sensitivity, calibration, and the paper's statements checked
+against results."""
 
 from .calibration import (
     CalibrationResult,
@@ -21,17 +22,29 @@ from .sensitivity import (
     sobol_analysis,
     sobol_sensitivity,
 )
+from .statements import (
+    STATEMENTS,
+    Evidence,
+    Statement,
+    Verdict,
+    evaluate,
+)
 
 __all__ = [
     "COLUMNS",
     "SIMULATED",
+    "STATEMENTS",
     "CalibrationResult",
     "EngineModel",
+    "Evidence",
     "ScenarioModel",
     "SensitivityResult",
+    "Statement",
+    "Verdict",
     "calibrate",
     "compare",
     "default_bounds",
+    "evaluate",
     "parse_parameter",
     "sobol_analysis",
     "sobol_sensitivity",

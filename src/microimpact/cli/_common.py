@@ -237,6 +237,26 @@ def print_capture(result):
             print(f"{where}: not estimated ({note or 'no estimate'})")
 
 
+def print_heavy_tails(result, limit=6):
+    """The points flagged by the heavy-tail rule (``heavy_tail == 1``,
+    docs/outputs.md), at most `limit` named; nothing when none is."""
+    s = result.summary
+    if "heavy_tail" not in s:
+        return
+    bad = s[s["heavy_tail"] == 1.0]
+    if bad.empty:
+        return
+    names = [
+        f"{r['surface']} {r['speed_m_s']:g} m/s {r['angle_deg']:g} deg"
+        for _, r in bad.head(limit).iterrows()
+    ]
+    more = f" and {len(bad) - limit} more" if len(bad) > limit else ""
+    print(
+        f"  heavy tails: the mean of {len(bad)} point(s) rests on a few impacts "
+        f"(summary.csv column heavy_tail; docs/outputs.md): {', '.join(names)}{more}"
+    )
+
+
 #: A run expected to take longer than this [s] says so at the start.
 ANNOUNCE_AFTER_S = 120.0
 #: Runs at most this big are not timed for the announcement (they take well under

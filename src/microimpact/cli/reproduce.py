@@ -37,6 +37,7 @@ def cli_action(args) -> int:
         )
         if not args.quiet:
             c.print_capture(study.result)
+            c.print_heavy_tails(study.result)
     c.say(
         args,
         f"report: {args.out / 'report.html'} ({time.perf_counter() - t0:.1f} s in all)",

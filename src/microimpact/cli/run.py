@@ -49,6 +49,7 @@ def cli_action(args) -> int:
     )
     if not args.quiet:
         c.print_capture(result)
+        c.print_heavy_tails(result)
         sys.stdout.flush()
     return c.EXIT_OK
 

@@ -84,9 +84,40 @@ VARIABLES: dict[str, tuple[str, str]] = {
         "degree",
         "95 % quantile of the folded lateral rebound angle (histogram)",
     ),
+    # heavy tails (docs/outputs.md): share of the squared deviations from the mean
+    # held by the 0.1 % of rebounds farthest from it, and the flag of the rule
+    "e_tail_share": (
+        "1",
+        "share of the squared deviations of e_m held by its 0.1 % farthest values",
+    ),
+    "mu_tail_share": (
+        "1",
+        "share of the squared deviations of mu_m held by its 0.1 % farthest values",
+    ),
+    "e_tail_shift": (
+        "1",
+        "mean of e_m minus its mean without the 0.1 % farthest values",
+    ),
+    "mu_tail_shift": (
+        "1",
+        "mean of mu_m minus its mean without the 0.1 % farthest values",
+    ),
+    "heavy_tail": (
+        "1",
+        "1 if e_tail_share or mu_tail_share exceeds 0.25 (the mean's spread rests "
+        "on a few impacts), else 0",
+    ),
 }
 #: The lateral summary variables (NaN in a result written before they existed).
 LATERAL_VARIABLES = tuple(k for k in VARIABLES if k.startswith("lateral_"))
+#: The heavy-tail variables (NaN in a result written before they existed).
+TAIL_VARIABLES = (
+    "e_tail_share",
+    "mu_tail_share",
+    "e_tail_shift",
+    "mu_tail_shift",
+    "heavy_tail",
+)
 #: The state of the pooled accumulators not already in the summary (so that a saved
 #: result can be merged with more samples): counts and central moment sums.
 STATE: dict[str, tuple[str, str]] = {

@@ -31,6 +31,7 @@ from .dataset import (
     INPUT_QUANTILES,
     LATERAL_VARIABLES,
     SUMMARY_COLUMNS,
+    TAIL_VARIABLES,
     VARIABLES,
     build_dataset,
     encoding,
@@ -559,9 +560,9 @@ class SimulationResult:
 
 
 def _with_lateral(ds):
-    """`ds`, with the lateral summary variables as NaN if it was written before
-    they existed (its summary then has the lateral columns, all NaN)."""
-    missing = [v for v in LATERAL_VARIABLES if v not in ds]
+    """`ds`, with the lateral and heavy-tail summary variables as NaN if it was
+    written before they existed (its summary then has those columns, all NaN)."""
+    missing = [v for v in (*LATERAL_VARIABLES, *TAIL_VARIABLES) if v not in ds]
     if not missing or "capture_fraction" not in ds:
         return ds
     ds = ds.copy()

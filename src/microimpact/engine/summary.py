@@ -448,6 +448,218 @@ def _span_of_dense(row):
     return int(nz[0]), row[nz[0] : nz[-1] + 1]
 
 
+#: The tail rule (docs/outputs.md, "Heavy tails"): the rebounds farthest from the
+#: mean, this fraction of them (at least one) ...
+TAIL_FRACTION = 0.001
+#: ... flag a point when they hold more than this share of the sum of squared
+#: deviations (M2) of e_m or mu_m: the standard error, the interval and the
+#: skewness then rest on them (a normal law gives 0.013, an exponential 0.049).
+TAIL_SHARE_LIMIT = 0.25
+
+
+def heavy_tail_flag(columns) -> np.ndarray:
+    """1.0 where ``e_tail_share`` or ``mu_tail_share`` exceeds
+    :data:`TAIL_SHARE_LIMIT`, 0.0 where neither does, NaN where neither is
+    defined."""
+    e = np.asarray(columns["e_tail_share"], float)
+    mu = np.asarray(columns["mu_tail_share"], float)
+    with np.errstate(invalid="ignore"):
+        flag = np.fmax(e, mu) > TAIL_SHARE_LIMIT
+    return np.where(np.isnan(e) & np.isnan(mu), np.nan, flag.astype(float))
+
+
+def tail_pull(moments, spans: Spans, edges, fraction=TAIL_FRACTION):
+    """How far the ``k = ceil(fraction n)`` values farthest from the mean pull it:
+    ``(mean - mean without them)``, and the share of ``M2`` (the sum of squared
+    deviations) they hold, per point, from the streaming moments and the
+    histogram alone.
+
+    Each in-range value is placed at its bin's centre (plus the bin's own spread
+    ``w^2/12`` in the squares); the values outside the histogram's range (under-
+    and overflow) are taken as the farthest, and their sums are exact: the moments
+    give ``sum x`` and ``sum x^2`` over all values, the bins those over the in-range
+    ones, and the difference is the out-of-range part. If more than ``k`` values
+    are out of range, ``k`` times their mean is used (for the share, a lower
+    bound). NaN where there are fewer than two values or ``M2 = 0``; the share is
+    also NaN where the standard deviation is below the bin width (the histogram
+    cannot resolve the spread: e.g. a smooth surface's sliding mu = 0.15 for every
+    rebound).
+
+    Parameters
+    ----------
+    moments : ndarray, shape (P, 4)
+        ``n, mean, M2, M3`` per point.
+    spans : Spans
+        The histograms (with under/overflow bins) on `edges`.
+    edges : ndarray
+        Uniform bin edges.
+    fraction : float
+
+    Returns
+    -------
+    shift, share : ndarray, shape (P,)
+    """
+    shift = np.full(spans.rows, np.nan)
+    share = np.full(spans.rows, np.nan)
+    rows = np.flatnonzero(
+        (moments[:, 0] > 1) & (moments[:, 2] > 0) & (spans.length > 0)
+    )
+    if rows.size == 0:
+        return shift, share
+    w = float(edges[1] - edges[0])
+    width2 = w * w / 12.0
+    size = spans.size
+    counts = spans.counts
+    n, mean, m2 = moments[rows, 0], moments[rows, 1], moments[rows, 2]
+    st, ln, off = spans.start[rows], spans.length[rows], spans.offset[rows]
+    # each row's in-range bins are one contiguous run of its stored span: the
+    # underflow bin is dense index 0, the overflow bin the last
+    has_under = off == 0
+    has_over = off + ln == size
+    ia = st + has_under
+    ib = st + ln - has_over
+    nin = np.maximum(ib - ia, 0)
+    first_x = edges[0] + (off + has_under - 0.5) * w  # centre of the first one
+    n_out = np.where(has_under, counts[st], 0) + np.where(
+        has_over & (ln > has_under), counts[st + ln - 1], 0
+    )
+    n_out = n_out.astype(float)
+    k = np.ceil(fraction * n)
+    # the out-of-range values are the farthest; their sums are exact: the moments'
+    # totals less the in-range bins' (computed for those rows only: few)
+    d1_out = np.zeros(rows.size)
+    d2_out = np.zeros(rows.size)
+    for j in np.flatnonzero(n_out > 0).tolist():
+        cj = counts[ia[j] : ib[j]].astype(float)
+        xj = first_x[j] + w * np.arange(cj.size)
+        s1_out = n[j] * mean[j] - cj @ xj
+        s2_out = (m2[j] + n[j] * mean[j] ** 2) - cj @ (xj * xj + width2)
+        d1_out[j] = s1_out - n_out[j] * mean[j]
+        d2_out[j] = max(0.0, s2_out - 2.0 * mean[j] * s1_out + n_out[j] * mean[j] ** 2)
+    used = np.minimum(k, n_out)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        frac = np.where(n_out > 0, used / n_out, 0.0)  # k/n_out of them if more
+    tail1 = d1_out * frac  # sums of (x - mean) and (x - mean)^2 over the tail
+    tail2 = d2_out * frac
+    need = k - used
+    # the in-range values farthest from the mean: the distance |x - mean| falls
+    # toward the mean from either end of the run, so they are taken bin by bin
+    # from the two ends, the farther first (a tie: the left one); all rows at once,
+    # for as many steps as the most bins any row needs (few: the tails are thin)
+    left = np.zeros(rows.size, dtype=np.int64)
+    right = nin - 1
+    active = np.flatnonzero((need > 0) & (left <= right))
+    while active.size:
+        mu_a = mean[active]
+        dl = first_x[active] + w * left[active] - mu_a
+        dr = first_x[active] + w * right[active] - mu_a
+        use_r = np.abs(dr) > np.abs(dl)
+        at = ia[active] + np.where(use_r, right[active], left[active])
+        dev = np.where(use_r, dr, dl)
+        take = np.minimum(need[active], counts[at])
+        tail1[active] += take * dev
+        tail2[active] += take * (dev * dev + width2)
+        need[active] -= take
+        right[active] -= use_r
+        left[active] += ~use_r
+        active = active[(need[active] > 0) & (left[active] <= right[active])]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        # mean - mean of the others = sum over the tail of (x - mean) / (n - k)
+        shift[rows] = np.where(n > k, tail1 / (n - k), np.nan)
+        ok = m2 / n >= 12.0 * width2  # std >= one bin width
+        share[rows] = np.where(ok, np.minimum(1.0, tail2 / m2), np.nan)
+    return shift, share
+    w = float(edges[1] - edges[0])
+    width2 = w * w / 12.0
+    size = spans.size
+    n = moments[rows, 0]
+    mean = moments[rows, 1]
+    m2 = moments[rows, 2]
+    st = spans.start[rows]
+    ln = spans.length[rows]
+    off = spans.offset[rows]
+    # each row's in-range bins are one contiguous run of its stored span
+    ia = st + (off == 0)  # the underflow bin is dense index 0
+    ib = st + ln - (off + ln == size)  # the overflow bin is the last
+    nin = np.maximum(ib - ia, 0)
+    first_x = edges[0] + (off + (off == 0) - 0.5) * w  # centre of the first one
+    counts = spans.counts
+    total_in = np.zeros(rows.size)
+    s1_in = np.zeros(rows.size)
+    s2_in = np.zeros(rows.size)
+    # rows with values out of range need the in-range sums (usually few rows)
+    n_in_stored = np.array([0.0])  # placeholder for the type checker
+    row_tot = np.add.reduceat(counts, st) if counts.size else np.zeros(0)
+    del n_in_stored
+    under = np.where(off == 0, counts[np.minimum(st, counts.size - 1)], 0)
+    over = np.where(off + ln == size, counts[np.maximum(st + ln - 1, 0)], 0)
+    n_out = (under + over).astype(float)
+    if ln.size and (ln == 1).any():  # a span of the under- or overflow bin alone
+        both = (ln == 1) & (off == 0) & (off + ln == size)
+        n_out = np.where(both, under, n_out)
+    del row_tot
+    out_rows = np.flatnonzero(n_out > 0)
+    for j in out_rows.tolist():  # the in-range sums of a row with values out of range
+        cj = counts[ia[j] : ib[j]].astype(float)
+        xj = first_x[j] + w * np.arange(cj.size)
+        total_in[j] = cj.sum()
+        s1_in[j] = cj @ xj
+        s2_in[j] = cj @ (xj * xj + width2)
+    k = np.ceil(fraction * n)
+    # the out-of-range values: exact sums, taken first (a lower bound if > k)
+    s1_out = n * mean - s1_in
+    s2_out = (m2 + n * mean * mean) - s2_in
+    d1_out = np.where(n_out > 0, s1_out - n_out * mean, 0.0)
+    d2_out = np.where(
+        n_out > 0,
+        np.maximum(0.0, s2_out - 2.0 * mean * s1_out + n_out * mean * mean),
+        0.0,
+    )
+    used = np.minimum(k, n_out)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        frac = np.where(n_out > 0, used / n_out, 0.0)
+    tail1 = d1_out * frac
+    tail2 = d2_out * frac
+    need = k - used
+    # the in-range values farthest from the mean: the distance |x - mean| falls
+    # toward the mean from either end of the run, so they are taken bin by bin
+    # from the two ends, the farther first (a tie: the left one); all rows at once,
+    # for as many steps as the most bins any row needs (a few: the tails are thin)
+    left = np.zeros(rows.size, dtype=np.int64)
+    right = nin - 1
+    t1 = np.zeros(rows.size)
+    t2 = np.zeros(rows.size)
+    active = np.flatnonzero((need > 0) & (left <= right))
+    while active.size:
+        lx = first_x[active] + w * left[active]
+        rx = first_x[active] + w * right[active]
+        dl, dr = lx - mean[active], rx - mean[active]
+        use_r = np.abs(dr) > np.abs(dl)
+        at = ia[active] + np.where(use_r, right[active], left[active])
+        dev = np.where(use_r, dr, dl)
+        take = np.minimum(need[active], counts[at])
+        t1[active] += take * dev
+        t2[active] += take * (dev * dev + width2)
+        need[active] -= take
+        right[active] -= use_r
+        left[active] += ~use_r
+        keep = (need[active] > 0) & (left[active] <= right[active])
+        active = active[keep]
+    tail1 = tail1 + t1
+    tail2 = tail2 + t2
+    with np.errstate(invalid="ignore", divide="ignore"):
+        shift[rows] = np.where(n > k, tail1 / (n - k), np.nan)
+        ok = m2 / n >= 12.0 * width2  # std >= one bin width
+        share[rows] = np.where(ok, np.minimum(1.0, tail2 / m2), np.nan)
+    return shift, share
+
+
+def tail_share(moments, spans: Spans, edges, fraction=TAIL_FRACTION) -> np.ndarray:
+    """The share of ``M2`` held by the values farthest from the mean
+    (:func:`tail_pull`)."""
+    return tail_pull(moments, spans, edges, fraction)[1]
+
+
 def point_statistics(stacked: Stacked, confidence: float) -> dict[str, np.ndarray]:
     """Every per-point summary statistic of plain Monte Carlo (``docs/outputs.md``).
 
@@ -518,6 +730,15 @@ def point_statistics(stacked: Stacked, confidence: float) -> dict[str, np.ndarra
     qs[constant] = stacked.lateral[constant, 1:2]
     for k, qv in enumerate(QUANTILES):
         out[f"lateral_p{round(qv * 100):02d}_deg"] = qs[:, k]
+    # heavy tails (docs/outputs.md): how far the 0.1 % of rebounds farthest from
+    # the mean pull it, and the share of the spread they hold
+    e_shift, e_share = tail_pull(stacked.e, stacked.e_spans, E_EDGES)
+    mu_shift, mu_share = tail_pull(stacked.mu, stacked.mu_spans, MU_EDGES)
+    out["e_tail_share"] = e_share
+    out["mu_tail_share"] = mu_share
+    out["e_tail_shift"] = e_shift
+    out["mu_tail_shift"] = mu_shift
+    out["heavy_tail"] = heavy_tail_flag(out)
     return out
 
 

@@ -47,13 +47,19 @@ def figure_caption(stem, result) -> str:
             f"Relative coefficients e − e({ref:g}°) and μ − μ({ref:g}°) "
             "against apparent incidence angle (paper Figs. 8, 11). Solid: rough "
             f"surface; dashed: molecularly smooth. Bands: {conf} intervals; "
+            "dotted and hatched: the median and the 5–95 % range of the rough "
+            "surface's rebounds, shifted by the median at the reference angle "
+            "(a mean far from its median is pulled by a tail; the panel's scale "
+            "holds the means and medians, the hatched range may leave it); "
             "squares: experiments."
         )
     if stem == "coefficients":
         return (
             "Mean apparent coefficient of restitution and impulse ratio of the "
             "rebounding particles against apparent incidence angle. Solid: rough "
-            f"surface; dashed: molecularly smooth. Bands: {conf} intervals."
+            f"surface; dashed: molecularly smooth. Bands: {conf} intervals; "
+            "dotted and hatched: the median and the 5–95 % range of the rough "
+            "surface's rebounds."
         )
     if stem.startswith("distributions_"):
         a = stem.removeprefix("distributions_").removesuffix("deg").replace("p", ".")

@@ -24,6 +24,13 @@ import numpy as np
 from .. import __version__
 from .._core.files import atomic_write
 from ..analysis.compare import compare
+from ..analysis.statements import (
+    STATEMENTS,
+    Evidence,
+    evaluate,
+    statement_table_html,
+)
+from ..engine.summary import TAIL_FRACTION, TAIL_SHARE_LIMIT
 from ..io.experiments import combine_experiments
 from ..plotting.areal import CAPTION
 from ..plotting.results import STYLE, _confidence, smooth_surfaces
@@ -58,6 +65,9 @@ figure{margin:1.2em 0;text-align:center}figure img{max-width:100%;height:auto;
 .no{color:#b00020;font-weight:600}.yes{color:#00703c}
 nav ul{columns:2;font-size:.92em}code{font-size:.92em}
 .notes{background:#fff8e1;border-left:4px solid #E69F00;padding:.5em 1em}
+table.statements td{text-align:left;white-space:normal}
+table.statements tr.held td:nth-child(5){color:#00703c;font-weight:600}
+table.statements tr.failed td:nth-child(5){color:#b00020;font-weight:600}
 details summary{cursor:pointer;color:#0072B2}
 """
 
@@ -161,10 +171,50 @@ def _png_data_uri(fig) -> str:
     return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
 
 
-def _figure_html(uri, caption) -> str:
+def _figure_html(uri, caption, fig_id=None) -> str:
+    ident = f' id="{_e(fig_id)}"' if fig_id else ""
     return (
-        f'<figure><img src="{uri}" alt="{_e(caption)}">'
+        f'<figure{ident}><img src="{uri}" alt="{_e(caption)}">'
         f"<figcaption>{_e(caption)}</figcaption></figure>"
+    )
+
+
+def heavy_tail_points(summary):
+    """The rows of `summary` flagged by the heavy-tail rule (``heavy_tail == 1``,
+    docs/outputs.md): their surface, speed, angle and the two shares."""
+    if "heavy_tail" not in summary:
+        return summary.iloc[0:0]
+    return summary[summary["heavy_tail"] == 1.0]
+
+
+def _heavy_tail_note(summary) -> str:
+    if "heavy_tail" not in summary or summary["heavy_tail"].isna().all():
+        return ""
+    bad = heavy_tail_points(summary)
+    rule = (
+        f"a point is flagged when the {100 * TAIL_FRACTION:g} % of its rebounds "
+        "farthest from the mean hold more than "
+        f"{100 * TAIL_SHARE_LIMIT:g} % of the squared deviations of e<sub>m</sub> "
+        "or μ<sub>m</sub> (columns <code>e_tail_share</code>, "
+        "<code>mu_tail_share</code>, <code>heavy_tail</code>)"
+    )
+    if bad.empty:
+        worst = float(
+            np.nanmax(summary[["e_tail_share", "mu_tail_share"]].to_numpy(float))
+        )
+        return (
+            f'<p class="yes">Heavy tails: no point flagged ({rule}); the largest '
+            f"share is {100 * worst:.1f} %.</p>"
+        )
+    items = ", ".join(
+        f"{_e(r['surface'])} {_fmt(r['speed_m_s'])} m/s {_fmt(r['angle_deg'])}° "
+        f"(e {100 * r['e_tail_share']:.0f} %, μ {100 * r['mu_tail_share']:.0f} %)"
+        for _, r in bad.iterrows()
+    )
+    return (
+        f'<p class="no">Heavy tails: the mean of {len(bad)} point(s) is at the '
+        f"mercy of a few impacts ({rule}): {items}. Read their medians and "
+        "5–95 % ranges (the figures) beside the means.</p>"
     )
 
 
@@ -340,7 +390,8 @@ def _summary_table(result, csv_href) -> str:
         f'<p>All {len(s.columns)} columns: <a href="{_e(csv_href)}">'
         f"{_e(csv_href)}</a> (described in <code>docs/outputs.md</code>).</p>"
     )
-    return f'<div class="scroll">{_table(header, rows)}</div>{link}'
+    table = f'<div class="scroll">{_table(header, rows)}</div>'
+    return table + link + _heavy_tail_note(s)
 
 
 def _comparison_html(table) -> str:
@@ -478,6 +529,37 @@ def _embed(fig, caption) -> str:
         plt.close(fig)
 
 
+def figure_anchor(k, name, stem) -> str:
+    """The in-page id of figure `stem` of result `k` (named `name`)."""
+    return f"r{k}-{_slug(name)}-{_slug(stem)}"
+
+
+def _statements_section(results) -> str:
+    """The paper's statements beside our numbers (microimpact.analysis.statements), each
+    linked to the figure of this report that shows it."""
+    names = [r.scenario.name for r in results]
+    verdicts = evaluate(Evidence.from_results(results))
+    anchors = {}
+    for st in STATEMENTS:
+        preset, _, stem = st.figure.partition("/")
+        if preset in names:
+            k = names.index(preset)
+            anchors[st.figure] = "#" + figure_anchor(k, preset, stem)
+    done = [v for v in verdicts.values() if v is not None]
+    held = sum(v.held for v in done)
+    return (
+        '<section id="statements"><h2>How this compares with the paper</h2>'
+        f"<p>{held} of {len(done)} statements of Li, Dunn &amp; Brach (2000) "
+        "hold here. Each row: the paper's words, our reading of them as a test, "
+        "our number, held or not, and the figure below that shows it. The same "
+        "table (<code>microimpact.analysis.statements</code>) backs "
+        "<code>docs/presets.md</code> and the tests; where a statement fails, "
+        "<code>docs/presets.md</code> shows the measured trade-off.</p>"
+        + statement_table_html(verdicts, anchors=anchors)
+        + "</section>"
+    )
+
+
 def _result_section(result, k, csv_href, experiments, saved) -> str:
     # deferred: matplotlib loads only when a figure is drawn
     import matplotlib.pyplot as plt
@@ -503,14 +585,18 @@ def _result_section(result, k, csv_href, experiments, saved) -> str:
     if saved is not None:  # figure files already written for this result
         figs = [(figure_caption(p.stem, result), p) for p in pngs]
     else:
-        figs = [(c, f) for _, c, f in result_figures(result, experiments=exp)]
+        made = result_figures(result, experiments=exp)
+        stems = {id(f): stem for stem, _, f in made}
+        figs = [(c, f) for _, c, f in made]
     # deferred: matplotlib loads only when a figure is drawn
     import matplotlib as mpl
 
     rc = {**STYLE, "figure.figsize": (5.0, 3.4), "figure.constrained_layout.use": True}
     if saved is None:  # otherwise the caller wrote the input figures too
         with mpl.rc_context(rc):
-            figs += [(c, f) for _, c, f in input_figures(result)]
+            inputs = input_figures(result)
+        stems.update({id(f): stem for stem, _, f in inputs})
+        figs += [(c, f) for _, c, f in inputs]
     areal = [(c, f) for c, f in figs if _stem_of(f) == "profile_vs_areal"]
     if not areal and saved is None:
         areal = [(c, f) for c, f in figs if c == CAPTION]
@@ -531,11 +617,14 @@ def _result_section(result, k, csv_href, experiments, saved) -> str:
     if figs:
         parts.append("<h3>Figures</h3>")
     for caption, fig in figs:
-        if isinstance(fig, Path):
-            parts.append(_figure_html(_png_uri_from_file(fig), caption))
+        if isinstance(fig, Path):  # the statement table links here (figure_anchor)
+            fid = figure_anchor(k, sc.name, fig.stem)
+            parts.append(_figure_html(_png_uri_from_file(fig), caption, fid))
             continue
+        stem = stems.get(id(fig)) if saved is None else None
+        fid = figure_anchor(k, sc.name, stem) if stem else None
         try:
-            parts.append(_figure_html(_png_data_uri(fig), caption))
+            parts.append(_figure_html(_png_data_uri(fig), caption, fid))
         finally:
             plt.close(fig)
     parts.append("</section>")
@@ -606,6 +695,7 @@ def write_report(
     notes=None,
     experiments=None,
     csv_paths=None,
+    statements=False,
 ):
     """Write one self-contained HTML report for one or several results.
 
@@ -634,6 +724,10 @@ def write_report(
         One per result: the full summary CSV to link to (e.g. the ``summary.csv``
         written by :meth:`SimulationResult.to_files`). By default the summary is
         written next to the report as ``<name>_summary.csv`` and linked.
+    statements : bool, default False
+        Open with the table of the paper's statements beside ours
+        (:mod:`microimpact.analysis.statements`; for the paper's presets, as
+        ``microimpact reproduce`` writes it).
 
     Returns
     -------
@@ -682,6 +776,7 @@ def write_report(
         for k, r in enumerate(results)
     ]
     extra_html = _extra_figures_html(extra)
+    statements_html = _statements_section(results) if statements else ""
     nav = "".join(
         f'<li><a href="#r{k}-{_slug(n)}">{_e(n)}</a></li>' for k, n in enumerate(names)
     )
@@ -702,6 +797,7 @@ def write_report(
 Li, Dunn &amp; Brach (2000), <i>Aerosol Sci. Technol.</i> 33:376–386.
 microimpact {_e(__version__)}; {_e(created)}.</p>
 {notes_html}
+{statements_html}
 <nav><ul>{nav}</ul></nav>
 {"".join(sections)}
 {extra_html}
@@ -797,4 +893,16 @@ def summary_text(result) -> str:
             if isinstance(note, str) and note.strip():
                 line += f" ({note.strip()})"
             lines.append(line)
+    bad = heavy_tail_points(s)
+    if len(bad):
+        lines.append("")
+        lines.append(
+            f"- heavy tails: the mean of {len(bad)} point(s) is at the mercy of a few "
+            "impacts (the 0.1 % farthest rebounds hold > 25 % of the squared "
+            "deviations of e_m or mu_m; docs/outputs.md): "
+            + ", ".join(
+                f"{r['surface']} {_fmt(r['speed_m_s'])} m/s {_fmt(r['angle_deg'])} deg"
+                for _, r in bad.iterrows()
+            )
+        )
     return "\n".join(lines) + "\n"

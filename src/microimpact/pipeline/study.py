@@ -278,6 +278,7 @@ def reproduce(out_dir="out", *, samples=None, figures=None, **options) -> list[S
             experiments={s.scenario.name: s.experiments() for s in studies},
             csv_paths=[out / s.scenario.name / "summary.csv" for s in studies],
             title="microimpact: reproducing Li, Dunn & Brach (2000)",
+            statements=True,
         )
         folder.record([Path(path)], ("report",))
     return studies

@@ -252,7 +252,9 @@ def plot_capture(result, *, surface=None, angle_deg=90, experiments=None, axes=N
         if np.isfinite(summary["e_rebound_mean"].to_numpy(dtype=float)).any():
             ax_e.set_ylim(bottom=0)
         ax_e.set_title(
-            f"{result.scenario.name}: mean of rebounds, {_conf_label(result)} band"
+            f"{result.scenario.name}: mean ({_conf_label(result)} band), "
+            "median, 5–95 %",
+            fontsize=9,
         )
         ax_e.legend(loc="lower right")
         ax_c.legend(loc="upper right")
@@ -393,6 +395,7 @@ def plot_coefficients_vs_angle(
     names = list(dict.fromkeys(summary["surface"]))
     with mpl.rc_context(STYLE):
         axs = _new_axes(axes, 2, 1, (5.0, 5.6), sharex=True)
+        scale_of = {ax: [] for ax in axs}
         for ax, (col, se_col, lo_col, hi_col) in zip(axs, specs, strict=True):
             for i, name in enumerate(names):
                 for j, sp in enumerate(speeds):
@@ -409,16 +412,25 @@ def plot_coefficients_vs_angle(
                     label = f"Monte Carlo, {name}"
                     if len(speeds) > 1:
                         label += f", {sp:g} m s⁻¹"
+                    x = g["angle_deg"].to_numpy(dtype=float)
+                    c = colour(j if len(speeds) > 1 else i)
                     _band(
                         ax,
-                        g["angle_deg"].to_numpy(dtype=float),
+                        x,
                         m,
                         lo,
                         hi,
-                        color=colour(j if len(speeds) > 1 else i),
+                        color=c,
                         ls="--" if _smooth(result, name) else "-",
                         label=label,
                     )
+                    scale_of[ax].append(m)
+                    if not _smooth(result, name):
+                        scale_of[ax].append(
+                            _spread(ax, g, col, ref, relative, x, color=c)
+                        )
+        for ax in axs:  # the paper's scale: the means and medians, not the tails
+            _paper_scale(ax, scale_of[ax])
         for ax, stat, yl in zip(axs, stats, ylabels, strict=True):
             _draw_experiments(ax, exp, stat, "angle_deg")
             if relative:
@@ -428,10 +440,54 @@ def plot_coefficients_vs_angle(
         axs[1].set_xlim(0, 90)
         axs[1].set_xticks(np.arange(0, 91, 15))
         axs[0].set_title(
-            f"{result.scenario.name}: mean of rebounds, {_conf_label(result)} band"
+            f"{result.scenario.name}: mean ({_conf_label(result)} band), "
+            "median, 5–95 %",
+            fontsize=9,
         )
-        axs[0].legend(loc="best")
+        axs[0].legend(loc="best", fontsize=7)
     return axs
+
+
+def _spread(ax, g, col, ref, relative, x, *, color):
+    """Median (dotted) and 5-95 % band (hatched, unfilled) of the rebounds' e_m or
+    mu_m beside the mean: heavy tails pull the mean away from the median. In the
+    relative panel both are shifted by the median at the reference angle."""
+    base = "e" if col.startswith("e") else "mu"
+    cols = [f"{base}_p05", f"{base}_p50", f"{base}_p95"]
+    if not all(c in g for c in cols):
+        return np.array([])
+    p05, p50, p95 = (g[c].to_numpy(dtype=float) for c in cols)
+    if relative:
+        at = np.isclose(x, float(ref)) if ref is not None else np.zeros(x.size, bool)
+        if not at.any():
+            return np.array([])
+        shift = p50[at][0]
+        p05, p50, p95 = p05 - shift, p50 - shift, p95 - shift
+    ax.fill_between(
+        x,
+        p05,
+        p95,
+        facecolor="none",
+        edgecolor=color,
+        hatch="////",
+        lw=0,
+        alpha=0.35,
+        label="5–95 % of rebounds",
+    )
+    ax.plot(x, p50, color=color, ls=":", lw=1.4, label="median of rebounds")
+    return p50
+
+
+def _paper_scale(ax, curves):
+    """y-limits that hold the mean and median curves with a margin (the 5-95 %
+    band may run off the panel, as in the paper's figures, which show means)."""
+    vals = np.concatenate([np.ravel(c) for c in curves]) if curves else np.array([])
+    vals = vals[np.isfinite(vals)]
+    if vals.size == 0:
+        return
+    lo, hi = float(min(vals.min(), 0.0)), float(max(vals.max(), 0.0))
+    pad = 0.08 * max(hi - lo, 0.1)
+    ax.set_ylim(lo - pad, hi + pad)
 
 
 # --------------------------------------------------------------------- histograms

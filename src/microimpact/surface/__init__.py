@@ -49,6 +49,7 @@ from .roughness import (
 from .synthetic import (
     formica_profile,
     gaussian_profile,
+    ripple_profile,
     weierstrass_mandelbrot_profile,
 )
 
@@ -86,6 +87,7 @@ __all__ = [
     "profile_angles",
     "profile_parameters",
     "read_angle_file",
+    "ripple_profile",
     "scipy_angles",
     "smooth_surface",
     "surface_angles",
