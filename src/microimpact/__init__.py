@@ -154,6 +154,7 @@ _EXPORTS: dict[str, str] = {
     # errors and warnings
     "InputError": "errors",
     "ScenarioError": "errors",
+    "ScenarioErrors": "errors",
     "ProfileFormatError": "errors",
     "DataFormatError": "errors",
     "ConvergenceWarning": "errors",

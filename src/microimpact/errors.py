@@ -62,5 +62,23 @@ class ScenarioError(InputError):
     """A scenario file or scenario object is invalid."""
 
 
+class ScenarioErrors(ScenarioError):
+    """Several problems of one scenario file, reported together in file order.
+
+    ``errors`` holds each one (a :class:`ScenarioError`); the message is one line
+    per problem, after a line that counts them.
+    """
+
+    def __init__(self, errors, *, source=None):
+        self.errors = list(errors)
+        lines = [str(e) for e in self.errors]
+        head = f"{len(lines)} problems" + (f" in {source}" if source else "") + ":"
+        self.message = "\n".join([head, *(f"  {line}" for line in lines)])
+        self.source = None if source is None else str(source)
+        self.field = None
+        self.line = None
+        ValueError.__init__(self, self.message)
+
+
 class ConvergenceWarning(RuntimeWarning):
     """A Monte Carlo statistic did not reach its precision target."""

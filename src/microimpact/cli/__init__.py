@@ -27,7 +27,7 @@ import traceback
 import warnings
 
 from .. import __version__
-from ..errors import InputError, _one_line
+from ..errors import InputError, ScenarioErrors, _one_line
 from ._common import (
     EXIT_ENVIRONMENT,
     EXIT_INTERNAL,
@@ -145,6 +145,9 @@ def main(argv=None) -> int:
         with warnings.catch_warnings():  # restores the default printer after
             warnings.showwarning = _warning_printer(command)
             return _verb(command).cli_action(args)
+    except ScenarioErrors as err:  # every problem of the file, one per line
+        print(f"microimpact {command}: error: {err}", file=sys.stderr)
+        return EXIT_USER
     except InputError as err:
         print(f"microimpact {command}: error: {_one_line(err)}", file=sys.stderr)
         return EXIT_USER

@@ -169,6 +169,19 @@ class _Ctx:
         self.source = None if source is None else str(source)
         self.base_dir = Path(base_dir) if base_dir is not None else Path.cwd()
         self.cache = cache
+        #: The problems found so far, where the file is read table by table
+        #: (:meth:`attempt`): all of them are reported together.
+        self.problems: list[ScenarioError] = []
+
+    def attempt(self, build, *args, fallback=None, **kwargs):
+        """``build(*args, **kwargs)``, or `fallback` after recording its
+        ScenarioError in :attr:`problems`, so that the rest of the file is still
+        checked."""
+        try:
+            return build(*args, **kwargs)
+        except ScenarioError as exc:
+            self.problems.append(exc)
+            return fallback
 
     def cached(self, where, table, build, *args):
         """``build(self, *args)``, the model object of the table `table` at key

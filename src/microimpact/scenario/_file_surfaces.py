@@ -279,7 +279,8 @@ def _surfaces(ctx: _Ctx, data) -> tuple:
     else:
         return (SurfaceVariant("smooth"),)
     out, seen = [], {}
-    for t, key in tables:
+
+    def one(t, key):
         name = t.get("name", t.get("kind") if isinstance(t.get("kind"), str) else None)
         name = ctx.string(name, _join(key, "name"))
         if name in seen:
@@ -288,5 +289,10 @@ def _surfaces(ctx: _Ctx, data) -> tuple:
                 f"duplicate surface name {name!r} (also used by {seen[name]})",
             )
         seen[name] = key
-        out.append(SurfaceVariant(name, ctx.cached(key, t, _angles, t, key)))
-    return tuple(out)
+        return SurfaceVariant(name, ctx.cached(key, t, _angles, t, key))
+
+    for t, key in tables:  # each surface checked, its problems gathered
+        variant = ctx.attempt(one, t, key)
+        if variant is not None:
+            out.append(variant)
+    return tuple(out) if out else (SurfaceVariant("smooth"),)

@@ -87,6 +87,13 @@ from .outputs import Outputs
 from .sensitivity import SensitivitySettings, sensitivity_from_dict
 from .wall_law import WallLawSpec
 
+#: What stands in for a table that failed, so that the rest of the file is still
+#: checked; never simulated (the file's problems are raised together).
+_STAND_IN = {
+    "particles": pd_.monodisperse(50.0),
+    "coefficients": ImpactCoefficients.from_dict({"k1": 4.0, "k2": 0.05, "v_c": 0.2}),
+}
+
 
 def _particles(ctx: _Ctx, data, where="particles"):
 
@@ -424,6 +431,8 @@ class ParsedScenario:
     data: dict
     source: str | None
     base_dir: Path
+    #: Every problem found (checked table by table); the Scenario adds its own.
+    problems: tuple = ()
 
     def error(self, field, message) -> ScenarioError:
         """A ScenarioError naming this file and the key path `field`."""
@@ -459,18 +468,22 @@ def parse_scenario(data: dict, *, source=None, base_dir=None, cache=None):
         base_dir = Path(source).resolve().parent
     ctx = _Ctx(source, base_dir, cache=cache)
     ctx.table(data, "(top level)")
-    ctx.keys(data, "", TOP_KEYS, ("particles",))
+    ctx.attempt(ctx.keys, data, "", TOP_KEYS, ("particles",))
     kw = {}
     if "name" in data:
-        kw["name"] = ctx.string(data["name"], "name")
+        kw["name"] = ctx.attempt(ctx.string, data["name"], "name", fallback="scenario")
     else:
         kw["name"] = Path(source).stem if source is not None else "scenario"
     if "description" in data:
-        if not isinstance(data["description"], str):
-            raise ctx.error(
-                "description", f"must be a string; got {_show(data['description'])}"
+        if isinstance(data["description"], str):
+            kw["description"] = data["description"]
+        else:
+            ctx.problems.append(
+                ctx.error(
+                    "description",
+                    f"must be a string; got {_show(data['description'])}",
+                )
             )
-        kw["description"] = data["description"]
     # plain values go to the Scenario as they are: it validates itself, and its
     # errors are mapped onto this file's key paths (one validation layer)
     for key in (
@@ -487,36 +500,79 @@ def parse_scenario(data: dict, *, source=None, base_dir=None, cache=None):
     if "reference_angle_deg" in data:
         ref = data["reference_angle_deg"]
         kw["reference_angle_deg"] = None if ref is False else ref
-    kw["precision"] = _precision(ctx, data)
-    kw["particles"] = ctx.cached(
-        "particles", data["particles"], _particles, data["particles"]
-    )
-    kw["coefficients"] = ctx.cached(
-        "coefficients", data.get("coefficients"), _coefficients, data
+    # each table is checked even where another one failed; a failed table's
+    # stand-in (never simulated) lets the Scenario check the rest
+    kw["precision"] = ctx.attempt(_precision, ctx, data)
+    if "particles" in data:
+        kw["particles"] = ctx.attempt(
+            ctx.cached,
+            "particles",
+            data["particles"],
+            _particles,
+            data["particles"],
+            fallback=_STAND_IN["particles"],
+        )
+    else:
+        kw["particles"] = _STAND_IN["particles"]
+    kw["coefficients"] = ctx.attempt(
+        ctx.cached,
+        "coefficients",
+        data.get("coefficients"),
+        _coefficients,
+        data,
+        fallback=_STAND_IN["coefficients"],
     )
     kw["surfaces"] = _surfaces(ctx, data)
     if "particle_roughness" in data:
-        t = ctx.table(data["particle_roughness"], "particle_roughness")
-        if "name" in t:
-            raise ctx.error(
-                "particle_roughness.name", "not allowed here (only for surfaces)"
-            )
-        kw["particle_roughness"] = ctx.cached(
-            "particle_roughness", t, _angles, t, "particle_roughness"
+        kw["particle_roughness"] = ctx.attempt(_particle_roughness, ctx, data)
+    kw.update(
+        ctx.attempt(
+            _sweep,
+            ctx,
+            data,
+            fallback={"speeds_m_s": (1.0,), "angles_deg": (90.0,)},
         )
-    kw.update(_sweep(ctx, data))
+    )
     kw["source"] = ctx.source
     return ParsedScenario(
         arguments=kw,
-        outputs=_outputs(ctx, data),
-        wall_law=_wall_law(ctx, data),
-        sensitivity=sensitivity_from_dict(data, source=ctx.source)
+        outputs=ctx.attempt(_outputs, ctx, data, fallback=Outputs()),
+        wall_law=ctx.attempt(_wall_law, ctx, data),
+        sensitivity=ctx.attempt(sensitivity_from_dict, data, source=ctx.source)
         if "sensitivity" in data
         else None,
         data=data,
         source=ctx.source,
         base_dir=ctx.base_dir,
+        problems=tuple(ctx.problems),
     )
+
+
+def _particle_roughness(ctx, data):
+    t = ctx.table(data["particle_roughness"], "particle_roughness")
+    if "name" in t:
+        raise ctx.error(
+            "particle_roughness.name", "not allowed here (only for surfaces)"
+        )
+    return ctx.cached("particle_roughness", t, _angles, t, "particle_roughness")
+
+
+def file_order(data: dict, problems) -> list:
+    """`problems` in the order of the file: by the top-level key they are under
+    (as the file lists them), then the entry of an array of tables."""
+    keys = list(data) if isinstance(data, dict) else []
+
+    def where(exc):
+        field = exc.field or ""
+        top = field.split(".")[0].split("[")[0]
+        entry = field.split("[")[1].split("]")[0] if "[" in field.split(".")[0] else 0
+        try:
+            entry = int(entry)
+        except ValueError:
+            entry = 0
+        return (keys.index(top) if top in keys else len(keys), entry)
+
+    return sorted(problems, key=where)
 
 
 def read_toml(path) -> dict:

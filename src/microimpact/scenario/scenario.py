@@ -10,6 +10,7 @@ is allowed.
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import os
 from dataclasses import dataclass, replace
@@ -18,8 +19,15 @@ from typing import Any
 
 from .._core.reprs import html_table, value_text
 from .._core.validation import did_you_mean
-from ..errors import ScenarioError
-from .file import PRESETS, parse_scenario, preset_path, read_toml, read_toml_text
+from ..errors import ScenarioError, ScenarioErrors
+from .file import (
+    PRESETS,
+    file_order,
+    parse_scenario,
+    preset_path,
+    read_toml,
+    read_toml_text,
+)
 from .outputs import Outputs
 from .parts import (
     SAMPLING_OPTIONS,
@@ -355,10 +363,12 @@ def scenario_file_from_dict(
     Scenario's own errors are mapped onto the file's key paths."""
     parsed = parse_scenario(data, source=source, base_dir=base_dir, cache=cache)
     digest = None if text is None else hashlib.sha256(text.encode()).hexdigest()
-    try:
-        scenario = Scenario(**parsed.arguments, source_sha256=digest)
-    except ScenarioError as exc:
-        raise parsed.error(exc.field, exc.message) from None
+    scenario, problems = _checked_scenario(parsed, source_sha256=digest)
+    problems = file_order(data, [*parsed.problems, *problems])
+    if len(problems) == 1:
+        raise problems[0]
+    if problems:
+        raise ScenarioErrors(problems, source=parsed.source)
     return ScenarioFile(
         scenario=scenario,
         outputs=parsed.outputs,
@@ -369,6 +379,29 @@ def scenario_file_from_dict(
         base_dir=parsed.base_dir,
         text=text,
     )
+
+
+def _checked_scenario(parsed, **extra):
+    """``(Scenario or None, its problems)``: each value the Scenario refuses is
+    recorded and replaced by its default, and the Scenario checked again, so that
+    every wrong value is reported, not only the first."""
+    args = dict(parsed.arguments)
+    defaults = {
+        f.name: f.default
+        for f in dataclasses.fields(Scenario)
+        if f.default is not dataclasses.MISSING
+    }
+    problems = []
+    for _ in range(len(args) + 1):
+        try:
+            return Scenario(**args, **extra), problems
+        except ScenarioError as exc:
+            problems.append(parsed.error(exc.field, exc.message))
+            name = (exc.field or "").split(".")[0]
+            if name not in defaults or args.get(name) == defaults[name]:
+                return None, problems
+            args[name] = defaults[name]
+    return None, problems
 
 
 def read_scenario(scenario, *, cache=None) -> ScenarioFile:
