@@ -20,11 +20,32 @@ from ..plotting.results import (
     save_figures,
 )
 
-__all__ = ["figure_caption", "figures_for_result", "result_figures"]
+__all__ = [
+    "distribution_speed",
+    "figure_caption",
+    "figures_for_result",
+    "result_figures",
+]
 
 
 def _angle_tag(a: float) -> str:
     return f"{a:g}".replace(".", "p") + "deg"
+
+
+def distribution_speed(result) -> float:
+    """The speed of the distribution figures: the slowest swept speed at which the
+    rough surfaces (every surface, if none is rough) have rebounds at every swept
+    angle, else the one with the most rebounds (a sweep that starts below capture
+    drew empty panels at its slowest speed)."""
+    summary = _summary(result)
+    names = [n for n in dict.fromkeys(summary["surface"]) if not _smooth(result, n)]
+    rows = summary[summary["surface"].isin(names)] if names else summary
+    rebounds = rows["e_rebound_mean"].notna().groupby(rows["speed_m_s"]).all()
+    speeds = rebounds.index.to_numpy(dtype=float)
+    if rebounds.any():
+        return float(speeds[rebounds.to_numpy()][0])
+    share = (1.0 - rows["capture_fraction"]).groupby(rows["speed_m_s"]).mean()
+    return float(share.idxmax())
 
 
 def figure_caption(stem, result) -> str:
@@ -32,7 +53,6 @@ def figure_caption(stem, result) -> str:
     sc = result.scenario
     conf = _conf_label(result)
     ref = getattr(sc, "reference_angle_deg", None)
-    speeds = np.unique(_summary(result)["speed_m_s"].to_numpy(dtype=float))
     if stem == "capture":
         return (
             "Normal (90°) impact against speed (paper Figs. 5, 6). Upper: mean "
@@ -65,7 +85,8 @@ def figure_caption(stem, result) -> str:
         a = stem.removeprefix("distributions_").removesuffix("deg").replace("p", ".")
         return (
             f"Frequency distributions of e_m and μ_m at θ = {a}°, "
-            f"{speeds[0]:g} m s⁻¹ (paper Figs. 9, 10); rough surfaces only when "
+            f"{distribution_speed(result):g} m s⁻¹ (paper Figs. 9, 10; the slowest "
+            "swept speed at which particles rebound); rough surfaces only when "
             "there are any."
         )
     if stem == "profile_vs_areal":
@@ -118,7 +139,10 @@ def result_figures(result, *, experiments=None):
             add(
                 f"distributions_{_angle_tag(a)}",
                 plot_distributions(
-                    result, angle_deg=a, speed_m_s=speeds[0], surface=rough or None
+                    result,
+                    angle_deg=a,
+                    speed_m_s=distribution_speed(result),
+                    surface=rough or None,
                 ),
             )
 

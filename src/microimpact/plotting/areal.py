@@ -120,6 +120,9 @@ def plot_profile_vs_areal(result, *, speed_m_s=None, axes=None):
                 g = summary[summary["surface"] == name].sort_values("angle_deg")
                 x = g["angle_deg"].to_numpy(dtype=float)
                 m = g[col].to_numpy(dtype=float) * scale
+                if col == "lateral_std_deg":
+                    # no plane of incidence at normal incidence: no lateral angle
+                    m = np.where(np.isclose(x, 90.0), np.nan, m)
                 kind = "areal" if areal.get(str(name), False) else "profile"
                 style = dict(
                     color=colour(i),

@@ -39,6 +39,9 @@ __all__ = [
     "smooth_surfaces",
 ]
 
+#: Speeds drawn as lines of their own (with a legend entry each); beyond, one
+#: colour scale (a colour bar) shows the speed.
+MAX_SPEED_LINES = 6
 _EXP_STYLE = {"fmt": "s", "ms": 5, "mfc": "white", "color": "black", "lw": 0.9}
 _BAND_ALPHA = 0.22
 
@@ -393,6 +396,10 @@ def plot_coefficients_vs_angle(
     exp = combine_experiments(experiments)
     speeds = list(dict.fromkeys(summary["speed_m_s"]))
     names = list(dict.fromkeys(summary["surface"]))
+    # beyond a few speeds: one colour scale for speed (a colour bar), the legend
+    # names the surfaces only, and the medians and 5-95 % bands are left out
+    many = len(speeds) > MAX_SPEED_LINES
+    speed_colour = _speed_colours(speeds) if many else None
     with mpl.rc_context(STYLE):
         axs = _new_axes(axes, 2, 1, (5.0, 5.6), sharex=True)
         scale_of = {ax: [] for ax in axs}
@@ -414,6 +421,8 @@ def plot_coefficients_vs_angle(
                         label += f", {sp:g} m s⁻¹"
                     x = g["angle_deg"].to_numpy(dtype=float)
                     c = colour(j if len(speeds) > 1 else i)
+                    if many:
+                        c, label = speed_colour[1](speed_colour[0](sp)), None
                     _band(
                         ax,
                         x,
@@ -425,7 +434,7 @@ def plot_coefficients_vs_angle(
                         label=label,
                     )
                     scale_of[ax].append(m)
-                    if not _smooth(result, name):
+                    if not _smooth(result, name) and not many:
                         scale_of[ax].append(
                             _spread(ax, g, col, ref, relative, x, color=c)
                         )
@@ -440,12 +449,44 @@ def plot_coefficients_vs_angle(
         axs[1].set_xlim(0, 90)
         axs[1].set_xticks(np.arange(0, 91, 15))
         axs[0].set_title(
-            f"{result.scenario.name}: mean ({_conf_label(result)} band), "
-            "median, 5–95 %",
+            f"{result.scenario.name}: mean ({_conf_label(result)} band)"
+            + (", colour: speed" if many else ", median, 5–95 %"),
             fontsize=9,
         )
-        axs[0].legend(loc="best", fontsize=7)
+        if many:
+            _surface_legend_and_colour_bar(axs, names, result, speed_colour)
+        else:  # beside the data, not on it
+            axs[0].legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7)
     return axs
+
+
+def _speed_colours(speeds):
+    """``(norm, colormap)`` of the speeds (logarithmic where they span a decade)."""
+    mpl, _ = _mpl()
+    lo, hi = min(speeds), max(speeds)
+    if hi > 10 * lo:
+        norm = mpl.colors.LogNorm(lo, hi)
+    else:
+        norm = mpl.colors.Normalize(lo, hi if hi > lo else lo * 1.001)
+    return norm, mpl.colormaps["viridis"]
+
+
+def _surface_legend_and_colour_bar(axs, names, result, speed_colour):
+    """The legend of the surfaces (line styles) beside the axes, and the colour bar
+    of the speeds."""
+    mpl, _ = _mpl()
+    handles = [
+        mpl.lines.Line2D(
+            [], [], color="0.2", ls="--" if _smooth(result, n) else "-", label=n
+        )
+        for n in names
+    ]
+    axs[0].legend(
+        handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7
+    )
+    norm, cmap = speed_colour
+    mappable = mpl.cm.ScalarMappable(norm=norm, cmap=cmap)
+    axs[0].figure.colorbar(mappable, ax=list(axs), label="speed [m s⁻¹]", shrink=0.6)
 
 
 def _spread(ax, g, col, ref, relative, x, *, color):
