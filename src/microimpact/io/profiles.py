@@ -784,16 +784,7 @@ def _read_any(
         if not (own or given):
             raise ours from None
         try:
-            return _profiles_of(
-                read_instrument(
-                    path,
-                    want="profiles",
-                    x_unit=explicit[0],
-                    z_unit=explicit[1],
-                    dx_um=dx_um,
-                    reader=reader,
-                )
-            )
+            return _instrument_profiles(path, explicit, dx_um, reader)
         except ProfileFormatError:
             if own:
                 raise
@@ -803,16 +794,7 @@ def _read_any(
         # an export whose header (in comments) gives the unit: SurfaceTopography
         reader = instrument_reader(path)
         if reader is not None and reader.default_channel.unit is not None:
-            return _profiles_of(
-                read_instrument(
-                    path,
-                    want="profiles",
-                    x_unit=explicit[0],
-                    z_unit=explicit[1],
-                    dx_um=dx_um,
-                    reader=reader,
-                )
-            )
+            return _instrument_profiles(path, explicit, dx_um, reader)
         # structural problems (order, too few points) first, then the unit
         _build_profiles(path, scans, xf=1.0, zf=1.0, dx=dx, meta=meta)
         axes = [a for a, k in (("x", "x_unit"), ("z", "z_unit")) if cols[k] is None]
@@ -928,6 +910,21 @@ def read_profile(
             source=os.fspath(path),
         )
     return profiles[0]
+
+
+def _instrument_profiles(path, explicit, dx_um, reader):
+    """The profiles of an instrument file, read by SurfaceTopography with the
+    units given (`explicit`: x and z units, or None) and `dx_um`."""
+    return _profiles_of(
+        read_instrument(
+            path,
+            want="profiles",
+            x_unit=explicit[0],
+            z_unit=explicit[1],
+            dx_um=dx_um,
+            reader=reader,
+        )
+    )
 
 
 def read_profiles(
