@@ -217,16 +217,51 @@ def build_dataset(
     # deferred: xarray loads only where a dataset is made (import time)
     import xarray as xr
 
-    dims = grid.dims
+    data_vars = _statistics_vars(grid, columns)
+    data_vars |= _state_vars(grid, stacked)
+    dense = grid.size * (E_EDGES.size + MU_EDGES.size + 2) <= DENSE_HISTOGRAM_CELLS
+    data_vars |= _histogram_vars(grid, stacked, dense)
+    coords = {
+        dim: (dim, list(values), _COORD_ATTRS[dim])
+        for dim, values in grid.coordinates().items()
+    }
+    bins, bounds = _bin_coords()
+    coords |= bins
+    data_vars |= bounds
+    data_vars |= _surface_flags(smooth, areal)
+    if inputs:
+        input_coords, input_vars = _input_quantiles(inputs)
+        coords |= input_coords
+        data_vars |= input_vars
+    ds = xr.Dataset(data_vars, coords=coords)
+    ds.attrs.update(
+        {
+            "Conventions": CONVENTIONS,
+            **attrs,
+            "histograms": "dense" if dense else "ragged",
+        }
+    )
+    return ds
+
+
+def _statistics_vars(grid, columns) -> dict:
+    """The per-point statistics (:data:`VARIABLES`) on the grid's dimensions."""
     data_vars = {}
     for name, values in columns.items():
         units, long_name = VARIABLES[name]
         dtype = np.int64 if name in INTEGER else float
         data_vars[name] = (
-            dims,
+            grid.dims,
             grid.reshape(np.asarray(values, dtype=dtype)),
             {"units": units, "long_name": long_name},
         )
+    return data_vars
+
+
+def _state_vars(grid, stacked) -> dict:
+    """The accumulators' state that the statistics do not keep (:data:`STATE`):
+    counts and central moments, so that a result read back merges and derives
+    as a fresh one does."""
     c, e, mu = stacked.counts, stacked.e, stacked.mu
     state = {
         "n_shadowed": c[:, 1],
@@ -240,14 +275,23 @@ def build_dataset(
         "lateral_m2": stacked.lateral[:, 2],
         "lateral_m3": stacked.lateral[:, 3],
     }
+    data_vars = {}
     for name, values in state.items():
         units, long_name = STATE[name]
         data_vars[name] = (
-            dims,
+            grid.dims,
             grid.reshape(values),
             {"units": units, "long_name": long_name},
         )
-    dense = grid.size * (E_EDGES.size + MU_EDGES.size + 2) <= DENSE_HISTOGRAM_CELLS
+    return data_vars
+
+
+def _histogram_vars(grid, stacked, dense) -> dict:
+    """The e_m, mu_m and lateral histograms with their under- and overflow:
+    dense, or the occupied bins only as a CF contiguous ragged array (memory and
+    file size proportional to what the histograms hold)."""
+    dims = grid.dims
+    data_vars = {}
     for nm, spans in (
         ("e", stacked.e_spans),
         ("mu", stacked.mu_spans),
@@ -274,8 +318,6 @@ def build_dataset(
                 {"units": "1", "long_name": long_name, **_edges_attrs(edges)},
             )
             continue
-        # a big sweep: the occupied bins only, as a CF contiguous ragged array
-        # (memory and file size proportional to what the histograms hold)
         obs = f"{nm}_hist_obs"
         data_vars[f"{nm}_hist_counts"] = (
             (obs,),
@@ -301,10 +343,12 @@ def build_dataset(
                 "sample_dimension": obs,
             },
         )
-    coords = {
-        dim: (dim, list(values), _COORD_ATTRS[dim])
-        for dim, values in grid.coordinates().items()
-    }
+    return data_vars
+
+
+def _bin_coords() -> tuple[dict, dict]:
+    """``(coordinates, bounds variables)`` of the histograms' bins."""
+    coords, data_vars = {}, {}
     for nm, (edges, what, units) in _HISTOGRAMS.items():
         coords[f"{nm}_bin"] = (
             f"{nm}_bin",
@@ -321,6 +365,12 @@ def build_dataset(
             # CF 7.1: bounds carry their variable's units and long_name (or none)
             {"units": units, "long_name": f"{what} bin centre"},
         )
+    return coords, data_vars
+
+
+def _surface_flags(smooth, areal) -> dict:
+    """Which surfaces are molecularly smooth and which areal (CF flags)."""
+    data_vars = {}
     if smooth is not None:
         data_vars["surface_is_smooth"] = (
             ("surface",),
@@ -343,38 +393,38 @@ def build_dataset(
                 "flag_meanings": "profile_or_smooth areal",
             },
         )
-    if inputs:
-        prob = (np.arange(INPUT_QUANTILES) + 0.5) / INPUT_QUANTILES
-        coords["probability"] = (
+    return data_vars
+
+
+def _input_quantiles(inputs) -> tuple[dict, dict]:
+    """``(coordinates, variables)`` of the input distributions' quantile functions
+    (the input figures, paper Figs. 2 and 4, are drawn from them)."""
+    prob = (np.arange(INPUT_QUANTILES) + 0.5) / INPUT_QUANTILES
+    coords = {
+        "probability": (
             "probability",
             prob,
             {"units": "1", "long_name": "cumulative probability"},
         )
-        if inputs.get("diameter_quantile") is not None:
-            data_vars["diameter_quantile"] = (
-                ("probability",),
-                np.asarray(inputs["diameter_quantile"], dtype=float),
-                {"units": "m", "long_name": "quantile function of particle diameter"},
-            )
-        if inputs.get("roughness_angle_quantile") is not None:
-            data_vars["roughness_angle_quantile"] = (
-                ("surface", "probability"),
-                np.asarray(inputs["roughness_angle_quantile"], dtype=float),
-                {
-                    "units": "radian",
-                    "long_name": "quantile function of the roughness angle "
-                    "(NaN for a smooth surface)",
-                },
-            )
-    ds = xr.Dataset(data_vars, coords=coords)
-    ds.attrs.update(
-        {
-            "Conventions": CONVENTIONS,
-            **attrs,
-            "histograms": "dense" if dense else "ragged",
-        }
-    )
-    return ds
+    }
+    data_vars = {}
+    if inputs.get("diameter_quantile") is not None:
+        data_vars["diameter_quantile"] = (
+            ("probability",),
+            np.asarray(inputs["diameter_quantile"], dtype=float),
+            {"units": "m", "long_name": "quantile function of particle diameter"},
+        )
+    if inputs.get("roughness_angle_quantile") is not None:
+        data_vars["roughness_angle_quantile"] = (
+            ("surface", "probability"),
+            np.asarray(inputs["roughness_angle_quantile"], dtype=float),
+            {
+                "units": "radian",
+                "long_name": "quantile function of the roughness angle "
+                "(NaN for a smooth surface)",
+            },
+        )
+    return coords, data_vars
 
 
 def _span_ends(spans):
