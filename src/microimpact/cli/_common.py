@@ -34,10 +34,12 @@ def int_at_least(minimum):
             v = int(text)
         except ValueError:
             raise argparse.ArgumentTypeError(
-                f"expected a whole number; got {text!r}"
+                f"must be an integer >= {minimum}; got {text!r}"
             ) from None
         if v < minimum:
-            raise argparse.ArgumentTypeError(f"must be >= {minimum}; got {v}")
+            raise argparse.ArgumentTypeError(
+                f"must be an integer >= {minimum}; got {v}"
+            )
         return v
 
     return parse
@@ -52,9 +54,11 @@ def count(text):
     try:
         v = float(text.replace("_", ""))
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number; got {text!r}") from None
+        raise argparse.ArgumentTypeError(
+            f"must be an integer >= 1 (1e7 and 10_000_000 allowed); got {text!r}"
+        ) from None
     if not (math.isfinite(v) and v >= 1 and v == int(v)):
-        raise argparse.ArgumentTypeError(f"must be a whole number >= 1; got {text}")
+        raise argparse.ArgumentTypeError(f"must be an integer >= 1; got {text}")
     return int(v)
 
 
