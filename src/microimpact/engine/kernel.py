@@ -44,7 +44,7 @@ from .accumulators import (
     E_BINS,
     E_EDGES,
     LATERAL_BINS,
-    LATERAL_ZERO_BIN,
+    LATERAL_EDGES,
     MU_BINS,
     MU_EDGES,
     Moments,
@@ -373,14 +373,14 @@ def _areal_impact(friction, cot, tan_cot, gain, e, one_e, tan_phi, s_chi, c_chi)
     ``v_n_phi`` (what :func:`microimpact.apparent_rebound` computes with
     ``out_of_plane_angle_deg``; docs/physics.md): ``u_n' = cos(chi) v_n_phi``,
     ``u_b' = sin(chi) v_n_phi``, the slip ``(cot, sin(chi)) v_n_phi`` with
-    ``eta = g / cos(chi)``, ``g = copysign(hypot(cot, sin chi), cot)``, the impulse
-    along the slip, and Eqs. 8-9 with ``e_phi = e cos^2(chi) - sin(chi)
-    V_b'/v_n_phi`` and ``mu_phi = mu_t / (cos(chi) + mu_b sin(chi))``. Where
+    ``eta = g / cos(chi)``, ``g`` = :func:`slip_ratio` (``cot`` where
+    ``chi = 0``), the impulse along the slip, and Eqs. 8-9 with
+    ``e_phi = e cos^2(chi) - sin(chi) V_b'/v_n_phi`` and ``mu_phi = mu_t / (cos(chi) + mu_b sin(chi))``. Where
     ``chi = 0`` every step is the 2-D kernel's, operation for operation (``g =
     cot``, multiplications by 1.0, additions of 0.0): the same bits. ``q_t``,
     ``q_b``: the rebound's ``V_t'``, ``V_b'`` over ``v_n_phi`` (the lateral angle's
     ``Q_t'``, ``Q_b'``; :func:`_lateral_angle`)."""
-    g = np.copysign(np.hypot(cot, s_chi), cot)  # slip / v_n_phi, signed like cot
+    g = slip_ratio(cot, s_chi)  # slip / v_n_phi, signed like cot
     mu = g / c_chi  # eta
     mu *= 2.0 / 7.0
     mu /= one_e  # mu0, Eq. 3 (no initial spin)
@@ -443,7 +443,71 @@ def _lateral_angle(s_phi, c_phi, s_chi, c_chi, e, q_t, q_b, folded=False):
         y = s_chi * q_n - c_chi * q_b  # V_b / |v_n_phi|
         if folded:
             x = np.abs(x)
-        return np.rad2deg(np.arctan2(y + 0.0, x))  # + 0.0: no -0 (psi = 180)
+        return atan2_deg(y + 0.0, x)  # + 0.0: no -0 (psi = 180)
+
+
+def slip_ratio(cot, s_chi):
+    """``copysign(sqrt(cot^2 + sin^2 chi), cot)``: the slip over ``v_n_phi``, signed
+    like ``cot`` and exactly ``cot`` where ``sin chi = 0``. A square root, not
+    ``np.hypot``, so that the compiled kernel computes the same bits (NumPy's
+    ``hypot`` and the C library's differ in the last bit for ~0.3 % of arguments;
+    ``cot^2`` cannot overflow here: ``|cot| < 1e17`` for any reachable facet)."""
+    with np.errstate(invalid="ignore", over="ignore"):
+        h = np.sqrt(cot * cot + s_chi * s_chi)
+    return np.where(s_chi == 0.0, cot, np.copysign(h, cot))
+
+
+# Cephes' atan (Moshier): range reduction to |t| <= tan(pi/8) (0.66 as Cephes
+# takes it) and a degree 4/5 rational approximation, relative error ~2e-16.
+_ATAN_P = (
+    -8.750608600031904122785e-1,
+    -1.615753718733365076637e1,
+    -7.500855792314704667340e1,
+    -1.228866684490136173410e2,
+    -6.485021904942025371773e1,
+)
+_ATAN_Q = (
+    2.485846490142306297962e1,
+    1.650270098316988542046e2,
+    4.328810604912902668951e2,
+    4.853903996359136964868e2,
+    1.945506571482613964425e2,
+)
+_T3P8 = 2.41421356237309504880  # tan(3 pi / 8)
+_MOREBITS = 6.123233995736765886130e-17  # pi/2 - fl(pi/2)
+_RAD2DEG = 180.0 / np.pi
+
+
+def atan2_deg(y, x):
+    """``atan2(y, x)`` in degrees from IEEE operations only (``+ - * /``,
+    comparisons, selections), which the compiled kernel performs in the same order,
+    so both kernels give the same bits (``np.arctan2`` is the SIMD library's on
+    some CPUs and differs from the C library's in the last bit). Cephes' ``atan``
+    of ``|y| / |x|`` (within 2 ulp of the exact angle), ``pi - a`` where ``x`` has
+    its sign bit set, the sign of ``y``; ``atan2(0, 0) = 0``, ``atan2(0, -0) =
+    180``, exactly 0, 90 and 180 where ``np.arctan2`` gives them."""
+    y = np.asarray(y, dtype=float)
+    x = np.asarray(x, dtype=float)
+    ay, ax = np.abs(y), np.abs(x)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        t = ay / ax
+        big = t > _T3P8
+        mid = (t > 0.66) & ~big
+        num = np.where(big, -1.0, np.where(mid, t - 1.0, t))
+        den = np.where(big, t, np.where(mid, t + 1.0, 1.0))
+        r = num / den
+        z = r * r
+        p, q = _ATAN_P, _ATAN_Q
+        pz = (((p[0] * z + p[1]) * z + p[2]) * z + p[3]) * z + p[4]
+        qz = ((((z + q[0]) * z + q[1]) * z + q[2]) * z + q[3]) * z + q[4]
+        z = z * pz
+        z = z / qz
+        z = r * z + r
+        z = z + np.where(big, _MOREBITS, np.where(mid, 0.5 * _MOREBITS, 0.0))
+        a = np.where(big, np.pi / 2, np.where(mid, np.pi / 4, 0.0)) + z
+        a = np.where(ay == 0.0, 0.0, a)
+        a = np.where(np.signbit(x), np.pi - a, a)
+        return np.copysign(a, y) * _RAD2DEG
 
 
 def simulate_specs(plan: Plan, specs) -> list[PointAccumulator]:
@@ -464,8 +528,9 @@ def simulate_specs(plan: Plan, specs) -> list[PointAccumulator]:
 #: ``plan.kernel``, fixed when the plan is built (recorded in the provenance).
 KERNEL = resolve_kernel("auto")
 _NO_DRAW = np.zeros(1, dtype=np.uint64)  # draw array for a variable not drawn
-#: The histogram layout for the compiled kernel: e_m then mu_m lower edge, inverse
-#: bin width, bin count.
+#: The histogram layout for the compiled kernel: e_m then mu_m then psi_f lower
+#: edge, inverse bin width, bin count (as :func:`histogram_counts` computes them),
+#: then psi_f's upper edge (inclusive: :func:`lateral_histogram_counts`).
 _HIST = np.array(
     [
         E_EDGES[0],
@@ -474,6 +539,10 @@ _HIST = np.array(
         MU_EDGES[0],
         (MU_EDGES.size - 1) / (MU_EDGES[-1] - MU_EDGES[0]),
         MU_EDGES.size - 1,
+        LATERAL_EDGES[0],
+        (LATERAL_EDGES.size - 1) / (LATERAL_EDGES[-1] - LATERAL_EDGES[0]),
+        LATERAL_EDGES.size - 1,
+        LATERAL_EDGES[-1],
     ]
 )
 _SPILL = 8  # spill slots appended to each histogram array (the C kernel's SPILL)
@@ -574,22 +643,13 @@ def _sampler_args(sampler):
     return args
 
 
-def _no_areal(tables):
-    """The compiled kernel has no areal path: never let it read an areal table as
-    a one-angle one (``build_plan`` routes such plans to the NumPy kernel)."""
-    if tables.areal:
-        raise RuntimeError(
-            "the compiled kernel cannot simulate an areal surface; build the plan "
-            "with kernel='numpy' (build_plan does so for 'auto')"
-        )
-
-
 def _simulate_compiled(plan, sp, tables, raw, n):
     """The same block through the compiled kernel (``_ckernel.c``)."""
-    _no_areal(tables)
     spread = plan.speeds is not None
+    areal = bool(tables.areal)
     e_hist = np.zeros(E_EDGES.size + 1 + _SPILL, dtype=np.int64)
     mu_hist = np.zeros(MU_EDGES.size + 1 + _SPILL, dtype=np.int64)
+    lat_hist = np.zeros(LATERAL_BINS + _SPILL if areal else 1, dtype=np.int64)
     counts, sums = _ckernel().block(
         raw[VAR_DIAMETER],
         raw.get(VAR_ANGLE, _NO_DRAW),
@@ -615,9 +675,16 @@ def _simulate_compiled(plan, sp, tables, raw, n):
         _HIST,
         e_hist,
         mu_hist,
+        areal,
+        lat_hist,
     )
     m = counts[4]
-    lateral, lateral_span = in_plane_lateral(m)  # profile surfaces only: psi_f = 0
+    if areal:
+        lateral = Moments.from_shifted_sums(m, *sums[8:])
+        lateral_hist, lateral_span = lat_hist[:-_SPILL], None
+    else:  # profile or smooth surfaces: psi_f = 0
+        lateral, lateral_span = in_plane_lateral(m)
+        lateral_hist = None
     return PointAccumulator(
         n=n,
         shadowed=counts[0],
@@ -625,10 +692,11 @@ def _simulate_compiled(plan, sp, tables, raw, n):
         reimpact=counts[2],
         rolling=counts[3],
         e=Moments.from_shifted_sums(m, *sums[:4]),
-        mu=Moments.from_shifted_sums(m, *sums[4:]),
+        mu=Moments.from_shifted_sums(m, *sums[4:8]),
         e_hist=e_hist[:-_SPILL],
         mu_hist=mu_hist[:-_SPILL],
         lateral=lateral,
+        lateral_hist=lateral_hist,
         lateral_span=lateral_span,
     )
 
@@ -678,7 +746,6 @@ def _point_args(tables, speed: float):
     the same object for every block of a point, which the C side parses once)."""
     cached = _POINT_ARGS.get(tables)
     if cached is None:
-        _no_areal(tables)
         # what does not depend on the speed, once per tables (a sweep grid has a
         # new speed at nearly every point), and the tuples built by speed
         cached = _POINT_ARGS[tables] = (
@@ -692,7 +759,7 @@ def _point_args(tables, speed: float):
                 float(tables.sin_theta),
                 float(tables.cos_theta),
             ),
-            (bool(tables.random and tables.count_shadowed),),
+            (bool(tables.random and tables.count_shadowed), bool(tables.areal)),
             {},
         )
     head, tail, by_speed = cached
@@ -714,8 +781,8 @@ def _keyed_outputs(plan: Plan, specs):
         items.append((point, block, n, _point_args(tables, float(sp.speed))))
     k = len(items)
     counts = np.empty((k, 5), dtype=np.int64)
-    sums = np.empty((k, 8))
-    spans = np.empty((k, 4), dtype=np.int64)
+    sums = np.empty((k, 12))
+    spans = np.empty((k, 6), dtype=np.int64)
     buf = _ckernel().specs(
         entropy_words(plan.entropy),
         _common_args(plan),
@@ -736,7 +803,7 @@ def _simulate_keyed(plan: Plan, specs) -> list[PointAccumulator]:
     out = []
     at = 0
     of = Moments.from_shifted_sums
-    for (_, _, n, _), c, s, (e_lo, e_len, mu_lo, mu_len) in zip(
+    for (_, _, n, _), c, s, (e_lo, e_len, mu_lo, mu_len, l_lo, l_len) in zip(
         items, counts.tolist(), sums.tolist(), spans.tolist(), strict=True
     ):
         e_counts = flat[at : at + e_len]
@@ -744,7 +811,11 @@ def _simulate_keyed(plan: Plan, specs) -> list[PointAccumulator]:
         mu_counts = flat[at : at + mu_len]
         at += mu_len
         m = c[4]
-        lateral, lateral_span = in_plane_lateral(m)  # profile only: psi_f = 0
+        # off an areal surface the sums are zeros and the span one bin at
+        # psi_f = 0: exactly in_plane_lateral(m)
+        lateral = of(m, *s[8:])
+        lateral_span = (l_lo, flat[at : at + l_len])
+        at += l_len
         out.append(
             PointAccumulator(
                 n=n,
@@ -753,7 +824,7 @@ def _simulate_keyed(plan: Plan, specs) -> list[PointAccumulator]:
                 reimpact=c[2],
                 rolling=c[3],
                 e=of(m, *s[:4]),
-                mu=of(m, *s[4:]),
+                mu=of(m, *s[4:8]),
                 e_span=(e_lo, e_counts),
                 mu_span=(mu_lo, mu_counts),
                 lateral=lateral,
@@ -795,9 +866,9 @@ def simulate_specs_stacked(plan: Plan, specs):
     table = np.empty((len(items), 5), dtype=np.int64)
     table[:, 0] = [it[2] for it in items]
     table[:, 1:] = counts[:, :4]
-    e_len, mu_len = spans[:, 1], spans[:, 3]
+    e_len, mu_len, l_len = spans[:, 1], spans[:, 3], spans[:, 5]
     start = np.zeros(len(items), dtype=np.int64)
-    np.cumsum((e_len + mu_len)[:-1], out=start[1:])
+    np.cumsum((e_len + mu_len + l_len)[:-1], out=start[1:])
     e_spans = Spans(
         np.where(e_len > 0, spans[:, 0], 0),
         e_len,
@@ -810,21 +881,18 @@ def simulate_specs_stacked(plan: Plan, specs):
         gather_segments(flat, start + e_len, mu_len),
         MU_BINS,
     )
-    rebound = m > 0
-    lateral = np.zeros((m.size, 4))
-    lateral[:, 0] = m  # psi_f = 0 exactly (profile surfaces): in_plane_lateral
     lat_spans = Spans(
-        np.where(rebound, LATERAL_ZERO_BIN, 0),
-        rebound.astype(np.int64),
-        m[rebound].astype(np.int64),
+        np.where(l_len > 0, spans[:, 4], 0),
+        l_len,
+        gather_segments(flat, start + e_len + mu_len, l_len),
         LATERAL_BINS,
     )
     return Stacked(
         table,
         _stacked_moments(m, sums[:, :4]),
-        _stacked_moments(m, sums[:, 4:]),
+        _stacked_moments(m, sums[:, 4:8]),
         e_spans,
         mu_spans,
-        lateral,
+        _stacked_moments(m, sums[:, 8:]),
         lat_spans,
     )

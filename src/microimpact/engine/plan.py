@@ -1196,22 +1196,9 @@ def build_plan(scenario, *, seed=None, kernel=None) -> Plan:
 
     `kernel` is ``"compiled"``, ``"numpy"``, ``"auto"`` or None (the environment
     variable ``MICROIMPACT_KERNEL``, else auto); the choice is ``plan.kernel``.
-    A scenario with an areal surface runs on the NumPy kernel (the compiled one
-    has no areal path): ``auto`` resolves to ``"numpy"`` for it, and asking for
-    ``"compiled"`` (argument or environment) is an :class:`InputError`.
+    Every scenario runs on either kernel, areal surfaces and QMC included.
     """
-    requested = kernel
     kernel = resolve_kernel(kernel)
-    if kernel == "compiled" and any(_is_areal(v.angles) for v in scenario.surfaces):
-        if requested is None:
-            requested = os.environ.get(KERNEL_ENV, "").strip().lower() or "auto"
-        if requested == "compiled":
-            raise InputError(
-                "the compiled kernel has no areal-surface path (issue 14): run "
-                "scenarios with `kind = \"areal\"` surfaces with kernel='numpy' "
-                f"or 'auto' (unset {KERNEL_ENV})"
-            )
-        kernel = "numpy"
     entropy = resolve_entropy(scenario.seed if seed is None else seed)
     diameters = diameter_sampler(scenario)
     coeffs = scenario.coefficients
