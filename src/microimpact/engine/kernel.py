@@ -375,7 +375,8 @@ def _areal_impact(friction, cot, tan_cot, gain, e, one_e, tan_phi, s_chi, c_chi)
     ``u_b' = sin(chi) v_n_phi``, the slip ``(cot, sin(chi)) v_n_phi`` with
     ``eta = g / cos(chi)``, ``g`` = :func:`slip_ratio` (``cot`` where
     ``chi = 0``), the impulse along the slip, and Eqs. 8-9 with
-    ``e_phi = e cos^2(chi) - sin(chi) V_b'/v_n_phi`` and ``mu_phi = mu_t / (cos(chi) + mu_b sin(chi))``. Where
+    ``e_phi = e cos^2(chi) - sin(chi) V_b'/v_n_phi`` and
+    ``mu_phi = mu_t / (cos(chi) + mu_b sin(chi))``. Where
     ``chi = 0`` every step is the 2-D kernel's, operation for operation (``g =
     cot``, multiplications by 1.0, additions of 0.0): the same bits. ``q_t``,
     ``q_b``: the rebound's ``V_t'``, ``V_b'`` over ``v_n_phi`` (the lateral angle's
