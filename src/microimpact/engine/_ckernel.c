@@ -668,7 +668,34 @@ typedef struct {
     double sums[12];   /* e_m, mu_m, then psi_f (areal surfaces; else zeros) */
     int keyed;         /* draw from gen[] (the keyed streams), not i_d, ... i_p */
     pcg64_t gen[4];    /* diameter, angle, speed, pair proposal streams */
+    /* quasi-Monte Carlo (keyed): the scrambled Sobol' sequence of the block's
+     * (point, replicate) instead of gen[]; see sobol_fill */
+    int qmc, qbits, qd, qdim[4]; /* qdim: the Sobol' dimension of each variable
+                                    (-1: not drawn); qd dimensions */
+    const uint32_t *qsv;     /* scrambled direction numbers, [dim][bit] */
+    uint32_t qx[4];          /* the current point's integer coordinates */
+    uint64_t qk;             /* its index in the sequence */
 } block_args;
+
+/* The next c points of the Sobol' sequence, scipy.stats.qmc.Sobol's (Gray-code
+ * order: point k + 1 is point k XOR the direction numbers of the lowest zero bit
+ * of k), each coordinate x as the uint64 draw x 2^(64 - bits), which is what
+ * _tables.fraction_to_integer makes of SciPy's x 2^-bits (exactly). */
+static void
+sobol_fill(block_args *a, uint64_t (*draw)[CHUNK], int c, int nv)
+{
+    const int sh = 64 - a->qbits;
+    for (int k = 0; k < c; k++) {
+        for (int v = 0; v < nv; v++)
+            if (a->qdim[v] >= 0)
+                draw[v][k] = (uint64_t)a->qx[a->qdim[v]] << sh;
+        int l = __builtin_ctzll(~a->qk);
+        if (l < a->qbits) /* (the point after the last one is never used) */
+            for (int q = 0; q < a->qd; q++)
+                a->qx[q] ^= a->qsv[q * a->qbits + l];
+        a->qk++;
+    }
+}
 
 /* Locate the cells of draws r[0:c] (kinds: see guide_entry) and write the first
  * `one ? 1 : 3` interpolated columns of their rows to out0..out2; `g` receives
@@ -1086,7 +1113,13 @@ run_block(block_args *a, scratch_t *s)
     for (Py_ssize_t start = 0; start < a->n; start += CHUNK) {
         int c = (int)(a->n - start < CHUNK ? a->n - start : CHUNK);
         const uint64_t *i_d, *i_a, *i_s, *i_p;
-        if (a->keyed) { /* this chunk of each stream, in impact order */
+        if (a->keyed && a->qmc) { /* this chunk of the Sobol' points */
+            sobol_fill(a, s->draw, c, 4);
+            i_d = s->draw[0];
+            i_a = s->draw[1];
+            i_s = s->draw[2];
+            i_p = s->draw[3];
+        } else if (a->keyed) { /* this chunk of each stream, in impact order */
             pcg_fill(&a->gen[0], s->draw[0], c);
             if (a->angle_random)
                 pcg_fill(&a->gen[1], s->draw[1], c);
@@ -1655,11 +1688,65 @@ sampler_set_free(sampler_set *set)
 typedef struct {
     uint64_t point, block;
     Py_ssize_t n;
+    /* QMC: the (point, replicate)'s scrambled Sobol' sequence, uint32 words
+     * [d, bits, shift[d], sv[d][bits]] (NULL: keyed PCG64 streams); `block` is
+     * then the index of the block's first point in it */
+    const uint32_t *sobol;
     int angle_random, shadow_none, pair_shift, areal;
     const sampler_t *a, *b;
     uint64_t cut, pair_total;
     double sin_theta, cos_theta, speed;
 } spec_t;
+
+/* The Sobol' dimension of each variable, as kernel._variables lists them:
+ * diameter, then the angle, the speed factor and the pair proposal where drawn
+ * (-1 where not). Returns their count. */
+static int
+sobol_variables(int angle_random, int speed_random, int search, int *dim)
+{
+    int d = 0;
+    dim[0] = d++;
+    dim[1] = angle_random ? d++ : -1;
+    dim[2] = speed_random ? d++ : -1;
+    dim[3] = angle_random && search ? d++ : -1;
+    return d;
+}
+
+/* A QMC spec's Sobol' sequence must have one dimension per variable drawn. */
+static int
+sobol_dims(const spec_t *x, int speed_random)
+{
+    int dim[4];
+    if (x->sobol != NULL &&
+        (int)x->sobol[0] != sobol_variables(x->angle_random, speed_random,
+                                             x->pair_shift < 0, dim)) {
+        PyErr_SetString(PyExc_ValueError,
+                        "_ckernel.specs: sobol dimensions != variables drawn");
+        return -1;
+    }
+    return 0;
+}
+
+/* Point `k0` of the sequence: the shift XOR the direction numbers of the bits of
+ * the Gray code of k0 (what scipy's fast_forward reaches). */
+static void
+sobol_start(block_args *a, const uint32_t *sobol, uint64_t k0, int speed_random)
+{
+    int d = (int)sobol[0], bits = (int)sobol[1];
+    sobol_variables(a->angle_random, speed_random, a->pair_shift < 0, a->qdim);
+    a->qd = d;
+    a->qbits = bits;
+    a->qsv = sobol + 2 + d;
+    a->qk = k0;
+    uint64_t gray = k0 ^ (k0 >> 1);
+    for (int q = 0; q < d; q++) {
+        uint32_t x = sobol[2 + q];
+        for (int j = 0; j < bits; j++)
+            if ((gray >> j) & 1)
+                x ^= a->qsv[q * bits + j];
+        a->qx[q] = x;
+    }
+}
 
 /* The occupied span [lo, hi) of h[0:size] (lo = hi = 0 when empty). */
 static void
@@ -1728,15 +1815,31 @@ ck_specs(PyObject *self, PyObject *args)
     PyObject *prev_pt = NULL;
     for (Py_ssize_t i = 0; i < K; i++) {
         PyObject *item = PyList_GET_ITEM(list, i), *pt, *po, *bo, *as, *ps;
+        PyObject *qo = Py_None;
         unsigned long long cut, pair_total;
         spec_t *x = &sp[i];
         if (!PyTuple_Check(item)) {
             PyErr_SetString(PyExc_TypeError, "_ckernel.specs: a spec is a tuple");
             goto done;
         }
-        if (!PyArg_ParseTuple(item, "OOnO!:specs", &po, &bo, &x->n, &PyTuple_Type,
-                              &pt))
+        if (!PyArg_ParseTuple(item, "OOnO!|O:specs", &po, &bo, &x->n, &PyTuple_Type,
+                              &pt, &qo))
             goto done;
+        const uint32_t *sobol = NULL;
+        if (qo != Py_None) {
+            if (!PyBytes_Check(qo)) {
+                PyErr_SetString(PyExc_TypeError, "_ckernel.specs: sobol is bytes");
+                goto done;
+            }
+            sobol = (const uint32_t *)PyBytes_AS_STRING(qo);
+            Py_ssize_t words = PyBytes_GET_SIZE(qo) / 4;
+            if (PyBytes_GET_SIZE(qo) % 4 || words < 2 || sobol[0] < 1 ||
+                sobol[0] > 4 || sobol[1] < 1 || sobol[1] > 32 ||
+                words != 2 + (Py_ssize_t)sobol[0] * (1 + sobol[1])) {
+                PyErr_SetString(PyExc_ValueError, "_ckernel.specs: bad sobol layout");
+                goto done;
+            }
+        }
         /* key elements in [0, 2^64), as SeedSequence takes them */
         x->point = PyLong_AsUnsignedLongLong(po);
         if (PyErr_Occurred())
@@ -1748,14 +1851,24 @@ ck_specs(PyObject *self, PyObject *args)
             PyErr_SetString(PyExc_ValueError, "_ckernel.specs: negative n");
             goto done;
         }
+        if (sobol != NULL && (x->block > ((uint64_t)1 << sobol[1]) ||
+                              (uint64_t)x->n > ((uint64_t)1 << sobol[1]) - x->block)) {
+            PyErr_SetString(PyExc_ValueError,
+                            "_ckernel.specs: past the end of the Sobol' sequence");
+            goto done;
+        }
         if (pt == prev_pt) { /* the same point as the spec before */
             spec_t keep = *x;
             *x = sp[i - 1];
             x->point = keep.point;
             x->block = keep.block;
             x->n = keep.n;
+            x->sobol = sobol;
+            if (sobol_dims(x, speed_random))
+                goto done;
             continue;
         }
+        x->sobol = sobol;
         if (!PyArg_ParseTuple(pt, "pOKOKidddpp:specs", &x->angle_random, &as, &cut,
                               &ps, &pair_total, &x->pair_shift, &x->sin_theta,
                               &x->cos_theta, &x->speed, &x->shadow_none, &x->areal))
@@ -1766,7 +1879,8 @@ ck_specs(PyObject *self, PyObject *args)
         x->cut = cut;
         x->pair_total = pair_total;
         if (check_pairs(x->pair_shift, pair_total, x->a, x->b) ||
-            (x->areal && check_areal(x->pair_shift, x->a)))
+            (x->areal && check_areal(x->pair_shift, x->a)) ||
+            sobol_dims(x, speed_random))
             goto done;
         prev_pt = pt;
     }
@@ -1815,7 +1929,10 @@ ck_specs(PyObject *self, PyObject *args)
         memset(&a.counts, 0, sizeof a.counts);
         a.keyed = 1;
         int search = x->angle_random && x->pair_shift < 0;
-        for (int v = 0; v < 4; v++) {
+        a.qmc = x->sobol != NULL;
+        if (a.qmc)
+            sobol_start(&a, x->sobol, x->block, speed_random);
+        for (int v = 0; v < 4 && !a.qmc; v++) {
             uint64_t key[3] = {x->point, x->block, (uint64_t)v};
             if (v == 0 || (v == 1 && x->angle_random) || (v == 2 && speed_random) ||
                 (v == 3 && search))

@@ -169,15 +169,13 @@ def simulate_block(
 
 
 def _simulate_block(plan: Plan, point, rep, block, n, store=False):
-    if not store and plan.kernel == "compiled" and plan.sampling != "qmc":
+    if not store and plan.kernel == "compiled":
         return _simulate_keyed(plan, [(point, rep, block, n)])[0]
     sp = plan.points[point]
     tables = plan.angle_tables(sp.surface, sp.angle_deg)
     variables = _variables(plan, tables)
     draws = _draw(plan, point, rep, block, n, variables)
     raw = dict(zip(variables, draws, strict=True))
-    if not store and plan.kernel == "compiled":
-        return _simulate_compiled(plan, sp, tables, raw, n)
 
     j_d, f_d = _locate(plan.diameters, raw[VAR_DIAMETER])
     dr = plan.diameters.rows
@@ -515,10 +513,11 @@ def simulate_specs(plan: Plan, specs) -> list[PointAccumulator]:
     """One accumulator per block spec ``(point, rep, block, n)``, each exactly what
     ``simulate_block(plan, *spec)`` returns (same draws, same bits), in order.
 
-    With the compiled kernel and plain Monte Carlo this is one C call for all the
-    specs, which derives every block's keyed streams itself (``_ckernel.specs``:
-    NumPy's ``SeedSequence`` and ``PCG64``, bit for bit; see :func:`stream_raw`)."""
-    if plan.kernel == "compiled" and plan.sampling != "qmc":
+    With the compiled kernel this is one C call for all the specs, which derives
+    every block's keyed streams itself (``_ckernel.specs``: NumPy's
+    ``SeedSequence`` and ``PCG64``, bit for bit; see :func:`stream_raw`), or for
+    QMC its scrambled Sobol' points (:func:`sobol_state`: SciPy's, bit for bit)."""
+    if plan.kernel == "compiled":
         return _simulate_keyed(plan, specs)
     return [_simulate_block(plan, *spec) for spec in specs]
 
@@ -770,16 +769,66 @@ def _point_args(tables, speed: float):
     return args
 
 
+_SOBOL: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+#: Scrambled Sobol' sequences kept per plan (a few hundred bytes each; a run goes
+#: through its points in order, so this only saves rebuilding a (point, replicate)
+#: sequence for each of its blocks, ~0.2 ms each).
+SOBOL_CACHE = 4096
+
+
+def sobol_state(plan: Plan, point: int, rep: int, dim: int) -> bytes:
+    """The scrambled Sobol' sequence of replicate `rep` at `point` (the one
+    :func:`qmc_uniforms` draws from) as ``_ckernel.specs`` reads it: uint32 words
+    ``[dim, bits, shift[dim], sv[dim][bits]]``, SciPy's own scrambled direction
+    numbers and digital shift (``scipy.stats.qmc.Sobol._sv``, ``._shift``; the
+    compiled kernel generates the points from them in SciPy's Gray-code order,
+    and tests/test_kernel_compiled.py checks the bits against
+    :func:`qmc_uniforms`)."""
+    cache = _SOBOL.get(plan)
+    if cache is None:
+        cache = _SOBOL[plan] = {}
+    key = (point, rep, dim)
+    state = cache.get(key)
+    if state is None:
+        from scipy.stats import qmc
+
+        ss = np.random.SeedSequence(plan.entropy, spawn_key=(point, QMC_TAG, rep))
+        engine = qmc.Sobol(dim, scramble=True, rng=np.random.default_rng(ss))
+        sv = np.asarray(engine._sv, dtype=np.uint32)
+        shift = np.asarray(engine._shift, dtype=np.uint32)
+        if sv.shape != (dim, engine.bits) or shift.shape != (dim,):
+            raise RuntimeError("scipy.stats.qmc.Sobol: unexpected internal layout")
+        head = np.array([dim, engine.bits], dtype=np.uint32)
+        state = np.concatenate([head, shift, sv.ravel()]).tobytes()
+        if len(cache) >= SOBOL_CACHE:
+            cache.clear()
+        cache[key] = state
+    return state
+
+
 def _keyed_outputs(plan: Plan, specs):
-    """One ``_ckernel.specs`` call for Monte Carlo block specs: ``(items, counts,
-    sums, spans, flat)`` (the per-block counts, the shifted sums, the occupied
-    histogram spans and their counts, flat)."""
+    """One ``_ckernel.specs`` call for block specs: ``(items, counts, sums, spans,
+    flat)`` (the per-block counts, the shifted sums, the occupied histogram spans
+    and their counts, flat). Monte Carlo blocks draw from their keyed streams, QMC
+    blocks from their replicate's Sobol' points ``[block B, block B + n)``."""
     items = []
     points = plan.points
-    for point, _rep, block, n in specs:
+    qmc = plan.sampling == "qmc"
+    for point, rep, block, n in specs:
         sp = points[point]
         tables = plan.angle_tables(sp.surface, sp.angle_deg)
-        items.append((point, block, n, _point_args(tables, float(sp.speed))))
+        args = _point_args(tables, float(sp.speed))
+        if qmc:
+            start = block * plan.block_size
+            if start + n > 2**30:  # what scipy's Sobol(bits=30) refuses too
+                raise ValueError(
+                    f"At most 2**30 QMC points per replicate; block {block} "
+                    f"of {n} reaches {start + n}"
+                )
+            dim = len(_variables(plan, tables))
+            items.append((point, start, n, args, sobol_state(plan, point, rep, dim)))
+        else:
+            items.append((point, block, n, args))
     k = len(items)
     counts = np.empty((k, 5), dtype=np.int64)
     sums = np.empty((k, 12))
@@ -804,7 +853,7 @@ def _simulate_keyed(plan: Plan, specs) -> list[PointAccumulator]:
     out = []
     at = 0
     of = Moments.from_shifted_sums
-    for (_, _, n, _), c, s, (e_lo, e_len, mu_lo, mu_len, l_lo, l_len) in zip(
+    for (_, _, n, *_), c, s, (e_lo, e_len, mu_lo, mu_len, l_lo, l_len) in zip(
         items, counts.tolist(), sums.tolist(), spans.tolist(), strict=True
     ):
         e_counts = flat[at : at + e_len]
@@ -857,10 +906,10 @@ def _stacked_moments(m: np.ndarray, sums: np.ndarray) -> np.ndarray:
 def simulate_specs_stacked(plan: Plan, specs):
     """:func:`simulate_specs` as one :class:`~.summary.Stacked` (a row per spec),
     built from the compiled kernel's arrays without an object per block: exactly
-    ``Stacked.of(simulate_specs(plan, specs))``. Plain Monte Carlo on the compiled
-    kernel only (None otherwise)."""
+    ``Stacked.of(simulate_specs(plan, specs))``. The compiled kernel only (None
+    otherwise)."""
 
-    if plan.kernel != "compiled" or plan.sampling == "qmc":
+    if plan.kernel != "compiled":
         return None
     items, counts, sums, spans, flat = _keyed_outputs(plan, specs)
     m = counts[:, 4]

@@ -13,8 +13,8 @@ on one core, a process pool or a Dask cluster, and does not even depend on how t
 groups are packed into tasks.
 
 On this machine (``backend="process"``), more than one worker runs as threads of
-this process when the plan's kernel frees the GIL (the compiled kernel's Monte
-Carlo path: :func:`releases_gil`), else as a process pool. The plan (tables of
+this process when the plan's kernel frees the GIL (the compiled kernel, Monte
+Carlo and QMC: :func:`releases_gil`), else as a process pool. The plan (tables of
 ~2 MB) is shared by threads, sent to each worker process once through the pool
 initializer, and to Dask workers by ``Client.scatter(..., broadcast=True)``.
 """
@@ -220,11 +220,12 @@ def scenario_releases_gil(scenario) -> bool:
 
 def releases_gil(plan) -> bool:
     """Whether `plan`'s tasks run almost wholly outside the GIL: the compiled
-    kernel's keyed Monte Carlo path (``_ckernel.specs`` frees the GIL for the whole
-    simulation of a task; what holds it is ~1-2 µs of argument parsing per block and
-    the task's stacking). The NumPy kernel (areal surfaces, ``kernel="numpy"``) and
-    quasi-Monte Carlo hold it for much of their time."""
-    return plan.kernel == "compiled" and plan.sampling == "mc"
+    kernel (``_ckernel.specs`` frees the GIL for the whole simulation of a task,
+    Monte Carlo or QMC; what holds it is ~1-2 µs of argument parsing per block,
+    a QMC replicate's scrambled Sobol' sequence once per point (~0.2 ms) and the
+    task's stacking). The NumPy kernel (``kernel="numpy"``, or an install without
+    a C compiler) holds it for much of its time."""
+    return plan.kernel == "compiled"
 
 
 class ThreadRunner:
