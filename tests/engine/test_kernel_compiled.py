@@ -586,3 +586,41 @@ def test_qmc_past_the_end_of_the_sequence_is_refused():
         kernel.simulate_block(
             dataclasses.replace(plan, kernel="numpy"), 0, 0, last + 1, 1
         )
+
+
+@pytest.mark.parametrize("sampling", ["mc", "qmc"])
+@pytest.mark.parametrize("shadowing", ["reject", "none", "weighted"])
+def test_per_impact_outputs_equal_the_numpy_kernels(shadowing, sampling):
+    """``kernel.simulate_specs_impacts`` (what the wall law is built from): each
+    impact's outcome, and e_m, mu_m (and psi on an areal surface) of each
+    rebound, bit for bit those of ``simulate_block(..., store=True)``."""
+    sc = scenario(
+        surfaces=(*_areal_surfaces()[:1], rough(10.0), SurfaceVariant("smooth")),
+        angles_deg=(12.0, 85.0),
+        speeds_m_s=(0.3,),
+        shadowing=shadowing,
+        speed_spread=0.1,
+        sampling=sampling,
+        coefficients=PowerCoefficients(friction=0.2),
+    )
+    plan = build_plan(sc)
+    specs = [
+        (p, 0, b, n) for p in range(len(plan.points)) for b, n in ((0, 3000), (1, 300))
+    ]
+    got = kernel.simulate_specs_impacts(plan, specs)
+    at = 0
+    for spec in specs:
+        ref = kernel.simulate_block(plan, *spec, store=True)
+        sl = slice(at, at + spec[3])
+        at = sl.stop
+        code = got["outcome"][sl]
+        assert_array_equal(code == 2, ref["shadowed"])
+        assert_array_equal(code == 1, ref["captured"] & ~ref["shadowed"])
+        reb = code == 0
+        keys = ["e_m", "mu_m"]
+        if plan.points[spec[0]].surface == 0:  # the areal surface
+            keys.append("lateral_angle_deg")
+        for key in keys:
+            assert_array_equal(
+                got[key][sl][reb], ref[key][reb], err_msg=f"{key} {spec}"
+            )

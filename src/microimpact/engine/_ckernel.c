@@ -55,9 +55,12 @@ enum { W_U, W_SIN, W_COT, W_TAN, W_IK1, W_IK2, W_VC, W_EM, W_MUM,
        W_D1, W_D2, W_D3, W_G1, W_G2, W_G3,
        /* areal surfaces: sin, cos of phi_par and of the tilt chi; the folded
         * lateral angle psi_f and its shifted powers */
-       W_SP, W_CP, W_SX, W_CX, W_LAT, W_L1, W_L2, W_L3, W_ROWS };
-/* rows of the integer scratch: rebound (0/1), e_m slot, mu_m slot, psi_f slot */
-enum { I_CODE, I_BE, I_BM, I_BL, I_ROWS };
+       W_SP, W_CP, W_SX, W_CX, W_LAT, W_L1, W_L2, W_L3,
+       /* the lateral angle's atan2 arguments (for stored impacts) */
+       W_LX, W_LY, W_ROWS };
+/* rows of the integer scratch: rebound (0/1), e_m slot, mu_m slot, psi_f slot,
+ * outcome (0 rebound, 1 captured, 2 shadowed) */
+enum { I_CODE, I_BE, I_BM, I_BL, I_OUT, I_ROWS };
 
 typedef struct {
     double ws[W_ROWS * CHUNK];
@@ -131,11 +134,11 @@ shifted_lateral(double *restrict ws, int64_t k, double lat, int64_t reb, double 
 #define ATAN_T3P8 2.41421356237309504880
 #define ATAN_MOREBITS 6.123233995736765886130e-17
 #define RAD2DEG (180.0 / 3.141592653589793)
+/* atan(ay / ax) for ay, ax >= 0 (0 where ay = 0). */
 ALWAYS_INLINE double
-atan2_deg_folded(double y, double x)
+atan_abs(double ay, double ax)
 {
-    double ay = fabs(y);
-    double t = ay / x;
+    double t = ay / ax;
     int64_t big = t > ATAN_T3P8;
     int64_t mid = (t > 0.66) & (big ^ 1);
     double num = big ? -1.0 : (mid ? t - 1.0 : t);
@@ -153,7 +156,22 @@ atan2_deg_folded(double y, double x)
     z = r * z + r;
     z = z + (big ? ATAN_MOREBITS : (mid ? 0.5 * ATAN_MOREBITS : 0.0));
     double a = (big ? 3.141592653589793 / 2 : (mid ? 3.141592653589793 / 4 : 0.0)) + z;
-    a = ay == 0.0 ? 0.0 : a;
+    return ay == 0.0 ? 0.0 : a;
+}
+
+/* The folded angle: x >= 0. */
+ALWAYS_INLINE double
+atan2_deg_folded(double y, double x)
+{
+    return copysign(atan_abs(fabs(y), x), y) * RAD2DEG;
+}
+
+/* Any x: pi - a where x has its sign bit set. */
+static inline double
+atan2_deg(double y, double x)
+{
+    double a = atan_abs(fabs(y), fabs(x));
+    a = signbit(x) ? 3.141592653589793 - a : a;
     return copysign(a, y) * RAD2DEG;
 }
 
@@ -256,6 +274,8 @@ physics(double *restrict ws, int64_t *restrict iws, int64_t c, double p,
             double lx = ws[W_CP * CHUNK + k] * qt - ws[W_SP * CHUNK + k] * qa;
             double ly = sx * qn - cx * qb;
             lat = atan2_deg_folded(ly + 0.0, fabs(lx));
+            ws[W_LX * CHUNK + k] = lx;
+            ws[W_LY * CHUNK + k] = ly;
         }
         /* not reached (u <= 0) counts as shadowed only with shadowing "none";
          * capture rule: u <= v_c */
@@ -272,6 +292,7 @@ physics(double *restrict ws, int64_t *restrict iws, int64_t c, double p,
         ws[W_EM * CHUNK + k] = reb ? em : 0.0;
         ws[W_MUM * CHUNK + k] = reb ? mum : 0.0;
         iws[I_CODE * CHUNK + k] = reb;
+        iws[I_OUT * CHUNK + k] = 2 * shad + capt;
         n_shadow += live & shad;
         n_capt += live & capt;
         n_roll += reb & rolling;
@@ -666,6 +687,10 @@ typedef struct {
     int areal;         /* an areal surface (plan.ArealSampler rows) */
     counts_t counts;
     double sums[12];   /* e_m, mu_m, then psi_f (areal surfaces; else zeros) */
+    /* per-impact outputs (NULL: none): e_m and mu_m (0.0 where not a rebound),
+     * the lateral angle psi (areal surfaces; else 0.0), the outcome code */
+    double *st_em, *st_mum, *st_psi;
+    int8_t *st_code;
     int keyed;         /* draw from gen[] (the keyed streams), not i_d, ... i_p */
     pcg64_t gen[4];    /* diameter, angle, speed, pair proposal streams */
     /* quasi-Monte Carlo (keyed): the scrambled Sobol' sequence of the block's
@@ -1249,6 +1274,17 @@ run_block(block_args *a, scratch_t *s)
                     shifted_lateral(ws, k, ws[W_LAT * CHUNK + k],
                                     iws[I_CODE * CHUNK + k] != 0, kl);
         }
+        if (a->st_em != NULL) { /* the per-impact outputs of this chunk */
+            Py_ssize_t at = start;
+            for (int k = 0; k < c; k++) {
+                a->st_em[at + k] = ws[W_EM * CHUNK + k];
+                a->st_mum[at + k] = ws[W_MUM * CHUNK + k];
+                a->st_code[at + k] = (int8_t)iws[I_OUT * CHUNK + k];
+                a->st_psi[at + k] = areal && iws[I_CODE * CHUNK + k]
+                    ? atan2_deg(ws[W_LY * CHUNK + k] + 0.0, ws[W_LX * CHUNK + k])
+                    : 0.0;
+            }
+        }
         if (cnt.reb == 0)
             continue; /* no rebound yet: nothing to histogram or sum */
         /* 4. histograms and the moment sums, sequential in impact order (a
@@ -1539,6 +1575,8 @@ ck_block(PyObject *self, PyObject *args)
     a.e_hist = beh.buf;
     a.mu_hist = bmh.buf;
     a.lat_hist = blh.buf;
+    a.st_em = a.st_mum = a.st_psi = NULL;
+    a.st_code = NULL;
     a.keyed = 0;
     scratch_t *s = PyMem_RawMalloc(sizeof(scratch_t));
     if (s == NULL) {
@@ -1778,20 +1816,27 @@ PyDoc_STRVAR(specs_doc,
 "rebounds), sums float64[12] (as block()), spans int64[6] (offset and length of\n"
 "the occupied e_m histogram span, then of mu_m's, then of psi_f's: off an areal\n"
 "surface every rebound's psi_f is 0, one bin). Returns the spans' counts, one\n"
-"after the other, as int64 bytes.");
+"after the other, as int64 bytes. With `store` = (e_m, mu_m, psi, outcome), C-\n"
+"contiguous writable buffers of float64, float64, float64, int8 of the specs'\n"
+"total n, each impact's e_m and mu_m (0.0 where not a rebound), its lateral angle\n"
+"psi [deg] (kernel.atan2_deg; areal surfaces only, else 0.0) and outcome (0 a\n"
+"rebound, 1 captured, 2 shadowed) are written there, in spec order.");
 
 static PyObject *
 ck_specs(PyObject *self, PyObject *args)
 {
     Py_buffer be, bh, bc, bs, bp;
-    PyObject *dsamp, *ssamp, *list;
+    Py_buffer bst[4] = {{0}};
+    int nst = 0;
+    PyObject *dsamp, *ssamp, *list, *store = Py_None;
     int speed_random;
     double p, q, friction;
-    if (!PyArg_ParseTuple(args, "y*(OOpdddy*)O!w*w*w*:specs", &be, &dsamp, &ssamp,
+    if (!PyArg_ParseTuple(args, "y*(OOpdddy*)O!w*w*w*|O:specs", &be, &dsamp, &ssamp,
                           &speed_random, &p, &q, &friction, &bh, &PyList_Type,
-                          &list, &bc, &bs, &bp))
+                          &list, &bc, &bs, &bp, &store))
         return NULL; /* (the parser releases what it acquired) */
     PyObject *result = NULL;
+    Py_ssize_t total_n = 0;
     sampler_set set = {NULL, 0, 0};
     spec_t *sp = NULL;
     scratch_t *scr = NULL;
@@ -1884,6 +1929,25 @@ ck_specs(PyObject *self, PyObject *args)
             goto done;
         prev_pt = pt;
     }
+    for (Py_ssize_t i = 0; i < K; i++)
+        total_n += sp[i].n;
+    if (store != Py_None) { /* per-impact outputs: e_m, mu_m, psi, outcome */
+        static const char *names[4] = {"e_m", "mu_m", "psi", "outcome"};
+        static const Py_ssize_t sizes[4] = {8, 8, 8, 1};
+        if (!PyTuple_Check(store) || PyTuple_GET_SIZE(store) != 4) {
+            PyErr_SetString(PyExc_TypeError, "_ckernel.specs: store is a 4-tuple");
+            goto done;
+        }
+        for (; nst < 4; nst++) {
+            if (PyObject_GetBuffer(PyTuple_GET_ITEM(store, nst), &bst[nst],
+                                   PyBUF_WRITABLE | PyBUF_C_CONTIGUOUS) < 0)
+                goto done;
+            if (check_len(&bst[nst], names[nst], sizes[nst], total_n)) {
+                nst++;
+                goto done;
+            }
+        }
+    }
     int64_t e_size = hs.e_spill + SPILL, mu_size = hs.mu_spill + SPILL;
     int64_t lat_size = hs.lat_spill + SPILL;
     Py_ssize_t cap = 4096, used = 0;
@@ -1899,10 +1963,20 @@ ck_specs(PyObject *self, PyObject *args)
     int64_t *counts = bc.buf, *spans = bp.buf;
     double *sums = bs.buf;
     int oom = 0;
+    Py_ssize_t offset = 0;
     Py_BEGIN_ALLOW_THREADS
     for (Py_ssize_t i = 0; i < K && !oom; i++) {
         const spec_t *x = &sp[i];
         block_args a;
+        a.st_em = a.st_mum = a.st_psi = NULL;
+        a.st_code = NULL;
+        if (nst == 4) { /* this block's impacts in the per-impact outputs */
+            a.st_em = (double *)bst[0].buf + offset;
+            a.st_mum = (double *)bst[1].buf + offset;
+            a.st_psi = (double *)bst[2].buf + offset;
+            a.st_code = (int8_t *)bst[3].buf + offset;
+        }
+        offset += x->n;
         a.i_d = a.i_a = a.i_s = a.i_p = NULL;
         a.n = x->n;
         a.angle_random = x->angle_random;
@@ -2004,6 +2078,126 @@ done:
     PyBuffer_Release(&bc);
     PyBuffer_Release(&bs);
     PyBuffer_Release(&bp);
+    for (int j = 0; j < nst; j++)
+        PyBuffer_Release(&bst[j]);
+    return result;
+}
+
+/* ------------------------------------------------- wall-law node statistics */
+enum { WV_EN, WV_ET, WV_MU, WV_ANGLE, WV_LATERAL, WV_SPEED, WV_COUNT };
+enum { WS_IMPACTS, WS_CAPTURED, WS_REBOUNDS, WS_REIMPACTS, WS_MEAN,
+       WS_STD = WS_MEAN + 5, WS_COUNT = WS_STD + 5 };
+
+PyDoc_STRVAR(wall_rows_doc,
+"wall_rows(P, S, e_m, mu_m, psi, outcome, geom, out, stats) -> None\n\n"
+"The wall-law outcomes of P nodes of S impacts each (the arrays of specs()'s\n"
+"`store`, rows of S): per node, its rebounds' e_n, e_t, mu, rebound angle,\n"
+"lateral angle [deg] and speed ratio (wall_law.build.node_outcomes; the angles by\n"
+"kernel.atan2_deg, the hypotenuse by a square root) written in draw order to\n"
+"out float64[6][P][S], the rest of each row +inf; and stats float64[P][14]:\n"
+"impacts, captured, rebounds, reimpacts (e_n < 0), the means of the first five\n"
+"(a sequential sum / count), their standard deviations (ddof 1, sequential\n"
+"sums). geom float64[P][3]: sin theta, cos theta (0 at 90 deg) and 1.0 for an\n"
+"areal surface's node (then u_y = -u_x tan(psi), 0 where sin(psi) = 0).");
+
+static PyObject *
+ck_wall_rows(PyObject *self, PyObject *args)
+{
+    Py_ssize_t P, S;
+    Py_buffer be, bm, bp, bc, bg, bo, bs;
+    if (!PyArg_ParseTuple(args, "nny*y*y*y*y*w*w*:wall_rows", &P, &S, &be, &bm, &bp,
+                          &bc, &bg, &bo, &bs))
+        return NULL;
+    PyObject *result = NULL;
+    if (P < 0 || S < 0 || check_len(&be, "e_m", 8, P * S) ||
+        check_len(&bm, "mu_m", 8, P * S) || check_len(&bp, "psi", 8, P * S) ||
+        check_len(&bc, "outcome", 1, P * S) || check_len(&bg, "geom", 8, 3 * P) ||
+        check_len(&bo, "out", 8, WV_COUNT * P * S) ||
+        check_len(&bs, "stats", 8, WS_COUNT * P))
+        goto done;
+    const double *em = be.buf, *mum = bm.buf, *psi = bp.buf, *geom = bg.buf;
+    const int8_t *code = bc.buf;
+    double *out = bo.buf, *stats = bs.buf;
+    Py_BEGIN_ALLOW_THREADS
+    for (Py_ssize_t r = 0; r < P; r++) {
+        const double s = geom[3 * r], c = geom[3 * r + 1];
+        const int areal = geom[3 * r + 2] != 0.0;
+        double *o[WV_COUNT];
+        for (int v = 0; v < WV_COUNT; v++)
+            o[v] = out + ((Py_ssize_t)v * P + r) * S;
+        int64_t n_imp = 0, n_capt = 0, n_reimp = 0;
+        Py_ssize_t m = 0;
+        /* the rebounds, in draw order: e_n, mu and psi into their rows */
+        double *pw = o[WV_SPEED]; /* psi, until the speed ratio overwrites it */
+        for (Py_ssize_t j = 0; j < S; j++) {
+            Py_ssize_t i = r * S + j;
+            int8_t k = code[i];
+            n_imp += k != 2;
+            n_capt += k == 1;
+            o[WV_EN][m] = em[i];
+            o[WV_MU][m] = mum[i];
+            pw[m] = psi[i];
+            m += k == 0;
+        }
+        double *restrict en = o[WV_EN], *restrict mu_ = o[WV_MU];
+        double *restrict et = o[WV_ET], *restrict ang = o[WV_ANGLE];
+        double *restrict lat = o[WV_LATERAL], *restrict spd = o[WV_SPEED];
+        if (areal) { /* tan(psi), 0 where sin(psi) = 0 (in the plane) */
+            for (Py_ssize_t j = 0; j < m; j++) {
+                double pr = spd[j] * (3.141592653589793 / 180.0);
+                lat[j] = sin(pr) == 0.0 ? 0.0 : tan(pr);
+            }
+        }
+        /* branch-free over the rebounds (vectorised) */
+        for (Py_ssize_t j = 0; j < m; j++) {
+            double e = en[j], mu = mu_[j];
+            double u_z = e * s;
+            double u_x = c - mu * (1.0 + e) * s;
+            double u_y = areal ? (lat[j] == 0.0 ? 0.0 : -u_x * lat[j]) : 0.0;
+            et[j] = c > 0 ? u_x / c : NAN;
+            ang[j] = atan2_deg(u_z, u_x);
+            lat[j] = areal ? atan2_deg(u_y, sqrt(u_x * u_x + u_z * u_z)) : 0.0;
+            spd[j] = sqrt(u_x * u_x + u_y * u_y + u_z * u_z);
+            n_reimp += e < 0.0;
+        }
+        for (int v = 0; v < WV_COUNT; v++)
+            for (Py_ssize_t j = m; j < S; j++)
+                o[v][j] = INFINITY;
+        double *st = stats + (Py_ssize_t)WS_COUNT * r;
+        st[WS_IMPACTS] = (double)n_imp;
+        st[WS_CAPTURED] = (double)n_capt;
+        st[WS_REBOUNDS] = (double)m;
+        st[WS_REIMPACTS] = (double)n_reimp;
+        double div = m > 0 ? (double)m : 1.0, dof = m > 1 ? (double)(m - 1) : 1.0;
+        /* sequential sums of each variable (five independent chains at once) */
+        double sum[5] = {0.0, 0.0, 0.0, 0.0, 0.0}, ss[5] = {0.0, 0.0, 0.0, 0.0, 0.0};
+        for (Py_ssize_t j = 0; j < m; j++)
+            for (int v = 0; v < 5; v++)
+                sum[v] += o[v][j];
+        double mean[5];
+        for (int v = 0; v < 5; v++)
+            mean[v] = sum[v] / div;
+        for (Py_ssize_t j = 0; j < m; j++)
+            for (int v = 0; v < 5; v++) {
+                double d = o[v][j] - mean[v];
+                ss[v] += d * d;
+            }
+        for (int v = 0; v < 5; v++) {
+            st[WS_MEAN + v] = mean[v];
+            st[WS_STD + v] = sqrt(ss[v] / dof);
+        }
+    }
+    Py_END_ALLOW_THREADS
+    result = Py_None;
+    Py_INCREF(result);
+done:
+    PyBuffer_Release(&be);
+    PyBuffer_Release(&bm);
+    PyBuffer_Release(&bp);
+    PyBuffer_Release(&bc);
+    PyBuffer_Release(&bg);
+    PyBuffer_Release(&bo);
+    PyBuffer_Release(&bs);
     return result;
 }
 
@@ -2038,6 +2232,7 @@ static PyMethodDef ck_methods[] = {
     {"simd", ck_simd, METH_VARARGS, simd_doc},
     {"stream", ck_stream, METH_VARARGS, stream_doc},
     {"specs", ck_specs, METH_VARARGS, specs_doc},
+    {"wall_rows", ck_wall_rows, METH_VARARGS, wall_rows_doc},
     {NULL, NULL, 0, NULL},
 };
 

@@ -806,7 +806,7 @@ def sobol_state(plan: Plan, point: int, rep: int, dim: int) -> bytes:
     return state
 
 
-def _keyed_outputs(plan: Plan, specs):
+def _keyed_outputs(plan: Plan, specs, store=None):
     """One ``_ckernel.specs`` call for block specs: ``(items, counts, sums, spans,
     flat)`` (the per-block counts, the shifted sums, the occupied histogram spans
     and their counts, flat). Monte Carlo blocks draw from their keyed streams, QMC
@@ -833,15 +833,33 @@ def _keyed_outputs(plan: Plan, specs):
     counts = np.empty((k, 5), dtype=np.int64)
     sums = np.empty((k, 12))
     spans = np.empty((k, 6), dtype=np.int64)
-    buf = _ckernel().specs(
-        entropy_words(plan.entropy),
-        _common_args(plan),
-        items,
-        counts,
-        sums,
-        spans,
-    )
+    args = [entropy_words(plan.entropy), _common_args(plan), items, counts, sums]
+    args.append(spans)
+    if store is not None:
+        args.append(store)
+    buf = _ckernel().specs(*args)
     return items, counts, sums, spans, np.frombuffer(buf, dtype=np.int64)
+
+
+def simulate_specs_impacts(plan: Plan, specs) -> dict:
+    """The impacts of block specs ``(point, rep, block, n)`` through the compiled
+    kernel, one after the other (one ``_ckernel.specs`` call): ``e_m``, ``mu_m``
+    (valid where ``outcome == 0``), ``lateral_angle_deg`` (valid for rebounds on an
+    areal surface; 0 elsewhere) and ``outcome`` (int8: 0 a rebound, 1 captured, 2
+    shadowed). The same impacts, bit for bit, as ``simulate_block(plan, *spec,
+    store=True)`` gives for those outcomes (tests/test_kernel_compiled.py); what
+    the wall law is built from without a Python array per node."""
+    if plan.kernel != "compiled":
+        raise ValueError("simulate_specs_impacts needs the compiled kernel")
+    total = sum(int(spec[3]) for spec in specs)
+    out = {
+        "e_m": np.empty(total),
+        "mu_m": np.empty(total),
+        "lateral_angle_deg": np.empty(total),
+        "outcome": np.empty(total, dtype=np.int8),
+    }
+    _keyed_outputs(plan, specs, store=tuple(out.values()))
+    return out
 
 
 def _simulate_keyed(plan: Plan, specs) -> list[PointAccumulator]:
