@@ -391,7 +391,13 @@ def _areal_ratio_task(n: int, rounds: int) -> dict:
             rates[name].append((n - n0) / (large - small))
     ratios = [a / p for a, p in zip(rates["areal"], rates["profile"], strict=True)]
     kernel = mi.run(areal, samples=n0, seed=1, progress=False).provenance["kernel"]
-    return {"ratio": statistics.median(ratios), "ratios": ratios, "kernel": kernel}
+    return {
+        "ratio": statistics.median(ratios),
+        "ratios": ratios,
+        "kernel": kernel,
+        "profile_per_s": statistics.median(rates["profile"]),
+        "areal_per_s": statistics.median(rates["areal"]),
+    }
 
 
 def _qmc_ratio_task(n: int, rounds: int) -> dict:
@@ -467,6 +473,7 @@ def _wall_law_ratio_task(shape, samples: int, rounds: int) -> dict:
         "wall_s": statistics.median(t_wall),
         "plain_s": statistics.median(t_plain),
         "nodes": n_d * n_v * n_a,
+        "wall_law_per_s": n_d * n_v * n_a * samples / statistics.median(t_wall),
     }
 
 
@@ -510,7 +517,8 @@ def print_ratios(ratios: dict, floor_per_s=None) -> None:
 
     print(
         f"areal_ratio (areal / profile marginal rate, 1 worker, {a['kernel']} "
-        f"kernel): {a['ratio']:.2f}  (rounds: {runs(a)}; target >= 0.5)"
+        f"kernel): {a['ratio']:.2f}  ({a['areal_per_s'] / 1e6:.1f} vs "
+        f"{a['profile_per_s'] / 1e6:.1f} M/s; rounds: {runs(a)}; target >= 0.5)"
     )
     print(
         f"wall_law_ratio ({shape} at {ratios['config']['wall_law_samples']}/node "
@@ -523,9 +531,16 @@ def print_ratios(ratios: dict, floor_per_s=None) -> None:
         f"({q['qmc_per_s'] / 1e6:.1f} vs {q['mc_per_s'] / 1e6:.1f} M/s; rounds: "
         f"{runs(q)}; target >= 0.5)"
     )
-    if floor_per_s:
-        line += f"; QMC at {q['qmc_per_s'] / floor_per_s:.2f} of the RNG floor"
     print(line)
+    if floor_per_s:
+        print(
+            "against the RNG floor (engine streams): profile "
+            f"{a['profile_per_s'] / floor_per_s:.2f}, areal "
+            f"{a['areal_per_s'] / floor_per_s:.2f}, wall law "
+            f"{w['wall_law_per_s'] / floor_per_s:.2f}, MC "
+            f"{q['mc_per_s'] / floor_per_s:.2f}, QMC "
+            f"{q['qmc_per_s'] / floor_per_s:.2f}"
+        )
 
 
 def _children_cpu_s() -> float:
