@@ -141,8 +141,11 @@ atan_abs(double ay, double ax)
     double t = ay / ax;
     int64_t big = t > ATAN_T3P8;
     int64_t mid = (t > 0.66) & (big ^ 1);
-    double num = big ? -1.0 : (mid ? t - 1.0 : t);
-    double den = big ? t : (mid ? t + 1.0 : 1.0);
+    /* (every operand formed unconditionally, then selected: GCC if-converts
+     * and vectorises only selections of values) */
+    double tm = t - 1.0, tp = t + 1.0;
+    double num = big ? -1.0 : (mid ? tm : t);
+    double den = big ? t : (mid ? tp : 1.0);
     double r = num / den;
     double z = r * r;
     double pz = (((-8.750608600031904122785e-1 * z + -1.615753718733365076637e1) * z +
@@ -167,11 +170,12 @@ atan2_deg_folded(double y, double x)
 }
 
 /* Any x: pi - a where x has its sign bit set. */
-static inline double
+ALWAYS_INLINE double
 atan2_deg(double y, double x)
 {
     double a = atan_abs(fabs(y), fabs(x));
-    a = signbit(x) ? 3.141592653589793 - a : a;
+    double b = 3.141592653589793 - a;
+    a = signbit(x) ? b : a;
     return copysign(a, y) * RAD2DEG;
 }
 
@@ -239,7 +243,8 @@ physics(double *restrict ws, int64_t *restrict iws, int64_t c, double p,
              * operation for operation; chi = 0 gives the branch above's bits) */
             double sx = ws[W_SX * CHUNK + k], cx = ws[W_CX * CHUNK + k];
             double h2 = cot * cot + sx * sx;
-            double g = sx == 0.0 ? cot : copysign(sqrt(h2), cot); /* slip_ratio */
+            double h = copysign(sqrt(h2), cot);
+            double g = sx == 0.0 ? cot : h; /* slip_ratio */
             double mu = g / cx; /* eta */
             mu = mu * two_sevenths;
             mu = mu / one_e; /* Eq. 3 */
@@ -247,8 +252,9 @@ physics(double *restrict ws, int64_t *restrict iws, int64_t c, double p,
             mu = mu < -friction ? -friction : mu;
             mu = mu > friction ? friction : mu;
             int64_t moving = g != 0.0;
-            double mt = mu * (moving ? cot / g : 1.0);
-            double mb = mu * (moving ? sx / g : 0.0);
+            double cg = cot / g, sg = sx / g;
+            double mt = mu * (moving ? cg : 1.0);
+            double mb = mu * (moving ? sg : 0.0);
             double qb = mb * one_e;
             qb = qb * cx;
             qb = sx - qb;
@@ -2088,6 +2094,47 @@ enum { WV_EN, WV_ET, WV_MU, WV_ANGLE, WV_LATERAL, WV_SPEED, WV_COUNT };
 enum { WS_IMPACTS, WS_CAPTURED, WS_REBOUNDS, WS_REIMPACTS, WS_MEAN,
        WS_STD = WS_MEAN + 5, WS_COUNT = WS_STD + 5 };
 
+/* The wall-law variables of m rebounds (ck_wall_rows), branch-free: GCC
+ * vectorises it when it may evaluate both sides of a selection, which
+ * no-trapping-math allows (it changes no result: the same IEEE operations). */
+static CLONES __attribute__((noinline, optimize("no-trapping-math"))) void
+wall_outcomes(const double *restrict en, const double *restrict mu_,
+              double *restrict et, double *restrict ang, double *restrict lat,
+              double *restrict spd, Py_ssize_t m, double s, double c, int areal,
+              int64_t *reimp)
+{
+    int64_t n_reimp = 0;
+    /* branch-free over the rebounds (vectorised; e_t is NaN where the
+     * incidence is normal, c = 0) */
+    const double cd = c > 0 ? c : 1.0;
+    if (areal) {
+        for (Py_ssize_t j = 0; j < m; j++) {
+            double e = en[j], mu = mu_[j];
+            double u_z = e * s;
+            double u_x = c - mu * (1.0 + e) * s;
+            double uy = -u_x * lat[j];
+            double u_y = lat[j] == 0.0 ? 0.0 : uy;
+            et[j] = u_x / cd;
+            ang[j] = atan2_deg(u_z, u_x);
+            lat[j] = atan2_deg(u_y, sqrt(u_x * u_x + u_z * u_z));
+            spd[j] = sqrt(u_x * u_x + u_y * u_y + u_z * u_z);
+            n_reimp += e < 0.0;
+        }
+    } else { /* u_y = 0: the lateral angle is 0 */
+        for (Py_ssize_t j = 0; j < m; j++) {
+            double e = en[j], mu = mu_[j];
+            double u_z = e * s;
+            double u_x = c - mu * (1.0 + e) * s;
+            et[j] = u_x / cd;
+            ang[j] = atan2_deg(u_z, u_x);
+            lat[j] = 0.0;
+            spd[j] = sqrt(u_x * u_x + 0.0 * 0.0 + u_z * u_z);
+            n_reimp += e < 0.0;
+        }
+    }
+    *reimp += n_reimp;
+}
+
 PyDoc_STRVAR(wall_rows_doc,
 "wall_rows(P, S, e_m, mu_m, psi, outcome, geom, out, stats) -> None\n\n"
 "The wall-law outcomes of P nodes of S impacts each (the arrays of specs()'s\n"
@@ -2148,18 +2195,10 @@ ck_wall_rows(PyObject *self, PyObject *args)
                 lat[j] = sin(pr) == 0.0 ? 0.0 : tan(pr);
             }
         }
-        /* branch-free over the rebounds (vectorised) */
-        for (Py_ssize_t j = 0; j < m; j++) {
-            double e = en[j], mu = mu_[j];
-            double u_z = e * s;
-            double u_x = c - mu * (1.0 + e) * s;
-            double u_y = areal ? (lat[j] == 0.0 ? 0.0 : -u_x * lat[j]) : 0.0;
-            et[j] = c > 0 ? u_x / c : NAN;
-            ang[j] = atan2_deg(u_z, u_x);
-            lat[j] = areal ? atan2_deg(u_y, sqrt(u_x * u_x + u_z * u_z)) : 0.0;
-            spd[j] = sqrt(u_x * u_x + u_y * u_y + u_z * u_z);
-            n_reimp += e < 0.0;
-        }
+        wall_outcomes(en, mu_, et, ang, lat, spd, m, s, c, areal, &n_reimp);
+        if (!(c > 0))
+            for (Py_ssize_t j = 0; j < m; j++)
+                et[j] = NAN;
         for (int v = 0; v < WV_COUNT; v++)
             for (Py_ssize_t j = m; j < S; j++)
                 o[v][j] = INFINITY;

@@ -841,23 +841,27 @@ def _keyed_outputs(plan: Plan, specs, store=None):
     return items, counts, sums, spans, np.frombuffer(buf, dtype=np.int64)
 
 
-def simulate_specs_impacts(plan: Plan, specs) -> dict:
+def simulate_specs_impacts(plan: Plan, specs, out=None) -> dict:
     """The impacts of block specs ``(point, rep, block, n)`` through the compiled
     kernel, one after the other (one ``_ckernel.specs`` call): ``e_m``, ``mu_m``
     (valid where ``outcome == 0``), ``lateral_angle_deg`` (valid for rebounds on an
     areal surface; 0 elsewhere) and ``outcome`` (int8: 0 a rebound, 1 captured, 2
     shadowed). The same impacts, bit for bit, as ``simulate_block(plan, *spec,
     store=True)`` gives for those outcomes (tests/test_kernel_compiled.py); what
-    the wall law is built from without a Python array per node."""
+    the wall law is built from without a Python array per node. `out`: arrays of
+    at least the specs' total length to write into (their leading parts are
+    returned), reused from call to call."""
     if plan.kernel != "compiled":
         raise ValueError("simulate_specs_impacts needs the compiled kernel")
     total = sum(int(spec[3]) for spec in specs)
-    out = {
-        "e_m": np.empty(total),
-        "mu_m": np.empty(total),
-        "lateral_angle_deg": np.empty(total),
-        "outcome": np.empty(total, dtype=np.int8),
-    }
+    if out is None:
+        out = {
+            "e_m": np.empty(total),
+            "mu_m": np.empty(total),
+            "lateral_angle_deg": np.empty(total),
+            "outcome": np.empty(total, dtype=np.int8),
+        }
+    out = {k: out[k][:total] for k in ("e_m", "mu_m", "lateral_angle_deg", "outcome")}
     _keyed_outputs(plan, specs, store=tuple(out.values()))
     return out
 

@@ -92,7 +92,7 @@ def node_outcomes(e_m, mu_m, angle_deg: float, psi_deg=None) -> dict:
 GROUP_IMPACTS = 1 << 18
 
 
-def _impacts(plan, points, samples: int) -> dict:
+def _impacts(plan, points, samples: int, buffers=None) -> dict:
     """The first `samples` impacts of each sweep point of `points` (the draws
     :func:`microimpact.run` makes there, block by block) as ``(points, samples)``
     arrays: ``e_m``, ``mu_m`` (valid for rebounds), ``lateral_angle_deg`` (valid
@@ -110,9 +110,8 @@ def _impacts(plan, points, samples: int) -> dict:
             for i in points
             for b in range(math.ceil(samples / bs))
         ]
-        return {
-            k: v.reshape(shape) for k, v in simulate_specs_impacts(plan, specs).items()
-        }
+        got = simulate_specs_impacts(plan, specs, buffers)
+        return {k: v.reshape(shape) for k, v in got.items()}
     out = {
         "e_m": np.zeros(shape),
         "mu_m": np.zeros(shape),
@@ -189,10 +188,17 @@ def _wall_rows_numpy(imp, geom, out, stats):
             stats[:, 9 + v] = np.sqrt(np.cumsum(d * d, axis=1)[:, -1] / dof)
 
 
-def _wall_rows(imp, geom, force_numpy=False):
-    """``(out, stats)`` of ``_ckernel.wall_rows`` (or its NumPy form)."""
+def _wall_rows(imp, geom, force_numpy=False, buffers=None):
+    """``(out, stats)`` of ``_ckernel.wall_rows`` (or its NumPy form); `buffers`
+    (a dict) keeps the output array from call to call."""
     p, n = imp["outcome"].shape
-    out = np.empty((len(_ROW_VARIABLES), p, n))
+    size = len(_ROW_VARIABLES) * p * n
+    if buffers is not None and buffers.get("rows", np.empty(0)).size >= size:
+        out = buffers["rows"][:size].reshape(len(_ROW_VARIABLES), p, n)
+    else:
+        out = np.empty((len(_ROW_VARIABLES), p, n))
+        if buffers is not None:
+            buffers["rows"] = out.reshape(-1)
     stats = np.empty((p, _STAT_COLUMNS))
     try:
         from ..engine import _ckernel
@@ -233,14 +239,14 @@ def _quantile_rows(srt, n, q):
         return np.where(g >= 0.5, b - diff * (1 - g), a + diff * g)
 
 
-def _node_rows(plan, points, spec: WallLawSpec, samples: int) -> dict:
+def _node_rows(plan, points, spec: WallLawSpec, samples: int, buffers=None) -> dict:
     """Counts, statistics and reservoirs of the nodes at sweep points `points`
     (arrays with a leading axis over them), from one array of impacts per
     quantity (no Python array per node): each node's rebounds in draw order
     (``_ckernel.wall_rows``), the first ``spec.reservoir`` of them its reservoir,
     then sorted in place for the quantiles (``np.quantile``'s linear rule, the
     same operations). Means and standard deviations are sequential sums."""
-    imp = _impacts(plan, points, samples)
+    imp = _impacts(plan, points, samples, buffers)
     p = len(points)
     geom = np.empty((p, 3))
     for r, i in enumerate(points):
@@ -250,7 +256,7 @@ def _node_rows(plan, points, spec: WallLawSpec, samples: int) -> dict:
         # cos(pi/2) is 6e-17 in floating point: the impact is normal
         geom[r, 1] = 0.0 if pt.angle_deg == 90.0 else math.cos(theta)
         geom[r, 2] = float(isinstance(plan.surfaces[pt.surface], ArealSampler))
-    out, stats = _wall_rows(imp, geom)
+    out, stats = _wall_rows(imp, geom, buffers=buffers)
     n_reb = stats[:, 2].astype(np.int64)
     rows = {
         "n_samples": np.full(p, samples, dtype=np.int64),
@@ -289,8 +295,17 @@ def _diameter_task(plan, scenario, spec, samples, j):
     )
     per = max(1, GROUP_IMPACTS // max(samples, 1))
     n = len(plan.points)
+    size = min(per, n) * samples
+    # the groups' arrays, allocated once (fresh pages for every group cost more
+    # than the arithmetic on them)
+    buffers = {
+        "e_m": np.empty(size),
+        "mu_m": np.empty(size),
+        "lateral_angle_deg": np.empty(size),
+        "outcome": np.empty(size, dtype=np.int8),
+    }
     parts = [
-        _node_rows(d_plan, range(lo, min(n, lo + per)), spec, samples)
+        _node_rows(d_plan, range(lo, min(n, lo + per)), spec, samples, buffers)
         for lo in range(0, n, per)
     ]
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
