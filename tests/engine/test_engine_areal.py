@@ -510,3 +510,19 @@ def test_areal_scenario_errors_name_the_file_and_key(tmp_path, surfaces, match):
     with pytest.raises(ScenarioError, match=match) as info:
         mi.Scenario.from_toml(path)
     assert "\n" not in str(info.value)
+
+
+def test_checkpoints_of_areal_runs_name_the_areal_algorithm(monkeypatch):
+    """The areal impact's arithmetic changed in its last bits (issue 24): the
+    checkpoint fingerprint of an areal plan names it, so a checkpoint written
+    before is not resumed; profile plans' fingerprints are untouched."""
+    from microimpact.engine.checkpoint import plan_fingerprint
+
+    areal = build_plan(scenario(surfaces=(SurfaceVariant("a", _pairs(50)),)), seed=1)
+    profile = build_plan(scenario(angles_deg=(40.0,)), seed=1)
+    assert areal.pair_algorithm(0) == ArealSampler.ALGORITHM
+    assert profile.pair_algorithm(0) is None
+    before = plan_fingerprint(areal, 100), plan_fingerprint(profile, 100)
+    monkeypatch.setattr(ArealSampler, "ALGORITHM", "another")
+    after = plan_fingerprint(areal, 100), plan_fingerprint(profile, 100)
+    assert before[0] != after[0] and before[1] == after[1]

@@ -334,7 +334,14 @@ class ArealSampler(Sampler):
     ``tan`` of ``phi_par`` and ``sin(chi)``, ``cos(chi)``, ``phi_perp``
     (:data:`A_SINX`, :data:`A_COSX`, :data:`A_PERP`). Reachability depends on
     ``phi_par`` alone (the particle has no component along ``b``), so the
-    reachable pairs are a prefix of the table."""
+    reachable pairs are a prefix of the table. :data:`ALGORITHM` is in the
+    checkpoint fingerprint of plans with an areal surface (see
+    :meth:`Plan.pair_algorithm`)."""
+
+    #: How an areal impact is computed where that changed (issue 24: the slip by a
+    #: square root and the lateral angle by the portable atan2, on both kernels;
+    #: a checkpoint of an areal run written before is not resumed).
+    ALGORITHM = "areal: slip sqrt, portable atan2"
 
     @property
     def perp(self) -> np.ndarray:
@@ -722,8 +729,11 @@ class Plan:
         :attr:`PairSearch.REJECT_RANGE` under ``"reject"`` where some pairs lean
         back past -90 deg at one of the surface's apparent angles (they used to
         be drawn); :attr:`PairSampler.ALGORITHM` there too; else None (the
-        fingerprint is what it was)."""
+        fingerprint is what it was); :attr:`ArealSampler.ALGORITHM` for an areal
+        surface."""
         s = self.surfaces[surface]
+        if isinstance(s, ArealSampler):
+            return s.ALGORITHM
         if not isinstance(s, PairSampler | PairSearch):
             return None
         algorithm = getattr(s, "ALGORITHM", None)
