@@ -797,6 +797,21 @@ fetch_areal(const sampler_t *s, const uint64_t *restrict r, int c,
 {
     static const int col[5] = {2, 4, 6, 8, 10};
     static const int dst[5] = {W_SP, W_CP, W_TAN, W_SX, W_CX};
+    if (s->kind == 1 && s->crows != NULL && s->cstride >= 8 && s->cpos[0] == 0 &&
+        s->cpos[1] == 1 && s->cpos[2] == 2) {
+        /* compact rows of an areal table (kernel._compact_rows): the five
+         * columns' lo, one 64-byte row per pair (the table fits in L2) */
+        const double *restrict cr = s->crows;
+        const Py_ssize_t cs = s->cstride;
+        for (int k = 0; k < c; k++)
+            g[k] = (uint32_t)mulhi64(r[k], (uint64_t)s->n);
+        for (int k = 0; k < c; k++) {
+            const double *row = cr + (Py_ssize_t)g[k] * cs;
+            for (int q = 0; q < 5; q++)
+                ws[dst[q] * CHUNK + k] = row[q];
+        }
+        return;
+    }
     for (int k = 0; k < c; k++) {
         Py_ssize_t i;
         double f = 0.0;

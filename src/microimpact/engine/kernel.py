@@ -591,6 +591,14 @@ def _compact_rows(sampler, constant: int):
     to their power-of-two widths, which is checked here against the canonical grid
     (a table that is not exactly it gets no compact rows: the scalar lookups)."""
     t, rows = sampler.table, sampler.rows[:-1]
+    if t.kind == t.EQUAL and rows.shape[1] >= 12 and not constant & 0b111:
+        # an areal surface's pairs (plan.ArealSampler): sin, cos, tan phi_par and
+        # sin, cos chi, one 64-byte row per pair (the fetch of the compiled
+        # kernel's areal path reads this layout where the stride is 8)
+        out = np.zeros((t.size, 8))
+        out[:, :5] = rows[:, [2, 4, 6, 8, 10]]
+        out.setflags(write=False)
+        return out, 8
     if t.kind == t.DYADIC:
         if not np.array_equal(t.starts, _refined_starts(t.levels, t.cells_log2)):
             return None
