@@ -371,7 +371,7 @@ def _areal_ratio_task(n: int, rounds: int) -> dict:
     import dataclasses
 
     import microimpact as mi
-    from microimpact.config import load_preset
+    from microimpact.scenario.scenario import load_preset
 
     sc = load_preset("sst76-formica-areal")
     one = dict(angles_deg=(ANGLE_DEG,), speeds_m_s=(SPEED,))

@@ -484,7 +484,9 @@ def summary_frame(ds):
 def summary_frame_of(grid, columns):
     """:func:`summary_frame` of ``build_dataset(grid, columns, ...)`` from the
     columns themselves, without building the Dataset (nor importing xarray): the
-    same columns, order, dtypes and values (tests/test_engine.py compares them)."""
+    same columns, order, dtypes and values (tests/engine/test_engine.py compares
+    them)."""
+    # deferred: pandas (~30 MiB) loads only where a table is made
     import pandas as pd
 
     names = [v for v in VARIABLES if v in columns]

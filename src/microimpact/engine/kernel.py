@@ -798,6 +798,7 @@ def sobol_state(plan: Plan, point: int, rep: int, dim: int) -> bytes:
     key = (point, rep, dim)
     state = cache.get(key)
     if state is None:
+        # deferred: this SciPy submodule loads only when it is used (import time)
         from scipy.stats import qmc
 
         ss = np.random.SeedSequence(plan.entropy, spawn_key=(point, QMC_TAG, rep))

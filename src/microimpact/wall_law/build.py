@@ -25,7 +25,7 @@ import json
 import math
 import shutil
 import time
-from concurrent.futures import as_completed
+from concurrent.futures import ThreadPoolExecutor, as_completed
 from pathlib import Path
 
 import numpy as np
@@ -34,6 +34,8 @@ from .. import __version__
 from .._core.files import atomic_write
 from .._core.json import dumps
 from .._core.progress import Progress
+from ..engine import _compiled
+from ..engine.kernel import atan2_deg, simulate_specs_impacts
 from ..engine.montecarlo import iter_point_samples
 from ..engine.parallel import cap_workers, process_pool
 from ..engine.plan import ArealSampler, build_plan, diameter_sampler, resolve_entropy
@@ -100,8 +102,6 @@ def _impacts(plan, points, samples: int, buffers=None) -> dict:
     2 shadowed). The compiled kernel writes them in one call
     (:func:`~microimpact.engine.kernel.simulate_specs_impacts`); the NumPy kernel
     gives the same values (``simulate_block(..., store=True)``)."""
-    from ..engine.kernel import simulate_specs_impacts
-
     shape = (len(points), samples)
     if plan.kernel == "compiled":
         bs = plan.block_size
@@ -144,8 +144,6 @@ def _wall_rows_numpy(imp, geom, out, stats):
     compiled kernel): the same definitions and, but for ``sin`` and ``tan`` of the
     lateral angle on areal surfaces (NumPy's and the C library's can differ in
     the last bit), the same operations."""
-    from ..engine.kernel import atan2_deg
-
     code = imp["outcome"]
     rebound = code == 0
     m = np.count_nonzero(rebound, axis=1)
@@ -200,14 +198,10 @@ def _wall_rows(imp, geom, force_numpy=False, buffers=None):
         if buffers is not None:
             buffers["rows"] = out.reshape(-1)
     stats = np.empty((p, _STAT_COLUMNS))
-    try:
-        from ..engine import _ckernel
-    except ImportError:  # pragma: no cover - installed without a C compiler
-        _ckernel = None
-    if _ckernel is None or n == 0 or force_numpy:
+    if _compiled.ckernel is None or n == 0 or force_numpy:
         _wall_rows_numpy(imp, geom, out, stats)
     else:
-        _ckernel.wall_rows(
+        _compiled.ckernel.wall_rows(
             p,
             n,
             np.ascontiguousarray(imp["e_m"]),
@@ -338,8 +332,6 @@ def _results(plan, scenario, spec, samples, workers, executor, indices):
         for j in indices:
             yield j, _diameter_task(plan, scenario, spec, samples, j)
         return
-    from concurrent.futures import ThreadPoolExecutor
-
     if plan.kernel == "compiled":  # it frees the GIL, as do NumPy's sorts
         with ThreadPoolExecutor(min(workers, len(indices))) as pool:
             futures = {
