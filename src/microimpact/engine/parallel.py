@@ -209,13 +209,11 @@ def map_tasks(func, items, *, workers=1, executor=None, threads=False, in_flight
 
 def scenario_releases_gil(scenario) -> bool:
     """Whether runs of `scenario` spend their time in the compiled kernel with the
-    GIL released (Monte Carlo sampling, no areal surface, the compiled kernel
-    installed and chosen), so that worker threads serve them."""
-    return (
-        resolve_kernel() == "compiled"
-        and scenario.sampling == "mc"
-        and not any(getattr(v.angles, "is_areal", False) for v in scenario.surfaces)
-    )
+    GIL released (the compiled kernel installed and chosen: Monte Carlo and QMC,
+    profile and areal surfaces alike since issue 24), so that worker threads
+    serve them."""
+    del scenario  # every scenario runs on the kernel resolve_kernel() names
+    return resolve_kernel() == "compiled"
 
 
 def releases_gil(plan) -> bool:
