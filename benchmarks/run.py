@@ -344,6 +344,206 @@ def _wall_law_task(shape, samples: int, workers: int, seed: int) -> dict:
     return {"rate": n / dt, "wall_s": dt, "nodes": n_d * n_v * n_a, "n": n}
 
 
+# -------------------------------------------- issue 24: every path at full speed
+#: The ratios of issue 24, each measured in one fresh process, one worker, the two
+#: sides alternating (``ratio_repeats`` rounds; the median of the rounds' ratios).
+#: ``design_row_ratio`` (sensitivity over N design rows against one run) belongs to
+#: the ScenarioModel work and is added beside these, in :func:`_ratio_tasks`.
+RATIO_SIZES = {
+    "full": dict(areal_n=2 * 10**7, qmc_n=1 << 24, wall_law=(12, 12, 12), rounds=5),
+    "quick": dict(areal_n=5 * 10**6, qmc_n=1 << 22, wall_law=(12, 12, 12), rounds=3),
+    "smoke": dict(areal_n=1 << 17, qmc_n=1 << 15, wall_law=(3, 3, 3), rounds=1),
+}
+RATIO_WALL_LAW_SAMPLES = 4000
+
+
+def _timed(fn) -> float:
+    t0 = time.perf_counter()
+    fn()
+    return time.perf_counter() - t0
+
+
+def _areal_ratio_task(n: int, rounds: int) -> dict:
+    """``areal_ratio``: the marginal rate (impacts per second between a run of
+    2^15 and a run of `n` impacts, so that the surface's and the plan's fixed
+    costs cancel) of the areal surface of the ``sst76-formica-areal`` preset over
+    that of its profile surface, at one point (1 m/s, 30 deg), one worker."""
+    import dataclasses
+
+    import microimpact as mi
+    from microimpact.scenario.scenario import load_preset
+
+    sc = load_preset("sst76-formica-areal")
+    one = dict(angles_deg=(ANGLE_DEG,), speeds_m_s=(SPEED,))
+    prof = dataclasses.replace(sc, surfaces=sc.surfaces[:1], **one)
+    areal = dataclasses.replace(sc, surfaces=sc.surfaces[1:], **one)
+    n0 = BLOCK
+
+    def run(s, k):
+        return _timed(lambda: mi.run(s, samples=k, seed=SEED, progress=False))
+
+    for s in (prof, areal):  # warm-up: imports, the areal surface's build
+        run(s, n0)
+    rates = {"profile": [], "areal": []}
+    for _ in range(rounds):
+        for name, s in (("profile", prof), ("areal", areal)):
+            small, large = run(s, n0), run(s, n)
+            rates[name].append((n - n0) / (large - small))
+    ratios = [a / p for a, p in zip(rates["areal"], rates["profile"], strict=True)]
+    kernel = mi.run(areal, samples=n0, seed=1, progress=False).provenance["kernel"]
+    return {
+        "ratio": statistics.median(ratios),
+        "ratios": ratios,
+        "kernel": kernel,
+        "profile_per_s": statistics.median(rates["profile"]),
+        "areal_per_s": statistics.median(rates["areal"]),
+    }
+
+
+def _qmc_ratio_task(n: int, rounds: int) -> dict:
+    """``qmc_ratio``: QMC's rate over plain MC's, the benchmark's point at `n`
+    impacts (8 scrambled replicates of n/8), one worker."""
+    import microimpact as mi
+
+    mc = make_scenario()
+    qmc = make_scenario(sampling="qmc", qmc_replicates=8)
+
+    def run(s, k):
+        return _timed(lambda: mi.run(s, samples=k, seed=SEED, progress=False))
+
+    run(mc, BLOCK)
+    run(qmc, BLOCK)
+    mc_rates, qmc_rates = [], []
+    for _ in range(rounds):
+        mc_rates.append(n / run(mc, n))
+        qmc_rates.append(n / run(qmc, n))
+    ratios = [q / m for q, m in zip(qmc_rates, mc_rates, strict=True)]
+    return {
+        "ratio": statistics.median(ratios),
+        "ratios": ratios,
+        "mc_per_s": statistics.median(mc_rates),
+        "qmc_per_s": statistics.median(qmc_rates),
+    }
+
+
+def _wall_law_ratio_task(shape, samples: int, rounds: int) -> dict:
+    """``wall_law_ratio``: ``build_wall_law`` of ``d x v x angle`` nodes at
+    `samples` draws per node on the benchmark's surface and laws, over plain
+    ``microimpact.run`` calls of the same impacts (one run per diameter, a
+    monodisperse population over the speed x angle grid at `samples` per point),
+    one worker."""
+    import microimpact as mi
+    from microimpact.wall_law import WallLawSpec, build_wall_law
+
+    n_d, n_v, n_a = shape
+    spec = WallLawSpec(
+        diameters_um=tuple(np.geomspace(20.0, 120.0, n_d)),
+        speeds_m_s=tuple(np.geomspace(0.1, 10.0, n_v)),
+        angles_deg=tuple(np.linspace(5.0, 90.0, n_a)),
+        samples=samples,
+    )
+    sc = make_scenario()
+    plain_runs = [
+        sc.with_options(
+            particles=mi.monodisperse(d),
+            speeds_m_s=spec.speeds_m_s,
+            angles_deg=spec.angles_deg,
+            samples=samples,
+        )
+        for d in spec.diameters_um
+    ]
+
+    def plain():
+        for s in plain_runs:
+            mi.run(s, seed=SEED, progress=False)
+
+    def wall():
+        build_wall_law(sc, spec, seed=SEED)
+
+    plain()
+    wall()
+    t_plain, t_wall = [], []
+    for _ in range(rounds):
+        t_plain.append(_timed(plain))
+        t_wall.append(_timed(wall))
+    ratios = [w / p for w, p in zip(t_wall, t_plain, strict=True)]
+    return {
+        "ratio": statistics.median(ratios),
+        "ratios": ratios,
+        "wall_s": statistics.median(t_wall),
+        "plain_s": statistics.median(t_plain),
+        "nodes": n_d * n_v * n_a,
+        "wall_law_per_s": n_d * n_v * n_a * samples / statistics.median(t_wall),
+    }
+
+
+def _ratio_tasks(mode: str, isolate: bool) -> dict:
+    """The ratios of issue 24 (see :data:`RATIO_SIZES`) and the RNG floor of the
+    same run, each ratio in a fresh process when `isolate`."""
+    cfg = RATIO_SIZES[mode]
+    r = cfg["rounds"]
+    out = {
+        "areal": measure("areal_ratio", isolate=isolate, n=cfg["areal_n"], rounds=r),
+        "wall_law": measure(
+            "wall_law_ratio",
+            isolate=isolate,
+            shape=cfg["wall_law"],
+            samples=RATIO_WALL_LAW_SAMPLES,
+            rounds=r,
+        ),
+        "qmc": measure("qmc_ratio", isolate=isolate, n=cfg["qmc_n"], rounds=r),
+        # design_row_ratio (the ScenarioModel of issue 24, item 3) goes here; it
+        # is measured by benchmarks/design_rows.py for now
+    }
+    out = {k: v["runs"][0] for k, v in out.items()}
+    out["config"] = {**cfg, "wall_law_samples": RATIO_WALL_LAW_SAMPLES}
+    return out
+
+
+def ratio_fields(ratios: dict) -> dict:
+    """The ``*_ratio`` fields of :func:`_ratio_tasks`'s measurements."""
+    return {
+        "areal_ratio": ratios["areal"]["ratio"],
+        "wall_law_ratio": ratios["wall_law"]["ratio"],
+        "qmc_ratio": ratios["qmc"]["ratio"],
+    }
+
+
+def print_ratios(ratios: dict, floor_per_s=None) -> None:
+    a, w, q = ratios["areal"], ratios["wall_law"], ratios["qmc"]
+    shape = "x".join(str(k) for k in ratios["config"]["wall_law"])
+
+    def runs(r):
+        return ", ".join(f"{x:.2f}" for x in r["ratios"])
+
+    print(
+        f"areal_ratio (areal / profile marginal rate, 1 worker, {a['kernel']} "
+        f"kernel): {a['ratio']:.2f}  ({a['areal_per_s'] / 1e6:.1f} vs "
+        f"{a['profile_per_s'] / 1e6:.1f} M/s; rounds: {runs(a)}; target >= 0.5)"
+    )
+    print(
+        f"wall_law_ratio ({shape} at {ratios['config']['wall_law_samples']}/node "
+        f"over plain runs of the same impacts, 1 worker): {w['ratio']:.2f}  "
+        f"({w['wall_s']:.2f} s vs {w['plain_s']:.2f} s; rounds: {runs(w)}; "
+        "target <= 3)"
+    )
+    line = (
+        f"qmc_ratio (QMC / MC rate, 1 worker): {q['ratio']:.2f}  "
+        f"({q['qmc_per_s'] / 1e6:.1f} vs {q['mc_per_s'] / 1e6:.1f} M/s; rounds: "
+        f"{runs(q)}; target >= 0.5)"
+    )
+    print(line)
+    if floor_per_s:
+        print(
+            "against the RNG floor (engine streams): profile "
+            f"{a['profile_per_s'] / floor_per_s:.2f}, areal "
+            f"{a['areal_per_s'] / floor_per_s:.2f}, wall law "
+            f"{w['wall_law_per_s'] / floor_per_s:.2f}, MC "
+            f"{q['mc_per_s'] / floor_per_s:.2f}, QMC "
+            f"{q['qmc_per_s'] / floor_per_s:.2f}"
+        )
+
+
 def _children_cpu_s() -> float:
     r = resource.getrusage(resource.RUSAGE_CHILDREN)
     return r.ru_utime + r.ru_stime
@@ -540,6 +740,11 @@ TASKS = {
     "wall_law": lambda p: _wall_law_task(
         p["shape"], p["samples"], p["workers"], p["seed"]
     ),
+    "areal_ratio": lambda p: _areal_ratio_task(p["n"], p["rounds"]),
+    "qmc_ratio": lambda p: _qmc_ratio_task(p["n"], p["rounds"]),
+    "wall_law_ratio": lambda p: _wall_law_ratio_task(
+        p["shape"], p["samples"], p["rounds"]
+    ),
 }
 
 
@@ -713,6 +918,8 @@ def print_table(res: dict) -> None:
         )
     if res.get("paper_reproduction_cli_s") is not None:
         print(f"microimpact reproduce (CLI): {res['paper_reproduction_cli_s']:.2f} s")
+    if res["details"].get("ratios"):
+        print_ratios(res["details"]["ratios"], res["rng_floor_per_s"])
     for note in res["notes"]:
         print(f"note: {note}")
 
@@ -867,6 +1074,8 @@ def run_benchmark(mode: str, *, dask: bool = True, reproduce: bool = True) -> di
 
     q = qmc_error_ratio(cfg["qmc_n"], cfg["qmc_replicates"], ref["e_mean"], angles)
     details["qmc"] = q
+    ratios = _ratio_tasks(mode, iso)
+    details["ratios"] = ratios
 
     repro = None
     if reproduce:
@@ -923,6 +1132,7 @@ def run_benchmark(mode: str, *, dask: bool = True, reproduce: bool = True) -> di
         "dask_per_s": dask_rate,
         "peak_rss_mb": max(rss_by_n.values()),
         "qmc_error_ratio": q["ratio"],
+        **ratio_fields(ratios),
         "rng_floor_classic_per_s": classic["rate"],
         "peak_rss_mb_by_n": rss_by_n,
         "dask_cluster_start_s": dask_start,
@@ -939,15 +1149,37 @@ def run_benchmark(mode: str, *, dask: bool = True, reproduce: bool = True) -> di
         "repeats": reps,
         "cpu_count": workers,
         "kernel": eng["runs"][0]["kernel"],
-        "machine": {
-            **versions(),
-            "platform": platform.platform(),
-            "processor": platform.processor() or platform.machine(),
-        },
+        "machine": {**versions(), **_machine()},
         "wall_s": time.perf_counter() - t_start,
         "notes": notes,
         "details": details,
     }
+
+
+def _machine() -> dict:
+    """The platform, and the CPU model and vector extensions (``/proc/cpuinfo``)."""
+    out = {
+        "platform": platform.platform(),
+        "processor": platform.processor() or platform.machine(),
+    }
+    model, flags = None, []
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as fh:
+            for line in fh:
+                key, _, value = line.partition(":")
+                if key.strip() == "model name" and model is None:
+                    model = value.strip()
+                elif key.strip() == "flags" and not flags:
+                    flags = value.split()
+    except OSError:
+        pass
+    simd = [f for f in ("sse4_2", "avx", "avx2", "fma") if f in flags]
+    simd += sorted(f for f in flags if f.startswith("avx512"))
+    out["cpu_model"] = model or platform.processor() or "unknown"
+    out["vector_extensions"] = simd
+    out["cpu"] = f"{out['cpu_model']} ({os.cpu_count()} CPUs; {', '.join(simd[:4])}"
+    out["cpu"] += f"{', ...' if len(simd) > 4 else ''})"
+    return out
 
 
 def _rss_str(rep, pool=False):
@@ -983,11 +1215,43 @@ def main(argv=None) -> int:
         action="store_true",
         help="only engine_per_s and grid_per_s (1 process and all cores)",
     )
+    parser.add_argument(
+        "--ratios-only",
+        action="store_true",
+        help="only the RNG floor and issue 24's ratios (areal, wall law, QMC)",
+    )
     parser.add_argument("--child", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.child:
         return _child(args.child)
     mode = "smoke" if args.smoke else "quick" if args.quick else "full"
+    if args.ratios_only:
+        cfg = MODES[mode]
+        t0 = time.perf_counter()
+        rng = repeated(
+            "rng",
+            cfg["repeats"],
+            n=cfg["n_rng"],
+            isolate=cfg["isolate"],
+            per_process=cfg["process_per_repeat"],
+        )
+        ratios = _ratio_tasks(mode, cfg["isolate"])
+        res = {
+            "rng_floor_per_s": rng["rate"],
+            **ratio_fields(ratios),
+            "mode": mode,
+            "machine": _machine(),
+            "wall_s": time.perf_counter() - t0,
+            "details": {"ratios": ratios},
+        }
+        print(
+            f"# microimpact issue-24 ratios, mode {mode}, {res['machine']['cpu']}; "
+            f"RNG floor {rng['rate'] / 1e6:.1f} M/s; {res['wall_s']:.0f} s in all"
+        )
+        print_ratios(ratios, rng["rate"])
+        if args.json:
+            write_json_atomic(args.json, res)
+        return 0
     if args.grid_only:
         res = run_grid_benchmark(mode)
         print(

@@ -94,7 +94,7 @@ def test_library_bug_is_1_with_the_traceback_saved(tmp_path, capsys, monkeypatch
 
 
 def test_sigterm_keeps_the_checkpoint_and_exits_143(tmp_path):
-    text = SCENARIO.replace("samples = 400", "samples = 400000").replace(
+    text = SCENARIO.replace("samples = 400", "samples = 4000000").replace(
         "[0.2, 0.5]", "{start = 0.1, stop = 2.0, num = 40}"
     )
     p = _scenario(tmp_path, text)

@@ -305,8 +305,8 @@ def test_any_executor_gives_the_same_bits():
 
 
 def test_local_workers_are_threads_when_the_kernel_frees_the_gil():
-    """Several local workers are threads for the compiled kernel's Monte Carlo
-    plans (it frees the GIL), processes for the NumPy kernel and for QMC; the
+    """Several local workers are threads for the compiled kernel's plans, Monte
+    Carlo and QMC (it frees the GIL), processes for the NumPy kernel; the
     provenance says which."""
     import dataclasses
 
@@ -327,7 +327,7 @@ def test_local_workers_are_threads_when_the_kernel_frees_the_gil():
         runners.append(
             parallel.make_runner(dataclasses.replace(plan, sampling="qmc"), workers=2)
         )
-        assert type(runners[-1]) is parallel.PoolRunner
+        assert type(runners[-1]) is parallel.ThreadRunner
         assert type(parallel.make_runner(plan, workers=1)) is parallel.SerialRunner
     finally:
         for r in runners:

@@ -446,3 +446,58 @@ def test_wilson_interval_solves_the_score_equation(k, n):
     assert_allclose([lo, hi], [expect_lo, expect_hi], atol=1e-12)
     if k == 0:  # closed form of the upper limit
         assert_allclose(hi, z * z / (n + z * z), rtol=1e-12)
+
+
+# ------------------------------------------------ the result, lazily (issue 24)
+@pytest.mark.parametrize(
+    "kw",
+    [
+        {},
+        {"sampling": "qmc"},
+        {"angles_deg": (30.0, 85.0)},  # the relative coefficients
+        {
+            "surfaces": (rough(5.0), mi.SurfaceVariant("smooth")),
+            "speeds_m_s": (0.2, 1.0),
+        },
+    ],
+)
+def test_summary_from_the_columns_equals_the_datasets(kw):
+    """A fresh run's summary comes from its columns without the Dataset: the same
+    frame, exactly, as the one derived from the Dataset (built afterwards)."""
+    import pandas as pd
+
+    from microimpact.engine.dataset import summary_frame
+
+    base = dict(surfaces=(rough(10.0),), speeds_m_s=(0.3,), angles_deg=(30.0, 60.0))
+    base.update(kw)
+    r = run(scenario(samples=3000, **base), seed=1)
+    assert r._dataset is None  # not built yet
+    fresh = r.summary
+    want = summary_frame(r.dataset)
+    want.attrs["confidence"] = r.confidence
+    pd.testing.assert_frame_equal(fresh, want, check_exact=True)
+    assert r.seed_entropy == int(r.dataset.attrs["seed_entropy"])
+
+
+def test_a_run_and_its_summary_import_no_xarray():
+    """What the engine does not need is deferred: microimpact.run and its summary
+    in a fresh process leave xarray (and dask, which xarray imports where it is
+    installed) unimported; the Dataset imports it on access."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, microimpact as mi\n"
+        "sc = mi.Scenario(name='m', particles=mi.normal_diameters(50, 10),\n"
+        "    coefficients=mi.ImpactCoefficients(k1=4.0, k2=0.05, v_c=0.2),\n"
+        "    surfaces=(mi.SurfaceVariant('r', mi.normal_angles(8.0)),), samples=2000)\n"
+        "r = mi.run(sc, seed=1)\n"
+        "r.summary\n"
+        "print(sorted(m for m in ('xarray', 'dask') if m in sys.modules))\n"
+        "r.dataset\n"
+        "print('xarray' in sys.modules)\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    ).stdout.split("\n")
+    assert out[0] == "[]" and out[1] == "True", out

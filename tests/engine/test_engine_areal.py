@@ -31,7 +31,7 @@ from microimpact.engine.plan import (
     ArealSampler,
     build_plan,
 )
-from microimpact.errors import InputError, ScenarioError
+from microimpact.errors import ScenarioError
 from microimpact.scenario.scenario import SurfaceVariant
 from microimpact.surface.angles import angles_from_sample
 from microimpact.surface.areal_angles import (
@@ -256,25 +256,29 @@ def test_zero_out_of_plane_reproduces_the_profile_engine(shadowing, sampling):
         scenario(surfaces=(SurfaceVariant("s", angles_from_sample(a)),), **kw),
         kernel="numpy",
     )
-    assert isinstance(pa.surfaces[0], ArealSampler) and pa.kernel == "numpy"
+    assert isinstance(pa.surfaces[0], ArealSampler) and pa.kernel == kernel.KERNEL
+    # the areal plan on both kernels (the compiled one where it is built)
+    areal_plans = [dataclasses.replace(pa, kernel="numpy")]
+    if kernel.KERNEL == "compiled":
+        areal_plans.append(dataclasses.replace(pa, kernel="compiled"))
     for point in range(len(pa.points)):
         sa = simulate_block(pa, point, 0, 1, 6000, store=True)
         sp = simulate_block(pp, point, 0, 1, 6000, store=True)
         assert set(sa) == set(sp)
         for key in sp:
             assert_array_equal(sa[key], sp[key], err_msg=key)
-        ga, gp = (
-            simulate_block(pa, point, 0, 1, 6000),
-            simulate_block(pp, point, 0, 1, 6000),
-        )
-        for f in ("n", "shadowed", "captured", "reimpact", "rolling"):
-            assert getattr(ga, f) == getattr(gp, f)
-        for m in ("e", "mu"):
-            assert dataclasses.astuple(getattr(ga, m)) == dataclasses.astuple(
-                getattr(gp, m)
-            )
-        assert_array_equal(ga.e_hist, gp.e_hist)
-        assert_array_equal(ga.mu_hist, gp.mu_hist)
+        gp = simulate_block(pp, point, 0, 1, 6000)
+        for plan in areal_plans:
+            ga = simulate_block(plan, point, 0, 1, 6000)
+            for f in ("n", "shadowed", "captured", "reimpact", "rolling"):
+                assert getattr(ga, f) == getattr(gp, f)
+            for m in ("e", "mu", "lateral"):
+                assert dataclasses.astuple(getattr(ga, m)) == dataclasses.astuple(
+                    getattr(gp, m)
+                ), (plan.kernel, m)
+            assert_array_equal(ga.e_hist, gp.e_hist)
+            assert_array_equal(ga.mu_hist, gp.mu_hist)
+            assert_array_equal(ga.lateral_hist, gp.lateral_hist)
 
 
 # ------------------------------------------------------------ mirror symmetry
@@ -325,24 +329,18 @@ def test_mirrored_surface_mirrors_the_lateral_angle():
 
 
 # ----------------------------------------------------------- kernel routing
-def test_areal_plans_run_on_the_numpy_kernel(monkeypatch):
+def test_areal_plans_run_on_either_kernel(monkeypatch):
+    """Areal surfaces have a compiled path (issue 24): ``auto`` takes the compiled
+    kernel where it is built, and both can be asked for."""
     sc = scenario(surfaces=(SurfaceVariant("a", _pairs(50)),), angles_deg=(40.0,))
     monkeypatch.delenv("MICROIMPACT_KERNEL", raising=False)
-    assert build_plan(sc).kernel == "numpy"
-    assert build_plan(sc, kernel="auto").kernel == "numpy"
-    plan = build_plan(sc, kernel="numpy")
+    assert build_plan(sc).kernel == kernel.KERNEL
+    assert build_plan(sc, kernel="auto").kernel == kernel.KERNEL
+    assert build_plan(sc, kernel="numpy").kernel == "numpy"
     if kernel.KERNEL == "compiled":
-        with pytest.raises(InputError, match="no areal-surface path"):
-            build_plan(sc, kernel="compiled")
+        assert build_plan(sc, kernel="compiled").kernel == "compiled"
         monkeypatch.setenv("MICROIMPACT_KERNEL", "compiled")
-        with pytest.raises(InputError, match="no areal-surface path"):
-            build_plan(sc)
-        # a plan forced onto the compiled kernel refuses, never computes in 2-D
-        forced = dataclasses.replace(plan, kernel="compiled")
-        with pytest.raises(RuntimeError, match="cannot simulate an areal"):
-            simulate_block(forced, 0, 0, 0, 100)
-        with pytest.raises(RuntimeError, match="cannot simulate an areal"):
-            kernel.simulate_specs(forced, [(0, 0, 0, 100)])
+        assert build_plan(sc).kernel == "compiled"
 
 
 def test_rough_particle_on_an_areal_surface_is_refused():
@@ -423,7 +421,7 @@ def test_scenario_file_with_areal_surfaces_runs_end_to_end(tmp_path):
     result = mi.run(path)
     summary = result.summary
     assert list(summary["surface"].unique()) == ["gauss", "map"]
-    assert result.provenance["kernel"] == "numpy"
+    assert result.provenance["kernel"] == kernel.KERNEL  # either kernel runs it
     assert summary["n"].eq(3000).all()
     # the file's surfaces are the Python factories' surfaces, bit for bit
     sc = result.scenario
@@ -512,3 +510,19 @@ def test_areal_scenario_errors_name_the_file_and_key(tmp_path, surfaces, match):
     with pytest.raises(ScenarioError, match=match) as info:
         mi.Scenario.from_toml(path)
     assert "\n" not in str(info.value)
+
+
+def test_checkpoints_of_areal_runs_name_the_areal_algorithm(monkeypatch):
+    """The areal impact's arithmetic changed in its last bits (issue 24): the
+    checkpoint fingerprint of an areal plan names it, so a checkpoint written
+    before is not resumed; profile plans' fingerprints are untouched."""
+    from microimpact.engine.checkpoint import plan_fingerprint
+
+    areal = build_plan(scenario(surfaces=(SurfaceVariant("a", _pairs(50)),)), seed=1)
+    profile = build_plan(scenario(angles_deg=(40.0,)), seed=1)
+    assert areal.pair_algorithm(0) == ArealSampler.ALGORITHM
+    assert profile.pair_algorithm(0) is None
+    before = plan_fingerprint(areal, 100), plan_fingerprint(profile, 100)
+    monkeypatch.setattr(ArealSampler, "ALGORITHM", "another")
+    after = plan_fingerprint(areal, 100), plan_fingerprint(profile, 100)
+    assert before[0] != after[0] and before[1] == after[1]

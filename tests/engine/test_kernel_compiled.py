@@ -166,6 +166,8 @@ def _block_args(**over):
         hist=kernel._HIST,
         e_hist=np.zeros(kernel.E_EDGES.size + 1 + kernel._SPILL, np.int64),
         mu_hist=np.zeros(kernel.MU_EDGES.size + 1 + kernel._SPILL, np.int64),
+        areal=False,
+        lat_hist=np.zeros(1, np.int64),
     )
     args.update(over)
     return list(args.values())
@@ -178,12 +180,13 @@ def test_direct_call_normal_impact():
     counts, sums = kernel._ckernel().block(*args)
     # (shadowed, captured, reimpact, rolling, rebounds): mu = 0 rolls (Eq. 3)
     assert counts == (0, 0, 0, 4, 4)
-    e_hist = args[-2]
+    e_hist = args[-4]
     assert e_hist.sum() == 4
     assert e_hist[np.searchsorted(kernel.E_EDGES, 0.5 * (1 - 1 / 1.9))] == 4
     e = 0.5 * (1.0 - 1.0 / 1.9)
     assert sums[0] == pytest.approx(e, rel=1e-15)  # shift K = first rebound
     assert sums[1:4] == (0.0, 0.0, 0.0)  # all equal to K
+    assert sums[8:] == (0.0, 0.0, 0.0, 0.0)  # no lateral sums off areal surfaces
 
 
 def test_spill_constant_matches():
@@ -363,3 +366,261 @@ def test_specs_in_one_call_equal_blocks_one_by_one(shadowing, simd):
         ref = kernel.simulate_block(plain, *spec).to_arrays()
         for key, a in acc.to_arrays().items():
             assert_array_equal(a, ref[key], err_msg=f"{key} {spec}")
+
+
+# ------------------------------------------------------ areal surfaces (issue 24)
+def _areal_surfaces():
+    """Three areal angle sets: correlated normal pairs, a synthetic Gaussian
+    surface's facets (anisotropic), and pairs with phi_perp = +-0 and steep
+    facets (mirrored signs of zero, near-vertical phi_par)."""
+    from engine_helpers import correlated_areal_angles
+
+    from microimpact.surface.areal_angles import (
+        areal_angles_from_sample,
+        gaussian_areal_angles,
+    )
+
+    rng = np.random.default_rng(9)
+    par = np.r_[rng.normal(0.0, 25.0, 300), [-89.0, 88.5, 60.0]]
+    perp = np.r_[np.where(rng.random(300) < 0.5, 0.0, -0.0), [0.0, 30.0, -75.0]]
+    return (
+        SurfaceVariant("corr", correlated_areal_angles(700, 5, 18.0, 14.0, 0.3)),
+        SurfaceVariant(
+            "gauss",
+            gaussian_areal_angles(
+                nx=64,
+                ny=64,
+                dx_um=1.0,
+                rms_um=1.0,
+                corr_x_um=6.0,
+                corr_y_um=12.0,
+                seed=2,
+                contact_diameter_um=3.0,
+            ),
+        ),
+        SurfaceVariant("flat-steep", areal_angles_from_sample(par, perp)),
+    )
+
+
+@pytest.mark.parametrize("sampling", ["mc", "qmc"])
+@pytest.mark.parametrize("shadowing", ["reject", "none", "weighted"])
+def test_areal_bit_identical(shadowing, sampling, simd):
+    """Areal surfaces on the compiled kernel: every count, moment (the lateral
+    angle's too) and histogram equals the NumPy kernel's, beside a profile
+    surface and a smooth one in the same plan."""
+    sc = scenario(
+        coefficients=PowerCoefficients(friction=0.2),
+        surfaces=(*_areal_surfaces(), rough(12.0), SurfaceVariant("smooth")),
+        speeds_m_s=(0.3, 1.0),
+        angles_deg=(8.0, 45.0, 89.0),
+        shadowing=shadowing,
+        speed_spread=0.1,
+        sampling=sampling,
+    )
+    plan = build_plan(sc)
+    assert plan.kernel == "compiled"
+    _assert_same_bits(plan, n=3000 if sampling == "mc" else 1024)
+
+
+def test_areal_bit_identical_with_general_exponents_and_no_friction_limit():
+    # p = q = 1 has its own loop; the general one (pow) may differ in pow's last
+    # bit only, and with friction = inf every impact rolls
+    for coeffs in (
+        PowerCoefficients(friction=np.inf),
+        PowerCoefficients(p=1.3, q=0.7, friction=0.1),
+    ):
+        sc = scenario(
+            coefficients=coeffs,
+            surfaces=_areal_surfaces()[:1],
+            speeds_m_s=(0.4,),
+            angles_deg=(30.0,),
+        )
+        a, b = _both(build_plan(sc), 0, n=20_000)
+        assert_array_equal(a["counts"], b["counts"])
+        for key in ("e", "mu", "lateral"):
+            assert_allclose(a[key], b[key], rtol=1e-12)
+        if np.isinf(coeffs.friction):
+            for key in a:
+                assert_array_equal(a[key], b[key], err_msg=key)
+
+
+@pytest.mark.parametrize("n", [0, 1, 255, 257])
+def test_areal_bit_identical_at_chunk_edges(n):
+    sc = scenario(surfaces=_areal_surfaces()[:1], speeds_m_s=(0.3,), angles_deg=(30.0,))
+    _assert_same_bits(build_plan(sc), [0], block=0, n=n)
+
+
+def test_areal_specs_and_stacked_rows_equal_blocks_one_by_one():
+    """One ``_ckernel.specs`` call over areal and profile points (keyed streams in
+    C; lateral spans in its buffer) gives each block's NumPy accumulator, and the
+    stacked rows are exactly ``Stacked.of`` of them."""
+    from microimpact.engine.summary import Stacked
+
+    sc = scenario(
+        surfaces=(*_areal_surfaces()[:2], rough(12.0), SurfaceVariant("smooth")),
+        speeds_m_s=(0.3, 1.0),
+        angles_deg=(20.0, 70.0),
+        shadowing="weighted",
+        speed_spread=0.1,
+    )
+    plan = build_plan(sc)
+    plain = dataclasses.replace(plan, kernel="numpy")
+    npts = len(plan.points)
+    specs = [
+        (p, 0, b, n) for b, n in [(0, 3000), (1, 257), (2, 0)] for p in range(npts)
+    ]
+    specs += [(npts - 1 - p, 0, 64, 700) for p in range(npts)]
+    got = kernel.simulate_specs(plan, specs)
+    ref = [kernel.simulate_block(plain, *spec) for spec in specs]
+    for spec, a, b in zip(specs, got, ref, strict=True):
+        assert a == b, spec
+    stacked, want = kernel.simulate_specs_stacked(plan, specs), Stacked.of(ref)
+    for name in ("counts", "e", "mu", "lateral"):
+        assert_array_equal(getattr(stacked, name), getattr(want, name), err_msg=name)
+    for i in range(len(specs)):
+        assert stacked.accumulator(i) == want.accumulator(i)
+
+
+def test_areal_runs_give_the_same_bits_on_any_worker_count(monkeypatch):
+    """microimpact.run of an areal scenario: the compiled kernel on one worker and
+    on two worker threads, and the NumPy kernel on two worker processes, give the
+    same result."""
+    from microimpact.engine.montecarlo import run
+
+    sc = scenario(
+        surfaces=_areal_surfaces()[:2],
+        speeds_m_s=(0.3, 1.0),
+        angles_deg=(20.0, 60.0),
+        samples=70_000,
+        shadowing="weighted",
+    )
+    one = run(sc, seed=3)
+    two = run(sc, seed=3, workers=2)
+    monkeypatch.setenv("MICROIMPACT_KERNEL", "numpy")
+    ref = run(sc, seed=3, workers=2)
+    assert one.provenance["kernel"] == "compiled"
+    assert two.provenance["local_workers"] == "threads"
+    assert ref.provenance["kernel"] == "numpy"
+    cols = [c for c in one.summary.columns if c != "surface"]
+    for other in (two, ref):
+        assert_array_equal(one.summary[cols].to_numpy(), other.summary[cols].to_numpy())
+        for k in one.accumulators:
+            assert one.accumulators[k] == other.accumulators[k]
+
+
+# ---------------------------------------------------------- QMC in C (issue 24)
+@pytest.mark.parametrize("shadowing", ["reject", "weighted"])
+def test_qmc_specs_bit_identical_to_scipys_points(shadowing, simd):
+    """The compiled kernel generates each replicate's scrambled Sobol' points
+    itself (from SciPy's direction numbers and shift, in SciPy's Gray-code
+    order); the NumPy kernel takes them from ``scipy.stats.qmc.Sobol.random``
+    after ``fast_forward``. Every block agrees bit for bit: 1 to 4 dimensions
+    (smooth; rough; areal with the speed factor; a pair search), blocks past the
+    first (fast-forwarded), several replicates, sizes across chunk edges."""
+    rng = np.random.default_rng(4)
+    surfaces = (
+        SurfaceVariant("smooth"),
+        rough(10.0),
+        *_areal_surfaces()[:1],
+        SurfaceVariant("s", angles_from_sample(rng.normal(0, 12, 900))),
+    )
+    for particle in (None, angles_from_sample(rng.normal(0, 8, 600))):
+        sc = scenario(
+            surfaces=surfaces[3:] if particle is not None else surfaces[:3],
+            particle_roughness=particle,
+            speeds_m_s=(0.3,),
+            angles_deg=(15.0, 80.0),
+            shadowing=shadowing,
+            speed_spread=0.05,
+            sampling="qmc",
+        )
+        plan = build_plan(sc)
+        plain = dataclasses.replace(plan, kernel="numpy")
+        sizes = [(0, 3000), (1, 257), (5, 1000), (2, 0)]
+        specs = [
+            (p, r, b, n)
+            for p in range(len(plan.points))
+            for r in (0, 5)
+            for b, n in sizes
+        ]
+        got = kernel.simulate_specs(plan, specs)
+        for spec, acc in zip(specs, got, strict=True):
+            assert acc == kernel.simulate_block(plain, *spec), spec
+
+
+def test_qmc_runs_give_the_same_bits_on_any_worker_count(monkeypatch):
+    """QMC through microimpact.run: compiled, 1 worker and 2 worker threads, and
+    the NumPy kernel on 2 worker processes, give the same result (and the same
+    replicate error bars)."""
+    from microimpact.engine.montecarlo import run
+
+    sc = scenario(
+        surfaces=(rough(12.0), *_areal_surfaces()[:1]),
+        speeds_m_s=(0.3, 1.0),
+        angles_deg=(20.0, 60.0),
+        samples=3 * 2**14,
+        sampling="qmc",
+        qmc_replicates=4,
+    )
+    one = run(sc, seed=5)
+    two = run(sc, seed=5, workers=2)
+    monkeypatch.setenv("MICROIMPACT_KERNEL", "numpy")
+    ref = run(sc, seed=5, workers=2)
+    assert (
+        one.provenance["kernel"] == "compiled" and ref.provenance["kernel"] == "numpy"
+    )
+    assert two.provenance["local_workers"] == "threads"
+    cols = [c for c in one.summary.columns if c != "surface"]
+    for other in (two, ref):
+        assert_array_equal(one.summary[cols].to_numpy(), other.summary[cols].to_numpy())
+
+
+def test_qmc_past_the_end_of_the_sequence_is_refused():
+    sc = scenario(surfaces=(rough(12.0),), sampling="qmc")
+    plan = build_plan(sc)
+    last = 2**30 // plan.block_size - 1
+    kernel.simulate_specs(plan, [(0, 0, last, plan.block_size)])  # the last block
+    with pytest.raises(ValueError, match="2\\*\\*30"):
+        kernel.simulate_specs(plan, [(0, 0, last + 1, 1)])
+    with pytest.raises(ValueError):  # SciPy refuses it on the NumPy kernel too
+        kernel.simulate_block(
+            dataclasses.replace(plan, kernel="numpy"), 0, 0, last + 1, 1
+        )
+
+
+@pytest.mark.parametrize("sampling", ["mc", "qmc"])
+@pytest.mark.parametrize("shadowing", ["reject", "none", "weighted"])
+def test_per_impact_outputs_equal_the_numpy_kernels(shadowing, sampling):
+    """``kernel.simulate_specs_impacts`` (what the wall law is built from): each
+    impact's outcome, and e_m, mu_m (and psi on an areal surface) of each
+    rebound, bit for bit those of ``simulate_block(..., store=True)``."""
+    sc = scenario(
+        surfaces=(*_areal_surfaces()[:1], rough(10.0), SurfaceVariant("smooth")),
+        angles_deg=(12.0, 85.0),
+        speeds_m_s=(0.3,),
+        shadowing=shadowing,
+        speed_spread=0.1,
+        sampling=sampling,
+        coefficients=PowerCoefficients(friction=0.2),
+    )
+    plan = build_plan(sc)
+    specs = [
+        (p, 0, b, n) for p in range(len(plan.points)) for b, n in ((0, 3000), (1, 300))
+    ]
+    got = kernel.simulate_specs_impacts(plan, specs)
+    at = 0
+    for spec in specs:
+        ref = kernel.simulate_block(plan, *spec, store=True)
+        sl = slice(at, at + spec[3])
+        at = sl.stop
+        code = got["outcome"][sl]
+        assert_array_equal(code == 2, ref["shadowed"])
+        assert_array_equal(code == 1, ref["captured"] & ~ref["shadowed"])
+        reb = code == 0
+        keys = ["e_m", "mu_m"]
+        if plan.points[spec[0]].surface == 0:  # the areal surface
+            keys.append("lateral_angle_deg")
+        for key in keys:
+            assert_array_equal(
+                got[key][sl][reb], ref[key][reb], err_msg=f"{key} {spec}"
+            )

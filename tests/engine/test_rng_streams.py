@@ -233,8 +233,8 @@ def test_specs_reject_bad_input():
             common,
             specs,
             np.empty((k, 5), np.int64),
-            np.empty((k, 8)),
-            np.empty((k, 4), np.int64),
+            np.empty((k, 12)),
+            np.empty((k, 6), np.int64),
         )
 
     assert run([]) == b""

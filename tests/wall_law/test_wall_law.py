@@ -644,3 +644,139 @@ def test_cli_wall_law_scheduler_goes_through_the_engines_dask_connection(
     assert main([*argv, "--scheduler", "tcp://127.0.0.1:9"]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "127.0.0.1:9" in err
+
+
+# ------------------------------------------- the build on the compiled kernel (24)
+def _areal_and_rough():
+    from microimpact.surface.areal_angles import gaussian_areal_angles
+
+    areal = gaussian_areal_angles(
+        nx=64,
+        ny=64,
+        dx_um=1.0,
+        rms_um=1.0,
+        corr_x_um=6.0,
+        contact_diameter_um=3.0,
+        seed=4,
+        azimuth_deg=None,
+    )
+    return (*ROUGH, mi.SurfaceVariant("areal", areal))
+
+
+SMALL = WallLawSpec(
+    diameters_um=(3.0, 30.0),
+    speeds_m_s=(0.3, 3.0),
+    angles_deg=(15.0, 60.0, 90.0),
+    reservoir=64,
+)
+
+
+def _same_tables(a, b):
+    for v in a.dataset.data_vars:
+        np.testing.assert_array_equal(a.dataset[v].values, b.dataset[v].values, v)
+
+
+def test_table_bits_do_not_depend_on_kernel_workers_or_executor(monkeypatch):
+    """The compiled kernel (one worker, two worker threads, an executor) and the
+    NumPy kernel (its per-impact output, the same impacts) give the same table."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from microimpact.engine import kernel
+
+    sc = _scenario(_areal_and_rough(), samples=1500)
+    one = build_wall_law(sc, SMALL)
+    _same_tables(one, build_wall_law(sc, SMALL, workers=2))
+    with ThreadPoolExecutor(2) as ex:
+        _same_tables(one, build_wall_law(sc, SMALL, executor=ex))
+    monkeypatch.setenv("MICROIMPACT_KERNEL", "numpy")
+    _same_tables(one, build_wall_law(sc, SMALL, workers=2))
+    if kernel.KERNEL != "compiled":  # pragma: no cover - no C compiler
+        pytest.skip("the compiled kernel is not built")
+
+
+def test_node_statistics_against_numpy_per_node():
+    """Each node's counts, quantiles (np.quantile, bit for bit), reservoir (its
+    first rebounds in draw order, bit for bit) and mean/std (np.mean/np.std to
+    round-off: another summation order) from the engine's per-impact output."""
+    from microimpact.engine.montecarlo import iter_point_samples
+    from microimpact.engine.plan import build_plan
+    from microimpact.wall_law.build import _node_rows, node_outcomes
+
+    sc = _scenario(_areal_and_rough(), samples=2500).with_options(
+        particles=mi.monodisperse(10.0),
+        speeds_m_s=(0.3, 3.0),
+        angles_deg=(15.0, 60.0, 90.0),
+    )
+    plan = build_plan(sc, seed=4)
+    points = range(len(plan.points))
+    rows = _node_rows(plan, points, SMALL, 2500)
+    q = np.asarray(SMALL.quantiles)
+    for i in points:
+        pt = plan.points[i]
+        s = next(iter_point_samples(plan, i, 2500))
+        reb = ~s["captured"] & ~s["shadowed"]
+        psi = s["lateral_angle_deg"][reb] if pt.surface == 1 else None
+        out = node_outcomes(s["e_m"][reb], s["mu_m"][reb], pt.angle_deg, psi)
+        assert rows["n_rebounds"][i] == np.count_nonzero(reb)
+        assert rows["n_captured"][i] == np.count_nonzero(s["captured"] & ~s["shadowed"])
+        assert rows["n_reimpacts"][i] == np.count_nonzero(out["e_n"] < 0)
+        k = min(SMALL.reservoir, int(np.count_nonzero(reb)))
+        for name in ("e_n", "mu", "e_t", "speed_ratio"):
+            got = rows[f"reservoir_{name}"][i][:k]
+            np.testing.assert_allclose(got, out[name][:k], rtol=1e-15, err_msg=name)
+        np.testing.assert_array_equal(rows["reservoir_e_n"][i][:k], out["e_n"][:k])
+        for name in ("e_n", "e_t", "mu", "rebound_angle_deg", "lateral_angle_deg"):
+            x = out[name]
+            if np.isnan(x).all():
+                assert np.isnan(rows[f"{name}_mean"][i])
+                continue
+            want = np.quantile(x, q)
+            got = rows[f"{name}_quantile"][i]
+            if name in ("e_n", "e_t", "mu"):  # the same values: the same bits
+                np.testing.assert_array_equal(got, want, err_msg=name)
+            np.testing.assert_allclose(got, want, rtol=1e-13, atol=1e-12)
+            np.testing.assert_allclose(
+                rows[f"{name}_mean"][i], np.mean(x), 1e-12, 1e-12
+            )
+            np.testing.assert_allclose(rows[f"{name}_std"][i], np.std(x, ddof=1), 1e-12)
+
+
+def test_compiled_statistics_equal_their_numpy_form():
+    """``_ckernel.wall_rows`` against its NumPy form on random impacts (rebounds,
+    captures and shadowed impacts mixed, normal incidence, one impact, none
+    rebounding): the same bits (profile rows), to round-off (areal rows: sin and
+    tan of the lateral angle come from different libraries)."""
+    from microimpact.engine import kernel
+    from microimpact.wall_law.build import _wall_rows
+
+    if kernel.KERNEL != "compiled":  # pragma: no cover - no C compiler
+        pytest.skip("the compiled kernel is not built")
+    rng = np.random.default_rng(3)
+    p, n = 7, 300
+    imp = {
+        "e_m": rng.uniform(-0.2, 1.5, (p, n)),
+        "mu_m": rng.normal(0.0, 0.4, (p, n)),
+        "lateral_angle_deg": rng.choice([0.0, 180.0, -30.0, 75.0], (p, n))
+        + rng.normal(0.0, 5.0, (p, n)) * (rng.random((p, n)) < 0.5),
+        "outcome": rng.choice(np.array([0, 0, 0, 1, 2], np.int8), (p, n)),
+    }
+    imp["outcome"][4] = 1  # no rebound at all
+    imp["outcome"][5, 1:] = 2  # one
+    angles = [15.0, 40.0, 90.0, 60.0, 30.0, 45.0, 80.0]
+    geom = np.array(
+        [
+            [
+                math.sin(math.radians(a)),
+                0.0 if a == 90 else math.cos(math.radians(a)),
+                float(r % 2),
+            ]
+            for r, a in enumerate(angles)
+        ]
+    )
+    out_c, st_c = _wall_rows(imp, geom)
+    out_n, st_n = _wall_rows(imp, geom, force_numpy=True)
+    profile = geom[:, 2] == 0
+    np.testing.assert_array_equal(st_c[profile], st_n[profile])
+    np.testing.assert_array_equal(out_c[:, profile], out_n[:, profile])
+    np.testing.assert_allclose(st_c, st_n, rtol=1e-13, atol=1e-13)
+    np.testing.assert_allclose(out_c, out_n, rtol=1e-13, atol=1e-13)

@@ -52,9 +52,15 @@
 
 /* rows of the float scratch: gathered inputs, outputs, shifted powers */
 enum { W_U, W_SIN, W_COT, W_TAN, W_IK1, W_IK2, W_VC, W_EM, W_MUM,
-       W_D1, W_D2, W_D3, W_G1, W_G2, W_G3, W_ROWS };
-/* rows of the integer scratch: rebound (0/1), e_m slot, mu_m slot */
-enum { I_CODE, I_BE, I_BM, I_ROWS };
+       W_D1, W_D2, W_D3, W_G1, W_G2, W_G3,
+       /* areal surfaces: sin, cos of phi_par and of the tilt chi; the folded
+        * lateral angle psi_f and its shifted powers */
+       W_SP, W_CP, W_SX, W_CX, W_LAT, W_L1, W_L2, W_L3,
+       /* the lateral angle's atan2 arguments (for stored impacts) */
+       W_LX, W_LY, W_ROWS };
+/* rows of the integer scratch: rebound (0/1), e_m slot, mu_m slot, psi_f slot,
+ * outcome (0 rebound, 1 captured, 2 shadowed) */
+enum { I_CODE, I_BE, I_BM, I_BL, I_OUT, I_ROWS };
 
 typedef struct {
     double ws[W_ROWS * CHUNK];
@@ -75,7 +81,8 @@ typedef struct {
 
 typedef struct {
     double e_lo, e_inv_w, e_nb, mu_lo, mu_inv_w, mu_nb;
-    int64_t e_top, mu_top, e_spill, mu_spill;
+    double lat_lo, lat_inv_w, lat_nb, lat_hi; /* psi_f; lat_hi: the last edge */
+    int64_t e_top, mu_top, e_spill, mu_spill, lat_top, lat_spill, lat_zero;
 } hist_t;
 
 typedef struct {
@@ -111,6 +118,67 @@ shifted_powers(double *restrict ws, int64_t k, double em, double mum, int64_t re
     ws[W_G3 * CHUNK + k] = d2 * d;
 }
 
+ALWAYS_INLINE void
+shifted_lateral(double *restrict ws, int64_t k, double lat, int64_t reb, double kl)
+{
+    double d = reb ? lat - kl : 0.0;
+    double d2 = d * d;
+    ws[W_L1 * CHUNK + k] = d;
+    ws[W_L2 * CHUNK + k] = d2;
+    ws[W_L3 * CHUNK + k] = d2 * d;
+}
+
+/* Cephes' atan (kernel.atan2_deg, the same IEEE operations in the same order):
+ * |y| / |x| reduced to [0, 0.66] (the branches as selections), a degree 4/5
+ * rational approximation, the sign of y; x >= 0 (the folded angle), in degrees. */
+#define ATAN_T3P8 2.41421356237309504880
+#define ATAN_MOREBITS 6.123233995736765886130e-17
+#define RAD2DEG (180.0 / 3.141592653589793)
+/* atan(ay / ax) for ay, ax >= 0 (0 where ay = 0). */
+ALWAYS_INLINE double
+atan_abs(double ay, double ax)
+{
+    double t = ay / ax;
+    int64_t big = t > ATAN_T3P8;
+    int64_t mid = (t > 0.66) & (big ^ 1);
+    /* (every operand formed unconditionally, then selected: GCC if-converts
+     * and vectorises only selections of values) */
+    double tm = t - 1.0, tp = t + 1.0;
+    double num = big ? -1.0 : (mid ? tm : t);
+    double den = big ? t : (mid ? tp : 1.0);
+    double r = num / den;
+    double z = r * r;
+    double pz = (((-8.750608600031904122785e-1 * z + -1.615753718733365076637e1) * z +
+                  -7.500855792314704667340e1) * z + -1.228866684490136173410e2) * z +
+                -6.485021904942025371773e1;
+    double qz = ((((z + 2.485846490142306297962e1) * z + 1.650270098316988542046e2) * z +
+                  4.328810604912902668951e2) * z + 4.853903996359136964868e2) * z +
+                1.945506571482613964425e2;
+    z = z * pz;
+    z = z / qz;
+    z = r * z + r;
+    z = z + (big ? ATAN_MOREBITS : (mid ? 0.5 * ATAN_MOREBITS : 0.0));
+    double a = (big ? 3.141592653589793 / 2 : (mid ? 3.141592653589793 / 4 : 0.0)) + z;
+    return ay == 0.0 ? 0.0 : a;
+}
+
+/* The folded angle: x >= 0. */
+ALWAYS_INLINE double
+atan2_deg_folded(double y, double x)
+{
+    return copysign(atan_abs(fabs(y), x), y) * RAD2DEG;
+}
+
+/* Any x: pi - a where x has its sign bit set. */
+ALWAYS_INLINE double
+atan2_deg(double y, double x)
+{
+    double a = atan_abs(fabs(y), fabs(x));
+    double b = 3.141592653589793 - a;
+    a = signbit(x) ? b : a;
+    return copysign(a, y) * RAD2DEG;
+}
+
 /* Eqs. 3-9 for the gathered impacts of a chunk; `general` and `powers` are
  * literal constants at every call, so each call site is its own specialised,
  * branch-free loop. The loop always runs over a whole chunk (past `c` it
@@ -118,12 +186,15 @@ shifted_powers(double *restrict ws, int64_t k, double em, double mum, int64_t re
 ALWAYS_INLINE void
 physics(double *restrict ws, int64_t *restrict iws, int64_t c, double p,
         double q, double friction, int64_t shadow_none, const hist_t *h, int general,
-        double ke, double km, int powers, counts_t *cnt)
+        double ke, double km, int powers, counts_t *cnt, int areal, double kl)
 {
     const double two_sevenths = 2.0 / 7.0;
     const double e_lo = h->e_lo, e_inv_w = h->e_inv_w, e_nb = h->e_nb;
     const double mu_lo = h->mu_lo, mu_inv_w = h->mu_inv_w, mu_nb = h->mu_nb;
     const int64_t e_spill = h->e_spill, mu_spill = h->mu_spill;
+    const double lat_lo = h->lat_lo, lat_inv_w = h->lat_inv_w, lat_nb = h->lat_nb;
+    const double lat_hi = h->lat_hi;
+    const int64_t lat_spill = h->lat_spill, lat_last = h->lat_top - 1;
     int64_t n_shadow = 0, n_capt = 0, n_reimp = 0, n_roll = 0, m = 0;
     for (int64_t k = 0; k < CHUNK; k++) {
         double u = ws[W_U * CHUNK + k];
@@ -144,26 +215,74 @@ physics(double *restrict ws, int64_t *restrict iws, int64_t c, double p,
         double one_e = e + 1.0;
         /* W_COT holds cos(theta - phi) until here */
         double cot = ws[W_COT * CHUNK + k] / ws[W_SIN * CHUNK + k];
-        double mu = cot * two_sevenths;
-        mu = mu / one_e; /* Eq. 3 */
-        int64_t rolling = fabs(mu) <= friction;
-        mu = mu < -friction ? -friction : mu;
-        mu = mu > friction ? friction : mu;
         double tp = ws[W_TAN * CHUNK + k];
         /* tan(phi) cot(theta - phi) and the Eq. 8 gain, computed exactly as the
          * NumPy kernel computes them (same bits) */
         double tancot = tp * cot;
         double gain = tancot + 1.0;
         gain = 1.0 / gain;
-        double em = mu * one_e; /* Eq. 8 */
-        em = em * tp;
-        em = em - tancot;
-        em = em + e;
-        em = em * gain;
-        double den = mu * tp; /* Eq. 9 */
-        den = den + 1.0;
-        double mum = mu - tp;
-        mum = mum / den;
+        double em, mum, lat = 0.0;
+        int64_t rolling;
+        if (!areal) {
+            double mu = cot * two_sevenths;
+            mu = mu / one_e; /* Eq. 3 */
+            rolling = fabs(mu) <= friction;
+            mu = mu < -friction ? -friction : mu;
+            mu = mu > friction ? friction : mu;
+            em = mu * one_e; /* Eq. 8 */
+            em = em * tp;
+            em = em - tancot;
+            em = em + e;
+            em = em * gain;
+            double den = mu * tp; /* Eq. 9 */
+            den = den + 1.0;
+            mum = mu - tp;
+            mum = mum / den;
+        } else {
+            /* the facet tilted by chi about its line t' (kernel._areal_impact,
+             * operation for operation; chi = 0 gives the branch above's bits) */
+            double sx = ws[W_SX * CHUNK + k], cx = ws[W_CX * CHUNK + k];
+            double h2 = cot * cot + sx * sx;
+            double h = copysign(sqrt(h2), cot);
+            double g = sx == 0.0 ? cot : h; /* slip_ratio */
+            double mu = g / cx; /* eta */
+            mu = mu * two_sevenths;
+            mu = mu / one_e; /* Eq. 3 */
+            rolling = fabs(mu) <= friction;
+            mu = mu < -friction ? -friction : mu;
+            mu = mu > friction ? friction : mu;
+            int64_t moving = g != 0.0;
+            double cg = cot / g, sg = sx / g;
+            double mt = mu * (moving ? cg : 1.0);
+            double mb = mu * (moving ? sg : 0.0);
+            double qb = mb * one_e;
+            qb = qb * cx;
+            qb = sx - qb;
+            double ephi = e * (cx * cx);
+            ephi = ephi - sx * qb;
+            em = mt * one_e;
+            em = em * cx;
+            double qt = cot - em;
+            em = em * tp;
+            em = em - tancot;
+            em = em + ephi;
+            em = em * gain;
+            double muphi = mb * sx;
+            muphi = muphi + cx;
+            muphi = mt / muphi;
+            double den = muphi * tp;
+            den = den + 1.0;
+            mum = muphi - tp;
+            mum = mum / den;
+            /* the folded lateral angle (kernel._lateral_angle) */
+            double qn = -e * cx;
+            double qa = qn * cx + qb * sx;
+            double lx = ws[W_CP * CHUNK + k] * qt - ws[W_SP * CHUNK + k] * qa;
+            double ly = sx * qn - cx * qb;
+            lat = atan2_deg_folded(ly + 0.0, fabs(lx));
+            ws[W_LX * CHUNK + k] = lx;
+            ws[W_LY * CHUNK + k] = ly;
+        }
         /* not reached (u <= 0) counts as shadowed only with shadowing "none";
          * capture rule: u <= v_c */
         /* (flags are 0/1 integers combined arithmetically: GCC vectorises
@@ -179,6 +298,7 @@ physics(double *restrict ws, int64_t *restrict iws, int64_t c, double p,
         ws[W_EM * CHUNK + k] = reb ? em : 0.0;
         ws[W_MUM * CHUNK + k] = reb ? mum : 0.0;
         iws[I_CODE * CHUNK + k] = reb;
+        iws[I_OUT * CHUNK + k] = 2 * shad + capt;
         n_shadow += live & shad;
         n_capt += live & capt;
         n_roll += reb & rolling;
@@ -202,6 +322,17 @@ physics(double *restrict ws, int64_t *restrict iws, int64_t c, double p,
         iws[I_BM * CHUNK + k] = reb ? s : mu_spill + spill;
         if (powers)
             shifted_powers(ws, k, em, mum, reb, ke, km);
+        if (areal) {
+            ws[W_LAT * CHUNK + k] = reb ? lat : 0.0;
+            t = (lat - lat_lo) * lat_inv_w;
+            t = t < 0.0 ? -1.0 : t;
+            t = t >= lat_nb ? lat_nb : t;
+            s = (int32_t)t + 1;
+            s = lat == lat_hi ? lat_last : s; /* the last edge is inclusive */
+            iws[I_BL * CHUNK + k] = reb ? s : lat_spill + spill;
+            if (powers)
+                shifted_lateral(ws, k, lat, reb, kl);
+        }
     }
     cnt->shadow += n_shadow;
     cnt->capt += n_capt;
@@ -558,12 +689,44 @@ typedef struct {
     double speed, p, q, friction;
     int shadow_none;
     hist_t hist;
-    int64_t *e_hist, *mu_hist;
+    int64_t *e_hist, *mu_hist, *lat_hist;
+    int areal;         /* an areal surface (plan.ArealSampler rows) */
     counts_t counts;
-    double sums[8];
+    double sums[12];   /* e_m, mu_m, then psi_f (areal surfaces; else zeros) */
+    /* per-impact outputs (NULL: none): e_m and mu_m (0.0 where not a rebound),
+     * the lateral angle psi (areal surfaces; else 0.0), the outcome code */
+    double *st_em, *st_mum, *st_psi;
+    int8_t *st_code;
     int keyed;         /* draw from gen[] (the keyed streams), not i_d, ... i_p */
     pcg64_t gen[4];    /* diameter, angle, speed, pair proposal streams */
+    /* quasi-Monte Carlo (keyed): the scrambled Sobol' sequence of the block's
+     * (point, replicate) instead of gen[]; see sobol_fill */
+    int qmc, qbits, qd, qdim[4]; /* qdim: the Sobol' dimension of each variable
+                                    (-1: not drawn); qd dimensions */
+    const uint32_t *qsv;     /* scrambled direction numbers, [dim][bit] */
+    uint32_t qx[4];          /* the current point's integer coordinates */
+    uint64_t qk;             /* its index in the sequence */
 } block_args;
+
+/* The next c points of the Sobol' sequence, scipy.stats.qmc.Sobol's (Gray-code
+ * order: point k + 1 is point k XOR the direction numbers of the lowest zero bit
+ * of k), each coordinate x as the uint64 draw x 2^(64 - bits), which is what
+ * _tables.fraction_to_integer makes of SciPy's x 2^-bits (exactly). */
+static void
+sobol_fill(block_args *a, uint64_t (*draw)[CHUNK], int c, int nv)
+{
+    const int sh = 64 - a->qbits;
+    for (int k = 0; k < c; k++) {
+        for (int v = 0; v < nv; v++)
+            if (a->qdim[v] >= 0)
+                draw[v][k] = (uint64_t)a->qx[a->qdim[v]] << sh;
+        int l = __builtin_ctzll(~a->qk);
+        if (l < a->qbits) /* (the point after the last one is never used) */
+            for (int q = 0; q < a->qd; q++)
+                a->qx[q] ^= a->qsv[q * a->qbits + l];
+        a->qk++;
+    }
+}
 
 /* Locate the cells of draws r[0:c] (kinds: see guide_entry) and write the first
  * `one ? 1 : 3` interpolated columns of their rows to out0..out2; `g` receives
@@ -624,6 +787,49 @@ fetch(const sampler_t *s, const uint64_t *restrict r, int one, int c,
     }
 }
 
+
+/* The cells of an areal surface's draws r[0:c] (atoms, or a guide table for
+ * "weighted": plan.ArealSampler) and their rows' sin, cos, tan phi_par, sin chi,
+ * cos chi, read as the NumPy kernel reads them (lo for atoms, else lo + f span). */
+ALWAYS_INLINE void
+fetch_areal(const sampler_t *s, const uint64_t *restrict r, int c,
+            uint32_t *restrict g, double *restrict ws)
+{
+    static const int col[5] = {2, 4, 6, 8, 10};
+    static const int dst[5] = {W_SP, W_CP, W_TAN, W_SX, W_CX};
+    if (s->kind == 1 && s->crows != NULL && s->cstride >= 8 && s->cpos[0] == 0 &&
+        s->cpos[1] == 1 && s->cpos[2] == 2) {
+        /* compact rows of an areal table (kernel._compact_rows): the five
+         * columns' lo, one 64-byte row per pair (the table fits in L2) */
+        const double *restrict cr = s->crows;
+        const Py_ssize_t cs = s->cstride;
+        for (int k = 0; k < c; k++)
+            g[k] = (uint32_t)mulhi64(r[k], (uint64_t)s->n);
+        for (int k = 0; k < c; k++) {
+            const double *row = cr + (Py_ssize_t)g[k] * cs;
+            for (int q = 0; q < 5; q++)
+                ws[dst[q] * CHUNK + k] = row[q];
+        }
+        return;
+    }
+    for (int k = 0; k < c; k++) {
+        Py_ssize_t i;
+        double f = 0.0;
+        if (s->kind == 1)
+            i = (Py_ssize_t)mulhi64(r[k], (uint64_t)s->n);
+        else
+            i = locate(s, r[k], guide_entry(s, r[k]), &f);
+        const double *row = s->rows + i * s->stride;
+        g[k] = (uint32_t)i;
+        if (s->kind == 1) {
+            for (int q = 0; q < 5; q++)
+                ws[dst[q] * CHUNK + k] = row[col[q]];
+        } else {
+            for (int q = 0; q < 5; q++)
+                ws[dst[q] * CHUNK + k] = row[col[q]] + f * row[col[q] + 1];
+        }
+    }
+}
 
 /* ------------------------------------------------ AVX-512 lookups (same bits) */
 /* The arithmetic kinds (refined grid, equal atoms) 8 draws at a time: the cell
@@ -939,8 +1145,10 @@ run_block(block_args *a, scratch_t *s)
     const int pq_one = a->p == 1.0 && a->q == 1.0;
     const double st = a->sin_theta, ct = a->cos_theta;
     counts_t cnt = {0, 0, 0, 0, 0};
-    double ke = 0.0, km = 0.0;
+    double ke = 0.0, km = 0.0, kl = 0.0;
     double se1 = 0.0, se2 = 0.0, se3 = 0.0, sm1 = 0.0, sm2 = 0.0, sm3 = 0.0;
+    double sl1 = 0.0, sl2 = 0.0, sl3 = 0.0;
+    const int areal = a->angle_random && a->areal && a->pair_shift == 0;
     if (!a->angle_random) { /* smooth: phi = 0 exactly, the same in every chunk */
         for (int k = 0; k < CHUNK; k++) {
             ws[W_SIN * CHUNK + k] = st * 1.0 - ct * 0.0;
@@ -951,7 +1159,13 @@ run_block(block_args *a, scratch_t *s)
     for (Py_ssize_t start = 0; start < a->n; start += CHUNK) {
         int c = (int)(a->n - start < CHUNK ? a->n - start : CHUNK);
         const uint64_t *i_d, *i_a, *i_s, *i_p;
-        if (a->keyed) { /* this chunk of each stream, in impact order */
+        if (a->keyed && a->qmc) { /* this chunk of the Sobol' points */
+            sobol_fill(a, s->draw, c, 4);
+            i_d = s->draw[0];
+            i_a = s->draw[1];
+            i_s = s->draw[2];
+            i_p = s->draw[3];
+        } else if (a->keyed) { /* this chunk of each stream, in impact order */
             pcg_fill(&a->gen[0], s->draw[0], c);
             if (a->angle_random)
                 pcg_fill(&a->gen[1], s->draw[1], c);
@@ -998,6 +1212,19 @@ run_block(block_args *a, scratch_t *s)
                             ws[W_COT * CHUNK + k], ws[W_TAN * CHUNK + k],
                             a->b.rows + (Py_ssize_t)j * a->b.stride);
             }
+        } else if (areal) {
+            const uint64_t *ra = i_a;
+            if (a->cut) { /* "reject": the reachable pairs are a prefix */
+                for (int k = 0; k < c; k++)
+                    s->ra[k] = mulhi64(ra[k], a->cut);
+                ra = s->ra;
+            }
+            fetch_areal(&a->a, ra, c, s->g[1], ws);
+            for (int k = 0; k < CHUNK; k++) {
+                double sp = ws[W_SP * CHUNK + k], cp = ws[W_CP * CHUNK + k];
+                ws[W_SIN * CHUNK + k] = st * cp - ct * sp; /* sin(theta - phi) */
+                ws[W_COT * CHUNK + k] = ct * cp + st * sp; /* cos(theta - phi) */
+            }
         } else if (a->angle_random) {
             lookup(&a->a, i_a, 0, c, a->cut, s->ra, s->g[1],
                    ws + W_SIN * CHUNK, ws + W_COT * CHUNK, ws + W_TAN * CHUNK);
@@ -1018,35 +1245,66 @@ run_block(block_args *a, scratch_t *s)
             for (int k = 0; k < CHUNK; k++)
                 ws[W_U * CHUNK + k] = a->speed * ws[W_SIN * CHUNK + k];
         }
+        if (areal) /* |u . n'| = cos(chi) |v_n_phi| */
+            for (int k = 0; k < CHUNK; k++)
+                ws[W_U * CHUNK + k] = ws[W_U * CHUNK + k] * ws[W_CX * CHUNK + k];
         /* 2. the physics, branch-free (the shifted powers too once the shift is
          * known, i.e. after the block's first rebound) */
         int known = cnt.reb > 0;
-        if (pq_one) {
+#define PHYSICS(P, Q, GENERAL, POWERS, AREAL)                                     \
+    physics(ws, iws, c, P, Q, a->friction, a->shadow_none, &a->hist, GENERAL, ke, \
+            km, POWERS, &cnt, AREAL, kl)
+        if (areal) {
+            if (pq_one) {
+                if (known)
+                    PHYSICS(1.0, 1.0, 0, 1, 1);
+                else
+                    PHYSICS(1.0, 1.0, 0, 0, 1);
+            } else {
+                if (known)
+                    PHYSICS(a->p, a->q, 1, 1, 1);
+                else
+                    PHYSICS(a->p, a->q, 1, 0, 1);
+            }
+        } else if (pq_one) {
             if (known)
-                physics(ws, iws, c, 1.0, 1.0, a->friction, a->shadow_none,
-                        &a->hist, 0, ke, km, 1, &cnt);
+                PHYSICS(1.0, 1.0, 0, 1, 0);
             else
-                physics(ws, iws, c, 1.0, 1.0, a->friction, a->shadow_none,
-                        &a->hist, 0, ke, km, 0, &cnt);
+                PHYSICS(1.0, 1.0, 0, 0, 0);
         } else {
             if (known)
-                physics(ws, iws, c, a->p, a->q, a->friction, a->shadow_none,
-                        &a->hist, 1, ke, km, 1, &cnt);
+                PHYSICS(a->p, a->q, 1, 1, 0);
             else
-                physics(ws, iws, c, a->p, a->q, a->friction, a->shadow_none,
-                        &a->hist, 1, ke, km, 0, &cnt);
+                PHYSICS(a->p, a->q, 1, 0, 0);
         }
+#undef PHYSICS
         if (!known && cnt.reb > 0) { /* 3. this chunk holds the first rebound */
             for (int k = 0; k < c; k++) {
                 if (iws[I_CODE * CHUNK + k]) {
                     ke = ws[W_EM * CHUNK + k];
                     km = ws[W_MUM * CHUNK + k];
+                    kl = areal ? ws[W_LAT * CHUNK + k] : 0.0;
                     break;
                 }
             }
             for (int k = 0; k < CHUNK; k++)
                 shifted_powers(ws, k, ws[W_EM * CHUNK + k], ws[W_MUM * CHUNK + k],
                                iws[I_CODE * CHUNK + k] != 0, ke, km);
+            if (areal)
+                for (int k = 0; k < CHUNK; k++)
+                    shifted_lateral(ws, k, ws[W_LAT * CHUNK + k],
+                                    iws[I_CODE * CHUNK + k] != 0, kl);
+        }
+        if (a->st_em != NULL) { /* the per-impact outputs of this chunk */
+            Py_ssize_t at = start;
+            for (int k = 0; k < c; k++) {
+                a->st_em[at + k] = ws[W_EM * CHUNK + k];
+                a->st_mum[at + k] = ws[W_MUM * CHUNK + k];
+                a->st_code[at + k] = (int8_t)iws[I_OUT * CHUNK + k];
+                a->st_psi[at + k] = areal && iws[I_CODE * CHUNK + k]
+                    ? atan2_deg(ws[W_LY * CHUNK + k] + 0.0, ws[W_LX * CHUNK + k])
+                    : 0.0;
+            }
         }
         if (cnt.reb == 0)
             continue; /* no rebound yet: nothing to histogram or sum */
@@ -1062,6 +1320,13 @@ run_block(block_args *a, scratch_t *s)
             sm2 += ws[W_G2 * CHUNK + k];
             sm3 += ws[W_G3 * CHUNK + k];
         }
+        if (areal)
+            for (int k = 0; k < c; k++) {
+                a->lat_hist[iws[I_BL * CHUNK + k]] += 1;
+                sl1 += ws[W_L1 * CHUNK + k];
+                sl2 += ws[W_L2 * CHUNK + k];
+                sl3 += ws[W_L3 * CHUNK + k];
+            }
     }
     a->counts = cnt;
     a->sums[0] = ke;
@@ -1072,6 +1337,10 @@ run_block(block_args *a, scratch_t *s)
     a->sums[5] = sm1;
     a->sums[6] = sm2;
     a->sums[7] = sm3;
+    a->sums[8] = kl;
+    a->sums[9] = sl1;
+    a->sums[10] = sl2;
+    a->sums[11] = sl3;
 }
 
 /* ------------------------------------------------------------ Python binding */
@@ -1088,15 +1357,17 @@ check_len(Py_buffer *b, const char *name, Py_ssize_t itemsize, Py_ssize_t need)
     return 0;
 }
 
-/* The histogram layout (6 float64: e_m then mu_m lower edge, inverse bin width,
- * bin count); slots 0 below the range, 1..nb the bins, nb + 1 above, then SPILL. */
+/* The histogram layout (10 float64: e_m then mu_m lower edge, inverse bin width,
+ * bin count; then psi_f's and its upper edge, which is inclusive); slots 0 below
+ * the range, 1..nb the bins, nb + 1 above, then SPILL. */
 static int
 parse_hist(Py_buffer *bh, hist_t *hs)
 {
-    if (check_len(bh, "hist", 8, 6))
+    if (check_len(bh, "hist", 8, 10))
         return -1;
     const double *h = (const double *)bh->buf;
-    if (!(h[2] >= 1 && h[5] >= 1 && h[2] < 1e7 && h[5] < 1e7)) {
+    if (!(h[2] >= 1 && h[5] >= 1 && h[8] >= 1 && h[2] < 1e7 && h[5] < 1e7 &&
+          h[8] < 1e7)) {
         PyErr_SetString(PyExc_ValueError, "_ckernel: bad hist layout");
         return -1;
     }
@@ -1110,6 +1381,15 @@ parse_hist(Py_buffer *bh, hist_t *hs)
     hs->mu_top = (int64_t)h[5] + 1;
     hs->e_spill = hs->e_top + 1;
     hs->mu_spill = hs->mu_top + 1;
+    hs->lat_lo = h[6];
+    hs->lat_inv_w = h[7];
+    hs->lat_nb = h[8];
+    hs->lat_hi = h[9];
+    hs->lat_top = (int64_t)h[8] + 1;
+    hs->lat_spill = hs->lat_top + 1;
+    /* the slot of psi_f = 0 (every rebound off an areal surface) */
+    double t = (0.0 - h[6]) * h[7];
+    hs->lat_zero = t >= 0.0 && t < h[8] ? (int64_t)t + 1 : 0;
     return 0;
 }
 
@@ -1145,6 +1425,18 @@ check_pairs(int shift, unsigned long long total, const sampler_t *surface,
         (shift && (total < 1 || (((uint64_t)total - 1) >> (64 - shift)) ||
                    surface->kind != 0 || surface->stride <= PAIR_FIRST))) {
         PyErr_SetString(PyExc_ValueError, "_ckernel: bad pair layout");
+        return -1;
+    }
+    return 0;
+}
+
+/* An areal surface: one angle (no pairs) and rows holding sin chi, cos chi
+ * (plan.A_SINX, A_COSX), drawn as atoms or through a guide (kinds 1, 0). */
+static int
+check_areal(int shift, const sampler_t *surface)
+{
+    if (shift != 0 || surface->stride < 12 || surface->kind == 2) {
+        PyErr_SetString(PyExc_ValueError, "_ckernel: bad areal layout");
         return -1;
     }
     return 0;
@@ -1229,7 +1521,7 @@ PyDoc_STRVAR(block_doc,
 "block(i_d, i_a, i_s, i_p, n, angle_random, speed_random, dsamp, asamp, cut,\n"
 "      psamp, pair_total, pair_shift, ssamp,\n"
 "      sin_theta, cos_theta, speed, p, q, friction, shadow_none, hist,\n"
-"      e_hist, mu_hist) -> (counts, sums)\n\n"
+"      e_hist, mu_hist, areal, lat_hist) -> (counts, sums)\n\n"
 "One block of `n` impacts from the uint64 draws i_d, i_a, i_s (and i_p, the\n"
 "particle's proposals of a pair search). Each sampler is a\n"
 "tuple (rows float64[(n+1)*stride], stride, guide uint32[2^g+1], 64-g, kind,\n"
@@ -1239,16 +1531,20 @@ PyDoc_STRVAR(block_doc,
 "angle rows of sin, cos, tan phi, speed rows of the factor. Angle draws are scaled to [0, cut) when\n"
 "cut > 0. pair_shift > 0: the angle is a (surface, particle) pair of rank\n"
 "floor(r pair_total / 2^64) placed in the top bits (plan.PairSampler); -1: a\n"
-"pair drawn by a search (plan.PairSearch); 0: one angle. `hist` holds 6 float64 values (e_m then mu_m lower edge, inverse bin\n"
-"width, bin count); the int64 histogram arrays are added to (their last 8 slots\n"
-"are spill). Returns counts (shadowed, captured, reimpact, rolling, rebounds) and\n"
-"sums (K, S1, S2, S3 of e_m, then of mu_m; S_r = sum over rebounds of\n"
-"(x - K)^r).");
+"pair drawn by a search (plan.PairSearch); 0: one angle. `areal`: the angle\n"
+"table is an areal surface's (plan.ArealSampler: sin, cos of chi after the angle\n"
+"columns), and the folded lateral angle psi_f is histogrammed into lat_hist and\n"
+"summed. `hist` holds 10 float64 values (e_m then mu_m then psi_f lower edge,\n"
+"inverse bin width, bin count; then psi_f's inclusive upper edge); the int64\n"
+"histogram arrays are added to (their last 8 slots are spill). Returns counts\n"
+"(shadowed, captured, reimpact, rolling, rebounds) and sums (K, S1, S2, S3 of\n"
+"e_m, then of mu_m, then of psi_f (zeros unless areal); S_r = sum over rebounds\n"
+"of (x - K)^r).");
 
 static PyObject *
 ck_block(PyObject *self, PyObject *args)
 {
-    Py_buffer bd, ba, bs, bq, bh, beh, bmh;
+    Py_buffer bd, ba, bs, bq, bh, beh, bmh, blh;
     Py_buffer sb[4][3];
     int held[4] = {0, 0, 0, 0};
     PyObject *samp[4];
@@ -1257,11 +1553,12 @@ ck_block(PyObject *self, PyObject *args)
     Py_ssize_t n;
     block_args a;
     unsigned long long pair_total;
-    if (!PyArg_ParseTuple(args, "y*y*y*y*nppOOKOKiOddddddpy*w*w*:block", &bd, &ba,
-                          &bs, &bq, &n, &angle_random, &speed_random, &samp[0],
+    if (!PyArg_ParseTuple(args, "y*y*y*y*nppOOKOKiOddddddpy*w*w*pw*:block", &bd,
+                          &ba, &bs, &bq, &n, &angle_random, &speed_random, &samp[0],
                           &samp[1], &cut, &samp[3], &pair_total, &a.pair_shift,
                           &samp[2], &a.sin_theta, &a.cos_theta, &a.speed, &a.p,
-                          &a.q, &a.friction, &shadow_none, &bh, &beh, &bmh))
+                          &a.q, &a.friction, &shadow_none, &bh, &beh, &bmh,
+                          &a.areal, &blh))
         return NULL;
     PyObject *result = NULL;
     memset(&a.counts, 0, sizeof a.counts);
@@ -1283,7 +1580,9 @@ ck_block(PyObject *self, PyObject *args)
         (angle_random && a.pair_shift < 0 && check_len(&bq, "i_p", 8, n)) ||
         parse_hist(&bh, &a.hist) ||
         check_len(&beh, "e_hist", 8, a.hist.e_spill + SPILL) ||
-        check_len(&bmh, "mu_hist", 8, a.hist.mu_spill + SPILL))
+        check_len(&bmh, "mu_hist", 8, a.hist.mu_spill + SPILL) ||
+        (a.areal && check_areal(a.pair_shift, &a.a)) ||
+        check_len(&blh, "lat_hist", 8, a.areal ? a.hist.lat_spill + SPILL : 0))
         goto done;
     a.i_d = bd.buf;
     a.i_a = ba.buf;
@@ -1296,6 +1595,9 @@ ck_block(PyObject *self, PyObject *args)
     a.shadow_none = shadow_none;
     a.e_hist = beh.buf;
     a.mu_hist = bmh.buf;
+    a.lat_hist = blh.buf;
+    a.st_em = a.st_mum = a.st_psi = NULL;
+    a.st_code = NULL;
     a.keyed = 0;
     scratch_t *s = PyMem_RawMalloc(sizeof(scratch_t));
     if (s == NULL) {
@@ -1307,10 +1609,11 @@ ck_block(PyObject *self, PyObject *args)
     Py_END_ALLOW_THREADS
     PyMem_RawFree(s);
     result = Py_BuildValue(
-        "(LLLLL)(dddddddd)", (long long)a.counts.shadow, (long long)a.counts.capt,
-        (long long)a.counts.reimp, (long long)a.counts.roll,
-        (long long)a.counts.reb, a.sums[0], a.sums[1], a.sums[2], a.sums[3],
-        a.sums[4], a.sums[5], a.sums[6], a.sums[7]);
+        "(LLLLL)(dddddddddddd)", (long long)a.counts.shadow,
+        (long long)a.counts.capt, (long long)a.counts.reimp,
+        (long long)a.counts.roll, (long long)a.counts.reb, a.sums[0], a.sums[1],
+        a.sums[2], a.sums[3], a.sums[4], a.sums[5], a.sums[6], a.sums[7],
+        a.sums[8], a.sums[9], a.sums[10], a.sums[11]);
 done:
     PyBuffer_Release(&bd);
     PyBuffer_Release(&ba);
@@ -1319,6 +1622,7 @@ done:
     PyBuffer_Release(&bh);
     PyBuffer_Release(&beh);
     PyBuffer_Release(&bmh);
+    PyBuffer_Release(&blh);
     for (int i = 0; i < 4; i++)
         if (held[i])
             release_sampler(sb[i]);
@@ -1443,11 +1747,65 @@ sampler_set_free(sampler_set *set)
 typedef struct {
     uint64_t point, block;
     Py_ssize_t n;
-    int angle_random, shadow_none, pair_shift;
+    /* QMC: the (point, replicate)'s scrambled Sobol' sequence, uint32 words
+     * [d, bits, shift[d], sv[d][bits]] (NULL: keyed PCG64 streams); `block` is
+     * then the index of the block's first point in it */
+    const uint32_t *sobol;
+    int angle_random, shadow_none, pair_shift, areal;
     const sampler_t *a, *b;
     uint64_t cut, pair_total;
     double sin_theta, cos_theta, speed;
 } spec_t;
+
+/* The Sobol' dimension of each variable, as kernel._variables lists them:
+ * diameter, then the angle, the speed factor and the pair proposal where drawn
+ * (-1 where not). Returns their count. */
+static int
+sobol_variables(int angle_random, int speed_random, int search, int *dim)
+{
+    int d = 0;
+    dim[0] = d++;
+    dim[1] = angle_random ? d++ : -1;
+    dim[2] = speed_random ? d++ : -1;
+    dim[3] = angle_random && search ? d++ : -1;
+    return d;
+}
+
+/* A QMC spec's Sobol' sequence must have one dimension per variable drawn. */
+static int
+sobol_dims(const spec_t *x, int speed_random)
+{
+    int dim[4];
+    if (x->sobol != NULL &&
+        (int)x->sobol[0] != sobol_variables(x->angle_random, speed_random,
+                                             x->pair_shift < 0, dim)) {
+        PyErr_SetString(PyExc_ValueError,
+                        "_ckernel.specs: sobol dimensions != variables drawn");
+        return -1;
+    }
+    return 0;
+}
+
+/* Point `k0` of the sequence: the shift XOR the direction numbers of the bits of
+ * the Gray code of k0 (what scipy's fast_forward reaches). */
+static void
+sobol_start(block_args *a, const uint32_t *sobol, uint64_t k0, int speed_random)
+{
+    int d = (int)sobol[0], bits = (int)sobol[1];
+    sobol_variables(a->angle_random, speed_random, a->pair_shift < 0, a->qdim);
+    a->qd = d;
+    a->qbits = bits;
+    a->qsv = sobol + 2 + d;
+    a->qk = k0;
+    uint64_t gray = k0 ^ (k0 >> 1);
+    for (int q = 0; q < d; q++) {
+        uint32_t x = sobol[2 + q];
+        for (int j = 0; j < bits; j++)
+            if ((gray >> j) & 1)
+                x ^= a->qsv[q * bits + j];
+        a->qx[q] = x;
+    }
+}
 
 /* The occupied span [lo, hi) of h[0:size] (lo = hi = 0 when empty). */
 static void
@@ -1474,35 +1832,43 @@ PyDoc_STRVAR(specs_doc,
 "as block() does. `common` is (dsamp, ssamp,\n"
 "speed_random, p, q, friction, hist); each spec is (point, block, n, pt) with pt\n"
 "= (angle_random, asamp, cut, psamp, pair_total, pair_shift, sin_theta,\n"
-"cos_theta, speed, shadow_none) (see block(); equal objects are parsed once).\n"
-"Writes per spec: counts int64[5] (shadowed, captured, reimpact, rolling,\n"
-"rebounds), sums float64[8] (as block()), spans int64[4] (offset and length of\n"
-"the occupied e_m histogram span, then of mu_m's). Returns the spans' counts, one\n"
-"after the other, as int64 bytes.");
+"cos_theta, speed, shadow_none, areal) (see block(); equal objects are parsed\n"
+"once). Writes per spec: counts int64[5] (shadowed, captured, reimpact, rolling,\n"
+"rebounds), sums float64[12] (as block()), spans int64[6] (offset and length of\n"
+"the occupied e_m histogram span, then of mu_m's, then of psi_f's: off an areal\n"
+"surface every rebound's psi_f is 0, one bin). Returns the spans' counts, one\n"
+"after the other, as int64 bytes. With `store` = (e_m, mu_m, psi, outcome), C-\n"
+"contiguous writable buffers of float64, float64, float64, int8 of the specs'\n"
+"total n, each impact's e_m and mu_m (0.0 where not a rebound), its lateral angle\n"
+"psi [deg] (kernel.atan2_deg; areal surfaces only, else 0.0) and outcome (0 a\n"
+"rebound, 1 captured, 2 shadowed) are written there, in spec order.");
 
 static PyObject *
 ck_specs(PyObject *self, PyObject *args)
 {
     Py_buffer be, bh, bc, bs, bp;
-    PyObject *dsamp, *ssamp, *list;
+    Py_buffer bst[4] = {{0}};
+    int nst = 0;
+    PyObject *dsamp, *ssamp, *list, *store = Py_None;
     int speed_random;
     double p, q, friction;
-    if (!PyArg_ParseTuple(args, "y*(OOpdddy*)O!w*w*w*:specs", &be, &dsamp, &ssamp,
+    if (!PyArg_ParseTuple(args, "y*(OOpdddy*)O!w*w*w*|O:specs", &be, &dsamp, &ssamp,
                           &speed_random, &p, &q, &friction, &bh, &PyList_Type,
-                          &list, &bc, &bs, &bp))
+                          &list, &bc, &bs, &bp, &store))
         return NULL; /* (the parser releases what it acquired) */
     PyObject *result = NULL;
+    Py_ssize_t total_n = 0;
     sampler_set set = {NULL, 0, 0};
     spec_t *sp = NULL;
     scratch_t *scr = NULL;
-    int64_t *eh = NULL, *mh = NULL, *out = NULL;
+    int64_t *eh = NULL, *mh = NULL, *lh = NULL, *out = NULL;
     Py_ssize_t K = PyList_GET_SIZE(list);
     ss_state st;
     hist_t hs;
     const sampler_t *sd, *ss;
     if (parse_entropy(&be, &st) || parse_hist(&bh, &hs) ||
-        check_len(&bc, "counts", 8, 5 * K) || check_len(&bs, "sums", 8, 8 * K) ||
-        check_len(&bp, "spans", 8, 4 * K))
+        check_len(&bc, "counts", 8, 5 * K) || check_len(&bs, "sums", 8, 12 * K) ||
+        check_len(&bp, "spans", 8, 6 * K))
         goto done;
     if ((sd = sampler_of(&set, dsamp, "diameter", 8)) == NULL ||
         (ss = sampler_of(&set, ssamp, "speed", 4)) == NULL)
@@ -1515,15 +1881,31 @@ ck_specs(PyObject *self, PyObject *args)
     PyObject *prev_pt = NULL;
     for (Py_ssize_t i = 0; i < K; i++) {
         PyObject *item = PyList_GET_ITEM(list, i), *pt, *po, *bo, *as, *ps;
+        PyObject *qo = Py_None;
         unsigned long long cut, pair_total;
         spec_t *x = &sp[i];
         if (!PyTuple_Check(item)) {
             PyErr_SetString(PyExc_TypeError, "_ckernel.specs: a spec is a tuple");
             goto done;
         }
-        if (!PyArg_ParseTuple(item, "OOnO!:specs", &po, &bo, &x->n, &PyTuple_Type,
-                              &pt))
+        if (!PyArg_ParseTuple(item, "OOnO!|O:specs", &po, &bo, &x->n, &PyTuple_Type,
+                              &pt, &qo))
             goto done;
+        const uint32_t *sobol = NULL;
+        if (qo != Py_None) {
+            if (!PyBytes_Check(qo)) {
+                PyErr_SetString(PyExc_TypeError, "_ckernel.specs: sobol is bytes");
+                goto done;
+            }
+            sobol = (const uint32_t *)PyBytes_AS_STRING(qo);
+            Py_ssize_t words = PyBytes_GET_SIZE(qo) / 4;
+            if (PyBytes_GET_SIZE(qo) % 4 || words < 2 || sobol[0] < 1 ||
+                sobol[0] > 4 || sobol[1] < 1 || sobol[1] > 32 ||
+                words != 2 + (Py_ssize_t)sobol[0] * (1 + sobol[1])) {
+                PyErr_SetString(PyExc_ValueError, "_ckernel.specs: bad sobol layout");
+                goto done;
+            }
+        }
         /* key elements in [0, 2^64), as SeedSequence takes them */
         x->point = PyLong_AsUnsignedLongLong(po);
         if (PyErr_Occurred())
@@ -1535,44 +1917,87 @@ ck_specs(PyObject *self, PyObject *args)
             PyErr_SetString(PyExc_ValueError, "_ckernel.specs: negative n");
             goto done;
         }
+        if (sobol != NULL && (x->block > ((uint64_t)1 << sobol[1]) ||
+                              (uint64_t)x->n > ((uint64_t)1 << sobol[1]) - x->block)) {
+            PyErr_SetString(PyExc_ValueError,
+                            "_ckernel.specs: past the end of the Sobol' sequence");
+            goto done;
+        }
         if (pt == prev_pt) { /* the same point as the spec before */
             spec_t keep = *x;
             *x = sp[i - 1];
             x->point = keep.point;
             x->block = keep.block;
             x->n = keep.n;
+            x->sobol = sobol;
+            if (sobol_dims(x, speed_random))
+                goto done;
             continue;
         }
-        if (!PyArg_ParseTuple(pt, "pOKOKidddp:specs", &x->angle_random, &as, &cut,
+        x->sobol = sobol;
+        if (!PyArg_ParseTuple(pt, "pOKOKidddpp:specs", &x->angle_random, &as, &cut,
                               &ps, &pair_total, &x->pair_shift, &x->sin_theta,
-                              &x->cos_theta, &x->speed, &x->shadow_none))
+                              &x->cos_theta, &x->speed, &x->shadow_none, &x->areal))
             goto done;
         if ((x->a = sampler_of(&set, as, "angle", 8)) == NULL ||
             (x->b = sampler_of(&set, ps, "particle", 8)) == NULL)
             goto done;
         x->cut = cut;
         x->pair_total = pair_total;
-        if (check_pairs(x->pair_shift, pair_total, x->a, x->b))
+        if (check_pairs(x->pair_shift, pair_total, x->a, x->b) ||
+            (x->areal && check_areal(x->pair_shift, x->a)) ||
+            sobol_dims(x, speed_random))
             goto done;
         prev_pt = pt;
     }
+    for (Py_ssize_t i = 0; i < K; i++)
+        total_n += sp[i].n;
+    if (store != Py_None) { /* per-impact outputs: e_m, mu_m, psi, outcome */
+        static const char *names[4] = {"e_m", "mu_m", "psi", "outcome"};
+        static const Py_ssize_t sizes[4] = {8, 8, 8, 1};
+        if (!PyTuple_Check(store) || PyTuple_GET_SIZE(store) != 4) {
+            PyErr_SetString(PyExc_TypeError, "_ckernel.specs: store is a 4-tuple");
+            goto done;
+        }
+        for (; nst < 4; nst++) {
+            if (PyObject_GetBuffer(PyTuple_GET_ITEM(store, nst), &bst[nst],
+                                   PyBUF_WRITABLE | PyBUF_C_CONTIGUOUS) < 0)
+                goto done;
+            if (check_len(&bst[nst], names[nst], sizes[nst], total_n)) {
+                nst++;
+                goto done;
+            }
+        }
+    }
     int64_t e_size = hs.e_spill + SPILL, mu_size = hs.mu_spill + SPILL;
+    int64_t lat_size = hs.lat_spill + SPILL;
     Py_ssize_t cap = 4096, used = 0;
     scr = PyMem_RawMalloc(sizeof(scratch_t));
     eh = PyMem_RawCalloc(e_size, sizeof *eh);
     mh = PyMem_RawCalloc(mu_size, sizeof *mh);
+    lh = PyMem_RawCalloc(lat_size, sizeof *lh);
     out = PyMem_RawMalloc(cap * sizeof *out);
-    if (scr == NULL || eh == NULL || mh == NULL || out == NULL) {
+    if (scr == NULL || eh == NULL || mh == NULL || lh == NULL || out == NULL) {
         PyErr_NoMemory();
         goto done;
     }
     int64_t *counts = bc.buf, *spans = bp.buf;
     double *sums = bs.buf;
     int oom = 0;
+    Py_ssize_t offset = 0;
     Py_BEGIN_ALLOW_THREADS
     for (Py_ssize_t i = 0; i < K && !oom; i++) {
         const spec_t *x = &sp[i];
         block_args a;
+        a.st_em = a.st_mum = a.st_psi = NULL;
+        a.st_code = NULL;
+        if (nst == 4) { /* this block's impacts in the per-impact outputs */
+            a.st_em = (double *)bst[0].buf + offset;
+            a.st_mum = (double *)bst[1].buf + offset;
+            a.st_psi = (double *)bst[2].buf + offset;
+            a.st_code = (int8_t *)bst[3].buf + offset;
+        }
+        offset += x->n;
         a.i_d = a.i_a = a.i_s = a.i_p = NULL;
         a.n = x->n;
         a.angle_random = x->angle_random;
@@ -1594,10 +2019,15 @@ ck_specs(PyObject *self, PyObject *args)
         a.hist = hs;
         a.e_hist = eh;
         a.mu_hist = mh;
+        a.lat_hist = lh;
+        a.areal = x->areal;
         memset(&a.counts, 0, sizeof a.counts);
         a.keyed = 1;
         int search = x->angle_random && x->pair_shift < 0;
-        for (int v = 0; v < 4; v++) {
+        a.qmc = x->sobol != NULL;
+        if (a.qmc)
+            sobol_start(&a, x->sobol, x->block, speed_random);
+        for (int v = 0; v < 4 && !a.qmc; v++) {
             uint64_t key[3] = {x->point, x->block, (uint64_t)v};
             if (v == 0 || (v == 1 && x->angle_random) || (v == 2 && speed_random) ||
                 (v == 3 && search))
@@ -1610,13 +2040,23 @@ ck_specs(PyObject *self, PyObject *args)
         c[2] = a.counts.reimp;
         c[3] = a.counts.roll;
         c[4] = a.counts.reb;
-        memcpy(sums + 8 * i, a.sums, sizeof a.sums);
+        memcpy(sums + 12 * i, a.sums, sizeof a.sums);
         /* the occupied spans, appended to `out`; then the scratch histograms are
-         * zeroed where they were written (the spans and the spill slots) */
-        int64_t lo[2], hi[2];
+         * zeroed where they were written (the spans and the spill slots). Off an
+         * areal surface psi_f = 0 for every rebound: one bin, written here */
+        int64_t lo[3], hi[3];
         occupied(eh, hs.e_top + 1, &lo[0], &hi[0]);
         occupied(mh, hs.mu_top + 1, &lo[1], &hi[1]);
-        Py_ssize_t need = used + (hi[0] - lo[0]) + (hi[1] - lo[1]);
+        int lat_areal = a.areal && a.angle_random && a.pair_shift == 0;
+        if (!lat_areal) {
+            lh[hs.lat_zero] = a.counts.reb;
+            lo[2] = a.counts.reb ? hs.lat_zero : 0;
+            hi[2] = a.counts.reb ? hs.lat_zero + 1 : 0;
+        } else {
+            occupied(lh, hs.lat_top + 1, &lo[2], &hi[2]);
+        }
+        Py_ssize_t need =
+            used + (hi[0] - lo[0]) + (hi[1] - lo[1]) + (hi[2] - lo[2]);
         if (need > cap) {
             while (cap < need)
                 cap *= 2;
@@ -1627,16 +2067,18 @@ ck_specs(PyObject *self, PyObject *args)
             }
             out = o;
         }
-        for (int h = 0; h < 2; h++) {
-            int64_t *hist = h ? mh : eh;
+        for (int h = 0; h < 3; h++) {
+            int64_t *hist = h == 0 ? eh : (h == 1 ? mh : lh);
             memcpy(out + used, hist + lo[h], (hi[h] - lo[h]) * sizeof *out);
             used += hi[h] - lo[h];
             memset(hist + lo[h], 0, (hi[h] - lo[h]) * sizeof *hist);
-            spans[4 * i + 2 * h] = lo[h];
-            spans[4 * i + 2 * h + 1] = hi[h] - lo[h];
+            spans[6 * i + 2 * h] = lo[h];
+            spans[6 * i + 2 * h + 1] = hi[h] - lo[h];
         }
+        lh[hs.lat_zero] = 0;
         memset(eh + hs.e_spill, 0, SPILL * sizeof *eh);
         memset(mh + hs.mu_spill, 0, SPILL * sizeof *mh);
+        memset(lh + hs.lat_spill, 0, SPILL * sizeof *lh);
     }
     Py_END_ALLOW_THREADS
     if (oom) {
@@ -1648,6 +2090,7 @@ done:
     PyMem_RawFree(scr);
     PyMem_RawFree(eh);
     PyMem_RawFree(mh);
+    PyMem_RawFree(lh);
     PyMem_RawFree(out);
     PyMem_Free(sp);
     sampler_set_free(&set);
@@ -1656,6 +2099,160 @@ done:
     PyBuffer_Release(&bc);
     PyBuffer_Release(&bs);
     PyBuffer_Release(&bp);
+    for (int j = 0; j < nst; j++)
+        PyBuffer_Release(&bst[j]);
+    return result;
+}
+
+/* ------------------------------------------------- wall-law node statistics */
+enum { WV_EN, WV_ET, WV_MU, WV_ANGLE, WV_LATERAL, WV_SPEED, WV_COUNT };
+enum { WS_IMPACTS, WS_CAPTURED, WS_REBOUNDS, WS_REIMPACTS, WS_MEAN,
+       WS_STD = WS_MEAN + 5, WS_COUNT = WS_STD + 5 };
+
+/* The wall-law variables of m rebounds (ck_wall_rows), written branch-free
+ * (every operand formed, then selected). GCC 12 does not vectorise these loops
+ * yet ("control flow in loop" on the AVX2 and AVX-512 clones), so they run
+ * scalar: ~14 ns per rebound with the compaction and the sums. */
+static CLONES __attribute__((noinline)) void
+wall_outcomes(const double *restrict en, const double *restrict mu_,
+              double *restrict et, double *restrict ang, double *restrict lat,
+              double *restrict spd, Py_ssize_t m, double s, double c, int areal,
+              int64_t *reimp)
+{
+    int64_t n_reimp = 0;
+    /* branch-free over the rebounds (vectorised; e_t is NaN where the
+     * incidence is normal, c = 0) */
+    const double cd = c > 0 ? c : 1.0;
+    if (areal) {
+        for (Py_ssize_t j = 0; j < m; j++) {
+            double e = en[j], mu = mu_[j];
+            double u_z = e * s;
+            double u_x = c - mu * (1.0 + e) * s;
+            double uy = -u_x * lat[j];
+            double u_y = lat[j] == 0.0 ? 0.0 : uy;
+            et[j] = u_x / cd;
+            ang[j] = atan2_deg(u_z, u_x);
+            lat[j] = atan2_deg(u_y, sqrt(u_x * u_x + u_z * u_z));
+            spd[j] = sqrt(u_x * u_x + u_y * u_y + u_z * u_z);
+            n_reimp += e < 0.0;
+        }
+    } else { /* u_y = 0: the lateral angle is 0 */
+        for (Py_ssize_t j = 0; j < m; j++) {
+            double e = en[j], mu = mu_[j];
+            double u_z = e * s;
+            double u_x = c - mu * (1.0 + e) * s;
+            et[j] = u_x / cd;
+            ang[j] = atan2_deg(u_z, u_x);
+            lat[j] = 0.0;
+            spd[j] = sqrt(u_x * u_x + 0.0 * 0.0 + u_z * u_z);
+            n_reimp += e < 0.0;
+        }
+    }
+    *reimp += n_reimp;
+}
+
+PyDoc_STRVAR(wall_rows_doc,
+"wall_rows(P, S, e_m, mu_m, psi, outcome, geom, out, stats) -> None\n\n"
+"The wall-law outcomes of P nodes of S impacts each (the arrays of specs()'s\n"
+"`store`, rows of S): per node, its rebounds' e_n, e_t, mu, rebound angle,\n"
+"lateral angle [deg] and speed ratio (wall_law.build.node_outcomes; the angles by\n"
+"kernel.atan2_deg, the hypotenuse by a square root) written in draw order to\n"
+"out float64[6][P][S], the rest of each row +inf; and stats float64[P][14]:\n"
+"impacts, captured, rebounds, reimpacts (e_n < 0), the means of the first five\n"
+"(a sequential sum / count), their standard deviations (ddof 1, sequential\n"
+"sums). geom float64[P][3]: sin theta, cos theta (0 at 90 deg) and 1.0 for an\n"
+"areal surface's node (then u_y = -u_x tan(psi), 0 where sin(psi) = 0).");
+
+static PyObject *
+ck_wall_rows(PyObject *self, PyObject *args)
+{
+    Py_ssize_t P, S;
+    Py_buffer be, bm, bp, bc, bg, bo, bs;
+    if (!PyArg_ParseTuple(args, "nny*y*y*y*y*w*w*:wall_rows", &P, &S, &be, &bm, &bp,
+                          &bc, &bg, &bo, &bs))
+        return NULL;
+    PyObject *result = NULL;
+    if (P < 0 || S < 0 || check_len(&be, "e_m", 8, P * S) ||
+        check_len(&bm, "mu_m", 8, P * S) || check_len(&bp, "psi", 8, P * S) ||
+        check_len(&bc, "outcome", 1, P * S) || check_len(&bg, "geom", 8, 3 * P) ||
+        check_len(&bo, "out", 8, WV_COUNT * P * S) ||
+        check_len(&bs, "stats", 8, WS_COUNT * P))
+        goto done;
+    const double *em = be.buf, *mum = bm.buf, *psi = bp.buf, *geom = bg.buf;
+    const int8_t *code = bc.buf;
+    double *out = bo.buf, *stats = bs.buf;
+    Py_BEGIN_ALLOW_THREADS
+    for (Py_ssize_t r = 0; r < P; r++) {
+        const double s = geom[3 * r], c = geom[3 * r + 1];
+        const int areal = geom[3 * r + 2] != 0.0;
+        double *o[WV_COUNT];
+        for (int v = 0; v < WV_COUNT; v++)
+            o[v] = out + ((Py_ssize_t)v * P + r) * S;
+        int64_t n_imp = 0, n_capt = 0, n_reimp = 0;
+        Py_ssize_t m = 0;
+        /* the rebounds, in draw order: e_n, mu and psi into their rows */
+        double *pw = o[WV_SPEED]; /* psi, until the speed ratio overwrites it */
+        for (Py_ssize_t j = 0; j < S; j++) {
+            Py_ssize_t i = r * S + j;
+            int8_t k = code[i];
+            n_imp += k != 2;
+            n_capt += k == 1;
+            o[WV_EN][m] = em[i];
+            o[WV_MU][m] = mum[i];
+            pw[m] = psi[i];
+            m += k == 0;
+        }
+        double *restrict en = o[WV_EN], *restrict mu_ = o[WV_MU];
+        double *restrict et = o[WV_ET], *restrict ang = o[WV_ANGLE];
+        double *restrict lat = o[WV_LATERAL], *restrict spd = o[WV_SPEED];
+        if (areal) { /* tan(psi), 0 where sin(psi) = 0 (in the plane) */
+            for (Py_ssize_t j = 0; j < m; j++) {
+                double pr = spd[j] * (3.141592653589793 / 180.0);
+                lat[j] = sin(pr) == 0.0 ? 0.0 : tan(pr);
+            }
+        }
+        wall_outcomes(en, mu_, et, ang, lat, spd, m, s, c, areal, &n_reimp);
+        if (!(c > 0))
+            for (Py_ssize_t j = 0; j < m; j++)
+                et[j] = NAN;
+        for (int v = 0; v < WV_COUNT; v++)
+            for (Py_ssize_t j = m; j < S; j++)
+                o[v][j] = INFINITY;
+        double *st = stats + (Py_ssize_t)WS_COUNT * r;
+        st[WS_IMPACTS] = (double)n_imp;
+        st[WS_CAPTURED] = (double)n_capt;
+        st[WS_REBOUNDS] = (double)m;
+        st[WS_REIMPACTS] = (double)n_reimp;
+        double div = m > 0 ? (double)m : 1.0, dof = m > 1 ? (double)(m - 1) : 1.0;
+        /* sequential sums of each variable (five independent chains at once) */
+        double sum[5] = {0.0, 0.0, 0.0, 0.0, 0.0}, ss[5] = {0.0, 0.0, 0.0, 0.0, 0.0};
+        for (Py_ssize_t j = 0; j < m; j++)
+            for (int v = 0; v < 5; v++)
+                sum[v] += o[v][j];
+        double mean[5];
+        for (int v = 0; v < 5; v++)
+            mean[v] = sum[v] / div;
+        for (Py_ssize_t j = 0; j < m; j++)
+            for (int v = 0; v < 5; v++) {
+                double d = o[v][j] - mean[v];
+                ss[v] += d * d;
+            }
+        for (int v = 0; v < 5; v++) {
+            st[WS_MEAN + v] = mean[v];
+            st[WS_STD + v] = sqrt(ss[v] / dof);
+        }
+    }
+    Py_END_ALLOW_THREADS
+    result = Py_None;
+    Py_INCREF(result);
+done:
+    PyBuffer_Release(&be);
+    PyBuffer_Release(&bm);
+    PyBuffer_Release(&bp);
+    PyBuffer_Release(&bc);
+    PyBuffer_Release(&bg);
+    PyBuffer_Release(&bo);
+    PyBuffer_Release(&bs);
     return result;
 }
 
@@ -1690,6 +2287,7 @@ static PyMethodDef ck_methods[] = {
     {"simd", ck_simd, METH_VARARGS, simd_doc},
     {"stream", ck_stream, METH_VARARGS, stream_doc},
     {"specs", ck_specs, METH_VARARGS, specs_doc},
+    {"wall_rows", ck_wall_rows, METH_VARARGS, wall_rows_doc},
     {NULL, NULL, 0, NULL},
 };
 

@@ -24,7 +24,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-import pandas as pd
 
 from .._core.validation import check_int
 from ..scenario.grid import SweepGrid
@@ -55,7 +54,7 @@ class ConvergenceResult:
         The same for the least favourable fraction, 1/2.
     """
 
-    table: pd.DataFrame
+    table: pandas.DataFrame  # noqa: F821 (pandas loads where a table is made)
     final: float
     tolerance: float
     confidence: float
@@ -109,6 +108,10 @@ def convergence_study(
     lo, hi = wilson_interval(run.captured_at, run.impacts_at, confidence)
     with np.errstate(invalid="ignore", divide="ignore"):
         fraction = run.captured_at / run.impacts_at
+    # deferred: pandas (~30 MiB) loads only where a table is made, not with the
+    # engine (a run's peak memory: docs/performance.md)
+    import pandas as pd
+
     table = pd.DataFrame(
         {"n": ns, "capture_fraction": fraction, "ci_low": lo, "ci_high": hi}
     )

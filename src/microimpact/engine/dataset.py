@@ -481,6 +481,35 @@ def summary_frame(ds):
     return pd.DataFrame(df).reset_index(drop=True)
 
 
+def summary_frame_of(grid, columns):
+    """:func:`summary_frame` of ``build_dataset(grid, columns, ...)`` from the
+    columns themselves, without building the Dataset (nor importing xarray): the
+    same columns, order, dtypes and values (tests/engine/test_engine.py compares
+    them)."""
+    # deferred: pandas (~30 MiB) loads only where a table is made
+    import pandas as pd
+
+    names = [v for v in VARIABLES if v in columns]
+    lead = [c for c in SUMMARY_COLUMNS if c in names]
+    names = lead + [c for c in names if c not in lead]
+    coords = grid.coordinates()
+    shape = grid.shape
+    data = {}
+    for k, dim in enumerate(grid.dims):
+        values = np.asarray(list(coords[dim]))
+        reps = int(np.prod(shape[k + 1 :], dtype=np.int64))
+        tiles = int(np.prod(shape[:k], dtype=np.int64))
+        data[dim] = np.tile(np.repeat(values, reps), tiles)
+    for name in names:
+        dtype = np.int64 if name in INTEGER else float
+        data[name] = np.asarray(columns[name], dtype=dtype)
+    df = pd.DataFrame(data)
+    lead = [c for c in SUMMARY_COLUMNS if c in df.columns]
+    df = df[lead + [c for c in df.columns if c not in lead]]
+    df["surface"] = df["surface"].astype(str)
+    return pd.DataFrame(df).reset_index(drop=True)
+
+
 def encoding(ds) -> dict:
     """NetCDF encoding: zlib-compressed data variables; no ``_FillValue`` on
     coordinates, cell bounds or any variable without a missing value (CF 1.10

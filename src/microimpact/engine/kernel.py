@@ -44,7 +44,7 @@ from .accumulators import (
     E_BINS,
     E_EDGES,
     LATERAL_BINS,
-    LATERAL_ZERO_BIN,
+    LATERAL_EDGES,
     MU_BINS,
     MU_EDGES,
     Moments,
@@ -169,15 +169,13 @@ def simulate_block(
 
 
 def _simulate_block(plan: Plan, point, rep, block, n, store=False):
-    if not store and plan.kernel == "compiled" and plan.sampling != "qmc":
+    if not store and plan.kernel == "compiled":
         return _simulate_keyed(plan, [(point, rep, block, n)])[0]
     sp = plan.points[point]
     tables = plan.angle_tables(sp.surface, sp.angle_deg)
     variables = _variables(plan, tables)
     draws = _draw(plan, point, rep, block, n, variables)
     raw = dict(zip(variables, draws, strict=True))
-    if not store and plan.kernel == "compiled":
-        return _simulate_compiled(plan, sp, tables, raw, n)
 
     j_d, f_d = _locate(plan.diameters, raw[VAR_DIAMETER])
     dr = plan.diameters.rows
@@ -373,14 +371,15 @@ def _areal_impact(friction, cot, tan_cot, gain, e, one_e, tan_phi, s_chi, c_chi)
     ``v_n_phi`` (what :func:`microimpact.apparent_rebound` computes with
     ``out_of_plane_angle_deg``; docs/physics.md): ``u_n' = cos(chi) v_n_phi``,
     ``u_b' = sin(chi) v_n_phi``, the slip ``(cot, sin(chi)) v_n_phi`` with
-    ``eta = g / cos(chi)``, ``g = copysign(hypot(cot, sin chi), cot)``, the impulse
-    along the slip, and Eqs. 8-9 with ``e_phi = e cos^2(chi) - sin(chi)
-    V_b'/v_n_phi`` and ``mu_phi = mu_t / (cos(chi) + mu_b sin(chi))``. Where
+    ``eta = g / cos(chi)``, ``g`` = :func:`slip_ratio` (``cot`` where
+    ``chi = 0``), the impulse along the slip, and Eqs. 8-9 with
+    ``e_phi = e cos^2(chi) - sin(chi) V_b'/v_n_phi`` and
+    ``mu_phi = mu_t / (cos(chi) + mu_b sin(chi))``. Where
     ``chi = 0`` every step is the 2-D kernel's, operation for operation (``g =
     cot``, multiplications by 1.0, additions of 0.0): the same bits. ``q_t``,
     ``q_b``: the rebound's ``V_t'``, ``V_b'`` over ``v_n_phi`` (the lateral angle's
     ``Q_t'``, ``Q_b'``; :func:`_lateral_angle`)."""
-    g = np.copysign(np.hypot(cot, s_chi), cot)  # slip / v_n_phi, signed like cot
+    g = slip_ratio(cot, s_chi)  # slip / v_n_phi, signed like cot
     mu = g / c_chi  # eta
     mu *= 2.0 / 7.0
     mu /= one_e  # mu0, Eq. 3 (no initial spin)
@@ -443,17 +442,82 @@ def _lateral_angle(s_phi, c_phi, s_chi, c_chi, e, q_t, q_b, folded=False):
         y = s_chi * q_n - c_chi * q_b  # V_b / |v_n_phi|
         if folded:
             x = np.abs(x)
-        return np.rad2deg(np.arctan2(y + 0.0, x))  # + 0.0: no -0 (psi = 180)
+        return atan2_deg(y + 0.0, x)  # + 0.0: no -0 (psi = 180)
+
+
+def slip_ratio(cot, s_chi):
+    """``copysign(sqrt(cot^2 + sin^2 chi), cot)``: the slip over ``v_n_phi``, signed
+    like ``cot`` and exactly ``cot`` where ``sin chi = 0``. A square root, not
+    ``np.hypot``, so that the compiled kernel computes the same bits (NumPy's
+    ``hypot`` and the C library's differ in the last bit for ~0.3 % of arguments;
+    ``cot^2`` cannot overflow here: ``|cot| < 1e17`` for any reachable facet)."""
+    with np.errstate(invalid="ignore", over="ignore"):
+        h = np.sqrt(cot * cot + s_chi * s_chi)
+    return np.where(s_chi == 0.0, cot, np.copysign(h, cot))
+
+
+# Cephes' atan (Moshier): range reduction to |t| <= tan(pi/8) (0.66 as Cephes
+# takes it) and a degree 4/5 rational approximation, relative error ~2e-16.
+_ATAN_P = (
+    -8.750608600031904122785e-1,
+    -1.615753718733365076637e1,
+    -7.500855792314704667340e1,
+    -1.228866684490136173410e2,
+    -6.485021904942025371773e1,
+)
+_ATAN_Q = (
+    2.485846490142306297962e1,
+    1.650270098316988542046e2,
+    4.328810604912902668951e2,
+    4.853903996359136964868e2,
+    1.945506571482613964425e2,
+)
+_T3P8 = 2.41421356237309504880  # tan(3 pi / 8)
+_MOREBITS = 6.123233995736765886130e-17  # pi/2 - fl(pi/2)
+_RAD2DEG = 180.0 / np.pi
+
+
+def atan2_deg(y, x):
+    """``atan2(y, x)`` in degrees from IEEE operations only (``+ - * /``,
+    comparisons, selections), which the compiled kernel performs in the same order,
+    so both kernels give the same bits (``np.arctan2`` is the SIMD library's on
+    some CPUs and differs from the C library's in the last bit). Cephes' ``atan``
+    of ``|y| / |x|`` (within 2 ulp of the exact angle), ``pi - a`` where ``x`` has
+    its sign bit set, the sign of ``y``; ``atan2(0, 0) = 0``, ``atan2(0, -0) =
+    180``, exactly 0, 90 and 180 where ``np.arctan2`` gives them."""
+    y = np.asarray(y, dtype=float)
+    x = np.asarray(x, dtype=float)
+    ay, ax = np.abs(y), np.abs(x)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        t = ay / ax
+        big = t > _T3P8
+        mid = (t > 0.66) & ~big
+        num = np.where(big, -1.0, np.where(mid, t - 1.0, t))
+        den = np.where(big, t, np.where(mid, t + 1.0, 1.0))
+        r = num / den
+        z = r * r
+        p, q = _ATAN_P, _ATAN_Q
+        pz = (((p[0] * z + p[1]) * z + p[2]) * z + p[3]) * z + p[4]
+        qz = ((((z + q[0]) * z + q[1]) * z + q[2]) * z + q[3]) * z + q[4]
+        z = z * pz
+        z = z / qz
+        z = r * z + r
+        z = z + np.where(big, _MOREBITS, np.where(mid, 0.5 * _MOREBITS, 0.0))
+        a = np.where(big, np.pi / 2, np.where(mid, np.pi / 4, 0.0)) + z
+        a = np.where(ay == 0.0, 0.0, a)
+        a = np.where(np.signbit(x), np.pi - a, a)
+        return np.copysign(a, y) * _RAD2DEG
 
 
 def simulate_specs(plan: Plan, specs) -> list[PointAccumulator]:
     """One accumulator per block spec ``(point, rep, block, n)``, each exactly what
     ``simulate_block(plan, *spec)`` returns (same draws, same bits), in order.
 
-    With the compiled kernel and plain Monte Carlo this is one C call for all the
-    specs, which derives every block's keyed streams itself (``_ckernel.specs``:
-    NumPy's ``SeedSequence`` and ``PCG64``, bit for bit; see :func:`stream_raw`)."""
-    if plan.kernel == "compiled" and plan.sampling != "qmc":
+    With the compiled kernel this is one C call for all the specs, which derives
+    every block's keyed streams itself (``_ckernel.specs``: NumPy's
+    ``SeedSequence`` and ``PCG64``, bit for bit; see :func:`stream_raw`), or for
+    QMC its scrambled Sobol' points (:func:`sobol_state`: SciPy's, bit for bit)."""
+    if plan.kernel == "compiled":
         return _simulate_keyed(plan, specs)
     return [_simulate_block(plan, *spec) for spec in specs]
 
@@ -464,8 +528,9 @@ def simulate_specs(plan: Plan, specs) -> list[PointAccumulator]:
 #: ``plan.kernel``, fixed when the plan is built (recorded in the provenance).
 KERNEL = resolve_kernel("auto")
 _NO_DRAW = np.zeros(1, dtype=np.uint64)  # draw array for a variable not drawn
-#: The histogram layout for the compiled kernel: e_m then mu_m lower edge, inverse
-#: bin width, bin count.
+#: The histogram layout for the compiled kernel: e_m then mu_m then psi_f lower
+#: edge, inverse bin width, bin count (as :func:`histogram_counts` computes them),
+#: then psi_f's upper edge (inclusive: :func:`lateral_histogram_counts`).
 _HIST = np.array(
     [
         E_EDGES[0],
@@ -474,6 +539,10 @@ _HIST = np.array(
         MU_EDGES[0],
         (MU_EDGES.size - 1) / (MU_EDGES[-1] - MU_EDGES[0]),
         MU_EDGES.size - 1,
+        LATERAL_EDGES[0],
+        (LATERAL_EDGES.size - 1) / (LATERAL_EDGES[-1] - LATERAL_EDGES[0]),
+        LATERAL_EDGES.size - 1,
+        LATERAL_EDGES[-1],
     ]
 )
 _SPILL = 8  # spill slots appended to each histogram array (the C kernel's SPILL)
@@ -522,6 +591,14 @@ def _compact_rows(sampler, constant: int):
     to their power-of-two widths, which is checked here against the canonical grid
     (a table that is not exactly it gets no compact rows: the scalar lookups)."""
     t, rows = sampler.table, sampler.rows[:-1]
+    if t.kind == t.EQUAL and rows.shape[1] >= 12 and not constant & 0b111:
+        # an areal surface's pairs (plan.ArealSampler): sin, cos, tan phi_par and
+        # sin, cos chi, one 64-byte row per pair (the fetch of the compiled
+        # kernel's areal path reads this layout where the stride is 8)
+        out = np.zeros((t.size, 8))
+        out[:, :5] = rows[:, [2, 4, 6, 8, 10]]
+        out.setflags(write=False)
+        return out, 8
     if t.kind == t.DYADIC:
         if not np.array_equal(t.starts, _refined_starts(t.levels, t.cells_log2)):
             return None
@@ -574,22 +651,13 @@ def _sampler_args(sampler):
     return args
 
 
-def _no_areal(tables):
-    """The compiled kernel has no areal path: never let it read an areal table as
-    a one-angle one (``build_plan`` routes such plans to the NumPy kernel)."""
-    if tables.areal:
-        raise RuntimeError(
-            "the compiled kernel cannot simulate an areal surface; build the plan "
-            "with kernel='numpy' (build_plan does so for 'auto')"
-        )
-
-
 def _simulate_compiled(plan, sp, tables, raw, n):
     """The same block through the compiled kernel (``_ckernel.c``)."""
-    _no_areal(tables)
     spread = plan.speeds is not None
+    areal = bool(tables.areal)
     e_hist = np.zeros(E_EDGES.size + 1 + _SPILL, dtype=np.int64)
     mu_hist = np.zeros(MU_EDGES.size + 1 + _SPILL, dtype=np.int64)
+    lat_hist = np.zeros(LATERAL_BINS + _SPILL if areal else 1, dtype=np.int64)
     counts, sums = _ckernel().block(
         raw[VAR_DIAMETER],
         raw.get(VAR_ANGLE, _NO_DRAW),
@@ -615,9 +683,16 @@ def _simulate_compiled(plan, sp, tables, raw, n):
         _HIST,
         e_hist,
         mu_hist,
+        areal,
+        lat_hist,
     )
     m = counts[4]
-    lateral, lateral_span = in_plane_lateral(m)  # profile surfaces only: psi_f = 0
+    if areal:
+        lateral = Moments.from_shifted_sums(m, *sums[8:])
+        lateral_hist, lateral_span = lat_hist[:-_SPILL], None
+    else:  # profile or smooth surfaces: psi_f = 0
+        lateral, lateral_span = in_plane_lateral(m)
+        lateral_hist = None
     return PointAccumulator(
         n=n,
         shadowed=counts[0],
@@ -625,10 +700,11 @@ def _simulate_compiled(plan, sp, tables, raw, n):
         reimpact=counts[2],
         rolling=counts[3],
         e=Moments.from_shifted_sums(m, *sums[:4]),
-        mu=Moments.from_shifted_sums(m, *sums[4:]),
+        mu=Moments.from_shifted_sums(m, *sums[4:8]),
         e_hist=e_hist[:-_SPILL],
         mu_hist=mu_hist[:-_SPILL],
         lateral=lateral,
+        lateral_hist=lateral_hist,
         lateral_span=lateral_span,
     )
 
@@ -678,7 +754,6 @@ def _point_args(tables, speed: float):
     the same object for every block of a point, which the C side parses once)."""
     cached = _POINT_ARGS.get(tables)
     if cached is None:
-        _no_areal(tables)
         # what does not depend on the speed, once per tables (a sweep grid has a
         # new speed at nearly every point), and the tuples built by speed
         cached = _POINT_ARGS[tables] = (
@@ -692,7 +767,7 @@ def _point_args(tables, speed: float):
                 float(tables.sin_theta),
                 float(tables.cos_theta),
             ),
-            (bool(tables.random and tables.count_shadowed),),
+            (bool(tables.random and tables.count_shadowed), bool(tables.areal)),
             {},
         )
     head, tail, by_speed = cached
@@ -702,29 +777,102 @@ def _point_args(tables, speed: float):
     return args
 
 
-def _keyed_outputs(plan: Plan, specs):
-    """One ``_ckernel.specs`` call for Monte Carlo block specs: ``(items, counts,
-    sums, spans, flat)`` (the per-block counts, the shifted sums, the occupied
-    histogram spans and their counts, flat)."""
+_SOBOL: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+#: Scrambled Sobol' sequences kept per plan (a few hundred bytes each; a run goes
+#: through its points in order, so this only saves rebuilding a (point, replicate)
+#: sequence for each of its blocks, ~0.2 ms each).
+SOBOL_CACHE = 4096
+
+
+def sobol_state(plan: Plan, point: int, rep: int, dim: int) -> bytes:
+    """The scrambled Sobol' sequence of replicate `rep` at `point` (the one
+    :func:`qmc_uniforms` draws from) as ``_ckernel.specs`` reads it: uint32 words
+    ``[dim, bits, shift[dim], sv[dim][bits]]``, SciPy's own scrambled direction
+    numbers and digital shift (``scipy.stats.qmc.Sobol._sv``, ``._shift``; the
+    compiled kernel generates the points from them in SciPy's Gray-code order,
+    and tests/test_kernel_compiled.py checks the bits against
+    :func:`qmc_uniforms`)."""
+    cache = _SOBOL.get(plan)
+    if cache is None:
+        cache = _SOBOL[plan] = {}
+    key = (point, rep, dim)
+    state = cache.get(key)
+    if state is None:
+        # deferred: this SciPy submodule loads only when it is used (import time)
+        from scipy.stats import qmc
+
+        ss = np.random.SeedSequence(plan.entropy, spawn_key=(point, QMC_TAG, rep))
+        engine = qmc.Sobol(dim, scramble=True, rng=np.random.default_rng(ss))
+        sv = np.asarray(engine._sv, dtype=np.uint32)
+        shift = np.asarray(engine._shift, dtype=np.uint32)
+        if sv.shape != (dim, engine.bits) or shift.shape != (dim,):
+            raise RuntimeError("scipy.stats.qmc.Sobol: unexpected internal layout")
+        head = np.array([dim, engine.bits], dtype=np.uint32)
+        state = np.concatenate([head, shift, sv.ravel()]).tobytes()
+        if len(cache) >= SOBOL_CACHE:
+            cache.clear()
+        cache[key] = state
+    return state
+
+
+def _keyed_outputs(plan: Plan, specs, store=None):
+    """One ``_ckernel.specs`` call for block specs: ``(items, counts, sums, spans,
+    flat)`` (the per-block counts, the shifted sums, the occupied histogram spans
+    and their counts, flat). Monte Carlo blocks draw from their keyed streams, QMC
+    blocks from their replicate's Sobol' points ``[block B, block B + n)``."""
     items = []
     points = plan.points
-    for point, _rep, block, n in specs:
+    qmc = plan.sampling == "qmc"
+    for point, rep, block, n in specs:
         sp = points[point]
         tables = plan.angle_tables(sp.surface, sp.angle_deg)
-        items.append((point, block, n, _point_args(tables, float(sp.speed))))
+        args = _point_args(tables, float(sp.speed))
+        if qmc:
+            start = block * plan.block_size
+            if start + n > 2**30:  # what scipy's Sobol(bits=30) refuses too
+                raise ValueError(
+                    f"At most 2**30 QMC points per replicate; block {block} "
+                    f"of {n} reaches {start + n}"
+                )
+            dim = len(_variables(plan, tables))
+            items.append((point, start, n, args, sobol_state(plan, point, rep, dim)))
+        else:
+            items.append((point, block, n, args))
     k = len(items)
     counts = np.empty((k, 5), dtype=np.int64)
-    sums = np.empty((k, 8))
-    spans = np.empty((k, 4), dtype=np.int64)
-    buf = _ckernel().specs(
-        entropy_words(plan.entropy),
-        _common_args(plan),
-        items,
-        counts,
-        sums,
-        spans,
-    )
+    sums = np.empty((k, 12))
+    spans = np.empty((k, 6), dtype=np.int64)
+    args = [entropy_words(plan.entropy), _common_args(plan), items, counts, sums]
+    args.append(spans)
+    if store is not None:
+        args.append(store)
+    buf = _ckernel().specs(*args)
     return items, counts, sums, spans, np.frombuffer(buf, dtype=np.int64)
+
+
+def simulate_specs_impacts(plan: Plan, specs, out=None) -> dict:
+    """The impacts of block specs ``(point, rep, block, n)`` through the compiled
+    kernel, one after the other (one ``_ckernel.specs`` call): ``e_m``, ``mu_m``
+    (valid where ``outcome == 0``), ``lateral_angle_deg`` (valid for rebounds on an
+    areal surface; 0 elsewhere) and ``outcome`` (int8: 0 a rebound, 1 captured, 2
+    shadowed). The same impacts, bit for bit, as ``simulate_block(plan, *spec,
+    store=True)`` gives for those outcomes (tests/test_kernel_compiled.py); what
+    the wall law is built from without a Python array per node. `out`: arrays of
+    at least the specs' total length to write into (their leading parts are
+    returned), reused from call to call."""
+    if plan.kernel != "compiled":
+        raise ValueError("simulate_specs_impacts needs the compiled kernel")
+    total = sum(int(spec[3]) for spec in specs)
+    if out is None:
+        out = {
+            "e_m": np.empty(total),
+            "mu_m": np.empty(total),
+            "lateral_angle_deg": np.empty(total),
+            "outcome": np.empty(total, dtype=np.int8),
+        }
+    out = {k: out[k][:total] for k in ("e_m", "mu_m", "lateral_angle_deg", "outcome")}
+    _keyed_outputs(plan, specs, store=tuple(out.values()))
+    return out
 
 
 def _simulate_keyed(plan: Plan, specs) -> list[PointAccumulator]:
@@ -736,7 +884,7 @@ def _simulate_keyed(plan: Plan, specs) -> list[PointAccumulator]:
     out = []
     at = 0
     of = Moments.from_shifted_sums
-    for (_, _, n, _), c, s, (e_lo, e_len, mu_lo, mu_len) in zip(
+    for (_, _, n, *_), c, s, (e_lo, e_len, mu_lo, mu_len, l_lo, l_len) in zip(
         items, counts.tolist(), sums.tolist(), spans.tolist(), strict=True
     ):
         e_counts = flat[at : at + e_len]
@@ -744,7 +892,11 @@ def _simulate_keyed(plan: Plan, specs) -> list[PointAccumulator]:
         mu_counts = flat[at : at + mu_len]
         at += mu_len
         m = c[4]
-        lateral, lateral_span = in_plane_lateral(m)  # profile only: psi_f = 0
+        # off an areal surface the sums are zeros and the span one bin at
+        # psi_f = 0: exactly in_plane_lateral(m)
+        lateral = of(m, *s[8:])
+        lateral_span = (l_lo, flat[at : at + l_len])
+        at += l_len
         out.append(
             PointAccumulator(
                 n=n,
@@ -753,7 +905,7 @@ def _simulate_keyed(plan: Plan, specs) -> list[PointAccumulator]:
                 reimpact=c[2],
                 rolling=c[3],
                 e=of(m, *s[:4]),
-                mu=of(m, *s[4:]),
+                mu=of(m, *s[4:8]),
                 e_span=(e_lo, e_counts),
                 mu_span=(mu_lo, mu_counts),
                 lateral=lateral,
@@ -785,19 +937,19 @@ def _stacked_moments(m: np.ndarray, sums: np.ndarray) -> np.ndarray:
 def simulate_specs_stacked(plan: Plan, specs):
     """:func:`simulate_specs` as one :class:`~.summary.Stacked` (a row per spec),
     built from the compiled kernel's arrays without an object per block: exactly
-    ``Stacked.of(simulate_specs(plan, specs))``. Plain Monte Carlo on the compiled
-    kernel only (None otherwise)."""
+    ``Stacked.of(simulate_specs(plan, specs))``. The compiled kernel only (None
+    otherwise)."""
 
-    if plan.kernel != "compiled" or plan.sampling == "qmc":
+    if plan.kernel != "compiled":
         return None
     items, counts, sums, spans, flat = _keyed_outputs(plan, specs)
     m = counts[:, 4]
     table = np.empty((len(items), 5), dtype=np.int64)
     table[:, 0] = [it[2] for it in items]
     table[:, 1:] = counts[:, :4]
-    e_len, mu_len = spans[:, 1], spans[:, 3]
+    e_len, mu_len, l_len = spans[:, 1], spans[:, 3], spans[:, 5]
     start = np.zeros(len(items), dtype=np.int64)
-    np.cumsum((e_len + mu_len)[:-1], out=start[1:])
+    np.cumsum((e_len + mu_len + l_len)[:-1], out=start[1:])
     e_spans = Spans(
         np.where(e_len > 0, spans[:, 0], 0),
         e_len,
@@ -810,21 +962,18 @@ def simulate_specs_stacked(plan: Plan, specs):
         gather_segments(flat, start + e_len, mu_len),
         MU_BINS,
     )
-    rebound = m > 0
-    lateral = np.zeros((m.size, 4))
-    lateral[:, 0] = m  # psi_f = 0 exactly (profile surfaces): in_plane_lateral
     lat_spans = Spans(
-        np.where(rebound, LATERAL_ZERO_BIN, 0),
-        rebound.astype(np.int64),
-        m[rebound].astype(np.int64),
+        np.where(l_len > 0, spans[:, 4], 0),
+        l_len,
+        gather_segments(flat, start + e_len + mu_len, l_len),
         LATERAL_BINS,
     )
     return Stacked(
         table,
         _stacked_moments(m, sums[:, :4]),
-        _stacked_moments(m, sums[:, 4:]),
+        _stacked_moments(m, sums[:, 4:8]),
         e_spans,
         mu_spans,
-        lateral,
+        _stacked_moments(m, sums[:, 8:]),
         lat_spans,
     )

@@ -13,8 +13,8 @@ on one core, a process pool or a Dask cluster, and does not even depend on how t
 groups are packed into tasks.
 
 On this machine (``backend="process"``), more than one worker runs as threads of
-this process when the plan's kernel frees the GIL (the compiled kernel's Monte
-Carlo path: :func:`releases_gil`), else as a process pool. The plan (tables of
+this process when the plan's kernel frees the GIL (the compiled kernel, Monte
+Carlo and QMC: :func:`releases_gil`), else as a process pool. The plan (tables of
 ~2 MB) is shared by threads, sent to each worker process once through the pool
 initializer, and to Dask workers by ``Client.scatter(..., broadcast=True)``.
 """
@@ -209,22 +209,21 @@ def map_tasks(func, items, *, workers=1, executor=None, threads=False, in_flight
 
 def scenario_releases_gil(scenario) -> bool:
     """Whether runs of `scenario` spend their time in the compiled kernel with the
-    GIL released (Monte Carlo sampling, no areal surface, the compiled kernel
-    installed and chosen), so that worker threads serve them."""
-    return (
-        resolve_kernel() == "compiled"
-        and scenario.sampling == "mc"
-        and not any(getattr(v.angles, "is_areal", False) for v in scenario.surfaces)
-    )
+    GIL released (the compiled kernel installed and chosen: Monte Carlo and QMC,
+    profile and areal surfaces alike since issue 24), so that worker threads
+    serve them."""
+    del scenario  # every scenario runs on the kernel resolve_kernel() names
+    return resolve_kernel() == "compiled"
 
 
 def releases_gil(plan) -> bool:
     """Whether `plan`'s tasks run almost wholly outside the GIL: the compiled
-    kernel's keyed Monte Carlo path (``_ckernel.specs`` frees the GIL for the whole
-    simulation of a task; what holds it is ~1-2 µs of argument parsing per block and
-    the task's stacking). The NumPy kernel (areal surfaces, ``kernel="numpy"``) and
-    quasi-Monte Carlo hold it for much of their time."""
-    return plan.kernel == "compiled" and plan.sampling == "mc"
+    kernel (``_ckernel.specs`` frees the GIL for the whole simulation of a task,
+    Monte Carlo or QMC; what holds it is ~1-2 µs of argument parsing per block,
+    a QMC replicate's scrambled Sobol' sequence once per point (~0.2 ms) and the
+    task's stacking). The NumPy kernel (``kernel="numpy"``, or an install without
+    a C compiler) holds it for much of its time."""
+    return plan.kernel == "compiled"
 
 
 class ThreadRunner:

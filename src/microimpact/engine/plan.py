@@ -334,7 +334,14 @@ class ArealSampler(Sampler):
     ``tan`` of ``phi_par`` and ``sin(chi)``, ``cos(chi)``, ``phi_perp``
     (:data:`A_SINX`, :data:`A_COSX`, :data:`A_PERP`). Reachability depends on
     ``phi_par`` alone (the particle has no component along ``b``), so the
-    reachable pairs are a prefix of the table."""
+    reachable pairs are a prefix of the table. :data:`ALGORITHM` is in the
+    checkpoint fingerprint of plans with an areal surface (see
+    :meth:`Plan.pair_algorithm`)."""
+
+    #: How an areal impact is computed where that changed (issue 24: the slip by a
+    #: square root and the lateral angle by the portable atan2, on both kernels;
+    #: a checkpoint of an areal run written before is not resumed).
+    ALGORITHM = "areal: slip sqrt, portable atan2"
 
     @property
     def perp(self) -> np.ndarray:
@@ -722,8 +729,11 @@ class Plan:
         :attr:`PairSearch.REJECT_RANGE` under ``"reject"`` where some pairs lean
         back past -90 deg at one of the surface's apparent angles (they used to
         be drawn); :attr:`PairSampler.ALGORITHM` there too; else None (the
-        fingerprint is what it was)."""
+        fingerprint is what it was); :attr:`ArealSampler.ALGORITHM` for an areal
+        surface."""
         s = self.surfaces[surface]
+        if isinstance(s, ArealSampler):
+            return s.ALGORITHM
         if not isinstance(s, PairSampler | PairSearch):
             return None
         algorithm = getattr(s, "ALGORITHM", None)
@@ -1196,22 +1206,9 @@ def build_plan(scenario, *, seed=None, kernel=None) -> Plan:
 
     `kernel` is ``"compiled"``, ``"numpy"``, ``"auto"`` or None (the environment
     variable ``MICROIMPACT_KERNEL``, else auto); the choice is ``plan.kernel``.
-    A scenario with an areal surface runs on the NumPy kernel (the compiled one
-    has no areal path): ``auto`` resolves to ``"numpy"`` for it, and asking for
-    ``"compiled"`` (argument or environment) is an :class:`InputError`.
+    Every scenario runs on either kernel, areal surfaces and QMC included.
     """
-    requested = kernel
     kernel = resolve_kernel(kernel)
-    if kernel == "compiled" and any(_is_areal(v.angles) for v in scenario.surfaces):
-        if requested is None:
-            requested = os.environ.get(KERNEL_ENV, "").strip().lower() or "auto"
-        if requested == "compiled":
-            raise InputError(
-                "the compiled kernel has no areal-surface path (issue 14): run "
-                "scenarios with `kind = \"areal\"` surfaces with kernel='numpy' "
-                f"or 'auto' (unset {KERNEL_ENV})"
-            )
-        kernel = "numpy"
     entropy = resolve_entropy(scenario.seed if seed is None else seed)
     diameters = diameter_sampler(scenario)
     coeffs = scenario.coefficients

@@ -38,6 +38,7 @@ from .dataset import (
     history_line,
     point_histogram,
     summary_frame,
+    summary_frame_of,
 )
 from .kernel import KERNEL
 from .plan import BLOCK_SIZE
@@ -218,11 +219,32 @@ class SimulationResult:
     """
 
     def __init__(self, dataset, scenario=None, accumulators=None, provenance=None):
-        self.dataset = dataset
+        self._dataset = dataset
+        self._build = None
         self.scenario = _record_of(dataset) if scenario is None else scenario
         self.accumulators = accumulators
         self._provenance = provenance
         self._summary = None
+        self._attrs = None
+
+    @property
+    def dataset(self):
+        """The canonical Dataset (built on first access for a fresh run: xarray,
+        and with it dask where installed, is imported only by what needs it)."""
+        if self._dataset is None:
+            self._dataset = self._build()
+            self._build = None
+        return self._dataset
+
+    @dataset.setter
+    def dataset(self, value):
+        self._dataset = value
+        self._build = None
+
+    def _attr(self, key, default=None):
+        """A global attribute of the Dataset, without building it."""
+        attrs = self._attrs if self._dataset is None else self._dataset.attrs
+        return attrs.get(key, default)
 
     # -------------------------------------------------------------- builders
     @classmethod
@@ -383,7 +405,11 @@ class SimulationResult:
         for key, value in prov.items():
             if value is not None:
                 attrs[key] = _storable(value)
-        ds = build_dataset(
+        out = cls.__new__(cls)
+        cls.__init__(out, None, scenario, accumulators, prov)
+        out._attrs = attrs
+        out._build = functools.partial(
+            build_dataset,
             grid,
             columns,
             pooled_rows,
@@ -392,7 +418,8 @@ class SimulationResult:
             smooth=prepared["smooth"],
             areal=prepared.get("areal"),
         )
-        return cls(ds, scenario, accumulators, prov)
+        out._grid, out._columns = grid, columns
+        return out
 
     @classmethod
     def from_dataset(cls, dataset, scenario=None) -> SimulationResult:
@@ -433,12 +460,12 @@ class SimulationResult:
     @property
     def seed_entropy(self) -> int:
         """Root entropy of the run; pass it as ``seed`` to reproduce it exactly."""
-        return int(self.dataset.attrs["seed_entropy"])
+        return int(self._attr("seed_entropy"))
 
     @property
     def elapsed_s(self) -> float:
         """Wall time of the run [s]."""
-        return float(self.dataset.attrs.get("elapsed_s", math.nan))
+        return float(self._attr("elapsed_s", math.nan))
 
     @property
     def name(self) -> str:
@@ -447,7 +474,7 @@ class SimulationResult:
     @property
     def confidence(self) -> float:
         """Confidence level of every interval."""
-        return float(self.dataset.attrs.get("confidence", self.scenario.confidence))
+        return float(self._attr("confidence", self.scenario.confidence))
 
     @property
     def grid(self) -> SweepGrid:
@@ -463,7 +490,10 @@ class SimulationResult:
     def summary(self):
         """One row per sweep point (grid order): derived from :attr:`dataset`."""
         if self._summary is None:
-            df = summary_frame(self.dataset)
+            if self._dataset is None:  # a fresh run: from its columns
+                df = summary_frame_of(self._grid, self._columns)
+            else:
+                df = summary_frame(self.dataset)
             df.attrs["confidence"] = self.confidence
             self._summary = df
         return self._summary

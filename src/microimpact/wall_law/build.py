@@ -3,10 +3,14 @@
 At a node (surface, diameter, speed, angle) the diameter is fixed and every other
 random input keeps its distribution: the roughness angle of the surface (paper
 Eqs. 7-9 on a facet tilted by it), the particle's own roughness, the speed scatter,
-under the scenario's shadowing rule. The impacts are those of the engine's NumPy
-kernel (:func:`microimpact.engine.kernel.simulate_block` with ``store=True``, the
-draws :func:`microimpact.run` makes), so the physics is the paper's Eqs. 1-9 as
-implemented in :mod:`microimpact.physics.impact` and checked there.
+under the scenario's shadowing rule. The impacts are the engine's (the draws
+:func:`microimpact.run` makes; the compiled kernel writes each impact's outcome to
+one array per quantity for a group of nodes,
+:func:`microimpact.engine.kernel.simulate_specs_impacts`, the NumPy kernel gives
+the same values through ``simulate_block(..., store=True)``), so the physics is the
+paper's Eqs. 1-9 as implemented in :mod:`microimpact.physics.impact` and checked
+there. The statistics of all the nodes of a group are formed at once, from those
+arrays.
 
 Common random numbers: every diameter of a (surface, speed, angle) uses the same
 draws (the engine's stream of that sweep point), so the table is smooth in the
@@ -21,7 +25,7 @@ import json
 import math
 import shutil
 import time
-from concurrent.futures import as_completed
+from concurrent.futures import ThreadPoolExecutor, as_completed
 from pathlib import Path
 
 import numpy as np
@@ -30,6 +34,8 @@ from .. import __version__
 from .._core.files import atomic_write
 from .._core.json import dumps
 from .._core.progress import Progress
+from ..engine import _compiled
+from ..engine.kernel import atan2_deg, simulate_specs_impacts
 from ..engine.montecarlo import iter_point_samples
 from ..engine.parallel import cap_workers, process_pool
 from ..engine.plan import ArealSampler, build_plan, diameter_sampler, resolve_entropy
@@ -83,56 +89,220 @@ def node_outcomes(e_m, mu_m, angle_deg: float, psi_deg=None) -> dict:
     }
 
 
-def _node(plan, point: int, angle_deg: float, spec: WallLawSpec, samples: int):
-    """Counts, statistics and reservoir of one node."""
+#: Impacts simulated per kernel call of a wall-law build (a group of nodes; ~25
+#: bytes each while their statistics are formed).
+GROUP_IMPACTS = 1 << 18
 
-    parts = list(iter_point_samples(plan, point, samples))
-    draws = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
-    struck = ~draws["shadowed"]
-    captured = draws["captured"] & struck
-    rebound = struck & ~captured
-    areal = isinstance(plan.surfaces[plan.points[point].surface], ArealSampler)
-    # on an areal surface the rebound leaves the plane of incidence
-    psi = draws["lateral_angle_deg"][rebound] if areal else None
-    out = node_outcomes(draws["e_m"][rebound], draws["mu_m"][rebound], angle_deg, psi)
-    n_reb = int(np.count_nonzero(rebound))
-    q = np.asarray(spec.quantiles)
-    row = {
-        "n_samples": samples,
-        "n_impacts": int(np.count_nonzero(struck)),
-        "n_captured": int(np.count_nonzero(captured)),
-        "n_rebounds": n_reb,
-        "n_reimpacts": int(np.count_nonzero(out["e_n"] < 0.0)),
+
+def _impacts(plan, points, samples: int, buffers=None) -> dict:
+    """The first `samples` impacts of each sweep point of `points` (the draws
+    :func:`microimpact.run` makes there, block by block) as ``(points, samples)``
+    arrays: ``e_m``, ``mu_m`` (valid for rebounds), ``lateral_angle_deg`` (valid
+    for rebounds on an areal surface) and ``outcome`` (0 a rebound, 1 captured,
+    2 shadowed). The compiled kernel writes them in one call
+    (:func:`~microimpact.engine.kernel.simulate_specs_impacts`); the NumPy kernel
+    gives the same values (``simulate_block(..., store=True)``)."""
+    shape = (len(points), samples)
+    if plan.kernel == "compiled":
+        bs = plan.block_size
+        specs = [
+            (i, 0, b, min(bs, samples - b * bs))
+            for i in points
+            for b in range(math.ceil(samples / bs))
+        ]
+        got = simulate_specs_impacts(plan, specs, buffers)
+        return {k: v.reshape(shape) for k, v in got.items()}
+    out = {
+        "e_m": np.zeros(shape),
+        "mu_m": np.zeros(shape),
+        "lateral_angle_deg": np.zeros(shape),
+        "outcome": np.zeros(shape, dtype=np.int8),
     }
-    for name in REBOUND_VARIABLES:
-        x = out[name]
-        if n_reb == 0 or np.isnan(x).all():
-            row[f"{name}_mean"] = row[f"{name}_std"] = np.nan
-            row[f"{name}_quantile"] = np.full(q.size, np.nan)
-        else:
-            row[f"{name}_mean"] = float(np.mean(x))
-            row[f"{name}_std"] = float(np.std(x, ddof=1)) if n_reb > 1 else np.nan
-            row[f"{name}_quantile"] = np.quantile(x, q)
-    k = min(spec.reservoir, n_reb)
-    row["reservoir_count"] = k
-    for name in RESERVOIR_VARIABLES:
-        res = np.full(spec.reservoir, np.nan)
-        res[:k] = out[name][:k]
-        row[f"reservoir_{name}"] = res
-    return row
+    for r, i in enumerate(points):
+        at = 0
+        for part in iter_point_samples(plan, i, samples):
+            sl = slice(at, at + part["e_m"].size)
+            at = sl.stop
+            code = np.where(part["shadowed"], 2, np.where(part["captured"], 1, 0))
+            reb = code == 0
+            out["outcome"][r, sl] = code
+            for k in ("e_m", "mu_m", "lateral_angle_deg"):
+                out[k][r, sl] = np.where(reb, part[k], 0.0)
+    return out
+
+
+#: The outcome variables of :func:`_wall_rows`, in its order (the first five are
+#: :data:`REBOUND_VARIABLES`, which get statistics).
+_ROW_VARIABLES = (*REBOUND_VARIABLES, "speed_ratio")
+#: Its per-node columns: impacts, captured, rebounds, reimpacts, then the means
+#: and standard deviations of the five rebound variables.
+_STAT_COLUMNS = 14
+
+
+def _wall_rows_numpy(imp, geom, out, stats):
+    """What ``_ckernel.wall_rows`` computes, in NumPy (an install without the
+    compiled kernel): the same definitions and, but for ``sin`` and ``tan`` of the
+    lateral angle on areal surfaces (NumPy's and the C library's can differ in
+    the last bit), the same operations."""
+    code = imp["outcome"]
+    rebound = code == 0
+    m = np.count_nonzero(rebound, axis=1)
+    order = np.argsort(~rebound, axis=1, kind="stable")  # rebounds first, in order
+    kept = np.arange(code.shape[1])[None, :] < m[:, None]
+
+    def first(x):
+        return np.where(kept, np.take_along_axis(x, order, axis=1), 0.0)
+
+    e, mu, psi = first(imp["e_m"]), first(imp["mu_m"]), first(imp["lateral_angle_deg"])
+    s, c, areal = geom[:, 0:1], geom[:, 1:2], geom[:, 2:3] != 0.0
+    u_z = e * s
+    u_x = c - mu * (1.0 + e) * s
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        pr = psi * (np.pi / 180.0)
+        u_y = np.where(areal & (np.sin(pr) != 0.0), -u_x * np.tan(pr), 0.0)
+        e_t = np.where(c > 0, u_x / np.where(c > 0, c, 1.0), np.nan)
+        values = (
+            e,
+            e_t,
+            mu,
+            atan2_deg(u_z, u_x),
+            atan2_deg(u_y, np.sqrt(u_x * u_x + u_z * u_z)),
+            np.sqrt(u_x * u_x + u_y * u_y + u_z * u_z),
+        )
+    for v, x in enumerate(values):
+        out[v] = np.where(kept, x, np.inf)
+    stats[:, 0] = np.count_nonzero(code != 2, axis=1)
+    stats[:, 1] = np.count_nonzero(code == 1, axis=1)
+    stats[:, 2] = m
+    stats[:, 3] = np.count_nonzero(kept & (e < 0.0), axis=1)
+    div = np.where(m > 0, m, 1).astype(float)
+    dof = np.where(m > 1, m - 1, 1).astype(float)
+    with np.errstate(invalid="ignore"):
+        for v in range(5):
+            x = np.where(kept, out[v], 0.0)
+            mean = np.cumsum(x, axis=1)[:, -1] / div  # sequential sums, as in C
+            d = np.where(kept, x - mean[:, None], 0.0)
+            stats[:, 4 + v] = mean
+            stats[:, 9 + v] = np.sqrt(np.cumsum(d * d, axis=1)[:, -1] / dof)
+
+
+def _wall_rows(imp, geom, force_numpy=False, buffers=None):
+    """``(out, stats)`` of ``_ckernel.wall_rows`` (or its NumPy form); `buffers`
+    (a dict) keeps the output array from call to call."""
+    p, n = imp["outcome"].shape
+    size = len(_ROW_VARIABLES) * p * n
+    if buffers is not None and buffers.get("rows", np.empty(0)).size >= size:
+        out = buffers["rows"][:size].reshape(len(_ROW_VARIABLES), p, n)
+    else:
+        out = np.empty((len(_ROW_VARIABLES), p, n))
+        if buffers is not None:
+            buffers["rows"] = out.reshape(-1)
+    stats = np.empty((p, _STAT_COLUMNS))
+    if _compiled.ckernel is None or n == 0 or force_numpy:
+        _wall_rows_numpy(imp, geom, out, stats)
+    else:
+        _compiled.ckernel.wall_rows(
+            p,
+            n,
+            np.ascontiguousarray(imp["e_m"]),
+            np.ascontiguousarray(imp["mu_m"]),
+            np.ascontiguousarray(imp["lateral_angle_deg"]),
+            np.ascontiguousarray(imp["outcome"]),
+            geom,
+            out,
+            stats,
+        )
+    return out, stats
+
+
+def _quantile_rows(srt, n, q):
+    """``np.quantile(row[:n], q)`` of each sorted row (method "linear", its
+    operations: virtual index ``(n - 1) q``, its floor and the two-sided lerp)."""
+    nf = n.astype(float)[:, None]
+    v = (nf - 1.0) * q[None, :]
+    prev = np.floor(v)
+    last = v >= nf - 1.0
+    top = srt.shape[1] - 1
+    i0 = np.clip(np.where(last, nf - 1.0, prev), 0, top).astype(np.intp)
+    i1 = np.clip(np.where(last, nf - 1.0, prev + 1.0), 0, top).astype(np.intp)
+    a = np.take_along_axis(srt, i0, axis=1)
+    b = np.take_along_axis(srt, i1, axis=1)
+    g = v - np.where(last, -1.0, prev)  # numpy's gamma (previous index -1 above)
+    with np.errstate(invalid="ignore"):
+        diff = b - a
+        return np.where(g >= 0.5, b - diff * (1 - g), a + diff * g)
+
+
+def _node_rows(plan, points, spec: WallLawSpec, samples: int, buffers=None) -> dict:
+    """Counts, statistics and reservoirs of the nodes at sweep points `points`
+    (arrays with a leading axis over them), from one array of impacts per
+    quantity (no Python array per node): each node's rebounds in draw order
+    (``_ckernel.wall_rows``), the first ``spec.reservoir`` of them its reservoir,
+    then sorted in place for the quantiles (``np.quantile``'s linear rule, the
+    same operations). Means and standard deviations are sequential sums."""
+    imp = _impacts(plan, points, samples, buffers)
+    p = len(points)
+    geom = np.empty((p, 3))
+    for r, i in enumerate(points):
+        pt = plan.points[i]
+        theta = math.radians(pt.angle_deg)
+        geom[r, 0] = math.sin(theta)
+        # cos(pi/2) is 6e-17 in floating point: the impact is normal
+        geom[r, 1] = 0.0 if pt.angle_deg == 90.0 else math.cos(theta)
+        geom[r, 2] = float(isinstance(plan.surfaces[pt.surface], ArealSampler))
+    out, stats = _wall_rows(imp, geom, buffers=buffers)
+    n_reb = stats[:, 2].astype(np.int64)
+    rows = {
+        "n_samples": np.full(p, samples, dtype=np.int64),
+        "n_impacts": stats[:, 0].astype(np.int64),
+        "n_captured": stats[:, 1].astype(np.int64),
+        "n_rebounds": n_reb,
+        "n_reimpacts": stats[:, 3].astype(np.int64),
+    }
+    k = np.minimum(spec.reservoir, n_reb)
+    rows["reservoir_count"] = k
+    width = min(spec.reservoir, samples)
+    keep = np.arange(width)[None, :] < k[:, None]
+    for v, name in enumerate(_ROW_VARIABLES):
+        if name in RESERVOIR_VARIABLES:  # before the sort: in draw order
+            res = np.full((p, spec.reservoir), np.nan)
+            res[:, :width] = np.where(keep, out[v, :, :width], np.nan)
+            rows[f"reservoir_{name}"] = res
+    out[: len(REBOUND_VARIABLES)].sort(axis=2)
+    q = np.asarray(spec.quantiles, dtype=float)
+    for v, name in enumerate(REBOUND_VARIABLES):
+        empty = (n_reb == 0) | np.isnan(stats[:, 4 + v])
+        rows[f"{name}_mean"] = np.where(empty, np.nan, stats[:, 4 + v])
+        rows[f"{name}_std"] = np.where(empty | (n_reb < 2), np.nan, stats[:, 9 + v])
+        quant = _quantile_rows(out[v], n_reb, q)
+        rows[f"{name}_quantile"] = np.where(empty[:, None], np.nan, quant)
+    return rows
 
 
 def _diameter_task(plan, scenario, spec, samples, j):
     """Every node of diameter ``spec.diameters_um[j]``: a dict of stacked arrays
-    over the sweep points (surface x speed x angle, in :class:`SweepGrid` order)."""
+    over the sweep points (surface x speed x angle, in :class:`SweepGrid` order),
+    built a group of nodes at a time (:data:`GROUP_IMPACTS`)."""
     d_plan = dataclasses.replace(
         plan,
         diameters=diameter_sampler(scenario, monodisperse(spec.diameters_um[j])),
     )
-    rows = [
-        _node(d_plan, i, p.angle_deg, spec, samples) for i, p in enumerate(plan.points)
+    per = max(1, GROUP_IMPACTS // max(samples, 1))
+    n = len(plan.points)
+    size = min(per, n) * samples
+    # the groups' arrays, allocated once (fresh pages for every group cost more
+    # than the arithmetic on them)
+    buffers = {
+        "e_m": np.empty(size),
+        "mu_m": np.empty(size),
+        "lateral_angle_deg": np.empty(size),
+        "outcome": np.empty(size, dtype=np.int8),
+    }
+    parts = [
+        _node_rows(d_plan, range(lo, min(n, lo + per)), spec, samples, buffers)
+        for lo in range(0, n, per)
     ]
-    return {k: np.stack([np.asarray(r[k]) for r in rows]) for k in rows[0]}
+    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
 
 _WORKER: dict = {}
@@ -161,6 +331,20 @@ def _results(plan, scenario, spec, samples, workers, executor, indices):
     if workers <= 1 or len(indices) == 1:
         for j in indices:
             yield j, _diameter_task(plan, scenario, spec, samples, j)
+        return
+    if plan.kernel == "compiled":  # it frees the GIL, as do NumPy's sorts
+        with ThreadPoolExecutor(min(workers, len(indices))) as pool:
+            futures = {
+                pool.submit(_diameter_task, plan, scenario, spec, samples, j): j
+                for j in indices
+            }
+            try:
+                for f in as_completed(futures):
+                    yield futures[f], f.result()
+            except BaseException:
+                for f in futures:
+                    f.cancel()
+                raise
         return
 
     with process_pool(
@@ -271,7 +455,8 @@ def build_wall_law(
     spec : WallLawSpec, optional
         The nodes (default: the scenario file's ``[wall_law]`` table).
     workers : int
-        Local processes (capped at the available cores).
+        Local workers (capped at the available cores): threads with the compiled
+        kernel, else processes.
     seed : int, optional
         Root seed (default: the scenario's; fresh entropy if it has none, recorded
         in the table's ``seed`` attribute).
@@ -328,7 +513,7 @@ def build_wall_law(
         if partial.entropy is None:  # fresh entropy when the scenario has no seed
             partial.start(resolve_entropy(seed))
         seed = partial.entropy
-    plan = build_plan(nodes_scenario, seed=seed, kernel="numpy")
+    plan = build_plan(nodes_scenario, seed=seed)
     grid = SweepGrid.from_scenario(nodes_scenario)
     workers = cap_workers(int(workers))
     total = len(spec.diameters_um)
