@@ -453,7 +453,10 @@ def _profile_interval(theta, xw, yw, nw, z_q, beta, ll_hat, crit, notes):
             t = theta + (bound - theta) * frac_step
             if t == prev:
                 continue
-            if excess(t) > 0:
+            value = excess(t)
+            if math.isnan(value):  # the profile fit fails out there: not bounded
+                break
+            if value > 0:
                 limit = optimize.brentq(excess, prev, t, xtol=1e-12, rtol=1e-10)
                 break
             prev = t
