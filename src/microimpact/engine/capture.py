@@ -457,7 +457,10 @@ def _profile_interval(theta, xw, yw, nw, z_q, beta, ll_hat, crit, notes):
             if math.isnan(value):  # the profile fit fails out there: not bounded
                 break
             if value > 0:
-                limit = optimize.brentq(excess, prev, t, xtol=1e-12, rtol=1e-10)
+                try:
+                    limit = optimize.brentq(excess, prev, t, xtol=1e-12, rtol=1e-10)
+                except ValueError:  # NaN inside the bracket: the fit fails there
+                    limit = math.nan
                 break
             prev = t
         if math.isnan(limit):
