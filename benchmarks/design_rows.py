@@ -23,7 +23,9 @@ import statistics
 import subprocess
 import sys
 import time
+from pathlib import Path
 
+HERE = Path(__file__).resolve().parent
 PRESET = "sst76-formica-areal"
 #: Parameters the design varies: numbers of the coefficient laws, which leave the
 #: surfaces and the size distribution as they were built (ScenarioModel).
@@ -64,7 +66,7 @@ def _sensitivity(samples: int) -> float:
 
 def _fresh(task: str, samples: int) -> float:
     code = (
-        f"import sys, warnings; sys.path.insert(0, {sys.path[0]!r}); "
+        f"import sys, warnings; sys.path.insert(0, {str(HERE)!r}); "
         "warnings.simplefilter('ignore'); import design_rows as d; "
         f"print(d._{task}({samples}))"
     )

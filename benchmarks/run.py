@@ -350,9 +350,15 @@ def _wall_law_task(shape, samples: int, workers: int, seed: int) -> dict:
 #: ``design_row_ratio`` (sensitivity over N design rows against one run) belongs to
 #: the ScenarioModel work and is added beside these, in :func:`_ratio_tasks`.
 RATIO_SIZES = {
-    "full": dict(areal_n=2 * 10**7, qmc_n=1 << 24, wall_law=(12, 12, 12), rounds=5),
-    "quick": dict(areal_n=5 * 10**6, qmc_n=1 << 22, wall_law=(12, 12, 12), rounds=3),
-    "smoke": dict(areal_n=1 << 17, qmc_n=1 << 15, wall_law=(3, 3, 3), rounds=1),
+    "full": dict(
+        areal_n=2 * 10**7, qmc_n=1 << 24, wall_law=(12, 12, 12), rounds=5, rows=1000
+    ),
+    "quick": dict(
+        areal_n=5 * 10**6, qmc_n=1 << 22, wall_law=(12, 12, 12), rounds=3, rows=1000
+    ),
+    "smoke": dict(
+        areal_n=1 << 17, qmc_n=1 << 15, wall_law=(3, 3, 3), rounds=1, rows=20
+    ),
 }
 RATIO_WALL_LAW_SAMPLES = 4000
 
@@ -492,10 +498,14 @@ def _ratio_tasks(mode: str, isolate: bool) -> dict:
             rounds=r,
         ),
         "qmc": measure("qmc_ratio", isolate=isolate, n=cfg["qmc_n"], rounds=r),
-        # design_row_ratio (the ScenarioModel of issue 24, item 3) goes here; it
-        # is measured by benchmarks/design_rows.py for now
     }
     out = {k: v["runs"][0] for k, v in out.items()}
+    # the ScenarioModel (issue 20/24): Sobol' sensitivity over 24 design rows of
+    # the areal preset against one run of it, each in fresh processes
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from design_rows import design_row_ratio  # benchmarks/design_rows.py
+
+    out["design_rows"] = design_row_ratio(samples=cfg["rows"], repeats=r)
     out["config"] = {**cfg, "wall_law_samples": RATIO_WALL_LAW_SAMPLES}
     return out
 
@@ -506,6 +516,7 @@ def ratio_fields(ratios: dict) -> dict:
         "areal_ratio": ratios["areal"]["ratio"],
         "wall_law_ratio": ratios["wall_law"]["ratio"],
         "qmc_ratio": ratios["qmc"]["ratio"],
+        "design_row_ratio": ratios["design_rows"]["design_row_ratio"],
     }
 
 
@@ -533,6 +544,13 @@ def print_ratios(ratios: dict, floor_per_s=None) -> None:
         f"{runs(q)}; target >= 0.5)"
     )
     print(line)
+    d = ratios["design_rows"]
+    print(
+        f"design_row_ratio (Sobol' sensitivity over 24 design rows of {d['preset']} "
+        f"at {d['samples']} impacts/point over one run of it): "
+        f"{d['design_row_ratio']:.2f}  ({d['sensitivity_s']:.2f} s vs "
+        f"{d['one_run_s']:.2f} s; target <= 3)"
+    )
     if floor_per_s:
         print(
             "against the RNG floor (engine streams): profile "
