@@ -20,6 +20,7 @@ value and what is allowed).
 from __future__ import annotations
 
 import csv
+import itertools
 import math
 import os
 import re
@@ -80,7 +81,12 @@ def data_lines(lines, *, trailing_comments: bool = True) -> list[tuple[int, str]
     A ``# ...`` after the data on a line is cut off too (outside quotes), and the
     returned text stripped; ``trailing_comments=False`` keeps it.
     """
-    out = []
+    return list(iter_data_lines(lines, trailing_comments=trailing_comments))
+
+
+def iter_data_lines(lines, *, trailing_comments: bool = True):
+    """:func:`data_lines`, one at a time (no list of them: a long file's rows are
+    formed without a second copy of its lines)."""
     for lineno, line in enumerate(lines, start=1):
         stripped = line.strip()
         if not stripped or stripped.startswith("#"):
@@ -89,8 +95,7 @@ def data_lines(lines, *, trailing_comments: bool = True) -> list[tuple[int, str]
             line = strip_comment(stripped).strip()
             if not line:
                 continue
-        out.append((lineno, line))
-    return out
+        yield lineno, line
 
 
 #: A double-quoted part of a line (an unclosed one runs to the end).
@@ -234,13 +239,16 @@ def split_rows(
     ``delimiter=SNIFF`` (the default) takes it from the first data line
     (:func:`sniff_delimiter`); ``None`` or ``""`` means runs of whitespace.
     """
-    content = data_lines(lines, trailing_comments=trailing_comments)
+    content = iter_data_lines(lines, trailing_comments=trailing_comments)
+    first = next(content, None)
     if delimiter == SNIFF:
-        delimiter = sniff_delimiter(content[0][1]) if content else None
+        delimiter = sniff_delimiter(first[1]) if first is not None else None
     delimiter = delimiter or None
+    if first is None:
+        return [], delimiter
     rows = [
         (n, csv_cells(t, source=source, line=n, delimiter=delimiter, error=error))
-        for n, t in content
+        for n, t in itertools.chain((first,), content)
     ]
     return rows, delimiter
 
