@@ -173,6 +173,8 @@ def _simulate_block(plan: Plan, point, rep, block, n, store=False):
         return _simulate_keyed(plan, [(point, rep, block, n)])[0]
     sp = plan.points[point]
     tables = plan.angle_tables(sp.surface, sp.angle_deg)
+    # set on the paths that have them (pairs, a random facet, an areal facet)
+    j_a = f_a = j_b = s_phi = c_phi = s_chi = c_chi = q_t = q_b = None
     variables = _variables(plan, tables)
     draws = _draw(plan, point, rep, block, n, variables)
     raw = dict(zip(variables, draws, strict=True))
@@ -287,51 +289,76 @@ def _simulate_block(plan: Plan, point, rep, block, n, store=False):
             mu_m /= denom
 
     rebound = ~captured
+    facet = (s_phi, c_phi, s_chi, c_chi, q_t, q_b)
     if store:
-        if areal:
-            psi = _lateral_angle(s_phi, c_phi, s_chi, c_chi, e, q_t, q_b)
-        else:  # in the plane of incidence: chi = 0
-            psi = lateral_angle_deg(s_phi, c_phi, 0.0, 1.0, cot, e, one_e, mu, 0.0)
-        out = {
-            "e_m": np.where(captured, 0.0, e_m),
-            "mu_m": np.where(captured, np.nan, mu_m),
-            "captured": captured,
-            "reimpact": rebound & (e_m < 0),
-            "lateral_angle_deg": np.where(captured, np.nan, psi),
-        }
-        if shadowed is not None:
-            full = {}
-            for k, v in out.items():
-                fill = False if v.dtype == bool else np.nan
-                a = np.full(n, fill, dtype=v.dtype)
-                a[~shadowed] = v
-                full[k] = a
-            out = full
-        out["shadowed"] = shadowed if shadowed is not None else np.zeros(n, bool)
-        dv = plan.diameters.values
-        out["diameter"] = _col(dv, j_d, f_d, 0)
-        # the coefficients the kernel used: interpolated in the diameter's cell like
-        # the diameter itself (equal to the laws at the diameter to second order)
-        with np.errstate(divide="ignore"):
-            out["k1"] = 1.0 / _col(dr, j_d, f_d, D_IK1)
-            out["k2"] = 1.0 / _col(dr, j_d, f_d, D_IK2)
-        out["v_c"] = _col(dr, j_d, f_d, D_VC)
-        if tables.pairs:
-            out["roughness_angle"] = (
-                tables.sampler.values[j_a, 0] + tables.pair.values[j_b, 0]
-            )
-        elif tables.random:
-            av = tables.sampler.values
-            out["roughness_angle"] = _col(av, j_a, f_a, 0)
-        else:
-            out["roughness_angle"] = np.zeros(n)
-        if areal:
-            out["out_of_plane_angle"] = _col(tables.sampler.rows, j_a, f_a, A_PERP)
-        else:
-            out["out_of_plane_angle"] = np.zeros(n)
-        out["speed"] = np.broadcast_to(speed, (n,)).copy()
-        return out
+        return _block_outputs(
+            plan, tables, n, speed, (j_d, f_d), (j_a, f_a, j_b), shadowed, facet,
+            (captured, rebound, e, one_e, mu, cot, e_m, mu_m),
+        )  # fmt: skip
+    return _block_accumulator(
+        n, n_shadowed, captured, rebound, rolling, e, e_m, mu_m, tables.areal, facet
+    )
 
+
+def _block_outputs(plan, tables, n, speed, diameter_cell, angle_cells, shadowed,
+                   facet, outcome):  # fmt: skip
+    """The per-impact outputs of one block (``store=True``): e_m, mu_m, the
+    fates, the lateral angle and every random input, NaN (or False) where a
+    facet was shadowed."""
+    j_d, f_d = diameter_cell
+    j_a, f_a, j_b = angle_cells
+    s_phi, c_phi, s_chi, c_chi, q_t, q_b = facet
+    captured, rebound, e, one_e, mu, cot, e_m, mu_m = outcome
+    areal = tables.areal
+    if areal:
+        psi = _lateral_angle(s_phi, c_phi, s_chi, c_chi, e, q_t, q_b)
+    else:  # in the plane of incidence: chi = 0
+        psi = lateral_angle_deg(s_phi, c_phi, 0.0, 1.0, cot, e, one_e, mu, 0.0)
+    out = {
+        "e_m": np.where(captured, 0.0, e_m),
+        "mu_m": np.where(captured, np.nan, mu_m),
+        "captured": captured,
+        "reimpact": rebound & (e_m < 0),
+        "lateral_angle_deg": np.where(captured, np.nan, psi),
+    }
+    if shadowed is not None:
+        full = {}
+        for k, v in out.items():
+            fill = False if v.dtype == bool else np.nan
+            a = np.full(n, fill, dtype=v.dtype)
+            a[~shadowed] = v
+            full[k] = a
+        out = full
+    out["shadowed"] = shadowed if shadowed is not None else np.zeros(n, bool)
+    dr = plan.diameters.rows
+    out["diameter"] = _col(plan.diameters.values, j_d, f_d, 0)
+    # the coefficients the kernel used: interpolated in the diameter's cell like
+    # the diameter itself (equal to the laws at the diameter to second order)
+    with np.errstate(divide="ignore"):
+        out["k1"] = 1.0 / _col(dr, j_d, f_d, D_IK1)
+        out["k2"] = 1.0 / _col(dr, j_d, f_d, D_IK2)
+    out["v_c"] = _col(dr, j_d, f_d, D_VC)
+    if tables.pairs:
+        out["roughness_angle"] = (
+            tables.sampler.values[j_a, 0] + tables.pair.values[j_b, 0]
+        )
+    elif tables.random:
+        out["roughness_angle"] = _col(tables.sampler.values, j_a, f_a, 0)
+    else:
+        out["roughness_angle"] = np.zeros(n)
+    if areal:
+        out["out_of_plane_angle"] = _col(tables.sampler.rows, j_a, f_a, A_PERP)
+    else:
+        out["out_of_plane_angle"] = np.zeros(n)
+    out["speed"] = np.broadcast_to(speed, (n,)).copy()
+    return out
+
+
+def _block_accumulator(n, n_shadowed, captured, rebound, rolling, e, e_m, mu_m,
+                       areal, facet):  # fmt: skip
+    """The block's accumulator: fates, moments and histograms of the rebounds'
+    e_m, mu_m and (on an areal surface) folded lateral angle."""
+    s_phi, c_phi, s_chi, c_chi, q_t, q_b = facet
     n_captured = int(np.count_nonzero(captured))
     if n_captured:
         e_r = e_m[rebound]
