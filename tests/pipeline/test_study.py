@@ -374,6 +374,7 @@ def test_big_sweeps_keep_ragged_histograms(rough_result, tmp_path, monkeypatch):
     import microimpact.engine.dataset as dataset
     from microimpact.engine.result import SimulationResult
 
+    dense = rough_result.dataset  # built (lazily) before the threshold is lowered
     monkeypatch.setattr(dataset, "DENSE_HISTOGRAM_CELLS", 10)
     sc, plan = rough_result.scenario, None
     from microimpact.engine.plan import build_plan
@@ -385,9 +386,7 @@ def test_big_sweeps_keep_ragged_histograms(rough_result, tmp_path, monkeypatch):
     assert ds.attrs["histograms"] == "ragged" and "e_hist" not in ds
     assert ds["e_hist_length"].attrs["sample_dimension"] == "e_hist_obs"
     stored = ds["e_hist_counts"].size + ds["mu_hist_counts"].size
-    dense_cells = (
-        rough_result.dataset["e_hist"].size + rough_result.dataset["mu_hist"].size
-    )
+    dense_cells = dense["e_hist"].size + dense["mu_hist"].size
     assert stored < dense_cells / 5  # proportional to the occupied bins
     ragged.to_files(tmp_path)
     back = open_result(tmp_path)

@@ -5,6 +5,7 @@ Messages backtick the parameter, show the bad value and say what is allowed.
 
 from __future__ import annotations
 
+import contextlib
 import difflib
 import math
 import numbers
@@ -59,11 +60,35 @@ def did_you_mean(word, choices) -> str:
 
 
 def check_choice(x, name: str, choices) -> str:
-    """Raise ``ValueError`` unless `x` is one of `choices`."""
+    """Raise ``ValueError`` unless `x` is one of `choices` (with a "did you mean")."""
     if x not in choices:
         allowed = ", ".join(repr(c) for c in choices)
-        raise ValueError(f"`{name}` must be one of {allowed}; got {x!r}.")
+        raise ValueError(
+            f"`{name}` must be one of {allowed}; got {x!r}{did_you_mean(x, choices)}."
+        )
     return x
+
+
+def field_message(exc) -> str:
+    """The message of a ``check_*`` error without its leading backticked name and
+    final period: ``"must be an integer >= 1; got 0"``, for an error that names
+    the field another way (a scenario file's key path, a CLI flag)."""
+    text = str(exc)
+    if text.startswith("`") and "` " in text:
+        text = text.split("` ", 1)[1]
+    return text[:-1] if text.endswith(".") else text
+
+
+@contextlib.contextmanager
+def as_field_error(field: str, error, **kwargs):
+    """Turn the ``ValueError``/``TypeError`` of a ``check_*`` call into
+    ``error(message, field=field, **kwargs)``: the same words, the field named the
+    caller's way (one validation family for arguments, scenario objects and
+    files)."""
+    try:
+        yield
+    except (TypeError, ValueError) as exc:
+        raise error(field_message(exc), field=field, **kwargs) from None
 
 
 def check_scalar(

@@ -10,7 +10,7 @@ import numbers
 import re
 from pathlib import Path
 
-from .._core.validation import did_you_mean
+from .._core.validation import as_field_error, check_choice, check_int, did_you_mean
 from ..errors import InputError, ScenarioError, _one_line
 from ..units import LENGTH_UNITS
 
@@ -262,9 +262,8 @@ class _Ctx:
         return self.number(table[key], _join(where, key), **kw)
 
     def integer(self, value, key, *, low=0):
-        if isinstance(value, bool) or not isinstance(value, int) or value < low:
-            raise self.error(key, f"must be an integer >= {low}; got {_show(value)}")
-        return int(value)
+        with as_field_error(key, ScenarioError, source=self.source):
+            return check_int(value, key, minimum=low)
 
     def string(self, value, key):
         if not isinstance(value, str) or not value.strip():
@@ -275,13 +274,8 @@ class _Ctx:
         return value
 
     def choice(self, value, key, options):
-        if value not in options:
-            raise self.error(
-                key,
-                f"must be one of {', '.join(repr(o) for o in options)}; "
-                f"got {_show(value)}{did_you_mean(value, options)}",
-            )
-        return value
+        with as_field_error(key, ScenarioError, source=self.source):
+            return check_choice(value, key, options)
 
     def numbers(self, value, key, *, low=None, strict=False, minimum=1):
         if not isinstance(value, list):

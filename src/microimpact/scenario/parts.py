@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from .._core.validation import check_scalar
+from .._core.validation import as_field_error, check_choice, check_int, check_scalar
 from ..errors import ScenarioError
 
 __all__ = [
@@ -114,20 +114,13 @@ def _positive_tuple(values, name, *, lo=0.0, hi=math.inf, hi_inclusive=False):
 
 
 def _choice(value, field, options):
-    if value not in options:
-        raise ScenarioError(
-            f"must be one of {', '.join(repr(o) for o in options)}; got {value!r}",
-            field=field,
-        )
-    return value
+    with as_field_error(field, ScenarioError):
+        return check_choice(value, field, options)
 
 
 def _integer(value, field, low):
-    if isinstance(value, bool) or not isinstance(value, int | np.integer):
-        raise ScenarioError(f"must be an integer >= {low}; got {value!r}", field=field)
-    if value < low:
-        raise ScenarioError(f"must be an integer >= {low}; got {value!r}", field=field)
-    return int(value)
+    with as_field_error(field, ScenarioError):
+        return check_int(value, field, minimum=low)
 
 
 def _number(value, field, *, low, high, open_=False, open_low=False):
