@@ -374,3 +374,34 @@ def test_run_closed_before_its_first_merge_resumes_from_nothing(tmp_path):
     fp = {"seed": "1", "samples": "s", "scenario": "x"}
     ckpt.save(path, fp, {})
     assert ckpt.load(path, fp) == {}
+
+
+def test_keyed_array_checkpoints_keep_what_they_were_given(tmp_path):
+    """The wall law keeps its finished diameters through the engine's checkpoint
+    layer (issue 20: one resume mechanism): arrays back as written, another
+    fingerprint or a damaged file refused with its reason, no file is None."""
+    from microimpact.engine.checkpoint import (
+        CheckpointMismatch,
+        load_arrays,
+        save_arrays,
+    )
+
+    path = tmp_path / "d.npz"
+    assert load_arrays(path, "fp") is None
+    arrays = {
+        "e_n": np.linspace(0, 1, 7),
+        "counts": np.arange(3),
+        "seed": np.array("9"),
+    }
+    save_arrays(path, "fp", arrays)
+    back = load_arrays(path, "fp")
+    assert set(back) == set(arrays)
+    for k, v in arrays.items():
+        np.testing.assert_array_equal(back[k], v)
+    with pytest.raises(CheckpointMismatch) as err:
+        load_arrays(path, "another build")
+    assert err.value.reason == "scenario"
+    path.write_bytes(path.read_bytes()[:40])
+    with pytest.raises(CheckpointMismatch) as err:
+        load_arrays(path, "fp")
+    assert err.value.reason == "corrupt"

@@ -133,6 +133,13 @@ def save(path, fingerprint: dict, state: dict) -> int:
             flat = flat.astype(np.int32)
         arrays[f"{name}_counts"] = flat
 
+    return _write_arrays(path, arrays)
+
+
+def _write_arrays(path, arrays: dict) -> int:
+    """Write `arrays` as an ``.npz`` atomically and durably; returns its size."""
+    path = Path(path)
+
     def write(tmp):
         with open(tmp, "wb") as f:
             # an .npz (np.load reads it) compressed at zlib level 1: 3x faster to
@@ -148,6 +155,50 @@ def save(path, fingerprint: dict, state: dict) -> int:
 
     atomic_write(path, write)
     return path.stat().st_size
+
+
+def save_arrays(path, fingerprint: str, arrays: dict) -> int:
+    """Keep finished work that is not a run's accumulators (a wall law's finished
+    diameters): `arrays` (name -> ndarray) with the format version and
+    `fingerprint` (what the work depends on), written as a run's checkpoint is:
+    atomically and durably. Returns the file's size [bytes]."""
+    data = {
+        "format_version": np.array(FORMAT_VERSION),
+        "fingerprint": np.array(str(fingerprint)),
+    }
+    for name, value in arrays.items():
+        data[f"array_{name}"] = np.asarray(value)
+    return _write_arrays(path, data)
+
+
+def load_arrays(path, fingerprint: str) -> dict | None:
+    """The arrays :func:`save_arrays` kept in `path`; None if there is no file.
+
+    Raises :class:`CheckpointMismatch` (reason ``"format"``, ``"scenario"`` for
+    another fingerprint, or ``"corrupt"``) as :func:`load` does."""
+    path = Path(path)
+    if not path.exists():
+        return None
+    try:
+        with np.load(path) as z:
+            if "format_version" not in z.files or "fingerprint" not in z.files:
+                raise CheckpointMismatch("format", "not a keyed-array checkpoint")
+            version = int(z["format_version"])
+            if version != FORMAT_VERSION:
+                raise CheckpointMismatch(
+                    "format", f"format {version}, this version reads {FORMAT_VERSION}"
+                )
+            if str(z["fingerprint"]) != str(fingerprint):
+                raise CheckpointMismatch("scenario", "another build's work")
+            return {
+                k.removeprefix("array_"): z[k]
+                for k in z.files
+                if k.startswith("array_")
+            }
+    except CheckpointMismatch:
+        raise
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
+        raise CheckpointMismatch("corrupt", f"{type(exc).__name__}: {exc}") from None
 
 
 def load(path, fingerprint: dict) -> dict | None:

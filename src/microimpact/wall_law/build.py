@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import json
 import math
 import shutil
 import time
@@ -31,10 +30,10 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
-from .._core.files import atomic_write
 from .._core.json import dumps
 from .._core.progress import Progress
 from ..engine import _compiled
+from ..engine.checkpoint import CheckpointMismatch, load_arrays, save_arrays
 from ..engine.kernel import atan2_deg, simulate_specs_impacts
 from ..engine.montecarlo import iter_point_samples
 from ..engine.parallel import cap_workers, process_pool
@@ -363,39 +362,38 @@ def _results(plan, scenario, spec, samples, workers, executor, indices):
 
 
 class _Partial:
-    """Finished diameters of an interrupted build, one ``.npz`` per diameter in a
-    folder; a re-run with the same scenario, nodes and seed loads them instead of
-    simulating them again. The folder's ``meta.json`` holds the fingerprint (and
-    the entropy drawn for a scenario without a seed, so that the re-run continues
-    the same table)."""
+    """Finished diameters of an interrupted build, kept as the engine keeps a
+    run's finished work (:func:`~microimpact.engine.checkpoint.save_arrays`: one
+    fingerprinted, atomically written file per diameter in a folder); a re-run
+    with the same scenario, nodes and seed loads them instead of simulating them
+    again. The folder's ``build.npz`` holds the entropy drawn for a scenario
+    without a seed, so that the re-run continues the same table. Another build's
+    files, or unreadable ones, are discarded."""
 
     def __init__(self, folder, fingerprint: str):
-
         self.folder = Path(folder)
         self.fingerprint = fingerprint
         #: The entropy of the interrupted build, or None for a fresh one.
         self.entropy = None
         try:
-            old = json.loads((self.folder / "meta.json").read_text())
-            if old.get("fingerprint") == fingerprint:
-                self.entropy = int(old["entropy"])
-        except (OSError, ValueError, TypeError, KeyError, AttributeError):
+            meta = load_arrays(self.folder / "build.npz", fingerprint)
+            if meta is not None:
+                self.entropy = int(str(meta["entropy"]))
+        except (CheckpointMismatch, KeyError, ValueError):
             pass
         if self.entropy is None and self.folder.exists():
             shutil.rmtree(self.folder)  # another build's, or unreadable
 
     def start(self, entropy: int) -> None:
         """Record the build's entropy (a fresh build only)."""
-
         if self.entropy is not None:
             return
         self.entropy = entropy
         self.folder.mkdir(parents=True, exist_ok=True)
-        atomic_write(
-            self.folder / "meta.json",
-            lambda t: Path(t).write_text(
-                json.dumps({"fingerprint": self.fingerprint, "entropy": str(entropy)})
-            ),
+        save_arrays(
+            self.folder / "build.npz",
+            self.fingerprint,
+            {"entropy": np.array(str(entropy))},
         )
 
     def _file(self, j):
@@ -403,18 +401,12 @@ class _Partial:
 
     def load(self, j):
         try:
-            with np.load(self._file(j)) as f:
-                return {k: f[k] for k in f.files}
-        except (OSError, ValueError, EOFError):
-            return None
+            return load_arrays(self._file(j), self.fingerprint)
+        except CheckpointMismatch:
+            return None  # simulated again
 
     def save(self, j, arrays):
-
-        def write(tmp):
-            with open(tmp, "wb") as fh:
-                np.savez(fh, **arrays)
-
-        atomic_write(self._file(j), write)
+        save_arrays(self._file(j), self.fingerprint, arrays)
 
     def remove(self):
         shutil.rmtree(self.folder, ignore_errors=True)
