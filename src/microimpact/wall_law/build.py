@@ -20,11 +20,11 @@ diameter, and the seed reproduces the table bit for bit for any worker count.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
 import math
 import shutil
 import time
-from concurrent.futures import ThreadPoolExecutor, as_completed
 from pathlib import Path
 
 import numpy as np
@@ -36,7 +36,7 @@ from ..engine import _compiled
 from ..engine.checkpoint import CheckpointMismatch, load_arrays, save_arrays
 from ..engine.kernel import atan2_deg, simulate_specs_impacts
 from ..engine.montecarlo import iter_point_samples
-from ..engine.parallel import cap_workers, process_pool
+from ..engine.parallel import cap_workers, map_tasks
 from ..engine.plan import ArealSampler, build_plan, diameter_sampler, resolve_entropy
 from ..errors import ScenarioError
 from ..population.distributions import monodisperse
@@ -304,61 +304,21 @@ def _diameter_task(plan, scenario, spec, samples, j):
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
 
-_WORKER: dict = {}
-
-
-def _init_worker(plan, scenario, spec, samples):
-    _WORKER.update(plan=plan, scenario=scenario, spec=spec, samples=samples)
-
-
-def _worker_task(j):
-    w = _WORKER
-    return _diameter_task(w["plan"], w["scenario"], w["spec"], w["samples"], j)
-
-
 def _results(plan, scenario, spec, samples, workers, executor, indices):
-    """Yield ``(j, arrays)`` for the diameter indices `indices`, as they finish
-    (in index order with an `executor`)."""
-    if not indices:
-        return
-    if executor is not None:
-        args = (plan, scenario, spec, samples)
-        futures = {j: executor.submit(_diameter_task, *args, j) for j in indices}
-        for j, f in futures.items():
-            yield j, f.result()
-        return
-    if workers <= 1 or len(indices) == 1:
-        for j in indices:
-            yield j, _diameter_task(plan, scenario, spec, samples, j)
-        return
-    if plan.kernel == "compiled":  # it frees the GIL, as do NumPy's sorts
-        with ThreadPoolExecutor(min(workers, len(indices))) as pool:
-            futures = {
-                pool.submit(_diameter_task, plan, scenario, spec, samples, j): j
-                for j in indices
-            }
-            try:
-                for f in as_completed(futures):
-                    yield futures[f], f.result()
-            except BaseException:
-                for f in futures:
-                    f.cancel()
-                raise
-        return
-
-    with process_pool(
-        min(workers, len(indices)),
-        initializer=_init_worker,
-        initargs=(plan, scenario, spec, samples),
-    ) as pool:
-        futures = {pool.submit(_worker_task, j): j for j in indices}
-        try:
-            for f in as_completed(futures):
-                yield futures[f], f.result()
-        except BaseException:
-            for f in futures:
-                f.cancel()
-            raise
+    """Yield ``(j, arrays)`` for the diameter indices `indices`, in index order,
+    spread as every engine caller spreads work
+    (:func:`~microimpact.engine.parallel.map_tasks`: the executor, else threads
+    where the compiled kernel frees the GIL, as do NumPy's sorts, else
+    processes)."""
+    task = functools.partial(_diameter_task, plan, scenario, spec, samples)
+    results = map_tasks(
+        task,
+        indices,
+        workers=workers,
+        executor=executor,
+        threads=plan.kernel == "compiled",
+    )
+    yield from zip(indices, results, strict=True)
 
 
 class _Partial:
