@@ -747,15 +747,7 @@ def _read_any(
             )
         return _read_x3p(path, meta=meta)
     if suffix not in TEXT_SUFFIXES:
-        return _profiles_of(
-            read_instrument(
-                path,
-                want="profiles",
-                x_unit=explicit[0],
-                z_unit=explicit[1],
-                dx_um=dx_um,
-            )
-        )
+        return _instrument_profiles(path, explicit, dx_um, None)
     try:
         scans, cols, comments = _parse_text(
             path,
@@ -912,9 +904,10 @@ def read_profile(
     return profiles[0]
 
 
-def _instrument_profiles(path, explicit, dx_um, reader):
-    """The profiles of an instrument file, read by SurfaceTopography with the
-    units given (`explicit`: x and z units, or None) and `dx_um`."""
+def _instrument_profiles(path, explicit, dx_um, reader=None):
+    """The profiles of an instrument file, read by SurfaceTopography (its
+    `reader`, if already opened) with the units given (`explicit`: x and z
+    units, or None) and `dx_um`."""
     return _profiles_of(
         read_instrument(
             path,
