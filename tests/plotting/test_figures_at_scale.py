@@ -53,3 +53,47 @@ def test_distributions_take_a_speed_with_rebounds(forty_speeds):
         .all()
     )
     assert v > s["speed_m_s"].min()
+
+
+def test_the_distribution_speed_can_be_chosen(forty_speeds, tmp_path, monkeypatch):
+    """[outputs] distribution_speed_m_s (and run --distribution-speed-m-s) choose
+    the swept speed of Figs. 9-10; one the sweep does not have is the user's
+    error, before the run."""
+    import microimpact.pipeline.study as study_module
+    from microimpact.cli import main
+    from microimpact.errors import InputError
+    from microimpact.pipeline.figures import figure_caption
+
+    v = float(np.unique(forty_speeds.summary["speed_m_s"])[30])
+    assert distribution_speed(forty_speeds, v) == v
+    assert f"{v:g} m s⁻¹" in figure_caption(
+        "distributions_10deg", forty_speeds, distribution_speed_m_s=v
+    )
+    with pytest.raises(InputError, match="not a swept speed"):
+        distribution_speed(forty_speeds, 123.0)
+
+    def no_run(*a, **k):
+        raise AssertionError("the engine ran")
+
+    monkeypatch.setattr(study_module, "run", no_run)
+    toml = tmp_path / "s.toml"
+    toml.write_text(
+        "samples = 100\n[outputs]\ndistribution_speed_m_s = 7.0\n[particles]\n"
+        'distribution = "normal"\nmean_um = 50\nstd_um = 5\n[coefficients]\n'
+        "k1 = 4.0\nk2 = 0.05\nv_c = 0.2\n[sweep]\nspeed_m_s = [0.5, 1.0]\n"
+    )
+    assert mi.Study(toml).outputs.distribution_speed_m_s == 7.0
+    assert main(["run", str(toml), "--out", str(tmp_path / "o")]) == 2
+    assert (
+        main(
+            [
+                "run",
+                str(toml),
+                "--out",
+                str(tmp_path / "p"),
+                "--distribution-speed-m-s",
+                "3",
+            ]
+        )
+        == 2
+    )

@@ -23,6 +23,13 @@ def cli_parse(sp):
         "precision statistic (default capture_fraction)",
     )
     sp.add_argument("--no-figures", action="store_true", help="write no figures")
+    sp.add_argument(
+        "--distribution-speed-m-s",
+        type=c.positive_float,
+        metavar="V",
+        help="the swept speed of the distribution figures (default: the slowest "
+        "swept speed at which particles rebound)",
+    )
     c.add_run_options(sp)
 
 
@@ -77,4 +84,6 @@ def _apply_flags(args, study):
         outputs = replace(outputs, figures=args.formats)
     if args.no_figures:
         outputs = replace(outputs, figures=())
+    if args.distribution_speed_m_s is not None:
+        outputs = replace(outputs, distribution_speed_m_s=args.distribution_speed_m_s)
     return scenario, outputs

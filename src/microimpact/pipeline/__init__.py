@@ -1,6 +1,7 @@
 """The pipeline of `microimpact run`: study, output folder, figures, report."""
 
 from .figures import (
+    distribution_speed,
     figure_caption,
     figures_for_result,
     result_figures,
@@ -30,6 +31,7 @@ __all__ = [
     "OutputFolderBusy",
     "Outputs",
     "Study",
+    "distribution_speed",
     "figure_caption",
     "figures_for_result",
     "reproduce",

@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..analysis.compare import compare
+from ..errors import InputError
 from ..io.experiments import combine_experiments
 from ..plotting.areal import CAPTION, has_areal_surface, plot_profile_vs_areal
 from ..plotting.comparison import plot_comparison
@@ -32,12 +33,31 @@ def _angle_tag(a: float) -> str:
     return f"{a:g}".replace(".", "p") + "deg"
 
 
-def distribution_speed(result) -> float:
-    """The speed of the distribution figures: the slowest swept speed at which the
-    rough surfaces (every surface, if none is rough) have rebounds at every swept
-    angle, else the one with the most rebounds (a sweep that starts below capture
-    drew empty panels at its slowest speed)."""
+def distribution_speed(result, wanted=None) -> float:
+    """The speed of the distribution figures: `wanted` (one of the swept speeds),
+    else the slowest swept speed at which the rough surfaces (every surface, if
+    none is rough) have rebounds at every swept angle, else the one with the most
+    rebounds (a sweep that starts below capture drew empty panels at its slowest
+    speed).
+
+    Raises
+    ------
+    InputError
+        `wanted` is not a swept speed (the swept ones are named).
+    """
     summary = _summary(result)
+    if wanted is not None:
+        swept = np.unique(summary["speed_m_s"].to_numpy(dtype=float))
+        hit = swept[np.isclose(swept, float(wanted), rtol=1e-9, atol=0.0)]
+        if not hit.size:
+            shown = ", ".join(f"{v:g}" for v in swept[:12])
+            more = ", ..." if swept.size > 12 else ""
+            raise InputError(
+                f"{float(wanted):g} m/s is not a swept speed; allowed: one of "
+                f"{shown}{more}",
+                field="distribution_speed_m_s",
+            )
+        return float(hit[0])
     names = [n for n in dict.fromkeys(summary["surface"]) if not _smooth(result, n)]
     rows = summary[summary["surface"].isin(names)] if names else summary
     rebounds = rows["e_rebound_mean"].notna().groupby(rows["speed_m_s"]).all()
@@ -48,7 +68,7 @@ def distribution_speed(result) -> float:
     return float(share.idxmax())
 
 
-def figure_caption(stem, result) -> str:
+def figure_caption(stem, result, *, distribution_speed_m_s=None) -> str:
     """Caption of the figure file `stem` (see :func:`figures_for_result`)."""
     sc = result.scenario
     conf = _conf_label(result)
@@ -85,9 +105,14 @@ def figure_caption(stem, result) -> str:
         a = stem.removeprefix("distributions_").removesuffix("deg").replace("p", ".")
         return (
             f"Frequency distributions of e_m and μ_m at θ = {a}°, "
-            f"{distribution_speed(result):g} m s⁻¹ (paper Figs. 9, 10; the slowest "
-            "swept speed at which particles rebound); rough surfaces only when "
-            "there are any."
+            f"{distribution_speed(result, distribution_speed_m_s):g} m s⁻¹ (paper "
+            "Figs. 9, 10"
+            + (
+                "; the slowest swept speed at which particles rebound"
+                if distribution_speed_m_s is None
+                else ""
+            )
+            + "); rough surfaces only when there are any."
         )
     if stem == "profile_vs_areal":
         return CAPTION
@@ -99,7 +124,7 @@ def figure_caption(stem, result) -> str:
     return stem.replace("_", " ")
 
 
-def result_figures(result, *, experiments=None):
+def result_figures(result, *, experiments=None, distribution_speed_m_s=None):
     """The figures that apply to `result`, made in memory.
 
     Returns a list of ``(stem, caption, Figure)``; see :func:`figures_for_result`
@@ -115,7 +140,15 @@ def result_figures(result, *, experiments=None):
 
     def add(stem, axes):
         fig = np.ravel(axes)[0].figure
-        out.append((stem, figure_caption(stem, result), fig))
+        out.append(
+            (
+                stem,
+                figure_caption(
+                    stem, result, distribution_speed_m_s=distribution_speed_m_s
+                ),
+                fig,
+            )
+        )
 
     if speeds.size >= 2 and np.isclose(angles, 90.0).any():
         add("capture", plot_capture(result, experiments=exp))
@@ -141,7 +174,7 @@ def result_figures(result, *, experiments=None):
                 plot_distributions(
                     result,
                     angle_deg=a,
-                    speed_m_s=distribution_speed(result),
+                    speed_m_s=distribution_speed(result, distribution_speed_m_s),
                     surface=rough or None,
                 ),
             )
@@ -153,7 +186,14 @@ def result_figures(result, *, experiments=None):
     return out
 
 
-def figures_for_result(result, out_dir, *, formats=("png", "pdf"), experiments=None):
+def figures_for_result(
+    result,
+    out_dir,
+    *,
+    formats=("png", "pdf"),
+    experiments=None,
+    distribution_speed_m_s=None,
+):
     """Make and save every figure that applies to `result`.
 
     ===============================  =============================================
@@ -181,11 +221,16 @@ def figures_for_result(result, out_dir, *, formats=("png", "pdf"), experiments=N
     formats : sequence of {"png", "pdf", "svg"}
     experiments : DataFrame, path or sequence of them, optional
         Experimental points to overlay and compare (default: none).
+    distribution_speed_m_s : float, optional
+        The swept speed of the distribution figures (default:
+        :func:`distribution_speed`'s choice).
 
     Returns
     -------
     list of pathlib.Path
         Every file written, in the order of the table above.
     """
-    figures = result_figures(result, experiments=experiments)
+    figures = result_figures(
+        result, experiments=experiments, distribution_speed_m_s=distribution_speed_m_s
+    )
     return save_figures([(stem, fig) for stem, _, fig in figures], out_dir, formats)

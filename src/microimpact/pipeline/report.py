@@ -560,7 +560,7 @@ def _statements_section(results) -> str:
     )
 
 
-def _result_section(result, k, csv_href, experiments, saved) -> str:
+def _result_section(result, k, csv_href, experiments, saved, speeds=None) -> str:
     # deferred: matplotlib loads only when a figure is drawn
     import matplotlib.pyplot as plt
 
@@ -583,9 +583,16 @@ def _result_section(result, k, csv_href, experiments, saved) -> str:
     if saved is not None and not pngs and len(saved):
         saved = None  # figure files, but none a PNG (e.g. SVG only): draw them here
     if saved is not None:  # figure files already written for this result
-        figs = [(figure_caption(p.stem, result), p) for p in pngs]
+        v = (speeds or {}).get(result.scenario.name)
+        figs = [
+            (figure_caption(p.stem, result, distribution_speed_m_s=v), p) for p in pngs
+        ]
     else:
-        made = result_figures(result, experiments=exp)
+        made = result_figures(
+            result,
+            experiments=exp,
+            distribution_speed_m_s=(speeds or {}).get(result.scenario.name),
+        )
         stems = {id(f): stem for stem, _, f in made}
         figs = [(c, f) for _, c, f in made]
     # deferred: matplotlib loads only when a figure is drawn
@@ -696,6 +703,7 @@ def write_report(
     experiments=None,
     csv_paths=None,
     statements=False,
+    distribution_speeds=None,
 ):
     """Write one self-contained HTML report for one or several results.
 
@@ -728,6 +736,9 @@ def write_report(
         Open with the table of the paper's statements beside ours
         (:mod:`microimpact.analysis.statements`; for the paper's presets, as
         ``microimpact reproduce`` writes it).
+    distribution_speeds : dict, optional
+        Scenario name -> the swept speed [m/s] of its distribution figures
+        (default: the slowest swept speed at which particles rebound).
 
     Returns
     -------
@@ -772,7 +783,14 @@ def write_report(
                 saved[n] = extra_figures.pop(n)
     extra = _extra_items(extra_figures)  # validated before any drawing
     sections = [
-        _result_section(r, k, hrefs[k], experiments, saved.get(r.scenario.name))
+        _result_section(
+            r,
+            k,
+            hrefs[k],
+            experiments,
+            saved.get(r.scenario.name),
+            distribution_speeds,
+        )
         for k, r in enumerate(results)
     ]
     extra_html = _extra_figures_html(extra)

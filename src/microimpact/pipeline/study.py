@@ -22,6 +22,7 @@ the folder are never touched.
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 from pathlib import Path
 
@@ -29,6 +30,7 @@ from .._core.validation import check_subset
 from ..analysis.compare import check_experiments
 from ..engine.checkpoint import Checkpoint
 from ..engine.montecarlo import run
+from ..errors import InputError
 from ..io.experiments import combine_experiments
 from ..plotting._style import use_agg
 from ..plotting.results import save_figures
@@ -112,6 +114,16 @@ class Study:
         exp = self.experiments()  # a bad experiments file fails before the run
         if exp is not None:  # and so does one the sweep cannot serve
             check_experiments(self.scenario, exp)
+        wanted = self.outputs.distribution_speed_m_s
+        if wanted is not None and not any(
+            math.isclose(wanted, v, rel_tol=1e-9) for v in self.scenario.speeds_m_s
+        ):  # a figure setting the sweep cannot serve fails before the run too
+            shown = ", ".join(f"{v:g}" for v in self.scenario.speeds_m_s[:12])
+            raise InputError(
+                f"{wanted:g} m/s is not a swept speed; allowed: one of {shown}"
+                + (", ..." if len(self.scenario.speeds_m_s) > 12 else ""),
+                field="distribution_speed_m_s",
+            )
         self.result = run(self.scenario, **options)
         return self
 
@@ -208,7 +220,11 @@ class Study:
         use_agg()
         exp = self.experiments()
         paths = figures_for_result(
-            self.result, folder.path, formats=self.outputs.figures, experiments=exp
+            self.result,
+            folder.path,
+            formats=self.outputs.figures,
+            experiments=exp,
+            distribution_speed_m_s=self.outputs.distribution_speed_m_s,
         )
         paths += save_figures(
             [(name, fig) for name, _caption, fig in input_figures(self.result)],
@@ -229,6 +245,7 @@ class Study:
                 extra_figures={name: figures} if figures is not None else None,
                 experiments={name: self.experiments()},
                 csv_paths=[csv] if csv.exists() else None,
+                distribution_speeds={name: self.outputs.distribution_speed_m_s},
             )
         )
 

@@ -337,6 +337,13 @@ def _outputs(ctx: _Ctx, data):
                 "outputs.report", f"must be true or false; got {_show(t['report'])}"
             )
         kw["report"] = t["report"]
+    if "distribution_speed_m_s" in t:
+        kw["distribution_speed_m_s"] = ctx.number(
+            t["distribution_speed_m_s"],
+            "outputs.distribution_speed_m_s",
+            low=0,
+            strict=True,
+        )
     exp = t.get("experiments", [])
     if isinstance(exp, str):
         kw["experiments"] = (ctx.path(exp, "outputs.experiments"),)

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from .._core.formats import DEFAULT_FIGURE_FORMATS, FIGURE_FORMATS
+from .._core.validation import check_scalar
 
 __all__ = ["Outputs"]
 
@@ -30,11 +31,15 @@ class Outputs:
     experiments : sequence of path
         Experiment CSV files (``microimpact.io.experiments.read_experiments``
         format) to draw in the figures and compare with in the report.
+    distribution_speed_m_s : float, optional
+        The swept speed [m/s] of the distribution figures (paper Figs. 9, 10);
+        default: the slowest swept speed at which particles rebound.
     """
 
     figures: tuple = DEFAULT_FIGURE_FORMATS
     report: bool = True
     experiments: tuple = ()
+    distribution_speed_m_s: float | None = None
 
     def __post_init__(self):
         figures = self.figures
@@ -56,5 +61,9 @@ class Outputs:
         exps = self.experiments
         if isinstance(exps, str | os.PathLike):
             exps = (exps,)
+        v = self.distribution_speed_m_s
+        if v is not None:
+            v = check_scalar(v, "distribution_speed_m_s", minimum=0, strict=True)
+            object.__setattr__(self, "distribution_speed_m_s", v)
         object.__setattr__(self, "figures", figures)
         object.__setattr__(self, "experiments", tuple(Path(e) for e in exps))
