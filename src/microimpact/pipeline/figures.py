@@ -33,6 +33,27 @@ def _angle_tag(a: float) -> str:
     return f"{a:g}".replace(".", "p") + "deg"
 
 
+def swept_speed(speeds, wanted) -> float:
+    """The swept speed among `speeds` [m/s] that is `wanted` (to 1e-9 relative).
+
+    Raises
+    ------
+    InputError
+        `wanted` is not among them (the swept ones are named).
+    """
+    swept = np.unique(np.asarray(speeds, dtype=float))
+    hit = swept[np.isclose(swept, float(wanted), rtol=1e-9, atol=0.0)]
+    if not hit.size:
+        shown = ", ".join(f"{v:g}" for v in swept[:12])
+        more = ", ..." if swept.size > 12 else ""
+        raise InputError(
+            f"{float(wanted):g} m/s is not a swept speed; allowed: one of "
+            f"{shown}{more}",
+            field="distribution_speed_m_s",
+        )
+    return float(hit[0])
+
+
 def distribution_speed(result, wanted=None) -> float:
     """The speed of the distribution figures: `wanted` (one of the swept speeds),
     else the slowest swept speed at which the rough surfaces (every surface, if
@@ -47,17 +68,7 @@ def distribution_speed(result, wanted=None) -> float:
     """
     summary = _summary(result)
     if wanted is not None:
-        swept = np.unique(summary["speed_m_s"].to_numpy(dtype=float))
-        hit = swept[np.isclose(swept, float(wanted), rtol=1e-9, atol=0.0)]
-        if not hit.size:
-            shown = ", ".join(f"{v:g}" for v in swept[:12])
-            more = ", ..." if swept.size > 12 else ""
-            raise InputError(
-                f"{float(wanted):g} m/s is not a swept speed; allowed: one of "
-                f"{shown}{more}",
-                field="distribution_speed_m_s",
-            )
-        return float(hit[0])
+        return swept_speed(summary["speed_m_s"], wanted)
     names = [n for n in dict.fromkeys(summary["surface"]) if not _smooth(result, n)]
     rows = summary[summary["surface"].isin(names)] if names else summary
     rebounds = rows["e_rebound_mean"].notna().groupby(rows["speed_m_s"]).all()

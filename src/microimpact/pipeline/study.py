@@ -22,7 +22,6 @@ the folder are never touched.
 
 from __future__ import annotations
 
-import math
 from dataclasses import replace
 from pathlib import Path
 
@@ -30,14 +29,13 @@ from .._core.validation import check_subset
 from ..analysis.compare import check_experiments
 from ..engine.checkpoint import Checkpoint
 from ..engine.montecarlo import run
-from ..errors import InputError
 from ..io.experiments import combine_experiments
 from ..plotting._style import use_agg
 from ..plotting.results import save_figures
 from ..scenario.file import PAPER_PRESETS
 from ..scenario.outputs import Outputs
 from ..scenario.scenario import Scenario, read_scenario
-from .figures import figures_for_result
+from .figures import figures_for_result, swept_speed
 from .folder import CHECKPOINT_NAME, OutputFolder
 from .report import input_figures, write_report
 
@@ -115,15 +113,8 @@ class Study:
         if exp is not None:  # and so does one the sweep cannot serve
             check_experiments(self.scenario, exp)
         wanted = self.outputs.distribution_speed_m_s
-        if wanted is not None and not any(
-            math.isclose(wanted, v, rel_tol=1e-9) for v in self.scenario.speeds_m_s
-        ):  # a figure setting the sweep cannot serve fails before the run too
-            shown = ", ".join(f"{v:g}" for v in self.scenario.speeds_m_s[:12])
-            raise InputError(
-                f"{wanted:g} m/s is not a swept speed; allowed: one of {shown}"
-                + (", ..." if len(self.scenario.speeds_m_s) > 12 else ""),
-                field="distribution_speed_m_s",
-            )
+        if wanted is not None:  # a figure setting the sweep cannot serve, too
+            swept_speed(self.scenario.speeds_m_s, wanted)
         self.result = run(self.scenario, **options)
         return self
 
