@@ -63,7 +63,7 @@ from .._core.toml import to_toml
 from ..engine.parallel import (
     cap_workers,
     map_tasks,
-    scenario_releases_gil,
+    runs_release_gil,
 )
 from ..engine.statistics import z_value
 from ..errors import InputError
@@ -225,11 +225,11 @@ class _Model:
         return t["sim_mean"].to_numpy(float), t["sim_se"].to_numpy(float)
 
 
-def _mapper(workers, executor, scenario):
-    """``(map, close)``: `map(func, items)` spreads model runs as every engine
-    caller does (:func:`~microimpact.engine.parallel.map_tasks`: the executor,
-    else threads where the runs free the GIL, else processes)."""
-    threads = scenario_releases_gil(scenario)
+def _mapper(workers, executor):
+    """``map(func, items)`` spreading model runs as every engine caller does
+    (:func:`~microimpact.engine.parallel.map_tasks`: the executor, else threads
+    where the runs free the GIL, else processes; a pool lives for one batch)."""
+    threads = runs_release_gil()
     workers = cap_workers(int(workers)) if executor is None else workers
 
     def mapper(func, items):
@@ -237,7 +237,7 @@ def _mapper(workers, executor, scenario):
             map_tasks(func, items, workers=workers, executor=executor, threads=threads)
         )
 
-    return mapper, None
+    return mapper
 
 
 # ---------------------------------------------------------------------- result
@@ -653,7 +653,8 @@ def calibrate(
         target is not used, so every run draws the same impacts).
     workers, executor :
         Model runs of a Jacobian (2 per parameter) and of a batch are mapped on
-        `executor` (anything with ``map``), else on a process pool of `workers`.
+        `executor` (anything with ``submit`` or ``map``), else on `workers`
+        threads (the compiled kernel) or processes.
     bootstrap : int, default 100
         Parametric bootstrap refits (0: none).
     confidence : float, default 0.95
@@ -704,7 +705,7 @@ def calibrate(
     smodel.seed = seed = int(seed)
     samples = smodel.samples
 
-    mapper, pool = _mapper(workers, executor, smodel.base)
+    mapper = _mapper(workers, executor)
     steps = Progress(progress, total=2 + bootstrap, unit="steps", desc="calibrate")
     try:
         model = _Model(smodel, exp, mapper)
@@ -741,8 +742,6 @@ def calibrate(
         runs = model.runs
     finally:
         steps.close()
-        if pool is not None:
-            pool.shutdown(wait=True, cancel_futures=True)
 
     calibrated = with_values(
         smodel.data, dict(zip(keys, x.tolist(), strict=True)), source=source

@@ -35,7 +35,7 @@ from .._core.validation import check_int, did_you_mean
 from ..engine.parallel import (
     cap_workers,
     map_tasks,
-    scenario_releases_gil,
+    runs_release_gil,
 )
 from ..errors import InputError, ScenarioError
 from ..plotting.sensitivity import plot_sensitivity
@@ -387,8 +387,7 @@ def _evaluate(model, rows, *, workers, executor, progress) -> np.ndarray:
     out = np.empty((len(rows), n_out))
     parallel = executor is not None or workers > 1
     chunks = _chunks(rows, workers if parallel else 1)
-    scenario = getattr(getattr(model, "model", None), "base", None)
-    threads = scenario is not None and scenario_releases_gil(scenario)
+    threads = isinstance(model, EngineModel) and runs_release_gil()
     results = map_tasks(
         model, chunks, workers=workers, executor=executor, threads=threads
     )

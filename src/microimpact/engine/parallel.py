@@ -207,12 +207,10 @@ def map_tasks(func, items, *, workers=1, executor=None, threads=False, in_flight
         pool.shutdown(wait=True, cancel_futures=True)
 
 
-def scenario_releases_gil(scenario) -> bool:
-    """Whether runs of `scenario` spend their time in the compiled kernel with the
-    GIL released (the compiled kernel installed and chosen: Monte Carlo and QMC,
-    profile and areal surfaces alike since issue 24), so that worker threads
-    serve them."""
-    del scenario  # every scenario runs on the kernel resolve_kernel() names
+def runs_release_gil() -> bool:
+    """Whether whole runs spend their time in the compiled kernel with the GIL
+    released (it is installed and chosen: every scenario runs on it since issue
+    24), so that worker threads serve them (:func:`releases_gil` for a plan)."""
     return resolve_kernel() == "compiled"
 
 
