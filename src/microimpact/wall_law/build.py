@@ -428,17 +428,14 @@ def build_wall_law(
     -------
     WallLaw
     """
-    if not isinstance(scenario, Scenario):
-        file = read_scenario(scenario)  # a path or a preset name, read once
-    elif spec is None and scenario.source is not None:
-        file = read_scenario(scenario.source)  # its [wall_law] table
-    else:
-        file = None
     source_text = None
-    if file is not None:
-        scenario = file.scenario if not isinstance(scenario, Scenario) else scenario
+    if not isinstance(scenario, Scenario):  # a file, path or preset name: read once
+        file = read_scenario(scenario)
+        scenario, source_text = file.scenario, file.text
         spec = file.wall_law if spec is None else spec
-        source_text = file.text
+    elif spec is None and scenario.source is not None:  # its file's [wall_law]
+        file = read_scenario(scenario.source)
+        spec, source_text = file.wall_law, file.text
     if spec is None:
         raise ScenarioError(
             "no wall-law nodes: give `spec=WallLawSpec(...)` or a [wall_law] table "
