@@ -62,8 +62,6 @@ class ScenarioModel:
         The file as read, at its own values.
     data : dict
         Its parsed data without the ``[sensitivity]`` table.
-    builds : int
-        Scenarios built so far (for tests and benchmarks: tables are built once).
     """
 
     def __init__(
@@ -88,7 +86,6 @@ class ScenarioModel:
             base.samples if samples is None else check_int(samples, "samples")
         )
         self.seed = base.seed if seed is None else seed
-        self.builds = 0
         self._base = self.scenario({})  # fills the cache with the file's tables
 
     def set_keys(self, keys):
@@ -119,7 +116,6 @@ class ScenarioModel:
         data = (
             with_values(self.data, values, source=self.source) if values else self.data
         )
-        self.builds += 1
         return scenario_file_from_dict(
             data, source=self.source, base_dir=self.base_dir, cache=self.cache
         ).scenario
