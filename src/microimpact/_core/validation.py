@@ -54,9 +54,14 @@ def check_int(x, name: str, *, minimum: int = 1) -> int:
 
 
 def did_you_mean(word, choices) -> str:
-    """``" (did you mean 'x'?)"`` for the closest of `choices` to `word`, or ``""``."""
-    close = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1)
-    return f" (did you mean {close[0]!r}?)" if close else ""
+    """``" (did you mean 'x'?)"`` for the closest of `choices` to `word`, or ``""``.
+
+    Words are compared as text, but the suggestion is the choice itself: a choice
+    ``None`` is suggested as ``None``, not as the string ``'None'``.
+    """
+    by_text = {str(c): c for c in choices}
+    close = difflib.get_close_matches(str(word), list(by_text), n=1)
+    return f" (did you mean {by_text[close[0]]!r}?)" if close else ""
 
 
 def check_choice(x, name: str, choices) -> str:
