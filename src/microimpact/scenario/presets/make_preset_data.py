@@ -22,7 +22,7 @@ which it published. This script writes documented stand-ins (see
 Diameters are rounded to 0.1 µm (a Phase Doppler analyser's resolution). Run from
 the repository root::
 
-    python src/microimpact/presets/make_preset_data.py
+    python src/microimpact/scenario/presets/make_preset_data.py
 """
 
 from __future__ import annotations
