@@ -389,3 +389,30 @@ def test_a_rejected_fit_warns_on_the_terminal(tmp_path, capsys):
         warnings.simplefilter("error", RuntimeWarning)
         ok = calibrate(small(), good, [STD], samples=2000, bootstrap=0, band_draws=0)
     assert ok.p_value >= 0.05
+
+
+def test_a_fit_starts_one_pool_and_gives_the_one_worker_answer(monkeypatch):
+    """Without the compiled kernel the runs go to worker processes: the whole fit
+    (steps, Jacobian batches, bootstrap) shares one pool, and its answer is the
+    one-worker answer bit for bit."""
+    import concurrent.futures
+
+    from microimpact.analysis import calibration
+
+    pools = []
+
+    def counting_pool(workers, **kwargs):  # threads stand in for processes
+        pools.append(workers)
+        return concurrent.futures.ThreadPoolExecutor(workers)
+
+    data = small()
+    exp = measured(data, {STD: 9.0}, seed=21)
+    one = calibrate(data, exp, [STD], seed=5, bootstrap=3, band_draws=0, workers=1)
+    monkeypatch.setattr(calibration, "runs_release_gil", lambda: False)
+    monkeypatch.setattr(calibration, "process_pool", counting_pool)
+    monkeypatch.setattr(calibration, "cap_workers", lambda w: w)
+    two = calibrate(data, exp, [STD], seed=5, bootstrap=3, band_draws=0, workers=2)
+    assert pools == [2]
+    assert two.info["model_runs"] > 3  # several batches went through that pool
+    np.testing.assert_array_equal(one.estimate, two.estimate)
+    np.testing.assert_array_equal(one.bootstrap, two.bootstrap)

@@ -44,12 +44,14 @@ identifiable: ``estimate`` None, with the reason.
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import math
 import os
 import re
 import warnings
 from collections.abc import Mapping, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -63,6 +65,7 @@ from .._core.toml import to_toml
 from ..engine.parallel import (
     cap_workers,
     map_tasks,
+    process_pool,
     runs_release_gil,
 )
 from ..engine.statistics import z_value
@@ -225,19 +228,32 @@ class _Model:
         return t["sim_mean"].to_numpy(float), t["sim_se"].to_numpy(float)
 
 
+@contextlib.contextmanager
 def _mapper(workers, executor):
-    """``map(func, items)`` spreading model runs as every engine caller does
+    """A ``map(func, items)`` spreading model runs as every engine caller does
     (:func:`~microimpact.engine.parallel.map_tasks`: the executor, else threads
-    where the runs free the GIL, else processes; a pool lives for one batch)."""
+    where the runs free the GIL, else processes), with one pool of our own for the
+    whole fit: the optimizer's steps, the Jacobian batches and the bootstrap share
+    it, so an install without the compiled kernel starts its worker processes once,
+    not once per batch. The pool is shut down when the fit ends (or fails)."""
     threads = runs_release_gil()
-    workers = cap_workers(int(workers)) if executor is None else workers
+    own = None
+    if executor is None:
+        workers = cap_workers(int(workers))
+        if workers > 1:
+            own = ThreadPoolExecutor(workers) if threads else process_pool(workers)
+            executor = own
 
     def mapper(func, items):
         return list(
             map_tasks(func, items, workers=workers, executor=executor, threads=threads)
         )
 
-    return mapper
+    try:
+        yield mapper
+    finally:
+        if own is not None:
+            own.shutdown(wait=True, cancel_futures=True)
 
 
 # ---------------------------------------------------------------------- result
@@ -705,9 +721,8 @@ def calibrate(
     smodel.seed = seed = int(seed)
     samples = smodel.samples
 
-    mapper = _mapper(workers, executor)
     steps = Progress(progress, total=2 + bootstrap, unit="steps", desc="calibrate")
-    try:
+    with _mapper(workers, executor) as mapper, steps:
         model = _Model(smodel, exp, mapper)
         y, s_exp, s_sim = _start(model, x0, exp_source)
         exp = model.exp
@@ -740,8 +755,6 @@ def calibrate(
         points = _points_table(model, sx, exp, y, s_exp, s_sim)
         steps.update()
         runs = model.runs
-    finally:
-        steps.close()
 
     calibrated = with_values(
         smodel.data, dict(zip(keys, x.tolist(), strict=True)), source=source
