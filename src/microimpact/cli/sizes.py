@@ -52,6 +52,13 @@ def cli_parse(sp):
         "value column's name)",
     )
     sp.add_argument(
+        "--sample",
+        default=None,
+        metavar="N|mean",
+        help="TSI AIM column export with several samples: the Sample # to read, or "
+        "'mean' for their mean",
+    )
+    sp.add_argument(
         "--density-kg-m3",
         type=c.positive_float,
         default=None,
@@ -107,6 +114,7 @@ def cli_action(args) -> int:
         values=args.values,
         column=column,
         unit=args.unit,
+        sample=args.sample,
         syntax="cli",
     )
     if meta["layout"] == "diameters":

@@ -13,7 +13,12 @@ OPC export (edges or midpoints with counts, dN/dlogDp, dM/dlogDp, ...).
 * no value column: **diameters**, raw values one per row
   (:func:`~microimpact.io.diameters.read_diameters`);
 * the two-row layout (edges row, counts row) of
-  :func:`~microimpact.io.diameters.read_histogram`: edges with counts.
+  :func:`~microimpact.io.diameters.read_histogram`: edges with counts;
+* a TSI AIM **column export** (metadata rows, then a ``Diameter Midpoint`` row and
+  one row per channel with one column per sample, then AIM's statistics rows):
+  the values from its ``Units`` and ``Weight`` rows (``dw/dlogDp`` + ``Number`` is
+  dN/dlogDp), the unit from its statistics rows (``Lower Size(nm)``), one sample
+  chosen by `sample` (or their mean). Windows-1252 text (AIM's ``cm³``) is read.
 
 Value columns are recognised by name: ``dN/dlogDp``, ``dN/dlnDp``, ``dN/dDp``,
 ``dM/dlogDp`` (also ``dW/dlogDp``), ``dV/dlogDp`` and the ``/dDp``, ``/dlnDp``
@@ -36,7 +41,15 @@ import re
 
 import numpy as np
 
-from .._core.files import SNIFF, delimiter_name, read_rows, resolve_column
+from .._core.files import (
+    SNIFF,
+    delimiter_name,
+    is_number,
+    read_lines,
+    read_rows,
+    resolve_column,
+    split_rows,
+)
 from .._core.validation import check_choice
 from ..errors import DataFormatError
 from ..population.binned import (
@@ -288,7 +301,14 @@ def _unit_of(path, header, cols, unit):
 
 
 def read_size_bins(
-    path, *, layout=None, values=None, column=None, unit=None, syntax="python"
+    path,
+    *,
+    layout=None,
+    values=None,
+    column=None,
+    unit=None,
+    sample=None,
+    syntax="python",
 ):
     """Read a binned size distribution (an instrument export).
 
@@ -307,6 +327,9 @@ def read_size_bins(
         The value column (header name or 0-based index) when there are several.
     unit : str, optional
         Length unit of the diameters (default: the header's, else µm).
+    sample : int, str or "mean", optional
+        For a TSI AIM column export holding several samples: the Sample # to read,
+        or ``"mean"`` for their mean (needed when there are several).
     syntax : {"python", "cli", "toml"}
         How the asking errors spell an option.
 
@@ -338,6 +361,18 @@ def read_size_bins(
             f"values {values!r} unknown; allowed: {', '.join(BIN_VALUES)}",
             source=path,
             field="values",
+        )
+    aim = _aim_rows(path) if layout in (None, "midpoints") else None
+    if aim is not None:
+        return _read_aim(
+            path, aim, values=values, sample=sample, unit=unit, syntax=syntax
+        )
+    if sample is not None:
+        raise DataFormatError(
+            "sample is for TSI AIM column exports (several samples side by side); "
+            "this file is not one",
+            source=path,
+            field="sample",
         )
     rows, delimiter = read_rows(path, delimiter=SNIFF, hint=_HINT)
     if not rows:
@@ -445,6 +480,193 @@ def read_size_bins(
     }
 
 
+# -- TSI AIM "column" exports -------------------------------------------------------
+_AIM_WEIGHT = {"number": "N", "mass": "M", "volume": "V"}
+_AIM_UNITS = {"dw/dlogdp": "d{}/dlogDp", "dw/ddp": "d{}/dDp", "dw": "d{}"}
+
+
+def _text_lines(path):
+    """(lines, encoding): UTF-8, else Windows-1252 (as AIM writes ``cm³``)."""
+    try:
+        return read_lines(path, hint=_HINT), "utf-8"
+    except DataFormatError as exc:
+        if "not a UTF-8" not in str(exc):
+            raise
+    with open(path, encoding="cp1252", errors="replace") as fh:
+        return fh.read().splitlines(), "cp1252"
+
+
+def _aim_rows(path):
+    """(rows, index of the ``Diameter Midpoint`` row, encoding) of a TSI AIM
+    column export (one row per channel, one column per sample), else None."""
+    lines, encoding = _text_lines(path)
+    head = [t for t in lines[:80] if t.strip()]
+    if not any(
+        t.lower().lstrip().startswith("diameter midpoint") for t in head + lines
+    ):
+        return None
+    rows, _ = split_rows(lines, source=path, trailing_comments=False)
+    for i, (_, cells) in enumerate(rows):
+        first = cells[0].strip().lower() if cells else ""
+        if first.startswith("diameter midpoint"):
+            if any(c.strip() for c in cells[1:]):
+                return None  # the "row" export: one row per sample (not read)
+            return rows, i, encoding
+    return None
+
+
+def _aim_values(path, meta, values):
+    units = (meta.get("units") or [""])[0].strip().lower()
+    weight = (meta.get("weight") or [""])[0].strip().lower()
+    if values is not None:
+        return values
+    if units in _AIM_UNITS and weight in _AIM_WEIGHT:
+        return _AIM_UNITS[units].format(_AIM_WEIGHT[weight])
+    raise DataFormatError(
+        f"the export's Units {units or '(missing)'!r} and Weight "
+        f"{weight or '(missing)'!r} are not a number, mass or volume weighting this "
+        "reader knows; export with Weight Number (or Mass, Volume), or give the "
+        "values",
+        source=path,
+        field="values",
+    )
+
+
+def _read_aim(path, found, *, values, sample, unit, syntax):
+    rows, i, encoding = found
+    meta = {c[0].strip().lower(): c[1:] for _, c in rows[:i] if c}
+    stats_rows = {}
+    data = []
+    for line, cells in rows[i + 1 :]:
+        if data and not is_number(cells[0]):
+            stats_rows[cells[0].strip()] = cells[1:]
+        elif is_number(cells[0]):
+            if stats_rows:
+                raise DataFormatError(
+                    "a channel row after the statistics rows",
+                    source=path,
+                    line=line,
+                )
+            data.append((line, cells))
+    if len(data) < 2:
+        raise DataFormatError(
+            "the AIM export has fewer than 2 channel rows under 'Diameter Midpoint'",
+            source=path,
+        )
+    labels = [c.strip() for c in meta.get("sample #", [])]
+    n_samples = max(len(c) for _, c in data) - 1
+    labels = (labels + [str(k + 1) for k in range(len(labels), n_samples)])[:n_samples]
+    kind = _aim_values(path, meta, values)
+    if sample is None:
+        if n_samples != 1:
+            raise _ask(
+                path,
+                f"the AIM export holds {n_samples} samples (Sample # "
+                f"{labels[0]}..{labels[-1]})",
+                [
+                    (
+                        "sample",
+                        int(labels[0]) if labels[0].isdigit() else labels[0],
+                        "one sample, by its Sample #",
+                    ),
+                    ("sample", "mean", "the mean of all samples"),
+                ],
+                syntax,
+                field="sample",
+            )
+        cols = [0]
+    elif str(sample).strip().lower() == "mean":
+        cols = list(range(n_samples))
+    elif str(sample).strip() in labels:
+        cols = [labels.index(str(sample).strip())]
+    else:
+        raise DataFormatError(
+            f"sample {sample!r} is not in the export; allowed: a Sample # "
+            f"({labels[0]}..{labels[-1]}) or 'mean'",
+            source=path,
+            field="sample",
+        )
+    mids = np.empty(len(data))
+    table = np.empty((len(data), len(cols)))
+    for r, (line, cells) in enumerate(data):
+        mids[r] = _number(
+            cells[0],
+            path=path,
+            line=line,
+            field="column 0 (Diameter Midpoint)",
+            allowed="a diameter > 0",
+            minimum=0.0,
+        )
+        for c, k in enumerate(cols):
+            cell = cells[k + 1] if k + 1 < len(cells) else ""
+            table[r, c] = _number(
+                cell,
+                path=path,
+                line=line,
+                field=f"sample {labels[k]}",
+                allowed=f"a value >= 0 ({kind})",
+                minimum=0.0,
+                strict=False,
+            )
+    named = [header_unit(name)[0] for name in stats_rows]
+    named = [u for u in named if u is not None]
+    from_file = named[0] if named else None
+    if unit is None and from_file is None:
+        raise _ask(
+            path,
+            "the AIM export does not say the unit of its midpoints",
+            [("unit", "nm", "an SMPS export"), ("unit", "um", "an APS export")],
+            syntax,
+            field="unit",
+        )
+    if (
+        unit is not None
+        and from_file is not None
+        and length_factor(unit) != length_factor(from_file)
+    ):
+        raise DataFormatError(
+            f"the export's statistics rows give the unit {from_file!r} but the unit "
+            f"given is {unit!r}; allowed: the same unit, or leave it out",
+            source=path,
+            field="unit",
+        )
+    unit_from = "argument" if unit is not None else "header"
+    unit = unit or from_file
+    mids_um = mids * (length_factor(unit) / 1e-6)
+    try:
+        edges = edges_from_midpoints(mids_um)
+    except ValueError as exc:
+        raise DataFormatError(str(exc), source=path) from None
+    _check_plausible(path, "Diameter Midpoint", mids_um * 1e-6, unit, unit_from)
+    chosen = "the mean of all samples" if len(cols) > 1 else f"sample {labels[cols[0]]}"
+    notes = [
+        f"TSI AIM column export ({encoding}), {chosen} of {n_samples}; midpoints in "
+        f"{unit}; bin edges derived from the {mids.size} midpoints as geometric "
+        "(log) midpoints",
+    ]
+    bins = _bins(path, edges, table.mean(axis=1), kind, notes)
+    instrument = {}
+    if len(cols) == 1:
+        for name, cells in stats_rows.items():
+            k = cols[0]
+            if k < len(cells) and is_number(cells[k]):
+                instrument[name] = float(cells[k])
+    return bins, {
+        "source": path,
+        "layout": "aim-columns",
+        "header": None,
+        "values": kind,
+        "unit": unit,
+        "unit_from": unit_from,
+        "n_bins": int(mids.size),
+        "samples": labels,
+        "sample": "mean" if len(cols) > 1 else labels[cols[0]],
+        "instrument_statistics": instrument,
+        "encoding": encoding,
+        "delimiter": None,
+    }
+
+
 def _legacy(header) -> bool:
     """A 3-column file that is read_histogram's columns layout: no header, or a
     header that names no bins (then its columns are lower, upper, count)."""
@@ -505,7 +727,14 @@ def _bins(path, edges_um, values, kind, notes) -> BinnedSizes:
 
 
 def read_size_data(
-    path, *, layout=None, values=None, column=None, unit=None, syntax="python"
+    path,
+    *,
+    layout=None,
+    values=None,
+    column=None,
+    unit=None,
+    sample=None,
+    syntax="python",
 ):
     """Read size data of any layout: raw diameters or size bins.
 
@@ -529,7 +758,7 @@ def read_size_data(
             source=path,
             field="layout",
         )
-    if layout is None and values is None:
+    if layout is None and values is None and _aim_rows(path) is None:
         rows, _ = read_rows(path, delimiter=SNIFF, hint=_HINT)
         header, data = _split_header(rows)
         if rows and not _rows_layout(rows):
@@ -546,5 +775,11 @@ def read_size_data(
         d, meta = read_diameters(path, column=column, unit=unit, syntax=syntax)
         return d, meta | {"layout": "diameters"}
     return read_size_bins(
-        path, layout=layout, values=values, column=column, unit=unit, syntax=syntax
+        path,
+        layout=layout,
+        values=values,
+        column=column,
+        unit=unit,
+        sample=sample,
+        syntax=syntax,
     )

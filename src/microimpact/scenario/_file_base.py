@@ -66,7 +66,7 @@ PARTICLE_KEYS = {
     ),
     "histogram": (
         set(),
-        {"file", "edges_um", "counts", "unit", "layout", "values", "column"},
+        {"file", "edges_um", "counts", "unit", "layout", "values", "column", "sample"},
     ),
 }
 #: Keys of kind = "areal" (see _config_surfaces._areal).

@@ -163,7 +163,7 @@ def _particles(ctx: _Ctx, data, where="particles"):
     if "edges_um" in t:
         if "counts" not in t:
             raise ctx.error(_join(where, "counts"), "missing required key")
-        for key in ("layout", "values", "column"):
+        for key in ("layout", "values", "column", "sample"):
             if key in t:
                 raise ctx.error(_join(where, key), "only allowed with 'file'")
         edges = ctx.numbers(t["edges_um"], _join(where, "edges_um"), low=0, minimum=2)
@@ -184,6 +184,14 @@ def _particles(ctx: _Ctx, data, where="particles"):
         values = t.get("values")
         if values is not None:
             values = ctx.choice(values, _join(where, "values"), tuple(BIN_VALUES))
+        sample = t.get("sample")
+        if sample is not None and (
+            isinstance(sample, bool) or not isinstance(sample, str | int)
+        ):
+            raise ctx.error(
+                _join(where, "sample"),
+                f'must be a Sample # or "mean"; got {sample!r}',
+            )
         bins, _ = ctx.build(
             _join(where, "file"),
             t,
@@ -193,6 +201,7 @@ def _particles(ctx: _Ctx, data, where="particles"):
             values=values,
             column=column,
             unit=unit,
+            sample=sample,
             syntax="toml",
         )
         edges, counts = bins.edges_um, bins.number
