@@ -51,12 +51,11 @@ from .distributions import (
     SizeDistribution,
     _merge,
     histogram_diameters,
-    lognormal_diameters,
-    normal_diameters,
 )
 
 __all__ = [
     "BIN_VALUES",
+    "RANGE_FLOOR",
     "BinnedSizes",
     "Chi2BinnedResult",
     "binned_median",
@@ -87,6 +86,10 @@ BIN_VALUES = {
     "dV/dDp": ("volume", "d"),
 }
 _N_PARAMS = 2
+#: The binned fits keep the location (mean, ln median) above ``x_0 - RANGE_FLOOR *
+#: scale``, ``x_0`` the lowest edge (``d`` or ``ln d``): the population's bulk is
+#: not entirely below the instrument's range.
+RANGE_FLOOR = 3.0
 
 
 def _edges_iv(edges_um) -> np.ndarray:
@@ -275,21 +278,31 @@ def _hessian(f, theta, steps):
 
 def _fit(x_edges, n):
     """ML (loc, scale) of a normal in x from bin counts; covariance of
-    (loc, log scale) from the observed information (None if singular)."""
+    (loc, log scale) from the observed information (None if singular); whether
+    the location is at its floor.
+
+    The location is kept above ``x_0 - RANGE_FLOOR * scale`` (searched as
+    ``loc = x_0 - RANGE_FLOOR * scale + exp(u)``)."""
+    floor = RANGE_FLOOR
     mids = 0.5 * (x_edges[:-1] + x_edges[1:])
     w = n / n.sum()
     loc0 = float(np.sum(w * mids))
     scale0 = float(np.sqrt(np.sum(w * (mids - loc0) ** 2)))
     scale0 = max(scale0, 0.5 * float(np.min(np.diff(x_edges))))
-    theta0 = np.array([loc0, math.log(scale0)])
+
+    x0 = float(x_edges[0])
+
+    def to_theta(q):
+        return np.array([x0 - floor * math.exp(q[1]) + math.exp(q[0]), q[1]])
+
+    q0 = np.array([math.log(loc0 - x0 + floor * scale0), math.log(scale0)])
     res = optimize.minimize(
-        _neg_ll,
-        theta0,
-        args=(x_edges, n),
+        lambda q: _neg_ll(to_theta(q), x_edges, n),
+        q0,
         method="Nelder-Mead",
         options={"xatol": 1e-10, "fatol": 1e-12, "maxiter": 4000},
     )
-    theta = res.x
+    theta = to_theta(res.x)
     scale = math.exp(theta[1])
     hess = _hessian(
         lambda t: _neg_ll(t, x_edges, n), theta, np.array([1e-4 * scale, 1e-4])
@@ -300,7 +313,8 @@ def _fit(x_edges, n):
             cov = None
     except np.linalg.LinAlgError:
         cov = None
-    return float(theta[0]), scale, cov, -float(res.fun)
+    at_floor = bool(math.exp(res.x[0]) < 1e-3 * scale)
+    return float(theta[0]), scale, cov, -float(res.fun), at_floor
 
 
 def _fit_iv(edges_um, counts):
@@ -312,6 +326,23 @@ def _fit_iv(edges_um, counts):
             "fit needs at least 2 occupied bins (use a monodisperse population)."
         )
     return e, n
+
+
+def _population(kind, dist, params) -> SizeDistribution:
+    """The fitted population (truncated to d >= 0), built without the factories'
+    warnings and plausibility checks: a fit is not a user's typo, and a fit held
+    at its bound says so in its notes."""
+    return SizeDistribution(kind, dist=dist, lower=0.0, upper=math.inf, params=params)
+
+
+def _floor_note(kind, where, at_floor) -> tuple:
+    if not at_floor:
+        return ()
+    return (
+        f"the {kind} fit is held at its bound ({where} {RANGE_FLOOR:g} scales below "
+        "the lowest edge): the bins look like the tail of a population whose bulk "
+        "lies below the instrument's range, and its parameters are not estimates",
+    )
 
 
 def fit_binned_normal(edges_um, counts) -> FitResult:
@@ -331,18 +362,26 @@ def fit_binned_normal(edges_um, counts) -> FitResult:
     FitResult
         ``params`` ``mean_um``/``std_um`` of the untruncated Gaussian; ``n`` the
         rounded total; ``log_likelihood`` the binned one.
+
+    Notes
+    -----
+    The mean is kept above ``b_0 - RANGE_FLOOR * std``: bins that fall off like
+    the tail of a population whose bulk is below the range would otherwise send
+    it to minus infinity. A fit held there says so in ``notes``.
     """
     e, n = _fit_iv(edges_um, counts)
-    mu, sigma, cov, ll = _fit(e, n)
+    mu, sigma, cov, ll, at_floor = _fit(e, n)
     se = (math.nan, math.nan)
     if cov is not None:
         se = (math.sqrt(cov[0, 0]), sigma * math.sqrt(cov[1, 1]))
+    mu_sd = {"mean_um": mu, "std_um": sigma, "min_um": None, "max_um": None}
     return FitResult(
-        distribution=normal_diameters(mu, sigma),
+        distribution=_population("normal", stats.norm(mu * 1e-6, sigma * 1e-6), mu_sd),
         params={"mean_um": mu, "std_um": sigma},
         stderr={"mean_um": se[0], "std_um": se[1]},
         n=round(float(n.sum())),
         log_likelihood=ll,
+        notes=_floor_note("normal", "mean", at_floor),
     )
 
 
@@ -354,17 +393,26 @@ def fit_binned_lognormal(edges_um, counts) -> FitResult:
     ``median_um``/``geometric_std``.
     """
     e, n = _fit_iv(edges_um, counts)
-    mu, s, cov, ll = _fit(np.log(e), n)
+    mu, s, cov, ll, at_floor = _fit(np.log(e), n)
     median, gsd = math.exp(mu), math.exp(s)
     se = (math.nan, math.nan)
     if cov is not None:  # delta method: d median = median d mu, d gsd = gsd s d(ln s)
         se = (median * math.sqrt(cov[0, 0]), gsd * s * math.sqrt(cov[1, 1]))
+    med_gsd = {
+        "median_um": median,
+        "geometric_std": gsd,
+        "min_um": None,
+        "max_um": None,
+    }
     return FitResult(
-        distribution=lognormal_diameters(median, gsd),
+        distribution=_population(
+            "lognormal", stats.lognorm(s, scale=median * 1e-6), med_gsd
+        ),
         params={"median_um": median, "geometric_std": gsd},
         stderr={"median_um": se[0], "geometric_std": se[1]},
         n=round(float(n.sum())),
         log_likelihood=ll,
+        notes=_floor_note("log-normal", "median", at_floor),
     )
 
 

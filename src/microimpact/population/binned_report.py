@@ -234,7 +234,7 @@ def describe_binned_sizes(
     """
     e, number = bins.edges_um, bins.number
     normal, lognormal = fit_binned_normal(e, number), fit_binned_lognormal(e, number)
-    notes = list(bins.notes)
+    notes = list(bins.notes) + list(normal.notes) + list(lognormal.notes)
     if bins.counted:
         chi_n = chi2_binned(e, number, normal, alpha=alpha)
         chi_ln = chi2_binned(e, number, lognormal, alpha=alpha)
