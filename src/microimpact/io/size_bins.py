@@ -120,7 +120,7 @@ def _key(name: str) -> str:
     return re.sub(r"[\s_\-.]", "", s.lower())
 
 
-def column_role(name: str):
+def _column_role(name: str):
     """``("value", kind)``, ``("lower", None)``, ``("upper", None)``,
     ``("mid", None)`` or ``(None, None)`` for a header name."""
     s = _key(name)
@@ -179,7 +179,7 @@ def _layout(path, header, width, layout, syntax):
             syntax,
             field="layout",
         )
-    roles = [column_role(h)[0] for h in header]
+    roles = [_column_role(h)[0] for h in header]
     if "value" not in roles:
         return "diameters"
     if "lower" in roles and "upper" in roles:
@@ -201,7 +201,7 @@ def _layout(path, header, width, layout, syntax):
 
 def _one(path, header, role, syntax, what):
     """The single column of `role` (lower/upper/mid) in `header`."""
-    hits = [j for j, h in enumerate(header) if column_role(h)[0] == role]
+    hits = [j for j, h in enumerate(header) if _column_role(h)[0] == role]
     if len(hits) == 1:
         return hits[0]
     raise DataFormatError(
@@ -216,13 +216,13 @@ def _value_column(path, header, width, used, column, values, syntax):
     """(column index, kind) of the values."""
     if column is not None:
         j = resolve_column(column, header, width, name="column", source=path)
-        kind = column_role(header[j])[1] if header else None
+        kind = _column_role(header[j])[1] if header else None
     elif header is None:
         j, kind = width - 1, None
     else:
-        cols = [j for j, h in enumerate(header) if column_role(h)[0] == "value"]
+        cols = [j for j, h in enumerate(header) if _column_role(h)[0] == "value"]
         if values is not None and len(cols) > 1:
-            cols = [j for j in cols if column_role(header[j])[1] == values] or cols
+            cols = [j for j in cols if _column_role(header[j])[1] == values] or cols
         if len(cols) > 1:
             raise _ask(
                 path,
@@ -245,7 +245,7 @@ def _value_column(path, header, width, used, column, values, syntax):
                     field="column",
                 )
             j = rest[0]
-        kind = column_role(header[j])[1]
+        kind = _column_role(header[j])[1]
     if values is not None:
         if kind is not None and kind != values:
             raise DataFormatError(
@@ -672,7 +672,7 @@ def _legacy(header) -> bool:
     header that names no bins (then its columns are lower, upper, count)."""
     if header is None:
         return True
-    roles = [column_role(h)[0] for h in header]
+    roles = [_column_role(h)[0] for h in header]
     return not ({"lower", "upper"} <= set(roles) or "mid" in roles)
 
 
