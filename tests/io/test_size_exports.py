@@ -146,8 +146,15 @@ def test_any_number_density_in_any_header_unit_gives_the_median(
     assert fit.params["geometric_std"] == pytest.approx(gsd, rel=5e-3)
 
 
-def test_a_single_diameter_column_stays_raw_diameters(write_file):
-    data, meta = read_size_data(write_file("d.csv", "diameter_um\n10\n20\n30\n"))
+@pytest.mark.parametrize(
+    "text",
+    [
+        "diameter_um\n10\n20\n30\n",
+        "n,time_s,diameter_um\n1,0.1,10\n2,0.2,20\n3,0.3,30\n",  # a PDPA index
+    ],
+)
+def test_a_diameter_column_without_values_stays_raw_diameters(write_file, text):
+    data, meta = read_size_data(write_file("d.csv", text))
     assert meta["layout"] == "diameters"
     assert_allclose(data, [10e-6, 20e-6, 30e-6])
 

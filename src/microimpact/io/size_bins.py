@@ -22,7 +22,8 @@ OPC export (edges or midpoints with counts, dN/dlogDp, dM/dlogDp, ...).
 
 Value columns are recognised by name: ``dN/dlogDp``, ``dN/dlnDp``, ``dN/dDp``,
 ``dM/dlogDp`` (also ``dW/dlogDp``), ``dV/dlogDp`` and the ``/dDp``, ``/dlnDp``
-forms; ``count``/``counts``/``n``/``number``/``frequency`` (counted particles);
+forms; ``count``/``counts``/``frequency`` (counted particles; ``n`` and
+``number`` are not taken: they often name a particle index);
 ``dN``/``concentration`` (number per bin); ``mass``/``dM``, ``volume``/``dV``. Units
 in the header (``Dp (nm)``, ``Lower [µm]``, ``diameter_um``) are honoured; an
 explicit unit that contradicts them is an error. A headerless file with more than
@@ -80,8 +81,6 @@ _DENSITY = re.compile(r"^d([nmvw])/?d(log10|log|ln)?(dp|d)$")
 _PER_BIN = {
     "count": "count",
     "counts": "count",
-    "n": "count",
-    "number": "count",
     "numbercount": "count",
     "frequency": "count",
     "freq": "count",
