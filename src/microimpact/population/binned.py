@@ -296,12 +296,19 @@ def _fit(x_edges, n):
         return np.array([x0 - floor * math.exp(q[1]) + math.exp(q[0]), q[1]])
 
     q0 = np.array([math.log(loc0 - x0 + floor * scale0), math.log(scale0)])
-    res = optimize.minimize(
-        lambda q: _neg_ll(to_theta(q), x_edges, n),
-        q0,
-        method="Nelder-Mead",
-        options={"xatol": 1e-10, "fatol": 1e-12, "maxiter": 4000},
-    )
+    options = {"xatol": 1e-9, "fatol": 1e-10 * float(n.sum()), "maxiter": 4000}
+    for _ in range(3):  # restarts refresh a collapsed simplex
+        res = optimize.minimize(
+            lambda q: _neg_ll(to_theta(q), x_edges, n),
+            q0,
+            method="Nelder-Mead",
+            options=options,
+        )
+        if res.success:
+            break
+        q0 = res.x
+    if not res.success:
+        raise RuntimeError(f"the binned fit did not converge: {res.message}")
     theta = to_theta(res.x)
     scale = math.exp(theta[1])
     hess = _hessian(
