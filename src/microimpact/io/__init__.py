@@ -27,11 +27,17 @@ from .profiles import (
     read_profile,
     read_profiles,
 )
+from .size_bins import (
+    SIZE_LAYOUTS,
+    read_size_bins,
+    read_size_data,
+)
 
 __all__ = [
     "COORDINATES",
     "E_MAX",
     "REQUIRED_COLUMNS",
+    "SIZE_LAYOUTS",
     "STATISTICS",
     "HeightMap",
     "Profile",
@@ -44,5 +50,7 @@ __all__ = [
     "read_impact_data",
     "read_profile",
     "read_profiles",
+    "read_size_bins",
+    "read_size_data",
     "scenario_experiments",
 ]

@@ -81,7 +81,14 @@ def _split_header(rows):
     return None, rows
 
 
-def _choose_column(path, header, n_columns, column) -> tuple[int, str]:
+_HOW_COLUMN = {
+    "python": "pass `column=`",
+    "cli": "pass --column with",
+    "toml": "set the key column = to",
+}
+
+
+def _choose_column(path, header, n_columns, column, syntax) -> tuple[int, str]:
     """Resolve `column` to (0-based index, display name)."""
     names = header or [str(j) for j in range(n_columns)]
     if column is None:
@@ -94,7 +101,7 @@ def _choose_column(path, header, n_columns, column) -> tuple[int, str]:
             ", ".join(repr(h) for h in header) if header else f"0..{n_columns - 1}"
         )
         raise DataFormatError(
-            f"the file has {n_columns} columns; pass `column=` one of {listing} "
+            f"the file has {n_columns} columns; {_HOW_COLUMN[syntax]} one of {listing} "
             "(a header name or a 0-based index)",
             source=path,
             field="column",
@@ -103,7 +110,7 @@ def _choose_column(path, header, n_columns, column) -> tuple[int, str]:
     return j, names[j]
 
 
-def read_diameters(path, *, column=None, unit=None):
+def read_diameters(path, *, column=None, unit=None, syntax="python"):
     """Read raw measured diameters, one per row.
 
     Parameters
@@ -118,6 +125,9 @@ def read_diameters(path, *, column=None, unit=None):
         Length unit of the values in the file (``"um"``, ``"mm"``, ``"m"``, ...).
         Default: the unit the column's header names (``diameter_um``,
         ``d [mm]``), else µm. A unit that contradicts the header's is an error.
+    syntax : {"python", "cli", "toml"}
+        How the error asking for a column spells the option (``column=``,
+        ``--column``, ``column =``).
 
     Returns
     -------
@@ -138,6 +148,10 @@ def read_diameters(path, *, column=None, unit=None):
         probable unit mistake).
     """
     path = os.fspath(path)
+    if syntax not in _HOW_COLUMN:
+        raise ValueError(
+            f"`syntax` must be one of {tuple(_HOW_COLUMN)}; got {syntax!r}."
+        )
     if unit is not None:
         _factor(unit, path)
     table = read_table(
@@ -149,7 +163,7 @@ def read_diameters(path, *, column=None, unit=None):
         "expected one diameter per row",
     )
     header, data = table.header, table.rows
-    j, name = _choose_column(path, header, table.width, column)
+    j, name = _choose_column(path, header, table.width, column, syntax)
     field = f"column {name!r}" if header else f"column {j}"
     unit, unit_from = _diameter_unit(path, header, j, name, unit)
     factor = _factor(unit, path)

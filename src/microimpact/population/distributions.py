@@ -470,7 +470,10 @@ class FitResult:
     n : int
         Sample size.
     log_likelihood : float
-        Log-likelihood of the sample with densities in µm⁻¹.
+        Log-likelihood of the sample with densities in µm⁻¹ (of the bins, for
+        the binned fits).
+    notes : tuple of str
+        Caveats of the fit (e.g. a binned fit held at a bound).
     """
 
     distribution: SizeDistribution
@@ -478,6 +481,7 @@ class FitResult:
     stderr: dict
     n: int
     log_likelihood: float
+    notes: tuple = ()
 
 
 def fit_normal(diameters_um) -> FitResult:

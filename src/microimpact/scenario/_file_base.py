@@ -64,7 +64,10 @@ PARTICLE_KEYS = {
         set(),
         {"file", "diameters_um", "column", "unit", "min_um", "max_um"},
     ),
-    "histogram": (set(), {"file", "edges_um", "counts", "unit"}),
+    "histogram": (
+        set(),
+        {"file", "edges_um", "counts", "unit", "layout", "values", "column", "sample"},
+    ),
 }
 #: Keys of kind = "areal" (see _config_surfaces._areal).
 AREAL_SYNTHETIC_KEYS = (

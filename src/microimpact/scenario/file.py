@@ -58,9 +58,11 @@ __all__ = [
 ]
 
 from .._core.formats import FIGURE_FORMATS
-from ..io.diameters import read_diameters, read_histogram
+from ..io.diameters import read_diameters
+from ..io.size_bins import read_size_bins
 from ..physics.coefficients import ImpactCoefficients
 from ..population import distributions as pd_
+from ..population.binned import BIN_VALUES
 from ..units import m_to_um
 from ._file_base import (
     _TOML_EOF,
@@ -146,7 +148,13 @@ def _particles(ctx: _Ctx, data, where="particles"):
             if unit is not None:
                 unit = ctx.unit(unit, _join(where, "unit"))
             d_m, _ = ctx.build(
-                _join(where, "file"), t, read_diameters, path, column=column, unit=unit
+                _join(where, "file"),
+                t,
+                read_diameters,
+                path,
+                column=column,
+                unit=unit,
+                syntax="toml",
             )
             d = m_to_um(d_m)
         return ctx.build(where, t, pd_.empirical_diameters, d, **lim)
@@ -155,17 +163,48 @@ def _particles(ctx: _Ctx, data, where="particles"):
     if "edges_um" in t:
         if "counts" not in t:
             raise ctx.error(_join(where, "counts"), "missing required key")
+        for key in ("layout", "values", "column", "sample"):
+            if key in t:
+                raise ctx.error(_join(where, key), "only allowed with 'file'")
         edges = ctx.numbers(t["edges_um"], _join(where, "edges_um"), low=0, minimum=2)
         counts = ctx.numbers(t["counts"], _join(where, "counts"), low=0)
     else:
         if "counts" in t:
             raise ctx.error(_join(where, "counts"), "only allowed with 'edges_um'")
         path = ctx.path(t["file"], _join(where, "file"))
-        unit = ctx.unit(t.get("unit", "um"), _join(where, "unit"))
-        e_m, counts, _ = ctx.build(
-            _join(where, "file"), t, read_histogram, path, unit=unit
+        unit = t.get("unit")  # default: the header's, else um
+        if unit is not None:
+            unit = ctx.unit(unit, _join(where, "unit"))
+        column = t.get("column")
+        if column is not None:
+            column = ctx.column(column, _join(where, "column"))
+        layout = t.get("layout")
+        if layout is not None:
+            layout = ctx.choice(layout, _join(where, "layout"), ("edges", "midpoints"))
+        values = t.get("values")
+        if values is not None:
+            values = ctx.choice(values, _join(where, "values"), tuple(BIN_VALUES))
+        sample = t.get("sample")
+        if sample is not None and (
+            isinstance(sample, bool) or not isinstance(sample, str | int)
+        ):
+            raise ctx.error(
+                _join(where, "sample"),
+                f'must be a Sample # or "mean"; got {sample!r}',
+            )
+        bins, _ = ctx.build(
+            _join(where, "file"),
+            t,
+            read_size_bins,
+            path,
+            layout=layout,
+            values=values,
+            column=column,
+            unit=unit,
+            sample=sample,
+            syntax="toml",
         )
-        edges = m_to_um(e_m)
+        edges, counts = bins.edges_um, bins.number
     return ctx.build(where, t, pd_.histogram_diameters, edges, counts)
 
 

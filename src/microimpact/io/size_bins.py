@@ -1,0 +1,784 @@
+"""Reading size data of any layout: raw diameters, or the bins of an APS, SMPS or
+OPC export (edges or midpoints with counts, dN/dlogDp, dM/dlogDp, ...).
+
+:func:`read_size_data` detects the layout from the header names (rules in
+``docs/populations.md``):
+
+* a column named like ``Lower``/``Upper`` (``Lower Size (nm)``, ``lower_um``) and a
+  value column: **edges** (one row per bin);
+* a diameter column (``Dp``, ``Midpoint``, ``Diameter Midpoint``, ``diameter_um``,
+  ``Aerodynamic Diameter``) and a value column: **midpoints**; the bin edges are
+  derived geometrically (:func:`~microimpact.population.binned.edges_from_midpoints`)
+  and the derivation is checked;
+* no value column: **diameters**, raw values one per row
+  (:func:`~microimpact.io.diameters.read_diameters`);
+* the two-row layout (edges row, counts row) of
+  :func:`~microimpact.io.diameters.read_histogram`: edges with counts;
+* a TSI AIM **column export** (metadata rows, then a ``Diameter Midpoint`` row and
+  one row per channel with one column per sample, then AIM's statistics rows):
+  the values from its ``Units`` and ``Weight`` rows (``dw/dlogDp`` + ``Number`` is
+  dN/dlogDp), the unit from its statistics rows (``Lower Size(nm)``), one sample
+  chosen by `sample` (or their mean). Windows-1252 text (AIM's ``cm³``) is read.
+
+Value columns are recognised by name: ``dN/dlogDp``, ``dN/dlnDp``, ``dN/dDp``,
+``dM/dlogDp`` (also ``dW/dlogDp``), ``dV/dlogDp`` and the ``/dDp``, ``/dlnDp``
+forms; ``count``/``counts``/``frequency`` (counted particles; ``n`` and
+``number`` are not taken: they often name a particle index);
+``dN``/``concentration`` (number per bin); ``mass``/``dM``, ``volume``/``dV``. Units
+in the header (``Dp (nm)``, ``Lower [µm]``, ``diameter_um``) are honoured; an
+explicit unit that contradicts them is an error. A headerless file with more than
+one column, a file with several value columns and a value column of unknown meaning
+are ambiguous: the error lists the choices and says how to pass one (``syntax``
+chooses the spelling: ``--layout edges`` for the command line, ``layout =
+"edges"`` for a scenario file, ``layout='edges'`` for Python). A headerless value
+column holds counts unless `values` says otherwise.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+
+import numpy as np
+
+from .._core.files import (
+    SNIFF,
+    delimiter_name,
+    is_number,
+    read_lines,
+    read_rows,
+    resolve_column,
+    split_rows,
+)
+from .._core.validation import check_choice
+from ..errors import DataFormatError
+from ..population.binned import (
+    BIN_VALUES,
+    BinnedSizes,
+    edges_from_midpoints,
+    number_per_bin,
+)
+from ..units import length_factor
+from .diameters import (
+    _check_plausible,
+    _number,
+    _rows_layout,
+    _split_header,
+    read_diameters,
+    read_histogram,
+)
+from .profiles import header_unit
+
+__all__ = ["SIZE_LAYOUTS", "read_size_bins", "read_size_data"]
+
+#: How a size file may be laid out.
+SIZE_LAYOUTS = ("diameters", "edges", "midpoints")
+_SYNTAX = ("python", "cli", "toml")
+_HINT = "; expected delimited text"
+
+_DENSITY = re.compile(r"^d([nmvw])/?d(log10|log|ln)?(dp|d)$")
+_PER_BIN = {
+    "count": "count",
+    "counts": "count",
+    "numbercount": "count",
+    "frequency": "count",
+    "freq": "count",
+    "dn": "dN",
+    "conc": "dN",
+    "concentration": "dN",
+    "numberconcentration": "dN",
+    "mass": "mass",
+    "dm": "dM",
+    "dw": "dM",
+    "volume": "volume",
+    "dv": "dV",
+}
+_LOWER = {"lo", "dplo", "dlo", "dmin", "dpmin", "min", "from"}
+_UPPER = {"hi", "dphi", "dhi", "dmax", "dpmax", "max", "to"}
+_MID = {"dp", "d", "size", "dg", "dpmid"}
+_UNIT_SUFFIX = re.compile(r"[_\s/]+(um|µm|μm|nm|mm|cm|m)$", re.IGNORECASE)
+
+
+def _option(name, value, syntax):
+    """How the user passes option `name` = `value` in `syntax`."""
+    if syntax == "cli":
+        shown = value if re.fullmatch(r"[\w./-]+", str(value)) else f"'{value}'"
+        return f"--{name.replace('_', '-')} {shown}"
+    if syntax == "toml":
+        shown = value if isinstance(value, int) else f'"{value}"'
+        return f"{name} = {shown}"
+    return f"{name}={value!r}"
+
+
+def _key(name: str) -> str:
+    """A header name folded for matching: no bracketed unit, no unit suffix, lower
+    case, no spaces, underscores, dashes or dots."""
+    s = re.sub(r"[\(\[\{].*?[\)\]\}]", "", name)
+    s = _UNIT_SUFFIX.sub("", s.strip())
+    return re.sub(r"[\s_\-.]", "", s.lower())
+
+
+def _column_role(name: str):
+    """``("value", kind)``, ``("lower", None)``, ``("upper", None)``,
+    ``("mid", None)`` or ``(None, None)`` for a header name."""
+    s = _key(name)
+    m = _DENSITY.match(s)
+    if m:
+        w = {"n": "N", "m": "M", "w": "M", "v": "V"}[m.group(1)]
+        var = {"log10": "logDp", "log": "logDp", "ln": "lnDp", None: "Dp"}[m.group(2)]
+        return "value", f"d{w}/d{var}"
+    if s in _PER_BIN:
+        return "value", _PER_BIN[s]
+    if "lower" in s or "left" in s or s in _LOWER:
+        return "lower", None
+    if "upper" in s or "right" in s or s in _UPPER:
+        return "upper", None
+    if "mid" in s or "diam" in s or s in _MID:
+        return "mid", None
+    return None, None
+
+
+def _ask(path, what, choices, syntax, *, field):
+    """The asking error: `what` is ambiguous; `choices` are (option, value, meaning)."""
+    listing = "; ".join(
+        f"{_option(opt, val, syntax)} ({meaning})" for opt, val, meaning in choices
+    )
+    return DataFormatError(f"{what}; choose one: {listing}", source=path, field=field)
+
+
+def _value_choices(header, cols):
+    return [("column", header[j], f"the values {header[j]!r}") for j in cols]
+
+
+def _values_choices():
+    return [
+        ("values", v, f"{w} per bin" if per == "bin" else f"{w} density over {per}")
+        for v, (w, per) in BIN_VALUES.items()
+        if v in ("count", "dN", "dN/dlogDp", "dN/dDp", "dM/dlogDp", "dV/dlogDp")
+    ]
+
+
+def _layout(path, header, width, layout, syntax):
+    """The layout of a file with `header` (None: no header) and `width` columns."""
+    if layout is not None:
+        return layout
+    if header is None:
+        if width == 1:
+            return "diameters"
+        raise _ask(
+            path,
+            f"the file has {width} columns and no header, so what they hold is "
+            "ambiguous",
+            [
+                ("layout", "edges", "columns lower edge, upper edge, value per bin"),
+                ("layout", "midpoints", "columns bin midpoint, value per bin"),
+                ("layout", "diameters", "raw diameters, one per row; with --column"),
+            ],
+            syntax,
+            field="layout",
+        )
+    roles = [_column_role(h)[0] for h in header]
+    if "value" not in roles:
+        return "diameters"
+    if "lower" in roles and "upper" in roles:
+        return "edges"
+    if "mid" in roles:
+        return "midpoints"
+    raise _ask(
+        path,
+        f"the header {header} has a value column but no bin edges (lower, upper) "
+        "nor midpoints (Dp, midpoint, diameter)",
+        [
+            ("layout", "edges", "the first two columns are the lower and upper edges"),
+            ("layout", "midpoints", "the first column is the bin midpoint"),
+        ],
+        syntax,
+        field="layout",
+    )
+
+
+def _one(path, header, role, syntax, what):
+    """The single column of `role` (lower/upper/mid) in `header`."""
+    hits = [j for j, h in enumerate(header) if _column_role(h)[0] == role]
+    if len(hits) == 1:
+        return hits[0]
+    raise DataFormatError(
+        f"the header has {len(hits)} {what} columns "
+        f"({', '.join(repr(header[j]) for j in hits)}); expected exactly one",
+        source=path,
+        field="header",
+    )
+
+
+def _value_column(path, header, width, used, column, values, syntax):
+    """(column index, kind) of the values."""
+    if column is not None:
+        j = resolve_column(column, header, width, name="column", source=path)
+        kind = _column_role(header[j])[1] if header else None
+    elif header is None:
+        j, kind = width - 1, None
+    else:
+        cols = [j for j, h in enumerate(header) if _column_role(h)[0] == "value"]
+        if values is not None and len(cols) > 1:
+            cols = [j for j in cols if _column_role(header[j])[1] == values] or cols
+        if len(cols) > 1:
+            raise _ask(
+                path,
+                f"the file has {len(cols)} value columns "
+                f"({', '.join(repr(header[j]) for j in cols)})",
+                _value_choices(header, cols),
+                syntax,
+                field="column",
+            )
+        if cols:
+            j = cols[0]
+        else:
+            rest = [k for k in range(width) if k not in used]
+            if len(rest) != 1:
+                raise _ask(
+                    path,
+                    f"no column of the header {header} is a known value column",
+                    _value_choices(header, rest),
+                    syntax,
+                    field="column",
+                )
+            j = rest[0]
+        kind = _column_role(header[j])[1]
+    if values is not None:
+        if kind is not None and kind != values:
+            raise DataFormatError(
+                f"the header {header[j]!r} says the values are {kind} but the values "
+                f"given are {values!r}; allowed: the same, or leave it out to use "
+                "the header's",
+                source=path,
+                field="values",
+            )
+        return j, values
+    if kind is None:
+        if header is None:
+            return j, "count"
+        raise _ask(
+            path,
+            f"the column {header[j]!r} holds the values but its name does not say "
+            "what they are",
+            _values_choices(),
+            syntax,
+            field="values",
+        )
+    return j, kind
+
+
+def _unit_of(path, header, cols, unit):
+    """(unit, where from) of the diameter columns `cols`; header units must agree
+    with each other and with an explicit `unit`."""
+    found = {header[j]: header_unit(header[j])[0] for j in cols} if header else {}
+    named = {h: u for h, u in found.items() if u is not None}
+    factors = {length_factor(u) for u in named.values()}
+    if len(factors) > 1:
+        raise DataFormatError(
+            f"the diameter columns name different units ({named}); allowed: one unit",
+            source=path,
+            field="unit",
+        )
+    from_header = next(iter(named.values()), None)
+    if unit is not None:
+        if from_header is not None and length_factor(from_header) != length_factor(
+            unit
+        ):
+            raise DataFormatError(
+                f"the header {next(iter(named))!r} gives the unit {from_header!r} but "
+                f"the unit given is {unit!r}; allowed: the same unit, or leave the "
+                "unit out to use the header's",
+                source=path,
+                field="unit",
+            )
+        return unit, "argument"
+    if from_header is not None:
+        return from_header, "header"
+    return "um", "default"
+
+
+def read_size_bins(
+    path,
+    *,
+    layout=None,
+    values=None,
+    column=None,
+    unit=None,
+    sample=None,
+    syntax="python",
+):
+    """Read a binned size distribution (an instrument export).
+
+    Parameters
+    ----------
+    path : str or path-like
+        Delimited text (see :mod:`microimpact.io.diameters` for the text rules).
+    layout : {"edges", "midpoints"}, optional
+        Default: detected from the header (module notes).
+    values : str, optional
+        What the values are, a key of
+        :data:`~microimpact.population.binned.BIN_VALUES` (``"dN/dlogDp"``,
+        ``"count"``, ``"dM/dlogDp"``...). Default: from the value column's name; a
+        headerless file's are counts.
+    column : str or int, optional
+        The value column (header name or 0-based index) when there are several.
+    unit : str, optional
+        Length unit of the diameters (default: the header's, else µm).
+    sample : int, str or "mean", optional
+        For a TSI AIM column export holding several samples: the Sample # to read,
+        or ``"mean"`` for their mean (needed when there are several).
+    syntax : {"python", "cli", "toml"}
+        How the asking errors spell an option.
+
+    Returns
+    -------
+    bins : BinnedSizes
+        Edges [µm] and number per bin, with notes on what was derived.
+    metadata : dict
+        ``source``, ``layout``, ``header``, ``value_column``, ``values``, ``unit``,
+        ``unit_from``, ``n_bins`` and ``delimiter``.
+
+    Raises
+    ------
+    DataFormatError
+        Ambiguous columns (listing the choices and how to pass one), bad cells,
+        edges not increasing or not contiguous, midpoints not log-spaced, all
+        values zero, a unit mistake.
+    """
+    path = os.fspath(path)
+    check_choice(syntax, "syntax", _SYNTAX)
+    if layout is not None and layout not in ("edges", "midpoints"):
+        raise DataFormatError(
+            f"layout {layout!r} is not a binned layout; allowed: edges, midpoints",
+            source=path,
+            field="layout",
+        )
+    if values is not None and values not in BIN_VALUES:
+        raise DataFormatError(
+            f"values {values!r} unknown; allowed: {', '.join(BIN_VALUES)}",
+            source=path,
+            field="values",
+        )
+    aim = _aim_rows(path) if layout in (None, "midpoints") else None
+    if aim is not None:
+        return _read_aim(
+            path, aim, values=values, sample=sample, unit=unit, syntax=syntax
+        )
+    if sample is not None:
+        raise DataFormatError(
+            "sample is for TSI AIM column exports (several samples side by side); "
+            "this file is not one",
+            source=path,
+            field="sample",
+        )
+    rows, delimiter = read_rows(path, delimiter=SNIFF, hint=_HINT)
+    if not rows:
+        raise DataFormatError("the file is empty; expected size bins", source=path)
+    if layout in (None, "edges") and column is None and _rows_layout(rows):
+        edges_m, counts, meta = read_histogram(path)
+        kind = values or "count"
+        return _bins(path, edges_m * 1e6, counts, kind, []), meta | {
+            "values": kind,
+            "delimiter": delimiter_name(delimiter),
+        }
+    header, data = _split_header(rows)
+    if not data:
+        raise DataFormatError("no bins found (only a header)", source=path)
+    width = len(header) if header else len(data[0][1])
+    if layout is None and width == 3 and _legacy(header):
+        # the columns layout of read_histogram: lower edge, upper edge, count
+        layout, header = "edges", None
+    layout = _layout(path, header, width, layout, syntax)
+    if layout == "diameters":
+        raise DataFormatError(
+            "the file holds raw diameters (no value column), not size bins; "
+            f"allowed: a value column such as {', '.join(list(BIN_VALUES)[:5])}",
+            source=path,
+        )
+    if layout == "edges":
+        if header is None:
+            cols = [0, 1]
+        else:
+            cols = [_one(path, header, r, syntax, r) for r in ("lower", "upper")]
+    else:
+        cols = (
+            [0] if header is None else [_one(path, header, "mid", syntax, "midpoint")]
+        )
+    need = len(cols) + 1
+    if width < need:
+        raise DataFormatError(
+            f"the {layout} layout needs {need} columns; the file has {width}",
+            source=path,
+        )
+    j, kind = _value_column(path, header, width, cols, column, values, syntax)
+    unit, unit_from = _unit_of(path, header, cols, unit)
+    try:
+        um = length_factor(unit) / 1e-6
+    except ValueError as exc:
+        raise DataFormatError(str(exc), source=path, field="unit") from None
+    names = header or [f"column {k}" for k in range(width)]
+    table = np.empty((len(data), len(cols) + 1))
+    for r, (line, cells) in enumerate(data):
+        for c, k in enumerate([*cols, j]):
+            cell = cells[k] if k < len(cells) else ""
+            is_value = k == j
+            table[r, c] = _number(
+                cell,
+                path=path,
+                line=line,
+                field=f"column {names[k]!r}" if header else f"column {k}",
+                allowed=f"a value >= 0 ({kind})"
+                if is_value
+                else f"a diameter > 0 in {unit}",
+                minimum=0.0,
+                strict=not is_value,
+            )
+    notes = []
+    if unit_from == "header":
+        notes.append(f"diameters read in {unit}, the unit the header names")
+    if layout == "edges":
+        edges = _check_edges(path, data, table[:, 0] * um, table[:, 1] * um)
+    else:
+        mids = table[:, 0] * um
+        bad = np.flatnonzero(np.diff(mids) <= 0)
+        if bad.size:
+            line = data[int(bad[0]) + 1][0]
+            raise DataFormatError(
+                "the midpoints must be strictly increasing; allowed: one row per "
+                "bin, in increasing order",
+                source=path,
+                line=line,
+                field=f"column {names[cols[0]]!r}",
+            )
+        try:
+            edges = edges_from_midpoints(mids)
+        except ValueError as exc:
+            raise DataFormatError(str(exc), source=path) from None
+        back = np.sqrt(edges[:-1] * edges[1:])
+        notes.append(
+            f"bin edges derived from the {mids.size} midpoints as geometric (log) "
+            "midpoints (interior edges the geometric means of neighbours); the "
+            "rebuilt bins' midpoints match the file's within "
+            f"{100 * float(np.max(np.abs(back / mids - 1))):.2g} %"
+        )
+    mids_m = np.sqrt(edges[:-1] * edges[1:]) * 1e-6
+    _check_plausible(path, f"column {names[cols[0]]!r}", mids_m, unit, unit_from)
+    bins = _bins(path, edges, table[:, -1], kind, notes)
+    return bins, {
+        "source": path,
+        "layout": layout,
+        "header": header,
+        "value_column": names[j] if header else j,
+        "values": kind,
+        "unit": unit,
+        "unit_from": unit_from,
+        "n_bins": int(edges.size - 1),
+        "delimiter": delimiter_name(delimiter),
+    }
+
+
+# -- TSI AIM "column" exports -------------------------------------------------------
+_AIM_WEIGHT = {"number": "N", "mass": "M", "volume": "V"}
+_AIM_UNITS = {"dw/dlogdp": "d{}/dlogDp", "dw/ddp": "d{}/dDp", "dw": "d{}"}
+
+
+def _text_lines(path):
+    """(lines, encoding): UTF-8, else Windows-1252 (as AIM writes ``cm³``)."""
+    try:
+        return read_lines(path, hint=_HINT), "utf-8"
+    except DataFormatError as exc:
+        if "not a UTF-8" not in str(exc):
+            raise
+    with open(path, encoding="cp1252", errors="replace") as fh:
+        return fh.read().splitlines(), "cp1252"
+
+
+def _aim_rows(path):
+    """(rows, index of the ``Diameter Midpoint`` row, encoding) of a TSI AIM
+    column export (one row per channel, one column per sample), else None."""
+    lines, encoding = _text_lines(path)
+    head = [t for t in lines[:80] if t.strip()]
+    if not any(
+        t.lower().lstrip().startswith("diameter midpoint") for t in head + lines
+    ):
+        return None
+    rows, _ = split_rows(lines, source=path, trailing_comments=False)
+    for i, (_, cells) in enumerate(rows):
+        first = cells[0].strip().lower() if cells else ""
+        if first.startswith("diameter midpoint"):
+            if any(c.strip() for c in cells[1:]):
+                return None  # the "row" export: one row per sample (not read)
+            return rows, i, encoding
+    return None
+
+
+def _aim_values(path, meta, values):
+    units = (meta.get("units") or [""])[0].strip().lower()
+    weight = (meta.get("weight") or [""])[0].strip().lower()
+    if values is not None:
+        return values
+    if units in _AIM_UNITS and weight in _AIM_WEIGHT:
+        return _AIM_UNITS[units].format(_AIM_WEIGHT[weight])
+    raise DataFormatError(
+        f"the export's Units {units or '(missing)'!r} and Weight "
+        f"{weight or '(missing)'!r} are not a number, mass or volume weighting this "
+        "reader knows; export with Weight Number (or Mass, Volume), or give the "
+        "values",
+        source=path,
+        field="values",
+    )
+
+
+def _read_aim(path, found, *, values, sample, unit, syntax):
+    rows, i, encoding = found
+    meta = {c[0].strip().lower(): c[1:] for _, c in rows[:i] if c}
+    stats_rows = {}
+    data = []
+    for line, cells in rows[i + 1 :]:
+        if data and not is_number(cells[0]):
+            stats_rows[cells[0].strip()] = cells[1:]
+        elif is_number(cells[0]):
+            if stats_rows:
+                raise DataFormatError(
+                    "a channel row after the statistics rows",
+                    source=path,
+                    line=line,
+                )
+            data.append((line, cells))
+    if len(data) < 2:
+        raise DataFormatError(
+            "the AIM export has fewer than 2 channel rows under 'Diameter Midpoint'",
+            source=path,
+        )
+    labels = [c.strip() for c in meta.get("sample #", [])]
+    n_samples = max(len(c) for _, c in data) - 1
+    labels = (labels + [str(k + 1) for k in range(len(labels), n_samples)])[:n_samples]
+    kind = _aim_values(path, meta, values)
+    if sample is None:
+        if n_samples != 1:
+            raise _ask(
+                path,
+                f"the AIM export holds {n_samples} samples (Sample # "
+                f"{labels[0]}..{labels[-1]})",
+                [
+                    (
+                        "sample",
+                        int(labels[0]) if labels[0].isdigit() else labels[0],
+                        "one sample, by its Sample #",
+                    ),
+                    ("sample", "mean", "the mean of all samples"),
+                ],
+                syntax,
+                field="sample",
+            )
+        cols = [0]
+    elif str(sample).strip().lower() == "mean":
+        cols = list(range(n_samples))
+    elif str(sample).strip() in labels:
+        cols = [labels.index(str(sample).strip())]
+    else:
+        raise DataFormatError(
+            f"sample {sample!r} is not in the export; allowed: a Sample # "
+            f"({labels[0]}..{labels[-1]}) or 'mean'",
+            source=path,
+            field="sample",
+        )
+    mids = np.empty(len(data))
+    table = np.empty((len(data), len(cols)))
+    for r, (line, cells) in enumerate(data):
+        mids[r] = _number(
+            cells[0],
+            path=path,
+            line=line,
+            field="column 0 (Diameter Midpoint)",
+            allowed="a diameter > 0",
+            minimum=0.0,
+        )
+        for c, k in enumerate(cols):
+            cell = cells[k + 1] if k + 1 < len(cells) else ""
+            table[r, c] = _number(
+                cell,
+                path=path,
+                line=line,
+                field=f"sample {labels[k]}",
+                allowed=f"a value >= 0 ({kind})",
+                minimum=0.0,
+                strict=False,
+            )
+    named = [header_unit(name)[0] for name in stats_rows]
+    named = [u for u in named if u is not None]
+    from_file = named[0] if named else None
+    if unit is None and from_file is None:
+        raise _ask(
+            path,
+            "the AIM export does not say the unit of its midpoints",
+            [("unit", "nm", "an SMPS export"), ("unit", "um", "an APS export")],
+            syntax,
+            field="unit",
+        )
+    if (
+        unit is not None
+        and from_file is not None
+        and length_factor(unit) != length_factor(from_file)
+    ):
+        raise DataFormatError(
+            f"the export's statistics rows give the unit {from_file!r} but the unit "
+            f"given is {unit!r}; allowed: the same unit, or leave it out",
+            source=path,
+            field="unit",
+        )
+    unit_from = "argument" if unit is not None else "header"
+    unit = unit or from_file
+    mids_um = mids * (length_factor(unit) / 1e-6)
+    try:
+        edges = edges_from_midpoints(mids_um)
+    except ValueError as exc:
+        raise DataFormatError(str(exc), source=path) from None
+    _check_plausible(path, "Diameter Midpoint", mids_um * 1e-6, unit, unit_from)
+    chosen = "the mean of all samples" if len(cols) > 1 else f"sample {labels[cols[0]]}"
+    notes = [
+        f"TSI AIM column export ({encoding}), {chosen} of {n_samples}; midpoints in "
+        f"{unit}; bin edges derived from the {mids.size} midpoints as geometric "
+        "(log) midpoints",
+    ]
+    bins = _bins(path, edges, table.mean(axis=1), kind, notes)
+    instrument = {}
+    if len(cols) == 1:
+        for name, cells in stats_rows.items():
+            k = cols[0]
+            if k < len(cells) and is_number(cells[k]):
+                instrument[name] = float(cells[k])
+    return bins, {
+        "source": path,
+        "layout": "aim-columns",
+        "header": None,
+        "values": kind,
+        "unit": unit,
+        "unit_from": unit_from,
+        "n_bins": int(mids.size),
+        "samples": labels,
+        "sample": "mean" if len(cols) > 1 else labels[cols[0]],
+        "instrument_statistics": instrument,
+        "encoding": encoding,
+        "delimiter": None,
+    }
+
+
+def _legacy(header) -> bool:
+    """A 3-column file that is read_histogram's columns layout: no header, or a
+    header that names no bins (then its columns are lower, upper, count)."""
+    if header is None:
+        return True
+    roles = [_column_role(h)[0] for h in header]
+    return not ({"lower", "upper"} <= set(roles) or "mid" in roles)
+
+
+def _check_edges(path, data, lower, upper):
+    for r in range(lower.size):
+        line = data[r][0]
+        if not upper[r] > lower[r]:
+            raise DataFormatError(
+                f"upper edge {upper[r]:g} um is not above lower edge {lower[r]:g} um; "
+                "allowed: upper > lower",
+                source=path,
+                line=line,
+                field="upper edge",
+            )
+        if r and not math.isclose(lower[r], upper[r - 1], rel_tol=1e-6):
+            what = "a gap" if lower[r] > upper[r - 1] else "an overlap or unsorted bins"
+            raise DataFormatError(
+                f"lower edge {lower[r]:g} um does not equal the previous upper edge "
+                f"{upper[r - 1]:g} um ({what}); allowed: contiguous bins in "
+                "increasing order",
+                source=path,
+                line=line,
+                field="lower edge",
+            )
+    return np.append(lower, upper[-1])
+
+
+def _bins(path, edges_um, values, kind, notes) -> BinnedSizes:
+    if not np.sum(values) > 0:
+        raise DataFormatError(
+            "all values are zero; allowed: values >= 0 with a positive total",
+            source=path,
+            field="values",
+        )
+    number = number_per_bin(edges_um, values, kind)
+    weighting = BIN_VALUES[kind][0]
+    if weighting != "number":
+        notes.append(
+            f"{kind} converted to number per bin by dividing by d^3 of each bin's "
+            "geometric midpoint (the d^3 moment)"
+        )
+    counted = kind == "count" and bool(np.all(values == np.round(values)))
+    if kind == "count" and not counted:
+        notes.append("the counts are not whole numbers: taken as relative frequencies")
+    return BinnedSizes(
+        edges_um=np.asarray(edges_um, float),
+        number=number,
+        values=kind,
+        counted=counted,
+        notes=tuple(notes),
+    )
+
+
+def read_size_data(
+    path,
+    *,
+    layout=None,
+    values=None,
+    column=None,
+    unit=None,
+    sample=None,
+    syntax="python",
+):
+    """Read size data of any layout: raw diameters or size bins.
+
+    Parameters are those of :func:`read_size_bins`, with `layout` also
+    ``"diameters"`` (then `column` chooses the diameter column and `values` is not
+    allowed).
+
+    Returns
+    -------
+    data : ndarray or BinnedSizes
+        Raw diameters [m] (layout ``"diameters"``), else the bins.
+    metadata : dict
+        Of :func:`~microimpact.io.diameters.read_diameters` or
+        :func:`read_size_bins`, with ``layout``.
+    """
+    path = os.fspath(path)
+    check_choice(syntax, "syntax", _SYNTAX)
+    if layout is not None and layout not in SIZE_LAYOUTS:
+        raise DataFormatError(
+            f"layout {layout!r} unknown; allowed: {', '.join(SIZE_LAYOUTS)}",
+            source=path,
+            field="layout",
+        )
+    if layout is None and values is None and _aim_rows(path) is None:
+        rows, _ = read_rows(path, delimiter=SNIFF, hint=_HINT)
+        header, data = _split_header(rows)
+        if rows and not _rows_layout(rows):
+            width = len(header) if header else len(data[0][1]) if data else 1
+            layout = _layout(path, header, width, None, syntax)
+    if layout == "diameters":
+        if values is not None:
+            raise DataFormatError(
+                f"values {values!r} is for size bins, not raw diameters; leave it "
+                "out or choose the edges or midpoints layout",
+                source=path,
+                field="values",
+            )
+        d, meta = read_diameters(path, column=column, unit=unit, syntax=syntax)
+        return d, meta | {"layout": "diameters"}
+    return read_size_bins(
+        path,
+        layout=layout,
+        values=values,
+        column=column,
+        unit=unit,
+        sample=sample,
+        syntax=syntax,
+    )
