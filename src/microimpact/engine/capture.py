@@ -63,6 +63,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy import optimize, special, stats
 
+from .capture_monotone import monotone_crossing
+
 __all__ = [
     "LACK_OF_FIT_LEVEL",
     "WINDOW_MARGIN",
@@ -81,7 +83,12 @@ WINDOW_MARGIN = 2
 #: ``method`` values (see ``docs/capture-speed.md``).
 METHOD_PROFILE = "probit-profile"
 METHOD_SCALED = "probit-profile-scaled"
+METHOD_MONOTONE = "isotonic-interpolated"
 METHOD_NONE = "none"
+
+#: ``estimator`` values of :func:`estimate_capture_speed`: the probit where it fits
+#: else the shape-free isotonic estimate (``"auto"``), or either one alone.
+ESTIMATORS = ("auto", "probit", "monotone")
 
 _LOG_SQRT_2PI = 0.5 * math.log(2.0 * math.pi)
 
@@ -404,10 +411,10 @@ def _crossing(alpha, beta, z_q, xw, v, q, i0, i1, notes) -> float:
     )
 
 
-def _criterion(xw, yw, nw, ll_hat, conf, se_df, notes):
-    """``(critical value, method)`` of the likelihood-ratio interval: chi2 (or F
-    for an estimated SE), widened by the heterogeneity factor on a significant
-    lack of fit (residual deviance against the saturated model)."""
+def _lack_of_fit(xw, yw, nw, ll_hat):
+    """``(G2, df, p)``: residual deviance of the probit against the saturated model
+    on the window, its degrees of freedom and its chi-squared p-value (NaN for a
+    saturated fit, ``df = 0``)."""
     df = xw.size - 2
     with np.errstate(divide="ignore", invalid="ignore"):
         pw = yw / nw
@@ -415,15 +422,20 @@ def _criterion(xw, yw, nw, ll_hat, conf, se_df, notes):
             yw < nw, (nw - yw) * np.log1p(-pw), 0.0
         )
     g2 = max(2.0 * (float(np.sum(sat)) - ll_hat), 0.0)
+    return g2, df, float(stats.chi2.sf(g2, df)) if df > 0 else math.nan
+
+
+def _criterion(g2, df, p_fit, conf, se_df, notes):
+    """``(critical value, method)`` of the likelihood-ratio interval: chi2 (or F
+    for an estimated SE), widened by the heterogeneity factor on a significant
+    lack of fit (only reached with ``estimator="probit"``)."""
     method = METHOD_PROFILE
-    crit = float(
-        stats.chi2.ppf(conf, 1) if se_df is None else stats.f.ppf(conf, 1, se_df)
-    )
+    crit = _critical(conf, se_df)
     if df == 0:
         notes.append(
             "two speeds in the window: the probit shape is assumed, not checked"
         )
-    elif stats.chi2.sf(g2, df) < LACK_OF_FIT_LEVEL:
+    elif p_fit < LACK_OF_FIT_LEVEL:
         h = g2 / df
         crit = float(stats.f.ppf(conf, 1, df)) * h
         if se_df is not None:  # the more conservative of the two corrections
@@ -434,6 +446,13 @@ def _criterion(xw, yw, nw, ll_hat, conf, se_df, notes):
             f"heterogeneity factor {h:.3g}"
         )
     return crit, method
+
+
+def _critical(conf, se_df):
+    """chi2_1(c), or F(1, se_df; c) where the binomial SE is itself estimated."""
+    return float(
+        stats.chi2.ppf(conf, 1) if se_df is None else stats.f.ppf(conf, 1, se_df)
+    )
 
 
 def _profile_interval(theta, xw, yw, nw, z_q, beta, ll_hat, crit, notes):
@@ -472,6 +491,50 @@ def _profile_interval(theta, xw, yw, nw, z_q, beta, ll_hat, crit, notes):
     return limits[0], limits[1]
 
 
+def _monotone(xw, yw, nw, q, conf, se_df, decreasing, notes):
+    """``(estimate, grid_limited)``: the shape-free estimate
+    (:mod:`.capture_monotone`) of the window's points, with the bracketing speeds
+    in the note and whether its interpolation error may exceed the interval's
+    half-width (then said in the note)."""
+    mc = monotone_crossing(xw, yw, nw, q, _critical(conf, se_df), decreasing=decreasing)
+    v_lo, v_hi = _fmt(math.exp(xw[0])), _fmt(math.exp(xw[-1]))
+    if not np.isfinite(mc.theta):
+        raise _NoEstimate(
+            f"the isotonic fit of the capture curve does not cross {q:g} within "
+            f"the fitted speeds {v_lo}-{v_hi} m/s (the fractions cross it only "
+            "through noise): extend the sweep or add impacts",
+            notes,
+        )
+    if not decreasing:
+        notes.append("capture rises with speed in the fitted window")
+    est = math.exp(mc.theta)
+    a, b = (math.exp(t) for t in mc.bracket)
+    notes.append(
+        f"on the fitted point at {_fmt(a)} m/s"
+        if a == b
+        else f"interpolated between {_fmt(a)} and {_fmt(b)} m/s"
+    )
+    lo, hi = (math.exp(t) if np.isfinite(t) else math.nan for t in (mc.lo, mc.hi))
+    for limit, side, bound in ((lo, "below", v_lo), (hi, "above", v_hi)):
+        if math.isnan(limit):
+            notes.append(f"open {side}: not bounded by the data within {bound} m/s")
+    err = est * math.expm1(mc.interpolation_error)  # NaN without a third point
+    half = np.nanmax([est - lo, hi - est]) if np.isfinite([lo, hi]).any() else 0.0
+    limited = bool(err > half)
+    if limited:
+        notes.append(
+            f"grid-limited: the interpolation between the fitted speeds may be off "
+            f"by about {err:.2g} m/s (curvature of the neighbouring points), more "
+            f"than the interval's half-width, which covers the interpolated "
+            f"crossing only; refine the sweep between {_fmt(a)} and {_fmt(b)} m/s"
+        )
+    elif a != b and math.isnan(err):
+        notes.append(
+            "two fitted points: the probit shape between them is assumed, not checked"
+        )
+    return CaptureSpeedEstimate(est, lo, hi, METHOD_MONOTONE, "; ".join(notes)), limited
+
+
 def estimate_capture_speed(
     speed_m_s: ArrayLike,
     captured: ArrayLike,
@@ -481,6 +544,7 @@ def estimate_capture_speed(
     confidence: float = 0.95,
     capture_se: ArrayLike | None = None,
     capture_se_df: float | None = None,
+    estimator: str = "auto",
 ) -> CaptureSpeedEstimate:
     r"""Speed at which a fraction `quantile` of the particles is captured.
 
@@ -542,6 +606,11 @@ def estimate_capture_speed(
             raise ValueError(
                 f"`capture_se_df` must be a finite number > 0; got {capture_se_df!r}."
             )
+    if estimator not in ESTIMATORS:
+        raise ValueError(
+            f"`estimator` must be one of {', '.join(map(repr, ESTIMATORS))}; "
+            f"got {estimator!r}."
+        )
     notes = []
     try:
         v, y, n, se_df = _pooled_counts(v, y, n, se, se_df, notes)
@@ -550,12 +619,23 @@ def estimate_capture_speed(
         _check_resolved(v, y / n, q, i0, i1, yw, nw, notes)
         z_q = float(special.ndtri(q))
         alpha, beta, ll_hat = _fit_probit(xw, yw, nw)
+        g2, df, p_fit = _lack_of_fit(xw, yw, nw, ll_hat)
+        fits = df > 0 and p_fit >= LACK_OF_FIT_LEVEL
+        if estimator != "probit":
+            iso, limited = _monotone(xw, yw, nw, q, conf, se_df, beta <= 0, [*notes])
+            if estimator == "monotone" or not (limited and fits):
+                return iso
+            notes.append(
+                f"the probit bridges the coarse sweep: it fits (deviance {g2:.3g} on "
+                f"{df} df, p = {p_fit:.2g}) where the isotonic interpolation is "
+                "grid-limited"
+            )
         theta = _crossing(alpha, beta, z_q, xw, v, q, i0, i1, notes)
     except _NoEstimate as exc:
         return _none("; ".join([exc.message, *exc.notes]))
     if beta > 0:
         notes.append("capture rises with speed in the fitted window")
-    crit, method = _criterion(xw, yw, nw, ll_hat, conf, se_df, notes)
+    crit, method = _criterion(g2, df, p_fit, conf, se_df, notes)
     lo, hi = _profile_interval(theta, xw, yw, nw, z_q, beta, ll_hat, crit, notes)
     # the interval holds the estimate by construction (the walk starts at theta)
     return CaptureSpeedEstimate(
