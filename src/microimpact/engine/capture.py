@@ -24,13 +24,20 @@ smooth surface a particle of diameter :math:`d` is captured iff
 exactly linear in :math:`\ln v` on the probit scale, and :math:`v_q = v_c(d_q)` with
 :math:`d_q = m g^{\Phi^{-1}(q)}` the :math:`q`-quantile of the diameter.
 
-Elsewhere (rough surfaces, oblique angles, other size distributions) the probit is a
-local description, so it is fitted only to a *window* of the sweep around the
-crossing (see :func:`crossing_window`), and a lack of fit is caught by the residual
-deviance and widens the interval (Finney's heterogeneity factor).
+Elsewhere (rough surfaces, oblique angles, other size distributions, the paper's
+normal diameters) the probit is only a local description. Fitted to a *window* of the
+sweep around the crossing (see :func:`crossing_window`), its shape bias does not
+shrink with the number of impacts while its interval does, and the residual-deviance
+test has too little power to catch that in time: on normal diameters its 95 %
+interval held the true speed only 71-87 % of the time (``docs/capture-speed.md``).
+So the default estimate is shape-free (:mod:`.capture_monotone`: isotonic fit,
+probit-scale interpolation between the two speeds bracketing the crossing,
+Fieller-type interval); its only approximation is the interpolation between two
+nodes, :math:`O(h^2)`, which is estimated and reported apart (``grid-limited``). The
+probit is used where that interpolation is grid-limited and the probit fits.
 
-Interval
---------
+Probit interval
+---------------
 The interval is the profile-likelihood interval of :math:`\theta = \ln v_q` in the
 reparametrisation :math:`\eta_i = \Phi^{-1}(q) + \beta(\ln v_i - \theta)`:
 :math:`\{\theta : 2[\ell(\hat\alpha, \hat\beta) - \max_\beta \ell(\theta, \beta)] \le
@@ -38,7 +45,8 @@ reparametrisation :math:`\eta_i = \Phi^{-1}(q) + \beta(\ln v_i - \theta)`:
 widens when the swept speeds lie far from the crossing (a coarse sweep): the
 resolution of the sweep enters through the likelihood, not only the counts. With
 lack of fit (residual deviance :math:`G^2` on :math:`m - 2` degrees of freedom
-significant at the 5 % level) the criterion becomes
+significant at the 5 % level) the probit is not used by default; with
+``estimator="probit"`` the criterion becomes
 :math:`\Delta D / h \le F_{1, m-2}(c)` with :math:`h = G^2/(m - 2)` [1]_.
 
 The interval is searched only inside the window's speed range: a side that the
@@ -73,14 +81,16 @@ __all__ = [
     "estimate_capture_speed",
 ]
 
-#: Significance level of the residual-deviance test above which the interval is
-#: widened by the heterogeneity factor (Finney's rule).
+#: Level of the probit's residual-deviance test: a p-value below it is a lack of fit
+#: ("auto" then keeps the isotonic estimate; "probit" widens its interval by the
+#: heterogeneity factor, Finney's rule).
 LACK_OF_FIT_LEVEL = 0.05
 
 #: Sweep points added to the fitted window on each side of the crossing region.
 WINDOW_MARGIN = 2
 
-#: ``method`` values (see ``docs/capture-speed.md``).
+#: ``method`` values (see ``docs/capture-speed.md``); ``probit-profile-scaled`` only
+#: with ``estimator="probit"``.
 METHOD_PROFILE = "probit-profile"
 METHOD_SCALED = "probit-profile-scaled"
 METHOD_MONOTONE = "isotonic-interpolated"
@@ -107,8 +117,9 @@ class CaptureSpeedEstimate:
         and both NaN when `speed_m_s` is NaN. When finite,
         ``ci_low <= speed_m_s <= ci_high``.
     method : str
-        ``"probit-profile"``, ``"probit-profile-scaled"`` (interval widened for lack
-        of fit) or ``"none"`` (no estimate).
+        ``"isotonic-interpolated"`` (shape-free), ``"probit-profile"``,
+        ``"probit-profile-scaled"`` (interval widened for lack of fit, with
+        ``estimator="probit"`` only) or ``"none"`` (no estimate).
     note : str
         Why a value is NaN, or what the estimate rests on; ``""`` when there is
         nothing to add.
@@ -510,9 +521,10 @@ def _monotone(xw, yw, nw, q, conf, se_df, decreasing, notes):
     est = math.exp(mc.theta)
     a, b = (math.exp(t) for t in mc.bracket)
     notes.append(
-        f"on the fitted point at {_fmt(a)} m/s"
+        f"isotonic (shape-free) estimate on the fitted point at {_fmt(a)} m/s"
         if a == b
-        else f"interpolated between {_fmt(a)} and {_fmt(b)} m/s"
+        else f"isotonic (shape-free) estimate interpolated between {_fmt(a)} and "
+        f"{_fmt(b)} m/s"
     )
     lo, hi = (math.exp(t) if np.isfinite(t) else math.nan for t in (mc.lo, mc.hi))
     for limit, side, bound in ((lo, "below", v_lo), (hi, "above", v_hi)):
@@ -520,8 +532,15 @@ def _monotone(xw, yw, nw, q, conf, se_df, decreasing, notes):
             notes.append(f"open {side}: not bounded by the data within {bound} m/s")
     err = est * math.expm1(mc.interpolation_error)  # NaN without a third point
     half = np.nanmax([est - lo, hi - est]) if np.isfinite([lo, hi]).any() else 0.0
-    limited = bool(err > half)
-    if limited:
+    extreme = a != b and any(f in (0.0, 1.0) for f in mc.bracket_fraction)
+    limited = bool(err > half) or extreme
+    if extreme:
+        notes.append(
+            f"grid-limited: a speed beside the crossing has no or full capture, so "
+            f"where between {_fmt(a)} and {_fmt(b)} m/s the curve crosses rests on "
+            "the interpolation; refine the sweep there"
+        )
+    elif limited:
         notes.append(
             f"grid-limited: the interpolation between the fitted speeds may be off "
             f"by about {err:.2g} m/s (curvature of the neighbouring points), more "
@@ -548,11 +567,25 @@ def estimate_capture_speed(
 ) -> CaptureSpeedEstimate:
     r"""Speed at which a fraction `quantile` of the particles is captured.
 
-    One capture curve (one surface and angle). A binomial probit GLM in log speed is
-    fitted to the sweep points around the crossing (:func:`crossing_window`); the
-    estimate is its inverse prediction and the interval the profile-likelihood
-    interval, widened by the heterogeneity factor on a significant lack of fit (see
-    the module notes and ``docs/capture-speed.md``).
+    One capture curve (one surface and angle), from the sweep points around the
+    crossing (:func:`crossing_window`). Two estimators (see the module notes and
+    ``docs/capture-speed.md``):
+
+    * ``isotonic-interpolated`` (:mod:`.capture_monotone`): the centred isotonic
+      fit of the fractions, interpolated on the probit scale between the two
+      speeds that bracket `quantile`, with a Fieller-type interval. It assumes only
+      that capture is monotone in speed; its interval covers the interpolated
+      crossing and shrinks as :math:`1/\sqrt N`. The bracketing speeds are in the
+      note, and a ``grid-limited`` note says when the interpolation error between
+      them may exceed the interval's half-width.
+    * ``probit-profile``: a binomial probit GLM in log speed, its inverse
+      prediction and profile-likelihood interval (``probit-profile-scaled``: widened
+      by the heterogeneity factor on a significant lack of fit, with
+      ``estimator="probit"`` only).
+
+    ``estimator="auto"`` reports the isotonic estimate, except where it is
+    grid-limited and the probit fits (residual deviance not significant at
+    :data:`LACK_OF_FIT_LEVEL`): the probit's shape then bridges the coarse sweep.
 
     Parameters
     ----------
@@ -575,8 +608,11 @@ def estimate_capture_speed(
     capture_se_df : float, optional, keyword-only
         Degrees of freedom of `capture_se` (``R - 1`` for ``R`` QMC replicates). The
         likelihood-ratio criterion then uses :math:`F_{1,\nu}(c)` instead of
-        :math:`\chi^2_1(c)`, as a t interval does for an estimated SE. Ignored
-        without `capture_se`.
+        :math:`\chi^2_1(c)`, as a t interval does for an estimated SE (the
+        isotonic interval likewise). Ignored without `capture_se`.
+    estimator : {"auto", "probit", "monotone"}, keyword-only
+        ``"auto"`` (above), or the probit (the estimator before 0.2.0) or the
+        isotonic estimate alone.
 
     Returns
     -------
@@ -594,7 +630,8 @@ def estimate_capture_speed(
     ValueError
         For arrays of different lengths, non-positive or non-finite speeds, negative
         impacts, `captured` outside ``[0, impacts]``, a negative `capture_se`, a
-        `capture_se_df` that is not > 0, or `quantile`/`confidence` outside (0, 1).
+        `capture_se_df` that is not > 0, `quantile`/`confidence` outside (0, 1), or
+        an `estimator` not in :data:`ESTIMATORS`.
     """
     v, y, n, q, conf, se = _estimate_capture_speed_iv(
         speed_m_s, captured, impacts, quantile, confidence, capture_se

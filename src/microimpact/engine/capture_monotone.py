@@ -82,6 +82,8 @@ class MonotoneCrossing:
     bracket : tuple of float
         The log speeds of the two fitted points the estimate is interpolated
         between (equal when a point sits exactly on ``q``).
+    bracket_fraction : tuple of float
+        The fitted capture fractions at those points.
     interpolation_error : float
         Estimated error of the interpolation, in log speed (:func:`_curvature_error`):
         the next term of Newton's interpolation through a third fitted point, the
@@ -92,6 +94,7 @@ class MonotoneCrossing:
     lo: float
     hi: float
     bracket: tuple[float, float]
+    bracket_fraction: tuple[float, float]
     interpolation_error: float
 
 
@@ -219,14 +222,16 @@ def monotone_crossing(x, y, n, quantile, crit, *, decreasing=True):
     k = _bracket(d)
     if k is None:
         nan = math.nan
-        return MonotoneCrossing(nan, nan, nan, (nan, nan), nan)
+        return MonotoneCrossing(nan, nan, nan, (nan, nan), (nan, nan), nan)
+    frac = yf / nf
     if d[k] == 0.0 or k + 1 == xf.size:
         theta, err = float(xf[k]), 0.0
-        bracket = (theta, theta)
+        bracket, at = (theta, theta), (float(frac[k]), float(frac[k]))
     else:
         theta = float(_interp(xf[k], xf[k + 1], d[k], d[k + 1]))
         err = _curvature_error(xf, z, k, theta)
         bracket = (float(xf[k]), float(xf[k + 1]))
+        at = (float(frac[k]), float(frac[k + 1]))
 
     def excess(t):
         """Squared statistic minus ``crit`` times its variance at ``theta = t``."""
@@ -237,7 +242,7 @@ def monotone_crossing(x, y, n, quantile, crit, *, decreasing=True):
         return float(dev * dev - crit * var)
 
     if xf.size == 1:
-        return MonotoneCrossing(theta, math.nan, math.nan, bracket, err)
+        return MonotoneCrossing(theta, math.nan, math.nan, bracket, at, err)
     limits = []
     for step in (-1, 1):
         # the nodes outwards from theta, then the first one rejected
@@ -249,4 +254,4 @@ def monotone_crossing(x, y, n, quantile, crit, *, decreasing=True):
                 break
             prev = t
         limits.append(limit)
-    return MonotoneCrossing(theta, limits[0], limits[1], bracket, err)
+    return MonotoneCrossing(theta, limits[0], limits[1], bracket, at, err)
