@@ -284,19 +284,22 @@ def test_two_point_interval_is_the_fieller_quadratic():
 
 
 def test_coarse_sweep_of_a_probit_curve_uses_the_probit_where_it_bridges():
-    """Log-normal diameters, counts at their expected values, on a coarse sweep whose
-    crossing sits next to a speed without capture: the isotonic interpolation is
-    grid-limited, the probit fits, so the probit is reported and says why."""
-    v = np.array([0.3, 0.4, 0.55, 0.75, 1.0, 1.3])
-    n = np.full(6, 4000.0)
+    """Log-normal diameters (a probit in ln v), expected counts of 1,000 impacts at
+    four speeds 4.4x apart (2 on the probit scale): the 5 % crossing lies between a
+    speed with 6.7 % capture and one with none, so the isotonic interpolation is
+    grid-limited; the probit fits, so it is reported, says why, and holds v_q."""
+    step = 2.0 * abs(B) * math.log(1.6)  # ln v per 2 probit units
+    v = v_q(0.5, LOGNORMAL) * np.exp(step * np.array([-1.25, -0.25, 0.75, 1.75]))
+    n = np.full(4, 1000.0)
     y = np.round(capture(v, LOGNORMAL) * n)
-    r = estimate_capture_speed(v, y, n)
-    iso = estimate_capture_speed(v, y, n, estimator="monotone")
-    if "grid-limited" in iso.note:
-        assert r.method == "probit-profile" and "bridges" in r.note
-    else:
-        assert r == iso
-    assert r.ci_low <= v_q(0.5, LOGNORMAL) <= r.ci_high
+    assert y[2] == 67 and y[3] == 0
+    iso = estimate_capture_speed(v, y, n, 0.05, estimator="monotone")
+    assert "grid-limited: a speed beside the crossing has no or full capture" in (
+        iso.note
+    )
+    r = estimate_capture_speed(v, y, n, 0.05)
+    assert r.method == "probit-profile" and "the probit bridges" in r.note
+    assert r.ci_low <= v_q(0.05, LOGNORMAL) <= r.ci_high
 
 
 # ---------------------------------------------------------------- public API
