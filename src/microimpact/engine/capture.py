@@ -29,7 +29,8 @@ normal diameters) the probit is only a local description. Fitted to a *window* o
 sweep around the crossing (see :func:`crossing_window`), its shape bias does not
 shrink with the number of impacts while its interval does, and the residual-deviance
 test has too little power to catch that in time: on normal diameters its 95 %
-interval held the true speed only 71-87 % of the time (``docs/capture-speed.md``).
+interval held the true speed only 76-83 % of the time at 4,000-40,000 impacts per
+speed (``docs/capture-speed.md``).
 So the default estimate is shape-free (:mod:`.capture_monotone`: isotonic fit,
 probit-scale interpolation between the two speeds bracketing the crossing,
 Fieller-type interval); its only approximation is the interpolation between two
@@ -102,8 +103,9 @@ METHOD_SCALED = "probit-profile-scaled"
 METHOD_MONOTONE = "isotonic-interpolated"
 METHOD_NONE = "none"
 
-#: ``estimator`` values of :func:`estimate_capture_speed`: the probit where it fits
-#: else the shape-free isotonic estimate (``"auto"``), or either one alone.
+#: ``estimator`` values of :func:`estimate_capture_speed`: the isotonic estimate, or
+#: the probit where the isotonic one is grid-limited and the probit fits
+#: (``"auto"``); the probit alone; the isotonic estimate alone.
 ESTIMATORS = ("auto", "probit", "monotone")
 
 _LOG_SQRT_2PI = 0.5 * math.log(2.0 * math.pi)
@@ -445,7 +447,7 @@ def _lack_of_fit(xw, yw, nw, ll_hat):
 def _criterion(g2, df, p_fit, conf, se_df, notes):
     """``(critical value, method)`` of the likelihood-ratio interval: chi2 (or F
     for an estimated SE), widened by the heterogeneity factor on a significant
-    lack of fit (only reached with ``estimator="probit"``)."""
+    lack of fit (``auto`` uses the probit only where it fits)."""
     method = METHOD_PROFILE
     crit = _critical(conf, se_df)
     if df == 0:
@@ -511,8 +513,9 @@ def _profile_interval(theta, xw, yw, nw, z_q, beta, ll_hat, crit, notes):
 def _monotone(xw, yw, nw, q, conf, se_df, decreasing, notes):
     """``(estimate, grid_limited)``: the shape-free estimate
     (:mod:`.capture_monotone`) of the window's points, with the bracketing speeds
-    in the note and whether its interpolation error may exceed the interval's
-    half-width (then said in the note)."""
+    in the note, and whether it is grid-limited (then said in the note): its
+    estimated interpolation error exceeds :data:`GRID_LIMITED_RATIO` of the
+    interval's half-width, or a bracketing speed has no or full capture."""
     mc = monotone_crossing(xw, yw, nw, q, _critical(conf, se_df), decreasing=decreasing)
     v_lo, v_hi = _fmt(math.exp(xw[0])), _fmt(math.exp(xw[-1]))
     if not np.isfinite(mc.theta):
@@ -583,8 +586,9 @@ def estimate_capture_speed(
       speeds that bracket `quantile`, with a Fieller-type interval. It assumes only
       that capture is monotone in speed; its interval covers the interpolated
       crossing and shrinks as :math:`1/\sqrt N`. The bracketing speeds are in the
-      note, and a ``grid-limited`` note says when the interpolation error between
-      them may exceed the interval's half-width.
+      note, and a ``grid-limited`` note says when the estimated interpolation error
+      between them exceeds :data:`GRID_LIMITED_RATIO` of the interval's half-width
+      (or a bracketing speed has no or full capture).
     * ``probit-profile``: a binomial probit GLM in log speed, its inverse
       prediction and profile-likelihood interval (``probit-profile-scaled``: widened
       by the heterogeneity factor on a significant lack of fit, with

@@ -99,8 +99,9 @@ class MonotoneCrossing:
 
 
 def _pava(y, n, decreasing):
-    """Blocks ``[(first, last), ...]`` of the pool-adjacent-violators fit of the
-    fractions ``y/n`` (weights `n`), non-increasing if `decreasing`."""
+    """Blocks ``[[first, last, sum y, sum n], ...]`` of the pool-adjacent-violators
+    fit of the fractions ``y/n`` (weights `n`), non-increasing if `decreasing`;
+    each block's fitted fraction is ``sum y / sum n``."""
     blocks = []  # [first, last, sum y, sum n]
     for i in range(y.size):
         blocks.append([i, i, float(y[i]), float(n[i])])
@@ -172,8 +173,8 @@ def _curvature_error(xf, z, k, theta):
     fitted point, ``f[x_{k-1}, x_k, x_{k+1}] (theta - x_k)(theta - x_{k+1})`` (or
     through ``x_{k+2}``), over the cell's slope ``f[x_k, x_{k+1}]``; the larger of
     the two neighbours' readings, NaN if neither exists. It is the leading error of
-    linear interpolation on the probit scale (exact for a quadratic), and as noisy
-    as the interval itself at the smallest counts."""
+    linear interpolation on the probit scale (exact for a quadratic); its own noise
+    is :math:`O(N^{-1/2})`, like the interval's half-width."""
     slope = (z[k + 1] - z[k]) / (xf[k + 1] - xf[k])
     out = math.nan
     for i in (k - 1, k):  # the triples (k-1, k, k+1) and (k, k+1, k+2)
