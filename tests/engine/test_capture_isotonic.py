@@ -13,7 +13,7 @@ Oracles:
   sweep). It equals v_q where the curve is a probit in ln v between the nodes
   (log-normal diameters); elsewhere it differs by the interpolation error.
 * Isotonic regression: the max-min formula of the weighted least-squares isotonic
-  fit (Robertson, Wright & Dykstra 1988, thm 1.4.4).
+  fit (Robertson, Wright & Dykstra 1988, ch. 1).
 * Two points: the interval's limits are the roots of a quadratic (Fieller).
 """
 
