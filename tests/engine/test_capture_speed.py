@@ -35,7 +35,7 @@ from microimpact.engine.statistics import capture_speed, interval_se, wilson_int
 A, B, D_REF = 0.5, -1.0, 50e-6  # [m/s], [-], [m]
 MEDIAN, GSD = 40e-6, 1.6  # [m], [-]
 N_IMPACTS = 4000
-METHODS = {"probit-profile", "probit-profile-scaled", "none"}
+METHODS = {"probit-profile", "probit-profile-scaled", "isotonic-interpolated", "none"}
 
 
 def closed_form_capture(v, median=MEDIAN, gsd=GSD, a=A, b=B):
@@ -107,23 +107,38 @@ def asymptotic_width(v, q, n=N_IMPACTS, confidence=0.95):
     return 2 * z * math.sqrt(grad @ cov @ grad) * math.exp(theta)
 
 
+def two_node_width(v, q, n=N_IMPACTS, confidence=0.95):
+    """Delta-method width of the v_q interval interpolated on the probit scale
+    between the two speeds of `v` that bracket the true v_q (the yardstick of the
+    isotonic estimate, which reads only those two)."""
+    x, vq = np.log(v), closed_form_speed(q)
+    k = np.searchsorted(v, vq) - 1
+    p = closed_form_capture(v[k : k + 2])
+    z = special.ndtri(p)
+    s2 = p * (1 - p) / (n * stats.norm.pdf(z) ** 2)
+    lam = (math.log(vq) - x[k]) / (x[k + 1] - x[k])
+    slope = (z[1] - z[0]) / (x[k + 1] - x[k])
+    sd = math.sqrt((1 - lam) ** 2 * s2[0] + lam**2 * s2[1]) / abs(slope)
+    return 2 * special.ndtri(0.5 + confidence / 2) * sd * vq
+
+
 def coverage(kind, n_seeds, q, seed):
+    """Coverage of the closed-form v_q, mean width, the mean yardstick of the
+    method each curve reported, and the rate of open sides."""
     curves = drawn_sweeps(kind, n_seeds, q, seed=seed)
     cs = capture_speed(binomial_summary(curves), q)
     vq = closed_form_speed(q)
     lo = cs["speed_ci_low"].to_numpy(dtype=float)
     hi = cs["speed_ci_high"].to_numpy(dtype=float)
     hit = (lo <= vq) & (vq <= hi)  # a NaN (open) limit counts as a miss
-    nearest = [
-        np.sort(np.argsort(np.abs(np.log(v / vq)))[:6]) for v, _, _ in curves.values()
-    ]
-    yardstick = np.mean(
-        [
-            asymptotic_width(c[0][i], q)
-            for c, i in zip(curves.values(), nearest, strict=True)
-        ]
-    )
-    return hit.mean(), np.nanmean(hi - lo), yardstick, np.isnan(hi - lo).mean()
+    yardstick = []
+    for (v, _, _), method in zip(curves.values(), cs["method"], strict=True):
+        if method == "isotonic-interpolated":
+            yardstick.append(two_node_width(v, q))
+        else:
+            nearest = np.sort(np.argsort(np.abs(np.log(v / vq)))[:6])
+            yardstick.append(asymptotic_width(v[nearest], q))
+    return hit.mean(), np.nanmean(hi - lo), np.mean(yardstick), np.isnan(hi - lo).mean()
 
 
 # ---------------------------------------------------------------- the oracle itself
@@ -145,7 +160,7 @@ def test_closed_form_oracle_is_consistent():
 def test_interval_coverage_against_closed_form(kind, q):
     """Over 300 seeds the 95 % interval holds the closed-form v_q 95 % +- 3 SE of
     the time, and it is not bought by width: within 1.35x of the delta-method width
-    of the fitted points."""
+    of the points the reported method reads (two for the isotonic estimate)."""
     n_seeds = 300
     cov, width, yardstick, open_rate = coverage(kind, n_seeds, q, seed=2024)
     tol = 3 * math.sqrt(0.95 * 0.05 / n_seeds)
@@ -224,7 +239,7 @@ def test_only_one_confidence_curve_crossing_gives_an_open_side():
     assert "open above" in r.note
     v = vq * np.array([0.7, 0.8, 0.9, 0.99])
     y = np.round(closed_form_capture(v) * n) - np.array([0, 0, 0, 40])
-    r = estimate_capture_speed(v, y, n)
+    r = estimate_capture_speed(v, y, n, estimator="probit")
     assert np.isnan([r.speed_m_s, r.ci_low, r.ci_high]).all()
     assert "not extrapolated" in r.note
 
@@ -354,18 +369,23 @@ def test_noisy_non_monotone_curve_is_fitted_across_all_crossings():
     assert r.ci_low <= r.speed_m_s <= r.ci_high
 
 
-def test_lack_of_fit_widens_the_interval():
-    """A curve that is not a probit in log speed (a mixture of two steep curves)
-    is flagged and its interval widened (Finney's heterogeneity factor)."""
+def test_lack_of_fit_switches_to_the_isotonic_estimate():
+    """A curve that is not a probit in log speed (a mixture of two steep curves) is
+    flagged; by default the shape-free isotonic estimate replaces the probit (the
+    note says why), and ``estimator="probit"`` keeps the old widened interval."""
     v = np.geomspace(0.3, 1.2, 8)
     p = 0.5 * closed_form_capture(v, gsd=1.05) + 0.5 * closed_form_capture(
         v, median=0.6 * MEDIAN, gsd=1.05
     )
     n = np.full(8, N_IMPACTS)
     y = np.round(p * n)
-    r = estimate_capture_speed(v, y, n)
+    r = estimate_capture_speed(v, y, n, estimator="probit")
     assert r.method == "probit-profile-scaled"
     assert "heterogeneity factor" in r.note
+    r = estimate_capture_speed(v, y, n)
+    assert r.method == "isotonic-interpolated"
+    assert "heterogeneity" not in r.note and "m/s" in r.note  # the bracketing nodes
+    assert r.ci_low <= r.speed_m_s <= r.ci_high
 
 
 def test_qmc_standard_errors_give_effective_counts():
@@ -418,7 +438,8 @@ def test_invalid_input_names_the_argument(kwargs, match):
 # ---------------------------------------------------------------- independent fits
 def test_estimate_is_the_glm_inverse_prediction():
     """statsmodels' probit GLM on the window points gives the same inverse
-    prediction."""
+    prediction (the probit alone: these counts do not fit it, so by default the
+    isotonic estimate would be reported)."""
     sm = pytest.importorskip("statsmodels.api")
     v = np.geomspace(0.3, 1.3, 7)
     y = np.array([3745, 3290, 2630, 1900, 1050, 560, 250])
@@ -431,7 +452,7 @@ def test_estimate_is_the_glm_inverse_prediction():
         family=sm.families.Binomial(sm.families.links.Probit()),
     ).fit()
     alpha, beta = fit.params
-    r = estimate_capture_speed(v, y, n, 0.3)
+    r = estimate_capture_speed(v, y, n, 0.3, estimator="probit")
     assert_allclose(r.speed_m_s, math.exp((special.ndtri(0.3) - alpha) / beta), 1e-7)
 
 
@@ -462,7 +483,7 @@ def test_interval_is_the_profile_likelihood_interval():
     grid = np.linspace(math.log(0.55), math.log(0.75), 1201)
     prof = np.array([profile(t) for t in grid])
     inside = grid[2 * (prof.max() - prof) <= stats.chi2.ppf(0.95, 1)]
-    r = estimate_capture_speed(v, y, n, q)
+    r = estimate_capture_speed(v, y, n, q, estimator="probit")
     assert r.method == "probit-profile"
     assert_allclose(math.log(r.speed_m_s), grid[prof.argmax()], atol=2e-4)
     assert_allclose(np.log([r.ci_low, r.ci_high]), inside[[0, -1]], atol=3e-4)
@@ -546,7 +567,8 @@ def test_a_nearly_flat_fit_far_outside_is_reported_not_overflowed(monkeypatch):
 
     monkeypatch.setattr(capture, "_fit_probit", lambda x, y, n: (-1e-3, 1e-6, 0.0))
     v = np.array([0.2, 0.4, 0.8, 1.6])
-    r = estimate_capture_speed(v, np.array([90, 60, 40, 10]), np.full(4, 100))
+    y, n = np.array([90, 60, 40, 10]), np.full(4, 100)
+    r = estimate_capture_speed(v, y, n, estimator="probit")
     assert np.isnan(r.speed_m_s)
     assert "above 1e308" in r.note
 

@@ -71,7 +71,7 @@ def test_half_capture_speed_from_summary_csv(results, tmp_path, name, low, high)
     files = res.to_files(tmp_path)
     v50 = half_capture_speed(files["summary"])
     assert low <= v50 <= high
-    # the engine's own estimate (a local probit fit, docs/capture-speed.md) agrees
+    # the engine's own estimate (isotonic, docs/capture-speed.md) agrees
     # with the CSV read-back (linear interpolation) within its interval
     cs = res.capture_speed().iloc[0]
     assert cs["speed_ci_low"] <= v50 <= cs["speed_ci_high"]

@@ -24,13 +24,21 @@ smooth surface a particle of diameter :math:`d` is captured iff
 exactly linear in :math:`\ln v` on the probit scale, and :math:`v_q = v_c(d_q)` with
 :math:`d_q = m g^{\Phi^{-1}(q)}` the :math:`q`-quantile of the diameter.
 
-Elsewhere (rough surfaces, oblique angles, other size distributions) the probit is a
-local description, so it is fitted only to a *window* of the sweep around the
-crossing (see :func:`crossing_window`), and a lack of fit is caught by the residual
-deviance and widens the interval (Finney's heterogeneity factor).
+Elsewhere (rough surfaces, oblique angles, other size distributions, the paper's
+normal diameters) the probit is only a local description. Fitted to a *window* of the
+sweep around the crossing (see :func:`crossing_window`), its shape bias does not
+shrink with the number of impacts while its interval does, and the residual-deviance
+test has too little power to catch that in time: on normal diameters its 95 %
+interval held the true speed only 76-83 % of the time at 4,000-40,000 impacts per
+speed (``docs/capture-speed.md``).
+So the default estimate is shape-free (:mod:`.capture_monotone`: isotonic fit,
+probit-scale interpolation between the two speeds bracketing the crossing,
+Fieller-type interval); its only approximation is the interpolation between two
+nodes, :math:`O(h^2)`, which is estimated and reported apart (``grid-limited``). The
+probit is used where that interpolation is grid-limited and the probit fits.
 
-Interval
---------
+Probit interval
+---------------
 The interval is the profile-likelihood interval of :math:`\theta = \ln v_q` in the
 reparametrisation :math:`\eta_i = \Phi^{-1}(q) + \beta(\ln v_i - \theta)`:
 :math:`\{\theta : 2[\ell(\hat\alpha, \hat\beta) - \max_\beta \ell(\theta, \beta)] \le
@@ -38,7 +46,8 @@ reparametrisation :math:`\eta_i = \Phi^{-1}(q) + \beta(\ln v_i - \theta)`:
 widens when the swept speeds lie far from the crossing (a coarse sweep): the
 resolution of the sweep enters through the likelihood, not only the counts. With
 lack of fit (residual deviance :math:`G^2` on :math:`m - 2` degrees of freedom
-significant at the 5 % level) the criterion becomes
+significant at the 5 % level) the probit is not used by default; with
+``estimator="probit"`` the criterion becomes
 :math:`\Delta D / h \le F_{1, m-2}(c)` with :math:`h = G^2/(m - 2)` [1]_.
 
 The interval is searched only inside the window's speed range: a side that the
@@ -63,6 +72,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy import optimize, special, stats
 
+from .capture_monotone import monotone_crossing
+
 __all__ = [
     "LACK_OF_FIT_LEVEL",
     "WINDOW_MARGIN",
@@ -71,17 +82,31 @@ __all__ = [
     "estimate_capture_speed",
 ]
 
-#: Significance level of the residual-deviance test above which the interval is
-#: widened by the heterogeneity factor (Finney's rule).
+#: Level of the probit's residual-deviance test: a p-value below it is a lack of fit
+#: ("auto" then keeps the isotonic estimate; "probit" widens its interval by the
+#: heterogeneity factor, Finney's rule).
 LACK_OF_FIT_LEVEL = 0.05
 
 #: Sweep points added to the fitted window on each side of the crossing region.
 WINDOW_MARGIN = 2
 
-#: ``method`` values (see ``docs/capture-speed.md``).
+#: An isotonic estimate whose estimated interpolation error exceeds this fraction of
+#: its interval's half-width is ``grid-limited`` (an error of half the half-width
+#: lowers the coverage of the true speed from 0.95 to 0.84; the estimate's own noise
+#: flags 1-4 % of log-normal curves, which have no such error, by chance).
+GRID_LIMITED_RATIO = 0.5
+
+#: ``method`` values (see ``docs/capture-speed.md``); ``probit-profile-scaled`` only
+#: with ``estimator="probit"``.
 METHOD_PROFILE = "probit-profile"
 METHOD_SCALED = "probit-profile-scaled"
+METHOD_MONOTONE = "isotonic-interpolated"
 METHOD_NONE = "none"
+
+#: ``estimator`` values of :func:`estimate_capture_speed`: the isotonic estimate, or
+#: the probit where the isotonic one is grid-limited and the probit fits
+#: (``"auto"``); the probit alone; the isotonic estimate alone.
+ESTIMATORS = ("auto", "probit", "monotone")
 
 _LOG_SQRT_2PI = 0.5 * math.log(2.0 * math.pi)
 
@@ -100,8 +125,9 @@ class CaptureSpeedEstimate:
         and both NaN when `speed_m_s` is NaN. When finite,
         ``ci_low <= speed_m_s <= ci_high``.
     method : str
-        ``"probit-profile"``, ``"probit-profile-scaled"`` (interval widened for lack
-        of fit) or ``"none"`` (no estimate).
+        ``"isotonic-interpolated"`` (shape-free), ``"probit-profile"``,
+        ``"probit-profile-scaled"`` (interval widened for lack of fit, with
+        ``estimator="probit"`` only) or ``"none"`` (no estimate).
     note : str
         Why a value is NaN, or what the estimate rests on; ``""`` when there is
         nothing to add.
@@ -404,10 +430,10 @@ def _crossing(alpha, beta, z_q, xw, v, q, i0, i1, notes) -> float:
     )
 
 
-def _criterion(xw, yw, nw, ll_hat, conf, se_df, notes):
-    """``(critical value, method)`` of the likelihood-ratio interval: chi2 (or F
-    for an estimated SE), widened by the heterogeneity factor on a significant
-    lack of fit (residual deviance against the saturated model)."""
+def _lack_of_fit(xw, yw, nw, ll_hat):
+    """``(G2, df, p)``: residual deviance of the probit against the saturated model
+    on the window, its degrees of freedom and its chi-squared p-value (NaN for a
+    saturated fit, ``df = 0``)."""
     df = xw.size - 2
     with np.errstate(divide="ignore", invalid="ignore"):
         pw = yw / nw
@@ -415,15 +441,20 @@ def _criterion(xw, yw, nw, ll_hat, conf, se_df, notes):
             yw < nw, (nw - yw) * np.log1p(-pw), 0.0
         )
     g2 = max(2.0 * (float(np.sum(sat)) - ll_hat), 0.0)
+    return g2, df, float(stats.chi2.sf(g2, df)) if df > 0 else math.nan
+
+
+def _criterion(g2, df, p_fit, conf, se_df, notes):
+    """``(critical value, method)`` of the likelihood-ratio interval: chi2 (or F
+    for an estimated SE), widened by the heterogeneity factor on a significant
+    lack of fit (``auto`` uses the probit only where it fits)."""
     method = METHOD_PROFILE
-    crit = float(
-        stats.chi2.ppf(conf, 1) if se_df is None else stats.f.ppf(conf, 1, se_df)
-    )
+    crit = _critical(conf, se_df)
     if df == 0:
         notes.append(
             "two speeds in the window: the probit shape is assumed, not checked"
         )
-    elif stats.chi2.sf(g2, df) < LACK_OF_FIT_LEVEL:
+    elif p_fit < LACK_OF_FIT_LEVEL:
         h = g2 / df
         crit = float(stats.f.ppf(conf, 1, df)) * h
         if se_df is not None:  # the more conservative of the two corrections
@@ -434,6 +465,13 @@ def _criterion(xw, yw, nw, ll_hat, conf, se_df, notes):
             f"heterogeneity factor {h:.3g}"
         )
     return crit, method
+
+
+def _critical(conf, se_df):
+    """chi2_1(c), or F(1, se_df; c) where the binomial SE is itself estimated."""
+    return float(
+        stats.chi2.ppf(conf, 1) if se_df is None else stats.f.ppf(conf, 1, se_df)
+    )
 
 
 def _profile_interval(theta, xw, yw, nw, z_q, beta, ll_hat, crit, notes):
@@ -472,6 +510,60 @@ def _profile_interval(theta, xw, yw, nw, z_q, beta, ll_hat, crit, notes):
     return limits[0], limits[1]
 
 
+def _monotone(xw, yw, nw, q, conf, se_df, decreasing, notes):
+    """``(estimate, grid_limited)``: the shape-free estimate
+    (:mod:`.capture_monotone`) of the window's points, with the bracketing speeds
+    in the note, and whether it is grid-limited (then said in the note): its
+    estimated interpolation error exceeds :data:`GRID_LIMITED_RATIO` of the
+    interval's half-width, or a bracketing speed has no or full capture."""
+    mc = monotone_crossing(xw, yw, nw, q, _critical(conf, se_df), decreasing=decreasing)
+    v_lo, v_hi = _fmt(math.exp(xw[0])), _fmt(math.exp(xw[-1]))
+    if not np.isfinite(mc.theta):
+        raise _NoEstimate(
+            f"the isotonic fit of the capture curve does not cross {q:g} within "
+            f"the fitted speeds {v_lo}-{v_hi} m/s (the fractions cross it only "
+            "through noise): extend the sweep or add impacts",
+            notes,
+        )
+    if not decreasing:
+        notes.append("capture rises with speed in the fitted window")
+    est = math.exp(mc.theta)
+    a, b = (math.exp(t) for t in mc.bracket)
+    notes.append(
+        f"isotonic (shape-free) estimate on the fitted point at {_fmt(a)} m/s"
+        if a == b
+        else f"isotonic (shape-free) estimate interpolated between {_fmt(a)} and "
+        f"{_fmt(b)} m/s"
+    )
+    lo, hi = (math.exp(t) if np.isfinite(t) else math.nan for t in (mc.lo, mc.hi))
+    for limit, side, bound in ((lo, "below", v_lo), (hi, "above", v_hi)):
+        if math.isnan(limit):
+            notes.append(f"open {side}: not bounded by the data within {bound} m/s")
+    err = est * math.expm1(mc.interpolation_error)  # NaN without a third point
+    half = np.nanmax([est - lo, hi - est]) if np.isfinite([lo, hi]).any() else 0.0
+    extreme = a != b and any(f in (0.0, 1.0) for f in mc.bracket_fraction)
+    limited = bool(err > GRID_LIMITED_RATIO * half) or extreme
+    if extreme:
+        notes.append(
+            f"grid-limited: a speed beside the crossing has no or full capture, so "
+            f"where between {_fmt(a)} and {_fmt(b)} m/s the curve crosses rests on "
+            "the interpolation; refine the sweep there"
+        )
+    elif limited:
+        notes.append(
+            f"grid-limited: the interpolation between the fitted speeds may be off "
+            f"by about {err:.2g} m/s (curvature of the neighbouring points), "
+            f"against an interval half-width of {half:.2g} m/s that covers the "
+            f"interpolated crossing only; refine the sweep between {_fmt(a)} and "
+            f"{_fmt(b)} m/s"
+        )
+    elif a != b and math.isnan(err):
+        notes.append(
+            "two fitted points: the probit shape between them is assumed, not checked"
+        )
+    return CaptureSpeedEstimate(est, lo, hi, METHOD_MONOTONE, "; ".join(notes)), limited
+
+
 def estimate_capture_speed(
     speed_m_s: ArrayLike,
     captured: ArrayLike,
@@ -481,14 +573,30 @@ def estimate_capture_speed(
     confidence: float = 0.95,
     capture_se: ArrayLike | None = None,
     capture_se_df: float | None = None,
+    estimator: str = "auto",
 ) -> CaptureSpeedEstimate:
     r"""Speed at which a fraction `quantile` of the particles is captured.
 
-    One capture curve (one surface and angle). A binomial probit GLM in log speed is
-    fitted to the sweep points around the crossing (:func:`crossing_window`); the
-    estimate is its inverse prediction and the interval the profile-likelihood
-    interval, widened by the heterogeneity factor on a significant lack of fit (see
-    the module notes and ``docs/capture-speed.md``).
+    One capture curve (one surface and angle), from the sweep points around the
+    crossing (:func:`crossing_window`). Two estimators (see the module notes and
+    ``docs/capture-speed.md``):
+
+    * ``isotonic-interpolated`` (:mod:`.capture_monotone`): the centred isotonic
+      fit of the fractions, interpolated on the probit scale between the two
+      speeds that bracket `quantile`, with a Fieller-type interval. It assumes only
+      that capture is monotone in speed; its interval covers the interpolated
+      crossing and shrinks as :math:`1/\sqrt N`. The bracketing speeds are in the
+      note, and a ``grid-limited`` note says when the estimated interpolation error
+      between them exceeds :data:`GRID_LIMITED_RATIO` of the interval's half-width
+      (or a bracketing speed has no or full capture).
+    * ``probit-profile``: a binomial probit GLM in log speed, its inverse
+      prediction and profile-likelihood interval (``probit-profile-scaled``: widened
+      by the heterogeneity factor on a significant lack of fit, with
+      ``estimator="probit"`` only).
+
+    ``estimator="auto"`` reports the isotonic estimate, except where it is
+    grid-limited and the probit fits (residual deviance not significant at
+    :data:`LACK_OF_FIT_LEVEL`): the probit's shape then bridges the coarse sweep.
 
     Parameters
     ----------
@@ -511,8 +619,11 @@ def estimate_capture_speed(
     capture_se_df : float, optional, keyword-only
         Degrees of freedom of `capture_se` (``R - 1`` for ``R`` QMC replicates). The
         likelihood-ratio criterion then uses :math:`F_{1,\nu}(c)` instead of
-        :math:`\chi^2_1(c)`, as a t interval does for an estimated SE. Ignored
-        without `capture_se`.
+        :math:`\chi^2_1(c)`, as a t interval does for an estimated SE (the
+        isotonic interval likewise). Ignored without `capture_se`.
+    estimator : {"auto", "probit", "monotone"}, keyword-only
+        ``"auto"`` (above), or the probit (the estimator before 0.2.0) or the
+        isotonic estimate alone.
 
     Returns
     -------
@@ -530,7 +641,8 @@ def estimate_capture_speed(
     ValueError
         For arrays of different lengths, non-positive or non-finite speeds, negative
         impacts, `captured` outside ``[0, impacts]``, a negative `capture_se`, a
-        `capture_se_df` that is not > 0, or `quantile`/`confidence` outside (0, 1).
+        `capture_se_df` that is not > 0, `quantile`/`confidence` outside (0, 1), or
+        an `estimator` not in :data:`ESTIMATORS`.
     """
     v, y, n, q, conf, se = _estimate_capture_speed_iv(
         speed_m_s, captured, impacts, quantile, confidence, capture_se
@@ -542,6 +654,11 @@ def estimate_capture_speed(
             raise ValueError(
                 f"`capture_se_df` must be a finite number > 0; got {capture_se_df!r}."
             )
+    if estimator not in ESTIMATORS:
+        raise ValueError(
+            f"`estimator` must be one of {', '.join(map(repr, ESTIMATORS))}; "
+            f"got {estimator!r}."
+        )
     notes = []
     try:
         v, y, n, se_df = _pooled_counts(v, y, n, se, se_df, notes)
@@ -550,12 +667,23 @@ def estimate_capture_speed(
         _check_resolved(v, y / n, q, i0, i1, yw, nw, notes)
         z_q = float(special.ndtri(q))
         alpha, beta, ll_hat = _fit_probit(xw, yw, nw)
+        g2, df, p_fit = _lack_of_fit(xw, yw, nw, ll_hat)
+        fits = df > 0 and p_fit >= LACK_OF_FIT_LEVEL
+        if estimator != "probit":
+            iso, limited = _monotone(xw, yw, nw, q, conf, se_df, beta <= 0, [*notes])
+            if estimator == "monotone" or not (limited and fits):
+                return iso
+            notes.append(
+                f"the probit bridges the coarse sweep: it fits (deviance {g2:.3g} on "
+                f"{df} df, p = {p_fit:.2g}) where the isotonic interpolation is "
+                "grid-limited"
+            )
         theta = _crossing(alpha, beta, z_q, xw, v, q, i0, i1, notes)
     except _NoEstimate as exc:
         return _none("; ".join([exc.message, *exc.notes]))
     if beta > 0:
         notes.append("capture rises with speed in the fitted window")
-    crit, method = _criterion(xw, yw, nw, ll_hat, conf, se_df, notes)
+    crit, method = _criterion(g2, df, p_fit, conf, se_df, notes)
     lo, hi = _profile_interval(theta, xw, yw, nw, z_q, beta, ll_hat, crit, notes)
     # the interval holds the estimate by construction (the walk starts at theta)
     return CaptureSpeedEstimate(

@@ -146,13 +146,18 @@ def point_row(acc: PointAccumulator, confidence: float) -> dict:
     return row
 
 
-def capture_speed(summary, quantile: float = 0.5, *, confidence=None, by=None):
+def capture_speed(
+    summary, quantile: float = 0.5, *, confidence=None, by=None, estimator="auto"
+):
     """Speed at which a fraction `quantile` of the particles is captured.
 
-    For each capture curve (by default each surface and angle) a binomial probit in
-    log speed is fitted to the sweep points around the crossing; the estimate is its
-    inverse prediction and the interval its profile-likelihood interval, widened on
-    a lack of fit. See :func:`microimpact.engine.capture.estimate_capture_speed` and
+    For each capture curve (by default each surface and angle), from the sweep
+    points around the crossing: by default the shape-free isotonic estimate
+    (interpolated on the probit scale between the two speeds that bracket the
+    crossing, with an interval that shrinks as 1/sqrt(N) whatever the shape of the
+    curve), and a probit in log speed only where it fits and the sweep is too
+    coarse to interpolate. See
+    :func:`microimpact.engine.capture.estimate_capture_speed` and
     ``docs/capture-speed.md``.
 
     Parameters
@@ -171,6 +176,9 @@ def capture_speed(summary, quantile: float = 0.5, *, confidence=None, by=None):
         :data:`microimpact.scenario.grid.DIMS` present in `summary` except ``speed_m_s``
         (today ``surface`` and ``angle_deg``), so a new sweep axis is grouped by
         without a change here.
+    estimator : {"auto", "probit", "monotone"}, keyword-only
+        Passed to :func:`~microimpact.engine.capture.estimate_capture_speed`
+        (``"probit"``: the probit alone, the estimator before 0.2.0).
 
     Returns
     -------
@@ -185,7 +193,8 @@ def capture_speed(summary, quantile: float = 0.5, *, confidence=None, by=None):
     Raises
     ------
     ValueError
-        If a needed column is missing, or `quantile`/`confidence` is outside (0, 1).
+        If a needed column is missing, `quantile`/`confidence` is outside (0, 1),
+        or `estimator` is not one of the three.
     """
     # deferred: pandas loads only where a table is made (import time)
     import pandas as pd
@@ -233,6 +242,7 @@ def capture_speed(summary, quantile: float = 0.5, *, confidence=None, by=None):
             confidence=confidence,
             capture_se=se,
             capture_se_df=se_df,
+            estimator=estimator,
         )
         rows.append(
             [
