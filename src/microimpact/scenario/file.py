@@ -398,7 +398,9 @@ def _wall_law(ctx: _Ctx, data):
         axis = ctx.choice(t["speed_axis"], "wall_law.speed_axis", SPEED_AXES)
     kw["speed_axis"] = axis
     if "reduced_speed" in t:
-        kw["reduced_speeds"] = _values(ctx, t["reduced_speed"], "wall_law.reduced_speed")
+        kw["reduced_speeds"] = _values(
+            ctx, t["reduced_speed"], "wall_law.reduced_speed"
+        )
     elif axis == "reduced":
         raise ctx.error(
             "wall_law.reduced_speed",

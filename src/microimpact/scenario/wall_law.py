@@ -123,7 +123,7 @@ class WallLawSpec:
         else:
             if self.reduced_speeds is not None:
                 raise ScenarioError(
-                    "reduced_speed is the speed axis of speed_axis = \"reduced\"; "
+                    'reduced_speed is the speed axis of speed_axis = "reduced"; '
                     f'set speed_axis = "reduced" (got "{self.speed_axis}") or drop '
                     "reduced_speed",
                     field="wall_law.reduced_speed",
