@@ -918,12 +918,17 @@ int hit(const double v[3], const double f_normal[3], double diam_m, const double
 """
 
 
+@pytest.mark.parametrize("kind", ["absolute", "reduced"])
 def test_fluent_wrapper_rebounds_like_swl_rebound_velocity(
-    swl, law, table, tmp_path, monkeypatch
+    swl, dataset, reduced, kind, tmp_path, monkeypatch
 ):
     # the wrapper, built with the mock udf.h and a scripted uniform_random, turns
     # Fluent's face normal (out of the fluid) into the wall's outward normal,
-    # converts the diameter from m to um and draws u[0..4] in order
+    # converts the diameter from m to um and draws u[0..4] in order; on either
+    # speed axis (the sampler handles it)
+    table = write_binary(reduced if kind == "reduced" else dataset, tmp_path / "t.swl")
+    rc, law = swl.load(table)
+    assert rc == 0
     (tmp_path / "harness.c").write_text(HARNESS)
     lib_path = compile_shared(
         [C_DIR / "fluent_udf.c", C_DIR / "swl.c", tmp_path / "harness.c"],
@@ -969,6 +974,7 @@ def test_fluent_wrapper_rebounds_like_swl_rebound_velocity(
     assert {REBOUND, CAPTURED} <= seen
     udf.microimpact_wall_report()
     assert b"captured" in udf.message()
+    swl.lib.swl_free(law)
 
 
 def test_write_c_writes_the_sampler_the_table_and_a_readme(swl, dataset, tmp_path):
