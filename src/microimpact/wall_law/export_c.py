@@ -314,8 +314,10 @@ Every sample takes five uniform numbers in [0, 1), in this order:
 | u[4] | reservoir sample floor(u[4] * count) of the corner |
 
 All five are used on every call, whatever the outcome. t is the query's fraction of
-its cell in log d, log v and theta; a query outside an axis is clamped to the end
-node and flagged.
+its cell in log d, log v and theta (on a reduced speed axis log(v / v_c(d)), v_c
+interpolated in log-log between the diameter nodes); a query outside an axis is
+clamped to the end node, and flagged if it lies outside by more than 1e-9
+relative.
 
 ## Fluent
 
