@@ -310,3 +310,28 @@ def test_the_documented_reduced_spacing_keeps_capture_within_0_05():
     assert len(rows) == 2 * 4  # two presets, four angles (20 to 90 deg)
     worst = max(r["capture_max_err"] for r in rows)
     assert worst <= 0.05, rows
+
+
+def test_cli_condition_flags_on_a_reduced_axis(tmp_path, capsys):
+    # --speed-m-s is checked against the chosen diameter's speeds r v_c(d) before
+    # the build (v_c = 0.4 m/s here: nodes 0.2 ... 0.8 m/s)
+    path = _toml(tmp_path, "[wall_law]\ndiameter_um = [10]\nreduced_speed = [0.5, 2]")
+    out = tmp_path / "out"
+    argv = ["wall-law", str(path), "--out", str(out), "--quiet", "--speed-m-s"]
+    rc = main([*argv, "3"])
+    err = capsys.readouterr().err
+    assert rc == 2 and "--speed-m-s" in err and "[0.2, 0.8]" in err, err
+    assert not (out / "wall_law.nc").exists()
+    assert main([*argv, "0.7"]) == 0
+    text = (out / "openfoam" / "localInteractionCoeffs").read_text()
+    assert "speed 0.8 m/s" in text
+
+
+def test_a_reduced_netcdf_file_is_cf_compliant(tmp_path, law):
+    pytest.importorskip("compliance_checker")
+    sys.path.insert(0, str(Path(__file__).parents[1] / "pipeline"))
+    from test_cf_compliance import _cf_messages
+
+    law.write(tmp_path, c=False, openfoam=False)
+    errors, warnings = _cf_messages(tmp_path / "wall_law.nc", tmp_path)
+    assert errors == [] and warnings == []
