@@ -335,3 +335,15 @@ def test_a_reduced_netcdf_file_is_cf_compliant(tmp_path, law):
     law.write(tmp_path, c=False, openfoam=False)
     errors, warnings = _cf_messages(tmp_path / "wall_law.nc", tmp_path)
     assert errors == [] and warnings == []
+
+
+def test_open_refuses_a_reduced_table_without_critical_speeds(tmp_path, law):
+    from microimpact.errors import DataFormatError
+
+    bad = law.dataset.drop_vars("critical_speed_m_s")
+    with pytest.raises(DataFormatError, match="critical_speed_m_s"):
+        WallLaw(bad)
+    zero = law.dataset.copy(deep=True)
+    zero["critical_speed_m_s"][0] = 0.0
+    with pytest.raises(DataFormatError, match="critical_speed_m_s"):
+        WallLaw(zero)

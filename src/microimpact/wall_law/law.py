@@ -4,7 +4,9 @@
 docs/wall-law.md) and samples it the way the C sampler (``c/swl.c``) does: pick a
 corner of the query's cell with probability equal to its trilinear weight in
 (log d, log v, angle), decide capture with that corner's capture probability, and
-otherwise take one of the corner's reservoir samples. Each node's distribution, and
+otherwise take one of the corner's reservoir samples (on a reduced speed axis,
+``speed_axis = "reduced"``, the speed variable is log(v / v_c(d)): the nodes
+follow the capture edge). Each node's distribution, and
 the correlation of e_n, e_t and the lateral angle within it, are kept; nothing is
 averaged across nodes.
 """
@@ -456,7 +458,9 @@ class WallLaw:
         ----------
         diameter_um, speed_m_s, angle_deg : float or array_like
             The impacts' diameters [µm], speeds [m s-1] and apparent incidence
-            angles from the wall plane [deg], broadcast to N = ``len(u)``.
+            angles from the wall plane [deg], broadcast to N = ``len(u)``. On a
+            reduced speed axis the speed variable is log(v / v_c(d)), v_c
+            interpolated linearly in log-log between the diameter nodes.
         u : array_like, shape (N, 5)
             Uniform numbers in [0, 1): u[:, 0..2] pick the cell corner along the
             diameter, speed and angle axes, u[:, 3] decides capture, u[:, 4] picks
