@@ -749,6 +749,41 @@ def test_truncated_and_corrupt_files_give_error_codes(swl, table, tmp_path):
         assert swl.load(path)[0] < 0, at
 
 
+#: A table written by the format-version-1 encoder (export_c.encode at commit
+#: 8fc8bd7, before the reduced speed axis) from
+#: ``synthetic_dataset().isel(diameter_um=[1], angle_deg=[1, 2])``.
+OLD_TABLE = Path(__file__).with_name("data") / "format_v1.swl"
+
+
+def test_a_table_of_format_version_1_is_still_read(swl, dataset):
+    data = OLD_TABLE.read_bytes()
+    assert struct.unpack_from("<8sI", data) == (b"SWLTABL\0", 1)
+    want = dataset.isel(diameter_um=[1], angle_deg=[1, 2])
+    back = read_binary(OLD_TABLE)
+    assert back.attrs["speed_axis"] == "absolute" and "speed_m_s" in back.dims
+    for name in ("capture_probability", "reservoir_count", "reservoir_e_n"):
+        np.testing.assert_array_equal(back[name].values, want[name].values)
+    assert export_c.encode(want, 1) == data  # and it is still written so
+    rc, handle = swl.load(OLD_TABLE)
+    assert rc == 0
+    try:
+        assert swl.lib.swl_speed_axis(handle) == 0
+        rng = np.random.default_rng(12)
+        s, d, v, a, u = queries(5000, rng)
+        wall_law = python_law(want)
+        for surface in (0, 1):
+            m = s == surface
+            got = swl.sample_n(handle, surface, d[m], v[m], a[m], u[m])
+            *ref, t = reference_sample(want, surface, d[m], v[m], a[m], u[m])
+            assert_agree(got, ref, u[m], t, v[m], what="reference")
+            if wall_law is not None:
+                compare_with_wall_law(
+                    got, wall_law, surface, d[m], v[m], a[m], u[m], what="v1"
+                )
+    finally:
+        swl.lib.swl_free(handle)
+
+
 def test_a_reduced_table_needs_positive_critical_speeds(swl, reduced, tmp_path):
     data = export_c.encode(reduced)
     at = 64 + 2 * 64 + 8 * (3 + 4 + 3)  # v_c follows the three axes
