@@ -12,6 +12,7 @@ sampler's capture is the trilinear mix in (log d, log r, theta), computed here.
 
 from __future__ import annotations
 
+import json
 import math
 import sys
 from pathlib import Path
@@ -67,6 +68,9 @@ def test_nodes_are_at_r_v_c_and_match_the_closed_form(law):
         ds.speed_m_s.values, v_c[:, None] * np.array(RATIOS)[None, :], rtol=1e-15
     )
     assert law.speed_axis == "reduced" and ds.attrs["speed_axis"] == "reduced"
+    described = json.loads(ds.attrs["scenario_description"])
+    assert described["reduced_speeds"] == list(RATIOS)
+    assert described["speeds_m_s"] == "r v_c(d): the variable speed_m_s"
     z = []
     for i, d in enumerate(SPEC.diameters_um):
         for r in RATIOS:

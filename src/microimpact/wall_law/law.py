@@ -205,7 +205,7 @@ def wall_law_dataset(
         angle_convention=ANGLE_CONVENTION,
         interpolation=INTERPOLATION,
         scenario=source_text if source_text is not None else "",
-        scenario_description=dumps(scenario.describe()),
+        scenario_description=dumps(_description(scenario, reduced)),
         seed=str(entropy),
         samples_per_node=int(columns["n_samples"].flat[0]),
         reservoir=int(spec.reservoir),
@@ -218,6 +218,16 @@ def wall_law_dataset(
     if seconds is not None:
         ds.attrs["build_seconds"] = float(seconds)
     return ds
+
+
+def _description(scenario, reduced: bool) -> dict:
+    """The scenario's provenance description; on a reduced speed axis the build's
+    speeds are the ratios r = v / v_c(d), recorded as ``reduced_speeds``."""
+    out = scenario.describe()
+    if reduced:
+        out["reduced_speeds"] = out.pop("speeds_m_s")
+        out["speeds_m_s"] = "r v_c(d): the variable speed_m_s"
+    return out
 
 
 @dataclass(frozen=True)
