@@ -5,12 +5,19 @@ nodes against direct runs of the engine (docs/wall-law.md).
     python benchmarks/wall_law.py interpolation # error at mid-cell points
     python benchmarks/wall_law.py spacing       # the speed step a tolerance needs
     python benchmarks/wall_law.py axes          # diameter step: speed vs v/v_c(d)
+    python benchmarks/wall_law.py capture       # both table axes, several spacings
 
 The interpolation study builds tables of one preset's physics (sst76 Formica) at
 three node spacings and, at the centres of 16 random cells of each spacing and at 16
 random points common to all spacings, compares the sampler's capture fraction and
 its mean e_n, mean e_t and mean rebound angle (from 200,000 draws of the sampler)
 with a direct engine run at that point (40,000 impacts, another seed).
+
+The capture study (``capture``) builds real tables on both speed axes, the
+absolute one (speed nodes in m/s) and the reduced one (nodes at r v_c(d),
+``speed_axis = "reduced"``), at several node spacings, and measures the largest
+error of the sampler's capture probability over a fine grid of queries between
+the nodes against a direct computation at each query.
 """
 
 from __future__ import annotations
@@ -24,7 +31,7 @@ import numpy as np
 
 import microimpact as mi
 from microimpact.scenario.scenario import load_preset
-from microimpact.wall_law import WallLawSpec, build_wall_law
+from microimpact.wall_law import WallLawSpec, build_wall_law, critical_speed_m_s
 from microimpact.wall_law.build import node_outcomes
 
 PRESET = "sst76-formica-oblique"
@@ -236,9 +243,184 @@ def speed_axes(
     return rows
 
 
+#: The presets of the capture study (their first surface, Formica).
+CAPTURE_PRESETS = ("sst76-formica-oblique", "lycopodium-formica-oblique")
+#: The diameter nodes of the capture study's tables (ratio 1.196).
+CAPTURE_DIAMETERS_UM = tuple(float(d) for d in np.geomspace(20.0, 120.0, 11))
+#: The capture edge's nodes of the "reduced-edge" scheme: r = 1 + 0.0002 k^2,
+#: k = 0 ... 15 (1 to 1.045), graded towards r = 1, where capture at and near
+#: normal incidence falls like 1 - c sqrt(r - 1) (docs/wall-law.md).
+EDGE_NODES = tuple(1.0 + 0.0002 * k * k for k in range(16))
+#: The node schemes of the capture study: (speed axis, nodes, ratio). "absolute":
+#: speeds ratio**k [m/s]; "reduced": r = ratio**k (1 a node); "reduced-edge":
+#: :data:`EDGE_NODES` and ratio**k outside them.
+CAPTURE_SCHEMES = (
+    *(("absolute", r) for r in (1.01, 1.02, 1.05, 1.1, 1.27)),
+    *(("reduced", r) for r in (1.005, 1.01, 1.02, 1.05, 1.1, 1.27)),
+    *(("reduced-edge", r) for r in (1.05, 1.1)),
+)
+#: The documented spacing (docs/wall-law.md): capture within 0.05.
+DOCUMENTED_SCHEME = ("reduced-edge", 1.1)
+
+
+def expected_capture(law, d_um, v_m_s, angle_index: int) -> np.ndarray:
+    """The sampler's capture probability at queries (d, v) on the angle node
+    `angle_index`: the expectation over its uniform numbers, i.e. the bilinear
+    mix of the cell corners' capture probabilities with the weights of
+    docs/wall-law.md, "The sampling rule" (log d; log v, or log(v / v_c(d)) with
+    log v_c linear in log d, on a reduced axis). Written out here from the rule."""
+    ds = law.dataset.isel(surface=0)
+    reduced = law.speed_axis == "reduced"
+    speed_dim = "reduced_speed" if reduced else "speed_m_s"
+    ds = ds.transpose("diameter_um", speed_dim, "angle_deg", ...)
+    p = ds.capture_probability.values[:, :, angle_index]
+    ld = np.log(ds.diameter_um.values)
+    lv = np.log(ds[speed_dim].values)
+    x_d = np.log(np.asarray(d_um, dtype=float))
+    i = np.clip(np.searchsorted(ld, x_d, side="right") - 1, 0, ld.size - 2)
+    t = np.clip((x_d - ld[i]) / (ld[i + 1] - ld[i]), 0.0, 1.0)
+    x_v = np.log(np.asarray(v_m_s, dtype=float))
+    if reduced:
+        lvc = np.log(ds.critical_speed_m_s.values)
+        x_v = x_v - (lvc[i] + t * (lvc[i + 1] - lvc[i]))
+    j = np.clip(np.searchsorted(lv, x_v, side="right") - 1, 0, lv.size - 2)
+    s = np.clip((x_v - lv[j]) / (lv[j + 1] - lv[j]), 0.0, 1.0)
+    return (
+        (1 - t) * (1 - s) * p[i, j]
+        + (1 - t) * s * p[i, j + 1]
+        + t * (1 - s) * p[i + 1, j]
+        + t * s * p[i + 1, j + 1]
+    )
+
+
+def _nodes(lo: float, hi: float, ratio: float) -> np.ndarray:
+    """Nodes ratio**k (k integer: 1 is a node) from below lo to above hi (the
+    queries strictly inside)."""
+    step = math.log(ratio)
+    first = math.floor(math.log(lo) / step) - 1
+    k = np.arange(first, math.ceil(math.log(hi) / step) + 2)
+    return np.exp(k * step)
+
+
+def scheme_nodes(kind: str, ratio: float, lo: float, hi: float) -> np.ndarray:
+    """The speed-axis nodes of a scheme of :data:`CAPTURE_SCHEMES` over [lo, hi]
+    (m/s on the absolute axis, r on the reduced ones)."""
+    nodes = _nodes(lo, hi, ratio)
+    if kind != "reduced-edge":
+        return nodes
+    edge = np.array(EDGE_NODES)
+    # the coarse nodes outside the edge's, none closer than half a step to it
+    keep = (nodes < edge[0]) | (nodes > edge[-1] * math.sqrt(ratio))
+    return np.unique(np.concatenate([nodes[keep], edge]))
+
+
+def capture_interpolation(
+    presets=CAPTURE_PRESETS,
+    angles=(90.0, 80.0, 45.0, 20.0),
+    schemes=CAPTURE_SCHEMES,
+    diameters_um=CAPTURE_DIAMETERS_UM,
+    query_cells=(1, 4, 8),
+    r_range=(0.5, 4.0),
+    n_query=240,
+    n_edge=80,
+    samples: int = 20_000,
+    workers: int = 2,
+    seed: int = 1,
+    quiet: bool = False,
+) -> list[dict]:
+    """Largest capture-probability error of the sampler between nodes, for tables
+    on the absolute and on the reduced speed axis with the node schemes
+    `schemes` (the diameter nodes `diameters_um`, ratio 1.196, the same for
+    all), per preset (first surface) and angle.
+
+    Queries: at the log-middle of the diameter cells `query_cells` (where the
+    absolute axis interpolates across diameters most), speeds r v_c(d) for
+    `n_query` reduced speeds r geometrically spaced over `r_range` (ratio 1.009
+    for 240 over 0.5-4) and `n_edge` more at r = 1 + 1e-5 ... 1 + 0.06
+    (geometric in r - 1: the steep capture edge at and near normal incidence),
+    at the angle nodes. The direct computation at every query is the engine's
+    run at that (d, v, angle) with `samples` impacts: a wall-law build whose
+    nodes are the queries themselves (no interpolation), with another seed than
+    the tables. Its Monte Carlo standard error, and the nodes', is at most
+    0.5 / sqrt(samples) (0.0035 for 20,000); the errors reported include that
+    noise (about 0.015 at most over the grid)."""
+    rows = []
+    d_nodes = np.asarray(diameters_um, dtype=float)
+    d_q = np.sqrt(d_nodes[list(query_cells)] * d_nodes[[c + 1 for c in query_cells]])
+    r_q = np.unique(
+        np.concatenate(
+            [np.geomspace(*r_range, n_query), 1.0 + np.geomspace(1e-5, 0.06, n_edge)]
+        )
+    )
+    for preset in presets:
+        scenario = load_preset(preset)
+        scenario = scenario.with_options(surfaces=scenario.surfaces[:1])  # Formica
+        v_c_q = critical_speed_m_s(scenario, d_q)
+        v_q = v_c_q[:, None] * r_q[None, :]  # (query diameter, r)
+        t0 = time.perf_counter()
+        direct = build_wall_law(
+            scenario,
+            WallLawSpec(
+                d_q,
+                None,
+                angles,
+                reservoir=1,
+                samples=samples,
+                speed_axis="reduced",
+                reduced_speeds=r_q,
+            ),
+            workers=workers,
+            seed=seed + 1000,
+        )
+        p_direct = direct.dataset.capture_probability.isel(surface=0).values
+        d_grid = np.broadcast_to(d_q[:, None], v_q.shape)
+        for kind, ratio in schemes:
+            if kind == "absolute":
+                nodes = scheme_nodes(kind, ratio, float(v_q.min()), float(v_q.max()))
+                spec = WallLawSpec(d_nodes, nodes, angles, reservoir=1, samples=samples)
+            else:
+                nodes = scheme_nodes(kind, ratio, *r_range)
+                spec = WallLawSpec(
+                    d_nodes,
+                    None,
+                    angles,
+                    reservoir=1,
+                    samples=samples,
+                    speed_axis="reduced",
+                    reduced_speeds=nodes,
+                )
+            law = build_wall_law(scenario, spec, workers=workers, seed=seed)
+            for k, angle in enumerate(law.angles_deg):
+                mix = expected_capture(law, d_grid.ravel(), v_q.ravel(), k)
+                err = np.abs(mix - p_direct[:, :, k].ravel())
+                row = {
+                    "preset": preset,
+                    "angle_deg": float(angle),
+                    "scheme": kind,
+                    "ratio": ratio,
+                    "speed_nodes": int(nodes.size),
+                    "capture_max_err": round(float(err.max()), 4),
+                    "capture_rms_err": round(float(np.sqrt(np.mean(err**2))), 4),
+                    "worst_r": round(float(r_q[int(np.argmax(err)) % r_q.size]), 5),
+                }
+                rows.append(row)
+                if not quiet:
+                    print(json.dumps(row), flush=True)
+        if not quiet:
+            print(
+                json.dumps(
+                    {"preset": preset, "seconds": round(time.perf_counter() - t0, 1)}
+                ),
+                flush=True,
+            )
+    return rows
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("what", choices=("build", "interpolation", "spacing", "axes"))
+    p.add_argument(
+        "what", choices=("build", "interpolation", "spacing", "axes", "capture")
+    )
     p.add_argument("--workers", type=int, default=2)
     args = p.parse_args()
     if args.what == "build":
@@ -247,6 +429,8 @@ def main():
         speed_spacing()
     elif args.what == "axes":
         speed_axes()
+    elif args.what == "capture":
+        capture_interpolation(workers=args.workers)
     else:
         interpolation()
 

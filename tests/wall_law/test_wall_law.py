@@ -515,12 +515,15 @@ def _axis_toml(draw_values, spacing_log):
     log=st.booleans(),
     std=st.sampled_from([1.0, 15.0, 40.0]),
     shadowing=st.sampled_from(["reject", "weighted", "none"]),
+    reduced=st.booleans(),
 )
 def test_random_wall_law_files_run_end_to_end_through_the_cli(
-    tmp_path_factory, d, v, a, log, std, shadowing
+    tmp_path_factory, d, v, a, log, std, shadowing, reduced
 ):
     """Random valid [wall_law] tables through `microimpact wall-law`: exit 0 and
-    every output (NetCDF, CSV, C, OpenFOAM), readable back."""
+    every output (NetCDF, CSV, C, OpenFOAM), readable back; on either speed axis
+    (`v` the ratios v / v_c(d) of a reduced one)."""
+    speeds = "reduced_speed" if reduced else "speed_m_s"
     tmp = tmp_path_factory.mktemp("wl")
     path = tmp / "s.toml"
     path.write_text(
@@ -544,7 +547,7 @@ std_deg = {std}
 speed_m_s = [1.0]
 [wall_law]
 diameter_um = {_axis_toml(d, log)}
-speed_m_s = {_axis_toml(v, log)}
+{speeds} = {_axis_toml(v, log)}
 angle_deg = {_axis_toml(a, False)}
 reservoir = 8
 """
@@ -560,6 +563,9 @@ reservoir = 8
     ):
         assert (out / name).is_file(), name
     law = WallLaw.open(out)
+    assert law.speed_axis == ("reduced" if reduced else "absolute")
+    binary = mi.wall_law.read_binary(out / "c" / "wall_law.swl")
+    assert binary.attrs["speed_axis"] == law.speed_axis
     s = law.sample(float(np.mean(d)), float(np.mean(v)), float(np.mean(a)), rng=0)
     assert s.captured.shape == (1,)
     assert not list(out.glob(".*.tmp"))

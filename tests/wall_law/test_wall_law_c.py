@@ -45,6 +45,12 @@ CLAMPED, REIMPACT = 7, 8
 TOL = 1e-12
 
 DIMS = ("surface", "diameter_um", "speed_m_s", "angle_deg")
+REDUCED_DIMS = ("surface", "diameter_um", "reduced_speed", "angle_deg")
+#: The reduced table: ratios r = v / v_c(d) and v_c at the diameter nodes (not a
+#: power law, so the interpolation of log v_c in log d is piecewise).
+RATIOS = np.array([0.5, 1.0, 2.0, 4.0])
+CRITICAL = np.array([2.0, 0.8, 0.5])
+CLAMP_TOL = 1e-9  # docs/wall-law.md: relative, in the axis' variable
 SURFACES = ("polished", "grit-blasted")
 DIAMETERS = np.array([1.0, 5.0, 20.0])
 SPEEDS = np.array([0.5, 2.0, 8.0, 30.0])
@@ -106,24 +112,46 @@ def synthetic_dataset(seed=7):
     )
 
 
+def reduced_dataset(seed=7):
+    """The synthetic table on a reduced speed axis: the same nodes' values, the
+    speed axis the ratios :data:`RATIOS`, v_c(d) :data:`CRITICAL`."""
+    ds = synthetic_dataset(seed).rename(speed_m_s="reduced_speed")
+    ds = ds.assign_coords(reduced_speed=RATIOS)
+    ds["critical_speed_m_s"] = (("diameter_um",), CRITICAL)
+    return ds
+
+
 # ------------------------------------------------ the independent reference
 def reference_sample(ds, surface, d, v, a, u):
     """docs/wall-law.md, "The sampling rule", written out for this test: status
     (0 rebound, 1 captured, 2 no data), flags (as C's), velocity and the fractions
-    t (N x 3) of the three axes."""
-    ds = ds.transpose(*DIMS, "sample", ...)
+    t (N x 3) of the three axes. On a reduced speed axis the speed variable is
+    log v - log v_c(d), log v_c linear in log d at the diameter's fraction."""
+    reduced = "reduced_speed" in ds.dims
+    ds = ds.transpose(*(REDUCED_DIMS if reduced else DIMS), "sample", ...)
     n = u.shape[0]
-    index, fractions, flags = [], np.zeros((n, 3)), np.zeros(n, np.int64)
+    index, lower, fractions = [], [], np.zeros((n, 3))
+    flags = np.zeros(n, np.int64)
+    speed_axis = "reduced_speed" if reduced else "speed_m_s"
     for axis, (coord, q) in enumerate(
         (
             (np.log(ds["diameter_um"].values), np.log(d)),
-            (np.log(ds["speed_m_s"].values), np.log(v)),
+            (np.log(ds[speed_axis].values), np.log(v)),
             (ds["angle_deg"].values, a),
         )
     ):
+        if axis == 1 and reduced:
+            lvc = np.log(ds["critical_speed_m_s"].values)
+            i0, t0 = lower[0], fractions[:, 0]
+            if lvc.size > 1:
+                q = q - (lvc[i0] + t0 * (lvc[i0 + 1] - lvc[i0]))
+            else:
+                q = q - lvc[0]
         below, above = q < coord[0], q > coord[-1]
+        tol = (CLAMP_TOL, CLAMP_TOL) if axis < 2 else CLAMP_TOL * np.abs(coord[[0, -1]])
+        off = (q < coord[0] - tol[0]) | (q > coord[-1] + tol[1])
         if coord.size == 1:
-            i, t, off = np.zeros(n, np.int64), np.zeros(n), q != coord[0]
+            i, t = np.zeros(n, np.int64), np.zeros(n)
             up = np.zeros(n, bool)
         else:
             i = np.clip(
@@ -134,8 +162,8 @@ def reference_sample(ds, surface, d, v, a, u):
                 0.0,
                 np.where(above, 1.0, (q - coord[i]) / (coord[i + 1] - coord[i])),
             )
-            off = below | above
             up = u[:, axis] < t
+        lower.append(i)
         index.append(i + up)
         fractions[:, axis] = t
         flags |= np.where(off, 1 << axis, 0)
@@ -213,6 +241,7 @@ class Swl:
         lib.swl_strerror.restype = ctypes.c_char_p
         lib.swl_surface_index.argtypes = [vp, ctypes.c_char_p]
         lib.swl_size.argtypes = [vp, i]
+        lib.swl_speed_axis.argtypes = [vp]
         lib.swl_surface_name.argtypes = [vp, i]
         lib.swl_surface_name.restype = ctypes.c_char_p
         lib.swl_sample.argtypes = [vp, i, d, d, d, P(d), P(d), P(i)]
@@ -337,13 +366,47 @@ def compare_with_wall_law(got, wall_law, surface, d, v, a, u, *, what):
 
 
 # ------------------------------------------------------------------- tests
-def test_binary_round_trip(dataset, table):
+#: The tables of both speed axes in both format versions: (kind, version).
+FORMATS = [("absolute", 1), ("absolute", 2), ("reduced", 2)]
+
+
+@pytest.fixture(scope="module")
+def reduced():
+    return reduced_dataset()
+
+
+@pytest.fixture(scope="module", params=FORMATS, ids=lambda f: f"{f[0]}-v{f[1]}")
+def any_table(request, dataset, reduced, tmp_path_factory):
+    """(dataset, path) of each of :data:`FORMATS`."""
+    kind, version = request.param
+    ds = reduced if kind == "reduced" else dataset
+    path = tmp_path_factory.mktemp("tables") / f"{kind}-{version}.swl"
+    return ds, write_binary(ds, path, version=version)
+
+
+def test_binary_round_trip(any_table):
+    dataset, table = any_table
     data = table.read_bytes()
     n = 2 * 3 * 4 * 3
-    assert len(data) == 64 + 2 * 64 + 8 * (3 + 4 + 3) + 8 * n * (1 + 4 * K) + 4 * n
-    magic, version, *dims = struct.unpack_from("<8s7I", data)
-    assert (magic, version, dims) == (b"SWLTABL\0", 1, [2, 3, 4, 3, K, 64])
+    reduced = "reduced_speed" in dataset.dims
+    size = 64 + 2 * 64 + 8 * (3 + 4 + 3) + 8 * n * (1 + 4 * K) + 4 * n
+    assert len(data) == size + (8 * 3 if reduced else 0)
+    magic, version, *dims = struct.unpack_from("<8s8I", data)
+    want_version = int(table.stem[-1])
+    assert (magic, version, dims) == (
+        b"SWLTABL\0",
+        want_version,
+        [2, 3, 4, 3, K, 64, int(reduced)],
+    )
     back = read_binary(table)
+    assert back.attrs["format_version"] == want_version
+    if reduced:
+        np.testing.assert_array_equal(back["reduced_speed"].values, RATIOS)
+        np.testing.assert_array_equal(back["critical_speed_m_s"].values, CRITICAL)
+        np.testing.assert_array_equal(
+            back["speed_m_s"].values, CRITICAL[:, None] * RATIOS[None, :]
+        )
+        return
     assert list(back["surface"].values) == list(SURFACES)
     for name in (
         "capture_probability",
@@ -357,7 +420,118 @@ def test_binary_round_trip(dataset, table):
     shuffled = dataset.transpose(
         "sample", "angle_deg", "surface", "speed_m_s", "diameter_um"
     )
-    assert export_c.encode(shuffled) == data
+    assert export_c.encode(shuffled, want_version) == data
+
+
+def test_version_1_is_version_2_with_an_absolute_axis(dataset, reduced):
+    # the old format: the same payload, version 1 and speed axis code 0
+    v1, v2 = export_c.encode(dataset, 1), export_c.encode(dataset, 2)
+    assert v1[:8] + v1[12:] == v2[:8] + v2[12:]
+    assert struct.unpack_from("<I", v1, 8) == (1,)
+    with pytest.raises(ValueError, match="version 2"):
+        export_c.encode(reduced, 1)
+    with pytest.raises(ValueError, match="version"):
+        export_c.encode(dataset, 3)
+
+
+def test_c_agrees_with_python_on_both_axes_and_versions(swl, any_table):
+    # the reference and WallLaw.sample_uniform, on each kind of table; queries
+    # exactly on the nodes (speeds r v_c(d) on the reduced axis) included
+    dataset, table = any_table
+    rc, handle = swl.load(table)
+    assert rc == 0, swl.lib.swl_strerror(rc)
+    reduced = "reduced_speed" in dataset.dims
+    assert swl.lib.swl_speed_axis(handle) == int(reduced)
+    rng = np.random.default_rng(31)
+    s, d, v, a, u = queries(40_000, rng)
+    if reduced:  # on the nodes in (d, r): v = r v_c(d)
+        on = rng.random(d.size) < 0.3
+        j = rng.integers(0, DIAMETERS.size, on.sum())
+        d[on] = DIAMETERS[j]
+        v[on] = rng.choice(RATIOS, on.sum()) * CRITICAL[j]
+    wall_law = python_law(dataset)
+    try:
+        for surface in (0, 1):
+            m = s == surface
+            got = swl.sample_n(handle, surface, d[m], v[m], a[m], u[m])
+            *want, t = reference_sample(dataset, surface, d[m], v[m], a[m], u[m])
+            assert_agree(got, want, u[m], t, v[m], what=f"reference {surface}")
+            if wall_law is not None:
+                compare_with_wall_law(
+                    got, wall_law, surface, d[m], v[m], a[m], u[m], what="WallLaw"
+                )
+            assert {REBOUND, CAPTURED} <= set(got[0])
+            assert np.any(got[1] & CLAMPED) and not np.all(got[1] & CLAMPED)
+    finally:
+        swl.lib.swl_free(handle)
+
+
+def test_reduced_axis_follows_v_c(swl, reduced, tmp_path):
+    # a query at r v_c(d) between two diameter nodes, with v_c a power law between
+    # them (log-linear), lands exactly on the ratio node r: the speed corner is r
+    # whatever u[1], and no speed flag
+    rc, handle = swl.load(write_binary(reduced, tmp_path / "r.swl"))
+    assert rc == 0
+    try:
+        for f in (0.1, 0.5, 0.9):
+            d = np.exp(np.log(5.0) + f * (np.log(20.0) - np.log(5.0)))
+            v_c = np.exp(np.log(0.8) + f * (np.log(0.5) - np.log(0.8)))
+            for r_index in (1, 2):
+                v = RATIOS[r_index] * v_c
+                for u1 in (0.0, 0.999999):
+                    u = [0.99, u1, 0.99, 0.99, 0.5]  # lower diameter, angle nodes
+                    got = swl.sample(handle, 0, d, v, 50.0, u)
+                    want = reference_sample(
+                        reduced,
+                        0,
+                        *(np.array([x]) for x in (d, v, 50.0)),
+                        np.array([u]),
+                    )
+                    assert got[0] == want[0][0] and got[1] == want[1][0]
+                    assert abs(want[3][0, 1]) < 1e-9 or abs(want[3][0, 1] - 1) < 1e-9
+    finally:
+        swl.lib.swl_free(handle)
+
+
+@pytest.mark.parametrize("kind", ["absolute", "reduced"])
+def test_round_off_at_the_end_nodes_is_not_clamping(
+    swl, dataset, reduced, kind, tmp_path
+):
+    # a query an ulp (or 1e-12 relative) outside an end node is not clamped, in C
+    # and in Python; 1e-7 outside is
+    ds = reduced if kind == "reduced" else dataset
+    rc, handle = swl.load(write_binary(ds, tmp_path / "t.swl"))
+    assert rc == 0
+    wall_law = python_law(ds)
+    u = [0.5, 0.5, 0.5, 0.9, 0.5]
+
+    def speed(j, r_or_v):
+        return r_or_v * (CRITICAL[j] if kind == "reduced" else 1.0)
+
+    ends = (RATIOS if kind == "reduced" else SPEEDS)[[0, -1]]
+    try:
+        for rel, clamped in ((1e-15, False), (1e-12, False), (1e-7, True)):
+            below, above = 1 - rel, 1 + rel
+            cases = [  # each axis in turn just outside an end node
+                (DIAMETERS[0] * below, speed(0, 2.0), 50.0),
+                (DIAMETERS[-1] * above, speed(-1, 2.0), 50.0),
+                (5.0, speed(1, ends[0]) * below, 50.0),
+                (5.0, speed(1, ends[-1]) * above, 50.0),
+                (5.0, speed(1, 2.0), ANGLES[0] * below),
+            ]
+            for d, v, a in cases:
+                got = swl.sample(handle, 0, d, v, a, u)
+                assert bool(got[1] & CLAMPED) == clamped, (rel, d, v, a)
+                if wall_law is not None:
+                    py = wall_law.sample_uniform(d, v, a, [u])
+                    assert bool(py.clamped[0]) == clamped, (rel, d, v, a)
+        # an ulp off the end nodes on every axis at once
+        d = np.nextafter(DIAMETERS[-1], np.inf)
+        v = np.nextafter(speed(-1, ends[-1]), np.inf)
+        a = np.nextafter(ANGLES[0], 0.0)
+        assert swl.sample(handle, 0, d, v, a, u)[1] & CLAMPED == 0
+    finally:
+        swl.lib.swl_free(handle)
 
 
 def test_c_matches_the_reference_sampler(swl, law, dataset):
@@ -542,7 +716,10 @@ def test_truncated_and_corrupt_files_give_error_codes(swl, table, tmp_path):
         "half": (data[: len(data) // 2], E_TRUNCATED),
         "one byte short": (data[:-1], E_TRUNCATED),
         "one byte more": (data + b"\0", E_SIZE),
-        "version 2": (_patched(data, 8, "<I", 2), E_VERSION),
+        "version 3": (_patched(data, 8, "<I", 3), E_VERSION),
+        "version 0": (_patched(data, 8, "<I", 0), E_VERSION),
+        "speed axis 2": (_patched(data, 36, "<I", 2), E_SIZE),
+        "reduced, no v_c": (_patched(data, 36, "<I", 1), E_SIZE),
         "zero angles": (_patched(data, 24, "<I", 0), E_SIZE),
         "huge diameters": (_patched(data, 16, "<I", 0xFFFFFFFF), E_SIZE),
         "size disagrees": (_patched(data, 16, "<I", 4), E_SIZE),
@@ -570,6 +747,59 @@ def test_truncated_and_corrupt_files_give_error_codes(swl, table, tmp_path):
     for at in [*range(64), *rng.integers(64, len(data), 150).tolist()]:
         path.write_bytes(_patched(data, at, "<B", data[at] ^ int(rng.integers(1, 256))))
         assert swl.load(path)[0] < 0, at
+
+
+#: A table written by the format-version-1 encoder (export_c.encode at commit
+#: 8fc8bd7, before the reduced speed axis) from
+#: ``synthetic_dataset().isel(diameter_um=[1], angle_deg=[1, 2])``.
+OLD_TABLE = Path(__file__).with_name("data") / "format_v1.swl"
+
+
+def test_a_table_of_format_version_1_is_still_read(swl, dataset):
+    data = OLD_TABLE.read_bytes()
+    assert struct.unpack_from("<8sI", data) == (b"SWLTABL\0", 1)
+    want = dataset.isel(diameter_um=[1], angle_deg=[1, 2])
+    back = read_binary(OLD_TABLE)
+    assert back.attrs["speed_axis"] == "absolute" and "speed_m_s" in back.dims
+    for name in ("capture_probability", "reservoir_count", "reservoir_e_n"):
+        np.testing.assert_array_equal(back[name].values, want[name].values)
+    assert export_c.encode(want, 1) == data  # and it is still written so
+    rc, handle = swl.load(OLD_TABLE)
+    assert rc == 0
+    try:
+        assert swl.lib.swl_speed_axis(handle) == 0
+        rng = np.random.default_rng(12)
+        s, d, v, a, u = queries(5000, rng)
+        wall_law = python_law(want)
+        for surface in (0, 1):
+            m = s == surface
+            got = swl.sample_n(handle, surface, d[m], v[m], a[m], u[m])
+            *ref, t = reference_sample(want, surface, d[m], v[m], a[m], u[m])
+            assert_agree(got, ref, u[m], t, v[m], what="reference")
+            if wall_law is not None:
+                compare_with_wall_law(
+                    got, wall_law, surface, d[m], v[m], a[m], u[m], what="v1"
+                )
+    finally:
+        swl.lib.swl_free(handle)
+
+
+def test_a_reduced_table_needs_positive_critical_speeds(swl, reduced, tmp_path):
+    data = export_c.encode(reduced)
+    at = 64 + 2 * 64 + 8 * (3 + 4 + 3)  # v_c follows the three axes
+    assert struct.unpack_from("<3d", data, at) == tuple(CRITICAL)
+    path = tmp_path / "bad.swl"
+    for bad in (0.0, -1.0, float("nan"), float("inf")):
+        path.write_bytes(_patched(data, at + 8, "<d", bad, crc=True))
+        assert swl.load(path)[0] == E_VALUE, bad
+    path.write_bytes(_patched(data, 36, "<I", 0, crc=True))  # v_c unannounced
+    assert swl.load(path)[0] == E_SIZE
+    path.write_bytes(_patched(data, 8, "<I", 1, crc=True))  # version 1: no axis code
+    assert swl.load(path)[0] == E_SIZE
+    bad = reduced.copy(deep=True)
+    bad["critical_speed_m_s"][1] = 0.0
+    with pytest.raises(ValueError, match="critical"):
+        write_binary(bad, tmp_path / "bad2.swl")
 
 
 def test_writer_refuses_what_the_reader_refuses(dataset, tmp_path):
@@ -723,12 +953,17 @@ int hit(const double v[3], const double f_normal[3], double diam_m, const double
 """
 
 
+@pytest.mark.parametrize("kind", ["absolute", "reduced"])
 def test_fluent_wrapper_rebounds_like_swl_rebound_velocity(
-    swl, law, table, tmp_path, monkeypatch
+    swl, dataset, reduced, kind, tmp_path, monkeypatch
 ):
     # the wrapper, built with the mock udf.h and a scripted uniform_random, turns
     # Fluent's face normal (out of the fluid) into the wall's outward normal,
-    # converts the diameter from m to um and draws u[0..4] in order
+    # converts the diameter from m to um and draws u[0..4] in order; on either
+    # speed axis (the sampler handles it)
+    table = write_binary(reduced if kind == "reduced" else dataset, tmp_path / "t.swl")
+    rc, law = swl.load(table)
+    assert rc == 0
     (tmp_path / "harness.c").write_text(HARNESS)
     lib_path = compile_shared(
         [C_DIR / "fluent_udf.c", C_DIR / "swl.c", tmp_path / "harness.c"],
@@ -774,6 +1009,7 @@ def test_fluent_wrapper_rebounds_like_swl_rebound_velocity(
     assert {REBOUND, CAPTURED} <= seen
     udf.microimpact_wall_report()
     assert b"captured" in udf.message()
+    swl.lib.swl_free(law)
 
 
 def test_write_c_writes_the_sampler_the_table_and_a_readme(swl, dataset, tmp_path):

@@ -127,6 +127,7 @@ def _case(
     *,
     coeffs: str | None = None,
     max_reimpacts=None,
+    diameter_um: float = DIAMETER_UM,
 ):
     """A 0.1 m box (4 x 4 x 4 cells): the floor (y = 0) a wall named after the
     table's surface (formica), the other faces one patch (outer). N_PARCELS
@@ -231,7 +232,7 @@ def _case(
         '            nParticle 1; SOI 0; positionsFile "kinematicCloudPositions";\n'
         f"            U0 ({u_t!r} {-u_n!r} 0);\n"
         "            sizeDistribution { type fixedValue; "
-        f"fixedValueDistribution {{ value {DIAMETER_UM * 1e-6!r}; }} }}\n"
+        f"fixedValueDistribution {{ value {diameter_um * 1e-6!r}; }} }}\n"
         "        }\n    }\n"
         "    dispersionModel none;\n"
         "    patchInteractionModel stochasticWallLaw;\n"
@@ -400,6 +401,67 @@ def test_capture_between_nodes_follows_the_python_sampler(tmp_path, library, law
     assert abs(p_of - p_py) < 4 * se
     # and it is neither node's value
     assert abs(p_of - p_lo) > 0.1 and abs(p_of - p_hi) > 0.1
+
+
+@needs_openfoam
+def test_a_reduced_speed_table_follows_the_capture_edge(tmp_path, library):
+    """A table on a reduced speed axis (issue 23, item 5), its diameter nodes 10
+    and 40 um, read by the same library: parcels of 20 um (between the diameter
+    nodes) at r v_c(20 um), r the node nearest capture 0.5 at 60 deg. OpenFOAM's
+    capture at the first strike is the table's at that r (capture depends on d
+    only through v / v_c(d) here) and the Python sampler's; no query is clamped
+    (the solver's diameter and speed are r v_c(d) up to round-off)."""
+    import microimpact as mi
+
+    _, libdir, _ = library
+    spec = mi.WallLawSpec(
+        diameters_um=(10.0, 40.0),
+        speeds_m_s=None,
+        angles_deg=(30.0, ANGLE_DEG, 90.0),
+        reservoir=256,
+        samples=4000,
+        speed_axis="reduced",
+        reduced_speeds=(0.8, 1.0, 1.1, 1.2, 1.3, 1.5, 2.0),
+    )
+    sc = mi.Scenario.from_preset("sst76-formica-oblique")
+    rough = mi.SurfaceVariant("formica", mi.normal_angles(22.0))
+    sc = sc.with_options(surfaces=(rough, *sc.surfaces[1:]))
+    law = mi.build_wall_law(sc, spec, seed=4)
+    out = tmp_path / "reduced"
+    law.write(out)
+    assert (
+        mi.wall_law.read_binary(out / "c" / "wall_law.swl").attrs["speed_axis"]
+        == "reduced"
+    )
+    node = law.dataset.sel(surface="formica", angle_deg=ANGLE_DEG)
+    p_nodes = node.capture_probability.values  # (diameter, r)
+    j = int(np.argmin(np.abs(p_nodes[0] - 0.5)))
+    r = float(node.reduced_speed[j])
+    p_table = float(p_nodes[:, j].mean())
+    assert 0.2 < p_table < 0.8
+    v_c = float(mi.wall_law.critical_speed_m_s(sc, [DIAMETER_UM])[0])
+    speed = r * v_c
+    m = 400_000
+    hit = law.sample(
+        DIAMETER_UM,
+        np.full(m, speed),
+        ANGLE_DEG,
+        rng=np.random.default_rng(12),
+        surface="formica",
+    )
+    p_py = float(np.mean(hit.captured))
+    assert not hit.clamped.any()
+    case = tmp_path / "case"
+    _case(case, out, speed, max_reimpacts=0)  # first strikes only: no slow re-impact
+    log, _ = _run(case, libdir)
+    assert "7 reduced speeds v/v_c(d) x 3 nodes" in log
+    c = _counters(log)
+    assert c["first"] == N_PARCELS and c["clamped"] == 0
+    p_of = c["captured_first"] / c["first"]
+    se = math.sqrt(p_py * (1 - p_py) * (1 / N_PARCELS + 1 / m))
+    assert abs(p_of - p_py) < 4 * se
+    se_table = math.sqrt(p_table * (1 - p_table) * (1 / N_PARCELS + 1 / 8000))
+    assert abs(p_of - p_table) < 4 * se_table
 
 
 @needs_openfoam

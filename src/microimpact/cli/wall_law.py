@@ -79,7 +79,7 @@ def cli_action(args) -> int:
             field="--no-openfoam",
         )
     if condition:
-        _check_condition(spec, condition)
+        _check_condition(spec, condition, scenario)
     if args.scheduler is not None:  # as before --backend existed here
         args.backend = "dask"
 
@@ -113,17 +113,25 @@ def cli_action(args) -> int:
     return c.EXIT_OK
 
 
-def _check_condition(spec, condition):
-    """Refuse condition flags the table cannot serve, before it is built."""
+def _check_condition(spec, condition, scenario):
+    """Refuse condition flags the table cannot serve, before it is built (on a
+    reduced speed axis the speeds are r v_c(d), from the scenario's v_c law)."""
     # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..errors import InputError
 
     # deferred: the verb's library loads only when the verb runs (fast --help)
+    from ..wall_law import critical_speed_m_s
+
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..wall_law.openfoam import fallback_condition
 
+    speeds = spec.speeds_m_s
+    if spec.speed_axis == "reduced":
+        v_c = critical_speed_m_s(scenario, spec.diameters_um)
+        speeds = [[r * float(c) for r in spec.reduced_speeds] for c in v_c]
     coords = {
         "diameter_um": spec.diameters_um,
-        "speed_m_s": spec.speeds_m_s,
+        "speed_m_s": speeds,
         "angle_deg": spec.angles_deg,
     }
     flag = {k: "--" + k.replace("_", "-") for k in condition}

@@ -135,7 +135,15 @@ COEFFICIENT_KEYS = ("set", "k1", "k2", "v_c", "p", "q", "friction")
 SWEEP_KEYS = ("speed_m_s", "angle_deg", "speed_spread")
 PRECISION_KEYS = ("statistic", "half_width", "max_samples", "min_samples")
 OUTPUT_KEYS = ("figures", "report", "experiments", "distribution_speed_m_s")
-WALL_LAW_KEYS = ("diameter_um", "speed_m_s", "angle_deg", "reservoir", "samples")
+WALL_LAW_KEYS = (
+    "diameter_um",
+    "speed_m_s",
+    "angle_deg",
+    "reservoir",
+    "samples",
+    "speed_axis",
+    "reduced_speed",
+)
 SPACINGS = ("linear", "log")
 ANGLE_METHODS = ("slope", "paper")
 DETREND = ("line", "mean", "none")

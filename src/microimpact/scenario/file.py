@@ -87,7 +87,7 @@ from ._file_base import (
 from ._file_surfaces import _angles, _exactly_one, _surfaces
 from .outputs import Outputs
 from .sensitivity import SensitivitySettings, sensitivity_from_dict
-from .wall_law import WallLawSpec
+from .wall_law import SPEED_AXES, WallLawSpec
 
 #: What stands in for a table that failed, so that the rest of the file is still
 #: checked; never simulated (the file's problems are raised together).
@@ -422,7 +422,9 @@ def outputs_from_toml(path):
 
 def _wall_law(ctx: _Ctx, data):
     """The ``[wall_law]`` table as :class:`~microimpact.scenario.wall_law.WallLawSpec`
-    (None if absent). Speeds and angles default to the ``[sweep]``'s."""
+    (None if absent). Speeds and angles default to the ``[sweep]``'s; with
+    ``speed_axis = "reduced"`` (the default where ``reduced_speed`` is given) the
+    speed nodes are the ratios ``reduced_speed`` = v / v_c(d) instead."""
 
     if "wall_law" not in data:
         return None
@@ -430,11 +432,27 @@ def _wall_law(ctx: _Ctx, data):
     ctx.keys(t, "wall_law", WALL_LAW_KEYS, ("diameter_um",))
     sweep = data.get("sweep", {}) if isinstance(data.get("sweep"), dict) else {}
     kw = {}
-    for key, name, default in (
-        ("diameter_um", "diameters_um", None),
-        ("speed_m_s", "speeds_m_s", sweep.get("speed_m_s")),
-        ("angle_deg", "angles_deg", sweep.get("angle_deg", [90.0])),
-    ):
+    axis = "reduced" if "reduced_speed" in t else "absolute"
+    if "speed_axis" in t:
+        axis = ctx.choice(t["speed_axis"], "wall_law.speed_axis", SPEED_AXES)
+    kw["speed_axis"] = axis
+    if "reduced_speed" in t:
+        kw["reduced_speeds"] = _values(
+            ctx, t["reduced_speed"], "wall_law.reduced_speed"
+        )
+    elif axis == "reduced":
+        raise ctx.error(
+            "wall_law.reduced_speed",
+            'missing: speed_axis = "reduced" needs the ratios v / v_c(d) of its '
+            "speed nodes (a list or a range table)",
+        )
+    axes = [("diameter_um", "diameters_um", None)]
+    if axis == "absolute" or "speed_m_s" in t:  # a reduced axis refuses speed_m_s
+        axes.append(("speed_m_s", "speeds_m_s", sweep.get("speed_m_s")))
+    else:
+        kw["speeds_m_s"] = None
+    axes.append(("angle_deg", "angles_deg", sweep.get("angle_deg", [90.0])))
+    for key, name, default in axes:
         where = f"wall_law.{key}" if key in t else f"sweep.{key}"
         value = t.get(key, default)
         if value is None:

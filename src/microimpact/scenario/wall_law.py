@@ -15,10 +15,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._core.validation import as_field_error, check_choice
 from ..errors import ScenarioError
 from .parts import _integer, _positive_tuple
 
-__all__ = ["DEFAULT_QUANTILES", "WallLawSpec"]
+__all__ = ["DEFAULT_QUANTILES", "SPEED_AXES", "WallLawSpec"]
+
+#: The kinds of speed axis of a table: nodes at fixed speeds [m s-1], or at fixed
+#: reduced speeds v / v_c(d), which follow the capture edge (docs/wall-law.md).
+SPEED_AXES = ("absolute", "reduced")
 
 #: Probability levels of the tabulated quantiles.
 DEFAULT_QUANTILES = (0.01, 0.05, 0.1, 0.25, 0.5, 0.75, 0.9, 0.95, 0.99)
@@ -52,8 +57,9 @@ class WallLawSpec:
     ----------
     diameters_um : sequence of float
         Particle diameters of the nodes [µm] (> 0). Sorted; repeats are dropped.
-    speeds_m_s : sequence of float
-        Nominal incident speeds [m s-1] (> 0).
+    speeds_m_s : sequence of float or None
+        Nominal incident speeds [m s-1] (> 0) of an ``"absolute"`` speed axis;
+        None with a ``"reduced"`` one.
     angles_deg : sequence of float
         Apparent incidence angles from the wall plane [deg], in (0, 90].
     reservoir : int
@@ -62,6 +68,15 @@ class WallLawSpec:
         Draws per node (default: the scenario's ``samples``).
     quantiles : sequence of float
         Probability levels of the tabulated quantiles, in (0, 1).
+    speed_axis : {"absolute", "reduced"}
+        ``"absolute"`` (default): the speed nodes are `speeds_m_s`, the same at
+        every diameter. ``"reduced"``: the speed nodes are ``r v_c(d)`` for each
+        ratio r of `reduced_speeds` at each diameter node d, with v_c(d) the
+        scenario's critical (capture) speed at normal incidence on a smooth
+        surface (paper Eq. 5, the coefficient law ``v_c``), so that the nodes
+        follow the capture edge.
+    reduced_speeds : sequence of float, optional
+        The ratios r = v / v_c(d) (> 0) of a ``"reduced"`` speed axis.
     """
 
     diameters_um: tuple
@@ -70,6 +85,8 @@ class WallLawSpec:
     reservoir: int = 256
     samples: int | None = None
     quantiles: tuple = DEFAULT_QUANTILES
+    speed_axis: str = "absolute"
+    reduced_speeds: tuple | None = None
 
     def __post_init__(self):
         set_ = object.__setattr__
@@ -78,7 +95,49 @@ class WallLawSpec:
             "diameters_um",
             _axis(self.diameters_um, "wall_law.diameter_um", low=0),
         )
-        set_(self, "speeds_m_s", _axis(self.speeds_m_s, "wall_law.speed_m_s", low=0))
+        with as_field_error("wall_law.speed_axis", ScenarioError):
+            set_(
+                self,
+                "speed_axis",
+                check_choice(self.speed_axis, "wall_law.speed_axis", SPEED_AXES),
+            )
+        if self.speed_axis == "reduced":
+            if self.reduced_speeds is None:
+                raise ScenarioError(
+                    'speed_axis = "reduced" needs the ratios v / v_c(d) of its '
+                    "nodes: give reduced_speed (a list or a range table)",
+                    field="wall_law.reduced_speed",
+                )
+            if self.speeds_m_s is not None:
+                raise ScenarioError(
+                    'with speed_axis = "reduced" the speed nodes are '
+                    "reduced_speed x v_c(d); drop speed_m_s (got "
+                    f"{self.speeds_m_s!r})",
+                    field="wall_law.speed_m_s",
+                )
+            set_(
+                self,
+                "reduced_speeds",
+                _axis(self.reduced_speeds, "wall_law.reduced_speed", low=0),
+            )
+        else:
+            if self.reduced_speeds is not None:
+                raise ScenarioError(
+                    'reduced_speed is the speed axis of speed_axis = "reduced"; '
+                    f'set speed_axis = "reduced" (got "{self.speed_axis}") or drop '
+                    "reduced_speed",
+                    field="wall_law.reduced_speed",
+                )
+            if self.speeds_m_s is None:
+                raise ScenarioError(
+                    "missing: the speed nodes [m/s] of the absolute speed axis",
+                    field="wall_law.speed_m_s",
+                )
+            set_(
+                self,
+                "speeds_m_s",
+                _axis(self.speeds_m_s, "wall_law.speed_m_s", low=0),
+            )
         set_(
             self,
             "angles_deg",
@@ -105,9 +164,14 @@ class WallLawSpec:
             set_(self, "samples", _integer(self.samples, "wall_law.samples", 1))
 
     @property
+    def speed_nodes(self) -> tuple:
+        """The speed axis' values: `speeds_m_s` [m s-1] or `reduced_speeds` [1]."""
+        return self.reduced_speeds if self.speed_axis == "reduced" else self.speeds_m_s
+
+    @property
     def shape(self) -> tuple[int, int, int]:
         """(diameters, speeds, angles)."""
-        return (len(self.diameters_um), len(self.speeds_m_s), len(self.angles_deg))
+        return (len(self.diameters_um), len(self.speed_nodes), len(self.angles_deg))
 
     @property
     def nodes(self) -> int:

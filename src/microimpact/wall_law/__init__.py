@@ -10,6 +10,7 @@ draw from.
 from ..scenario.wall_law import WallLawSpec
 from .build import (
     build_wall_law,
+    critical_speed_m_s,
     node_outcomes,
 )
 from .export_c import (
@@ -41,6 +42,7 @@ __all__ = [
     "WallLawSample",
     "WallLawSpec",
     "build_wall_law",
+    "critical_speed_m_s",
     "fallback_condition",
     "node_outcomes",
     "openfoam_coefficients",

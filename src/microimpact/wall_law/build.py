@@ -43,9 +43,38 @@ from ..population.distributions import monodisperse
 from ..scenario.grid import SweepGrid
 from ..scenario.scenario import Scenario, read_scenario
 from ..scenario.wall_law import REBOUND_VARIABLES, RESERVOIR_VARIABLES, WallLawSpec
+from ..units import um_to_m
 from .law import WallLaw, wall_law_dataset
 
-__all__ = ["build_wall_law", "node_outcomes"]
+__all__ = ["build_wall_law", "critical_speed_m_s", "node_outcomes"]
+
+
+def critical_speed_m_s(scenario, diameter_um) -> np.ndarray:
+    """The critical (capture) speed v_c(d) [m s-1] of the scenario's particles at
+    diameters `diameter_um` [µm]: the largest normal speed captured at normal
+    incidence on a smooth surface, the ``v_c`` of paper Eq. 5 (the scenario's
+    coefficient law, :class:`~microimpact.physics.coefficients.ImpactCoefficients`;
+    the capture rule is :func:`microimpact.physics.impact.rebound`'s). The nodes
+    of a ``"reduced"`` speed axis are ``r v_c(d)``.
+
+    Raises :class:`~microimpact.errors.ScenarioError` where v_c is not finite and
+    > 0 (a reduced speed needs it).
+    """
+    d = np.atleast_1d(np.asarray(diameter_um, dtype=float))
+    v_c = np.broadcast_to(
+        np.asarray(scenario.coefficients.v_c(um_to_m(d)), dtype=float), d.shape
+    )
+    bad = ~(np.isfinite(v_c) & (v_c > 0))
+    if np.any(bad):
+        i = int(np.argmax(bad))
+        raise ScenarioError(
+            f"the critical speed law v_c gives {float(v_c[i])!r} m/s at diameter "
+            f"{d[i]:g} um; a reduced speed axis (v / v_c) needs v_c finite and > 0 "
+            'at every diameter node: use speed_axis = "absolute"',
+            source=scenario.source,
+            field="wall_law.speed_axis",
+        )
+    return np.array(v_c, dtype=float)
 
 
 def node_outcomes(e_m, mu_m, angle_deg: float, psi_deg=None) -> dict:
@@ -281,11 +310,21 @@ def _node_rows(plan, points, spec: WallLawSpec, samples: int, buffers=None) -> d
 def _diameter_task(plan, scenario, spec, samples, j):
     """Every node of diameter ``spec.diameters_um[j]``: a dict of stacked arrays
     over the sweep points (surface x speed x angle, in :class:`SweepGrid` order),
-    built a group of nodes at a time (:data:`GROUP_IMPACTS`)."""
+    built a group of nodes at a time (:data:`GROUP_IMPACTS`). On a reduced speed
+    axis the plan's speeds are the ratios r, and this diameter's points are at
+    ``r v_c(d)``; the points keep their numbers, hence their random streams."""
     d_plan = dataclasses.replace(
         plan,
         diameters=diameter_sampler(scenario, monodisperse(spec.diameters_um[j])),
     )
+    if spec.speed_axis == "reduced":
+        v_c = float(critical_speed_m_s(scenario, spec.diameters_um[j])[0])
+        d_plan = dataclasses.replace(
+            d_plan,
+            points=tuple(
+                dataclasses.replace(pt, speed=pt.speed * v_c) for pt in plan.points
+            ),
+        )
     per = max(1, GROUP_IMPACTS // max(samples, 1))
     n = len(plan.points)
     size = min(per, n) * samples
@@ -447,8 +486,12 @@ def build_wall_law(
         raise TypeError(f"`spec` must be a WallLawSpec; got {type(spec).__name__}")
     samples = spec.samples if spec.samples is not None else scenario.samples
     spec.check_size(len(scenario.surfaces))
+    critical = None
+    if spec.speed_axis == "reduced":  # refused before any simulation
+        critical = critical_speed_m_s(scenario, spec.diameters_um)
     nodes_scenario = scenario.with_options(
-        speeds_m_s=spec.speeds_m_s,
+        # the ratios r on a reduced axis: each diameter multiplies them by v_c(d)
+        speeds_m_s=spec.speed_nodes,
         angles_deg=spec.angles_deg,
         samples=samples,
         precision=None,
@@ -499,6 +542,7 @@ def build_wall_law(
         entropy=plan.entropy,
         source_text=source_text,
         seconds=time.perf_counter() - started,
+        critical_speed_m_s=critical,
     )
     if partial is not None:
         partial.remove()

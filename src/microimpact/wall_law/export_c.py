@@ -29,10 +29,17 @@ C_SOURCES = Path(__file__).with_name("c")
 C_FILES = ("swl.h", "swl.c", "fluent_udf.c")
 
 MAGIC = b"SWLTABL\0"
-VERSION = 1
+#: The format version written by default (2: the speed axis' kind in the
+#: header, v_c per diameter on a reduced axis); version 1 (absolute speed axis
+#: only) is still written on request and read.
+VERSION = 2
+VERSIONS = (1, 2)
 NAME_WIDTH = 64
 HEADER = struct.Struct("<8s8IQI12x")  # 64 bytes; see c/swl.h
 DIMS = ("surface", "diameter_um", "speed_m_s", "angle_deg")
+REDUCED_DIMS = ("surface", "diameter_um", "reduced_speed", "angle_deg")
+#: Header codes of the speed axis' kind (format version 2, offset 36).
+SPEED_AXIS_CODES = {"absolute": 0, "reduced": 1}
 RESERVOIRS = ("e_n", "mu", "lateral_angle_deg", "speed_ratio")
 
 
@@ -40,7 +47,11 @@ def _dataset(law):
     """The Dataset of a WallLaw (or a Dataset itself), in (surface, d, v, theta,
     sample) order."""
     ds = getattr(law, "dataset", law)
-    return ds.transpose(*DIMS, "sample", ...)
+    return ds.transpose(*_dims(ds), "sample", ...)
+
+
+def _dims(ds):
+    return REDUCED_DIMS if "reduced_speed" in ds.dims else DIMS
 
 
 def _check(names, axes, p, count, res, k):
@@ -51,7 +62,7 @@ def _check(names, axes, p, count, res, k):
                 f"surface name {name.decode()!r} must be at most {NAME_WIDTH - 1} "
                 "bytes of UTF-8 without NUL for the binary table"
             )
-    for dim, x in zip(DIMS[1:], axes, strict=True):
+    for dim, x in zip(("diameter_um", "speed axis", "angle_deg"), axes, strict=True):
         if not (np.all(np.isfinite(x)) and np.all(np.diff(x) > 0)):
             raise ValueError(f"{dim} must be finite and strictly increasing")
         if dim != "angle_deg" and not np.all(x > 0):
@@ -72,21 +83,37 @@ def _check(names, axes, p, count, res, k):
             raise ValueError(f"reservoir_{name} must be {allowed} where it is held")
 
 
-def encode(law) -> bytes:
-    """The binary table (format version 1 of ``c/swl.h``) of a WallLaw or its
-    Dataset."""
+def encode(law, version: int = VERSION) -> bytes:
+    """The binary table (format version `version` of ``c/swl.h``: 2, or 1 for a
+    table on an absolute speed axis) of a WallLaw or its Dataset."""
+    if version not in VERSIONS:
+        raise ValueError(f"`version` must be one of {VERSIONS}; got {version!r}")
     ds = _dataset(law)
+    dims = _dims(ds)
+    reduced = dims is REDUCED_DIMS
+    if reduced and version < 2:
+        raise ValueError(
+            "a table on a reduced speed axis needs format version 2 (version 1 "
+            "has no critical speeds)"
+        )
     names = [str(s).encode("utf-8") for s in ds["surface"].values]
-    axes = [np.asarray(ds[c].values, dtype=float) for c in DIMS[1:]]
+    axes = [np.asarray(ds[c].values, dtype=float) for c in dims[1:]]
     p = np.asarray(ds["capture_probability"].values, dtype=float)
     count = np.asarray(ds["reservoir_count"].values)
     res = [np.asarray(ds[f"reservoir_{n}"].values, dtype=float) for n in RESERVOIRS]
     k = int(ds.sizes["sample"])
     _check(names, axes, p, count, res, k)
+    critical = []
+    if reduced:
+        v_c = np.asarray(ds["critical_speed_m_s"].values, dtype=float)
+        if not np.all(np.isfinite(v_c) & (v_c > 0)):
+            raise ValueError("critical_speed_m_s must be finite and > 0")
+        critical = [np.ascontiguousarray(v_c, "<f8").tobytes()]
     payload = b"".join(
         [
             b"".join(n.ljust(NAME_WIDTH, b"\0") for n in names),
             *(np.ascontiguousarray(x, "<f8").tobytes() for x in axes),
+            *critical,
             np.ascontiguousarray(p, "<f8").tobytes(),
             *(np.ascontiguousarray(a, "<f8").tobytes() for a in res),
             np.ascontiguousarray(count, "<i4").tobytes(),
@@ -95,24 +122,26 @@ def encode(law) -> bytes:
     s, d, v, a = p.shape
     header = HEADER.pack(
         MAGIC,
-        VERSION,
+        version,
         s,
         d,
         v,
         a,
         k,
         NAME_WIDTH,
-        0,
+        SPEED_AXIS_CODES["reduced" if reduced else "absolute"],
         HEADER.size + len(payload),
         zlib.crc32(payload),
     )
     return header + payload
 
 
-def write_binary(law, path) -> Path:
+def write_binary(law, path, *, version: int = VERSION) -> Path:
     """Write the binary table of `law` (a WallLaw or its Dataset) to `path`
-    (atomically); returns the path."""
-    data = encode(law)
+    (atomically), in format `version` (default 2; 1, which readers older than
+    the reduced speed axis know, only for a table on an absolute speed axis);
+    returns the path."""
+    data = encode(law, version)
     return atomic_write(path, lambda tmp: Path(tmp).write_bytes(data))
 
 
@@ -133,11 +162,14 @@ def read_binary(path):
     data = Path(path).read_bytes()
     if len(data) < HEADER.size:
         raise bad("file too short for the header")
-    magic, version, s, d, v, a, k, width, _, size, crc = HEADER.unpack_from(data)
+    magic, version, s, d, v, a, k, width, kind, size, crc = HEADER.unpack_from(data)
     if magic != MAGIC:
         raise bad("wrong magic")
-    if version != VERSION:
-        raise bad(f"format version {version}, this reader knows {VERSION}")
+    if version not in VERSIONS:
+        raise bad(f"format version {version}, this reader knows {VERSIONS}")
+    if kind not in ((0,) if version == 1 else (0, 1)):
+        raise bad(f"speed axis code {kind} in the header")
+    reduced = kind == 1
     if width != NAME_WIDTH or size != len(data):
         raise bad(f"header says {size} bytes, the file has {len(data)}")
     if zlib.crc32(data[HEADER.size :]) != crc:
@@ -157,30 +189,47 @@ def read_binary(path):
         return out
 
     axes = [take("<f8", (n,)) for n in (d, v, a)]
+    v_c = take("<f8", (d,)) if reduced else None
     nodes = (s, d, v, a)
     p = take("<f8", nodes)
     res = [take("<f8", (*nodes, k)) for _ in RESERVOIRS]
     count = take("<i4", nodes)
-    variables = {"capture_probability": (DIMS, p), "reservoir_count": (DIMS, count)}
+    dims = REDUCED_DIMS if reduced else DIMS
+    variables = {"capture_probability": (dims, p), "reservoir_count": (dims, count)}
     for name, arr in zip(RESERVOIRS, res, strict=True):
-        variables[f"reservoir_{name}"] = ((*DIMS, "sample"), arr)
-    coords = dict(zip(DIMS, [np.array(names, dtype=object), *axes], strict=True))
+        variables[f"reservoir_{name}"] = ((*dims, "sample"), arr)
+    coords = dict(zip(dims, [np.array(names, dtype=object), *axes], strict=True))
     coords["sample"] = np.arange(k, dtype=np.int32)
-    return xr.Dataset(variables, coords=coords)
+    if reduced:
+        variables["critical_speed_m_s"] = (("diameter_um",), v_c)
+        coords["speed_m_s"] = (("diameter_um", "reduced_speed"), v_c[:, None] * axes[1])
+    ds = xr.Dataset(variables, coords=coords)
+    ds.attrs.update(
+        speed_axis="reduced" if reduced else "absolute", format_version=version
+    )
+    return ds
 
 
 def _readme(law) -> str:
     ds = _dataset(law)
     s = ", ".join(repr(str(n)) for n in ds["surface"].values)
+    dims = _dims(ds)
     rng = {
         c: f"{float(ds[c].values[0]):g} … {float(ds[c].values[-1]):g} "
         f"({ds.sizes[c]} nodes)"
-        for c in DIMS[1:]
+        for c in dims[1:]
     }
+    if "reduced_speed" in rng:
+        speeds = (
+            f"v / v_c(d) {rng['reduced_speed']} (a reduced speed axis: v_c at each "
+            "diameter node is in the table)"
+        )
+    else:
+        speeds = f"{rng['speed_m_s']} m/s"
     return _README.format(
         surfaces=s,
         diameters=rng["diameter_um"],
-        speeds=rng["speed_m_s"],
+        speeds=speeds,
         angles=rng["angle_deg"],
         k=ds.sizes["sample"],
     )
@@ -213,7 +262,7 @@ only); `fluent_udf.c` is an Ansys Fluent `DEFINE_DPM_BC` wrapper around them.
 
 * surfaces {surfaces};
 * diameter {diameters} µm;
-* speed {speeds} m/s;
+* speed {speeds};
 * angle {angles} degrees from the wall plane;
 * K = {k} rebound samples per node.
 
@@ -265,8 +314,10 @@ Every sample takes five uniform numbers in [0, 1), in this order:
 | u[4] | reservoir sample floor(u[4] * count) of the corner |
 
 All five are used on every call, whatever the outcome. t is the query's fraction of
-its cell in log d, log v and theta; a query outside an axis is clamped to the end
-node and flagged.
+its cell in log d, log v and theta (on a reduced speed axis log(v / v_c(d)), v_c
+interpolated in log-log between the diameter nodes); a query outside an axis is
+clamped to the end node, and flagged if it lies outside by more than 1e-9
+relative.
 
 ## Fluent
 

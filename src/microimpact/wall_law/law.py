@@ -4,7 +4,9 @@
 docs/wall-law.md) and samples it the way the C sampler (``c/swl.c``) does: pick a
 corner of the query's cell with probability equal to its trilinear weight in
 (log d, log v, angle), decide capture with that corner's capture probability, and
-otherwise take one of the corner's reservoir samples. Each node's distribution, and
+otherwise take one of the corner's reservoir samples (on a reduced speed axis,
+``speed_axis = "reduced"``, the speed variable is log(v / v_c(d)): the nodes
+follow the capture edge). Each node's distribution, and
 the correlation of e_n, e_t and the lateral angle within it, are kept; nothing is
 averaged across nodes.
 """
@@ -31,6 +33,14 @@ from .openfoam import write_openfoam, write_stochastic_model
 __all__ = ["WallLaw", "WallLawSample", "wall_law_dataset"]
 
 DIMS = ("surface", "diameter_um", "speed_m_s", "angle_deg")
+#: The dimensions of a table on a reduced speed axis (v / v_c(d)).
+REDUCED_DIMS = ("surface", "diameter_um", "reduced_speed", "angle_deg")
+
+#: A query is flagged clamped only where it lies outside an axis' end nodes by
+#: more than this, relative, in the axis' variable (log d, log v or log(v/v_c),
+#: and the angle relative to its end node): a query at an end node up to
+#: round-off (a diameter converted from metres, a speed r v_c(d)) is not clamped.
+CLAMP_TOLERANCE = 1e-9
 
 #: Frame, angle convention and interpolation rule (the file's attributes).
 FRAME = (
@@ -43,11 +53,14 @@ ANGLE_CONVENTION = (
     "lateral_angle_deg = atan2(U_y, hypot(U_x, U_z))"
 )
 INTERPOLATION = (
-    "stochastic: pick the corner of the (log diameter, log speed, angle) cell with "
+    "stochastic: pick the corner of the (log diameter, log speed, angle) cell (log "
+    "reduced speed log(v / v_c(d)) on a reduced speed axis, with log v_c "
+    "interpolated linearly in log d between the diameter nodes) with "
     "probability equal to its trilinear weight (upper node on each axis where the "
     "axis' uniform < its fraction), capture where a uniform < that corner's "
     "capture_probability, else draw reservoir sample floor(u * reservoir_count); "
-    "queries outside the axes are clamped to the end nodes; velocity U_z = e_n s "
+    "queries outside the axes (by more than 1e-9 relative) are clamped to the "
+    "end nodes; velocity U_z = e_n s "
     "sin(theta), U_x = s cos(theta) - mu (1 + e_n) s sin(theta), "
     "U_y = tan(psi) hypot(U_x, U_z), then U scaled to |U| = speed_ratio s"
 )
@@ -72,6 +85,11 @@ VARIABLES: dict[str, tuple[str, str]] = {
     "capture_ci_high": ("1", "upper Wilson confidence limit of capture_probability"),
     "reimpact_probability": ("1", "fraction of rebounds with U_z < 0"),
     "reservoir_count": ("1", "rebound samples held in the reservoir"),
+    "critical_speed_m_s": (
+        "m s-1",
+        "critical (capture) speed v_c(d) at normal incidence on a smooth surface "
+        "(paper Eq. 5): the reduced speed axis is v / v_c(d)",
+    ),
 }
 for _name, (_u, _long) in _UNITS.items():
     VARIABLES[f"{_name}_mean"] = (_u, f"mean over rebounds of the {_long}")
@@ -88,6 +106,7 @@ COORDS = {
     "surface": (None, "surface variant"),
     "diameter_um": ("um", "particle diameter"),
     "speed_m_s": ("m s-1", "nominal incident speed"),
+    "reduced_speed": ("1", "reduced incident speed v / v_c(d)"),
     "angle_deg": ("degree", "apparent incidence angle from the wall plane"),
     "quantile": ("1", "probability level of the quantile variables"),
     "sample": ("1", "index in a node's reservoir"),
@@ -95,13 +114,27 @@ COORDS = {
 
 
 def wall_law_dataset(
-    grid, spec, columns, *, scenario, entropy, source_text=None, seconds=None
+    grid,
+    spec,
+    columns,
+    *,
+    scenario,
+    entropy,
+    source_text=None,
+    seconds=None,
+    critical_speed_m_s=None,
 ):
     """The wall law's CF-1.10 Dataset from per-diameter stacked node columns.
 
     `columns` maps each node variable to an array of shape (diameters, points,
-    ...) with the points in ``grid`` order (surface x speed x angle).
+    ...) with the points in ``grid`` order (surface x speed x angle). On a
+    reduced speed axis (``spec.speed_axis == "reduced"``, the grid's speeds the
+    ratios r) `critical_speed_m_s` holds v_c at each diameter node: the speed
+    dimension is ``reduced_speed``, with ``critical_speed_m_s`` (diameter) and the
+    node speeds ``speed_m_s`` = r v_c(d) (diameter, reduced_speed) as variables.
     """
+    reduced = spec.speed_axis == "reduced"
+    dims = REDUCED_DIMS if reduced else DIMS
     # deferred: xarray loads only where a dataset is made (import time)
     import xarray as xr
 
@@ -122,7 +155,7 @@ def wall_law_dataset(
             extra = ("sample",)
         if name.startswith("n_") or name == "reservoir_count":
             a = a.astype(np.int64 if name != "reservoir_count" else np.int32)
-        data[name] = (DIMS + extra, a)
+        data[name] = (dims + extra, a)
     k = data["n_captured"][1]
     n = data["n_impacts"][1]
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -130,32 +163,40 @@ def wall_law_dataset(
         reb = data["n_rebounds"][1]
         reimp = np.where(reb > 0, data["n_reimpacts"][1] / np.maximum(reb, 1), np.nan)
     low, high = wilson_interval(k, n, scenario.confidence)
-    data["capture_probability"] = (DIMS, p)
-    data["capture_ci_low"] = (DIMS, np.where(n > 0, low, np.nan))
-    data["capture_ci_high"] = (DIMS, np.where(n > 0, high, np.nan))
-    data["reimpact_probability"] = (DIMS, reimp)
+    data["capture_probability"] = (dims, p)
+    data["capture_ci_low"] = (dims, np.where(n > 0, low, np.nan))
+    data["capture_ci_high"] = (dims, np.where(n > 0, high, np.nan))
+    data["reimpact_probability"] = (dims, reimp)
+    coords = {
+        "surface": np.array(grid.surfaces, dtype=object),
+        "diameter_um": np.array(spec.diameters_um),
+        dims[2]: np.array(grid.speeds_m_s),
+        "angle_deg": np.array(grid.angles_deg),
+        "quantile": np.array(spec.quantiles),
+        "sample": np.arange(spec.reservoir, dtype=np.int32),
+    }
+    if reduced:
+        v_c = np.asarray(critical_speed_m_s, dtype=float)
+        data["critical_speed_m_s"] = (("diameter_um",), v_c)
+        coords["speed_m_s"] = (
+            ("diameter_um", "reduced_speed"),
+            v_c[:, None] * np.array(grid.speeds_m_s)[None, :],  # the build's speeds
+        )
     order = [v for v in VARIABLES if v in data]
-    ds = xr.Dataset(
-        {v: data[v] for v in order},
-        coords={
-            "surface": np.array(grid.surfaces, dtype=object),
-            "diameter_um": np.array(spec.diameters_um),
-            "speed_m_s": np.array(grid.speeds_m_s),
-            "angle_deg": np.array(grid.angles_deg),
-            "quantile": np.array(spec.quantiles),
-            "sample": np.arange(spec.reservoir, dtype=np.int32),
-        },
-    )
+    ds = xr.Dataset({v: data[v] for v in order}, coords=coords)
     for v in ds.data_vars:
         units, long_name = VARIABLES[v]
         ds[v].attrs.update(units=units, long_name=long_name)
     for c, (units, long_name) in COORDS.items():
+        if c not in ds.coords:
+            continue
         ds[c].attrs["long_name"] = long_name
         if units is not None:
             ds[c].attrs["units"] = units
     ds["diameter_um"].attrs["axis_spacing"] = "interpolated in log"
-    ds["speed_m_s"].attrs["axis_spacing"] = "interpolated in log"
+    ds[dims[2]].attrs["axis_spacing"] = "interpolated in log"
     ds.attrs.update(
+        speed_axis=spec.speed_axis,
         Conventions=CONVENTIONS,
         title=f"microimpact wall law: {scenario.name}",
         history=history_line(f"wall law of scenario {scenario.name!r}"),
@@ -164,19 +205,29 @@ def wall_law_dataset(
         angle_convention=ANGLE_CONVENTION,
         interpolation=INTERPOLATION,
         scenario=source_text if source_text is not None else "",
-        scenario_description=dumps(scenario.describe()),
+        scenario_description=dumps(_description(scenario, reduced)),
         seed=str(entropy),
         samples_per_node=int(columns["n_samples"].flat[0]),
         reservoir=int(spec.reservoir),
         confidence=float(scenario.confidence),
         shadowing=scenario.shadowing,
         microimpact_version=__version__,
-        common_random_numbers="every diameter of a (surface, speed, angle) uses the "
-        "same draws",
+        common_random_numbers=f"every diameter of a (surface, {dims[2]}, angle) uses "
+        "the same draws",
     )
     if seconds is not None:
         ds.attrs["build_seconds"] = float(seconds)
     return ds
+
+
+def _description(scenario, reduced: bool) -> dict:
+    """The scenario's provenance description; on a reduced speed axis the build's
+    speeds are the ratios r = v / v_c(d), recorded as ``reduced_speeds``."""
+    out = scenario.describe()
+    if reduced:
+        out["reduced_speeds"] = out.pop("speeds_m_s")
+        out["speeds_m_s"] = "r v_c(d): the variable speed_m_s"
+    return out
 
 
 @dataclass(frozen=True)
@@ -207,16 +258,27 @@ class WallLawSample:
     valid: np.ndarray
 
 
-def _bracket(coord: np.ndarray, x: np.ndarray):
-    """Lower node index, fraction in [0, 1] and clamped flag along one axis."""
+def _bracket(coord: np.ndarray, x: np.ndarray, tol_low: float, tol_high: float):
+    """Lower node index, fraction in [0, 1] and clamped flag along one axis: a
+    query is clamped where it lies below ``coord[0] - tol_low`` or above
+    ``coord[-1] + tol_high`` (:data:`CLAMP_TOLERANCE`)."""
     n = coord.size
     if n == 1:
-        return np.zeros(x.shape, np.intp), np.zeros(x.shape), x != coord[0]
+        out = (x < coord[0] - tol_low) | (x > coord[0] + tol_high)
+        return np.zeros(x.shape, np.intp), np.zeros(x.shape), out
     i = np.clip(np.searchsorted(coord, x, side="right") - 1, 0, n - 2)
     lo, hi = coord[i], coord[i + 1]
     t = (x - lo) / (hi - lo)
-    clamped = (t < 0.0) | (t > 1.0)
+    clamped = (x < coord[0] - tol_low) | (x > coord[-1] + tol_high)
     return i, np.clip(t, 0.0, 1.0), clamped
+
+
+def _tolerances(coord: np.ndarray, log: bool) -> tuple[float, float]:
+    """The clamping tolerances below and above an axis (:data:`CLAMP_TOLERANCE`
+    relative: in a log variable that is the tolerance itself)."""
+    if log:
+        return CLAMP_TOLERANCE, CLAMP_TOLERANCE
+    return CLAMP_TOLERANCE * abs(coord[0]), CLAMP_TOLERANCE * abs(coord[-1])
 
 
 def _check_query(name, value, n, positive):
@@ -256,18 +318,48 @@ class WallLaw:
             raise DataFormatError(
                 f"not a wall-law table: missing variables {', '.join(missing)}"
             )
-        for c in DIMS[1:]:
+        reduced = "reduced_speed" in dataset.dims
+        self._dims = REDUCED_DIMS if reduced else DIMS
+        for c in self._dims[1:]:
+            if c not in dataset.coords:
+                raise DataFormatError(f"not a wall-law table: no coordinate {c}")
             x = np.asarray(dataset[c].values, dtype=float)
-            if x.size == 0 or np.any(np.diff(x) <= 0) or not np.all(np.isfinite(x)):
+            if (
+                x.ndim != 1
+                or x.size == 0
+                or np.any(np.diff(x) <= 0)
+                or not np.all(np.isfinite(x))
+            ):
                 raise DataFormatError(
                     f"not a wall-law table: coordinate {c} must be finite and "
                     "strictly increasing"
                 )
+        if reduced:
+            v_c = (
+                np.asarray(dataset["critical_speed_m_s"].values, dtype=float)
+                if "critical_speed_m_s" in dataset
+                else np.empty(0)
+            )
+            if v_c.shape != (dataset.sizes["diameter_um"],) or not np.all(
+                np.isfinite(v_c) & (v_c > 0)
+            ):
+                raise DataFormatError(
+                    "not a wall-law table: a reduced speed axis needs "
+                    "critical_speed_m_s (diameter_um), finite and > 0"
+                )
         self.dataset = dataset
-        ds = dataset.transpose(*DIMS, ...)
+        ds = dataset.transpose(*self._dims, ...)
         self._log_d = np.log(ds["diameter_um"].values.astype(float))
-        self._log_v = np.log(ds["speed_m_s"].values.astype(float))
+        self._log_v = np.log(ds[self._dims[2]].values.astype(float))
+        self._log_vc = (
+            np.log(ds["critical_speed_m_s"].values.astype(float)) if reduced else None
+        )
         self._angle = ds["angle_deg"].values.astype(float)
+        self._tol = (
+            _tolerances(self._log_d, True),
+            _tolerances(self._log_v, True),
+            _tolerances(self._angle, False),
+        )
         self._p = ds["capture_probability"].values.astype(float)
         self._count = ds["reservoir_count"].values.astype(np.int64)
         self._res = {
@@ -308,8 +400,29 @@ class WallLaw:
         return self.dataset["diameter_um"].values
 
     @property
+    def speed_axis(self) -> str:
+        """``"absolute"`` (speed nodes in m/s) or ``"reduced"`` (v / v_c(d))."""
+        return "reduced" if self._log_vc is not None else "absolute"
+
+    @property
     def speeds_m_s(self) -> np.ndarray:
+        """The speed nodes [m s-1]: 1-D on an absolute axis, (diameter,
+        reduced_speed) on a reduced one (r v_c(d))."""
         return self.dataset["speed_m_s"].values
+
+    @property
+    def reduced_speeds(self) -> np.ndarray | None:
+        """The reduced speed nodes v / v_c(d) (None on an absolute axis)."""
+        if self._log_vc is None:
+            return None
+        return self.dataset["reduced_speed"].values
+
+    @property
+    def critical_speeds_m_s(self) -> np.ndarray | None:
+        """v_c at each diameter node [m s-1] (None on an absolute axis)."""
+        if self._log_vc is None:
+            return None
+        return self.dataset["critical_speed_m_s"].values
 
     @property
     def angles_deg(self) -> np.ndarray:
@@ -336,9 +449,14 @@ class WallLaw:
 
     def __repr__(self):
         d, v, a = self.diameters_um, self.speeds_m_s, self.angles_deg
+        if self.speed_axis == "reduced":
+            r = self.reduced_speeds
+            speeds = f"{r.size} reduced speeds v/v_c(d) [{r[0]:g}, {r[-1]:g}]"
+        else:
+            speeds = f"{v.size} speeds [{v[0]:g}, {v[-1]:g}] m/s"
         return (
             f"<WallLaw {len(self.surfaces)} surface(s) x {d.size} diameters "
-            f"[{d[0]:g}, {d[-1]:g}] um x {v.size} speeds [{v[0]:g}, {v[-1]:g}] m/s x "
+            f"[{d[0]:g}, {d[-1]:g}] um x {speeds} x "
             f"{a.size} angles [{a[0]:g}, {a[-1]:g}] deg, K={self.reservoir}>"
         )
 
@@ -350,7 +468,9 @@ class WallLaw:
         ----------
         diameter_um, speed_m_s, angle_deg : float or array_like
             The impacts' diameters [µm], speeds [m s-1] and apparent incidence
-            angles from the wall plane [deg], broadcast to N = ``len(u)``.
+            angles from the wall plane [deg], broadcast to N = ``len(u)``. On a
+            reduced speed axis the speed variable is log(v / v_c(d)), v_c
+            interpolated linearly in log-log between the diameter nodes.
         u : array_like, shape (N, 5)
             Uniform numbers in [0, 1): u[:, 0..2] pick the cell corner along the
             diameter, speed and angle axes, u[:, 3] decides capture, u[:, 4] picks
@@ -373,10 +493,17 @@ class WallLaw:
         v = _check_query("speed_m_s", speed_m_s, n, True)
         a = _check_query("angle_deg", angle_deg, n, False)
         idx, clamped = [], np.zeros(n, bool)
-        for axis, (coord, x) in enumerate(
-            ((self._log_d, np.log(d)), (self._log_v, np.log(v)), (self._angle, a))
-        ):
-            i, t, c = _bracket(coord, x)
+        log_v = np.log(v)
+        for axis, coord in enumerate((self._log_d, self._log_v, self._angle)):
+            x = (np.log(d), log_v, a)[axis]
+            i, t, c = _bracket(coord, x, *self._tol[axis])
+            if axis == 0 and self._log_vc is not None:
+                # reduced axis: x = log v - log v_c(d), log v_c linear in log d
+                # between the diameter nodes (the query's own fraction, clipped)
+                lvc = self._log_vc
+                if lvc.size > 1:
+                    lvc = lvc[i] + t * (lvc[i + 1] - lvc[i])
+                log_v = log_v - lvc
             idx.append(np.where(u[:, axis] < t, i + 1, i))
             clamped |= c
         node = (s, idx[0], idx[1], idx[2])
@@ -442,12 +569,17 @@ class WallLaw:
         # deferred: pandas loads only where a table is made (import time)
         import pandas as pd
 
-        ds = self.dataset.transpose(*DIMS, ...)
+        dims = self._dims
+        ds = self.dataset.transpose(*dims, ...)
         q = list(ds["quantile"].values)
         cols = {}
-        grids = np.meshgrid(*(np.arange(ds.sizes[dim]) for dim in DIMS), indexing="ij")
-        for dim, g in zip(DIMS, grids, strict=True):
+        grids = np.meshgrid(*(np.arange(ds.sizes[dim]) for dim in dims), indexing="ij")
+        for dim, g in zip(dims, grids, strict=True):
             cols[dim] = ds[dim].values[g.ravel()]
+        if self.speed_axis == "reduced":  # the node's speed and v_c(d), in m/s
+            i, j = grids[1].ravel(), grids[2].ravel()
+            cols["speed_m_s"] = ds["speed_m_s"].values[i, j]
+            cols["critical_speed_m_s"] = ds["critical_speed_m_s"].values[i]
         for v in (
             "n_samples",
             "n_impacts",

@@ -141,11 +141,15 @@ def fallback_condition(dataset, *, diameter_um=None, speed_m_s=None, angle_deg=N
     and the angle in degrees; the lower node on a tie. The default angle is the
     middle of the oblique nodes (below 90 deg), where the table has any. Raises
     ``ValueError`` naming the argument if a value lies outside the axis' range.
+    On a reduced speed axis (``speed_m_s`` of shape (diameters, ratios), the
+    speeds r v_c(d)) the speed node is chosen among the chosen diameter's.
     """
     given = {"diameter_um": diameter_um, "speed_m_s": speed_m_s, "angle_deg": angle_deg}
     out = {}
     for axis, log in _AXES:
         coord = np.asarray(dataset[axis], dtype=float)  # a Dataset or a dict of axes
+        if coord.ndim == 2:  # reduced speed axis: the chosen diameter's speeds
+            coord = coord[out["diameter_um"][0]]
         if axis == "angle_deg" and given[axis] is None and np.any(coord < 90.0):
             # the default is an oblique node: e_t is undefined at normal incidence
             oblique = coord[coord < 90.0]
@@ -207,7 +211,8 @@ def _value(ds, name, s, node):
     if name not in ds:
         return math.nan
     i, j, k = node
-    a = ds[name].sel(surface=s).isel(diameter_um=i, speed_m_s=j, angle_deg=k)
+    speed = "reduced_speed" if "reduced_speed" in ds.dims else "speed_m_s"
+    a = ds[name].sel(surface=s).isel({"diameter_um": i, speed: j, "angle_deg": k})
     return float(a.values)
 
 
@@ -574,9 +579,11 @@ def _demo_condition(ds) -> dict:
     if np.any(angles < 90.0):
         dist[..., angles >= 90.0] = np.inf
     i, j, k = np.unravel_index(int(np.argmin(dist)), dist.shape)
+    speeds = np.asarray(ds["speed_m_s"].values, dtype=float)
     return {
         "diameter_um": float(ds["diameter_um"].values[i]),
-        "speed_m_s": float(ds["speed_m_s"].values[j]),
+        # on a reduced speed axis the speeds are (diameter, ratio): r v_c(d)
+        "speed_m_s": float(speeds[i, j] if speeds.ndim == 2 else speeds[j]),
         "angle_deg": float(angles[k]),
     }
 

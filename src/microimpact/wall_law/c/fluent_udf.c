@@ -15,7 +15,9 @@
  * to Fluent's working folder). The surface is the one named by
  * MICROIMPACT_SWL_SURFACE, else SWL_SURFACE_NAME, else the table's first surface.
  * For several surfaces, copy `microimpact_wall` below under another name with
- * another surface name.
+ * another surface name. Either speed axis of the table (absolute, or reduced
+ * v / v_c(d); binary format version 1 or 2) is handled inside swl.c: the
+ * wrapper always passes the particle's diameter in um and its velocity in m/s.
  *
  * What it does the Fluent way (sources [1]-[4] below):
  * - The DEFINE_DPM_BC(name, tp, t, f, f_normal, dim) signature [3], the unit face

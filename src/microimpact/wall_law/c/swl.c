@@ -18,6 +18,13 @@
 #define SWL_MAX_AXIS 1000000u
 #define SWL_MAX_VALUES 0x40000000u /* 2^30 values per reservoir array (8 GiB) */
 
+/* A query is flagged clamped only where it lies outside an axis' end nodes by
+ * more than this, relative, in the axis' variable: in log d, log v and
+ * log(v / v_c) the tolerance itself, on the angle axis this times the end node's
+ * angle. A query at an end node up to round-off (a diameter converted from
+ * metres, a speed r v_c(d)) is not clamped. Python: law.CLAMP_TOLERANCE. */
+#define SWL_CLAMP_TOLERANCE 1e-9
+
 static const char SWL_MAGIC[8] = {'S', 'W', 'L', 'T', 'A', 'B', 'L', '\0'};
 
 struct swl_law {
@@ -25,6 +32,10 @@ struct swl_law {
     char *names;                 /* S * SWL_NAME_WIDTH, each NUL-terminated */
     double *axis[3];             /* diameter_um, speed_m_s, angle_deg */
     double *scaled[3];           /* log(diameter), log(speed), angle: the axes' variables */
+    double tol[3][2];            /* clamping tolerance below / above each axis */
+    int speed_axis;              /* SWL_SPEED_ABSOLUTE or SWL_SPEED_REDUCED */
+    double *critical;            /* v_c at each diameter node [m/s] (reduced axis) */
+    double *log_critical;        /* log(critical) */
     double *capture;             /* capture_probability [S*D*V*A] */
     double *e_n, *mu, *lateral, *ratio; /* reservoirs [S*D*V*A*K] */
     int32_t *count;              /* reservoir_count [S*D*V*A] */
@@ -108,6 +119,8 @@ void swl_free(swl_law *law)
         free(law->axis[i]);
         free(law->scaled[i]);
     }
+    free(law->critical);
+    free(law->log_critical);
     free(law->capture);
     free(law->e_n);
     free(law->mu);
@@ -137,6 +150,10 @@ static int check_values(swl_law *law, size_t nodes)
                 return SWL_E_VALUE;
         }
     }
+    if (law->critical)
+        for (i = 0; i < (size_t)law->n[1]; i++)
+            if (!isfinite(law->critical[i]) || !(law->critical[i] > 0.0))
+                return SWL_E_VALUE;
     for (i = 0; i < nodes; i++) {
         p = law->capture[i];
         c = law->count[i];
@@ -159,7 +176,7 @@ static int check_values(swl_law *law, size_t nodes)
 static int load_file(FILE *fp, swl_law **out)
 {
     unsigned char h[SWL_HEADER_SIZE];
-    uint32_t dims[5], crc = 0, width, version;
+    uint32_t dims[5], crc = 0, width, version, kind;
     uint64_t size, expected, nodes, values;
     swl_law *law;
     int rc, i, extra;
@@ -175,8 +192,8 @@ static int load_file(FILE *fp, swl_law **out)
     if (got < 12)
         return SWL_E_TRUNCATED;
     version = get_u32(h + 8);
-    if (version != SWL_FORMAT_VERSION)
-        return SWL_E_VERSION;
+    if (version != 1 && version != SWL_FORMAT_VERSION)
+        return SWL_E_VERSION; /* this reader knows versions 1 and 2 */
     if (got < sizeof h)
         return SWL_E_TRUNCATED;
     for (i = 0; i < 5; i++) {
@@ -185,7 +202,8 @@ static int load_file(FILE *fp, swl_law **out)
             return SWL_E_SIZE;
     }
     width = get_u32(h + 32);
-    if (width != SWL_NAME_WIDTH || get_u32(h + 36) != 0)
+    kind = get_u32(h + 36); /* version 2: the speed axis; version 1: 0 */
+    if (width != SWL_NAME_WIDTH || kind > (version >= 2 ? 1u : 0u))
         return SWL_E_SIZE;
     for (i = 52; i < SWL_HEADER_SIZE; i++)
         if (h[i] != 0)
@@ -205,7 +223,7 @@ static int load_file(FILE *fp, swl_law **out)
         return SWL_E_SIZE;
     expected = SWL_HEADER_SIZE + (uint64_t)dims[0] * SWL_NAME_WIDTH +
                8u * ((uint64_t)dims[1] + dims[2] + dims[3]) + 8u * nodes +
-               32u * values + 4u * nodes;
+               32u * values + 4u * nodes + (kind == 1 ? 8u * (uint64_t)dims[1] : 0u);
     size = get_u64(h + 40);
     if (size != expected)
         return SWL_E_SIZE;
@@ -226,6 +244,15 @@ static int load_file(FILE *fp, swl_law **out)
         return SWL_E_NOMEM;
     for (i = 0; i < 5; i++)
         law->n[i] = (int)dims[i];
+    law->speed_axis = kind == 1 ? SWL_SPEED_REDUCED : SWL_SPEED_ABSOLUTE;
+    if (kind == 1) {
+        law->critical = (double *)malloc(dims[1] * sizeof(double));
+        law->log_critical = (double *)malloc(dims[1] * sizeof(double));
+        if (!law->critical || !law->log_critical) {
+            swl_free(law);
+            return SWL_E_NOMEM;
+        }
+    }
     law->names = (char *)malloc((size_t)dims[0] * SWL_NAME_WIDTH);
     for (i = 0; i < 3; i++) {
         law->axis[i] = (double *)malloc(dims[i + 1] * sizeof(double));
@@ -247,6 +274,8 @@ static int load_file(FILE *fp, swl_law **out)
     rc = read_block(fp, law->names, (size_t)dims[0] * SWL_NAME_WIDTH, &crc);
     for (i = 0; i < 3 && rc == 0; i++)
         rc = read_block(fp, law->axis[i], dims[i + 1] * sizeof(double), &crc);
+    if (rc == 0 && law->critical)
+        rc = read_block(fp, law->critical, dims[1] * sizeof(double), &crc);
     if (rc == 0)
         rc = read_block(fp, law->capture, (size_t)nodes * sizeof(double), &crc);
     if (rc == 0)
@@ -271,6 +300,8 @@ static int load_file(FILE *fp, swl_law **out)
     if (rc == 0) {
         for (i = 0; i < 3; i++)
             fix_doubles(law->axis[i], dims[i + 1]);
+        if (law->critical)
+            fix_doubles(law->critical, dims[1]);
         fix_doubles(law->capture, (size_t)nodes);
         fix_doubles(law->e_n, (size_t)values);
         fix_doubles(law->mu, (size_t)values);
@@ -283,11 +314,21 @@ static int load_file(FILE *fp, swl_law **out)
         swl_free(law);
         return rc;
     }
-    /* the axes' interpolation variables: natural log for d and v, degrees for theta */
+    /* the axes' interpolation variables: natural log for d and v (or v / v_c),
+     * degrees for theta, and their clamping tolerances */
     for (i = 0; i < 3; i++) {
         uint32_t j;
         for (j = 0; j < dims[i + 1]; j++)
             law->scaled[i][j] = i < 2 ? log(law->axis[i][j]) : law->axis[i][j];
+        law->tol[i][0] = i < 2 ? SWL_CLAMP_TOLERANCE
+                               : SWL_CLAMP_TOLERANCE * fabs(law->axis[i][0]);
+        law->tol[i][1] = i < 2 ? SWL_CLAMP_TOLERANCE
+                               : SWL_CLAMP_TOLERANCE * fabs(law->axis[i][dims[i + 1] - 1]);
+    }
+    if (law->critical) {
+        uint32_t j;
+        for (j = 0; j < dims[1]; j++)
+            law->log_critical[j] = log(law->critical[j]);
     }
     *out = law;
     return 0;
@@ -340,6 +381,11 @@ int swl_surface_index(const swl_law *law, const char *name)
     return SWL_E_ARG;
 }
 
+int swl_speed_axis(const swl_law *law)
+{
+    return law ? law->speed_axis : SWL_E_ARG;
+}
+
 int swl_size(const swl_law *law, int what)
 {
     if (!law || what < SWL_DIM_SURFACE || what > SWL_DIM_RESERVOIR)
@@ -356,38 +402,44 @@ const char *swl_surface_name(const swl_law *law, int surface)
 
 /* ---- sampling (docs/wall-law.md, "The sampling rule") ----------------------- */
 
-/* Step 1 on one axis: the node of the corner chosen with the uniform number `u`.
- * `x` is the query in the axis' variable (log d, log v or theta). Sets *clamped. */
-static int pick_node(const double *node, int n, double x, double u, int *clamped)
+/* Step 1 on one axis: the cell of `x`, the query in the axis' variable (log d,
+ * log v or log(v / v_c), or theta): its lower node *lo, its fraction *t in
+ * [0, 1] (0 below the axis, 1 above it, 0 on an axis of one node), and *clamped
+ * where x lies outside the end nodes by more than the axis' tolerance. */
+static void bracket(const double *node, int n, const double tol[2], double x, int *lo,
+                    double *t, int *clamped)
 {
-    int lo, hi, mid;
-    double t;
-    *clamped = 0;
-    if (n == 1) { /* one node: t = 0 */
-        *clamped = x != node[0];
-        return 0;
-    }
-    if (x < node[0]) {
-        *clamped = 1;
-        return 0; /* i = 0, t = 0: the lower node */
-    }
+    int hi, mid;
+    *clamped = x < node[0] - tol[0] || x > node[n - 1] + tol[1];
+    *lo = 0;
+    *t = 0.0;
+    if (n == 1)
+        return;
+    if (x < node[0])
+        return; /* i = 0, t = 0: the lower node */
     if (x > node[n - 1]) {
-        *clamped = 1;
-        return n - 1; /* i = n - 2, t = 1: the upper node */
+        *lo = n - 2;
+        *t = 1.0; /* i = n - 2, t = 1: the upper node */
+        return;
     }
     /* binary search: node[lo] <= x <= node[hi], hi = lo + 1 */
-    lo = 0;
     hi = n - 1;
-    while (hi - lo > 1) {
-        mid = lo + (hi - lo) / 2;
+    while (hi - *lo > 1) {
+        mid = *lo + (hi - *lo) / 2;
         if (node[mid] <= x)
-            lo = mid;
+            *lo = mid;
         else
             hi = mid;
     }
-    t = (x - node[lo]) / (node[hi] - node[lo]);
-    /* step 2: the upper node where u < t */
-    return u < t ? hi : lo;
+    *t = (x - node[*lo]) / (node[hi] - node[*lo]);
+    if (*t > 1.0) /* as the Python sampler's clip */
+        *t = 1.0;
+}
+
+/* Step 2 on one axis: the upper node where u < t. */
+static int pick(int lo, double t, double u)
+{
+    return u < t ? lo + 1 : lo;
 }
 
 /* Steps 1-4 for a query already checked; the velocity in the wall frame. */
@@ -395,13 +447,26 @@ static int sample_checked(const swl_law *law, int surface, double diameter_um,
                           double speed_m_s, double angle_deg, const double u[5],
                           double velocity[3], int *flags)
 {
-    int id, iv, ia, c1, c2, c3, k, count;
+    int id, iv, ia, c1, c2, c3, k, count, lo;
     size_t node, at;
-    double p, th, st, ct, s, en, mu, ux, uy, uz, norm, scale;
+    double p, th, st, ct, s, en, mu, ux, uy, uz, norm, scale, t, xv, lvc;
 
-    id = pick_node(law->scaled[0], law->n[1], log(diameter_um), u[0], &c1);
-    iv = pick_node(law->scaled[1], law->n[2], log(speed_m_s), u[1], &c2);
-    ia = pick_node(law->scaled[2], law->n[3], angle_deg, u[2], &c3);
+    bracket(law->scaled[0], law->n[1], law->tol[0], log(diameter_um), &lo, &t, &c1);
+    id = pick(lo, t, u[0]);
+    xv = log(speed_m_s);
+    if (law->speed_axis == SWL_SPEED_REDUCED) {
+        /* x = log v - log v_c(d), log v_c linear in log d between the diameter
+         * nodes at the query's own (clipped) fraction */
+        lvc = law->log_critical[lo];
+        if (law->n[1] > 1)
+            lvc = law->log_critical[lo] + t * (law->log_critical[lo + 1] -
+                                               law->log_critical[lo]);
+        xv = xv - lvc;
+    }
+    bracket(law->scaled[1], law->n[2], law->tol[1], xv, &lo, &t, &c2);
+    iv = pick(lo, t, u[1]);
+    bracket(law->scaled[2], law->n[3], law->tol[2], angle_deg, &lo, &t, &c3);
+    ia = pick(lo, t, u[2]);
     *flags = (c1 ? SWL_FLAG_CLAMPED_DIAMETER : 0) | (c2 ? SWL_FLAG_CLAMPED_SPEED : 0) |
              (c3 ? SWL_FLAG_CLAMPED_ANGLE : 0);
     node = (((size_t)surface * law->n[1] + id) * law->n[2] + iv) * law->n[3] + ia;

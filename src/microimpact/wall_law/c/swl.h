@@ -18,18 +18,21 @@
  * (90 deg = normal incidence): u = (s cos theta, 0, -s sin theta).
  *
  * ---------------------------------------------------------------------------
- * Binary format, version 1 (all numbers little-endian; offsets in bytes)
+ * Binary format, version 2 (all numbers little-endian; offsets in bytes).
+ * This reader also reads version 1, which is version 2 with speed axis code 0.
  * ---------------------------------------------------------------------------
  * Header, 64 bytes:
  *     0  char[8]   magic "SWLTABL\0"
- *     8  uint32    format version (1)
+ *     8  uint32    format version (2, or 1)
  *    12  uint32    S  number of surfaces           (>= 1)
  *    16  uint32    D  number of diameters          (>= 1)
  *    20  uint32    V  number of speeds             (>= 1)
  *    24  uint32    A  number of angles             (>= 1)
  *    28  uint32    K  reservoir size (samples/node) (>= 1)
  *    32  uint32    W  width of a surface name field (64)
- *    36  uint32    0  (reserved)
+ *    36  uint32    the speed axis: 0 absolute (the speed nodes are speeds in
+ *                  m/s), 1 reduced (they are ratios r = v / v_c(d), and the
+ *                  critical speeds v_c follow the axes); always 0 in version 1
  *    40  uint64    total file size in bytes
  *    48  uint32    CRC-32 (zlib's) of every byte after the header
  *    52  char[12]  0  (reserved)
@@ -37,8 +40,11 @@
  * (surface, diameter, speed, angle[, sample])):
  *     S * W bytes      surface names, UTF-8, NUL-padded (at least one NUL)
  *     D float64        diameter_um, strictly increasing, > 0
- *     V float64        speed_m_s, strictly increasing, > 0
+ *     V float64        speed_m_s (axis 0) or reduced_speed r (axis 1), strictly
+ *                      increasing, > 0
  *     A float64        angle_deg, strictly increasing
+ *     D float64        critical_speed_m_s v_c(d) at each diameter node, finite
+ *                      and > 0: present only on a reduced speed axis (code 1)
  *     N float64        capture_probability, in [0, 1], or NaN (no impact)
  *     N*K float64      reservoir_e_n
  *     N*K float64      reservoir_mu
@@ -47,7 +53,14 @@
  *     N int32          reservoir_count, in [0, K]; 0 only where the capture
  *                      probability is 1 or NaN; the first count samples of a
  *                      node are finite, the rest are ignored (NaN by convention)
- * The file ends there: its size is 64 + S*W + 8*(D+V+A) + 8*N*(1+4K) + 4*N.
+ * The file ends there: its size is 64 + S*W + 8*(D+V+A) + 8*N*(1+4K) + 4*N,
+ * plus 8*D on a reduced speed axis.
+ *
+ * On a reduced speed axis the speed variable of a query (d, v) is
+ * log(v) - log v_c(d), where log v_c(d) is interpolated linearly in log d between
+ * the diameter nodes of the query's diameter cell, at the query's own fraction of
+ * it (the end node's v_c outside the diameter range); nodes at the same r then
+ * follow the capture edge, v = v_c(d) at normal incidence.
  * swl_load checks all of this and returns an error code for any file that breaks
  * it (truncated, trailing bytes, wrong magic or version, bad CRC, bad values).
  *
@@ -66,7 +79,7 @@
 extern "C" {
 #endif
 
-#define SWL_FORMAT_VERSION 1
+#define SWL_FORMAT_VERSION 2 /* the newest format read; version 1 is read too */
 #define SWL_NAME_WIDTH 64 /* bytes per surface name in the file, NULs included */
 
 /* Results of a sample (>= 0) and errors (< 0). */
@@ -86,7 +99,11 @@ enum {
     SWL_E_NOMEM = -9     /* out of memory */
 };
 
-/* Bits of *flags. */
+/* The speed axis of a table (swl_speed_axis). */
+enum { SWL_SPEED_ABSOLUTE = 0, SWL_SPEED_REDUCED = 1 };
+
+/* Bits of *flags. A query is clamped on an axis where it lies outside the
+ * axis' end nodes by more than 1e-9 relative (round-off is not clamping). */
 #define SWL_FLAG_CLAMPED_DIAMETER 1 /* the diameter was outside the table's range */
 #define SWL_FLAG_CLAMPED_SPEED 2    /* the speed was outside the table's range */
 #define SWL_FLAG_CLAMPED_ANGLE 4    /* the angle was outside the table's range */
@@ -112,6 +129,10 @@ int swl_surface_index(const swl_law *law, const char *name);
  * Returns SWL_E_ARG for a NULL law or an unknown `what`. */
 enum { SWL_DIM_SURFACE, SWL_DIM_DIAMETER, SWL_DIM_SPEED, SWL_DIM_ANGLE, SWL_DIM_RESERVOIR };
 int swl_size(const swl_law *law, int what);
+
+/* SWL_SPEED_ABSOLUTE or SWL_SPEED_REDUCED (the table's speed axis, which the
+ * sampler handles itself: queries are always in m/s), SWL_E_ARG for NULL. */
+int swl_speed_axis(const swl_law *law);
 
 /* The name of surface `surface` (NUL-terminated), or NULL if out of range. */
 const char *swl_surface_name(const swl_law *law, int surface);

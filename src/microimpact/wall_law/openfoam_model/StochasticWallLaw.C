@@ -301,7 +301,12 @@ Foam::StochasticWallLaw<CloudType>::StochasticWallLaw
     Info<< "    stochasticWallLaw: table " << table_ << " ("
         << swl_size(law_.get(), SWL_DIM_SURFACE) << " surfaces, "
         << swl_size(law_.get(), SWL_DIM_DIAMETER) << " x "
-        << swl_size(law_.get(), SWL_DIM_SPEED) << " x "
+        << swl_size(law_.get(), SWL_DIM_SPEED)
+        << (
+               swl_speed_axis(law_.get()) == SWL_SPEED_REDUCED
+             ? " reduced speeds v/v_c(d) x "
+             : " x "
+           )
         << swl_size(law_.get(), SWL_DIM_ANGLE) << " nodes, "
         << swl_size(law_.get(), SWL_DIM_RESERVOIR) << " rebounds per node)"
         << ", maxReimpacts " << maxReimpacts_ << endl;
