@@ -217,13 +217,24 @@ def write_outputs(out, *, tables=None, texts=None, figures=None):
     print(f"-> {out}")
 
 
-def print_capture(result):
-    """Every capture-speed row, estimated or not (a refused estimate says why);
-    with a single speed, one line saying that there is none."""
-    if len(result.grid.speeds_m_s) < 2:
+#: Capture-speed rows at most printed by :func:`print_capture`.
+TERMINAL_ROWS = 20
+
+
+def print_capture(result, limit=TERMINAL_ROWS):
+    """The capture-speed rows, estimated or not (a refused estimate says why):
+    all, or `limit` evenly spaced ones and where the rest are; with a single
+    speed, one line saying that there is none."""
+    if result.summary["speed_m_s"].nunique() < 2:
         print("  capture speed: one speed was simulated, so none is estimated")
         return
     cs = result.capture_speed()
+    total = len(cs)
+    if total > limit:
+        # deferred: the verb's library loads only when the verb runs (fast --help)
+        from ..pipeline.rows import capture_rows
+
+        cs = cs.iloc[capture_rows(cs, limit)]
 
     def num(x):
         return "open" if x is None or not math.isfinite(float(x)) else f"{float(x):.3f}"
@@ -239,6 +250,11 @@ def print_capture(result):
             )
         else:
             print(f"{where}: not estimated ({note or 'no estimate'})")
+    if len(cs) < total:
+        print(
+            f"  ... {len(cs)} of {total:,} capture curves shown (evenly spaced); "
+            "all in capture_speed.csv"
+        )
 
 
 def print_heavy_tails(result, limit=6):

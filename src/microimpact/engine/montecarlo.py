@@ -77,6 +77,8 @@ BLOCKS_PER_TASK = 64
 #: packing does not change any bit: each group's accumulator is returned and merged
 #: on the driver in key order.
 TASK_IMPACTS = 16 * BLOCK_SIZE
+#: Points :func:`estimate_duration` times in one calibration batch.
+CALIBRATION_POINTS = 256
 #: Most groups per task (bounds a task's result when points have very few samples).
 TASK_GROUPS = 2048
 #: Least seconds between checkpoint writes (override:
@@ -767,16 +769,22 @@ def run(
 
 # ------------------------------------------------------------------ estimate
 def estimate_duration(scenario, *, samples=None, workers=1, seed=None, plan=None):
-    """Rough wall time of :func:`run` [s], from a few timed blocks.
+    """Rough wall time of :func:`run` [s], from a timed calibration batch.
 
-    Times, in this process, a block of one impact at the last sweep point (new
-    tables: the fixed cost of a point), then one impact and one block of up to a
-    full block size at the first point (the per-block cost and the per-impact
-    cost), and scales them to the whole run, divided by the effective worker count
-    (capped at the available cores). A precision target is costed at its
-    ``max_samples`` (an upper bound). Costs about the time of two blocks plus the
-    plan (pass `plan` to reuse one). Accurate to a factor of about 2: meant to warn
-    that a run will take minutes or hours, not to schedule it.
+    Times, in this process, one batch (one kernel call, as the run's tasks make
+    them) of a first block of up to a full block size at
+    :data:`CALIBRATION_POINTS` points spread evenly over the sweep (all of them in
+    a smaller sweep), twice: the first time builds the tables of their (surface,
+    angle) pairs, the second gives the cost of a point alone; then one impact and
+    one block of up to a full block size at the first point (the per-block and
+    the per-impact cost of the further blocks). These are scaled to the whole
+    run (a point's cost for every point, a pair's tables once per pair) and
+    divided by the effective worker count (capped at the available cores). A
+    precision target is costed at its ``max_samples`` (an upper bound). Costs
+    about twice the calibration batch and two blocks, plus the plan (pass `plan`
+    to reuse one). It leaves out the driver's merging and the outputs (summary,
+    files, figures; ``docs/performance.md`` has their cost at scale). Meant to
+    warn that a run will take minutes or hours, not to schedule it.
     """
 
     scenario = as_scenario(scenario)
@@ -792,21 +800,30 @@ def estimate_duration(scenario, *, samples=None, workers=1, seed=None, plan=None
     blocks = math.ceil(per_rep / plan.block_size)
     probe = min(per_rep, plan.block_size)
 
-    def timed(point, m, repeat=1):
+    def timed(specs, repeat=1):
         best = math.inf
         for _ in range(repeat):
             t = time.perf_counter()
-            _simulate(plan, [(point, 0, 0, m)])
+            _simulate(plan, specs)
             best = min(best, time.perf_counter() - t)
         return best
 
-    cold = timed(len(plan.points) - 1, 1)  # a point not seen before: its tables
-    one = timed(0, 1, repeat=3)
-    per_impact = max(timed(0, probe, repeat=2) - one, 0.0) / max(probe - 1, 1)
+    k = min(len(plan.points), CALIBRATION_POINTS)
+    spread = np.unique(np.round(np.linspace(0, len(plan.points) - 1, k)).astype(int))
+    specs = [(int(p), 0, 0, probe) for p in spread]
+    cold = timed(specs)  # new points: their tables are built
+    warm = timed(specs)  # the same points again: the per-point cost alone
+    one = timed([(0, 0, 0, 1)], repeat=3)
+    per_impact = max(timed([(0, 0, 0, probe)], repeat=2) - one, 0.0) / max(probe - 1, 1)
     per_block = max(one - per_impact, 0.0)
-    per_point = max(cold - one, 0.0)
+    first = warm / spread.size  # a point's first block, its stream setup included
+    per_point = max(first - per_block - probe * per_impact, 0.0)
+    # a point's tables are those of its (surface, angle): built once per pair
+    pairs = {(plan.points[p].surface, plan.points[p].angle_deg) for p, *_ in specs}
+    per_table = max(cold - warm, 0.0) / len(pairs)
+    tables = len({(p.surface, p.angle_deg) for p in plan.points})
     total = streams * (per_point + blocks * per_block + per_rep * per_impact)
-    return total / workers
+    return (total + tables * per_table) / workers
 
 
 def sample_point(scenario, point=0, n=4000, *, seed=None, replicate=0):

@@ -226,6 +226,7 @@ class SimulationResult:
         self._provenance = provenance
         self._summary = None
         self._attrs = None
+        self._capture = {}  # quantile -> capture-speed table (see capture_speed)
 
     @property
     def dataset(self):
@@ -240,6 +241,7 @@ class SimulationResult:
     def dataset(self, value):
         self._dataset = value
         self._build = None
+        self._capture = {}
 
     def _attr(self, key, default=None):
         """A global attribute of the Dataset, without building it."""
@@ -537,15 +539,24 @@ class SimulationResult:
     # -------------------------------------------------------------- derived
     def capture_speed(self, quantile: float | None = None):
         """Speed at a capture fraction (default: the scenario's quantiles), with its
-        interval; see :func:`microimpact.engine.statistics.capture_speed`."""
+        interval; see :func:`microimpact.engine.statistics.capture_speed`.
+
+        Each quantile's table is estimated once per result and kept (a sweep of
+        1000 angles has 1000 curves to fit; the CSV, the terminal, the report and
+        the capture figure all ask for it); a copy is returned."""
         # deferred: pandas loads only where a table is made (import time)
         import pandas as pd
 
         qs = self.scenario.capture_quantiles if quantile is None else (quantile,)
-        return pd.concat(
-            [capture_speed(self.summary, q, confidence=self.confidence) for q in qs],
-            ignore_index=True,
-        )
+        tables = []
+        for q in qs:
+            key = float(q)
+            if key not in self._capture:
+                self._capture[key] = capture_speed(
+                    self.summary, q, confidence=self.confidence
+                )
+            tables.append(self._capture[key])
+        return pd.concat(tables, ignore_index=True)
 
     def relative(self, reference_angle_deg: float = 85.0):
         """The paper's relative coefficients against `reference_angle_deg`."""
