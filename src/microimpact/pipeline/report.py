@@ -192,18 +192,26 @@ TEXT_ROWS = 30
 HEAVY_TAIL_NAMED = 20
 
 
-def heavy_tail_points(summary):
+def heavy_tail_points(summary, limit=None):
     """The rows of `summary` flagged by the heavy-tail rule (``heavy_tail == 1``,
-    docs/outputs.md): their surface, speed, angle and the two shares."""
+    docs/outputs.md): their surface, speed, angle and the two shares; the first
+    `limit` of them if given (with ``attrs["flagged"]``, how many there are), so
+    that naming a few of 10^5 flagged points copies a few rows, not 10^5."""
     if "heavy_tail" not in summary:
-        return summary.iloc[0:0]
-    return summary[summary["heavy_tail"] == 1.0]
+        out = summary.iloc[0:0]
+        out.attrs["flagged"] = 0
+        return out
+    flagged = np.flatnonzero(summary["heavy_tail"].to_numpy(dtype=float) == 1.0)
+    out = summary.iloc[flagged if limit is None else flagged[:limit]]
+    out.attrs["flagged"] = int(flagged.size)
+    return out
 
 
 def _heavy_tail_note(summary) -> str:
     if "heavy_tail" not in summary or summary["heavy_tail"].isna().all():
         return ""
-    bad = heavy_tail_points(summary)
+    bad = heavy_tail_points(summary, HEAVY_TAIL_NAMED)
+    flagged = bad.attrs["flagged"]
     rule = (
         f"a point is flagged when the {100 * TAIL_FRACTION:g} % of its rebounds "
         "farthest from the mean hold more than "
@@ -212,8 +220,9 @@ def _heavy_tail_note(summary) -> str:
         "<code>mu_tail_share</code>, <code>heavy_tail</code>)"
     )
     if bad.empty:
-        worst = float(
-            np.nanmax(summary[["e_tail_share", "mu_tail_share"]].to_numpy(float))
+        worst = max(
+            float(np.nanmax(summary[c].to_numpy(dtype=float)))
+            for c in ("e_tail_share", "mu_tail_share")
         )
         return (
             f'<p class="yes">Heavy tails: no point flagged ({rule}); the largest '
@@ -222,15 +231,15 @@ def _heavy_tail_note(summary) -> str:
     items = ", ".join(
         f"{_e(r['surface'])} {_fmt(r['speed_m_s'])} m/s {_fmt(r['angle_deg'])}° "
         f"(e {100 * r['e_tail_share']:.0f} %, μ {100 * r['mu_tail_share']:.0f} %)"
-        for _, r in bad.head(HEAVY_TAIL_NAMED).iterrows()
+        for _, r in bad.iterrows()
     )
-    if len(bad) > HEAVY_TAIL_NAMED:
+    if flagged > len(bad):
         items += (
-            f" and {len(bad) - HEAVY_TAIL_NAMED:,} more (column "
+            f" and {flagged - len(bad):,} more (column "
             "<code>heavy_tail</code> of the summary)"
         )
     return (
-        f'<p class="no">Heavy tails: the mean of {len(bad)} point(s) is at the '
+        f'<p class="no">Heavy tails: the mean of {flagged:,} point(s) is at the '
         f"mercy of a few impacts ({rule}): {items}. Read their medians and "
         "5–95 % ranges (the figures) beside the means.</p>"
     )
@@ -1003,21 +1012,21 @@ def summary_text(result) -> str:
                 f"- ... {len(cs)} of {total:,} capture curves shown (evenly spaced); "
                 "all in capture_speed.csv"
             )
-    bad = heavy_tail_points(s)
-    if len(bad):
+    bad = heavy_tail_points(s, HEAVY_TAIL_NAMED)
+    flagged = bad.attrs["flagged"]
+    if flagged:
         lines.append("")
         lines.append(
-            f"- heavy tails: the mean of {len(bad)} point(s) is at the mercy of a few "
+            f"- heavy tails: the mean of {flagged} point(s) is at the mercy of a few "
             "impacts (the 0.1 % farthest rebounds hold > 25 % of the squared "
             "deviations of e_m or mu_m; docs/outputs.md): "
             + ", ".join(
                 f"{r['surface']} {_fmt(r['speed_m_s'])} m/s {_fmt(r['angle_deg'])} deg"
-                for _, r in bad.head(HEAVY_TAIL_NAMED).iterrows()
+                for _, r in bad.iterrows()
             )
             + (
-                f" and {len(bad) - HEAVY_TAIL_NAMED:,} more (summary.csv column "
-                "heavy_tail)"
-                if len(bad) > HEAVY_TAIL_NAMED
+                f" and {flagged - len(bad):,} more (summary.csv column heavy_tail)"
+                if flagged > len(bad)
                 else ""
             )
         )
