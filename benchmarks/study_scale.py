@@ -17,7 +17,13 @@ runs them:
 
 For each stage: its wall time [s] and the peak RSS of the process after it [MiB]
 (the peak is monotonic: a stage that raises it is the one that needed the memory).
-The HTML size is reported too. Timings on a shared machine are noisy.
+The HTML size is reported too.
+
+Then, as ``microimpact report`` does, a second fresh process reopens the run's
+``results.nc`` (``open``: :func:`open_result`, the Dataset loaded) and runs the
+stages after the simulation again (``summary``, ``capture_speed``, ``netcdf``:
+the file written anew, ``figures``, ``report``): their memory, without the
+simulation's peak above them. Timings on a shared machine are noisy.
 
 Usage::
 
@@ -59,8 +65,10 @@ def peak_mib() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 
-def stages(points: int, out: Path) -> dict:
-    """Run the stages at `points` points into `out`; ``{stage: (s, MiB)}``."""
+def stages(points: int, out: Path, *, reopen: bool = False) -> dict:
+    """Run the stages at `points` points into `out` (with `reopen`, those after
+    the simulation, on ``out/results.nc``); ``{stage: (s, MiB)}``."""
+    from microimpact.engine.result import open_result
     from microimpact.pipeline.figures import figures_for_result
     from microimpact.pipeline.report import input_figures, write_report
     from microimpact.pipeline.study import Outputs, Study
@@ -69,7 +77,6 @@ def stages(points: int, out: Path) -> dict:
 
     use_agg()
     times = {"start": (0.0, peak_mib())}
-    study = Study(scenario(points), outputs=Outputs(figures=("png",)))
 
     def timed(name, fn):
         t = time.perf_counter()
@@ -77,20 +84,25 @@ def stages(points: int, out: Path) -> dict:
         times[name] = (time.perf_counter() - t, peak_mib())
         return value
 
-    timed(
-        "simulate",
-        lambda: study.run(
-            samples=SAMPLES,
-            seed=1,
-            workers=1,
-            progress=False,
-            checkpoint=out / "checkpoint.npz",
-        ),
-    )
-    result = study.result
+    if reopen:
+        result = timed("open", lambda: open_result(out))
+    else:
+        study = Study(scenario(points), outputs=Outputs(figures=("png",)))
+        timed(
+            "simulate",
+            lambda: study.run(
+                samples=SAMPLES,
+                seed=1,
+                workers=1,
+                progress=False,
+                checkpoint=out / "checkpoint.npz",
+            ),
+        )
+        result = study.result
     timed("summary", lambda: result.summary)
     timed("capture_speed", result.capture_speed)
-    timed("summary_csv", lambda: result.to_csv(out / "summary.csv"))
+    if not reopen:
+        timed("summary_csv", lambda: result.to_csv(out / "summary.csv"))
     timed("netcdf", lambda: result.to_netcdf(out / "results.nc"))
 
     def figures():
@@ -137,39 +149,50 @@ def cpu() -> str:
     return f"{model} ({flags})"
 
 
+def _print(row) -> None:
+    parts = ", ".join(
+        f"{k} {t:.1f} s ({m:.0f} MiB)"
+        for k, (t, m) in row["stages"].items()
+        if k != "start"
+    )
+    what = "reopened" if row["reopened"] else "run"
+    print(
+        f"{row['points']:>9,} points, {what}: total {row['total_s']:.1f} s, peak "
+        f"RSS {row['peak_rss_mib']:.0f} MiB, report {row['report_mb']:.2f} MB; "
+        f"{parts}",
+        flush=True,
+    )
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sizes", default="1e4,1e5,1e6", help="comma list of points")
     ap.add_argument("--json", type=Path, help="write the numbers here")
     ap.add_argument("--child", type=float, help=argparse.SUPPRESS)
+    ap.add_argument("--folder", type=Path, help=argparse.SUPPRESS)
+    ap.add_argument("--reopen", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.child is not None:  # one size, in this fresh process
-        with tempfile.TemporaryDirectory() as tmp:
-            print(json.dumps(stages(int(args.child), Path(tmp))))
+        row = stages(int(args.child), args.folder, reopen=args.reopen)
+        print(json.dumps(row))
         return 0
     rows = []
     for size in (int(float(s)) for s in args.sizes.split(",")):
         if size not in SHAPES:
             ap.error(f"--sizes: {size} is not one of {sorted(SHAPES)}")
-        proc = subprocess.run(
-            [sys.executable, __file__, "--child", str(size)],
-            capture_output=True,
-            text=True,
-            check=True,
-        )
-        rows.append(json.loads(proc.stdout.strip().splitlines()[-1]))
-        row = rows[-1]
-        parts = ", ".join(
-            f"{k} {t:.1f} s ({m:.0f} MiB)"
-            for k, (t, m) in row["stages"].items()
-            if k != "start"
-        )
-        print(
-            f"{size:>9,} points: total {row['total_s']:.1f} s, peak RSS "
-            f"{row['peak_rss_mib']:.0f} MiB, report {row['report_mb']:.2f} MB; "
-            f"{parts}",
-            flush=True,
-        )
+        with tempfile.TemporaryDirectory() as tmp:
+            for reopen in (False, True):
+                proc = subprocess.run(
+                    [sys.executable, __file__, "--child", str(size), "--folder", tmp]
+                    + (["--reopen"] if reopen else []),
+                    capture_output=True,
+                    text=True,
+                    check=True,
+                )
+                row = json.loads(proc.stdout.strip().splitlines()[-1])
+                row["reopened"] = reopen
+                rows.append(row)
+                _print(row)
     info = {"cpu": cpu(), "python": platform.python_version(), "sizes": rows}
     print(f"CPU: {info['cpu']}")
     if args.json:
