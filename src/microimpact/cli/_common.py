@@ -286,8 +286,9 @@ QUICK_POINTS = 10_000
 
 
 def announce(args, scenario, *, samples=None):
-    """Say at the start when a run is expected to take more than a few minutes
-    (impacts / measured throughput)."""
+    """Say at the start when the simulation is expected to take more than a few
+    minutes (:func:`~microimpact.engine.montecarlo.estimate_duration`: the rate
+    measured on a calibration batch of the scenario's points)."""
 
     try:
         # deferred: the verb's library loads only when the verb runs (fast --help)
@@ -310,9 +311,10 @@ def announce(args, scenario, *, samples=None):
     seconds = estimate_duration(scenario, samples=samples, workers=workers)
     if seconds is not None and seconds > ANNOUNCE_AFTER_S:
         print(
-            f"microimpact: this run is expected to take about {seconds / 60:.0f} min "
-            f"on {workers} worker(s); progress is kept in the output folder, so "
-            "an interrupted run resumes",
+            "microimpact: the simulation is expected to take about "
+            f"{seconds / 60:.0f} min on {workers} worker(s) (measured on a "
+            "calibration batch), then the outputs are written; progress is kept in "
+            "the output folder, so an interrupted run resumes",
             file=sys.stderr,
         )
 
