@@ -457,16 +457,16 @@ def plot_coefficients_vs_angle(
         axs[1].set_xlabel("Apparent incidence angle θ [°]")
         axs[1].set_xlim(0, 90)
         axs[1].set_xticks(np.arange(0, 91, 15))
-        subset = ""
-        if len(drawn) < len(speeds):
-            subset = f" ({len(drawn)} of {len(speeds)} speeds)"
         axs[0].set_title(
             f"{result.scenario.name}: mean ({_conf_label(result)} band)"
-            + (f", colour: speed{subset}" if many else ", median, 5–95 %"),
+            + (", colour: speed" if many else ", median, 5–95 %"),
             fontsize=9,
         )
         if many:
-            _surface_legend_and_colour_bar(axs, names, result, speed_colour)
+            label = "speed [m s⁻¹]"
+            if len(drawn) < len(speeds):
+                label += f" ({len(drawn)} of {len(speeds)} drawn)"
+            _surface_legend_and_colour_bar(axs, names, result, speed_colour, label)
         else:  # beside the data, not on it
             axs[0].legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7)
     return axs
@@ -506,9 +506,9 @@ def _speed_colours(speeds):
     return norm, mpl.colormaps["viridis"]
 
 
-def _surface_legend_and_colour_bar(axs, names, result, speed_colour):
+def _surface_legend_and_colour_bar(axs, names, result, speed_colour, label):
     """The legend of the surfaces (line styles) beside the axes, and the colour bar
-    of the speeds."""
+    of the speeds (labelled `label`)."""
     mpl, _ = _mpl()
     handles = [
         mpl.lines.Line2D(
@@ -521,7 +521,7 @@ def _surface_legend_and_colour_bar(axs, names, result, speed_colour):
     )
     norm, cmap = speed_colour
     mappable = mpl.cm.ScalarMappable(norm=norm, cmap=cmap)
-    axs[0].figure.colorbar(mappable, ax=list(axs), label="speed [m s⁻¹]", shrink=0.6)
+    axs[0].figure.colorbar(mappable, ax=list(axs), label=label, shrink=0.6)
 
 
 def _spread(ax, g, col, ref, relative, x, *, color):
