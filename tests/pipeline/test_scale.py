@@ -19,6 +19,8 @@ import matplotlib
 import numpy as np
 import pandas as pd
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
@@ -286,3 +288,36 @@ def test_a_million_point_study_with_figures_and_report_in_ten_minutes(tmp_path):
     capture_lines = [ln for ln in proc.stdout.splitlines() if "% capture" in ln]
     assert len(capture_lines) <= 20
     assert re.search(r"of 1,000 capture curves shown", proc.stdout)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    shape=st.tuples(st.integers(1, 3), st.integers(1, 30), st.integers(1, 30)),
+    limit=st.integers(1, 150),
+    seed=st.integers(0, 2**32 - 1),
+)
+def test_property_summary_rows_are_valid_and_capped(shape, limit, seed):
+    """Any grid, any cap, any capture fractions (NaN included): the chosen rows
+    are increasing row numbers of the table, at most `limit` of them (all of them
+    when the table fits), each with its reason."""
+    rng = np.random.default_rng(seed)
+    S, V, A = shape
+    s, v, a = np.meshgrid(np.arange(S), np.arange(V), np.arange(A), indexing="ij")
+    cf = rng.random(s.size)
+    cf[rng.random(s.size) < 0.2] = np.nan
+    table = pd.DataFrame(
+        {
+            "surface": np.array(["x", "y", "z"])[s.ravel()],
+            "speed_m_s": 0.1 * (1.0 + v.ravel()),
+            "angle_deg": 1.0 + a.ravel(),
+            "capture_fraction": cf,
+            "e_rebound_mean": rng.normal(size=s.size),
+            "mu_mean": rng.normal(size=s.size),
+        }
+    )
+    rows, why = summary_rows(table, limit)
+    assert np.all(np.diff(rows) > 0) and rows.min() >= 0 and rows.max() < len(table)
+    if len(table) <= limit:
+        assert rows.tolist() == list(range(len(table))) and why == {}
+    else:
+        assert 0 < len(rows) <= limit and set(why) == set(rows.tolist())
