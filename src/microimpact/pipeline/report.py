@@ -220,9 +220,8 @@ def _heavy_tail_note(summary) -> str:
         "<code>mu_tail_share</code>, <code>heavy_tail</code>)"
     )
     if bad.empty:
-        worst = max(
-            float(np.nanmax(summary[c].to_numpy(dtype=float)))
-            for c in ("e_tail_share", "mu_tail_share")
+        worst = float(
+            np.nanmax(summary[["e_tail_share", "mu_tail_share"]].to_numpy(float))
         )
         return (
             f'<p class="yes">Heavy tails: no point flagged ({rule}); the largest '
@@ -468,7 +467,7 @@ def _summary_table(result, csv_href) -> str:
             len(s),
             "sweep points",
             f'<a href="{_e(csv_href)}">{_e(csv_href)}</a> and <code>results.nc</code> '
-            "(row: the line of the CSV, the point index of "
+            "(row: the row number in the CSV counted from 0, the point index of "
             "<code>result.histogram</code>; shown: on each capture curve the point "
             "nearest 50 % capture (evenly spaced curves), the extremes of capture, "
             "e and μ per surface, and evenly spaced rows)",
