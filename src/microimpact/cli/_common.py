@@ -260,19 +260,20 @@ def print_capture(result, limit=TERMINAL_ROWS):
 def print_heavy_tails(result, limit=6):
     """The points flagged by the heavy-tail rule (``heavy_tail == 1``,
     docs/outputs.md), at most `limit` named; nothing when none is."""
-    s = result.summary
-    if "heavy_tail" not in s:
-        return
-    bad = s[s["heavy_tail"] == 1.0]
-    if bad.empty:
+    # deferred: the verb's library loads only when the verb runs (fast --help)
+    from ..pipeline.report import heavy_tail_points
+
+    bad = heavy_tail_points(result.summary, limit)  # copies `limit` rows at most
+    flagged = bad.attrs["flagged"]
+    if not flagged:
         return
     names = [
         f"{r['surface']} {r['speed_m_s']:g} m/s {r['angle_deg']:g} deg"
-        for _, r in bad.head(limit).iterrows()
+        for _, r in bad.iterrows()
     ]
-    more = f" and {len(bad) - limit} more" if len(bad) > limit else ""
+    more = f" and {flagged - limit} more" if flagged > limit else ""
     print(
-        f"  heavy tails: the mean of {len(bad)} point(s) rests on a few impacts "
+        f"  heavy tails: the mean of {flagged} point(s) rests on a few impacts "
         f"(summary.csv column heavy_tail; docs/outputs.md): {', '.join(names)}{more}"
     )
 
