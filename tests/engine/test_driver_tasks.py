@@ -217,6 +217,7 @@ def test_estimate_scales_the_timed_blocks(monkeypatch):
         return [None] * len(specs)
 
     monkeypatch.setattr(montecarlo, "_simulate", fake)
+    monkeypatch.setattr(montecarlo, "_calibration_batch", fake)
     monkeypatch.setattr(montecarlo.time, "perf_counter", lambda: clock[0])
     sc = _grid(samples=100_000)  # 4 blocks per point, 36 points
     est = estimate_duration(sc)

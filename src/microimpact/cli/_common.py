@@ -217,13 +217,24 @@ def write_outputs(out, *, tables=None, texts=None, figures=None):
     print(f"-> {out}")
 
 
-def print_capture(result):
-    """Every capture-speed row, estimated or not (a refused estimate says why);
-    with a single speed, one line saying that there is none."""
-    if len(result.grid.speeds_m_s) < 2:
+#: Capture-speed rows at most printed by :func:`print_capture`.
+TERMINAL_ROWS = 20
+
+
+def print_capture(result, limit=TERMINAL_ROWS):
+    """The capture-speed rows, estimated or not (a refused estimate says why):
+    all, or `limit` evenly spaced ones and where the rest are; with a single
+    speed, one line saying that there is none."""
+    if result.summary["speed_m_s"].nunique() < 2:
         print("  capture speed: one speed was simulated, so none is estimated")
         return
     cs = result.capture_speed()
+    total = len(cs)
+    if total > limit:
+        # deferred: the verb's library loads only when the verb runs (fast --help)
+        from ..pipeline.rows import capture_rows
+
+        cs = cs.iloc[capture_rows(cs, limit)]
 
     def num(x):
         return "open" if x is None or not math.isfinite(float(x)) else f"{float(x):.3f}"
@@ -239,24 +250,30 @@ def print_capture(result):
             )
         else:
             print(f"{where}: not estimated ({note or 'no estimate'})")
+    if len(cs) < total:
+        print(
+            f"  ... {len(cs)} of {total:,} capture curves shown (evenly spaced); "
+            "all in capture_speed.csv"
+        )
 
 
 def print_heavy_tails(result, limit=6):
     """The points flagged by the heavy-tail rule (``heavy_tail == 1``,
     docs/outputs.md), at most `limit` named; nothing when none is."""
-    s = result.summary
-    if "heavy_tail" not in s:
-        return
-    bad = s[s["heavy_tail"] == 1.0]
-    if bad.empty:
+    # deferred: the verb's library loads only when the verb runs (fast --help)
+    from ..pipeline.report import heavy_tail_points
+
+    bad = heavy_tail_points(result.summary, limit)  # copies `limit` rows at most
+    flagged = bad.attrs["flagged"]
+    if not flagged:
         return
     names = [
         f"{r['surface']} {r['speed_m_s']:g} m/s {r['angle_deg']:g} deg"
-        for _, r in bad.head(limit).iterrows()
+        for _, r in bad.iterrows()
     ]
-    more = f" and {len(bad) - limit} more" if len(bad) > limit else ""
+    more = f" and {flagged - limit} more" if flagged > limit else ""
     print(
-        f"  heavy tails: the mean of {len(bad)} point(s) rests on a few impacts "
+        f"  heavy tails: the mean of {flagged} point(s) rests on a few impacts "
         f"(summary.csv column heavy_tail; docs/outputs.md): {', '.join(names)}{more}"
     )
 
@@ -270,8 +287,9 @@ QUICK_POINTS = 10_000
 
 
 def announce(args, scenario, *, samples=None):
-    """Say at the start when a run is expected to take more than a few minutes
-    (impacts / measured throughput)."""
+    """Say at the start when the simulation is expected to take more than a few
+    minutes (:func:`~microimpact.engine.montecarlo.estimate_duration`: the rate
+    measured on a calibration batch of the scenario's points)."""
 
     try:
         # deferred: the verb's library loads only when the verb runs (fast --help)
@@ -294,9 +312,10 @@ def announce(args, scenario, *, samples=None):
     seconds = estimate_duration(scenario, samples=samples, workers=workers)
     if seconds is not None and seconds > ANNOUNCE_AFTER_S:
         print(
-            f"microimpact: this run is expected to take about {seconds / 60:.0f} min "
-            f"on {workers} worker(s); progress is kept in the output folder, so "
-            "an interrupted run resumes",
+            "microimpact: the simulation is expected to take about "
+            f"{seconds / 60:.0f} min on {workers} worker(s) (measured on a "
+            "calibration batch), then the outputs are written; progress is kept in "
+            "the output folder, so an interrupted run resumes",
             file=sys.stderr,
         )
 

@@ -14,6 +14,7 @@ import datetime as _dt
 import numpy as np
 
 from .. import __version__
+from ..scenario.grid import DIMS, SweepGrid
 from .accumulators import E_EDGES, LATERAL_EDGES, MU_EDGES
 
 #: CF conventions version the files follow.
@@ -473,6 +474,10 @@ def summary_frame(ds):
 
     names = scalar_variables(ds)
     dims = list(ds["capture_fraction"].dims)
+    if tuple(dims) == DIMS:  # the grid's order: flat columns, no MultiIndex
+        grid = SweepGrid(*(tuple(ds[d].values.tolist()) for d in DIMS))
+        columns = {n: ds[n].transpose(*DIMS).values.ravel() for n in names}
+        return summary_frame_of(grid, columns)
     df = ds[names].to_dataframe().reset_index()
     df = df[dims + names]
     lead = [c for c in SUMMARY_COLUMNS if c in df.columns]

@@ -31,7 +31,7 @@ import threading
 import time
 import warnings
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -77,6 +77,10 @@ BLOCKS_PER_TASK = 64
 #: packing does not change any bit: each group's accumulator is returned and merged
 #: on the driver in key order.
 TASK_IMPACTS = 16 * BLOCK_SIZE
+#: Points :func:`estimate_duration` times in one calibration batch (at most).
+CALIBRATION_POINTS = 2048
+#: Impacts of that batch (at most, unless 16 points of one block hold more).
+CALIBRATION_IMPACTS = 2**22
 #: Most groups per task (bounds a task's result when points have very few samples).
 TASK_GROUPS = 2048
 #: Least seconds between checkpoint writes (override:
@@ -767,21 +771,30 @@ def run(
 
 # ------------------------------------------------------------------ estimate
 def estimate_duration(scenario, *, samples=None, workers=1, seed=None, plan=None):
-    """Rough wall time of :func:`run` [s], from a few timed blocks.
+    """Rough wall time of :func:`run` [s], from a timed calibration batch.
 
-    Times, in this process, a block of one impact at the last sweep point (new
-    tables: the fixed cost of a point), then one impact and one block of up to a
-    full block size at the first point (the per-block cost and the per-impact
-    cost), and scales them to the whole run, divided by the effective worker count
-    (capped at the available cores). A precision target is costed at its
-    ``max_samples`` (an upper bound). Costs about the time of two blocks plus the
-    plan (pass `plan` to reuse one). Accurate to a factor of about 2: meant to warn
-    that a run will take minutes or hours, not to schedule it.
+    Times, in this process, one batch (one kernel call, as the run's tasks make
+    them) of a first block of up to a full block size at
+    :data:`CALIBRATION_POINTS` points spread evenly over the sweep (all of them in
+    a smaller sweep), twice: the first time builds the tables of their (surface,
+    angle) pairs, the second gives the cost of a block alone; then a block of one
+    impact and one of up to a full block size at the first point (their
+    difference: the cost per impact). These are scaled to the whole run (every
+    block of every point, a pair's tables once per pair) and divided by the
+    effective worker count (capped at the available cores). A
+    precision target is costed at its ``max_samples`` (an upper bound). Costs
+    about twice the calibration batch and two blocks, plus the plan (pass `plan`
+    to reuse one). It leaves out the driver's merging and the outputs (summary,
+    files, figures; ``docs/performance.md`` has their cost at scale). Meant to
+    warn that a run will take minutes or hours, not to schedule it.
     """
 
     scenario = as_scenario(scenario)
     workers = min(check_int(workers, "workers"), available_cores())
-    plan = build_plan(scenario, seed=seed) if plan is None else plan
+    t = time.perf_counter()
+    built = plan is None
+    plan = build_plan(scenario, seed=seed) if built else plan
+    plan_s = time.perf_counter() - t if built else 0.0  # the run builds it too
     if samples is None:
         precision = scenario.precision
         n = precision.max_samples if precision is not None else scenario.samples
@@ -792,21 +805,50 @@ def estimate_duration(scenario, *, samples=None, workers=1, seed=None, plan=None
     blocks = math.ceil(per_rep / plan.block_size)
     probe = min(per_rep, plan.block_size)
 
-    def timed(point, m, repeat=1):
+    def timed(specs, repeat=1, simulate=_simulate):
         best = math.inf
         for _ in range(repeat):
             t = time.perf_counter()
-            _simulate(plan, [(point, 0, 0, m)])
+            simulate(plan, specs)
             best = min(best, time.perf_counter() - t)
         return best
 
-    cold = timed(len(plan.points) - 1, 1)  # a point not seen before: its tables
-    one = timed(0, 1, repeat=3)
-    per_impact = max(timed(0, probe, repeat=2) - one, 0.0) / max(probe - 1, 1)
-    per_block = max(one - per_impact, 0.0)
-    per_point = max(cold - one, 0.0)
-    total = streams * (per_point + blocks * per_block + per_rep * per_impact)
-    return total / workers
+    # points enough to amortise the batch's fixed cost, impacts few enough to be
+    # quick (~0.1 s at 40 M impacts/s)
+    k = max(min(CALIBRATION_IMPACTS // probe, CALIBRATION_POINTS), 16)
+    k = min(len(plan.points), k)
+    spread = np.unique(np.round(np.linspace(0, len(plan.points) - 1, k)).astype(int))
+    specs = [(int(p), 0, 0, probe) for p in spread]
+    cold = timed(specs, simulate=_calibration_batch)  # their tables are built
+    warm = timed(specs, simulate=_calibration_batch)  # a block's cost, batched
+    one = timed([(0, 0, 0, 1)], repeat=3)  # the call's overhead cancels below
+    per_impact = max(timed([(0, 0, 0, probe)], repeat=2) - one, 0.0) / max(probe - 1, 1)
+    per_block = max(warm / spread.size - probe * per_impact, 0.0)
+    # a point's tables are those of its (surface, angle): built once per pair
+    pairs = {(plan.points[p].surface, plan.points[p].angle_deg) for p, *_ in specs}
+    per_table = max(cold - warm, 0.0) / len(pairs)
+    tables = len({(p.surface, p.angle_deg) for p in plan.points})
+    total = streams * (blocks * per_block + per_rep * per_impact)
+    return plan_s + (total + tables * per_table) / workers
+
+
+def _calibration_batch(plan, specs):
+    """The first blocks `specs` ``(point, 0, 0, n)`` (one `n` for all) run as
+    :func:`run` runs them in one worker: a run of the plan restricted to those
+    points, its tasks packed, simulated and merged by the driver (the calibration
+    batch of :func:`estimate_duration`)."""
+    # the streams of those points only; the kernel reads the whole plan
+    sub = replace(plan, points=tuple(plan.points[p] for p, *_ in specs))
+    streams = _Streams(sub, specs[0][3] * plan.replicates, None, 0.95)
+    runner = make_runner(plan)
+    try:
+        tasks, todo = itertools.tee(_fixed_tasks(streams))
+        for task, rows in zip(todo, runner.imap(tasks), strict=True):
+            for i, group in enumerate(task):
+                streams.merge(group, rows, i)
+    finally:
+        runner.close()
+    return streams.stacked()
 
 
 def sample_point(scenario, point=0, n=4000, *, seed=None, replicate=0):

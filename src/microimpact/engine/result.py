@@ -25,7 +25,7 @@ from .._core.files import atomic_write
 from .._core.json import dumps as json_dumps
 from .._core.json import restore_nonfinite
 from ..errors import InputError
-from ..scenario.grid import SweepGrid
+from ..scenario.grid import DIMS, SweepGrid
 from .accumulators import E_EDGES, LATERAL_EDGES, MU_EDGES
 from .dataset import (
     INPUT_QUANTILES,
@@ -54,6 +54,16 @@ __all__ = ["SUMMARY_COLUMNS", "ScenarioRecord", "SimulationResult", "open_result
 
 #: Provenance keys stored as JSON text in the NetCDF attributes.
 _JSON_ATTRS = ("scenario", "versions")
+
+#: The summary columns the capture-speed estimator reads (the sweep axes, the
+#: counts and fractions, and for QMC the standard error and replicates).
+CAPTURE_COLUMNS = (
+    *DIMS,
+    "n_impacts",
+    "capture_fraction",
+    "capture_se",
+    "replicates",
+)
 
 #: Rows of the summary a notebook shows (the rest stay in ``.summary``).
 HTML_ROWS = 12
@@ -226,6 +236,7 @@ class SimulationResult:
         self._provenance = provenance
         self._summary = None
         self._attrs = None
+        self._capture = {}  # quantile -> capture-speed table (see capture_speed)
 
     @property
     def dataset(self):
@@ -240,6 +251,7 @@ class SimulationResult:
     def dataset(self, value):
         self._dataset = value
         self._build = None
+        self._capture = {}
 
     def _attr(self, key, default=None):
         """A global attribute of the Dataset, without building it."""
@@ -537,15 +549,28 @@ class SimulationResult:
     # -------------------------------------------------------------- derived
     def capture_speed(self, quantile: float | None = None):
         """Speed at a capture fraction (default: the scenario's quantiles), with its
-        interval; see :func:`microimpact.engine.statistics.capture_speed`."""
+        interval; see :func:`microimpact.engine.statistics.capture_speed`.
+
+        Each quantile's table is estimated once per result and kept (a sweep of
+        1000 angles has 1000 curves to fit; the CSV, the terminal, the report and
+        the capture figure all ask for it); a copy is returned."""
         # deferred: pandas loads only where a table is made (import time)
         import pandas as pd
 
         qs = self.scenario.capture_quantiles if quantile is None else (quantile,)
-        return pd.concat(
-            [capture_speed(self.summary, q, confidence=self.confidence) for q in qs],
-            ignore_index=True,
-        )
+        # the estimator's columns only: it copies and groups what it is given
+        # (the whole table cost 10x the memory: ~450 MB at 10^6 points)
+        summary = self.summary
+        curves = summary[[c for c in CAPTURE_COLUMNS if c in summary]]
+        tables = []
+        for q in qs:
+            key = float(q)
+            if key not in self._capture:
+                self._capture[key] = capture_speed(
+                    curves, q, confidence=self.confidence
+                )
+            tables.append(self._capture[key])
+        return pd.concat(tables, ignore_index=True)
 
     def relative(self, reference_angle_deg: float = 85.0):
         """The paper's relative coefficients against `reference_angle_deg`."""

@@ -15,6 +15,7 @@ from ..plotting.results import (
     _conf_label,
     _smooth,
     _summary,
+    drawn_speeds,
     plot_capture,
     plot_coefficients_vs_angle,
     plot_distributions,
@@ -93,25 +94,8 @@ def figure_caption(stem, result, *, distribution_speed_m_s=None) -> str:
             "the data do not bound; no diamond: no estimate, the legend says "
             "why); squares: experiments."
         )
-    if stem == "coefficients_relative":
-        return (
-            f"Relative coefficients e − e({ref:g}°) and μ − μ({ref:g}°) "
-            "against apparent incidence angle (paper Figs. 8, 11). Solid: rough "
-            f"surface; dashed: molecularly smooth. Bands: {conf} intervals; "
-            "dotted and hatched: the median and the 5–95 % range of the rough "
-            "surface's rebounds, shifted by the median at the reference angle "
-            "(a mean far from its median is pulled by a tail; the panel's scale "
-            "holds the means and medians, the hatched range may leave it); "
-            "squares: experiments."
-        )
-    if stem == "coefficients":
-        return (
-            "Mean apparent coefficient of restitution and impulse ratio of the "
-            "rebounding particles against apparent incidence angle. Solid: rough "
-            f"surface; dashed: molecularly smooth. Bands: {conf} intervals; "
-            "dotted and hatched: the median and the 5–95 % range of the rough "
-            "surface's rebounds."
-        )
+    if stem in ("coefficients", "coefficients_relative"):
+        return _coefficients_caption(stem, result, conf, ref) + _speed_subset(result)
     if stem.startswith("distributions_"):
         a = stem.removeprefix("distributions_").removesuffix("deg").replace("p", ".")
         return (
@@ -133,6 +117,42 @@ def figure_caption(stem, result, *, distribution_speed_m_s=None) -> str:
             "filled markers agree at the 95 % level."
         )
     return stem.replace("_", " ")
+
+
+def _coefficients_caption(stem, result, conf, ref) -> str:
+    """Caption of ``coefficients_relative`` (relative) or ``coefficients``."""
+    if stem == "coefficients_relative":
+        return (
+            f"Relative coefficients e − e({ref:g}°) and μ − μ({ref:g}°) "
+            "against apparent incidence angle (paper Figs. 8, 11). Solid: rough "
+            f"surface; dashed: molecularly smooth. Bands: {conf} intervals; "
+            "dotted and hatched: the median and the 5–95 % range of the rough "
+            "surface's rebounds, shifted by the median at the reference angle "
+            "(a mean far from its median is pulled by a tail; the panel's scale "
+            "holds the means and medians, the hatched range may leave it); "
+            "squares: experiments."
+        )
+    return (
+        "Mean apparent coefficient of restitution and impulse ratio of the "
+        "rebounding particles against apparent incidence angle. Solid: rough "
+        f"surface; dashed: molecularly smooth. Bands: {conf} intervals; "
+        "dotted and hatched: the median and the 5–95 % range of the rough "
+        "surface's rebounds."
+    )
+
+
+def _speed_subset(result) -> str:
+    """The caption's sentence when a coefficients figure draws a subset of the
+    speeds (:func:`~microimpact.plotting.results.drawn_speeds`)."""
+    speeds = list(dict.fromkeys(_summary(result)["speed_m_s"]))
+    drawn = drawn_speeds(speeds)
+    if len(drawn) == len(speeds):
+        return ""
+    return (
+        f" {len(drawn)} of the {len(speeds)} swept speeds are drawn, evenly spaced "
+        "in sweep order (the colour bar spans all); every point is in "
+        "summary.csv and results.nc."
+    )
 
 
 def result_figures(result, *, experiments=None, distribution_speed_m_s=None):

@@ -8,6 +8,12 @@ speed table, a readable summary table (estimate and confidence interval) with a
 relative link to the full CSV, the comparison with experiments if any, and the
 figures. :func:`summary_text` gives scenario, versions, seed entropy, n and
 estimate ± SE as Markdown-flavoured text.
+
+Both scale with the page, not with the sweep: a table of more rows than
+:data:`~microimpact.pipeline.rows.MAX_TABLE_ROWS` (:data:`TEXT_ROWS` in the text)
+shows informative rows only (:mod:`microimpact.pipeline.rows`) and says how many
+are left out and where they are (``summary.csv``, ``capture_speed.csv``,
+``results.nc``); the figures are a bounded number of PNGs of bounded size.
 """
 
 from __future__ import annotations
@@ -38,6 +44,7 @@ from ..plotting.roughness import plot_angle_pdf
 from ..plotting.sizes import plot_size_quantiles
 from ..units import m_to_um, rad_to_deg
 from .figures import figure_caption, result_figures
+from .rows import capture_rows, summary_rows
 
 __all__ = ["summary_text", "write_report"]
 
@@ -179,18 +186,32 @@ def _figure_html(uri, caption, fig_id=None) -> str:
     )
 
 
-def heavy_tail_points(summary):
+#: Rows at most of each table of :func:`summary_text` (a terminal's worth).
+TEXT_ROWS = 30
+#: Flagged heavy-tail points named at most in the report and the text summary.
+HEAVY_TAIL_NAMED = 20
+
+
+def heavy_tail_points(summary, limit=None):
     """The rows of `summary` flagged by the heavy-tail rule (``heavy_tail == 1``,
-    docs/outputs.md): their surface, speed, angle and the two shares."""
+    docs/outputs.md): their surface, speed, angle and the two shares; the first
+    `limit` of them if given (with ``attrs["flagged"]``, how many there are), so
+    that naming a few of 10^5 flagged points copies a few rows, not 10^5."""
     if "heavy_tail" not in summary:
-        return summary.iloc[0:0]
-    return summary[summary["heavy_tail"] == 1.0]
+        out = summary.iloc[0:0]
+        out.attrs["flagged"] = 0
+        return out
+    flagged = np.flatnonzero(summary["heavy_tail"].to_numpy(dtype=float) == 1.0)
+    out = summary.iloc[flagged if limit is None else flagged[:limit]]
+    out.attrs["flagged"] = int(flagged.size)
+    return out
 
 
 def _heavy_tail_note(summary) -> str:
     if "heavy_tail" not in summary or summary["heavy_tail"].isna().all():
         return ""
-    bad = heavy_tail_points(summary)
+    bad = heavy_tail_points(summary, HEAVY_TAIL_NAMED)
+    flagged = bad.attrs["flagged"]
     rule = (
         f"a point is flagged when the {100 * TAIL_FRACTION:g} % of its rebounds "
         "farthest from the mean hold more than "
@@ -211,8 +232,13 @@ def _heavy_tail_note(summary) -> str:
         f"(e {100 * r['e_tail_share']:.0f} %, μ {100 * r['mu_tail_share']:.0f} %)"
         for _, r in bad.iterrows()
     )
+    if flagged > len(bad):
+        items += (
+            f" and {flagged - len(bad):,} more (column "
+            "<code>heavy_tail</code> of the summary)"
+        )
     return (
-        f'<p class="no">Heavy tails: the mean of {len(bad)} point(s) is at the '
+        f'<p class="no">Heavy tails: the mean of {flagged:,} point(s) is at the '
         f"mercy of a few impacts ({rule}): {items}. Read their medians and "
         "5–95 % ranges (the figures) beside the means.</p>"
     )
@@ -303,6 +329,8 @@ def _capture_table(result) -> str:
         return f"<p>No capture speed: {_e(err)}</p>"
     if cs.empty:
         return "<p>No capture speed (no capture curves in the summary).</p>"
+    total = len(cs)
+    cs = cs.iloc[capture_rows(cs)]
     has_note = "note" in cs and cs["note"].fillna("").astype(str).str.strip().any()
     rows = []
     for _, r in cs.iterrows():
@@ -329,14 +357,33 @@ def _capture_table(result) -> str:
         "<p>“open”: the simulated speeds do not bound that side of the interval; "
         "“no estimate”: the note says why.</p>"
     )
+    if len(cs) < total:
+        legend += _omitted(
+            len(cs),
+            total,
+            "capture curves",
+            "<code>capture_speed.csv</code> (evenly spaced curves shown)",
+        )
     return _table(header, rows, left=(0, 4)) + legend
+
+
+def _omitted(shown: int, total: int, what: str, where: str) -> str:
+    """The sentence under a capped table: how many rows are left out, and where
+    they all are."""
+    return (
+        f'<p class="omitted">{shown:,} of {total:,} {what} shown; the other '
+        f"{total - shown:,} are in {where}.</p>"
+    )
 
 
 def _summary_table(result, csv_href) -> str:
     s = result.summary
+    rows_idx, why = summary_rows(s)
+    capped = bool(why)
     has_rel = "e_relative" in s
     conf = f"{100 * _confidence(result):g} %"
-    header = [
+    header = ["row", "shown for"] if capped else []
+    header += [
         "surface",
         "speed [m s⁻¹]",
         "angle [deg]",
@@ -348,50 +395,86 @@ def _summary_table(result, csv_href) -> str:
     if has_rel:
         header += ["e relative ± SE", "μ relative ± SE"]
     header += ["shadowed [%]", "re-impact [%]"]
+    sub = s.iloc[rows_idx]
+
+    def col(c):
+        if c not in sub:
+            return np.full(len(sub), math.nan)
+        return sub[c].to_numpy(dtype=float)
+
+    cols = {
+        c: col(c)
+        for c in (
+            "speed_m_s",
+            "angle_deg",
+            "n",
+            "capture_fraction",
+            "capture_ci_low",
+            "capture_ci_high",
+            "e_rebound_mean",
+            "e_rebound_ci_low",
+            "e_rebound_ci_high",
+            "mu_mean",
+            "mu_ci_low",
+            "mu_ci_high",
+            "e_relative",
+            "e_relative_se",
+            "mu_relative",
+            "mu_relative_se",
+            "shadowed_fraction",
+            "reimpact_fraction",
+        )
+    }
+    surfaces = sub["surface"].astype(str).to_numpy()
     rows = []
-
-    def g(r, c):
-        return float(r[c]) if c in r and r[c] is not None else math.nan
-
-    for _, r in s.iterrows():
-        row = [
-            _e(r["surface"]),
-            _e(_fmt(r["speed_m_s"])),
-            _e(_fmt(r["angle_deg"])),
-            _e(f"{int(r['n']):,}"),
+    for k, i in enumerate(rows_idx):
+        v = {c: a[k] for c, a in cols.items()}
+        row = [_e(f"{int(i):,}"), _e(why[int(i)])] if capped else []
+        row += [
+            _e(surfaces[k]),
+            _e(_fmt(v["speed_m_s"])),
+            _e(_fmt(v["angle_deg"])),
+            _e(f"{int(v['n']):,}"),
             _e(
                 _ci(
-                    g(r, "capture_fraction"),
-                    g(r, "capture_ci_low"),
-                    g(r, "capture_ci_high"),
+                    v["capture_fraction"],
+                    v["capture_ci_low"],
+                    v["capture_ci_high"],
                     scale=100,
                 )
             ),
-            _e(
-                _ci(
-                    g(r, "e_rebound_mean"),
-                    g(r, "e_rebound_ci_low"),
-                    g(r, "e_rebound_ci_high"),
-                )
-            ),
-            _e(_ci(g(r, "mu_mean"), g(r, "mu_ci_low"), g(r, "mu_ci_high"))),
+            _e(_ci(v["e_rebound_mean"], v["e_rebound_ci_low"], v["e_rebound_ci_high"])),
+            _e(_ci(v["mu_mean"], v["mu_ci_low"], v["mu_ci_high"])),
         ]
         if has_rel:
             row += [
-                _e(_pm(g(r, "e_relative"), g(r, "e_relative_se"))),
-                _e(_pm(g(r, "mu_relative"), g(r, "mu_relative_se"))),
+                _e(_pm(v["e_relative"], v["e_relative_se"])),
+                _e(_pm(v["mu_relative"], v["mu_relative_se"])),
             ]
         row += [
-            _e(_fmt(100 * g(r, "shadowed_fraction"), 3)),
-            _e(_fmt(100 * g(r, "reimpact_fraction"), 3)),
+            _e(_fmt(100 * v["shadowed_fraction"], 3)),
+            _e(_fmt(100 * v["reimpact_fraction"], 3)),
         ]
         rows.append(row)
     link = (
         f'<p>All {len(s.columns)} columns: <a href="{_e(csv_href)}">'
         f"{_e(csv_href)}</a> (described in <code>docs/outputs.md</code>).</p>"
     )
-    table = f'<div class="scroll">{_table(header, rows)}</div>'
-    return table + link + _heavy_tail_note(s)
+    note = ""
+    if capped:
+        note = _omitted(
+            len(rows_idx),
+            len(s),
+            "sweep points",
+            f'<a href="{_e(csv_href)}">{_e(csv_href)}</a> and <code>results.nc</code> '
+            "(row: the row number in the CSV counted from 0, the point index of "
+            "<code>result.histogram</code>; shown: on each capture curve the point "
+            "nearest 50 % capture (evenly spaced curves), the extremes of capture, "
+            "e and μ per surface, and evenly spaced rows)",
+        )
+    left = (0, 1, 2) if capped else (0,)
+    table = f'<div class="scroll">{_table(header, rows, left=left)}</div>'
+    return table + note + link + _heavy_tail_note(s)
 
 
 def _comparison_html(table) -> str:
@@ -829,7 +912,10 @@ def summary_text(result) -> str:
     """A plain-text (Markdown) summary of a result for terminals.
 
     Gives the scenario, versions, seed entropy, run time and, per sweep point, n and
-    estimate ± SE of the capture fraction, e (rebounds) and μ.
+    estimate ± SE of the capture fraction, e (rebounds) and μ. A sweep of more than
+    :data:`TEXT_ROWS` points shows that many informative ones (see
+    :func:`~microimpact.pipeline.rows.summary_rows`), and as many capture curves,
+    and says where the rest are.
 
     Parameters
     ----------
@@ -869,8 +955,9 @@ def summary_text(result) -> str:
         "e (rebounds) ± SE",
         "mu ± SE",
     ]
+    shown, why = summary_rows(s, TEXT_ROWS)
     rows = []
-    for _, r in s.iterrows():
+    for _, r in s.iloc[shown].iterrows():
         rows.append(
             [
                 str(r["surface"]),
@@ -893,12 +980,20 @@ def summary_text(result) -> str:
             + " | ".join(c.rjust(w) for c, w in zip(row, widths, strict=True))
             + " |"
         )
+    if why:
+        lines.append(
+            f"\n{len(shown)} of {len(s):,} sweep points shown (the point nearest 50 % "
+            "capture on evenly spaced capture curves, the extremes, evenly spaced "
+            "rows); every point is in summary.csv and results.nc."
+        )
     try:
         cs = result.capture_speed()
     except (KeyError, ValueError, AttributeError):
         cs = []
     if len(cs):
         lines.append("")
+        total = len(cs)
+        cs = cs.iloc[capture_rows(cs, TEXT_ROWS)]
         for _, r in cs.iterrows():
             line = (
                 f"- {100 * _num(r['quantile']):g} % capture speed, {r['surface']} at "
@@ -911,16 +1006,27 @@ def summary_text(result) -> str:
             if isinstance(note, str) and note.strip():
                 line += f" ({note.strip()})"
             lines.append(line)
-    bad = heavy_tail_points(s)
-    if len(bad):
+        if len(cs) < total:
+            lines.append(
+                f"- ... {len(cs)} of {total:,} capture curves shown (evenly spaced); "
+                "all in capture_speed.csv"
+            )
+    bad = heavy_tail_points(s, HEAVY_TAIL_NAMED)
+    flagged = bad.attrs["flagged"]
+    if flagged:
         lines.append("")
         lines.append(
-            f"- heavy tails: the mean of {len(bad)} point(s) is at the mercy of a few "
+            f"- heavy tails: the mean of {flagged} point(s) is at the mercy of a few "
             "impacts (the 0.1 % farthest rebounds hold > 25 % of the squared "
             "deviations of e_m or mu_m; docs/outputs.md): "
             + ", ".join(
                 f"{r['surface']} {_fmt(r['speed_m_s'])} m/s {_fmt(r['angle_deg'])} deg"
                 for _, r in bad.iterrows()
+            )
+            + (
+                f" and {flagged - len(bad):,} more (summary.csv column heavy_tail)"
+                if flagged > len(bad)
+                else ""
             )
         )
     return "\n".join(lines) + "\n"

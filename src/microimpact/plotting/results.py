@@ -30,6 +30,7 @@ from ._style import STYLE, colour
 
 __all__ = [
     "FIGURE_FORMATS",
+    "drawn_speeds",
     "plot_capture",
     "plot_coefficients_vs_angle",
     "plot_convergence",
@@ -42,6 +43,12 @@ __all__ = [
 #: Speeds drawn as lines of their own (with a legend entry each); beyond, one
 #: colour scale (a colour bar) shows the speed.
 MAX_SPEED_LINES = 6
+#: Points at most of a curve drawn with a marker each (beyond, the line alone).
+MAX_MARKERS = 60
+#: Speeds drawn at most on a coefficients figure: beyond, this many evenly spaced
+#: ones (:func:`drawn_speeds`), on the colour bar of all of them (a sweep of 1000
+#: speeds would draw 1000 overlapping curves, unreadable and slow).
+MAX_SPEED_CURVES = 24
 _EXP_STYLE = {"fmt": "s", "ms": 5, "mfc": "white", "color": "black", "lw": 0.9}
 _BAND_ALPHA = 0.22
 
@@ -214,7 +221,7 @@ def plot_capture(result, *, surface=None, angle_deg=90, experiments=None, axes=N
                 g["e_rebound_ci_high"],
                 color=c,
                 label=label,
-                marker="o",
+                marker="o" if v.size <= MAX_MARKERS else None,
             )
             _band(
                 ax_c,
@@ -224,7 +231,7 @@ def plot_capture(result, *, surface=None, angle_deg=90, experiments=None, axes=N
                 100 * g["capture_ci_high"],
                 color=c,
                 label=label,
-                marker="o",
+                marker="o" if v.size <= MAX_MARKERS else None,
             )
             row = cap[(cap["surface"] == name) & np.isclose(cap["angle_deg"], angle)]
             for _, r in row.iterrows():
@@ -400,16 +407,18 @@ def plot_coefficients_vs_angle(
     # names the surfaces only, and the medians and 5-95 % bands are left out
     many = len(speeds) > MAX_SPEED_LINES
     speed_colour = _speed_colours(speeds) if many else None
+    drawn = drawn_speeds(speeds)
+    smooth = {name: _smooth(result, name) for name in names}
+    curves = _angle_curves(summary, names, drawn)
     with mpl.rc_context(STYLE):
         axs = _new_axes(axes, 2, 1, (5.0, 5.6), sharex=True)
         scale_of = {ax: [] for ax in axs}
         for ax, (col, se_col, lo_col, hi_col) in zip(axs, specs, strict=True):
             for i, name in enumerate(names):
-                for j, sp in enumerate(speeds):
-                    g = summary[
-                        (summary["surface"] == name)
-                        & np.isclose(summary["speed_m_s"], sp)
-                    ].sort_values("angle_deg")
+                for j, sp in enumerate(drawn):
+                    g = curves.get((name, sp))
+                    if g is None:
+                        continue
                     m = g[col].to_numpy(dtype=float)
                     if lo_col is None:
                         lo = m - z * g[se_col].to_numpy(dtype=float)
@@ -430,11 +439,11 @@ def plot_coefficients_vs_angle(
                         lo,
                         hi,
                         color=c,
-                        ls="--" if _smooth(result, name) else "-",
+                        ls="--" if smooth[name] else "-",
                         label=label,
                     )
                     scale_of[ax].append(m)
-                    if not _smooth(result, name) and not many:
+                    if not smooth[name] and not many:
                         scale_of[ax].append(
                             _spread(ax, g, col, ref, relative, x, color=c)
                         )
@@ -454,10 +463,36 @@ def plot_coefficients_vs_angle(
             fontsize=9,
         )
         if many:
-            _surface_legend_and_colour_bar(axs, names, result, speed_colour)
+            label = "speed [m s⁻¹]"
+            if len(drawn) < len(speeds):
+                label += f" ({len(drawn)} of {len(speeds)} drawn)"
+            _surface_legend_and_colour_bar(axs, names, result, speed_colour, label)
         else:  # beside the data, not on it
             axs[0].legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=7)
     return axs
+
+
+def drawn_speeds(speeds, limit=None) -> list:
+    """The speeds of `speeds` (sweep order) that :func:`plot_coefficients_vs_angle`
+    draws: all up to `limit` (default :data:`MAX_SPEED_CURVES`), else `limit`
+    evenly spaced in sweep order (first and last included; a logarithmic sweep
+    stays logarithmic); the colour bar spans them all."""
+    speeds = list(speeds)
+    limit = MAX_SPEED_CURVES if limit is None else limit
+    if len(speeds) <= limit:
+        return speeds
+    idx = np.unique(np.round(np.linspace(0, len(speeds) - 1, limit)).astype(int))
+    return [speeds[i] for i in idx]
+
+
+def _angle_curves(summary, names, speeds) -> dict:
+    """``{(surface, speed): rows sorted by angle}`` for the given surfaces and
+    speeds: one pass over the table (not one mask per curve)."""
+    rows = summary[summary["surface"].isin(names) & summary["speed_m_s"].isin(speeds)]
+    return {
+        key: g.sort_values("angle_deg")
+        for key, g in rows.groupby(["surface", "speed_m_s"], sort=False)
+    }
 
 
 def _speed_colours(speeds):
@@ -471,9 +506,9 @@ def _speed_colours(speeds):
     return norm, mpl.colormaps["viridis"]
 
 
-def _surface_legend_and_colour_bar(axs, names, result, speed_colour):
+def _surface_legend_and_colour_bar(axs, names, result, speed_colour, label):
     """The legend of the surfaces (line styles) beside the axes, and the colour bar
-    of the speeds."""
+    of the speeds (labelled `label`)."""
     mpl, _ = _mpl()
     handles = [
         mpl.lines.Line2D(
@@ -486,7 +521,7 @@ def _surface_legend_and_colour_bar(axs, names, result, speed_colour):
     )
     norm, cmap = speed_colour
     mappable = mpl.cm.ScalarMappable(norm=norm, cmap=cmap)
-    axs[0].figure.colorbar(mappable, ax=list(axs), label="speed [m s⁻¹]", shrink=0.6)
+    axs[0].figure.colorbar(mappable, ax=list(axs), label=label, shrink=0.6)
 
 
 def _spread(ax, g, col, ref, relative, x, *, color):
