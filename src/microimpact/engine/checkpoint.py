@@ -30,12 +30,14 @@ import os
 import time
 import warnings
 import zipfile
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from .._core.files import atomic_write
 from .accumulators import E_BINS, LATERAL_BINS, MU_BINS, Moments, PointAccumulator
+from .summary import Stacked
 
 #: Version of the file layout; a file of another version is reported, not read.
 #: 3: the lateral angle's moments and histogram (format 2 lacks them).
@@ -97,38 +99,51 @@ def plan_fingerprint(plan, targets) -> dict[str, str]:
     }
 
 
-def save(path, fingerprint: dict, state: dict) -> int:
-    """Atomically write `state` = {(point, rep): (next_block, accumulator)}; returns
-    the size of the file [bytes]."""
+@dataclass(frozen=True)
+class StackedState:
+    """A run's finished work as arrays, for :func:`save`: the ``(K, 2)`` keys
+    ``(point, rep)`` in sorted order, their ``next_block`` and their accumulators as
+    the rows of one :class:`~.summary.Stacked`. A sweep of 10^6 points is written
+    from these without building an accumulator object per point."""
+
+    keys: np.ndarray
+    next_block: np.ndarray
+    stacked: Stacked
+
+    @classmethod
+    def of(cls, state: dict) -> StackedState:
+        """From ``{(point, rep): (next_block, accumulator)}``."""
+        keys = sorted(state)
+        return cls(
+            np.array(keys, dtype=np.int64).reshape(-1, 2),
+            np.array([state[k][0] for k in keys], dtype=np.int64),
+            Stacked.of(state[k][1] for k in keys),
+        )
+
+
+def save(path, fingerprint: dict, state) -> int:
+    """Atomically write `state` ({(point, rep): (next_block, accumulator)} or a
+    :class:`StackedState`); returns the size of the file [bytes]."""
     path = Path(path)
-    keys = sorted(state)
-    accs = [state[k][1] for k in keys]
+    if not isinstance(state, StackedState):
+        state = StackedState.of(state)
+    st = state.stacked
     arrays = {
         "format_version": np.array(FORMAT_VERSION),
         **{f"fingerprint_{k}": np.array(fingerprint[k]) for k in FINGERPRINT_PARTS},
-        "keys": np.array(keys, dtype=np.int64).reshape(-1, 2),
-        "next_block": np.array([state[k][0] for k in keys], dtype=np.int64),
-        "counts": np.array(
-            [(a.n, a.shadowed, a.captured, a.reimpact, a.rolling) for a in accs],
-            dtype=np.int64,
-        ).reshape(-1, 5),
-        "moments": np.array(
-            [
-                (
-                    *(a.e.n, a.e.mean, a.e.m2, a.e.m3),
-                    *(a.mu.n, a.mu.mean, a.mu.m2, a.mu.m3),
-                    *(a.lateral.n, a.lateral.mean, a.lateral.m2, a.lateral.m3),
-                )
-                for a in accs
-            ],
-            dtype=float,
-        ).reshape(-1, 12),
+        "keys": np.asarray(state.keys, dtype=np.int64).reshape(-1, 2),
+        "next_block": np.asarray(state.next_block, dtype=np.int64),
+        "counts": np.asarray(st.counts, dtype=np.int64).reshape(-1, 5),
+        "moments": np.hstack([st.e, st.mu, st.lateral]).astype(float).reshape(-1, 12),
     }
-    for name, _ in _HISTOGRAMS:
-        spans = [a.span_of(name) for a in accs]
-        arrays[f"{name}_lo"] = np.array([lo for lo, _ in spans], dtype=np.int32)
-        arrays[f"{name}_len"] = np.array([c.size for _, c in spans], dtype=np.int32)
-        flat = np.concatenate([c for _, c in spans] or [np.zeros(0, np.int64)])
+    for name, spans in (
+        ("e", st.e_spans),
+        ("mu", st.mu_spans),
+        ("lateral", st.lateral_spans),
+    ):
+        arrays[f"{name}_lo"] = spans.offset.astype(np.int32)
+        arrays[f"{name}_len"] = spans.length.astype(np.int32)
+        flat = spans.counts
         if flat.size and flat.max() < np.iinfo(np.int32).max:
             flat = flat.astype(np.int32)
         arrays[f"{name}_counts"] = flat
@@ -376,8 +391,9 @@ class Checkpoint:
         wait = max(self.min_interval, self._last_cost / WRITE_FRACTION)
         return time.monotonic() - self._last_write >= wait
 
-    def write(self, state: dict) -> None:
-        """Write `state` = {(point, rep): (next_block, accumulator)} now."""
+    def write(self, state) -> None:
+        """Write `state` ({(point, rep): (next_block, accumulator)} or a
+        :class:`StackedState`) now."""
         t0 = time.monotonic()
         self.bytes_written = save(self.path, self._fingerprint, state)
         self._last_write = time.monotonic()

@@ -40,7 +40,12 @@ from .._core.validation import check_choice, check_int
 from ..errors import ConvergenceWarning, InputError
 from ..scenario.scenario import as_scenario
 from .accumulators import PointAccumulator
-from .checkpoint import Checkpoint, CheckpointWarning, plan_fingerprint
+from .checkpoint import (
+    Checkpoint,
+    CheckpointWarning,
+    StackedState,
+    plan_fingerprint,
+)
 from .kernel import simulate_block
 from .parallel import (
     BACKENDS,
@@ -273,24 +278,40 @@ class _Streams:
         if loose.size:  # merged from several groups, restored, or never run
             streams = list(self.by_key.values())  # key order
             accs = [streams[k].acc for k in loose.tolist()]
-            chunk[loose] = len(parts)
-            row[loose] = np.arange(loose.size)
-            parts.append(
-                Stacked.of(a if a is not None else PointAccumulator() for a in accs)
-            )
+            held = [j for j, a in enumerate(accs) if a is not None]
+            if held:
+                chunk[loose[held]] = len(parts)
+                row[loose[held]] = np.arange(len(held))
+                parts.append(Stacked.of(accs[j] for j in held))
+            if len(held) < loose.size:  # never run: one empty row, taken repeatedly
+                empty = np.setdiff1d(np.arange(loose.size), held, assume_unique=True)
+                chunk[loose[empty]] = len(parts)
+                row[loose[empty]] = 0
+                parts.append(Stacked.of([PointAccumulator()]))
         if not parts:
             return Stacked.of([])
         first = np.zeros(len(parts), dtype=np.intp)
         np.cumsum([len(p) for p in parts[:-1]], out=first[1:])
         return Stacked.concat(parts).take(first[chunk] + row)
 
-    def state(self) -> dict:
-        """``{(point, rep): (next_block, accumulator)}`` for the checkpoint."""
-        return {
-            k: (st.next_block, st.acc)
-            for k, st in self.by_key.items()
-            if st.acc is not None
-        }
+    def state(self) -> StackedState:
+        """What the checkpoint keeps: every (point, replicate) with merged work, its
+        next block and its accumulator, as arrays gathered from the task rows
+        (:meth:`stacked`). No accumulator object is built for a stream still held
+        as a task's row, so a checkpoint of a 10^6-point sweep costs arrays, not
+        10^6 objects kept for the rest of the run."""
+        streams = list(self.by_key.values())  # key order
+        has = np.fromiter(
+            (st.row is not None or st._acc is not None for st in streams),
+            dtype=bool,
+            count=len(streams),
+        )
+        rows = np.flatnonzero(has)
+        keys = np.array(list(self.by_key), dtype=np.int64).reshape(-1, 2)[rows]
+        next_block = np.fromiter(
+            (st.next_block for st in streams), dtype=np.int64, count=len(streams)
+        )[rows]
+        return StackedState(keys, next_block, self.stacked().take(rows))
 
     def unconverged(self) -> list:
         return [
