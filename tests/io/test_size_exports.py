@@ -54,7 +54,9 @@ def test_aim_export_with_several_samples_asks_which(tmp_path):
     each = [read_size_bins(AIM, sample=str(k))[0].number for k in range(1, 16)]
     assert_allclose(mean.number, np.mean(each, axis=0), rtol=1e-12)
     assert meta["sample"] == "mean"
-    with pytest.raises(DataFormatError, match="sample '99' is not in the export"):
+    with pytest.raises(
+        DataFormatError, match="sample '99' is not in the AIM column export"
+    ):
         read_size_bins(AIM, sample="99")
 
 

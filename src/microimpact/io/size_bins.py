@@ -39,6 +39,7 @@ from __future__ import annotations
 import math
 import os
 import re
+from dataclasses import replace
 
 import numpy as np
 
@@ -46,12 +47,12 @@ from .._core.files import (
     SNIFF,
     delimiter_name,
     is_number,
+    looks_like_header,
     read_lines,
-    read_rows,
     resolve_column,
     split_rows,
 )
-from .._core.validation import check_choice
+from .._core.validation import check_choice, check_scalar
 from ..errors import DataFormatError
 from ..population.binned import (
     BIN_VALUES,
@@ -98,6 +99,20 @@ _LOWER = {"lo", "dplo", "dlo", "dmin", "dpmin", "min", "from"}
 _UPPER = {"hi", "dphi", "dhi", "dmax", "dpmax", "max", "to"}
 _MID = {"dp", "d", "size", "dg", "dpmid"}
 _UNIT_SUFFIX = re.compile(r"[_\s/]+(um|µm|μm|nm|mm|cm|m)$", re.IGNORECASE)
+
+
+def _rows(path):
+    """(rows, delimiter) of a delimited text file: UTF-8 or Windows-1252, a ``#``
+    in the first row (a header such as ``dN/dlogDp (#/cm3)`` or ``Sample #``) kept,
+    trailing ``# ...`` comments cut from the rows below it."""
+    lines, _ = _text_lines(path)
+    rows, delimiter = split_rows(lines, source=path, delimiter=SNIFF)
+    whole, _ = split_rows(
+        lines, source=path, delimiter=delimiter or "", trailing_comments=False
+    )
+    if rows and whole and whole[0][0] == rows[0][0] and looks_like_header(whole[0][1]):
+        rows[0] = whole[0]
+    return rows, delimiter
 
 
 def _option(name, value, syntax):
@@ -307,6 +322,7 @@ def read_size_bins(
     column=None,
     unit=None,
     sample=None,
+    sampled_volume_cm3=None,
     syntax="python",
 ):
     """Read a binned size distribution (an instrument export).
@@ -361,19 +377,45 @@ def read_size_bins(
             source=path,
             field="values",
         )
+    if sampled_volume_cm3 is not None:
+        try:
+            sampled_volume_cm3 = check_scalar(
+                sampled_volume_cm3, "sampled_volume_cm3", minimum=0, strict=True
+            )
+        except (TypeError, ValueError):
+            raise DataFormatError(
+                f"sampled_volume_cm3 {sampled_volume_cm3!r} is not a volume; "
+                "allowed: a number > 0 (cm^3 of air in which one sample's particles "
+                "were counted)",
+                source=path,
+                field="sampled_volume_cm3",
+            ) from None
+    bins, meta = _read_bins(path, layout, values, column, unit, sample, syntax)
+    if sampled_volume_cm3 is not None:
+        bins = _counted(path, bins, meta, sampled_volume_cm3, syntax)
+    return bins, meta
+
+
+def _read_bins(path, layout, values, column, unit, sample, syntax):
     aim = _aim_rows(path) if layout in (None, "midpoints") else None
     if aim is not None:
         return _read_aim(
             path, aim, values=values, sample=sample, unit=unit, syntax=syntax
         )
+    wide = _wide_rows(path) if layout in (None, "midpoints") else None
+    if wide is not None and column is None:
+        return _read_wide(
+            path, wide, values=values, sample=sample, unit=unit, syntax=syntax
+        )
     if sample is not None:
         raise DataFormatError(
-            "sample is for TSI AIM column exports (several samples side by side); "
+            "sample is for exports holding several samples (a TSI AIM column or row "
+            "export, a wide time series with the bin midpoints as column headers); "
             "this file is not one",
             source=path,
             field="sample",
         )
-    rows, delimiter = read_rows(path, delimiter=SNIFF, hint=_HINT)
+    rows, delimiter = _rows(path)
     if not rows:
         raise DataFormatError("the file is empty; expected size bins", source=path)
     if layout in (None, "edges") and column is None and _rows_layout(rows):
@@ -479,6 +521,285 @@ def read_size_bins(
     }
 
 
+# -- choosing samples (AIM exports, wide time series) -------------------------------
+_RANGE = re.compile(r"^(?:(mean|sum)\s+)?(\S+?)\s*\.\.\s*(\S+)$", re.IGNORECASE)
+
+
+def _select(path, labels, sample, syntax, what):
+    """(indices, how, text) of the samples `sample` chooses among `labels`.
+
+    `sample` is a label (a Sample #, else the 1-based row number), ``"mean"`` or
+    ``"sum"`` (of all), ``"A..B"`` (the mean of samples A to B, inclusive) or
+    ``"sum A..B"``/``"mean A..B"``; `how` is ``"one"``, ``"mean"`` or ``"sum"``."""
+    first = int(labels[0]) if labels[0].isdigit() else labels[0]
+    if sample is None:
+        if len(labels) == 1:
+            return [0], "one", f"sample {labels[0]}"
+        raise _ask(
+            path,
+            f"the {what} holds {len(labels)} samples ({labels[0]}..{labels[-1]})",
+            [
+                ("sample", first, "one sample, by its Sample # (else row number)"),
+                ("sample", "mean", "the mean of all samples"),
+                ("sample", "sum", "the sum of all samples"),
+                ("sample", f"{labels[0]}..{labels[-1]}", "the mean of a range"),
+            ],
+            syntax,
+            field="sample",
+        )
+    text = str(sample).strip()
+    low = text.lower()
+    if low in ("mean", "sum"):
+        idx, how = list(range(len(labels))), low
+    else:
+        m = _RANGE.match(text)
+        if m:
+            how = (m.group(1) or "mean").lower()
+            ends = [m.group(2), m.group(3)]
+        else:
+            how, ends = "one", [text, text]
+        missing = [e for e in ends if e not in labels]
+        if missing:
+            raise DataFormatError(
+                f"sample {missing[0]!r} is not in the {what}; allowed: a Sample # "
+                f"({labels[0]}..{labels[-1]}), 'mean', 'sum', 'A..B' or 'sum A..B'",
+                source=path,
+                field="sample",
+            )
+        a, b = (labels.index(e) for e in ends)
+        if a > b:
+            raise DataFormatError(
+                f"sample range {text!r} runs backwards; allowed: A..B with A before "
+                "B in the file",
+                source=path,
+                field="sample",
+            )
+        idx = list(range(a, b + 1))
+    if len(idx) == 1:
+        return idx, "one", f"sample {labels[idx[0]]}"
+    span = f"samples {labels[idx[0]]}..{labels[idx[-1]]}"
+    return idx, how, f"the {how} of {span} ({len(idx)} samples)"
+
+
+def _sample_key(labels, idx, how, sample):
+    """The samples read, as the metadata's ``sample``: the Sample # of one, else
+    ``"mean"``, ``"sum"`` or the range as given."""
+    if how == "one":
+        return labels[idx[0]]
+    text = str(sample).strip()
+    return text.lower() if text.lower() in ("mean", "sum") else text
+
+
+def _aggregate(table, how):
+    """The chosen samples' values (columns of `table`) combined by `how`."""
+    return table.sum(axis=1) if how == "sum" else table.mean(axis=1)
+
+
+# -- wide exports: one sample per row, the bin midpoints as column headers ----------
+_MID_CELL = re.compile(
+    r"^\s*(\d+(?:\.\d*)?(?:[eE][-+]?\d+)?)\s*(um|µm|μm|nm)?\s*$", re.IGNORECASE
+)
+#: Header names of a wide export whose unit is the midpoints' (AIM's marker
+#: column ``Diameter Midpoint (nm)`` and the sized range ``Lower Size(nm)``).
+_SIZED = ("diameter midpoint", "aerodynamic diameter", "lower size", "upper size")
+
+
+def _mid_cell(cell):
+    """(value, unit or None) of a header cell naming a bin midpoint, else None."""
+    m = _MID_CELL.match(cell)
+    if not m or not float(m.group(1)) > 0:
+        return None
+    return float(m.group(1)), m.group(2)
+
+
+def _numeric_run(cells):
+    """[a, b): the longest run (>= 3) of increasing midpoint cells, else None."""
+    vals = [_mid_cell(c) for c in cells]
+    best, k = None, 0
+    while k < len(cells):
+        if vals[k] is None:
+            k += 1
+            continue
+        j = k + 1
+        while j < len(cells) and vals[j] is not None and vals[j][0] > vals[j - 1][0]:
+            j += 1
+        if j - k >= 3 and (best is None or j - k > best[1] - best[0]):
+            best = (k, j)
+        k = j
+    return best
+
+
+def _wide_rows(path):
+    """The header of a wide export (a TSI AIM *row* export, an OPC or SMPS time
+    series): a row whose cells include >= 3 increasing bin midpoints and names
+    (no other numbers), followed by a row with numbers under the midpoints.
+    Returns (lines' rows, header index, (a, b), encoding) or None."""
+    lines, encoding = _text_lines(path)
+    whole, delimiter = split_rows(lines, source=path, trailing_comments=False)
+    for i, (_, cells) in enumerate(whole[:200]):
+        run = _numeric_run(cells)
+        if run is None or i + 1 >= len(whole):
+            continue
+        a, b = run
+        others = [c for k, c in enumerate(cells) if not a <= k < b and c.strip()]
+        nxt = whole[i + 1][1]
+        if (
+            all(len(r) < b for _, r in whole[:i])
+            and others
+            and not any(is_number(c) for c in others)
+            and len(nxt) >= b
+            and all(is_number(c) for c in nxt[a:b])
+        ):
+            cut, _ = split_rows(lines, source=path, delimiter=delimiter or "")
+            body = [r for r in cut if r[0] > whole[i][0]]
+            return whole[: i + 1] + body, i, run, encoding
+    return None
+
+
+def _label_column(header):
+    """Index of the Sample # column of a wide header, else None."""
+    for k, h in enumerate(header):
+        if re.sub(r"[\s_.]", "", h.lower()) in ("sample#", "sampleno", "samplenumber"):
+            return k
+    return None
+
+
+def _read_wide(path, found, *, values, sample, unit, syntax):
+    rows, i, (a, b), encoding = found
+    header_line, header = rows[i]
+    meta = {c[0].strip().lower(): c[1:] for _, c in rows[:i] if c}
+    data = [(line, cells) for line, cells in rows[i + 1 :] if any(cells)]
+    aim = "units" in meta and "weight" in meta
+    what = "AIM row export" if aim else "wide export"
+    if aim:
+        kind = _aim_values(path, meta, values)
+    elif values is not None:
+        kind = values
+    else:
+        raise _ask(
+            path,
+            f"the {what} (one sample per row, the bin midpoints {header[a].strip()}"
+            f"..{header[b - 1].strip()} as column headers) does not say what its "
+            "values are",
+            _values_choices(),
+            syntax,
+            field="values",
+        )
+    label_col = _label_column(header)
+    if label_col is None:
+        labels = [str(r + 1) for r in range(len(data))]
+    else:
+        labels = [c[label_col].strip() if label_col < len(c) else "" for _, c in data]
+        if len(set(labels)) != len(labels) or "" in labels:
+            labels = [str(r + 1) for r in range(len(data))]
+    idx, how, chosen = _select(path, labels, sample, syntax, what)
+    names = [h.strip() for h in header]
+    table = np.empty((b - a, len(idx)))
+    for c, r in enumerate(idx):
+        line, cells = data[r]
+        if len(cells) < b:
+            raise DataFormatError(
+                f"the row has {len(cells)} cells, fewer than the {b} of the header; "
+                "allowed: one value per bin",
+                source=path,
+                line=line,
+            )
+        for k in range(a, b):
+            table[k - a, c] = _number(
+                cells[k],
+                path=path,
+                line=line,
+                field=f"column {names[k]!r}",
+                allowed=f"a value >= 0 ({kind})",
+                minimum=0.0,
+                strict=False,
+            )
+    mids = np.array([_mid_cell(header[k])[0] for k in range(a, b)])
+    cell_units = {_mid_cell(header[k])[1] for k in range(a, b)} - {None}
+    sized = [h for h in names if h.lower().startswith(_SIZED)]
+    named = [u for u in (header_unit(h)[0] for h in sized) if u is not None]
+    named += [u for u in cell_units]
+    factors = {length_factor(u) for u in named}
+    if len(factors) > 1:
+        raise DataFormatError(
+            f"the header names different length units ({sorted(set(named))}); "
+            "allowed: one unit",
+            source=path,
+            line=header_line,
+            field="unit",
+        )
+    from_file = named[0] if named else None
+    if unit is None and from_file is None:
+        raise _ask(
+            path,
+            f"the {what} does not say the unit of its bin midpoints "
+            f"({header[a].strip()}..{header[b - 1].strip()})",
+            [("unit", "nm", "e.g. an SMPS"), ("unit", "um", "e.g. an APS or OPC")],
+            syntax,
+            field="unit",
+        )
+    if (
+        unit is not None
+        and from_file is not None
+        and length_factor(unit) != length_factor(from_file)
+    ):
+        raise DataFormatError(
+            f"the header gives the unit {from_file!r} but the unit given is "
+            f"{unit!r}; allowed: the same unit, or leave it out",
+            source=path,
+            field="unit",
+        )
+    unit_from = "argument" if unit is not None else "header"
+    unit = unit or from_file
+    mids_um = mids * (length_factor(unit) / 1e-6)
+    try:
+        edges = edges_from_midpoints(mids_um)
+    except ValueError as exc:
+        raise DataFormatError(str(exc), source=path, line=header_line) from None
+    _check_plausible(path, "bin midpoints", mids_um * 1e-6, unit, unit_from)
+    notes = [
+        f"{'TSI AIM row' if aim else 'wide'} export ({encoding}, one sample per row, "
+        f"the {mids.size} bin midpoints in {unit} as column headers), {chosen} of "
+        f"{len(labels)}; bin edges derived from the midpoints as geometric (log) "
+        "midpoints",
+    ]
+    skipped = [h for h in names[:a] if h.startswith("<")] + [
+        h for h in names[b:] if h.startswith(">")
+    ]
+    if skipped:
+        notes.append(
+            f"the open-ended bins {skipped} (outside the sized range) are not read"
+        )
+    bins = _bins(path, edges, _aggregate(table, how), kind, notes)
+    statistics = {}
+    if len(idx) == 1:
+        cells = data[idx[0]][1]
+        for k, h in enumerate(names):
+            if (a <= k < b) or k == label_col or not h or k >= len(cells):
+                continue
+            if is_number(cells[k]):
+                statistics[h] = float(cells[k])
+    return bins, {
+        "source": path,
+        "layout": "aim-rows" if aim else "wide",
+        "header": names,
+        "values": kind,
+        "value_column": None,
+        "unit": unit,
+        "unit_from": unit_from,
+        "n_bins": int(mids.size),
+        "samples": labels,
+        "sample": _sample_key(labels, idx, how, sample),
+        "selection": chosen,
+        "n_samples_used": len(idx),
+        "aggregate": how,
+        "instrument_statistics": statistics,
+        "concentration_header": _total_conc(names),
+        "encoding": encoding,
+        "delimiter": None,
+    }
+
+
 # -- TSI AIM "column" exports -------------------------------------------------------
 _AIM_WEIGHT = {"number": "N", "mass": "M", "volume": "V"}
 _AIM_UNITS = {"dw/dlogdp": "d{}/dlogDp", "dw/ddp": "d{}/dDp", "dw": "d{}"}
@@ -556,35 +877,7 @@ def _read_aim(path, found, *, values, sample, unit, syntax):
     n_samples = max(len(c) for _, c in data) - 1
     labels = (labels + [str(k + 1) for k in range(len(labels), n_samples)])[:n_samples]
     kind = _aim_values(path, meta, values)
-    if sample is None:
-        if n_samples != 1:
-            raise _ask(
-                path,
-                f"the AIM export holds {n_samples} samples (Sample # "
-                f"{labels[0]}..{labels[-1]})",
-                [
-                    (
-                        "sample",
-                        int(labels[0]) if labels[0].isdigit() else labels[0],
-                        "one sample, by its Sample #",
-                    ),
-                    ("sample", "mean", "the mean of all samples"),
-                ],
-                syntax,
-                field="sample",
-            )
-        cols = [0]
-    elif str(sample).strip().lower() == "mean":
-        cols = list(range(n_samples))
-    elif str(sample).strip() in labels:
-        cols = [labels.index(str(sample).strip())]
-    else:
-        raise DataFormatError(
-            f"sample {sample!r} is not in the export; allowed: a Sample # "
-            f"({labels[0]}..{labels[-1]}) or 'mean'",
-            source=path,
-            field="sample",
-        )
+    cols, how, chosen = _select(path, labels, sample, syntax, "AIM column export")
     mids = np.empty(len(data))
     table = np.empty((len(data), len(cols)))
     for r, (line, cells) in enumerate(data):
@@ -637,13 +930,12 @@ def _read_aim(path, found, *, values, sample, unit, syntax):
     except ValueError as exc:
         raise DataFormatError(str(exc), source=path) from None
     _check_plausible(path, "Diameter Midpoint", mids_um * 1e-6, unit, unit_from)
-    chosen = "the mean of all samples" if len(cols) > 1 else f"sample {labels[cols[0]]}"
     notes = [
         f"TSI AIM column export ({encoding}), {chosen} of {n_samples}; midpoints in "
         f"{unit}; bin edges derived from the {mids.size} midpoints as geometric "
         "(log) midpoints",
     ]
-    bins = _bins(path, edges, table.mean(axis=1), kind, notes)
+    bins = _bins(path, edges, _aggregate(table, how), kind, notes)
     instrument = {}
     if len(cols) == 1:
         for name, cells in stats_rows.items():
@@ -659,11 +951,76 @@ def _read_aim(path, found, *, values, sample, unit, syntax):
         "unit_from": unit_from,
         "n_bins": int(mids.size),
         "samples": labels,
-        "sample": "mean" if len(cols) > 1 else labels[cols[0]],
+        "sample": _sample_key(labels, cols, how, sample),
+        "selection": chosen,
+        "n_samples_used": len(cols),
+        "aggregate": how,
         "instrument_statistics": instrument,
+        "concentration_header": _total_conc(stats_rows),
         "encoding": encoding,
         "delimiter": None,
     }
+
+
+# -- concentrations to counted particles ---------------------------------------------
+_PER = (
+    (re.compile(r"/\s*(cm3|cm³|cm\^3|cc)\b", re.IGNORECASE), 1.0, "cm^3"),
+    (re.compile(r"/\s*(l|litre|liter)\b", re.IGNORECASE), 1e-3, "L"),
+    (re.compile(r"/\s*(m3|m³|m\^3)\b", re.IGNORECASE), 1e-6, "m^3"),
+)
+
+
+def _per_cm3(name):
+    """(factor to number per cm³, unit) of a value column's name, else None."""
+    for pattern, factor, per in _PER:
+        if pattern.search(name or ""):
+            return factor, per
+    return None
+
+
+def _total_conc(names):
+    """The name of an AIM export's ``Total Conc.(#/cm³)`` statistic, else None."""
+    return next((h for h in names if h.lower().startswith("total conc")), None)
+
+
+def _counted(path, bins, meta, volume_cm3, syntax):
+    """`bins` of number concentrations as the particles counted in `volume_cm3`
+    per sample (summed over the samples read): Poisson counts for the standard
+    errors and the chi-squared test."""
+    kind = bins.values
+    weighting = BIN_VALUES[kind][0]
+    option = _option("sampled_volume_cm3", volume_cm3, syntax)
+    if kind == "count":
+        raise DataFormatError(
+            f"the values are counted particles already; {option} is for number "
+            "concentrations (dN, dN/dlogDp, ...); leave it out",
+            source=path,
+            field="sampled_volume_cm3",
+        )
+    if weighting != "number":
+        raise DataFormatError(
+            f"the values are {kind} (a {weighting} weighting): no sampled volume "
+            "turns them into counted particles; allowed with number concentrations "
+            "(dN, dN/dlogDp, dN/dlnDp, dN/dDp)",
+            source=path,
+            field="sampled_volume_cm3",
+        )
+    named = meta.get("concentration_header") or meta.get("value_column")
+    per = _per_cm3(str(named or ""))
+    factor, unit = per if per is not None else (1.0, "cm^3")
+    said = "" if per is not None else ", assumed: the file does not say"
+    n_used = int(meta.get("n_samples_used", 1))
+    samples = n_used if meta.get("aggregate") == "mean" else 1
+    number = bins.number * factor * volume_cm3 * samples
+    times = f" x {samples} samples" if samples > 1 else ""
+    note = (
+        f"number concentrations (per {unit}{said}) turned into counted particles: "
+        f"x the sampled volume {volume_cm3:g} cm^3{times} = {float(number.sum()):.6g} "
+        "particles; the standard errors and the chi-squared test assume Poisson "
+        "counting of every particle in that volume (no coincidence, "
+        "counting-efficiency, charging or inversion correction)"
+    )
+    return replace(bins, number=number, counted=True, notes=(*bins.notes, note))
 
 
 def _legacy(header) -> bool:
@@ -733,6 +1090,7 @@ def read_size_data(
     column=None,
     unit=None,
     sample=None,
+    sampled_volume_cm3=None,
     syntax="python",
 ):
     """Read size data of any layout: raw diameters or size bins.
@@ -757,8 +1115,13 @@ def read_size_data(
             source=path,
             field="layout",
         )
-    if layout is None and values is None and _aim_rows(path) is None:
-        rows, _ = read_rows(path, delimiter=SNIFF, hint=_HINT)
+    if (
+        layout is None
+        and values is None
+        and _aim_rows(path) is None
+        and _wide_rows(path) is None
+    ):
+        rows, _ = _rows(path)
         header, data = _split_header(rows)
         if rows and not _rows_layout(rows):
             width = len(header) if header else len(data[0][1]) if data else 1
@@ -780,5 +1143,6 @@ def read_size_data(
         column=column,
         unit=unit,
         sample=sample,
+        sampled_volume_cm3=sampled_volume_cm3,
         syntax=syntax,
     )
