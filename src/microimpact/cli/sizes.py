@@ -54,9 +54,19 @@ def cli_parse(sp):
     sp.add_argument(
         "--sample",
         default=None,
-        metavar="N|mean",
-        help="TSI AIM column export with several samples: the Sample # to read, or "
-        "'mean' for their mean",
+        metavar="N|A..B|mean|sum",
+        help="an export holding several samples (TSI AIM column or row export, a "
+        "wide time series): the Sample # (else the row number) to read, 'A..B' for "
+        "the mean of samples A to B, 'sum A..B', or 'mean'/'sum' of all",
+    )
+    sp.add_argument(
+        "--sampled-volume-cm3",
+        type=c.positive_float,
+        default=None,
+        metavar="V",
+        help="air volume [cm3] in which one sample's particles were counted: turns "
+        "number concentrations into counted particles, for standard errors and the "
+        "chi-squared test (assumes Poisson counting; see docs/populations.md)",
     )
     sp.add_argument(
         "--density-kg-m3",
@@ -115,6 +125,7 @@ def cli_action(args) -> int:
         column=column,
         unit=args.unit,
         sample=args.sample,
+        sampled_volume_cm3=args.sampled_volume_cm3,
         syntax="cli",
     )
     if meta["layout"] == "diameters":

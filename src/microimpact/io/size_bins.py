@@ -656,6 +656,32 @@ def _wide_rows(path):
     return None
 
 
+def _aim_edges(path, meta, mids_um):
+    """(edges [µm], note) of an AIM export's channels: on the grid of the export's
+    ``Channels/Decade`` (every channel ``1/c`` wide in ``log10 d``, the grid placed
+    by least squares through the printed midpoints) when the midpoints lie on it
+    within 1 %, else the geometric edges of :func:`edges_from_midpoints`."""
+    cells = meta.get("channels/decade") or [""]
+    c = float(cells[0]) if is_number(cells[0]) else math.nan
+    k = np.arange(mids_um.size)
+    if c > 0:
+        offset = float(np.mean(np.log10(mids_um) - k / c))
+        grid = 10 ** (offset + k / c)
+        worst = float(np.max(np.abs(grid / mids_um - 1)))
+        if worst < 0.01:
+            edges = 10 ** (offset + (np.arange(mids_um.size + 1) - 0.5) / c)
+            return edges, (
+                f"bin edges on the export's grid of {c:g} channels per decade (each "
+                f"1/{c:g} wide in log10 d; the printed midpoints lie on it within "
+                f"{100 * worst:.2g} %)"
+            )
+    try:
+        edges = edges_from_midpoints(mids_um)
+    except ValueError as exc:
+        raise DataFormatError(str(exc), source=path) from None
+    return edges, "bin edges derived from the midpoints as geometric (log) midpoints"
+
+
 def _label_column(header):
     """Index of the Sample # column of a wide header, else None."""
     for k, h in enumerate(header):
@@ -752,16 +778,12 @@ def _read_wide(path, found, *, values, sample, unit, syntax):
     unit_from = "argument" if unit is not None else "header"
     unit = unit or from_file
     mids_um = mids * (length_factor(unit) / 1e-6)
-    try:
-        edges = edges_from_midpoints(mids_um)
-    except ValueError as exc:
-        raise DataFormatError(str(exc), source=path, line=header_line) from None
+    edges, how_edges = _aim_edges(path, meta, mids_um)
     _check_plausible(path, "bin midpoints", mids_um * 1e-6, unit, unit_from)
     notes = [
         f"{'TSI AIM row' if aim else 'wide'} export ({encoding}, one sample per row, "
         f"the {mids.size} bin midpoints in {unit} as column headers), {chosen} of "
-        f"{len(labels)}; bin edges derived from the midpoints as geometric (log) "
-        "midpoints",
+        f"{len(labels)}; {how_edges}",
     ]
     skipped = [h for h in names[:a] if h.startswith("<")] + [
         h for h in names[b:] if h.startswith(">")
@@ -925,15 +947,11 @@ def _read_aim(path, found, *, values, sample, unit, syntax):
     unit_from = "argument" if unit is not None else "header"
     unit = unit or from_file
     mids_um = mids * (length_factor(unit) / 1e-6)
-    try:
-        edges = edges_from_midpoints(mids_um)
-    except ValueError as exc:
-        raise DataFormatError(str(exc), source=path) from None
+    edges, how_edges = _aim_edges(path, meta, mids_um)
     _check_plausible(path, "Diameter Midpoint", mids_um * 1e-6, unit, unit_from)
     notes = [
-        f"TSI AIM column export ({encoding}), {chosen} of {n_samples}; midpoints in "
-        f"{unit}; bin edges derived from the {mids.size} midpoints as geometric "
-        "(log) midpoints",
+        f"TSI AIM column export ({encoding}), {chosen} of {n_samples}; "
+        f"{mids.size} midpoints in {unit}; {how_edges}",
     ]
     bins = _bins(path, edges, _aggregate(table, how), kind, notes)
     instrument = {}
@@ -1127,6 +1145,20 @@ def read_size_data(
             width = len(header) if header else len(data[0][1]) if data else 1
             layout = _layout(path, header, width, None, syntax)
     if layout == "diameters":
+        if sample is not None:
+            raise DataFormatError(
+                "sample is for exports holding several samples of size bins; the "
+                "file holds raw diameters; leave it out",
+                source=path,
+                field="sample",
+            )
+        if sampled_volume_cm3 is not None:
+            raise DataFormatError(
+                "sampled_volume_cm3 is for size bins of number concentrations, not "
+                "raw diameters (each one a counted particle already); leave it out",
+                source=path,
+                field="sampled_volume_cm3",
+            )
         if values is not None:
             raise DataFormatError(
                 f"values {values!r} is for size bins, not raw diameters; leave it "

@@ -166,6 +166,12 @@ def _particles(ctx: _Ctx, data, where="particles"):
         for key in ("layout", "values", "column", "sample"):
             if key in t:
                 raise ctx.error(_join(where, key), "only allowed with 'file'")
+        if "unit" in t:
+            raise ctx.error(
+                _join(where, "unit"),
+                "only allowed with 'file'; 'edges_um' are in micrometres (convert "
+                "them, or put the bins in a file and give its unit)",
+            )
         edges = ctx.numbers(t["edges_um"], _join(where, "edges_um"), low=0, minimum=2)
         counts = ctx.numbers(t["counts"], _join(where, "counts"), low=0)
     else:

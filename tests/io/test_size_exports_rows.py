@@ -1,0 +1,280 @@
+"""Wide size exports (issue 22, round two): TSI AIM *row* exports and time series
+with the bin midpoints as column headers, choosing samples, a ``#`` in a header,
+and number concentrations turned into counted particles (``sampled_volume_cm3``).
+
+Oracles: AIM's own statistics columns of each row (real exports from py-smps),
+the per-sample reads combined independently, closed-form bins, and the
+chi-squared test's size on Poisson-counted bins."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from numpy.testing import assert_allclose
+from scipy import stats
+from test_size_exports import DATA
+
+from microimpact.errors import DataFormatError
+from microimpact.io.size_bins import read_size_bins, read_size_data
+from microimpact.population.binned import (
+    binned_median,
+    chi2_binned,
+    fit_binned_lognormal,
+)
+
+ROW = DATA / "aim_smps_row_pysmps.txt"
+ROW10 = DATA / "aim10_smps_row_pysmps.txt"
+
+
+def _aim_stats(bins):
+    """Geometric mean and GSD of the bins' number, in nm (AIM's definitions)."""
+    mid_nm = bins.midpoints_um * 1e3
+    w = bins.number / bins.total
+    gm = np.exp(np.sum(w * np.log(mid_nm)))
+    gsd = np.exp(np.sqrt(np.sum(w * np.log(mid_nm / gm) ** 2)))
+    return gm, gsd
+
+
+# -- real TSI AIM row exports, against AIM's own statistics columns --------------------
+@pytest.mark.parametrize(
+    ("path", "n_bins", "n_samples"), [(ROW, 107, 6), (ROW10, 95, 20)]
+)
+def test_aim_row_export_matches_aims_own_statistics(path, n_bins, n_samples):
+    """Every sample: AIM's Total Conc. within 1e-5 (AIM's channels are 1/64 wide
+    in log10 d exactly: edges derived from the printed 3-digit midpoints miss it by
+    up to 0.6 %), its geometric mean and GSD within 5e-4, its median within the
+    channel it interpolates in."""
+    for k in range(1, n_samples + 1):
+        bins, meta = read_size_bins(path, sample=k)
+        aim = meta["instrument_statistics"]
+        assert meta["layout"] == "aim-rows" and meta["values"] == "dN/dlogDp"
+        assert meta["unit"] == "nm" and meta["sample"] == str(k)
+        assert bins.number.size == n_bins and len(meta["samples"]) == n_samples
+        total = next(v for key, v in aim.items() if key.startswith("Total Conc"))
+        assert_allclose(bins.total, total, rtol=1e-5)  # dN/dlogDp x dlogDp summed
+        gm, gsd = _aim_stats(bins)
+        geo = next(v for key, v in aim.items() if key.startswith("Geo. Mean"))
+        assert_allclose(gm, geo, rtol=5e-4)
+        assert_allclose(gsd, aim["Geo. Std. Dev."], rtol=5e-4)
+        median = next(v for key, v in aim.items() if key.startswith("Median"))
+        # AIM's median interpolates within a channel (64 per decade: 3.7 % wide)
+        got = binned_median(bins.edges_um, bins.number) * 1e3
+        assert_allclose(got, median, rtol=0.02)
+        # the metadata columns are not bins: AIM's flows and sizes are statistics
+        assert not any(key.startswith(("Diameter", "Sample #")) for key in aim)
+
+
+def test_aim_row_export_edges_are_the_channel_grid():
+    bins, _ = read_size_bins(ROW, sample=1)
+    mids_nm = bins.midpoints_um * 1e3
+    # the printed midpoints are rounded to 0.1 nm (21.7 +- 0.05: 0.23 %)
+    assert mids_nm[0] == pytest.approx(21.7, rel=3e-3)
+    assert mids_nm[-1] == pytest.approx(982.2, rel=3e-3)
+    # 64 channels per decade (the export's Channels/Decade)
+    assert_allclose(np.log10(bins.edges_um[1:] / bins.edges_um[:-1]), 1 / 64)
+    assert "grid of 64 channels per decade" in bins.notes[0]
+
+
+# -- choosing samples ------------------------------------------------------------------
+def test_sample_mean_sum_and_ranges_combine_the_single_samples():
+    each = np.array([read_size_bins(ROW10, sample=k)[0].number for k in range(1, 21)])
+    assert_allclose(read_size_bins(ROW10, sample="mean")[0].number, each.mean(0))
+    assert_allclose(read_size_bins(ROW10, sample="sum")[0].number, each.sum(0))
+    assert_allclose(read_size_bins(ROW10, sample="3..7")[0].number, each[2:7].mean(0))
+    bins, meta = read_size_bins(ROW10, sample="sum 3..7")
+    assert_allclose(bins.number, each[2:7].sum(0))
+    assert meta["n_samples_used"] == 5 and meta["aggregate"] == "sum"
+    assert "the sum of samples 3..7 (5 samples)" in bins.notes[0]
+
+
+@pytest.mark.parametrize(
+    ("sample", "match"),
+    [
+        ("99", "sample '99' is not in the AIM row export"),
+        ("7..3", "runs backwards"),
+        ("1..99", "sample '99' is not in"),
+    ],
+)
+def test_bad_samples_name_the_file_and_what_is_allowed(sample, match):
+    with pytest.raises(DataFormatError, match=match) as exc:
+        read_size_bins(ROW10, sample=sample)
+    assert ROW10.name in str(exc.value) and "field" not in str(exc.value)
+
+
+def test_several_samples_ask_which_in_each_syntax():
+    for syntax, spelled in (("cli", "--sample 'sum'"), ("toml", 'sample = "sum"')):
+        with pytest.raises(DataFormatError, match="holds 6 samples") as exc:
+            read_size_bins(ROW, syntax=syntax)
+        text = str(exc.value)
+        assert ROW.name in text and ("--sample sum" in text or spelled in text)
+        assert ("--sample 1..6" in text) == (syntax == "cli")
+
+
+# -- wide time series: a timestamp column and one column per bin midpoint --------------
+EDGES_UM = 0.3 * 10 ** (np.arange(17) / 8)  # 16 log-spaced bins, 0.3 to 30 um
+MIDS_UM = np.sqrt(EDGES_UM[:-1] * EDGES_UM[1:])
+
+
+def _wide(rows, *, head="timestamp", cells=None, comment=""):
+    names = cells or [f"{m:.6g}" for m in MIDS_UM]
+    lines = [",".join([head, *names]) + comment]
+    for k, r in enumerate(rows):
+        lines.append(f"2024-05-01T10:{k:02d}:00Z," + ",".join(f"{v:.10g}" for v in r))
+    return "\n".join(lines) + "\n"
+
+
+def _lognormal_counts(total, cmd=2.0, gsd=1.7):
+    return total * np.diff(stats.lognorm(np.log(gsd), scale=cmd).cdf(EDGES_UM))
+
+
+def test_wide_time_series_asks_for_values_and_unit_then_reads(write_file):
+    rows = np.array([_lognormal_counts(1000 * (k + 1)) for k in range(4)])
+    path = write_file("opc.csv", _wide(np.round(rows)))
+    with pytest.raises(DataFormatError, match="does not say what its values are"):
+        read_size_bins(path, sample=1)
+    with pytest.raises(DataFormatError, match="does not say the unit") as exc:
+        read_size_bins(path, sample=1, values="count", syntax="cli")
+    assert "--unit nm" in str(exc.value) and "--unit um" in str(exc.value)
+    bins, meta = read_size_data(path, sample="sum", values="count", unit="um")
+    assert meta["layout"] == "wide" and meta["samples"] == ["1", "2", "3", "4"]
+    assert_allclose(bins.edges_um, EDGES_UM, rtol=1e-5)
+    assert_allclose(bins.number, np.round(rows).sum(0))
+    assert bins.counted  # a sum of whole counts is counts
+    bins, _ = read_size_bins(path, sample=3, values="count", unit="um")
+    assert_allclose(bins.number, np.round(rows[2]))
+
+
+def test_wide_header_with_units_in_the_cells(write_file):
+    names = [f"{m * 1e3:.6g} nm" for m in MIDS_UM]
+    path = write_file("w.csv", _wide([_lognormal_counts(5e4)], cells=names))
+    bins, meta = read_size_bins(path, values="dN")
+    assert meta["unit"] == "nm" and meta["unit_from"] == "header"
+    assert_allclose(bins.edges_um, EDGES_UM, rtol=1e-5)
+    with pytest.raises(DataFormatError, match="gives the unit 'nm'"):
+        read_size_bins(path, values="dN", unit="um")
+
+
+def test_bin_names_without_sizes_are_not_a_wide_export(write_file):
+    """``bin0, bin1, ...`` headers: a data row of increasing counts under them is
+    not taken for a header of midpoints (the header row spans the columns)."""
+    text = "timestamp,bin0,bin1,bin2,bin3\nt1,1,2,3,4\nt2,5,6,7,8\n"
+    with pytest.raises(DataFormatError) as exc:
+        read_size_bins(write_file("bins.csv", text))
+    assert "wide" not in str(exc.value) and "midpoints 1..4" not in str(exc.value)
+
+
+# -- a '#' in a header -----------------------------------------------------------------
+def test_hash_in_a_header_is_not_a_comment(write_file):
+    counts = _lognormal_counts(1e4)
+    dens = counts / np.log10(EDGES_UM[1:] / EDGES_UM[:-1])
+    text = "Dp (um),dN/dlogDp (#/cm3)\n" + "".join(
+        f"{m:.8g},{v:.10g} # channel {k}\n"
+        for k, (m, v) in enumerate(zip(MIDS_UM, dens, strict=True))
+    )
+    bins, meta = read_size_bins(write_file("hash.csv", text))
+    assert meta["value_column"] == "dN/dlogDp (#/cm3)" and meta["values"] == "dN/dlogDp"
+    assert_allclose(bins.number, counts, rtol=1e-6)
+    # and the wide layout: AIM's "Sample #" header
+    bins, meta = read_size_bins(ROW, sample=2)
+    assert meta["samples"] == ["1", "2", "3", "4", "5", "6"]
+
+
+# -- concentrations to counted particles -----------------------------------------------
+def test_sampled_volume_turns_concentrations_into_counts(write_file):
+    conc = _lognormal_counts(250.0)  # particles per cm3 in each bin
+    dens = conc / np.log10(EDGES_UM[1:] / EDGES_UM[:-1])
+    body = "".join(f"{m:.8g},{v:.10g}\n" for m, v in zip(MIDS_UM, dens, strict=True))
+    for header, per_cm3 in (("dN/dlogDp (#/cm3)", 1.0), ("dN/dlogDp (#/L)", 1e-3)):
+        path = write_file("c.csv", f"Dp (um),{header}\n" + body)
+        plain, _ = read_size_bins(path)
+        assert not plain.counted
+        bins, _ = read_size_bins(path, sampled_volume_cm3=40.0)
+        assert bins.counted and bins.values == "dN/dlogDp"
+        assert_allclose(bins.number, conc * per_cm3 * 40.0, rtol=1e-6)
+        assert "sampled volume 40 cm^3" in bins.notes[-1]
+        assert "Poisson" in bins.notes[-1]
+    # the mean of n samples was counted in n volumes
+    one, _ = read_size_bins(ROW10, sample="mean")
+    counted, _ = read_size_bins(ROW10, sample="mean", sampled_volume_cm3=2.0)
+    assert_allclose(counted.number, one.number * 2.0 * 20)
+    assert "x 20 samples" in counted.notes[-1] and "per cm^3," not in counted.notes[-1]
+
+
+@pytest.mark.parametrize(
+    ("text", "kw", "match"),
+    [
+        ("lower_um,upper_um,count\n1,2,5\n2,4,7\n", {}, "counted particles already"),
+        ("Dp (um),dM/dlogDp\n1,5\n2,6\n4,2\n", {}, "mass weighting"),
+        ("Dp (um),dN/dlogDp\n1,5\n2,6\n4,2\n", {"v": 0}, "not a volume"),
+        ("Dp (um),dN/dlogDp\n1,5\n2,6\n4,2\n", {"v": "x"}, "not a volume"),
+        ("diameter_um\n1\n2\n3\n", {}, "not raw diameters"),
+    ],
+)
+def test_sampled_volume_refused_where_it_makes_no_counts(write_file, text, kw, match):
+    path = write_file("v.csv", text)
+    with pytest.raises(DataFormatError, match=match) as exc:
+        read_size_data(path, sampled_volume_cm3=kw.get("v", 10.0))
+    assert "v.csv" in str(exc.value)
+
+
+def test_chi2_on_poisson_counted_concentrations_has_its_size(write_file):
+    """Bins counted as Poisson in V = 50 cm3 from a log-normal, written as
+    dN/dlogDp concentrations: read back with the sampled volume, the log-normal's
+    chi-squared test rejects at about alpha (its size), and the count median lies
+    within 2 standard errors about 95 % of the time."""
+    rng = np.random.default_rng(7)
+    volume, reps, alpha = 50.0, 200, 0.2
+    expected = _lognormal_counts(40.0) * volume  # 2000 particles
+    dlog = np.log10(EDGES_UM[1:] / EDGES_UM[:-1])
+    rejects = covered = 0
+    for _ in range(reps):
+        n = rng.poisson(expected)
+        dens = n / volume / dlog
+        text = "Dp (um),dN/dlogDp (#/cm3)\n" + "".join(
+            f"{m:.10g},{v:.12g}\n" for m, v in zip(MIDS_UM, dens, strict=True)
+        )
+        bins, _ = read_size_bins(write_file("p.csv", text), sampled_volume_cm3=volume)
+        assert_allclose(bins.number, n, rtol=1e-9)
+        fit = fit_binned_lognormal(bins.edges_um, bins.number)
+        rejects += chi2_binned(bins.edges_um, bins.number, fit, alpha=alpha).reject
+        se = fit.stderr["median_um"]
+        covered += abs(fit.params["median_um"] - 2.0) < 2 * se
+    se_rate = np.sqrt(alpha * (1 - alpha) / reps)
+    assert abs(rejects / reps - alpha) < 3.5 * se_rate
+    assert abs(covered / reps - 0.954) < 3.5 * np.sqrt(0.954 * 0.046 / reps) + 0.02
+
+
+# -- property: any wide table, any sample choice ---------------------------------------
+@settings(max_examples=30, deadline=None)
+@given(
+    k=st.integers(3, 12),
+    n=st.integers(1, 6),
+    first=st.integers(1, 6),
+    last=st.integers(1, 6),
+    how=st.sampled_from(["", "mean ", "sum "]),
+    seed=st.integers(0, 2**16),
+)
+def test_any_wide_table_reads_the_chosen_rows(
+    tmp_path_factory, k, n, first, last, how, seed
+):
+    rng = np.random.default_rng(seed)
+    first, last = sorted((min(first, n), min(last, n)))
+    mids = 0.5 * 1.3 ** np.arange(k)
+    table = rng.integers(0, 50, size=(n, k)).astype(float)
+    table[:, 0] += 1  # never all zero
+    text = "time," + ",".join(f"{m:.10g}" for m in mids) + "\n"
+    text += "".join(
+        f"t{r}," + ",".join(f"{v:g}" for v in table[r]) + "\n" for r in range(n)
+    )
+    path = tmp_path_factory.mktemp("w") / "wide.csv"
+    path.write_text(text)
+    bins, meta = read_size_bins(
+        path, values="count", unit="um", sample=f"{how}{first}..{last}"
+    )
+    chosen = table[first - 1 : last]
+    want = chosen.sum(0) if how == "sum " else chosen.mean(0)
+    assert_allclose(bins.number, want)
+    assert_allclose(bins.midpoints_um, mids, rtol=1e-9)
+    assert meta["n_samples_used"] == last - first + 1
