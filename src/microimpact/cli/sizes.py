@@ -14,6 +14,7 @@ count and mass median diameters and, with ``--density-kg-m3``, the aerodynamic o
 
 from __future__ import annotations
 
+import argparse
 import contextlib
 from pathlib import Path
 
@@ -60,6 +61,14 @@ def cli_parse(sp):
         "the mean of samples A to B, 'sum A..B', or 'mean'/'sum' of all",
     )
     sp.add_argument(
+        "--edges-um",
+        type=edges_arg,
+        default=None,
+        metavar="B0,B1,...",
+        help="the bin boundaries [um] of a wide export whose bin columns do not give "
+        "sizes (bin0, bin1, ...): one more than the bins",
+    )
+    sp.add_argument(
         "--sampled-volume-cm3",
         type=c.positive_float,
         default=None,
@@ -94,6 +103,18 @@ def cli_parse(sp):
     sp.add_argument("--alpha", type=c.fraction, default=0.05)
 
 
+def edges_arg(text):
+    """An ``--edges-um`` value: comma-separated numbers (checked by the reader)."""
+    cells = [t.strip() for t in text.replace(";", ",").split(",") if t.strip()]
+    try:
+        return [float(t) for t in cells]
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is not a list of numbers; allowed: comma-separated bin "
+            "boundaries in um, e.g. 0.35,0.46,0.66"
+        ) from None
+
+
 def column_arg(text):
     """A ``--column`` value: a 0-based index (negative from the end), else a name."""
     with contextlib.suppress(TypeError, ValueError):
@@ -126,6 +147,7 @@ def cli_action(args) -> int:
         unit=args.unit,
         sample=args.sample,
         sampled_volume_cm3=args.sampled_volume_cm3,
+        edges_um=args.edges_um,
         syntax="cli",
     )
     if meta["layout"] == "diameters":

@@ -45,11 +45,13 @@ import numpy as np
 
 from .._core.files import (
     SNIFF,
+    data_lines,
     delimiter_name,
     is_number,
     looks_like_header,
     read_lines,
     resolve_column,
+    sniff_delimiter,
     split_rows,
 )
 from .._core.validation import check_choice, check_scalar
@@ -121,7 +123,8 @@ def _option(name, value, syntax):
         shown = value if re.fullmatch(r"[\w./-]+", str(value)) else f"'{value}'"
         return f"--{name.replace('_', '-')} {shown}"
     if syntax == "toml":
-        shown = value if isinstance(value, int) else f'"{value}"'
+        raw = isinstance(value, int) or str(value).startswith("[")
+        shown = value if raw else f'"{value}"'
         return f"{name} = {shown}"
     return f"{name}={value!r}"
 
@@ -323,6 +326,7 @@ def read_size_bins(
     unit=None,
     sample=None,
     sampled_volume_cm3=None,
+    edges_um=None,
     syntax="python",
 ):
     """Read a binned size distribution (an instrument export).
@@ -390,14 +394,23 @@ def read_size_bins(
                 source=path,
                 field="sampled_volume_cm3",
             ) from None
-    bins, meta = _read_bins(path, layout, values, column, unit, sample, syntax)
+    bins, meta = _read_bins(
+        path, layout, values, column, unit, sample, edges_um, syntax
+    )
     if sampled_volume_cm3 is not None:
         bins = _counted(path, bins, meta, sampled_volume_cm3, syntax)
     return bins, meta
 
 
-def _read_bins(path, layout, values, column, unit, sample, syntax):
+def _read_bins(path, layout, values, column, unit, sample, edges_um, syntax):
     aim = _aim_rows(path) if layout in (None, "midpoints") else None
+    if aim is not None and edges_um is not None:
+        raise DataFormatError(
+            "edges_um is for wide exports whose bin columns do not give sizes "
+            "(bin0, bin1, ...); a TSI AIM column export gives its midpoints",
+            source=path,
+            field="edges_um",
+        )
     if aim is not None:
         return _read_aim(
             path, aim, values=values, sample=sample, unit=unit, syntax=syntax
@@ -405,7 +418,20 @@ def _read_bins(path, layout, values, column, unit, sample, syntax):
     wide = _wide_rows(path) if layout in (None, "midpoints") else None
     if wide is not None and column is None:
         return _read_wide(
-            path, wide, values=values, sample=sample, unit=unit, syntax=syntax
+            path,
+            wide,
+            values=values,
+            sample=sample,
+            unit=unit,
+            edges_um=edges_um,
+            syntax=syntax,
+        )
+    if edges_um is not None:
+        raise DataFormatError(
+            "edges_um is for wide exports whose bin columns do not give sizes "
+            "(bin0, bin1, ...); this file is not one",
+            source=path,
+            field="edges_um",
         )
     if sample is not None:
         raise DataFormatError(
@@ -539,7 +565,7 @@ def _select(path, labels, sample, syntax, what):
             path,
             f"the {what} holds {len(labels)} samples ({labels[0]}..{labels[-1]})",
             [
-                ("sample", first, "one sample, by its Sample # (else row number)"),
+                ("sample", first, "one sample: its Sample #, else its row number"),
                 ("sample", "mean", "the mean of all samples"),
                 ("sample", "sum", "the sum of all samples"),
                 ("sample", f"{labels[0]}..{labels[-1]}", "the mean of a range"),
@@ -629,31 +655,70 @@ def _numeric_run(cells):
     return best
 
 
+_BIN_NAME = re.compile(r"^\s*bin\s*[_#]?\s*(\d+)\s*$", re.IGNORECASE)
+
+
+def _named_run(cells):
+    """[a, b): the longest run (>= 3) of bin names with consecutive numbers
+    (``bin0, bin1, ...``, ``Bin 1, Bin 2, ...``), else None."""
+    nums = [_BIN_NAME.match(c) for c in cells]
+    nums = [int(m.group(1)) if m else None for m in nums]
+    best, k = None, 0
+    while k < len(cells):
+        if nums[k] is None:
+            k += 1
+            continue
+        j = k + 1
+        while j < len(cells) and nums[j] is not None and nums[j] == nums[j - 1] + 1:
+            j += 1
+        if j - k >= 3 and (best is None or j - k > best[1] - best[0]):
+            best = (k, j)
+        k = j
+    return best
+
+
 def _wide_rows(path):
     """The header of a wide export (a TSI AIM *row* export, an OPC or SMPS time
     series): a row whose cells include >= 3 increasing bin midpoints and names
-    (no other numbers), followed by a row with numbers under the midpoints.
-    Returns (lines' rows, header index, (a, b), encoding) or None."""
+    (no other numbers), followed by a row with numbers under the midpoints; else
+    the last row (of the first 200) naming >= 3 bins ``bin0, bin1, ...`` followed
+    by a row of numbers under them (their sizes are then given as `edges_um`).
+    Returns (rows, header index, (a, b), encoding, sized) or None."""
     lines, encoding = _text_lines(path)
-    whole, delimiter = split_rows(lines, source=path, trailing_comments=False)
+    sniffed = [sniff_delimiter(t) for _, t in data_lines(lines[:200])]
+    sniffed = [d for d in sniffed if d]  # a preamble line may have no delimiter
+    delimiter = max(set(sniffed), key=sniffed.count) if sniffed else SNIFF
+    whole, delimiter = split_rows(
+        lines, source=path, delimiter=delimiter, trailing_comments=False
+    )
+
+    def numbers_below(i, a, b):
+        nxt = whole[i + 1][1] if i + 1 < len(whole) else []
+        return len(nxt) >= b and all(is_number(c) for c in nxt[a:b])
+
+    def found(i, run, sized):
+        cut, _ = split_rows(lines, source=path, delimiter=delimiter or "")
+        body = [r for r in cut if r[0] > whole[i][0]]
+        return whole[: i + 1] + body, i, run, encoding, sized
+
+    named = None
     for i, (_, cells) in enumerate(whole[:200]):
+        run = _named_run(cells)
+        if run is not None and numbers_below(i, *run):
+            named = (i, run)
         run = _numeric_run(cells)
-        if run is None or i + 1 >= len(whole):
+        if run is None:
             continue
         a, b = run
         others = [c for k, c in enumerate(cells) if not a <= k < b and c.strip()]
-        nxt = whole[i + 1][1]
         if (
             all(len(r) < b for _, r in whole[:i])
             and others
             and not any(is_number(c) for c in others)
-            and len(nxt) >= b
-            and all(is_number(c) for c in nxt[a:b])
+            and numbers_below(i, a, b)
         ):
-            cut, _ = split_rows(lines, source=path, delimiter=delimiter or "")
-            body = [r for r in cut if r[0] > whole[i][0]]
-            return whole[: i + 1] + body, i, run, encoding
-    return None
+            return found(i, run, True)
+    return None if named is None else found(*named, False)
 
 
 def _aim_edges(path, meta, mids_um):
@@ -682,6 +747,89 @@ def _aim_edges(path, meta, mids_um):
     return edges, "bin edges derived from the midpoints as geometric (log) midpoints"
 
 
+def _header_edges(path, meta, header, names, run, unit, what, syntax):
+    """(edges [µm], unit, unit_from, note) of a wide header of bin midpoints."""
+    a, b = run
+    mids = np.array([_mid_cell(header[k])[0] for k in range(a, b)])
+    cell_units = {_mid_cell(header[k])[1] for k in range(a, b)} - {None}
+    sized = [h for h in names if h.lower().startswith(_SIZED)]
+    named = [u for u in (header_unit(h)[0] for h in sized) if u is not None]
+    named += list(cell_units)
+    if len({length_factor(u) for u in named}) > 1:
+        raise DataFormatError(
+            f"the header names different length units ({sorted(set(named))}); "
+            "allowed: one unit",
+            source=path,
+            field="unit",
+        )
+    from_file = named[0] if named else None
+    if unit is None and from_file is None:
+        raise _ask(
+            path,
+            f"the {what} does not say the unit of its bin midpoints "
+            f"({header[a].strip()}..{header[b - 1].strip()})",
+            [("unit", "nm", "e.g. an SMPS"), ("unit", "um", "e.g. an APS or OPC")],
+            syntax,
+            field="unit",
+        )
+    if (
+        unit is not None
+        and from_file is not None
+        and length_factor(unit) != length_factor(from_file)
+    ):
+        raise DataFormatError(
+            f"the header gives the unit {from_file!r} but the unit given is "
+            f"{unit!r}; allowed: the same unit, or leave it out",
+            source=path,
+            field="unit",
+        )
+    unit_from = "argument" if unit is not None else "header"
+    unit = unit or from_file
+    edges, note = _aim_edges(path, meta, mids * (length_factor(unit) / 1e-6))
+    return edges, unit, unit_from, note
+
+
+def _given_edges(path, edges_um, header, run, unit, syntax):
+    """The `edges_um` given for the bin columns ``bin0, bin1, ...`` (run)."""
+    a, b = run
+    k = b - a
+    if edges_um is None:
+        example = "0.35,0.46,..." if syntax == "cli" else "[0.35, 0.46, ...]"
+        raise _ask(
+            path,
+            f"the bin columns {header[a].strip()}..{header[b - 1].strip()} do not "
+            f"give their sizes; give the {k + 1} bin boundaries in um (from the "
+            "instrument's manual or calibration)",
+            [("edges_um", example, f"{k + 1} increasing boundaries")],
+            syntax,
+            field="edges_um",
+        )
+    if unit is not None:
+        raise DataFormatError(
+            f"unit {unit!r} is for diameters in the file; edges_um are in "
+            "micrometres; leave the unit out",
+            source=path,
+            field="unit",
+        )
+    try:
+        edges = np.asarray(edges_um, float).ravel()
+    except (TypeError, ValueError):
+        edges = np.array([math.nan])
+    if (
+        edges.size != k + 1
+        or not np.all(np.isfinite(edges) & (edges > 0))
+        or np.any(np.diff(edges) <= 0)
+    ):
+        raise DataFormatError(
+            f"edges_um {list(np.atleast_1d(edges_um))} do not bound the {k} bin "
+            f"columns {header[a].strip()}..{header[b - 1].strip()}; allowed: "
+            f"{k + 1} increasing boundaries > 0 in um",
+            source=path,
+            field="edges_um",
+        )
+    return edges
+
+
 def _label_column(header):
     """Index of the Sample # column of a wide header, else None."""
     for k, h in enumerate(header):
@@ -690,9 +838,9 @@ def _label_column(header):
     return None
 
 
-def _read_wide(path, found, *, values, sample, unit, syntax):
-    rows, i, (a, b), encoding = found
-    header_line, header = rows[i]
+def _read_wide(path, found, *, values, sample, unit, edges_um, syntax):
+    rows, i, (a, b), encoding, sized = found
+    header = rows[i][1]
     meta = {c[0].strip().lower(): c[1:] for _, c in rows[:i] if c}
     data = [(line, cells) for line, cells in rows[i + 1 :] if any(cells)]
     aim = "units" in meta and "weight" in meta
@@ -704,8 +852,8 @@ def _read_wide(path, found, *, values, sample, unit, syntax):
     else:
         raise _ask(
             path,
-            f"the {what} (one sample per row, the bin midpoints {header[a].strip()}"
-            f"..{header[b - 1].strip()} as column headers) does not say what its "
+            f"the {what} (one sample per row, the bins {header[a].strip()}.."
+            f"{header[b - 1].strip()} as column headers) does not say what its "
             "values are",
             _values_choices(),
             syntax,
@@ -740,50 +888,32 @@ def _read_wide(path, found, *, values, sample, unit, syntax):
                 minimum=0.0,
                 strict=False,
             )
-    mids = np.array([_mid_cell(header[k])[0] for k in range(a, b)])
-    cell_units = {_mid_cell(header[k])[1] for k in range(a, b)} - {None}
-    sized = [h for h in names if h.lower().startswith(_SIZED)]
-    named = [u for u in (header_unit(h)[0] for h in sized) if u is not None]
-    named += [u for u in cell_units]
-    factors = {length_factor(u) for u in named}
-    if len(factors) > 1:
-        raise DataFormatError(
-            f"the header names different length units ({sorted(set(named))}); "
-            "allowed: one unit",
-            source=path,
-            line=header_line,
-            field="unit",
+    if sized:
+        if edges_um is not None:
+            raise DataFormatError(
+                "edges_um is for wide exports whose bin columns do not give sizes "
+                f"(bin0, bin1, ...); this one's headers are the midpoints "
+                f"{header[a].strip()}..{header[b - 1].strip()}; leave it out",
+                source=path,
+                field="edges_um",
+            )
+        edges, unit, unit_from, how_edges = _header_edges(
+            path, meta, header, names, (a, b), unit, what, syntax
         )
-    from_file = named[0] if named else None
-    if unit is None and from_file is None:
-        raise _ask(
-            path,
-            f"the {what} does not say the unit of its bin midpoints "
-            f"({header[a].strip()}..{header[b - 1].strip()})",
-            [("unit", "nm", "e.g. an SMPS"), ("unit", "um", "e.g. an APS or OPC")],
-            syntax,
-            field="unit",
-        )
-    if (
-        unit is not None
-        and from_file is not None
-        and length_factor(unit) != length_factor(from_file)
-    ):
-        raise DataFormatError(
-            f"the header gives the unit {from_file!r} but the unit given is "
-            f"{unit!r}; allowed: the same unit, or leave it out",
-            source=path,
-            field="unit",
-        )
-    unit_from = "argument" if unit is not None else "header"
-    unit = unit or from_file
-    mids_um = mids * (length_factor(unit) / 1e-6)
-    edges, how_edges = _aim_edges(path, meta, mids_um)
+    else:
+        edges = _given_edges(path, edges_um, header, (a, b), unit, syntax)
+        unit, unit_from = "um", "argument"
+        how_edges = f"bin edges as given ({edges.size} edges_um)"
+    mids_um = np.sqrt(edges[:-1] * edges[1:])
     _check_plausible(path, "bin midpoints", mids_um * 1e-6, unit, unit_from)
+    shown = (
+        f"the {mids_um.size} bin midpoints in {unit}"
+        if sized
+        else (f"the {mids_um.size} bins {header[a].strip()}..{header[b - 1].strip()}")
+    )
     notes = [
         f"{'TSI AIM row' if aim else 'wide'} export ({encoding}, one sample per row, "
-        f"the {mids.size} bin midpoints in {unit} as column headers), {chosen} of "
-        f"{len(labels)}; {how_edges}",
+        f"{shown} as column headers), {chosen} of {len(labels)}; {how_edges}",
     ]
     skipped = [h for h in names[:a] if h.startswith("<")] + [
         h for h in names[b:] if h.startswith(">")
@@ -809,7 +939,7 @@ def _read_wide(path, found, *, values, sample, unit, syntax):
         "value_column": None,
         "unit": unit,
         "unit_from": unit_from,
-        "n_bins": int(mids.size),
+        "n_bins": int(mids_um.size),
         "samples": labels,
         "sample": _sample_key(labels, idx, how, sample),
         "selection": chosen,
@@ -967,7 +1097,7 @@ def _read_aim(path, found, *, values, sample, unit, syntax):
         "values": kind,
         "unit": unit,
         "unit_from": unit_from,
-        "n_bins": int(mids.size),
+        "n_bins": int(mids_um.size),
         "samples": labels,
         "sample": _sample_key(labels, cols, how, sample),
         "selection": chosen,
@@ -1109,6 +1239,7 @@ def read_size_data(
     unit=None,
     sample=None,
     sampled_volume_cm3=None,
+    edges_um=None,
     syntax="python",
 ):
     """Read size data of any layout: raw diameters or size bins.
@@ -1145,6 +1276,13 @@ def read_size_data(
             width = len(header) if header else len(data[0][1]) if data else 1
             layout = _layout(path, header, width, None, syntax)
     if layout == "diameters":
+        if edges_um is not None:
+            raise DataFormatError(
+                "edges_um is for wide exports of size bins named bin0, bin1, ...; "
+                "the file holds raw diameters; leave it out",
+                source=path,
+                field="edges_um",
+            )
         if sample is not None:
             raise DataFormatError(
                 "sample is for exports holding several samples of size bins; the "
@@ -1176,5 +1314,6 @@ def read_size_data(
         unit=unit,
         sample=sample,
         sampled_volume_cm3=sampled_volume_cm3,
+        edges_um=edges_um,
         syntax=syntax,
     )
