@@ -8,13 +8,15 @@ chi-squared test's size on Poisson-counted bins."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 from scipy import stats
-from test_size_exports import DATA
+from test_size_exports import DATA, OPC_BOUNDS_UM
 
 from microimpact.errors import DataFormatError
 from microimpact.io.size_bins import read_size_bins, read_size_data
@@ -156,13 +158,51 @@ def test_wide_header_with_units_in_the_cells(write_file):
         read_size_bins(path, values="dN", unit="um")
 
 
-def test_bin_names_without_sizes_are_not_a_wide_export(write_file):
-    """``bin0, bin1, ...`` headers: a data row of increasing counts under them is
-    not taken for a header of midpoints (the header row spans the columns)."""
-    text = "timestamp,bin0,bin1,bin2,bin3\nt1,1,2,3,4\nt2,5,6,7,8\n"
-    with pytest.raises(DataFormatError) as exc:
-        read_size_bins(write_file("bins.csv", text))
-    assert "wide" not in str(exc.value) and "midpoints 1..4" not in str(exc.value)
+def test_bin_names_take_the_edges_given(write_file):
+    """``bin0, bin1, ...`` headers give no sizes: the edges are asked for (in the
+    caller's syntax); a data row of increasing counts under them is not taken for
+    a header of midpoints."""
+    text = "timestamp,bin0,bin1,bin2,bin3\nt1,1,2,3,4\nt2,5,6,7,9\n"
+    path = write_file("bins.csv", text)
+    with pytest.raises(DataFormatError, match="do not give their sizes") as exc:
+        read_size_bins(path, values="count", sample="sum", syntax="cli")
+    assert "--edges-um '0.35,0.46,...'" in str(exc.value) and "5 " in str(exc.value)
+    with pytest.raises(
+        DataFormatError, match=re.escape("edges_um = [0.35, 0.46, ...]")
+    ):
+        read_size_bins(path, values="count", sample="sum", syntax="toml")
+    edges = [0.3, 0.5, 1.0, 2.0, 5.0]
+    bins, meta = read_size_bins(path, values="count", sample="sum", edges_um=edges)
+    assert meta["layout"] == "wide" and meta["n_bins"] == 4
+    assert_allclose(bins.edges_um, edges)
+    assert_allclose(bins.number, [6, 8, 10, 13])
+    for bad in ([0.3, 0.5, 1.0, 2.0], [0.3, 0.5, 0.4, 2.0, 5.0], [0, 1, 2, 3, 4]):
+        with pytest.raises(DataFormatError, match="do not bound the 4 bin columns"):
+            read_size_bins(path, values="count", sample=1, edges_um=bad)
+    with pytest.raises(DataFormatError, match="edges_um are in micrometres"):
+        read_size_bins(path, values="count", sample=1, edges_um=edges, unit="nm")
+    with pytest.raises(DataFormatError, match="this file is not one"):
+        read_size_bins(write_file("lu.csv", "lower,upper,count\n1,2,3\n2,3,4\n"),
+                       edges_um=edges)  # fmt: skip
+
+
+def test_real_opcn2_log_summed_over_its_samples_is_its_total(write_file):
+    """The raw OPC-N2 log (preamble, ``Bin0..Bin15`` counts, 180 samples): summed
+    with py-smps's bin boundaries, the totals the csv module sums (the stored
+    ``opcn2_total_counts.csv``, checked against the log in test_size_exports)."""
+    total, _ = read_size_bins(DATA / "opcn2_total_counts.csv")
+    bins, meta = read_size_bins(
+        DATA / "opcn2_pysmps.csv", values="count", sample="sum", edges_um=OPC_BOUNDS_UM
+    )
+    assert meta["layout"] == "wide" and len(meta["samples"]) == 180
+    assert bins.counted and bins.total == 34047
+    assert_allclose(bins.number, total.number)
+    _, meta = read_size_bins(
+        DATA / "opcn2_pysmps.csv", values="count", sample=1, edges_um=OPC_BOUNDS_UM
+    )
+    # the instrument's own per-sample columns are kept, not taken for bins
+    assert meta["instrument_statistics"]["SFR(ml/s)"] == pytest.approx(3.083)
+    assert meta["instrument_statistics"]["SamplingPeriod(s)"] == pytest.approx(1.398)
 
 
 # -- a '#' in a header -----------------------------------------------------------------
