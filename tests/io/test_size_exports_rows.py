@@ -205,6 +205,41 @@ def test_real_opcn2_log_summed_over_its_samples_is_its_total(write_file):
     assert meta["instrument_statistics"]["SamplingPeriod(s)"] == pytest.approx(1.398)
 
 
+OPCN3 = DATA / "modulair_pm_opcn3_pysmps.csv"
+#: py-smps's OPC-N3 (and MODULAIR-PM) bin boundaries [um]
+OPCN3_EDGES = [0.35, 0.46, 0.66, 1.0, 1.3, 1.7, 2.3, 3.0, 4.0, 5.2, 6.5, 8.0, 10.0,
+               12.0, 14.0, 16.0, 18.0, 20.0, 22.0, 25.0, 28.0, 31.0, 34.0, 37.0,
+               40.0]  # fmt: skip
+
+
+def test_opcn3_log_matches_py_smps_statistics():
+    """A real MODULAIR-PM (OPC-N3) log, ``bin0..bin23`` concentrations: each of its
+    30 samples read with py-smps's boundaries gives py-smps's own number total,
+    geometric mean and GSD (py-smps weights the *arithmetic* bin midpoints; with
+    the geometric midpoints used here the GM differs by at most 1.1 %)."""
+    want = np.genfromtxt(
+        DATA / "modulair_pm_opcn3_pysmps_stats.csv",
+        delimiter=",",
+        names=True,
+        skip_header=1,
+    )
+    assert want.size == 30
+    for row in want:
+        bins, meta = read_size_bins(
+            OPCN3, values="dN", sample=int(row["sample"]), edges_um=OPCN3_EDGES
+        )
+        assert meta["layout"] == "wide" and bins.number.size == 24
+        assert_allclose(bins.total, row["number"], rtol=1e-9)
+        w = bins.number / bins.total
+        arith = 0.5 * (bins.edges_um[:-1] + bins.edges_um[1:])
+        gm = np.exp(np.sum(w * np.log(arith)))
+        gsd = np.exp(np.sqrt(np.sum(w * np.log(arith / gm) ** 2)))
+        assert_allclose(gm * 1e3, row["GM_nm"], rtol=1e-9)
+        assert_allclose(gsd, row["GSD"], rtol=1e-9)
+        gm_geo = np.exp(np.sum(w * np.log(bins.midpoints_um)))
+        assert abs(gm_geo * 1e3 / row["GM_nm"] - 1) < 0.011
+
+
 # -- a '#' in a header -----------------------------------------------------------------
 def test_hash_in_a_header_is_not_a_comment(write_file):
     counts = _lognormal_counts(1e4)
