@@ -109,8 +109,9 @@ def _rows(path):
     trailing ``# ...`` comments cut from the rows below it."""
     lines, _ = _text_lines(path)
     rows, delimiter = split_rows(lines, source=path, delimiter=SNIFF)
+    head = lines[: rows[0][0]] if rows else []  # up to the first data row
     whole, _ = split_rows(
-        lines, source=path, delimiter=delimiter or "", trailing_comments=False
+        head, source=path, delimiter=delimiter or "", trailing_comments=False
     )
     if rows and whole and whole[0][0] == rows[0][0] and looks_like_header(whole[0][1]):
         rows[0] = whole[0]
@@ -688,8 +689,8 @@ def _wide_rows(path):
     sniffed = [sniff_delimiter(t) for _, t in data_lines(lines[:200])]
     sniffed = [d for d in sniffed if d]  # a preamble line may have no delimiter
     delimiter = max(set(sniffed), key=sniffed.count) if sniffed else SNIFF
-    whole, delimiter = split_rows(
-        lines, source=path, delimiter=delimiter, trailing_comments=False
+    whole, delimiter = split_rows(  # the head only: a long file is split once
+        lines[:400], source=path, delimiter=delimiter, trailing_comments=False
     )
 
     def numbers_below(i, a, b):
