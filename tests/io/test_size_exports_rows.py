@@ -79,6 +79,48 @@ def test_aim_row_export_edges_are_the_channel_grid():
     assert "grid of 64 channels per decade" in bins.notes[0]
 
 
+#: The channel midpoints [um] an APS 3321 row export names (32 per decade).
+APS_MIDS_UM = [0.542, 0.583, 0.626, 0.673, 0.723, 0.777, 0.835, 0.898, 0.965, 1.037,
+               1.114, 1.197, 1.286, 1.382, 1.486, 1.596, 1.715, 1.843, 1.981, 2.129,
+               2.288, 2.458, 2.642, 2.839, 3.051, 3.278, 3.523, 3.786, 4.068, 4.371,
+               4.698, 5.048, 5.425, 5.829, 6.264, 6.732, 7.234, 7.774, 8.354, 8.977,
+               9.647, 10.37, 11.14, 11.97, 12.86, 13.82, 14.86, 15.96, 17.15, 18.43,
+               19.81]  # fmt: skip
+
+
+def _aps_row_export(dens_rows):
+    """An APS row export laid out as AIM writes one: the preamble, the header with
+    the open-ended ``<0.523`` channel, the 51 channels, instrument columns and the
+    statistics (``Median(µm)`` names the unit), one row per sample."""
+    head = ["Sample #", "Date", "Start Time", "Aerodynamic Diameter", "<0.523"]
+    head += [f"{m:g}" for m in APS_MIDS_UM]
+    head += ["Event 1", "Total Flow", "Median(µm)", "Geo. Std. Dev.", "Total Conc."]
+    lines = ["Instrument,3321 APS", "Channels/Decade,32", "Units,dw/dlogDp",
+             "Weight,Number", ",".join(head)]  # fmt: skip
+    for k, dens in enumerate(dens_rows):
+        cells = [str(k + 1), "06/12/26", f"10:{k:02d}:00", "", "9999"]
+        cells += [f"{v:.8g}" for v in dens] + ["12", "5.0", "2.0", "1.7", "850"]
+        lines.append(",".join(cells))
+    return "\n".join(lines) + "\n"
+
+
+def test_aps_row_export_skips_the_open_ended_channel(write_file):
+    edges = 10 ** (np.log10(APS_MIDS_UM[0]) + (np.arange(52) - 0.5) / 32)
+    cdf = stats.lognorm(np.log(1.7), scale=2.0).cdf(edges)
+    conc = 500.0 * np.diff(cdf)  # per cm3 in each channel
+    dens = conc * 32  # dN/dlogDp on 1/32-decade channels
+    path = write_file("aps_rows.txt", _aps_row_export([dens, 2 * dens]))
+    bins, meta = read_size_bins(path, sample="mean")
+    assert meta["layout"] == "aim-rows" and meta["unit"] == "µm"
+    assert bins.number.size == 51 and bins.values == "dN/dlogDp"
+    assert_allclose(bins.edges_um, edges, rtol=3e-3)  # midpoints printed to 4 digits
+    assert_allclose(bins.number, 1.5 * conc, rtol=1e-6)  # '<0.523' (9999) not read
+    assert any("'<0.523'" in n and "not read" in n for n in bins.notes)
+    # an APS counts every particle: 1 L/min for 20 s is 333.3 cm3 per sample
+    counted, _ = read_size_bins(path, sample="sum", sampled_volume_cm3=1000 / 3)
+    assert_allclose(counted.total, 3 * 500 * np.ptp(cdf) * 1000 / 3, rtol=1e-6)
+
+
 # -- choosing samples ------------------------------------------------------------------
 def test_sample_mean_sum_and_ranges_combine_the_single_samples():
     each = np.array([read_size_bins(ROW10, sample=k)[0].number for k in range(1, 21)])

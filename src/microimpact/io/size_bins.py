@@ -626,9 +626,25 @@ def _aggregate(table, how):
 _MID_CELL = re.compile(
     r"^\s*(\d+(?:\.\d*)?(?:[eE][-+]?\d+)?)\s*(um|µm|μm|nm)?\s*$", re.IGNORECASE
 )
-#: Header names of a wide export whose unit is the midpoints' (AIM's marker
-#: column ``Diameter Midpoint (nm)`` and the sized range ``Lower Size(nm)``).
-_SIZED = ("diameter midpoint", "aerodynamic diameter", "lower size", "upper size")
+#: Header names (without their unit) of a wide export whose unit is the
+#: midpoints': AIM's marker column ``Diameter Midpoint (nm)``, the sized range
+#: ``Lower Size(nm)`` and its statistics ``Median(µm)``, ``Geo. Mean(nm)``, ...
+_SIZED = {
+    "diameter midpoint",
+    "aerodynamic diameter",
+    "lower size",
+    "upper size",
+    "median",
+    "mean",
+    "geo. mean",
+    "mode",
+    "d50",
+}
+
+
+def _sized(name):
+    """True if header `name` is a diameter whose unit is the midpoints'."""
+    return re.sub(r"\s*[\(\[].*$", "", name).strip().lower() in _SIZED
 
 
 def _mid_cell(cell):
@@ -753,7 +769,7 @@ def _header_edges(path, meta, header, names, run, unit, what, syntax):
     a, b = run
     mids = np.array([_mid_cell(header[k])[0] for k in range(a, b)])
     cell_units = {_mid_cell(header[k])[1] for k in range(a, b)} - {None}
-    sized = [h for h in names if h.lower().startswith(_SIZED)]
+    sized = [h for h in names if _sized(h)]
     named = [u for u in (header_unit(h)[0] for h in sized) if u is not None]
     named += list(cell_units)
     if len({length_factor(u) for u in named}) > 1:
