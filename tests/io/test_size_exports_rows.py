@@ -121,6 +121,18 @@ def test_aps_row_export_skips_the_open_ended_channel(write_file):
     assert_allclose(counted.total, 3 * 500 * np.ptp(cdf) * 1000 / 3, rtol=1e-6)
 
 
+def test_tab_delimited_aim_row_export_reads_the_same(tmp_path):
+    """AIM also exports tab-delimited text; the preamble's lines hold one cell."""
+    tabbed = tmp_path / "rows_tab.txt"
+    tabbed.write_bytes(ROW10.read_bytes().replace(b",", b"\t"))
+    for sample in ("1", "sum 2..9"):
+        want, _ = read_size_bins(ROW10, sample=sample)
+        got, meta = read_size_bins(tabbed, sample=sample)
+        assert meta["layout"] == "aim-rows"
+        assert_allclose(got.number, want.number)
+        assert_allclose(got.edges_um, want.edges_um)
+
+
 # -- choosing samples ------------------------------------------------------------------
 def test_sample_mean_sum_and_ranges_combine_the_single_samples():
     each = np.array([read_size_bins(ROW10, sample=k)[0].number for k in range(1, 21)])
