@@ -294,6 +294,32 @@ def test_opcn3_log_matches_py_smps_statistics():
         assert abs(gm_geo * 1e3 / row["GM_nm"] - 1) < 0.011
 
 
+def test_a_time_range_of_a_log_selects_its_samples_in_any_order():
+    """The MODULAIR-PM log runs newest first, one sample a minute from 21:27:30Z
+    (row 1): 21:20:30Z..21:25:30Z are rows 3 to 8."""
+    kw = {"values": "dN", "edges_um": OPCN3_EDGES}
+    want, _ = read_size_bins(OPCN3, sample="3..8", **kw)
+    got, meta = read_size_bins(
+        OPCN3, sample="2022-02-15T21:20:30Z..2022-02-15T21:25:30Z", **kw
+    )
+    assert_allclose(got.number, want.number)
+    assert meta["n_samples_used"] == 6 and "timed" in meta["selection"]
+    summed, _ = read_size_bins(
+        OPCN3, sample="sum 2022-02-15T21:20Z..2022-02-15T21:25:59+00:00", **kw
+    )
+    assert_allclose(summed.number, 6 * want.number)
+    with pytest.raises(DataFormatError, match="--sample '2022-02-15T20:58:30"):
+        read_size_bins(OPCN3, syntax="cli", **kw)
+    for sample, words in (
+        ("2022-02-15T21:20..2022-02-15T21:25", "do not both name a time zone"),
+        ("2023-01-01T00:00Z..2023-01-02T00:00Z", "its samples run from"),
+        ("2022-02-15T21:25Z..2022-02-15T21:20Z", "runs backwards"),
+        ("noon..2022-02-15T21:25Z", "neither a Sample # nor an ISO 8601 time"),
+    ):
+        with pytest.raises(DataFormatError, match=re.escape(words)):
+            read_size_bins(OPCN3, sample=sample, **kw)
+
+
 # -- a '#' in a header -----------------------------------------------------------------
 def test_hash_in_a_header_is_not_a_comment(write_file):
     counts = _lognormal_counts(1e4)

@@ -58,7 +58,8 @@ def cli_parse(sp):
         metavar="N|A..B|mean|sum",
         help="an export holding several samples (TSI AIM column or row export, a "
         "wide time series): the Sample # (else the row number) to read, 'A..B' for "
-        "the mean of samples A to B, 'sum A..B', or 'mean'/'sum' of all",
+        "the mean of samples A to B (A, B also ISO 8601 times for a log with a "
+        "timestamp column), 'sum A..B', or 'mean'/'sum' of all",
     )
     sp.add_argument(
         "--edges-um",

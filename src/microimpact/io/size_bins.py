@@ -40,6 +40,7 @@ import math
 import os
 import re
 from dataclasses import replace
+from datetime import datetime
 
 import numpy as np
 
@@ -549,33 +550,51 @@ def _read_bins(path, layout, values, column, unit, sample, edges_um, syntax):
 
 
 # -- choosing samples (AIM exports, wide time series) -------------------------------
-_RANGE = re.compile(r"^(?:(mean|sum)\s+)?(\S+?)\s*\.\.\s*(\S+)$", re.IGNORECASE)
+_RANGE = re.compile(r"^(?:(mean|sum)\s+)?(.+?)\s*\.\.\s*(.+)$", re.IGNORECASE)
 
 
-def _select(path, labels, sample, syntax, what):
+def _iso_time(text):
+    """A datetime of ISO 8601 `text` (``2022-02-15T21:20:30Z``), else None."""
+    try:
+        return datetime.fromisoformat(text.strip())
+    except ValueError:
+        return None
+
+
+def _select(path, labels, sample, syntax, what, times=None):
     """(indices, how, text) of the samples `sample` chooses among `labels`.
 
     `sample` is a label (a Sample #, else the 1-based row number), ``"mean"`` or
     ``"sum"`` (of all), ``"A..B"`` (the mean of samples A to B, inclusive) or
-    ``"sum A..B"``/``"mean A..B"``; `how` is ``"one"``, ``"mean"`` or ``"sum"``."""
+    ``"sum A..B"``/``"mean A..B"``; with `times` (the ISO 8601 timestamps of the
+    samples, else None) A and B may also be times: the samples from A to B
+    inclusive, in any file order. `how` is ``"one"``, ``"mean"`` or ``"sum"``."""
     first = int(labels[0]) if labels[0].isdigit() else labels[0]
     if sample is None:
         if len(labels) == 1:
             return [0], "one", f"sample {labels[0]}"
+        choices = [
+            ("sample", first, "one sample: its Sample #, else its row number"),
+            ("sample", "mean", "the mean of all samples"),
+            ("sample", "sum", "the sum of all samples"),
+            ("sample", f"{labels[0]}..{labels[-1]}", "the mean of a range"),
+        ]
+        if times is not None:
+            span = f"{min(times).isoformat()}..{max(times).isoformat()}"
+            choices.append(("sample", span, "the mean of a time range"))
         raise _ask(
             path,
             f"the {what} holds {len(labels)} samples ({labels[0]}..{labels[-1]})",
-            [
-                ("sample", first, "one sample: its Sample #, else its row number"),
-                ("sample", "mean", "the mean of all samples"),
-                ("sample", "sum", "the sum of all samples"),
-                ("sample", f"{labels[0]}..{labels[-1]}", "the mean of a range"),
-            ],
+            choices,
             syntax,
             field="sample",
         )
     text = str(sample).strip()
     low = text.lower()
+    allowed = (
+        f"allowed: a Sample # ({labels[0]}..{labels[-1]}), 'mean', 'sum', 'A..B' or "
+        "'sum A..B'" + (" (A, B Sample #s or ISO 8601 times)" if times else "")
+    )
     if low in ("mean", "sum"):
         idx, how = list(range(len(labels))), low
     else:
@@ -585,11 +604,12 @@ def _select(path, labels, sample, syntax, what):
             ends = [m.group(2), m.group(3)]
         else:
             how, ends = "one", [text, text]
+        if m and times is not None and not all(e in labels for e in ends):
+            return _select_times(path, times, ends, how, what, allowed)
         missing = [e for e in ends if e not in labels]
         if missing:
             raise DataFormatError(
-                f"sample {missing[0]!r} is not in the {what}; allowed: a Sample # "
-                f"({labels[0]}..{labels[-1]}), 'mean', 'sum', 'A..B' or 'sum A..B'",
+                f"sample {missing[0]!r} is not in the {what}; {allowed}",
                 source=path,
                 field="sample",
             )
@@ -606,6 +626,46 @@ def _select(path, labels, sample, syntax, what):
         return idx, "one", f"sample {labels[idx[0]]}"
     span = f"samples {labels[idx[0]]}..{labels[idx[-1]]}"
     return idx, how, f"the {how} of {span} ({len(idx)} samples)"
+
+
+def _select_times(path, times, ends, how, what, allowed):
+    """:func:`_select` of the samples timed from ``ends[0]`` to ``ends[1]``."""
+    lo, hi = (_iso_time(e) for e in ends)
+    if lo is None or hi is None:
+        bad = ends[0] if lo is None else ends[1]
+        raise DataFormatError(
+            f"sample range end {bad!r} is neither a Sample # nor an ISO 8601 time; "
+            f"{allowed}",
+            source=path,
+            field="sample",
+        )
+    aware = {t.tzinfo is not None for t in (*times, lo, hi)}
+    if len(aware) > 1:
+        raise DataFormatError(
+            f"the times {ends[0]!r}..{ends[1]!r} and the {what}'s timestamps do not "
+            "both name a time zone; allowed: both with (e.g. Z, +02:00) or both "
+            "without",
+            source=path,
+            field="sample",
+        )
+    if lo > hi:
+        raise DataFormatError(
+            f"sample range {ends[0]}..{ends[1]} runs backwards; allowed: A..B with "
+            "A not after B",
+            source=path,
+            field="sample",
+        )
+    idx = [r for r, t in enumerate(times) if lo <= t <= hi]
+    if not idx:
+        raise DataFormatError(
+            f"no sample of the {what} is timed from {ends[0]} to {ends[1]}; its "
+            f"samples run from {min(times).isoformat()} to {max(times).isoformat()}",
+            source=path,
+            field="sample",
+        )
+    if len(idx) == 1:
+        return idx, "one", f"the sample at {times[idx[0]].isoformat()}"
+    return idx, how, (f"the {how} of the {len(idx)} samples timed {ends[0]}..{ends[1]}")
 
 
 def _sample_key(labels, idx, how, sample):
@@ -847,6 +907,29 @@ def _given_edges(path, edges_um, header, run, unit, syntax):
     return edges
 
 
+#: Names (folded) of a wide export's timestamp column.
+_TIME_NAMES = {
+    "timestamp",
+    "time",
+    "datetime",
+    "timestamputc",
+    "timeutc",
+    "datetimeutc",
+}
+
+
+def _timestamps(header, data):
+    """The ISO 8601 times of the samples (the column named ``timestamp``,
+    ``time`` or ``datetime``), else None (no such column, or a cell that is not
+    one)."""
+    cols = [k for k, h in enumerate(header) if _key(h) in _TIME_NAMES]
+    if not cols:
+        return None
+    k = cols[0]
+    times = [_iso_time(c[k]) if k < len(c) else None for _, c in data]
+    return None if not times or any(t is None for t in times) else times
+
+
 def _label_column(header):
     """Index of the Sample # column of a wide header, else None."""
     for k, h in enumerate(header):
@@ -883,7 +966,9 @@ def _read_wide(path, found, *, values, sample, unit, edges_um, syntax):
         labels = [c[label_col].strip() if label_col < len(c) else "" for _, c in data]
         if len(set(labels)) != len(labels) or "" in labels:
             labels = [str(r + 1) for r in range(len(data))]
-    idx, how, chosen = _select(path, labels, sample, syntax, what)
+    idx, how, chosen = _select(
+        path, labels, sample, syntax, what, _timestamps(header, data)
+    )
     names = [h.strip() for h in header]
     table = np.empty((b - a, len(idx)))
     for c, r in enumerate(idx):
