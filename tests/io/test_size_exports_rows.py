@@ -320,6 +320,24 @@ def test_a_time_range_of_a_log_selects_its_samples_in_any_order():
             read_size_bins(OPCN3, sample=sample, **kw)
 
 
+def test_repeated_sample_numbers_fall_back_to_rows_and_say_so(tmp_path):
+    """Two AIM row exports pasted together repeat their Sample #s."""
+    lines = ROW.read_bytes().splitlines(keepends=True)
+    twice = tmp_path / "twice.txt"
+    twice.write_bytes(b"".join(lines + lines[16:]))  # the 6 samples once more
+    bins, meta = read_size_bins(twice, sample="7..12")
+    want, _ = read_size_bins(ROW, sample="mean")
+    assert_allclose(bins.number, want.number)
+    assert meta["samples"] == [str(k) for k in range(1, 13)]
+    assert any("numbered by their row" in n for n in bins.notes)
+
+
+def test_bin_center_names_a_midpoint_column(write_file):
+    text = "Bin Center (um),dN/dlogDp\n1,5\n2,6\n4,2\n8,1\n"
+    bins, meta = read_size_bins(write_file("c.csv", text))
+    assert meta["layout"] == "midpoints" and bins.number.size == 4
+
+
 # -- a '#' in a header -----------------------------------------------------------------
 def test_hash_in_a_header_is_not_a_comment(write_file):
     counts = _lognormal_counts(1e4)

@@ -154,7 +154,7 @@ def _column_role(name: str):
         return "lower", None
     if "upper" in s or "right" in s or s in _UPPER:
         return "upper", None
-    if "mid" in s or "diam" in s or s in _MID:
+    if "mid" in s or "diam" in s or "center" in s or "centre" in s or s in _MID:
         return "mid", None
     return None, None
 
@@ -960,12 +960,17 @@ def _read_wide(path, found, *, values, sample, unit, edges_um, syntax):
             field="values",
         )
     label_col = _label_column(header)
+    numbered = []
     if label_col is None:
         labels = [str(r + 1) for r in range(len(data))]
     else:
         labels = [c[label_col].strip() if label_col < len(c) else "" for _, c in data]
         if len(set(labels)) != len(labels) or "" in labels:
             labels = [str(r + 1) for r in range(len(data))]
+            numbered = [
+                f"the {header[label_col].strip()!r} column repeats or misses "
+                "numbers: samples are numbered by their row (1, 2, ...) instead"
+            ]
     idx, how, chosen = _select(
         path, labels, sample, syntax, what, _timestamps(header, data)
     )
@@ -1016,6 +1021,7 @@ def _read_wide(path, found, *, values, sample, unit, edges_um, syntax):
     notes = [
         f"{'TSI AIM row' if aim else 'wide'} export ({encoding}, one sample per row, "
         f"{shown} as column headers), {chosen} of {len(labels)}; {how_edges}",
+        *numbered,
     ]
     skipped = [h for h in names[:a] if h.startswith("<")] + [
         h for h in names[b:] if h.startswith(">")
