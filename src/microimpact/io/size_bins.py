@@ -17,8 +17,21 @@ OPC export (edges or midpoints with counts, dN/dlogDp, dM/dlogDp, ...).
 * a TSI AIM **column export** (metadata rows, then a ``Diameter Midpoint`` row and
   one row per channel with one column per sample, then AIM's statistics rows):
   the values from its ``Units`` and ``Weight`` rows (``dw/dlogDp`` + ``Number`` is
-  dN/dlogDp), the unit from its statistics rows (``Lower Size(nm)``), one sample
-  chosen by `sample` (or their mean). Windows-1252 text (AIM's ``cm³``) is read.
+  dN/dlogDp), the unit from its statistics rows (``Lower Size(nm)``), the samples
+  chosen by `sample`. Windows-1252 text (AIM's ``cm³``) is read;
+* a **wide** export, one sample per row: a TSI AIM *row* export or an
+  instrument's time series, whose header row holds >= 3 increasing bin midpoints
+  (``Sample #, Date, ..., 21.7, 22.5, ..., Total Conc.``; ``timestamp, 0.35,
+  0.46, ...``), or bin names without sizes (``bin0, bin1, ...``: the boundaries
+  are then given as `edges_um`). The other columns are metadata.
+
+An AIM export's edges lie on its ``Channels/Decade`` grid (each channel ``1/c``
+wide in log10 d). `sample` chooses among several samples: a Sample # (else the
+row number), ``"A..B"`` (their mean), ``"sum A..B"``, ``"mean"``, ``"sum"``; A and
+B may be ISO 8601 times in a log with a ``timestamp`` column.
+`sampled_volume_cm3` turns number concentrations into counted particles (Poisson
+counting in that volume per sample, no coincidence or efficiency correction), for
+the standard errors and the chi-squared test.
 
 Value columns are recognised by name: ``dN/dlogDp``, ``dN/dlnDp``, ``dN/dDp``,
 ``dM/dlogDp`` (also ``dW/dlogDp``), ``dV/dlogDp`` and the ``/dDp``, ``/dlnDp``
@@ -31,7 +44,9 @@ one column, a file with several value columns and a value column of unknown mean
 are ambiguous: the error lists the choices and says how to pass one (``syntax``
 chooses the spelling: ``--layout edges`` for the command line, ``layout =
 "edges"`` for a scenario file, ``layout='edges'`` for Python). A headerless value
-column holds counts unless `values` says otherwise.
+column holds counts unless `values` says otherwise. A ``#`` in the header row is
+part of a name (``dN/dlogDp (#/cm3)``, ``Sample #``); below it, ``#`` starts a
+comment.
 """
 
 from __future__ import annotations
@@ -348,9 +363,22 @@ def read_size_bins(
         The value column (header name or 0-based index) when there are several.
     unit : str, optional
         Length unit of the diameters (default: the header's, else µm).
-    sample : int, str or "mean", optional
-        For a TSI AIM column export holding several samples: the Sample # to read,
-        or ``"mean"`` for their mean (needed when there are several).
+    sample : int or str, optional
+        For an export holding several samples (a TSI AIM column or row export, a
+        wide time series; needed when there are several): a Sample # (else the
+        1-based row number), ``"A..B"`` (the mean of samples A to B inclusive),
+        ``"sum A..B"``, ``"mean A..B"``, ``"mean"`` or ``"sum"`` (of all); A and B
+        may be ISO 8601 times in a log with a ``timestamp`` column.
+    sampled_volume_cm3 : float, optional
+        The air volume [cm³] in which one sample's particles were counted: the
+        number concentrations (per cm³ unless the value column names ``/L`` or
+        ``/m3``) times it are taken as counted particles (``counted=True``),
+        summed over the samples read. Assumes Poisson counting of every particle
+        in that volume; not for counts (already counted) nor mass or volume
+        weightings.
+    edges_um : array_like, optional
+        The bin boundaries [µm] of a wide export whose bin columns are named
+        without sizes (``bin0, bin1, ...``), one more than the bins.
     syntax : {"python", "cli", "toml"}
         How the asking errors spell an option.
 
@@ -359,8 +387,13 @@ def read_size_bins(
     bins : BinnedSizes
         Edges [µm] and number per bin, with notes on what was derived.
     metadata : dict
-        ``source``, ``layout``, ``header``, ``value_column``, ``values``, ``unit``,
-        ``unit_from``, ``n_bins`` and ``delimiter``.
+        ``source``, ``layout`` (``"edges"``, ``"midpoints"``, ``"aim-columns"``,
+        ``"aim-rows"``, ``"wide"``), ``header``, ``value_column``, ``values``,
+        ``unit``, ``unit_from``, ``n_bins`` and ``delimiter``; for an export of
+        several samples also ``samples`` (their labels), ``sample`` (the choice),
+        ``selection`` (in words), ``n_samples_used``, ``aggregate`` (``"one"``,
+        ``"mean"``, ``"sum"``) and ``instrument_statistics`` (the numbers the
+        export states of one sample: AIM's Total Conc., flows, ...).
 
     Raises
     ------
