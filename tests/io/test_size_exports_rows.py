@@ -456,3 +456,28 @@ def test_any_wide_table_reads_the_chosen_rows(
     assert_allclose(bins.number, want)
     assert_allclose(bins.midpoints_um, mids, rtol=1e-9)
     assert meta["n_samples_used"] == last - first + 1
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    sample=st.one_of(
+        st.text(max_size=30),
+        st.integers(-5, 30),
+        st.from_regex(
+            r"(sum |mean )?[0-9T:Z.-]{0,22}\.\.[0-9T:Z.-]{0,22}", fullmatch=True
+        ),
+    ),
+    edges=st.one_of(
+        st.none(), st.lists(st.floats(allow_nan=True, allow_infinity=True), max_size=30)
+    ),
+)
+def test_any_sample_or_edges_a_user_types_reads_or_says_why(sample, edges):
+    """Whatever `sample` and `edges_um` a user gives: the bins, or a DataFormatError
+    naming the file (never another exception)."""
+    for path, kw in ((ROW10, {}), (OPCN3, {"values": "dN", "edges_um": edges})):
+        try:
+            bins, meta = read_size_bins(path, sample=sample, **kw)
+        except DataFormatError as exc:
+            assert path.name in str(exc)
+        else:
+            assert bins.number.size > 0 and meta["n_samples_used"] >= 1
