@@ -2,11 +2,14 @@
 Fig. 2.
 
 DATA is raw diameters or a binned export (APS, SMPS, OPC: edges or midpoints with
-counts, dN/dlogDp, dM/dlogDp, ...), detected from the header
-(:func:`microimpact.io.read_size_data`; ``--layout``/``--values``/``--column``
-settle what is ambiguous). Prints which of the normal and log-normal populations
-fits better (AIC) and what the chi-squared test says of each; for bins also the
-count and mass median diameters and, with ``--density-kg-m3``, the aerodynamic ones.
+counts, dN/dlogDp, dM/dlogDp, ...; a TSI AIM column or row export; a wide time
+series), detected from the header (:func:`microimpact.io.read_size_data`;
+``--layout``/``--values``/``--column``/``--unit``/``--sample``/``--edges-um``
+settle what is ambiguous; ``--sampled-volume-cm3`` turns number concentrations
+into counted particles for the standard errors and the chi-squared test). Prints
+which of the normal and log-normal populations fits better (AIC) and what the
+chi-squared test says of each; for bins also the count and mass median diameters
+and, with ``--density-kg-m3``, the aerodynamic ones.
 ``--json`` prints the report as JSON instead. With ``--out`` writes ``sizes.json``
 (standard JSON, schema in docs/populations.md), ``particles.toml`` (the recommended
 ``[particles]`` table, ready to paste into a scenario) and the figure.
