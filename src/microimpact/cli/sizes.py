@@ -2,11 +2,14 @@
 Fig. 2.
 
 DATA is raw diameters or a binned export (APS, SMPS, OPC: edges or midpoints with
-counts, dN/dlogDp, dM/dlogDp, ...), detected from the header
-(:func:`microimpact.io.read_size_data`; ``--layout``/``--values``/``--column``
-settle what is ambiguous). Prints which of the normal and log-normal populations
-fits better (AIC) and what the chi-squared test says of each; for bins also the
-count and mass median diameters and, with ``--density-kg-m3``, the aerodynamic ones.
+counts, dN/dlogDp, dM/dlogDp, ...; a TSI AIM column or row export; a wide time
+series), detected from the header (:func:`microimpact.io.read_size_data`;
+``--layout``/``--values``/``--column``/``--unit``/``--sample``/``--edges-um``
+settle what is ambiguous; ``--sampled-volume-cm3`` turns number concentrations
+into counted particles for the standard errors and the chi-squared test). Prints
+which of the normal and log-normal populations fits better (AIC) and what the
+chi-squared test says of each; for bins also the count and mass median diameters
+and, with ``--density-kg-m3``, the aerodynamic ones.
 ``--json`` prints the report as JSON instead. With ``--out`` writes ``sizes.json``
 (standard JSON, schema in docs/populations.md), ``particles.toml`` (the recommended
 ``[particles]`` table, ready to paste into a scenario) and the figure.
@@ -14,6 +17,7 @@ count and mass median diameters and, with ``--density-kg-m3``, the aerodynamic o
 
 from __future__ import annotations
 
+import argparse
 import contextlib
 from pathlib import Path
 
@@ -54,9 +58,28 @@ def cli_parse(sp):
     sp.add_argument(
         "--sample",
         default=None,
-        metavar="N|mean",
-        help="TSI AIM column export with several samples: the Sample # to read, or "
-        "'mean' for their mean",
+        metavar="N|A..B|mean|sum",
+        help="an export holding several samples (TSI AIM column or row export, a "
+        "wide time series): the Sample # (else the row number) to read, 'A..B' for "
+        "the mean of samples A to B (A, B also ISO 8601 times for a log with a "
+        "timestamp column), 'sum A..B', or 'mean'/'sum' of all",
+    )
+    sp.add_argument(
+        "--edges-um",
+        type=edges_arg,
+        default=None,
+        metavar="B0,B1,...",
+        help="the bin boundaries [um] of a wide export whose bin columns do not give "
+        "sizes (bin0, bin1, ...): one more than the bins",
+    )
+    sp.add_argument(
+        "--sampled-volume-cm3",
+        type=c.positive_float,
+        default=None,
+        metavar="V",
+        help="air volume [cm3] in which one sample's particles were counted: turns "
+        "number concentrations into counted particles, for standard errors and the "
+        "chi-squared test (assumes Poisson counting; see docs/populations.md)",
     )
     sp.add_argument(
         "--density-kg-m3",
@@ -82,6 +105,18 @@ def cli_parse(sp):
         "unit the column's header names, e.g. diameter_um, else um)",
     )
     sp.add_argument("--alpha", type=c.fraction, default=0.05)
+
+
+def edges_arg(text):
+    """An ``--edges-um`` value: comma-separated numbers (checked by the reader)."""
+    cells = [t.strip() for t in text.replace(";", ",").split(",") if t.strip()]
+    try:
+        return [float(t) for t in cells]
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is not a list of numbers; allowed: comma-separated bin "
+            "boundaries in um, e.g. 0.35,0.46,0.66"
+        ) from None
 
 
 def column_arg(text):
@@ -115,6 +150,8 @@ def cli_action(args) -> int:
         column=column,
         unit=args.unit,
         sample=args.sample,
+        sampled_volume_cm3=args.sampled_volume_cm3,
+        edges_um=args.edges_um,
         syntax="cli",
     )
     if meta["layout"] == "diameters":

@@ -17,8 +17,21 @@ OPC export (edges or midpoints with counts, dN/dlogDp, dM/dlogDp, ...).
 * a TSI AIM **column export** (metadata rows, then a ``Diameter Midpoint`` row and
   one row per channel with one column per sample, then AIM's statistics rows):
   the values from its ``Units`` and ``Weight`` rows (``dw/dlogDp`` + ``Number`` is
-  dN/dlogDp), the unit from its statistics rows (``Lower Size(nm)``), one sample
-  chosen by `sample` (or their mean). Windows-1252 text (AIM's ``cm³``) is read.
+  dN/dlogDp), the unit from its statistics rows (``Lower Size(nm)``), the samples
+  chosen by `sample`. Windows-1252 text (AIM's ``cm³``) is read;
+* a **wide** export, one sample per row: a TSI AIM *row* export or an
+  instrument's time series, whose header row holds >= 3 increasing bin midpoints
+  (``Sample #, Date, ..., 21.7, 22.5, ..., Total Conc.``; ``timestamp, 0.35,
+  0.46, ...``), or bin names without sizes (``bin0, bin1, ...``: the boundaries
+  are then given as `edges_um`). The other columns are metadata.
+
+An AIM export's edges lie on its ``Channels/Decade`` grid (each channel ``1/c``
+wide in log10 d). `sample` chooses among several samples: a Sample # (else the
+row number), ``"A..B"`` (their mean), ``"sum A..B"``, ``"mean"``, ``"sum"``; A and
+B may be ISO 8601 times in a log with a ``timestamp`` column.
+`sampled_volume_cm3` turns number concentrations into counted particles (Poisson
+counting in that volume per sample, no coincidence or efficiency correction), for
+the standard errors and the chi-squared test.
 
 Value columns are recognised by name: ``dN/dlogDp``, ``dN/dlnDp``, ``dN/dDp``,
 ``dM/dlogDp`` (also ``dW/dlogDp``), ``dV/dlogDp`` and the ``/dDp``, ``/dlnDp``
@@ -31,7 +44,9 @@ one column, a file with several value columns and a value column of unknown mean
 are ambiguous: the error lists the choices and says how to pass one (``syntax``
 chooses the spelling: ``--layout edges`` for the command line, ``layout =
 "edges"`` for a scenario file, ``layout='edges'`` for Python). A headerless value
-column holds counts unless `values` says otherwise.
+column holds counts unless `values` says otherwise. A ``#`` in the header row is
+part of a name (``dN/dlogDp (#/cm3)``, ``Sample #``); below it, ``#`` starts a
+comment.
 """
 
 from __future__ import annotations
@@ -45,21 +60,27 @@ import numpy as np
 from .._core.files import (
     SNIFF,
     delimiter_name,
-    is_number,
-    read_lines,
-    read_rows,
+    looks_like_header,
     resolve_column,
     split_rows,
 )
-from .._core.validation import check_choice
+from .._core.validation import check_choice, check_scalar
 from ..errors import DataFormatError
 from ..population.binned import (
     BIN_VALUES,
-    BinnedSizes,
     edges_from_midpoints,
-    number_per_bin,
 )
 from ..units import length_factor
+from ._size_common import (
+    _SYNTAX,
+    _ask,
+    _bins,
+    _key,
+    _text_lines,
+    _values_choices,
+)
+from ._size_exports import _aim_rows, _read_aim, _read_wide, _wide_rows
+from ._size_select import _counted
 from .diameters import (
     _check_plausible,
     _number,
@@ -74,8 +95,7 @@ __all__ = ["SIZE_LAYOUTS", "read_size_bins", "read_size_data"]
 
 #: How a size file may be laid out.
 SIZE_LAYOUTS = ("diameters", "edges", "midpoints")
-_SYNTAX = ("python", "cli", "toml")
-_HINT = "; expected delimited text"
+
 
 _DENSITY = re.compile(r"^d([nmvw])/?d(log10|log|ln)?(dp|d)$")
 _PER_BIN = {
@@ -94,29 +114,26 @@ _PER_BIN = {
     "volume": "volume",
     "dv": "dV",
 }
+
+
 _LOWER = {"lo", "dplo", "dlo", "dmin", "dpmin", "min", "from"}
 _UPPER = {"hi", "dphi", "dhi", "dmax", "dpmax", "max", "to"}
 _MID = {"dp", "d", "size", "dg", "dpmid"}
-_UNIT_SUFFIX = re.compile(r"[_\s/]+(um|µm|μm|nm|mm|cm|m)$", re.IGNORECASE)
 
 
-def _option(name, value, syntax):
-    """How the user passes option `name` = `value` in `syntax`."""
-    if syntax == "cli":
-        shown = value if re.fullmatch(r"[\w./-]+", str(value)) else f"'{value}'"
-        return f"--{name.replace('_', '-')} {shown}"
-    if syntax == "toml":
-        shown = value if isinstance(value, int) else f'"{value}"'
-        return f"{name} = {shown}"
-    return f"{name}={value!r}"
-
-
-def _key(name: str) -> str:
-    """A header name folded for matching: no bracketed unit, no unit suffix, lower
-    case, no spaces, underscores, dashes or dots."""
-    s = re.sub(r"[\(\[\{].*?[\)\]\}]", "", name)
-    s = _UNIT_SUFFIX.sub("", s.strip())
-    return re.sub(r"[\s_\-.]", "", s.lower())
+def _rows(path):
+    """(rows, delimiter) of a delimited text file: UTF-8 or Windows-1252, a ``#``
+    in the first row (a header such as ``dN/dlogDp (#/cm3)`` or ``Sample #``) kept,
+    trailing ``# ...`` comments cut from the rows below it."""
+    lines, _ = _text_lines(path)
+    rows, delimiter = split_rows(lines, source=path, delimiter=SNIFF)
+    head = lines[: rows[0][0]] if rows else []  # up to the first data row
+    whole, _ = split_rows(
+        head, source=path, delimiter=delimiter or "", trailing_comments=False
+    )
+    if rows and whole and whole[0][0] == rows[0][0] and looks_like_header(whole[0][1]):
+        rows[0] = whole[0]
+    return rows, delimiter
 
 
 def _column_role(name: str):
@@ -134,29 +151,13 @@ def _column_role(name: str):
         return "lower", None
     if "upper" in s or "right" in s or s in _UPPER:
         return "upper", None
-    if "mid" in s or "diam" in s or s in _MID:
+    if "mid" in s or "diam" in s or "center" in s or "centre" in s or s in _MID:
         return "mid", None
     return None, None
 
 
-def _ask(path, what, choices, syntax, *, field):
-    """The asking error: `what` is ambiguous; `choices` are (option, value, meaning)."""
-    listing = "; ".join(
-        f"{_option(opt, val, syntax)} ({meaning})" for opt, val, meaning in choices
-    )
-    return DataFormatError(f"{what}; choose one: {listing}", source=path, field=field)
-
-
 def _value_choices(header, cols):
     return [("column", header[j], f"the values {header[j]!r}") for j in cols]
-
-
-def _values_choices():
-    return [
-        ("values", v, f"{w} per bin" if per == "bin" else f"{w} density over {per}")
-        for v, (w, per) in BIN_VALUES.items()
-        if v in ("count", "dN", "dN/dlogDp", "dN/dDp", "dM/dlogDp", "dV/dlogDp")
-    ]
 
 
 def _layout(path, header, width, layout, syntax):
@@ -307,6 +308,8 @@ def read_size_bins(
     column=None,
     unit=None,
     sample=None,
+    sampled_volume_cm3=None,
+    edges_um=None,
     syntax="python",
 ):
     """Read a binned size distribution (an instrument export).
@@ -326,9 +329,22 @@ def read_size_bins(
         The value column (header name or 0-based index) when there are several.
     unit : str, optional
         Length unit of the diameters (default: the header's, else µm).
-    sample : int, str or "mean", optional
-        For a TSI AIM column export holding several samples: the Sample # to read,
-        or ``"mean"`` for their mean (needed when there are several).
+    sample : int or str, optional
+        For an export holding several samples (a TSI AIM column or row export, a
+        wide time series; needed when there are several): a Sample # (else the
+        1-based row number), ``"A..B"`` (the mean of samples A to B inclusive),
+        ``"sum A..B"``, ``"mean A..B"``, ``"mean"`` or ``"sum"`` (of all); A and B
+        may be ISO 8601 times in a log with a ``timestamp`` column.
+    sampled_volume_cm3 : float, optional
+        The air volume [cm³] in which one sample's particles were counted: the
+        number concentrations (per cm³ unless the value column names ``/L`` or
+        ``/m3``) times it are taken as counted particles (``counted=True``),
+        summed over the samples read. Assumes Poisson counting of every particle
+        in that volume; not for counts (already counted) nor mass or volume
+        weightings.
+    edges_um : array_like, optional
+        The bin boundaries [µm] of a wide export whose bin columns are named
+        without sizes (``bin0, bin1, ...``), one more than the bins.
     syntax : {"python", "cli", "toml"}
         How the asking errors spell an option.
 
@@ -337,8 +353,13 @@ def read_size_bins(
     bins : BinnedSizes
         Edges [µm] and number per bin, with notes on what was derived.
     metadata : dict
-        ``source``, ``layout``, ``header``, ``value_column``, ``values``, ``unit``,
-        ``unit_from``, ``n_bins`` and ``delimiter``.
+        ``source``, ``layout`` (``"edges"``, ``"midpoints"``, ``"aim-columns"``,
+        ``"aim-rows"``, ``"wide"``), ``header``, ``value_column``, ``values``,
+        ``unit``, ``unit_from``, ``n_bins`` and ``delimiter``; for an export of
+        several samples also ``samples`` (their labels), ``sample`` (the choice),
+        ``selection`` (in words), ``n_samples_used``, ``aggregate`` (``"one"``,
+        ``"mean"``, ``"sum"``) and ``instrument_statistics`` (the numbers the
+        export states of one sample: AIM's Total Conc., flows, ...).
 
     Raises
     ------
@@ -361,19 +382,67 @@ def read_size_bins(
             source=path,
             field="values",
         )
+    if sampled_volume_cm3 is not None:
+        try:
+            sampled_volume_cm3 = check_scalar(
+                sampled_volume_cm3, "sampled_volume_cm3", minimum=0, strict=True
+            )
+        except (TypeError, ValueError):
+            raise DataFormatError(
+                f"sampled_volume_cm3 {sampled_volume_cm3!r} is not a volume; "
+                "allowed: a number > 0 (cm^3 of air in which one sample's particles "
+                "were counted)",
+                source=path,
+                field="sampled_volume_cm3",
+            ) from None
+    bins, meta = _read_bins(
+        path, layout, values, column, unit, sample, edges_um, syntax
+    )
+    if sampled_volume_cm3 is not None:
+        bins = _counted(path, bins, meta, sampled_volume_cm3, syntax)
+    return bins, meta
+
+
+def _read_bins(path, layout, values, column, unit, sample, edges_um, syntax):
     aim = _aim_rows(path) if layout in (None, "midpoints") else None
+    if aim is not None and edges_um is not None:
+        raise DataFormatError(
+            "edges_um is for wide exports whose bin columns do not give sizes "
+            "(bin0, bin1, ...); a TSI AIM column export gives its midpoints",
+            source=path,
+            field="edges_um",
+        )
     if aim is not None:
         return _read_aim(
             path, aim, values=values, sample=sample, unit=unit, syntax=syntax
         )
+    wide = _wide_rows(path) if layout in (None, "midpoints") else None
+    if wide is not None and column is None:
+        return _read_wide(
+            path,
+            wide,
+            values=values,
+            sample=sample,
+            unit=unit,
+            edges_um=edges_um,
+            syntax=syntax,
+        )
+    if edges_um is not None:
+        raise DataFormatError(
+            "edges_um is for wide exports whose bin columns do not give sizes "
+            "(bin0, bin1, ...); this file is not one",
+            source=path,
+            field="edges_um",
+        )
     if sample is not None:
         raise DataFormatError(
-            "sample is for TSI AIM column exports (several samples side by side); "
+            "sample is for exports holding several samples (a TSI AIM column or row "
+            "export, a wide time series with the bin midpoints as column headers); "
             "this file is not one",
             source=path,
             field="sample",
         )
-    rows, delimiter = read_rows(path, delimiter=SNIFF, hint=_HINT)
+    rows, delimiter = _rows(path)
     if not rows:
         raise DataFormatError("the file is empty; expected size bins", source=path)
     if layout in (None, "edges") and column is None and _rows_layout(rows):
@@ -479,193 +548,6 @@ def read_size_bins(
     }
 
 
-# -- TSI AIM "column" exports -------------------------------------------------------
-_AIM_WEIGHT = {"number": "N", "mass": "M", "volume": "V"}
-_AIM_UNITS = {"dw/dlogdp": "d{}/dlogDp", "dw/ddp": "d{}/dDp", "dw": "d{}"}
-
-
-def _text_lines(path):
-    """(lines, encoding): UTF-8, else Windows-1252 (as AIM writes ``cm³``)."""
-    try:
-        return read_lines(path, hint=_HINT), "utf-8"
-    except DataFormatError as exc:
-        if "not a UTF-8" not in str(exc):
-            raise
-    with open(path, encoding="cp1252", errors="replace") as fh:
-        return fh.read().splitlines(), "cp1252"
-
-
-def _aim_rows(path):
-    """(rows, index of the ``Diameter Midpoint`` row, encoding) of a TSI AIM
-    column export (one row per channel, one column per sample), else None."""
-    lines, encoding = _text_lines(path)
-    head = [t for t in lines[:80] if t.strip()]
-    if not any(
-        t.lower().lstrip().startswith("diameter midpoint") for t in head + lines
-    ):
-        return None
-    rows, _ = split_rows(lines, source=path, trailing_comments=False)
-    for i, (_, cells) in enumerate(rows):
-        first = cells[0].strip().lower() if cells else ""
-        if first.startswith("diameter midpoint"):
-            if any(c.strip() for c in cells[1:]):
-                return None  # the "row" export: one row per sample (not read)
-            return rows, i, encoding
-    return None
-
-
-def _aim_values(path, meta, values):
-    units = (meta.get("units") or [""])[0].strip().lower()
-    weight = (meta.get("weight") or [""])[0].strip().lower()
-    if values is not None:
-        return values
-    if units in _AIM_UNITS and weight in _AIM_WEIGHT:
-        return _AIM_UNITS[units].format(_AIM_WEIGHT[weight])
-    raise DataFormatError(
-        f"the export's Units {units or '(missing)'!r} and Weight "
-        f"{weight or '(missing)'!r} are not a number, mass or volume weighting this "
-        "reader knows; export with Weight Number (or Mass, Volume), or give the "
-        "values",
-        source=path,
-        field="values",
-    )
-
-
-def _read_aim(path, found, *, values, sample, unit, syntax):
-    rows, i, encoding = found
-    meta = {c[0].strip().lower(): c[1:] for _, c in rows[:i] if c}
-    stats_rows = {}
-    data = []
-    for line, cells in rows[i + 1 :]:
-        if data and not is_number(cells[0]):
-            stats_rows[cells[0].strip()] = cells[1:]
-        elif is_number(cells[0]):
-            if stats_rows:
-                raise DataFormatError(
-                    "a channel row after the statistics rows",
-                    source=path,
-                    line=line,
-                )
-            data.append((line, cells))
-    if len(data) < 2:
-        raise DataFormatError(
-            "the AIM export has fewer than 2 channel rows under 'Diameter Midpoint'",
-            source=path,
-        )
-    labels = [c.strip() for c in meta.get("sample #", [])]
-    n_samples = max(len(c) for _, c in data) - 1
-    labels = (labels + [str(k + 1) for k in range(len(labels), n_samples)])[:n_samples]
-    kind = _aim_values(path, meta, values)
-    if sample is None:
-        if n_samples != 1:
-            raise _ask(
-                path,
-                f"the AIM export holds {n_samples} samples (Sample # "
-                f"{labels[0]}..{labels[-1]})",
-                [
-                    (
-                        "sample",
-                        int(labels[0]) if labels[0].isdigit() else labels[0],
-                        "one sample, by its Sample #",
-                    ),
-                    ("sample", "mean", "the mean of all samples"),
-                ],
-                syntax,
-                field="sample",
-            )
-        cols = [0]
-    elif str(sample).strip().lower() == "mean":
-        cols = list(range(n_samples))
-    elif str(sample).strip() in labels:
-        cols = [labels.index(str(sample).strip())]
-    else:
-        raise DataFormatError(
-            f"sample {sample!r} is not in the export; allowed: a Sample # "
-            f"({labels[0]}..{labels[-1]}) or 'mean'",
-            source=path,
-            field="sample",
-        )
-    mids = np.empty(len(data))
-    table = np.empty((len(data), len(cols)))
-    for r, (line, cells) in enumerate(data):
-        mids[r] = _number(
-            cells[0],
-            path=path,
-            line=line,
-            field="column 0 (Diameter Midpoint)",
-            allowed="a diameter > 0",
-            minimum=0.0,
-        )
-        for c, k in enumerate(cols):
-            cell = cells[k + 1] if k + 1 < len(cells) else ""
-            table[r, c] = _number(
-                cell,
-                path=path,
-                line=line,
-                field=f"sample {labels[k]}",
-                allowed=f"a value >= 0 ({kind})",
-                minimum=0.0,
-                strict=False,
-            )
-    named = [header_unit(name)[0] for name in stats_rows]
-    named = [u for u in named if u is not None]
-    from_file = named[0] if named else None
-    if unit is None and from_file is None:
-        raise _ask(
-            path,
-            "the AIM export does not say the unit of its midpoints",
-            [("unit", "nm", "an SMPS export"), ("unit", "um", "an APS export")],
-            syntax,
-            field="unit",
-        )
-    if (
-        unit is not None
-        and from_file is not None
-        and length_factor(unit) != length_factor(from_file)
-    ):
-        raise DataFormatError(
-            f"the export's statistics rows give the unit {from_file!r} but the unit "
-            f"given is {unit!r}; allowed: the same unit, or leave it out",
-            source=path,
-            field="unit",
-        )
-    unit_from = "argument" if unit is not None else "header"
-    unit = unit or from_file
-    mids_um = mids * (length_factor(unit) / 1e-6)
-    try:
-        edges = edges_from_midpoints(mids_um)
-    except ValueError as exc:
-        raise DataFormatError(str(exc), source=path) from None
-    _check_plausible(path, "Diameter Midpoint", mids_um * 1e-6, unit, unit_from)
-    chosen = "the mean of all samples" if len(cols) > 1 else f"sample {labels[cols[0]]}"
-    notes = [
-        f"TSI AIM column export ({encoding}), {chosen} of {n_samples}; midpoints in "
-        f"{unit}; bin edges derived from the {mids.size} midpoints as geometric "
-        "(log) midpoints",
-    ]
-    bins = _bins(path, edges, table.mean(axis=1), kind, notes)
-    instrument = {}
-    if len(cols) == 1:
-        for name, cells in stats_rows.items():
-            k = cols[0]
-            if k < len(cells) and is_number(cells[k]):
-                instrument[name] = float(cells[k])
-    return bins, {
-        "source": path,
-        "layout": "aim-columns",
-        "header": None,
-        "values": kind,
-        "unit": unit,
-        "unit_from": unit_from,
-        "n_bins": int(mids.size),
-        "samples": labels,
-        "sample": "mean" if len(cols) > 1 else labels[cols[0]],
-        "instrument_statistics": instrument,
-        "encoding": encoding,
-        "delimiter": None,
-    }
-
-
 def _legacy(header) -> bool:
     """A 3-column file that is read_histogram's columns layout: no header, or a
     header that names no bins (then its columns are lower, upper, count)."""
@@ -699,32 +581,6 @@ def _check_edges(path, data, lower, upper):
     return np.append(lower, upper[-1])
 
 
-def _bins(path, edges_um, values, kind, notes) -> BinnedSizes:
-    if not np.sum(values) > 0:
-        raise DataFormatError(
-            "all values are zero; allowed: values >= 0 with a positive total",
-            source=path,
-            field="values",
-        )
-    number = number_per_bin(edges_um, values, kind)
-    weighting = BIN_VALUES[kind][0]
-    if weighting != "number":
-        notes.append(
-            f"{kind} converted to number per bin by dividing by d^3 of each bin's "
-            "geometric midpoint (the d^3 moment)"
-        )
-    counted = kind == "count" and bool(np.all(values == np.round(values)))
-    if kind == "count" and not counted:
-        notes.append("the counts are not whole numbers: taken as relative frequencies")
-    return BinnedSizes(
-        edges_um=np.asarray(edges_um, float),
-        number=number,
-        values=kind,
-        counted=counted,
-        notes=tuple(notes),
-    )
-
-
 def read_size_data(
     path,
     *,
@@ -733,6 +589,8 @@ def read_size_data(
     column=None,
     unit=None,
     sample=None,
+    sampled_volume_cm3=None,
+    edges_um=None,
     syntax="python",
 ):
     """Read size data of any layout: raw diameters or size bins.
@@ -757,13 +615,39 @@ def read_size_data(
             source=path,
             field="layout",
         )
-    if layout is None and values is None and _aim_rows(path) is None:
-        rows, _ = read_rows(path, delimiter=SNIFF, hint=_HINT)
+    if (
+        layout is None
+        and values is None
+        and _aim_rows(path) is None
+        and _wide_rows(path) is None
+    ):
+        rows, _ = _rows(path)
         header, data = _split_header(rows)
         if rows and not _rows_layout(rows):
             width = len(header) if header else len(data[0][1]) if data else 1
             layout = _layout(path, header, width, None, syntax)
     if layout == "diameters":
+        if edges_um is not None:
+            raise DataFormatError(
+                "edges_um is for wide exports of size bins named bin0, bin1, ...; "
+                "the file holds raw diameters; leave it out",
+                source=path,
+                field="edges_um",
+            )
+        if sample is not None:
+            raise DataFormatError(
+                "sample is for exports holding several samples of size bins; the "
+                "file holds raw diameters; leave it out",
+                source=path,
+                field="sample",
+            )
+        if sampled_volume_cm3 is not None:
+            raise DataFormatError(
+                "sampled_volume_cm3 is for size bins of number concentrations, not "
+                "raw diameters (each one a counted particle already); leave it out",
+                source=path,
+                field="sampled_volume_cm3",
+            )
         if values is not None:
             raise DataFormatError(
                 f"values {values!r} is for size bins, not raw diameters; leave it "
@@ -780,5 +664,7 @@ def read_size_data(
         column=column,
         unit=unit,
         sample=sample,
+        sampled_volume_cm3=sampled_volume_cm3,
+        edges_um=edges_um,
         syntax=syntax,
     )

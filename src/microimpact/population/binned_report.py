@@ -7,8 +7,10 @@ diameter, aerodynamic diameters.
 
 * both fits by the binned likelihood (:func:`~.binned.fit_binned_normal`,
   :func:`~.binned.fit_binned_lognormal`), their AIC (k = 2 each) and difference;
-* when the bins hold counted particles, the chi-squared test on the bins
-  (:func:`~.binned.chi2_binned`) of each; the recommendation is then as in
+* when the bins hold counted particles (enough for the test: 4 bins with an
+  expected count >= 5 after merging, else a note says there is none), the
+  chi-squared test on the bins (:func:`~.binned.chi2_binned`) of each; the
+  recommendation is then as in
   :func:`~.sizes_report.describe_sizes` (the better fit the test does not reject,
   else the measured bins as a ``histogram`` population). Concentrations
   (``dN/dlogDp`` in cm⁻³, or a number converted from mass) are not counts: no
@@ -170,7 +172,9 @@ class BinnedSizesReport:
 
         def test(c):
             if c is None:
-                return "no chi2 test (not counts)"
+                return "no chi2 test " + (
+                    "(too few particles)" if self.bins.counted else "(not counts)"
+                )
             word = "rejected" if c.reject else "not rejected"
             return f"chi2 {c.statistic:.3f}, dof {c.dof}, p = {c.pvalue:.4g}: {word}"
 
@@ -230,14 +234,29 @@ def describe_binned_sizes(
     Raises
     ------
     ValueError
-        Fewer than 2 occupied bins; with counts, too few for the chi-squared test.
+        Fewer than 2 occupied bins.
+
+    Notes
+    -----
+    Counts too few for the chi-squared test (fewer than 4 bins with an expected
+    count >= 5 after merging) give no test (``chi2_* = None``) and a note; the
+    standard errors are still reported.
     """
     e, number = bins.edges_um, bins.number
     normal, lognormal = fit_binned_normal(e, number), fit_binned_lognormal(e, number)
     notes = list(bins.notes) + list(normal.notes) + list(lognormal.notes)
+    too_few = None
     if bins.counted:
-        chi_n = chi2_binned(e, number, normal, alpha=alpha)
-        chi_ln = chi2_binned(e, number, lognormal, alpha=alpha)
+        try:
+            chi_n = chi2_binned(e, number, normal, alpha=alpha)
+            chi_ln = chi2_binned(e, number, lognormal, alpha=alpha)
+        except ValueError as exc:  # too few particles for the test
+            chi_n = chi_ln = None
+            too_few = str(exc)
+            notes.append(
+                f"no chi-squared test: {too_few.rstrip('.')}; the better fit by "
+                "likelihood is recommended"
+            )
     else:
         chi_n = chi_ln = None
         normal, lognormal = (
@@ -253,7 +272,8 @@ def describe_binned_sizes(
     better = "lognormal" if delta > 0 else "normal"
     if chi_n is None:
         recommended = better
-        tests = "no chi-squared test (the bins are not counts)"
+        why = "too few particles" if too_few else "the bins are not counts"
+        tests = f"no chi-squared test ({why})"
     else:
         kept = [
             k for k, c in (("normal", chi_n), ("lognormal", chi_ln)) if not c.reject

@@ -159,18 +159,29 @@ def _particles(ctx: _Ctx, data, where="particles"):
             d = m_to_um(d_m)
         return ctx.build(where, t, pd_.empirical_diameters, d, **lim)
     # histogram
-    _exactly_one(ctx, t, where, ("file", "edges_um"))
-    if "edges_um" in t:
+    if "file" not in t:
+        _exactly_one(ctx, t, where, ("file", "edges_um"))
+    if "file" not in t:
         if "counts" not in t:
             raise ctx.error(_join(where, "counts"), "missing required key")
         for key in ("layout", "values", "column", "sample"):
             if key in t:
                 raise ctx.error(_join(where, key), "only allowed with 'file'")
+        if "unit" in t:
+            raise ctx.error(
+                _join(where, "unit"),
+                "only allowed with 'file'; 'edges_um' are in micrometres (convert "
+                "them, or put the bins in a file and give its unit)",
+            )
         edges = ctx.numbers(t["edges_um"], _join(where, "edges_um"), low=0, minimum=2)
         counts = ctx.numbers(t["counts"], _join(where, "counts"), low=0)
     else:
         if "counts" in t:
-            raise ctx.error(_join(where, "counts"), "only allowed with 'edges_um'")
+            raise ctx.error(
+                _join(where, "counts"),
+                "only allowed with inline 'edges_um' (no 'file': the file holds the "
+                "values)",
+            )
         path = ctx.path(t["file"], _join(where, "file"))
         unit = t.get("unit")  # default: the header's, else um
         if unit is not None:
@@ -190,7 +201,13 @@ def _particles(ctx: _Ctx, data, where="particles"):
         ):
             raise ctx.error(
                 _join(where, "sample"),
-                f'must be a Sample # or "mean"; got {sample!r}',
+                'must be a Sample # (an integer), "mean", "sum", "A..B" or '
+                f'"sum A..B"; got {sample!r}',
+            )
+        edges_um = t.get("edges_um")  # with a file: the sizes of its bin columns
+        if edges_um is not None:
+            edges_um = ctx.numbers(
+                edges_um, _join(where, "edges_um"), low=0, strict=True, minimum=2
             )
         bins, _ = ctx.build(
             _join(where, "file"),
@@ -202,6 +219,7 @@ def _particles(ctx: _Ctx, data, where="particles"):
             column=column,
             unit=unit,
             sample=sample,
+            edges_um=edges_um,
             syntax="toml",
         )
         edges, counts = bins.edges_um, bins.number

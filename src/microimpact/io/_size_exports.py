@@ -1,0 +1,559 @@
+"""TSI AIM exports and wide size exports (one sample per row): finding the
+header, the bins' edges (AIM's ``Channels/Decade`` grid, the header's midpoints or
+the ``edges_um`` given for ``bin0, bin1, ...`` columns), the unit, the samples and
+the statistics the export states; rules in ``docs/populations.md``."""
+
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+
+from .._core.files import (
+    SNIFF,
+    data_lines,
+    is_number,
+    sniff_delimiter,
+    split_rows,
+)
+from ..errors import DataFormatError
+from ..population.binned import edges_from_midpoints
+from ..units import length_factor
+from ._size_common import (
+    _ask,
+    _bins,
+    _key,
+    _text_lines,
+    _values_choices,
+)
+from ._size_select import _aggregate, _iso_time, _sample_key, _select, _total_conc
+from .diameters import (
+    _check_plausible,
+    _number,
+)
+from .profiles import header_unit
+
+_MID_CELL = re.compile(
+    r"^\s*(\d+(?:\.\d*)?(?:[eE][-+]?\d+)?)\s*(um|µm|μm|nm)?\s*$", re.IGNORECASE
+)
+
+
+#: Header names (without their unit) of a wide export whose unit is the
+#: midpoints': AIM's marker column ``Diameter Midpoint (nm)``, the sized range
+#: ``Lower Size(nm)`` and its statistics ``Median(µm)``, ``Geo. Mean(nm)``, ...
+_SIZED = {
+    "diameter midpoint",
+    "aerodynamic diameter",
+    "lower size",
+    "upper size",
+    "median",
+    "mean",
+    "geo. mean",
+    "mode",
+    "d50",
+}
+
+
+def _sized(name):
+    """True if header `name` is a diameter whose unit is the midpoints'."""
+    return re.sub(r"\s*[\(\[].*$", "", name).strip().lower() in _SIZED
+
+
+def _mid_cell(cell):
+    """(value, unit or None) of a header cell naming a bin midpoint, else None."""
+    m = _MID_CELL.match(cell)
+    if not m or not float(m.group(1)) > 0:
+        return None
+    return float(m.group(1)), m.group(2)
+
+
+def _numeric_run(cells):
+    """[a, b): the longest run (>= 3) of increasing midpoint cells, else None."""
+    vals = [_mid_cell(c) for c in cells]
+    best, k = None, 0
+    while k < len(cells):
+        if vals[k] is None:
+            k += 1
+            continue
+        j = k + 1
+        while j < len(cells) and vals[j] is not None and vals[j][0] > vals[j - 1][0]:
+            j += 1
+        if j - k >= 3 and (best is None or j - k > best[1] - best[0]):
+            best = (k, j)
+        k = j
+    return best
+
+
+_BIN_NAME = re.compile(r"^\s*bin\s*[_#]?\s*(\d+)\s*$", re.IGNORECASE)
+
+
+def _named_run(cells):
+    """[a, b): the longest run (>= 3) of bin names with consecutive numbers
+    (``bin0, bin1, ...``, ``Bin 1, Bin 2, ...``), else None."""
+    nums = [_BIN_NAME.match(c) for c in cells]
+    nums = [int(m.group(1)) if m else None for m in nums]
+    best, k = None, 0
+    while k < len(cells):
+        if nums[k] is None:
+            k += 1
+            continue
+        j = k + 1
+        while j < len(cells) and nums[j] is not None and nums[j] == nums[j - 1] + 1:
+            j += 1
+        if j - k >= 3 and (best is None or j - k > best[1] - best[0]):
+            best = (k, j)
+        k = j
+    return best
+
+
+def _wide_rows(path):
+    """The header of a wide export (a TSI AIM *row* export, an OPC or SMPS time
+    series): a row whose cells include >= 3 increasing bin midpoints and names
+    (no other numbers), followed by a row with numbers under the midpoints; else
+    the last row (of the first 200) naming >= 3 bins ``bin0, bin1, ...`` followed
+    by a row of numbers under them (their sizes are then given as `edges_um`).
+    Returns (rows, header index, (a, b), encoding, sized) or None."""
+    lines, encoding = _text_lines(path)
+    sniffed = [sniff_delimiter(t) for _, t in data_lines(lines[:200])]
+    sniffed = [d for d in sniffed if d]  # a preamble line may have no delimiter
+    delimiter = max(set(sniffed), key=sniffed.count) if sniffed else SNIFF
+    whole, delimiter = split_rows(  # the head only: a long file is split once
+        lines[:400], source=path, delimiter=delimiter, trailing_comments=False
+    )
+
+    def numbers_below(i, a, b):
+        nxt = whole[i + 1][1] if i + 1 < len(whole) else []
+        return len(nxt) >= b and all(is_number(c) for c in nxt[a:b])
+
+    def found(i, run, sized):
+        cut, _ = split_rows(lines, source=path, delimiter=delimiter or "")
+        body = [r for r in cut if r[0] > whole[i][0]]
+        return whole[: i + 1] + body, i, run, encoding, sized
+
+    named = None
+    for i, (_, cells) in enumerate(whole[:200]):
+        run = _named_run(cells)
+        if run is not None and numbers_below(i, *run):
+            named = (i, run)
+        run = _numeric_run(cells)
+        if run is None:
+            continue
+        a, b = run
+        others = [c for k, c in enumerate(cells) if not a <= k < b and c.strip()]
+        if (
+            all(len(r) < b for _, r in whole[:i])
+            and others
+            and not any(is_number(c) for c in others)
+            and numbers_below(i, a, b)
+        ):
+            return found(i, run, True)
+    return None if named is None else found(*named, False)
+
+
+def _aim_edges(path, meta, mids_um):
+    """(edges [µm], note) of an AIM export's channels: on the grid of the export's
+    ``Channels/Decade`` (every channel ``1/c`` wide in ``log10 d``, the grid placed
+    by least squares through the printed midpoints) when the midpoints lie on it
+    within 1 %, else the geometric edges of :func:`edges_from_midpoints`."""
+    cells = meta.get("channels/decade") or [""]
+    c = float(cells[0]) if is_number(cells[0]) else math.nan
+    k = np.arange(mids_um.size)
+    if c > 0:
+        offset = float(np.mean(np.log10(mids_um) - k / c))
+        grid = 10 ** (offset + k / c)
+        worst = float(np.max(np.abs(grid / mids_um - 1)))
+        if worst < 0.01:
+            edges = 10 ** (offset + (np.arange(mids_um.size + 1) - 0.5) / c)
+            return edges, (
+                f"bin edges on the export's grid of {c:g} channels per decade (each "
+                f"1/{c:g} wide in log10 d; the printed midpoints lie on it within "
+                f"{100 * worst:.2g} %)"
+            )
+    try:
+        edges = edges_from_midpoints(mids_um)
+    except ValueError as exc:
+        raise DataFormatError(str(exc), source=path) from None
+    return edges, "bin edges derived from the midpoints as geometric (log) midpoints"
+
+
+def _header_edges(path, meta, header, names, run, unit, what, syntax):
+    """(edges [µm], unit, unit_from, note) of a wide header of bin midpoints."""
+    a, b = run
+    mids = np.array([_mid_cell(header[k])[0] for k in range(a, b)])
+    cell_units = {_mid_cell(header[k])[1] for k in range(a, b)} - {None}
+    sized = [h for h in names if _sized(h)]
+    named = [u for u in (header_unit(h)[0] for h in sized) if u is not None]
+    named += list(cell_units)
+    if len({length_factor(u) for u in named}) > 1:
+        raise DataFormatError(
+            f"the header names different length units ({sorted(set(named))}); "
+            "allowed: one unit",
+            source=path,
+            field="unit",
+        )
+    from_file = named[0] if named else None
+    if unit is None and from_file is None:
+        raise _ask(
+            path,
+            f"the {what} does not say the unit of its bin midpoints "
+            f"({header[a].strip()}..{header[b - 1].strip()})",
+            [("unit", "nm", "e.g. an SMPS"), ("unit", "um", "e.g. an APS or OPC")],
+            syntax,
+            field="unit",
+        )
+    if (
+        unit is not None
+        and from_file is not None
+        and length_factor(unit) != length_factor(from_file)
+    ):
+        raise DataFormatError(
+            f"the header gives the unit {from_file!r} but the unit given is "
+            f"{unit!r}; allowed: the same unit, or leave it out",
+            source=path,
+            field="unit",
+        )
+    unit_from = "argument" if unit is not None else "header"
+    unit = unit or from_file
+    edges, note = _aim_edges(path, meta, mids * (length_factor(unit) / 1e-6))
+    return edges, unit, unit_from, note
+
+
+def _given_edges(path, edges_um, header, run, unit, syntax):
+    """The `edges_um` given for the bin columns ``bin0, bin1, ...`` (run)."""
+    a, b = run
+    k = b - a
+    if edges_um is None:
+        example = "0.35,0.46,..." if syntax == "cli" else "[0.35, 0.46, ...]"
+        raise _ask(
+            path,
+            f"the bin columns {header[a].strip()}..{header[b - 1].strip()} do not "
+            f"give their sizes; give the {k + 1} bin boundaries in um (from the "
+            "instrument's manual or calibration)",
+            [("edges_um", example, f"{k + 1} increasing boundaries")],
+            syntax,
+            field="edges_um",
+        )
+    if unit is not None:
+        raise DataFormatError(
+            f"unit {unit!r} is for diameters in the file; edges_um are in "
+            "micrometres; leave the unit out",
+            source=path,
+            field="unit",
+        )
+    try:
+        edges = np.asarray(edges_um, float).ravel()
+    except (TypeError, ValueError):
+        edges = np.array([math.nan])
+    if (
+        edges.size != k + 1
+        or not np.all(np.isfinite(edges) & (edges > 0))
+        or np.any(np.diff(edges) <= 0)
+    ):
+        raise DataFormatError(
+            f"edges_um {list(np.atleast_1d(edges_um))} do not bound the {k} bin "
+            f"columns {header[a].strip()}..{header[b - 1].strip()}; allowed: "
+            f"{k + 1} increasing boundaries > 0 in um",
+            source=path,
+            field="edges_um",
+        )
+    return edges
+
+
+#: Names (folded) of a wide export's timestamp column.
+_TIME_NAMES = {
+    "timestamp",
+    "time",
+    "datetime",
+    "timestamputc",
+    "timeutc",
+    "datetimeutc",
+}
+
+
+def _timestamps(header, data):
+    """The ISO 8601 times of the samples (the column named ``timestamp``,
+    ``time`` or ``datetime``), else None (no such column, or a cell that is not
+    one)."""
+    cols = [k for k, h in enumerate(header) if _key(h) in _TIME_NAMES]
+    if not cols:
+        return None
+    k = cols[0]
+    times = [_iso_time(c[k]) if k < len(c) else None for _, c in data]
+    return None if not times or any(t is None for t in times) else times
+
+
+def _label_column(header):
+    """Index of the Sample # column of a wide header, else None."""
+    for k, h in enumerate(header):
+        if re.sub(r"[\s_.]", "", h.lower()) in ("sample#", "sampleno", "samplenumber"):
+            return k
+    return None
+
+
+def _read_wide(path, found, *, values, sample, unit, edges_um, syntax):
+    rows, i, (a, b), encoding, sized = found
+    header = rows[i][1]
+    meta = {c[0].strip().lower(): c[1:] for _, c in rows[:i] if c}
+    data = [(line, cells) for line, cells in rows[i + 1 :] if any(cells)]
+    aim = "units" in meta and "weight" in meta
+    what = "AIM row export" if aim else "wide export"
+    if aim:
+        kind = _aim_values(path, meta, values)
+    elif values is not None:
+        kind = values
+    else:
+        raise _ask(
+            path,
+            f"the {what} (one sample per row, the bins {header[a].strip()}.."
+            f"{header[b - 1].strip()} as column headers) does not say what its "
+            "values are",
+            _values_choices(),
+            syntax,
+            field="values",
+        )
+    label_col = _label_column(header)
+    numbered = []
+    if label_col is None:
+        labels = [str(r + 1) for r in range(len(data))]
+    else:
+        labels = [c[label_col].strip() if label_col < len(c) else "" for _, c in data]
+        if len(set(labels)) != len(labels) or "" in labels:
+            labels = [str(r + 1) for r in range(len(data))]
+            numbered = [
+                f"the {header[label_col].strip()!r} column repeats or misses "
+                "numbers: samples are numbered by their row (1, 2, ...) instead"
+            ]
+    idx, how, chosen = _select(
+        path, labels, sample, syntax, what, _timestamps(header, data)
+    )
+    names = [h.strip() for h in header]
+    table = np.empty((b - a, len(idx)))
+    for c, r in enumerate(idx):
+        line, cells = data[r]
+        if len(cells) < b:
+            raise DataFormatError(
+                f"the row has {len(cells)} cells, fewer than the {b} of the header; "
+                "allowed: one value per bin",
+                source=path,
+                line=line,
+            )
+        for k in range(a, b):
+            table[k - a, c] = _number(
+                cells[k],
+                path=path,
+                line=line,
+                field=f"column {names[k]!r}",
+                allowed=f"a value >= 0 ({kind})",
+                minimum=0.0,
+                strict=False,
+            )
+    if sized:
+        if edges_um is not None:
+            raise DataFormatError(
+                "edges_um is for wide exports whose bin columns do not give sizes "
+                f"(bin0, bin1, ...); this one's headers are the midpoints "
+                f"{header[a].strip()}..{header[b - 1].strip()}; leave it out",
+                source=path,
+                field="edges_um",
+            )
+        edges, unit, unit_from, how_edges = _header_edges(
+            path, meta, header, names, (a, b), unit, what, syntax
+        )
+    else:
+        edges = _given_edges(path, edges_um, header, (a, b), unit, syntax)
+        unit, unit_from = "um", "argument"
+        how_edges = f"bin edges as given ({edges.size} edges_um)"
+    mids_um = np.sqrt(edges[:-1] * edges[1:])
+    _check_plausible(path, "bin midpoints", mids_um * 1e-6, unit, unit_from)
+    shown = (
+        f"the {mids_um.size} bin midpoints in {unit}"
+        if sized
+        else (f"the {mids_um.size} bins {header[a].strip()}..{header[b - 1].strip()}")
+    )
+    notes = [
+        f"{'TSI AIM row' if aim else 'wide'} export ({encoding}, one sample per row, "
+        f"{shown} as column headers), {chosen} of {len(labels)}; {how_edges}",
+        *numbered,
+    ]
+    skipped = [h for h in names[:a] if h.startswith("<")] + [
+        h for h in names[b:] if h.startswith(">")
+    ]
+    if skipped:
+        notes.append(
+            f"the open-ended bins {skipped} (outside the sized range) are not read"
+        )
+    bins = _bins(path, edges, _aggregate(table, how), kind, notes)
+    statistics = {}
+    if len(idx) == 1:
+        cells = data[idx[0]][1]
+        for k, h in enumerate(names):
+            if (a <= k < b) or k == label_col or not h or k >= len(cells):
+                continue
+            if is_number(cells[k]):
+                statistics[h] = float(cells[k])
+    return bins, {
+        "source": path,
+        "layout": "aim-rows" if aim else "wide",
+        "header": names,
+        "values": kind,
+        "value_column": None,
+        "unit": unit,
+        "unit_from": unit_from,
+        "n_bins": int(mids_um.size),
+        "samples": labels,
+        "sample": _sample_key(labels, idx, how, sample),
+        "selection": chosen,
+        "n_samples_used": len(idx),
+        "aggregate": how,
+        "instrument_statistics": statistics,
+        "concentration_header": _total_conc(names),
+        "encoding": encoding,
+        "delimiter": None,
+    }
+
+
+_AIM_WEIGHT = {"number": "N", "mass": "M", "volume": "V"}
+_AIM_UNITS = {"dw/dlogdp": "d{}/dlogDp", "dw/ddp": "d{}/dDp", "dw": "d{}"}
+
+
+def _aim_rows(path):
+    """(rows, index of the ``Diameter Midpoint`` row, encoding) of a TSI AIM
+    column export (one row per channel, one column per sample), else None."""
+    lines, encoding = _text_lines(path)
+    head = [t for t in lines[:80] if t.strip()]
+    if not any(
+        t.lower().lstrip().startswith("diameter midpoint") for t in head + lines
+    ):
+        return None
+    rows, _ = split_rows(lines, source=path, trailing_comments=False)
+    for i, (_, cells) in enumerate(rows):
+        first = cells[0].strip().lower() if cells else ""
+        if first.startswith("diameter midpoint"):
+            if any(c.strip() for c in cells[1:]):
+                return None  # the "row" export: one row per sample (not read)
+            return rows, i, encoding
+    return None
+
+
+def _aim_values(path, meta, values):
+    units = (meta.get("units") or [""])[0].strip().lower()
+    weight = (meta.get("weight") or [""])[0].strip().lower()
+    if values is not None:
+        return values
+    if units in _AIM_UNITS and weight in _AIM_WEIGHT:
+        return _AIM_UNITS[units].format(_AIM_WEIGHT[weight])
+    raise DataFormatError(
+        f"the export's Units {units or '(missing)'!r} and Weight "
+        f"{weight or '(missing)'!r} are not a number, mass or volume weighting this "
+        "reader knows; export with Weight Number (or Mass, Volume), or give the "
+        "values",
+        source=path,
+        field="values",
+    )
+
+
+def _read_aim(path, found, *, values, sample, unit, syntax):
+    rows, i, encoding = found
+    meta = {c[0].strip().lower(): c[1:] for _, c in rows[:i] if c}
+    stats_rows = {}
+    data = []
+    for line, cells in rows[i + 1 :]:
+        if data and not is_number(cells[0]):
+            stats_rows[cells[0].strip()] = cells[1:]
+        elif is_number(cells[0]):
+            if stats_rows:
+                raise DataFormatError(
+                    "a channel row after the statistics rows",
+                    source=path,
+                    line=line,
+                )
+            data.append((line, cells))
+    if len(data) < 2:
+        raise DataFormatError(
+            "the AIM export has fewer than 2 channel rows under 'Diameter Midpoint'",
+            source=path,
+        )
+    labels = [c.strip() for c in meta.get("sample #", [])]
+    n_samples = max(len(c) for _, c in data) - 1
+    labels = (labels + [str(k + 1) for k in range(len(labels), n_samples)])[:n_samples]
+    kind = _aim_values(path, meta, values)
+    cols, how, chosen = _select(path, labels, sample, syntax, "AIM column export")
+    mids = np.empty(len(data))
+    table = np.empty((len(data), len(cols)))
+    for r, (line, cells) in enumerate(data):
+        mids[r] = _number(
+            cells[0],
+            path=path,
+            line=line,
+            field="column 0 (Diameter Midpoint)",
+            allowed="a diameter > 0",
+            minimum=0.0,
+        )
+        for c, k in enumerate(cols):
+            cell = cells[k + 1] if k + 1 < len(cells) else ""
+            table[r, c] = _number(
+                cell,
+                path=path,
+                line=line,
+                field=f"sample {labels[k]}",
+                allowed=f"a value >= 0 ({kind})",
+                minimum=0.0,
+                strict=False,
+            )
+    named = [header_unit(name)[0] for name in stats_rows]
+    named = [u for u in named if u is not None]
+    from_file = named[0] if named else None
+    if unit is None and from_file is None:
+        raise _ask(
+            path,
+            "the AIM export does not say the unit of its midpoints",
+            [("unit", "nm", "an SMPS export"), ("unit", "um", "an APS export")],
+            syntax,
+            field="unit",
+        )
+    if (
+        unit is not None
+        and from_file is not None
+        and length_factor(unit) != length_factor(from_file)
+    ):
+        raise DataFormatError(
+            f"the export's statistics rows give the unit {from_file!r} but the unit "
+            f"given is {unit!r}; allowed: the same unit, or leave it out",
+            source=path,
+            field="unit",
+        )
+    unit_from = "argument" if unit is not None else "header"
+    unit = unit or from_file
+    mids_um = mids * (length_factor(unit) / 1e-6)
+    edges, how_edges = _aim_edges(path, meta, mids_um)
+    _check_plausible(path, "Diameter Midpoint", mids_um * 1e-6, unit, unit_from)
+    notes = [
+        f"TSI AIM column export ({encoding}), {chosen} of {n_samples}; "
+        f"{mids.size} midpoints in {unit}; {how_edges}",
+    ]
+    bins = _bins(path, edges, _aggregate(table, how), kind, notes)
+    instrument = {}
+    if len(cols) == 1:
+        for name, cells in stats_rows.items():
+            k = cols[0]
+            if k < len(cells) and is_number(cells[k]):
+                instrument[name] = float(cells[k])
+    return bins, {
+        "source": path,
+        "layout": "aim-columns",
+        "header": None,
+        "values": kind,
+        "unit": unit,
+        "unit_from": unit_from,
+        "n_bins": int(mids_um.size),
+        "samples": labels,
+        "sample": _sample_key(labels, cols, how, sample),
+        "selection": chosen,
+        "n_samples_used": len(cols),
+        "aggregate": how,
+        "instrument_statistics": instrument,
+        "concentration_header": _total_conc(stats_rows),
+        "encoding": encoding,
+        "delimiter": None,
+    }
