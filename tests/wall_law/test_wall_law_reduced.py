@@ -325,6 +325,7 @@ def test_cli_condition_flags_on_a_reduced_axis(tmp_path, capsys):
     rc = main([*argv, "3"])
     err = capsys.readouterr().err
     assert rc == 2 and "--speed-m-s" in err and "[0.2, 0.8]" in err, err
+    assert "the speeds r v_c(d) of the 10 um diameter node" in err, err
     assert not (out / "wall_law.nc").exists()
     assert main([*argv, "0.7"]) == 0
     text = (out / "openfoam" / "localInteractionCoeffs").read_text()

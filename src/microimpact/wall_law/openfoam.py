@@ -156,7 +156,16 @@ def fallback_condition(dataset, *, diameter_um=None, speed_m_s=None, angle_deg=N
             i = _pick_node(oblique, None, axis, log)
             out[axis] = (i, float(oblique[i]))
             continue
-        i = _pick_node(coord, given[axis], axis, log)
+        try:
+            i = _pick_node(coord, given[axis], axis, log)
+        except ValueError as err:
+            if np.asarray(dataset[axis]).ndim == 2:
+                d = out["diameter_um"][1]
+                raise ValueError(
+                    f"{err} (a reduced speed axis: the speeds r v_c(d) of the "
+                    f"{d:g} um diameter node)"
+                ) from None
+            raise
         out[axis] = (i, float(coord[i]))
     return out
 
