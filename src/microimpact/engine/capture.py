@@ -572,15 +572,14 @@ def _monotone(xw, yw, nw, q, conf, se_df, decreasing, notes):
         )
     elif limited:
         against = (
-            f"against an interval half-width of {half:.2g} m/s that covers the "
-            "interpolated crossing only"
+            f"more than half the interval's half-width ({half:.2g} m/s)"
             if half > 0
             else "with an interval open on both sides"
         )
         notes.append(
             f"grid-limited: the interpolation between the fitted speeds may be off "
-            f"by about {err:.2g} m/s (curvature of the neighbouring points), "
-            f"{against}; refine the sweep between {_fmt(a)} and {_fmt(b)} m/s"
+            f"by about {err:.2g} m/s, {against}; refine the sweep between {_fmt(a)} "
+            f"and {_fmt(b)} m/s"
         )
     elif a != b and math.isnan(err):
         notes.append(
