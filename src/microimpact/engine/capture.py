@@ -79,6 +79,7 @@ __all__ = [
     "ESTIMATORS",
     "GRID_LIMITED_RATIO",
     "LACK_OF_FIT_LEVEL",
+    "SPEED_RTOL",
     "WINDOW_MARGIN",
     "CaptureSpeedEstimate",
     "crossing_window",
