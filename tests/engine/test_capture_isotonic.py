@@ -361,3 +361,93 @@ def test_summary_table_takes_the_estimator_and_rejects_an_unknown_one():
         assert mi.capture_speed(summary, estimator=est)["method"][0].startswith(method)
     with pytest.raises(ValueError, match=r"`estimator` must be one of .*'isotonic'"):
         estimate_capture_speed(v, y, n, estimator="isotonic")
+
+
+# ---------------------------------------------------------------- review 23
+def test_auto_keeps_the_isotonic_estimate_where_the_probit_crosses_outside():
+    """A probit that fits but crosses q outside the fitted speeds cannot bridge the
+    sweep: "auto" keeps the (grid-limited) isotonic estimate instead of reporting
+    none (found by fuzzing: the isotonic estimate exists, the probit's does not)."""
+    v = np.array([0.209, 0.652, 1.004, 1.315, 1.427])
+    y, n = np.array([37, 18, 26, 15, 0]), np.array([49, 25, 54, 49, 6])
+    assert np.isnan(estimate_capture_speed(v, y, n, 0.1, estimator="probit").speed_m_s)
+    iso = estimate_capture_speed(v, y, n, 0.1, estimator="monotone")
+    assert iso.method == "isotonic-interpolated" and "grid-limited" in iso.note
+    assert estimate_capture_speed(v, y, n, 0.1) == iso
+
+
+def test_interpolation_error_is_bounded_by_the_bracketing_speeds():
+    """Two speeds 1e-5 apart beside the crossing made the curvature estimate
+    overflow (OverflowError from the user's data). Monotonicity alone puts v_q
+    between the bracketing speeds, so the error is at most the distance to the
+    farther one, and the note says so in m/s."""
+    v = np.array([0.39176205848615925, 1.2092823758072828, 1.2092949649695166])
+    y, n = np.array([1568, 969, 15]), np.full(3, 1613)
+    mc = monotone_crossing(np.log(v), y, n, 0.9, CHI2)
+    lo, hi = mc.bracket
+    assert 0 < mc.interpolation_error <= max(mc.theta - lo, hi - mc.theta) + 1e-12
+    r = estimate_capture_speed(v, y, n, 0.9)
+    assert v[0] < r.speed_m_s < v[1] and "grid-limited" in r.note
+    off = float(r.note.split("off by about ")[1].split(" m/s")[0])
+    assert off <= v[1] - v[0]
+
+
+def test_grid_limited_note_of_an_interval_open_on_both_sides():
+    """With both limits open there is no half-width to compare with: the note says
+    the interval is open instead of 'a half-width of 0 m/s'."""
+    v = np.array([0.101, 0.754, 0.757, 1.103, 1.255])
+    y, n = np.array([7, 5, 0, 35, 9]), np.array([15, 42, 26, 46, 50])
+    r = estimate_capture_speed(v, y, n, 0.3, estimator="monotone")
+    assert np.isnan(r.ci_low) and np.isnan(r.ci_high), r
+    assert "grid-limited" in r.note and "half-width of 0 m/s" not in r.note
+    assert "open on both sides" in r.note
+
+
+@st.composite
+def few_impact_curves(draw):
+    """Few impacts per speed and noisy, often non-monotone fractions."""
+    k = draw(st.integers(3, 7))
+    v = draw(st.lists(st.floats(0.05, 2.0), min_size=k, max_size=k, unique=True))
+    n = np.array(draw(st.lists(st.integers(1, 60), min_size=k, max_size=k)))
+    p = np.array(draw(st.lists(st.floats(0.0, 1.0), min_size=k, max_size=k)))
+    if draw(st.booleans()):
+        p = np.sort(p)[::-1]
+    q = draw(st.sampled_from([0.1, 0.3, 0.5, 0.9]))
+    return np.sort(np.array(v)), np.round(p * n), n, q
+
+
+@settings(max_examples=400, deadline=None, derandomize=True)
+@given(few_impact_curves())
+def test_property_auto_estimates_wherever_the_isotonic_estimate_does(curve):
+    """Through the public function: "auto" never refuses a curve that the isotonic
+    estimate alone resolves (it may report the probit instead), and never fails."""
+    v, y, n, q = curve
+    iso = estimate_capture_speed(v, y, n, q, estimator="monotone")
+    auto = estimate_capture_speed(v, y, n, q)
+    assert np.isnan(auto.speed_m_s) == np.isnan(iso.speed_m_s), (auto, iso)
+
+
+def test_speeds_a_rounding_error_apart_are_one_speed():
+    """Speeds one ulp apart (hypothesis found them) were two nodes: the interval's
+    root search failed (ValueError from brentq) and the estimate came out an ulp
+    below the slowest speed. They are pooled as one repeated speed, and the estimate
+    lies within the swept speeds."""
+    a, b, c = 0.05, np.nextafter(0.05, 1.0), 1.0
+    v = np.array([a, b, c, np.nextafter(c, 2.0)])
+    y, n = np.array([4, 1432, 0, 0]), np.array([5, 2865, 0, 1])
+    r = estimate_capture_speed(v, y, n, 0.8)
+    assert r.method == "none" and "capture stays below 0.8" in r.note
+    pooled = estimate_capture_speed(v[[0, 2, 3]], [1436, 0, 0], [2870, 0, 1], 0.8)
+    assert r == pooled
+    r = estimate_capture_speed(np.array([a, b, 0.2]), [4, 1432, 10], [5, 2865, 50], 0.5)
+    assert a <= r.speed_m_s <= 0.2 and "interpolated between 0.05 and 0.2" in r.note
+    two = estimate_capture_speed(np.array([a, b]), [2, 1432], [3, 2865], 0.5)
+    assert two.method == "none" and "one speed only" in two.note
+
+
+def test_estimate_on_the_slowest_speed_is_that_speed():
+    """A fraction exactly q at the slowest speed: the estimate is that speed, not
+    exp(ln 0.03) = 0.03 - 3e-18 (below the sweep)."""
+    assert math.exp(math.log(0.03)) < 0.03  # the rounding this guards against
+    r = estimate_capture_speed(np.array([0.03, 0.2]), [25, 10], [50, 50], 0.5)
+    assert r.speed_m_s == 0.03 and "on the fitted point at 0.03 m/s" in r.note

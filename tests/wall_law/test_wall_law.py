@@ -206,11 +206,19 @@ def test_sampling_at_a_node_draws_that_node(rough_law):
 
 
 def _trilinear_capture(law, d, v, a):
+    """The sampler's expected capture: the trilinear mix of the corners' capture in
+    (log d, log v, angle); on a reduced speed axis in (log d, log(v / v_c(d)),
+    angle), v_c(d) from the coefficient law (a power law, so log v_c is linear in
+    log d as the sampler interpolates it)."""
     ds = law.dataset.isel(surface=0)
+    if "reduced_speed" in ds.dims:
+        speed = (ds.reduced_speed.values, v / _v_c(d), True)
+    else:
+        speed = (ds.speed_m_s.values, v, True)
     axes = []
     for coord, x, log in (
         (ds.diameter_um.values, d, True),
-        (ds.speed_m_s.values, v, True),
+        speed,
         (ds.angle_deg.values, a, False),
     ):
         c = np.log(coord) if log else coord

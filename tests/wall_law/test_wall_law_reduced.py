@@ -40,6 +40,7 @@ from test_wall_law import (
     _closed_form_capture,
     _scenario,
     _toml,
+    _trilinear_capture,
     _v_c,
 )
 
@@ -92,33 +93,6 @@ def test_nodes_are_at_r_v_c_and_match_the_closed_form(law):
     assert np.array_equal(n_cap[0], n_cap[1]) and np.array_equal(n_cap[1], n_cap[2])
 
 
-def _trilinear_reduced(law, d, v, a):
-    """The sampler's expected capture: the trilinear mix in (log d, log(v /
-    v_c(d)), angle), with v_c(d) from the coefficient law (a power law, so log v_c
-    is linear in log d as the sampler interpolates it)."""
-    ds = law.dataset.isel(surface=0)
-    axes = []
-    for coord, x, log in (
-        (ds.diameter_um.values, d, True),
-        (ds.reduced_speed.values, v / _v_c(d), True),
-        (ds.angle_deg.values, a, False),
-    ):
-        c = np.log(coord) if log else coord
-        x = math.log(x) if log else x
-        i = int(np.clip(np.searchsorted(c, x) - 1, 0, len(c) - 2))
-        axes.append((i, (x - c[i]) / (c[i + 1] - c[i])))
-    p = ds.capture_probability.values
-    total = 0.0
-    for bits in range(8):
-        w, idx = 1.0, []
-        for ax, (i, t) in enumerate(axes):
-            up = (bits >> ax) & 1
-            w *= t if up else 1 - t
-            idx.append(i + up)
-        total += w * p[tuple(idx)]
-    return total
-
-
 def test_between_diameter_nodes_the_sampler_follows_the_edge(law):
     # at a node's r but between diameter nodes: the closed form, not a smear
     n = 200_000
@@ -137,7 +111,7 @@ def test_between_all_nodes_capture_is_the_reduced_trilinear_mix(law):
     rng = np.random.default_rng(6)
     seen = []
     for d, v, a in ((5.0, 1.2, 55.0), (17.0, 0.30, 80.0), (4.0, 1.85, 45.0)):
-        p = _trilinear_reduced(law, d, v, a)
+        p = _trilinear_capture(law, d, v, a)
         seen.append(p)
         s = law.sample(np.full(n, d), v, a, rng=rng)
         assert not s.clamped.any()
@@ -325,6 +299,7 @@ def test_cli_condition_flags_on_a_reduced_axis(tmp_path, capsys):
     rc = main([*argv, "3"])
     err = capsys.readouterr().err
     assert rc == 2 and "--speed-m-s" in err and "[0.2, 0.8]" in err, err
+    assert "the speeds r v_c(d) of the 10 um diameter node" in err, err
     assert not (out / "wall_law.nc").exists()
     assert main([*argv, "0.7"]) == 0
     text = (out / "openfoam" / "localInteractionCoeffs").read_text()

@@ -65,6 +65,7 @@ References
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -75,7 +76,10 @@ from scipy import optimize, special, stats
 from .capture_monotone import monotone_crossing
 
 __all__ = [
+    "ESTIMATORS",
+    "GRID_LIMITED_RATIO",
     "LACK_OF_FIT_LEVEL",
+    "SPEED_RTOL",
     "WINDOW_MARGIN",
     "CaptureSpeedEstimate",
     "crossing_window",
@@ -95,6 +99,9 @@ WINDOW_MARGIN = 2
 #: lowers the coverage of the true speed from 0.95 to 0.84; the estimate's own noise
 #: flags 1-4 % of log-normal curves, which have no such error, by chance).
 GRID_LIMITED_RATIO = 0.5
+
+#: Speeds closer than this (relative) are pooled as one repeated speed.
+SPEED_RTOL = 1e-9
 
 #: ``method`` values (see ``docs/capture-speed.md``); ``probit-profile-scaled`` only
 #: with ``estimator="probit"``.
@@ -324,6 +331,14 @@ def _fmt(v):
     return f"{v:.4g}"
 
 
+def _within(est, v_lo, v_hi):
+    """`est` with its speed clipped to the window's speeds ``[v_lo, v_hi]``: the
+    estimate lies there by construction, exp(ln v) only adds a rounding error. The
+    limits stay on their sides (they bracket the unclipped estimate)."""
+    speed = min(max(est.speed_m_s, float(v_lo)), float(v_hi))
+    return dataclasses.replace(est, speed_m_s=speed)
+
+
 def _none(note):
     return CaptureSpeedEstimate(math.nan, math.nan, math.nan, METHOD_NONE, note)
 
@@ -339,7 +354,8 @@ class _NoEstimate(Exception):
 
 def _pooled_counts(v, y, n, se, se_df, notes):
     """Effective binomial counts where a non-binomial SE is given; speeds without
-    impacts dropped; repeated speeds pooled, sorted by speed."""
+    impacts dropped; repeated speeds (equal to :data:`SPEED_RTOL`) pooled, sorted by
+    speed."""
     if se is not None:
         with np.errstate(invalid="ignore", divide="ignore"):
             p = np.where(n > 0, y / np.where(n > 0, n, 1.0), np.nan)
@@ -357,9 +373,15 @@ def _pooled_counts(v, y, n, se, se_df, notes):
     v, y, n = v[has], y[has], n[has]
     if v.size == 0:
         raise _NoEstimate("no impacts at any speed", notes[:-1])
-    v, inv = np.unique(v, return_inverse=True)
-    y = np.bincount(inv, weights=y)
-    n = np.bincount(inv, weights=n)
+    order = np.argsort(v, kind="stable")
+    v, y, n = v[order], y[order], n[order]
+    # speeds a rounding error apart are one speed (distinct nodes that close make
+    # the interpolation and its interval degenerate)
+    first = np.r_[True, np.diff(np.log(v)) > SPEED_RTOL]
+    group = np.cumsum(first) - 1
+    v = v[first]
+    y = np.bincount(group, weights=y)
+    n = np.bincount(group, weights=n)
     if v.size == 1:
         raise _NoEstimate(
             f"one speed only ({_fmt(v[0])} m/s, capture "
@@ -550,12 +572,15 @@ def _monotone(xw, yw, nw, q, conf, se_df, decreasing, notes):
             "the interpolation; refine the sweep there"
         )
     elif limited:
+        against = (
+            f"more than half the interval's half-width ({half:.2g} m/s)"
+            if half > 0
+            else "with an interval open on both sides"
+        )
         notes.append(
             f"grid-limited: the interpolation between the fitted speeds may be off "
-            f"by about {err:.2g} m/s (curvature of the neighbouring points), "
-            f"against an interval half-width of {half:.2g} m/s that covers the "
-            f"interpolated crossing only; refine the sweep between {_fmt(a)} and "
-            f"{_fmt(b)} m/s"
+            f"by about {err:.2g} m/s, {against}; refine the sweep between {_fmt(a)} "
+            f"and {_fmt(b)} m/s"
         )
     elif a != b and math.isnan(err):
         notes.append(
@@ -596,12 +621,14 @@ def estimate_capture_speed(
 
     ``estimator="auto"`` reports the isotonic estimate, except where it is
     grid-limited and the probit fits (residual deviance not significant at
-    :data:`LACK_OF_FIT_LEVEL`): the probit's shape then bridges the coarse sweep.
+    :data:`LACK_OF_FIT_LEVEL`) and crosses `quantile` within the fitted speeds: the
+    probit's shape then bridges the coarse sweep.
 
     Parameters
     ----------
     speed_m_s : array_like, shape (k,)
-        Incident speeds [m s⁻¹], > 0, any order; repeated speeds are pooled.
+        Incident speeds [m s⁻¹], > 0, any order; repeated speeds (equal to a
+        relative :data:`SPEED_RTOL`) are pooled.
     captured : array_like, shape (k,)
         Captured particles at each speed, in ``[0, impacts]``.
     impacts : array_like, shape (k,)
@@ -656,7 +683,8 @@ def estimate_capture_speed(
             )
     if estimator not in ESTIMATORS:
         raise ValueError(
-            f"`estimator` must be one of {', '.join(map(repr, ESTIMATORS))}; "
+            f"`estimator` must be one of {', '.join(map(repr, ESTIMATORS))} "
+            "(the default; the probit alone; the isotonic estimate alone); "
             f"got {estimator!r}."
         )
     notes = []
@@ -671,8 +699,10 @@ def estimate_capture_speed(
         fits = df > 0 and p_fit >= LACK_OF_FIT_LEVEL
         if estimator != "probit":
             iso, limited = _monotone(xw, yw, nw, q, conf, se_df, beta <= 0, [*notes])
-            if estimator == "monotone" or not (limited and fits):
-                return iso
+            crosses = beta != 0 and xw[0] <= (z_q - alpha) / beta <= xw[-1]
+            # the probit bridges only where it fits and crosses within the window
+            if estimator == "monotone" or not (limited and fits and crosses):
+                return _within(iso, v[i0], v[i1])
             notes.append(
                 f"the probit bridges the coarse sweep: it fits (deviance {g2:.3g} on "
                 f"{df} df, p = {p_fit:.2g}) where the isotonic interpolation is "
@@ -686,10 +716,11 @@ def estimate_capture_speed(
     crit, method = _criterion(g2, df, p_fit, conf, se_df, notes)
     lo, hi = _profile_interval(theta, xw, yw, nw, z_q, beta, ll_hat, crit, notes)
     # the interval holds the estimate by construction (the walk starts at theta)
-    return CaptureSpeedEstimate(
+    est = CaptureSpeedEstimate(
         float(math.exp(theta)),
         float(math.exp(lo)) if np.isfinite(lo) else math.nan,
         float(math.exp(hi)) if np.isfinite(hi) else math.nan,
         method,
         "; ".join(notes),
     )
+    return _within(est, v[i0], v[i1])

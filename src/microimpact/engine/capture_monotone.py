@@ -230,7 +230,11 @@ def monotone_crossing(x, y, n, quantile, crit, *, decreasing=True):
         bracket, at = (theta, theta), (float(frac[k]), float(frac[k]))
     else:
         theta = float(_interp(xf[k], xf[k + 1], d[k], d[k + 1]))
-        err = _curvature_error(xf, z, k, theta)
+        # monotonicity alone puts the crossing between the two bracketing nodes, so
+        # the interpolation error is at most the distance to the farther one (the
+        # curvature estimate is unbounded where two nodes almost coincide)
+        far = max(theta - xf[k], xf[k + 1] - theta)
+        err = min(_curvature_error(xf, z, k, theta), far)
         bracket = (float(xf[k]), float(xf[k + 1]))
         at = (float(frac[k]), float(frac[k + 1]))
 

@@ -156,7 +156,16 @@ def fallback_condition(dataset, *, diameter_um=None, speed_m_s=None, angle_deg=N
             i = _pick_node(oblique, None, axis, log)
             out[axis] = (i, float(oblique[i]))
             continue
-        i = _pick_node(coord, given[axis], axis, log)
+        try:
+            i = _pick_node(coord, given[axis], axis, log)
+        except ValueError as err:
+            if np.asarray(dataset[axis]).ndim == 2:
+                d = out["diameter_um"][1]
+                raise ValueError(
+                    f"{err} (a reduced speed axis: the speeds r v_c(d) of the "
+                    f"{d:g} um diameter node)"
+                ) from None
+            raise
         out[axis] = (i, float(coord[i]))
     return out
 
@@ -592,7 +601,8 @@ def write_demo_case(law, case_dir, *, parcels: int = 1000) -> list[Path]:
     """Write a small OpenFOAM case that runs the stochastic model: a 0.1 m box
     (4 x 4 x 4 cells) whose floor (y = 0) is the wall patch of the table's first
     surface and whose other faces (patch ``outer``) let parcels escape. `parcels`
-    parcels start 1 cm above the floor and strike it once, at the diameter, speed
+    parcels start 1 cm above the floor (lower at angles below about 11 deg, so that
+    they strike it within the box) and strike it once, at the diameter, speed
     and angle of the node of that surface whose capture probability is nearest
     0.5 (oblique angles only); no drag, no gravity, under
     ``icoUncoupledKinematicParcelFoam``; the run ends 4 steps after the strike.
@@ -609,7 +619,10 @@ def write_demo_case(law, case_dir, *, parcels: int = 1000) -> list[Path]:
     theta = math.radians(cond["angle_deg"])
     speed = cond["speed_m_s"]
     u_n, u_t = speed * math.sin(theta), speed * math.cos(theta)
-    h = 0.01
+    # the parcels strike the floor inside the box: below ~11 deg they start lower
+    # than 1 cm, so that they travel at most 5 cm along it before the strike
+    h = min(0.01, 0.05 * math.tan(theta))
+    travel = h * u_t / u_n
     dt = h / u_n / 9.5  # every parcel strikes in step 10
     steps = 14
     case = Path(case_dir)
@@ -667,7 +680,7 @@ def write_demo_case(law, case_dir, *, parcels: int = 1000) -> list[Path]:
         "simulationType  laminar;\n",
     )
     side = max(1, math.ceil(math.sqrt(parcels)))
-    xs = np.linspace(0.005, 0.08, side)
+    xs = np.linspace(0.005, min(0.08, 0.095 - travel), side)
     zs = np.linspace(0.005, 0.095, side)
     pts = [(float(x), h, float(z)) for z in zs for x in xs][:parcels]
     files["constant/kinematicCloudPositions"] = (
