@@ -24,7 +24,7 @@ import math
 import numpy as np
 import pandas as pd
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 from scipy import special, stats
@@ -320,6 +320,13 @@ def curves(draw):
     return np.array(speeds), y, n, q, est
 
 
+_V7 = np.array([0.05, 0.05, 1.0, 1.0, 1.0, 1.0, 1.0])
+
+
+def _N7(a, b, c=0):
+    return np.array([a, b, 0, c, 0, 0, 0])
+
+
 @settings(
     max_examples=300,
     deadline=None,
@@ -327,6 +334,20 @@ def curves(draw):
     suppress_health_check=[HealthCheck.too_slow],
 )
 @given(curves())
+# cases hypothesis found on the first version (repeated speeds, empty speeds):
+# an OverflowError, a brentq sign error and an estimate a hair below the sweep
+@example((_V7, np.array([2.0, 1432, 0, 0, 0, 0, 0]), _N7(3, 2865), 0.5, "auto"))
+@example((_V7, np.array([2.0, 26, 0, 1, 0, 0, 0]), _N7(2, 51, 3), 0.5, "auto"))
+@example((_V7, np.array([1.0, 38, 0, 1, 0, 0, 0]), _N7(1, 51, 3), 0.5, "auto"))
+@example(
+    (
+        np.array([1.0, 11.9375, 12.0, 12.0, 12.0]),
+        np.array([20.0, 11, 0, 0, 0]),
+        np.array([21, 12, 0, 0, 3]),
+        0.95,
+        "auto",
+    )
+)
 def test_property_isotonic_estimate_inside_interval_and_sweep(curve):
     """Through the public function: a finite limit is on its side of the estimate,
     the estimate is within the sweep, a NaN is explained, the labels are known."""
