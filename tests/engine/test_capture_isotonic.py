@@ -437,6 +437,7 @@ def few_impact_curves(draw):
     return np.sort(np.array(v)), np.round(p * n), n, q
 
 
+@pytest.mark.filterwarnings("error::RuntimeWarning")  # none reaches users
 @settings(max_examples=400, deadline=None, derandomize=True)
 @given(few_impact_curves())
 def test_property_auto_estimates_wherever_the_isotonic_estimate_does(curve):

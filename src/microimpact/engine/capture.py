@@ -211,17 +211,24 @@ def _estimate_capture_speed_iv(
 
 # ----------------------------------------------------------------- probit maths
 def _loglik(eta, y, n):
-    """Binomial log-likelihood (without the constant) of a probit predictor."""
-    return float(np.sum(y * special.log_ndtr(eta) + (n - y) * special.log_ndtr(-eta)))
+    """Binomial log-likelihood (without the constant) of a probit predictor; NaN
+    (never a NumPy warning) where a diverging step makes it overflow, and the
+    callers reject such a step."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        return float(
+            np.sum(y * special.log_ndtr(eta) + (n - y) * special.log_ndtr(-eta))
+        )
 
 
 def _score_weights(eta, y, n):
-    """d loglik / d eta and the Fisher weights of a probit predictor."""
-    log_pdf = -0.5 * eta * eta - _LOG_SQRT_2PI
-    r_lo = np.exp(log_pdf - special.log_ndtr(eta))  # phi / Phi
-    r_hi = np.exp(log_pdf - special.log_ndtr(-eta))  # phi / (1 - Phi)
-    score = y * r_lo - (n - y) * r_hi
-    weight = n * r_lo * r_hi  # n phi^2 / (Phi (1 - Phi))
+    """d loglik / d eta and the Fisher weights of a probit predictor (NaN, without
+    a warning, where `eta` overflows)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        log_pdf = -0.5 * eta * eta - _LOG_SQRT_2PI
+        r_lo = np.exp(log_pdf - special.log_ndtr(eta))  # phi / Phi
+        r_hi = np.exp(log_pdf - special.log_ndtr(-eta))  # phi / (1 - Phi)
+        score = y * r_lo - (n - y) * r_hi
+        weight = n * r_lo * r_hi  # n phi^2 / (Phi (1 - Phi))
     return score, weight
 
 
@@ -250,6 +257,8 @@ def _fit_probit(x, y, n):
             if ll_new >= ll - 1e-12 or t < 1e-10:
                 break
             t /= 2.0
+        if not math.isfinite(ll_new):  # a diverging step: keep the last finite fit
+            break
         done = abs(ll_new - ll) < 1e-11 * (1.0 + abs(ll))
         coef, ll = new, ll_new
         if done and np.max(np.abs(t * step)) < 1e-9 * (1.0 + np.max(np.abs(coef))):
@@ -276,6 +285,8 @@ def _profile_loglik(theta, x, y, n, z_q, beta0):
             if ll_new >= ll - 1e-12 or t < 1e-10:
                 break
             t /= 2.0
+        if not math.isfinite(ll_new):  # a diverging step: keep the last finite one
+            break
         done = abs(ll_new - ll) < 1e-12 * (1.0 + abs(ll)) and abs(t * step) < 1e-10 * (
             1.0 + abs(b_new)
         )
