@@ -473,3 +473,22 @@ def test_estimate_on_the_slowest_speed_is_that_speed():
     assert math.exp(math.log(0.03)) < 0.03  # the rounding this guards against
     r = estimate_capture_speed(np.array([0.03, 0.2]), [25, 10], [50, 50], 0.5)
     assert r.speed_m_s == 0.03 and "on the fitted point at 0.03 m/s" in r.note
+
+
+@pytest.mark.filterwarnings("error::RuntimeWarning")
+@pytest.mark.parametrize(
+    ("v", "y", "n", "q"),
+    [
+        ([0.0987, 1.7920, 1.9412], [50, 3, 2], [50, 16, 55], 0.3),
+        ([0.0953, 1.0294, 1.3266, 1.3746], [9, 38, 40, 6], [9, 44, 58, 51], 0.5),
+    ],
+)
+@pytest.mark.parametrize("estimator", ["auto", "probit"])
+def test_a_diverging_probit_fit_warns_nobody(v, y, n, q, estimator):
+    """Few impacts, nearly separated: the probit's Fisher scoring overflowed and
+    NumPy's 'overflow encountered in exp' reached the user (found by a random
+    search); the fit keeps its last finite step and the answer is still sane."""
+    r = estimate_capture_speed(
+        np.array(v), np.array(y), np.array(n), q, estimator=estimator
+    )
+    assert np.isnan(r.speed_m_s) or min(v) <= r.speed_m_s <= max(v)
