@@ -492,3 +492,32 @@ def test_a_diverging_probit_fit_warns_nobody(v, y, n, q, estimator):
         np.array(v), np.array(y), np.array(n), q, estimator=estimator
     )
     assert np.isnan(r.speed_m_s) or min(v) <= r.speed_m_s <= max(v)
+
+
+def test_a_result_estimates_with_the_chosen_estimator():
+    """``SimulationResult.capture_speed(estimator=)``: each estimator's table is the
+    function's on the result's summary, and an unknown one is refused."""
+    from microimpact.engine.statistics import capture_speed
+
+    sc = mi.Scenario(
+        name="capture",
+        particles=mi.normal_diameters(40.0, 10.0),
+        coefficients=mi.ImpactCoefficients(
+            k1=5.0, k2=0.05, v_c=mi.PowerLaw(a=0.3, b=-1.5, d_ref=40e-6)
+        ),
+        speeds_m_s=tuple(np.geomspace(0.1, 1.5, 8)),
+        angles_deg=(45.0, 90.0),
+        reference_angle_deg=None,
+    )
+    res = mi.run(sc, samples=2000, seed=3, progress=False)
+    for est in ("probit", "monotone", "auto"):
+        got = res.capture_speed(0.5, estimator=est)
+        want = capture_speed(res.summary, 0.5, confidence=res.confidence, estimator=est)
+        pd.testing.assert_frame_equal(got, want)
+    assert (
+        res.capture_speed(0.5, estimator="probit")["method"]
+        .str.startswith("probit")
+        .all()
+    )
+    with pytest.raises(ValueError, match="estimator"):
+        res.capture_speed(0.5, estimator="isotonic")

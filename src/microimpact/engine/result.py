@@ -24,9 +24,11 @@ import numpy as np
 from .._core.files import atomic_write
 from .._core.json import dumps as json_dumps
 from .._core.json import restore_nonfinite
+from .._core.validation import check_choice
 from ..errors import InputError
 from ..scenario.grid import DIMS, SweepGrid
 from .accumulators import E_EDGES, LATERAL_EDGES, MU_EDGES
+from .capture import ESTIMATORS
 from .dataset import (
     INPUT_QUANTILES,
     LATERAL_VARIABLES,
@@ -547,16 +549,19 @@ class SimulationResult:
         )
 
     # -------------------------------------------------------------- derived
-    def capture_speed(self, quantile: float | None = None):
+    def capture_speed(self, quantile: float | None = None, *, estimator: str = "auto"):
         """Speed at a capture fraction (default: the scenario's quantiles), with its
         interval; see :func:`microimpact.engine.statistics.capture_speed`.
 
-        Each quantile's table is estimated once per result and kept (a sweep of
-        1000 angles has 1000 curves to fit; the CSV, the terminal, the report and
-        the capture figure all ask for it); a copy is returned."""
+        `estimator` (``"auto"``, ``"probit"`` or ``"monotone"``) chooses the
+        estimator as there (docs/capture-speed.md). Each (quantile, estimator)
+        table is estimated once per result and kept (a sweep of 1000 angles has
+        1000 curves to fit; the CSV, the terminal, the report and the capture
+        figure all ask for it); a copy is returned."""
         # deferred: pandas loads only where a table is made (import time)
         import pandas as pd
 
+        check_choice(estimator, "estimator", ESTIMATORS)
         qs = self.scenario.capture_quantiles if quantile is None else (quantile,)
         # the estimator's columns only: it copies and groups what it is given
         # (the whole table cost 10x the memory: ~450 MB at 10^6 points)
@@ -564,10 +569,10 @@ class SimulationResult:
         curves = summary[[c for c in CAPTURE_COLUMNS if c in summary]]
         tables = []
         for q in qs:
-            key = float(q)
+            key = (float(q), estimator)
             if key not in self._capture:
                 self._capture[key] = capture_speed(
-                    curves, q, confidence=self.confidence
+                    curves, q, confidence=self.confidence, estimator=estimator
                 )
             tables.append(self._capture[key])
         return pd.concat(tables, ignore_index=True)
