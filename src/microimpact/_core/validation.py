@@ -145,3 +145,30 @@ def check_subset(values, name: str, choices) -> tuple:
             f"`{name}` must be a non-empty subset of {tuple(choices)}; got {values!r}."
         )
     return values
+
+
+#: Plausible impact speeds [m/s]: 1 µm/s to 10 km/s. The paper's impacts are
+#: 0.1-10 m/s and cold spray reaches ~1 km/s; above 10 km/s (hypervelocity) the
+#: impact model does not apply, and such a number is usually mm/s or µm/s typed as
+#: m/s. Below 1 µm/s nothing impacts (diffusion, not impaction, moves the particle).
+PLAUSIBLE_SPEED_M_S = (1e-6, 1e4)
+
+
+def implausible_speed(v_m_s: float, *, unit_hint: bool = True) -> str | None:
+    """Why `v_m_s` [m/s] is not a plausible impact speed (with the likely unit
+    mistake when `unit_hint`, and the allowed range), or None if it is one."""
+    lo, hi = PLAUSIBLE_SPEED_M_S
+    if lo <= v_m_s <= hi:
+        return None
+    if v_m_s > hi:
+        why = (
+            f"{v_m_s:g} m/s is above 10 km/s, a hypervelocity impact that the model "
+            "(paper Eqs. 1-9) does not describe"
+        )
+        guess = f"was it given in mm/s? {v_m_s:g} mm/s is {v_m_s * 1e-3:g} m/s"
+    else:
+        why = f"{v_m_s:g} m/s is below 1 um/s, not an impact speed"
+        guess = f"was it given in km/s? {v_m_s:g} km/s is {v_m_s * 1e3:g} m/s"
+    if unit_hint:
+        why = f"{why}; {guess}"
+    return f"{why}; speeds are in m/s here (allowed: {lo:g} to {hi:g} m/s)"

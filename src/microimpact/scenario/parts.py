@@ -11,7 +11,13 @@ from typing import Any
 
 import numpy as np
 
-from .._core.validation import as_field_error, check_choice, check_int, check_scalar
+from .._core.validation import (
+    as_field_error,
+    check_choice,
+    check_int,
+    check_scalar,
+    implausible_speed,
+)
 from ..errors import ScenarioError
 
 __all__ = [
@@ -111,6 +117,15 @@ def _positive_tuple(values, name, *, lo=0.0, hi=math.inf, hi_inclusive=False):
             rng = f"({lo}, {hi}{']' if hi_inclusive else ')'}"
             raise ScenarioError(f"value {float(v):g} is outside {rng}", field=name)
     return tuple(float(v) for v in arr)
+
+
+def _plausible_speeds(values, name):
+    """ScenarioError naming `name` for the first speed [m/s] of `values` that is no
+    plausible impact speed (a probable unit mistake; `implausible_speed`)."""
+    for v in values:
+        why = implausible_speed(float(v))
+        if why is not None:
+            raise ScenarioError(why, field=name)
 
 
 def _choice(value, field, options):

@@ -37,6 +37,7 @@ from .parts import (
     _choice,
     _integer,
     _number,
+    _plausible_speeds,
     _positive_tuple,
 )
 from .sensitivity import SensitivitySettings
@@ -146,6 +147,7 @@ class Scenario:
                     f"{type(obj).__name__} lacks {', '.join(missing)}", field=attr
                 )
         set_(self, "speeds_m_s", _positive_tuple(self.speeds_m_s, "sweep.speed_m_s"))
+        _plausible_speeds(self.speeds_m_s, "sweep.speed_m_s")
         set_(
             self,
             "angles_deg",

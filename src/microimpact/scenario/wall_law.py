@@ -17,13 +17,19 @@ import numpy as np
 
 from .._core.validation import as_field_error, check_choice
 from ..errors import ScenarioError
-from .parts import _integer, _positive_tuple
+from .parts import _integer, _plausible_speeds, _positive_tuple
 
 __all__ = ["DEFAULT_QUANTILES", "SPEED_AXES", "WallLawSpec"]
 
 #: The kinds of speed axis of a table: nodes at fixed speeds [m s-1], or at fixed
 #: reduced speeds v / v_c(d), which follow the capture edge (docs/wall-law.md).
 SPEED_AXES = ("absolute", "reduced")
+
+#: The ratios v / v_c(d) a reduced speed axis accepts, (low, high]: capture turns
+#: into rebound at r = 1, and far beyond a thousandfold either side a table only
+#: repeats its end nodes (the speeds r v_c(d) must also be plausible, checked where
+#: v_c is known: ``wall_law.build``).
+REDUCED_SPEED_RANGE = (1e-3, 1e3)
 
 #: Probability levels of the tabulated quantiles.
 DEFAULT_QUANTILES = (0.01, 0.05, 0.1, 0.25, 0.5, 0.75, 0.9, 0.95, 0.99)
@@ -118,7 +124,13 @@ class WallLawSpec:
             set_(
                 self,
                 "reduced_speeds",
-                _axis(self.reduced_speeds, "wall_law.reduced_speed", low=0),
+                _axis(
+                    self.reduced_speeds,
+                    "wall_law.reduced_speed",
+                    low=REDUCED_SPEED_RANGE[0],
+                    high=REDUCED_SPEED_RANGE[1],
+                    high_inclusive=True,
+                ),
             )
         else:
             if self.reduced_speeds is not None:
@@ -138,6 +150,7 @@ class WallLawSpec:
                 "speeds_m_s",
                 _axis(self.speeds_m_s, "wall_law.speed_m_s", low=0),
             )
+            _plausible_speeds(self.speeds_m_s, "wall_law.speed_m_s")
         set_(
             self,
             "angles_deg",

@@ -32,6 +32,7 @@ import numpy as np
 from .. import __version__
 from .._core.json import dumps
 from .._core.progress import Progress
+from .._core.validation import implausible_speed
 from ..engine import _compiled
 from ..engine.checkpoint import CheckpointMismatch, load_arrays, save_arrays
 from ..engine.kernel import atan2_deg, simulate_specs_impacts
@@ -75,6 +76,21 @@ def critical_speed_m_s(scenario, diameter_um) -> np.ndarray:
             field="wall_law.speed_axis",
         )
     return np.array(v_c, dtype=float)
+
+
+def _check_reduced_speeds(scenario, spec, critical) -> None:
+    """ScenarioError naming ``wall_law.reduced_speed`` where a node's speed
+    ``r v_c(d)`` is no plausible impact speed (``implausible_speed``)."""
+    for d, v_c in zip(spec.diameters_um, critical, strict=True):
+        for r in (spec.reduced_speeds[0], spec.reduced_speeds[-1]):
+            why = implausible_speed(r * float(v_c), unit_hint=False)
+            if why is not None:
+                raise ScenarioError(
+                    f"the node r = {r:g} at diameter {d:g} um (v_c = {v_c:g} m/s) "
+                    f"is at {r * v_c:g} m/s: {why}",
+                    source=scenario.source,
+                    field="wall_law.reduced_speed",
+                )
 
 
 def node_outcomes(e_m, mu_m, angle_deg: float, psi_deg=None) -> dict:
@@ -489,6 +505,7 @@ def build_wall_law(
     critical = None
     if spec.speed_axis == "reduced":  # refused before any simulation
         critical = critical_speed_m_s(scenario, spec.diameters_um)
+        _check_reduced_speeds(scenario, spec, critical)
     nodes_scenario = scenario.with_options(
         # the ratios r on a reduced axis: each diameter multiplies them by v_c(d)
         speeds_m_s=spec.speed_nodes,
