@@ -389,3 +389,17 @@ def test_roughness_json_is_standard_with_the_documented_keys():
     short = characterise(Profile(x[:80], z[:80]), contact_length=20e-6)
     text = short.to_json()
     assert "NaN" not in text and json.loads(text)["angles"]["kurtosis"] is None
+
+
+def test_a_contact_length_in_metres_is_named_as_such():
+    """`contact_length_um = 20e-6` (metres typed as µm) is refused with the guess;
+    a merely too short length gets no guess."""
+    x = np.linspace(0.0, 2e-3, 2001)  # 1 µm sampling
+    p = Profile(x=x, z=1e-7 * np.sin(x * 3e4))
+    with pytest.raises(
+        ProfileFormatError, match=r"was it given in metres\? 2e-05 m is 20 µm"
+    ):
+        surface_angles(p, contact_length=20e-6 * 1e-6)
+    with pytest.raises(ProfileFormatError) as err:
+        surface_angles(p, contact_length=0.5e-6)
+    assert "metres" not in str(err.value)

@@ -312,8 +312,12 @@ def _check_contact_length(x, length, *, source=None, scan=None):
     dx = float(np.median(np.diff(x)))
     if length < dx * (1 - 1e-9):
         where = f"scan {scan!r}" if scan is not None else "the profile"
+        um = float(m_to_um(length))
+        guess = ""
+        if um < 1e-3:  # below 1 nm: a length in metres typed as micrometres
+            guess = f" (was it given in metres? {um:g} m is {um * 1e6:g} µm)"
         raise ProfileFormatError(
-            f"the contact length {m_to_um(length):.6g} µm is shorter than the "
+            f"the contact length {um:.6g} µm{guess} is shorter than the "
             f"sampling interval {m_to_um(dx):.6g} µm of {where}: a segment would hold "
             "one point or none; allowed: a contact length of at least "
             f"{m_to_um(dx):.6g} µm (`contact_length_um`, in µm), or a scan sampled "
