@@ -65,6 +65,23 @@ def test_aim_export_unit_contradiction_is_an_error():
         read_size_bins(AIM, sample=1, unit="um")
 
 
+@pytest.mark.parametrize(
+    ("text", "names"),
+    [
+        ("Lower (nm),Upper (um),count\n100,200,5\n200,400,9\n400,800,4\n", "nm"),
+        ("Sample #,Median(nm),0.5 um,1 um,2 um\n1,900,5,9,4\n", "0.5 um"),
+    ],
+)
+def test_a_header_naming_two_length_units_is_an_error(write_file, text, names):
+    """The header's units are checked against each other before any is used (the
+    edges and the wide layouts share the check): the error names both."""
+    path = write_file("u.csv", text)
+    with pytest.raises(DataFormatError, match="different length units") as exc:
+        read_size_bins(path, values="count")
+    assert "u.csv" in str(exc.value) and "'um'" in str(exc.value)
+    assert names in str(exc.value)
+
+
 # -- a real OPC-N2 file (py-smps sample data): counts per bin -------------------------
 def test_opcn2_total_counts_are_the_sum_of_the_real_file():
     rows = list(csv.reader((DATA / "opcn2_pysmps.csv").open()))

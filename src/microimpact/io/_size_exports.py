@@ -31,6 +31,8 @@ from ._size_select import _aggregate, _iso_time, _sample_key, _select, _total_co
 from .diameters import (
     _check_plausible,
     _number,
+    _one_unit,
+    _unit_agreed,
 )
 from .profiles import header_unit
 
@@ -53,6 +55,10 @@ _SIZED = {
     "mode",
     "d50",
 }
+
+
+#: The choices of the error asking for the unit of an export's midpoints.
+_UNIT_CHOICES = [("unit", "nm", "e.g. an SMPS"), ("unit", "um", "e.g. an APS or OPC")]
 
 
 def _sized(name):
@@ -181,40 +187,19 @@ def _header_edges(path, meta, header, names, run, unit, what, syntax):
     """(edges [µm], unit, unit_from, note) of a wide header of bin midpoints."""
     a, b = run
     mids = np.array([_mid_cell(header[k])[0] for k in range(a, b)])
-    cell_units = {_mid_cell(header[k])[1] for k in range(a, b)} - {None}
-    sized = [h for h in names if _sized(h)]
-    named = [u for u in (header_unit(h)[0] for h in sized) if u is not None]
-    named += list(cell_units)
-    if len({length_factor(u) for u in named}) > 1:
-        raise DataFormatError(
-            f"the header names different length units ({sorted(set(named))}); "
-            "allowed: one unit",
-            source=path,
-            field="unit",
-        )
-    from_file = named[0] if named else None
-    if unit is None and from_file is None:
+    stated = [(h, header_unit(h)[0]) for h in names if _sized(h)]
+    stated += [(header[k].strip(), _mid_cell(header[k])[1]) for k in range(a, b)]
+    stated = _one_unit(path, [(h, u) for h, u in stated if u is not None])
+    unit, unit_from = _unit_agreed(path, unit, stated, default=None)
+    if unit is None:
         raise _ask(
             path,
             f"the {what} does not say the unit of its bin midpoints "
             f"({header[a].strip()}..{header[b - 1].strip()})",
-            [("unit", "nm", "e.g. an SMPS"), ("unit", "um", "e.g. an APS or OPC")],
+            _UNIT_CHOICES,
             syntax,
             field="unit",
         )
-    if (
-        unit is not None
-        and from_file is not None
-        and length_factor(unit) != length_factor(from_file)
-    ):
-        raise DataFormatError(
-            f"the header gives the unit {from_file!r} but the unit given is "
-            f"{unit!r}; allowed: the same unit, or leave it out",
-            source=path,
-            field="unit",
-        )
-    unit_from = "argument" if unit is not None else "header"
-    unit = unit or from_file
     edges, note = _aim_edges(path, meta, mids * (length_factor(unit) / 1e-6))
     return edges, unit, unit_from, note
 
@@ -501,30 +486,19 @@ def _read_aim(path, found, *, values, sample, unit, syntax):
                 minimum=0.0,
                 strict=False,
             )
-    named = [header_unit(name)[0] for name in stats_rows]
-    named = [u for u in named if u is not None]
-    from_file = named[0] if named else None
-    if unit is None and from_file is None:
+    stated = [(name, header_unit(name)[0]) for name in stats_rows]
+    stated = next(((name, u) for name, u in stated if u is not None), None)
+    unit, unit_from = _unit_agreed(
+        path, unit, stated, where="statistics row", default=None
+    )
+    if unit is None:
         raise _ask(
             path,
             "the AIM export does not say the unit of its midpoints",
-            [("unit", "nm", "an SMPS export"), ("unit", "um", "an APS export")],
+            _UNIT_CHOICES,
             syntax,
             field="unit",
         )
-    if (
-        unit is not None
-        and from_file is not None
-        and length_factor(unit) != length_factor(from_file)
-    ):
-        raise DataFormatError(
-            f"the export's statistics rows give the unit {from_file!r} but the unit "
-            f"given is {unit!r}; allowed: the same unit, or leave it out",
-            source=path,
-            field="unit",
-        )
-    unit_from = "argument" if unit is not None else "header"
-    unit = unit or from_file
     mids_um = mids * (length_factor(unit) / 1e-6)
     edges, how_edges = _aim_edges(path, meta, mids_um)
     _check_plausible(path, "Diameter Midpoint", mids_um * 1e-6, unit, unit_from)
