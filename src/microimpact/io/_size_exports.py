@@ -74,21 +74,28 @@ def _mid_cell(cell):
     return float(m.group(1)), m.group(2)
 
 
-def _numeric_run(cells):
-    """[a, b): the longest run (>= 3) of increasing midpoint cells, else None."""
-    vals = [_mid_cell(c) for c in cells]
+def _longest_run(items, follows):
+    """[a, b): the longest run (>= 3; the first of equal length) of items not None
+    in which each follows the one before (``follows(before, item)``), else None."""
     best, k = None, 0
-    while k < len(cells):
-        if vals[k] is None:
+    while k < len(items):
+        if items[k] is None:
             k += 1
             continue
         j = k + 1
-        while j < len(cells) and vals[j] is not None and vals[j][0] > vals[j - 1][0]:
+        while (
+            j < len(items) and items[j] is not None and follows(items[j - 1], items[j])
+        ):
             j += 1
         if j - k >= 3 and (best is None or j - k > best[1] - best[0]):
             best = (k, j)
         k = j
     return best
+
+
+def _numeric_run(cells):
+    """[a, b): the longest run (>= 3) of increasing midpoint cells, else None."""
+    return _longest_run([_mid_cell(c) for c in cells], lambda u, v: v[0] > u[0])
 
 
 _BIN_NAME = re.compile(r"^\s*bin\s*[_#]?\s*(\d+)\s*$", re.IGNORECASE)
@@ -99,18 +106,7 @@ def _named_run(cells):
     (``bin0, bin1, ...``, ``Bin 1, Bin 2, ...``), else None."""
     nums = [_BIN_NAME.match(c) for c in cells]
     nums = [int(m.group(1)) if m else None for m in nums]
-    best, k = None, 0
-    while k < len(cells):
-        if nums[k] is None:
-            k += 1
-            continue
-        j = k + 1
-        while j < len(cells) and nums[j] is not None and nums[j] == nums[j - 1] + 1:
-            j += 1
-        if j - k >= 3 and (best is None or j - k > best[1] - best[0]):
-            best = (k, j)
-        k = j
-    return best
+    return _longest_run(nums, lambda u, v: v == u + 1)
 
 
 def _wide_rows(path):
