@@ -82,6 +82,22 @@ def test_a_header_naming_two_length_units_is_an_error(write_file, text, names):
     assert names in str(exc.value)
 
 
+@pytest.mark.parametrize(
+    ("text", "where"),
+    [
+        ("Dp (um),count\n1,5\n2,-6\n4,2\n", ":3: column 'count': bad value '-6'"),
+        ("lower,upper,count\n1,2,5\n2,4,-6\n", ":3: column 'count': bad value"),
+        ("Sample #,0.5 um,0.7 um,1 um\n1,5,-6,5\n", ":2: column '0.7 um': bad"),
+    ],
+)
+def test_a_negative_bin_value_names_its_line_and_column(write_file, text, where):
+    """The midpoints, edges and wide layouts read a bin's value alike (one shared
+    check): >= 0, else the error says where."""
+    with pytest.raises(DataFormatError, match="allowed: a value >= 0") as exc:
+        read_size_bins(write_file("neg.csv", text), values="count")
+    assert "neg.csv" + where in str(exc.value)
+
+
 # -- a real OPC-N2 file (py-smps sample data): counts per bin -------------------------
 def test_opcn2_total_counts_are_the_sum_of_the_real_file():
     rows = list(csv.reader((DATA / "opcn2_pysmps.csv").open()))

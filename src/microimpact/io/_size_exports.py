@@ -22,6 +22,7 @@ from ..population.binned import edges_from_midpoints
 from ..units import length_factor
 from ._size_common import (
     _ask,
+    _bin_value,
     _bins,
     _key,
     _text_lines,
@@ -320,14 +321,8 @@ def _read_wide(path, found, *, values, sample, unit, edges_um, syntax):
                 line=line,
             )
         for k in range(a, b):
-            table[k - a, c] = _number(
-                cells[k],
-                path=path,
-                line=line,
-                field=f"column {names[k]!r}",
-                allowed=f"a value >= 0 ({kind})",
-                minimum=0.0,
-                strict=False,
+            table[k - a, c] = _bin_value(
+                cells[k], path=path, line=line, field=f"column {names[k]!r}", kind=kind
             )
     if sized:
         if edges_um is not None:
@@ -473,14 +468,8 @@ def _read_aim(path, found, *, values, sample, unit, syntax):
         )
         for c, k in enumerate(cols):
             cell = cells[k + 1] if k + 1 < len(cells) else ""
-            table[r, c] = _number(
-                cell,
-                path=path,
-                line=line,
-                field=f"sample {labels[k]}",
-                allowed=f"a value >= 0 ({kind})",
-                minimum=0.0,
-                strict=False,
+            table[r, c] = _bin_value(
+                cell, path=path, line=line, field=f"sample {labels[k]}", kind=kind
             )
     stated = [(name, header_unit(name)[0]) for name in stats_rows]
     stated = next(((name, u) for name, u in stated if u is not None), None)

@@ -73,6 +73,7 @@ from ..population.binned import (
 from ._size_common import (
     _SYNTAX,
     _ask,
+    _bin_value,
     _bins,
     _key,
     _text_lines,
@@ -467,20 +468,22 @@ def _read_bins(path, layout, values, column, unit, sample, edges_um, syntax):
     names = header or [f"column {k}" for k in range(width)]
     table = np.empty((len(data), len(cols) + 1))
     for r, (line, cells) in enumerate(data):
-        for c, k in enumerate([*cols, j]):
-            cell = cells[k] if k < len(cells) else ""
-            is_value = k == j
+        for c, k in enumerate(cols):
             table[r, c] = _number(
-                cell,
+                cells[k] if k < len(cells) else "",
                 path=path,
                 line=line,
                 field=f"column {names[k]!r}" if header else f"column {k}",
-                allowed=f"a value >= 0 ({kind})"
-                if is_value
-                else f"a diameter > 0 in {unit}",
+                allowed=f"a diameter > 0 in {unit}",
                 minimum=0.0,
-                strict=not is_value,
             )
+        table[r, -1] = _bin_value(
+            cells[j] if j < len(cells) else "",
+            path=path,
+            line=line,
+            field=f"column {names[j]!r}" if header else f"column {j}",
+            kind=kind,
+        )
     notes = []
     if unit_from == "header":
         notes.append(f"diameters read in {unit}, the unit the header names")
