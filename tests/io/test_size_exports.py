@@ -65,6 +65,39 @@ def test_aim_export_unit_contradiction_is_an_error():
         read_size_bins(AIM, sample=1, unit="um")
 
 
+@pytest.mark.parametrize(
+    ("text", "names"),
+    [
+        ("Lower (nm),Upper (um),count\n100,200,5\n200,400,9\n400,800,4\n", "nm"),
+        ("Sample #,Median(nm),0.5 um,1 um,2 um\n1,900,5,9,4\n", "0.5 um"),
+    ],
+)
+def test_a_header_naming_two_length_units_is_an_error(write_file, text, names):
+    """The header's units are checked against each other before any is used (the
+    edges and the wide layouts share the check): the error names both."""
+    path = write_file("u.csv", text)
+    with pytest.raises(DataFormatError, match="different length units") as exc:
+        read_size_bins(path, values="count")
+    assert "u.csv" in str(exc.value) and "'um'" in str(exc.value)
+    assert names in str(exc.value)
+
+
+@pytest.mark.parametrize(
+    ("text", "where"),
+    [
+        ("Dp (um),count\n1,5\n2,-6\n4,2\n", ":3: column 'count': bad value '-6'"),
+        ("lower,upper,count\n1,2,5\n2,4,-6\n", ":3: column 'count': bad value"),
+        ("Sample #,0.5 um,0.7 um,1 um\n1,5,-6,5\n", ":2: column '0.7 um': bad"),
+    ],
+)
+def test_a_negative_bin_value_names_its_line_and_column(write_file, text, where):
+    """The midpoints, edges and wide layouts read a bin's value alike (one shared
+    check): >= 0, else the error says where."""
+    with pytest.raises(DataFormatError, match="allowed: a value >= 0") as exc:
+        read_size_bins(write_file("neg.csv", text), values="count")
+    assert "neg.csv" + where in str(exc.value)
+
+
 # -- a real OPC-N2 file (py-smps sample data): counts per bin -------------------------
 def test_opcn2_total_counts_are_the_sum_of_the_real_file():
     rows = list(csv.reader((DATA / "opcn2_pysmps.csv").open()))

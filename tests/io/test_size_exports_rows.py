@@ -212,6 +212,16 @@ def test_wide_header_with_units_in_the_cells(write_file):
         read_size_bins(path, values="dN", unit="um")
 
 
+def test_the_longest_run_of_midpoints_is_the_bins(write_file):
+    """A header with two runs of increasing sizes: the longer one is read as the
+    bins (_longest_run, shared with the bin-name runs ``bin0, bin1, ...``)."""
+    text = "Sample #,1 um,2 um,3 um,Median(um),0.5,0.7,1,1.4\n1,5,5,5,0.9,1,2,3,4\n"
+    bins, meta = read_size_bins(write_file("two.csv", text), values="count")
+    assert meta["n_bins"] == 4
+    assert_allclose(bins.midpoints_um, [0.5, 0.7, 1.0, 1.4], rtol=0.02)
+    assert_allclose(bins.number, [1, 2, 3, 4])
+
+
 def test_bin_names_take_the_edges_given(write_file):
     """``bin0, bin1, ...`` headers give no sizes: the edges are asked for (in the
     caller's syntax); a data row of increasing counts under them is not taken for

@@ -696,6 +696,22 @@ def test_column_keys_must_be_a_name_or_an_index(tmp_path):
     )
 
 
+@pytest.mark.parametrize("distribution", ["empirical", "histogram"])
+@pytest.mark.parametrize(
+    ("key", "value", "match"),
+    [
+        ("unit", "parsec", r"particles\.unit: .*'parsec'"),
+        ("column", 1.5, r"particles\.column: must be a column name or a 0-based"),
+    ],
+)
+def test_a_particles_files_keys_are_checked(tmp_path, distribution, key, value, match):
+    """The file, column and unit keys of both file-reading populations (one
+    shared check)."""
+    (tmp_path / "d.csv").write_text("d_um\n10\n20\n30\n")
+    particles = {"distribution": distribution, "file": "d.csv", key: value}
+    check(minimal(particles=particles), match, base_dir=tmp_path)
+
+
 def test_missing_kind_names_the_choices():
     check(
         minimal(particles={"mean_um": 50.0}),

@@ -16,6 +16,7 @@ from ..population.binned import (
     BinnedSizes,
     number_per_bin,
 )
+from .diameters import _number
 
 _SYNTAX = ("python", "cli", "toml")
 _HINT = "; expected delimited text"
@@ -56,6 +57,21 @@ def _values_choices():
         for v, (w, per) in BIN_VALUES.items()
         if v in ("count", "dN", "dN/dlogDp", "dN/dDp", "dM/dlogDp", "dV/dlogDp")
     ]
+
+
+def _bin_value(cell, *, path, line, field, kind) -> float:
+    """One bin's value (of `kind`, a key of ``BIN_VALUES``) in an export: a number
+    >= 0; else DataFormatError naming the file, line, `field` and what is
+    allowed."""
+    return _number(
+        cell,
+        path=path,
+        line=line,
+        field=field,
+        allowed=f"a value >= 0 ({kind})",
+        minimum=0.0,
+        strict=False,
+    )
 
 
 def _text_lines(path):

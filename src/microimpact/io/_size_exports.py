@@ -22,6 +22,7 @@ from ..population.binned import edges_from_midpoints
 from ..units import length_factor
 from ._size_common import (
     _ask,
+    _bin_value,
     _bins,
     _key,
     _text_lines,
@@ -31,6 +32,8 @@ from ._size_select import _aggregate, _iso_time, _sample_key, _select, _total_co
 from .diameters import (
     _check_plausible,
     _number,
+    _one_unit,
+    _unit_agreed,
 )
 from .profiles import header_unit
 
@@ -55,6 +58,10 @@ _SIZED = {
 }
 
 
+#: The choices of the error asking for the unit of an export's midpoints.
+_UNIT_CHOICES = [("unit", "nm", "e.g. an SMPS"), ("unit", "um", "e.g. an APS or OPC")]
+
+
 def _sized(name):
     """True if header `name` is a diameter whose unit is the midpoints'."""
     return re.sub(r"\s*[\(\[].*$", "", name).strip().lower() in _SIZED
@@ -68,21 +75,28 @@ def _mid_cell(cell):
     return float(m.group(1)), m.group(2)
 
 
-def _numeric_run(cells):
-    """[a, b): the longest run (>= 3) of increasing midpoint cells, else None."""
-    vals = [_mid_cell(c) for c in cells]
+def _longest_run(items, follows):
+    """[a, b): the longest run (>= 3; the first of equal length) of items not None
+    in which each follows the one before (``follows(before, item)``), else None."""
     best, k = None, 0
-    while k < len(cells):
-        if vals[k] is None:
+    while k < len(items):
+        if items[k] is None:
             k += 1
             continue
         j = k + 1
-        while j < len(cells) and vals[j] is not None and vals[j][0] > vals[j - 1][0]:
+        while (
+            j < len(items) and items[j] is not None and follows(items[j - 1], items[j])
+        ):
             j += 1
         if j - k >= 3 and (best is None or j - k > best[1] - best[0]):
             best = (k, j)
         k = j
     return best
+
+
+def _numeric_run(cells):
+    """[a, b): the longest run (>= 3) of increasing midpoint cells, else None."""
+    return _longest_run([_mid_cell(c) for c in cells], lambda u, v: v[0] > u[0])
 
 
 _BIN_NAME = re.compile(r"^\s*bin\s*[_#]?\s*(\d+)\s*$", re.IGNORECASE)
@@ -93,18 +107,7 @@ def _named_run(cells):
     (``bin0, bin1, ...``, ``Bin 1, Bin 2, ...``), else None."""
     nums = [_BIN_NAME.match(c) for c in cells]
     nums = [int(m.group(1)) if m else None for m in nums]
-    best, k = None, 0
-    while k < len(cells):
-        if nums[k] is None:
-            k += 1
-            continue
-        j = k + 1
-        while j < len(cells) and nums[j] is not None and nums[j] == nums[j - 1] + 1:
-            j += 1
-        if j - k >= 3 and (best is None or j - k > best[1] - best[0]):
-            best = (k, j)
-        k = j
-    return best
+    return _longest_run(nums, lambda u, v: v == u + 1)
 
 
 def _wide_rows(path):
@@ -181,40 +184,19 @@ def _header_edges(path, meta, header, names, run, unit, what, syntax):
     """(edges [µm], unit, unit_from, note) of a wide header of bin midpoints."""
     a, b = run
     mids = np.array([_mid_cell(header[k])[0] for k in range(a, b)])
-    cell_units = {_mid_cell(header[k])[1] for k in range(a, b)} - {None}
-    sized = [h for h in names if _sized(h)]
-    named = [u for u in (header_unit(h)[0] for h in sized) if u is not None]
-    named += list(cell_units)
-    if len({length_factor(u) for u in named}) > 1:
-        raise DataFormatError(
-            f"the header names different length units ({sorted(set(named))}); "
-            "allowed: one unit",
-            source=path,
-            field="unit",
-        )
-    from_file = named[0] if named else None
-    if unit is None and from_file is None:
+    stated = [(h, header_unit(h)[0]) for h in names if _sized(h)]
+    stated += [(header[k].strip(), _mid_cell(header[k])[1]) for k in range(a, b)]
+    stated = _one_unit(path, [(h, u) for h, u in stated if u is not None])
+    unit, unit_from = _unit_agreed(path, unit, stated, default=None)
+    if unit is None:
         raise _ask(
             path,
             f"the {what} does not say the unit of its bin midpoints "
             f"({header[a].strip()}..{header[b - 1].strip()})",
-            [("unit", "nm", "e.g. an SMPS"), ("unit", "um", "e.g. an APS or OPC")],
+            _UNIT_CHOICES,
             syntax,
             field="unit",
         )
-    if (
-        unit is not None
-        and from_file is not None
-        and length_factor(unit) != length_factor(from_file)
-    ):
-        raise DataFormatError(
-            f"the header gives the unit {from_file!r} but the unit given is "
-            f"{unit!r}; allowed: the same unit, or leave it out",
-            source=path,
-            field="unit",
-        )
-    unit_from = "argument" if unit is not None else "header"
-    unit = unit or from_file
     edges, note = _aim_edges(path, meta, mids * (length_factor(unit) / 1e-6))
     return edges, unit, unit_from, note
 
@@ -339,14 +321,8 @@ def _read_wide(path, found, *, values, sample, unit, edges_um, syntax):
                 line=line,
             )
         for k in range(a, b):
-            table[k - a, c] = _number(
-                cells[k],
-                path=path,
-                line=line,
-                field=f"column {names[k]!r}",
-                allowed=f"a value >= 0 ({kind})",
-                minimum=0.0,
-                strict=False,
+            table[k - a, c] = _bin_value(
+                cells[k], path=path, line=line, field=f"column {names[k]!r}", kind=kind
             )
     if sized:
         if edges_um is not None:
@@ -492,39 +468,22 @@ def _read_aim(path, found, *, values, sample, unit, syntax):
         )
         for c, k in enumerate(cols):
             cell = cells[k + 1] if k + 1 < len(cells) else ""
-            table[r, c] = _number(
-                cell,
-                path=path,
-                line=line,
-                field=f"sample {labels[k]}",
-                allowed=f"a value >= 0 ({kind})",
-                minimum=0.0,
-                strict=False,
+            table[r, c] = _bin_value(
+                cell, path=path, line=line, field=f"sample {labels[k]}", kind=kind
             )
-    named = [header_unit(name)[0] for name in stats_rows]
-    named = [u for u in named if u is not None]
-    from_file = named[0] if named else None
-    if unit is None and from_file is None:
+    stated = [(name, header_unit(name)[0]) for name in stats_rows]
+    stated = next(((name, u) for name, u in stated if u is not None), None)
+    unit, unit_from = _unit_agreed(
+        path, unit, stated, where="statistics row", default=None
+    )
+    if unit is None:
         raise _ask(
             path,
             "the AIM export does not say the unit of its midpoints",
-            [("unit", "nm", "an SMPS export"), ("unit", "um", "an APS export")],
+            _UNIT_CHOICES,
             syntax,
             field="unit",
         )
-    if (
-        unit is not None
-        and from_file is not None
-        and length_factor(unit) != length_factor(from_file)
-    ):
-        raise DataFormatError(
-            f"the export's statistics rows give the unit {from_file!r} but the unit "
-            f"given is {unit!r}; allowed: the same unit, or leave it out",
-            source=path,
-            field="unit",
-        )
-    unit_from = "argument" if unit is not None else "header"
-    unit = unit or from_file
     mids_um = mids * (length_factor(unit) / 1e-6)
     edges, how_edges = _aim_edges(path, meta, mids_um)
     _check_plausible(path, "Diameter Midpoint", mids_um * 1e-6, unit, unit_from)

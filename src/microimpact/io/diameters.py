@@ -191,22 +191,45 @@ def read_diameters(path, *, column=None, unit=None, syntax="python"):
 def _diameter_unit(path, header, j, name, unit):
     """``(unit, where it came from)``: the header's unit is honoured, an explicit
     one must agree with it, else µm."""
-    from_header = header_unit(header[j])[0] if header else None
+    stated = header_unit(header[j])[0] if header else None
+    return _unit_agreed(path, unit, None if stated is None else (name, stated))
+
+
+def _one_unit(path, stated):
+    """The first of the ``(name, unit)`` pairs `stated` by a file's header (None
+    if there are none); DataFormatError where they name different lengths."""
+    if len({length_factor(u) for _, u in stated}) > 1:
+        listing = ", ".join(f"{u!r} in {name!r}" for name, u in stated)
+        raise DataFormatError(
+            f"the header names different length units ({listing}); allowed: one unit",
+            source=path,
+            field="unit",
+        )
+    return stated[0] if stated else None
+
+
+def _unit_agreed(path, unit, stated, *, where="header", default="um"):
+    """``(unit, unit_from)`` of the diameters of a file: an explicit `unit` must
+    name the same length as the one the file states, ``stated = (name, unit)`` (the
+    header cell or row `where` that names it; None: the file states none).
+
+    Returns ``(unit, "argument")``, else ``(stated unit, "header")``, else
+    ``(default, "default")``; ``(None, None)`` if `default` is None and neither
+    says a unit.
+    """
     if unit is not None:
-        if from_header is not None and length_factor(from_header) != length_factor(
-            unit
-        ):
+        if stated is not None and length_factor(stated[1]) != length_factor(unit):
             raise DataFormatError(
-                f"the header {name!r} gives the unit {from_header!r} but the unit "
-                f"given is {unit!r}; allowed: the same unit, or leave the unit out "
-                "to use the header's",
+                f"the {where} {stated[0]!r} gives the unit {stated[1]!r} but the "
+                f"unit given is {unit!r}; allowed: the same unit, or leave the unit "
+                "out to use the file's",
                 source=path,
                 field="unit",
             )
         return unit, "argument"
-    if from_header is not None:
-        return from_header, "header"
-    return "um", "default"
+    if stated is not None:
+        return stated[1], "header"
+    return (default, "default") if default is not None else (None, None)
 
 
 def _check_plausible(path, field, diameters_m, unit, unit_from):

@@ -70,10 +70,10 @@ from ..population.binned import (
     BIN_VALUES,
     edges_from_midpoints,
 )
-from ..units import length_factor
 from ._size_common import (
     _SYNTAX,
     _ask,
+    _bin_value,
     _bins,
     _key,
     _text_lines,
@@ -83,9 +83,12 @@ from ._size_exports import _aim_rows, _read_aim, _read_wide, _wide_rows
 from ._size_select import _counted
 from .diameters import (
     _check_plausible,
+    _factor,
     _number,
+    _one_unit,
     _rows_layout,
     _split_header,
+    _unit_agreed,
     read_diameters,
     read_histogram,
 )
@@ -273,31 +276,9 @@ def _value_column(path, header, width, used, column, values, syntax):
 def _unit_of(path, header, cols, unit):
     """(unit, where from) of the diameter columns `cols`; header units must agree
     with each other and with an explicit `unit`."""
-    found = {header[j]: header_unit(header[j])[0] for j in cols} if header else {}
-    named = {h: u for h, u in found.items() if u is not None}
-    factors = {length_factor(u) for u in named.values()}
-    if len(factors) > 1:
-        raise DataFormatError(
-            f"the diameter columns name different units ({named}); allowed: one unit",
-            source=path,
-            field="unit",
-        )
-    from_header = next(iter(named.values()), None)
-    if unit is not None:
-        if from_header is not None and length_factor(from_header) != length_factor(
-            unit
-        ):
-            raise DataFormatError(
-                f"the header {next(iter(named))!r} gives the unit {from_header!r} but "
-                f"the unit given is {unit!r}; allowed: the same unit, or leave the "
-                "unit out to use the header's",
-                source=path,
-                field="unit",
-            )
-        return unit, "argument"
-    if from_header is not None:
-        return from_header, "header"
-    return "um", "default"
+    found = [(header[j], header_unit(header[j])[0]) for j in cols] if header else []
+    stated = _one_unit(path, [(h, u) for h, u in found if u is not None])
+    return _unit_agreed(path, unit, stated)
 
 
 def read_size_bins(
@@ -483,27 +464,26 @@ def _read_bins(path, layout, values, column, unit, sample, edges_um, syntax):
         )
     j, kind = _value_column(path, header, width, cols, column, values, syntax)
     unit, unit_from = _unit_of(path, header, cols, unit)
-    try:
-        um = length_factor(unit) / 1e-6
-    except ValueError as exc:
-        raise DataFormatError(str(exc), source=path, field="unit") from None
+    um = _factor(unit, path) / 1e-6
     names = header or [f"column {k}" for k in range(width)]
     table = np.empty((len(data), len(cols) + 1))
     for r, (line, cells) in enumerate(data):
-        for c, k in enumerate([*cols, j]):
-            cell = cells[k] if k < len(cells) else ""
-            is_value = k == j
+        for c, k in enumerate(cols):
             table[r, c] = _number(
-                cell,
+                cells[k] if k < len(cells) else "",
                 path=path,
                 line=line,
                 field=f"column {names[k]!r}" if header else f"column {k}",
-                allowed=f"a value >= 0 ({kind})"
-                if is_value
-                else f"a diameter > 0 in {unit}",
+                allowed=f"a diameter > 0 in {unit}",
                 minimum=0.0,
-                strict=not is_value,
             )
+        table[r, -1] = _bin_value(
+            cells[j] if j < len(cells) else "",
+            path=path,
+            line=line,
+            field=f"column {names[j]!r}" if header else f"column {j}",
+            kind=kind,
+        )
     notes = []
     if unit_from == "header":
         notes.append(f"diameters read in {unit}, the unit the header names")

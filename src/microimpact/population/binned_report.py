@@ -30,6 +30,7 @@ from dataclasses import dataclass, replace
 
 from .._core.json import dumps
 from .._core.toml import particles_snippet
+from ._compare import aic, chi2_line, fit_dict, fits_better, outcome, recommend
 from .aerosol import aerodynamic_diameter, hatch_choate_mass_median
 from .binned import (
     BinnedSizes,
@@ -45,10 +46,6 @@ __all__ = ["BINNED_SCHEMA", "BinnedSizesReport", "describe_binned_sizes"]
 
 #: Identifies the layout of :meth:`BinnedSizesReport.to_dict` (docs/populations.md).
 BINNED_SCHEMA = "microimpact.sizes.binned/1"
-
-
-def _aic(fit: FitResult) -> float:
-    return 2.0 * 2 - 2.0 * fit.log_likelihood
 
 
 @dataclass(frozen=True, eq=False)
@@ -127,14 +124,8 @@ class BinnedSizesReport:
                 "n_bins_initial": c.n_bins_initial,
             }
 
-        def fit(f, c, aic):
-            return {
-                "params": dict(f.params),
-                "stderr": dict(f.stderr),
-                "log_likelihood": f.log_likelihood,
-                "aic": aic,
-                "chi2": chi2(c),
-            }
+        def fit(f, c, aic_value):
+            return fit_dict(f, chi2(c), aic_value)
 
         b = self.bins
         return {
@@ -175,8 +166,7 @@ class BinnedSizesReport:
                 return "no chi2 test " + (
                     "(too few particles)" if self.bins.counted else "(not counts)"
                 )
-            word = "rejected" if c.reject else "not rejected"
-            return f"chi2 {c.statistic:.3f}, dof {c.dof}, p = {c.pvalue:.4g}: {word}"
+            return chi2_line(c)
 
         b = self.bins
         lines = [
@@ -267,26 +257,15 @@ def describe_binned_sizes(
             "the values are not counted particles, so there is no chi-squared test "
             "and no standard error; the better fit by likelihood is recommended"
         )
-    aic_n, aic_ln = _aic(normal), _aic(lognormal)
-    delta = aic_n - aic_ln
-    better = "lognormal" if delta > 0 else "normal"
+    aic_n, aic_ln = aic(normal), aic(lognormal)
+    delta, better, recommended = recommend(aic_n, aic_ln, chi_n, chi_ln, "histogram")
     if chi_n is None:
-        recommended = better
         why = "too few particles" if too_few else "the bins are not counts"
         tests = f"no chi-squared test ({why})"
     else:
-        kept = [
-            k for k, c in (("normal", chi_n), ("lognormal", chi_ln)) if not c.reject
-        ]
-        recommended = better if len(kept) == 2 else (kept[0] if kept else "histogram")
-
-        def word(c):
-            state = "rejected" if c.reject else "not rejected"
-            return f"{state} (p = {c.pvalue:.3g})"
-
         tests = (
             f"chi-squared on the bins at alpha = {float(alpha):g}: normal "
-            f"{word(chi_n)}, log-normal {word(chi_ln)}"
+            f"{outcome(chi_n)}, log-normal {outcome(chi_ln)}"
         )
     dist = {"normal": normal.distribution, "lognormal": lognormal.distribution}.get(
         recommended
@@ -310,14 +289,9 @@ def describe_binned_sizes(
             aerosol[key] = 1e6 * aerodynamic_diameter(
                 d_um * 1e-6, density_kg_m3, shape_factor=shape_factor
             )
-    fits = (
-        "the log-normal fits better than the normal"
-        if better == "lognormal"
-        else "the normal fits better than (or as well as) the log-normal"
-    )
     verdict = (
-        f"{fits} (binned likelihood, AIC {aic_n:.2f} vs {aic_ln:.2f}, difference "
-        f"{delta:+.2f}); {tests}; recommended: {recommended}."
+        f"{fits_better(better)} (binned likelihood, AIC {aic_n:.2f} vs "
+        f"{aic_ln:.2f}, difference {delta:+.2f}); {tests}; recommended: {recommended}."
     )
     return BinnedSizesReport(
         bins=bins,

@@ -35,6 +35,7 @@ import numpy as np
 from .._core.json import dumps
 from .._core.toml import particles_snippet
 from .._core.validation import as_float_array
+from ._compare import aic, chi2_line, fit_dict, fits_better, outcome, recommend
 from .distributions import (
     Chi2NormalityResult,
     FitResult,
@@ -48,11 +49,6 @@ __all__ = ["SCHEMA", "SizesReport", "describe_sizes"]
 
 #: Identifies the layout of :meth:`SizesReport.to_dict` (``docs/populations.md``).
 SCHEMA = "microimpact.sizes/1"
-_N_PARAMS = 2
-
-
-def _aic(fit: FitResult) -> float:
-    return 2.0 * _N_PARAMS - 2.0 * fit.log_likelihood
 
 
 @dataclass(frozen=True, eq=False)
@@ -125,14 +121,8 @@ class SizesReport:
                 "n_classes_initial": int(c.n_classes_initial),
             }
 
-        def fit(f: FitResult, c: Chi2NormalityResult, aic: float) -> dict:
-            return {
-                "params": dict(f.params),
-                "stderr": dict(f.stderr),
-                "log_likelihood": f.log_likelihood,
-                "aic": aic,
-                "chi2": chi2(c),
-            }
+        def fit(f: FitResult, c: Chi2NormalityResult, aic_value: float) -> dict:
+            return fit_dict(f, chi2(c), aic_value)
 
         return {
             "schema": SCHEMA,
@@ -160,18 +150,14 @@ class SizesReport:
         def pm(f, key):
             return f"{f.params[key]:.4g} ± {f.stderr[key]:.2g}"
 
-        def test(c):
-            word = "rejected" if c.reject else "not rejected"
-            return f"chi2 {c.statistic:.3f}, dof {c.dof}, p = {c.pvalue:.4g}: {word}"
-
         return "\n".join(
             [
                 f"n = {self.n}",
                 f"  normal     : mean {pm(n, 'mean_um')} um, std {pm(n, 'std_um')} um;"
-                f" AIC {self.aic_normal:.2f}; {test(self.chi2_normal)}",
+                f" AIC {self.aic_normal:.2f}; {chi2_line(self.chi2_normal)}",
                 f"  log-normal : median {pm(ln, 'median_um')} um, geometric std "
                 f"{pm(ln, 'geometric_std')}; AIC {self.aic_lognormal:.2f}; "
-                f"{test(self.chi2_lognormal)}",
+                f"{chi2_line(self.chi2_lognormal)}",
                 f"  {self.verdict}",
             ]
         )
@@ -204,16 +190,8 @@ def describe_sizes(diameters_um, *, alpha=0.05, source=None) -> SizesReport:
     chi_n = chi2_normality(d, alpha=alpha)
     log_d = np.log(d)
     chi_ln = chi2_normality(log_d - log_d.min() + 1.0, alpha=alpha)  # invariant shift
-    aic_n, aic_ln = _aic(normal), _aic(lognormal)
-    delta = aic_n - aic_ln
-    better = "lognormal" if delta > 0 else "normal"
-    kept = [k for k, c in (("normal", chi_n), ("lognormal", chi_ln)) if not c.reject]
-    if len(kept) == 2:
-        recommended = better
-    elif kept:
-        recommended = kept[0]
-    else:
-        recommended = "empirical"
+    aic_n, aic_ln = aic(normal), aic(lognormal)
+    delta, better, recommended = recommend(aic_n, aic_ln, chi_n, chi_ln, "empirical")
     dist = {
         "normal": normal.distribution,
         "lognormal": lognormal.distribution,
@@ -221,26 +199,15 @@ def describe_sizes(diameters_um, *, alpha=0.05, source=None) -> SizesReport:
     if dist is None:
         dist = empirical_diameters(d)
 
-    def word(c):
-        return (
-            f"rejected (p = {c.pvalue:.3g})"
-            if c.reject
-            else (f"not rejected (p = {c.pvalue:.3g})")
-        )
-
-    fits = (
-        "the log-normal fits better than the normal"
-        if better == "lognormal"
-        else ("the normal fits better than (or as well as) the log-normal")
-    )
     reason = {
         "empirical": "the test rejects both, so the measured distribution is used, "
         "as in the paper",
     }.get(recommended, "the better fit the test does not reject")
     verdict = (
-        f"{fits} (AIC {aic_n:.2f} vs {aic_ln:.2f}, difference {delta:+.2f}); "
-        f"chi-squared at alpha = {float(alpha):g}: normal {word(chi_n)}, log-normal "
-        f"{word(chi_ln)}; recommended: {recommended} ({reason})."
+        f"{fits_better(better)} (AIC {aic_n:.2f} vs {aic_ln:.2f}, difference "
+        f"{delta:+.2f}); chi-squared at alpha = {float(alpha):g}: normal "
+        f"{outcome(chi_n)}, log-normal {outcome(chi_ln)}; recommended: "
+        f"{recommended} ({reason})."
     )
     return SizesReport(
         n=int(d.size),

@@ -97,6 +97,20 @@ _STAND_IN = {
 }
 
 
+def _file_keys(ctx: _Ctx, t, where):
+    """``(path, column, unit)`` of the file a ``[particles]`` table reads (an
+    empirical or histogram population): ``file`` checked, ``column`` and ``unit``
+    checked if given (None: the reader's default, the header's unit else µm)."""
+    path = ctx.path(t["file"], _join(where, "file"))
+    column = t.get("column")
+    if column is not None:
+        column = ctx.column(column, _join(where, "column"))
+    unit = t.get("unit")
+    if unit is not None:
+        unit = ctx.unit(unit, _join(where, "unit"))
+    return path, column, unit
+
+
 def _particles(ctx: _Ctx, data, where="particles"):
 
     t = ctx.table(data, where)
@@ -140,13 +154,7 @@ def _particles(ctx: _Ctx, data, where="particles"):
                 t["diameters_um"], _join(where, "diameters_um"), low=0, strict=True
             )
         else:
-            path = ctx.path(t["file"], _join(where, "file"))
-            column = t.get("column")
-            if column is not None:
-                column = ctx.column(column, _join(where, "column"))
-            unit = t.get("unit")  # default: the header's, else um
-            if unit is not None:
-                unit = ctx.unit(unit, _join(where, "unit"))
+            path, column, unit = _file_keys(ctx, t, where)
             d_m, _ = ctx.build(
                 _join(where, "file"),
                 t,
@@ -182,13 +190,7 @@ def _particles(ctx: _Ctx, data, where="particles"):
                 "only allowed with inline 'edges_um' (no 'file': the file holds the "
                 "values)",
             )
-        path = ctx.path(t["file"], _join(where, "file"))
-        unit = t.get("unit")  # default: the header's, else um
-        if unit is not None:
-            unit = ctx.unit(unit, _join(where, "unit"))
-        column = t.get("column")
-        if column is not None:
-            column = ctx.column(column, _join(where, "column"))
+        path, column, unit = _file_keys(ctx, t, where)
         layout = t.get("layout")
         if layout is not None:
             layout = ctx.choice(layout, _join(where, "layout"), ("edges", "midpoints"))
