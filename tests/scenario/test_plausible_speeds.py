@@ -11,9 +11,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from microimpact._core.validation import PLAUSIBLE_SPEED_M_S
-from microimpact.population.distributions import PLAUSIBLE_DIAMETER_UM
 from microimpact.cli import main
 from microimpact.errors import ScenarioError
+from microimpact.population.distributions import PLAUSIBLE_DIAMETER_UM
 from microimpact.scenario.wall_law import WallLawSpec
 from microimpact.wall_law import build_wall_law
 
