@@ -549,6 +549,8 @@ def test_cli_unreachable_scheduler_is_the_users_error(tmp_path, capsys, monkeypa
     assert main([*argv, "--backend", "dask", "--scheduler", "tcp://127.0.0.1:9"]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "127.0.0.1:9" in err
+    # the flag, not the library's argument name (found by a user: "address: ...")
+    assert "error: --scheduler: cannot connect" in err, err
     assert main([*argv, "--scheduler", "tcp://127.0.0.1:9"]) == 2
     assert "needs --backend dask" in capsys.readouterr().err
 
