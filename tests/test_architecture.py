@@ -22,7 +22,7 @@ LAYERS = (
     ("wall_law", "plotting"),
     ("analysis",),
     ("pipeline",),
-    ("cli",),
+    ("cli", "__main__"),
 )
 RANK = {name: rank for rank, names in enumerate(LAYERS) for name in names}
 

@@ -127,6 +127,28 @@ def test_outside_range_is_not_extrapolated(summary):
     assert "outside the simulated range [10, 85]" in t.loc[0, "note"]
 
 
+def test_interpolation_beside_a_point_without_a_value_says_why(summary):
+    # found by a user: e between a fully captured speed (no rebounds, e NaN) and
+    # a rebounding one came out NaN with the note "interpolated in ... between"
+    summary.loc[0, ["e_rebound_mean", "e_rebound_se"]] = math.nan  # 10 deg
+    exp = exp_table(
+        [
+            ("rough", 1.0, 15.0, "e", 0.70, 0.05),  # between 10 (NaN) and 30
+            ("rough", 1.0, 50.0, "e", 0.55, 0.05),  # between 30 and 85: fine
+        ]
+    )
+    t = compare(summary, exp)
+    assert np.isnan(t.loc[0, "sim_mean"]) and not t.loc[0, "interpolated"]
+    note = t.loc[0, "note"]
+    assert "interpolated in" not in note
+    assert "angle_deg = 10" in note and "e_rebound_mean" in note
+    assert "no rebounds" in note
+    # the neighbouring interval still interpolates: 50 deg is 20/55 of 30 -> 85
+    w = 35 / 55
+    assert_allclose(t.loc[1, "sim_mean"], w * 0.60 + (1 - w) * 0.50, rtol=1e-12)
+    assert bool(t.loc[1, "interpolated"])
+
+
 def test_capture_fraction_se_from_wilson_width(summary):
     exp = exp_table([("rough", 1.0, 30.0, "capture_fraction", 0.05, 0.0)])
     t = compare(summary, exp)

@@ -549,6 +549,8 @@ def test_cli_unreachable_scheduler_is_the_users_error(tmp_path, capsys, monkeypa
     assert main([*argv, "--backend", "dask", "--scheduler", "tcp://127.0.0.1:9"]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "127.0.0.1:9" in err
+    # the flag, not the library's argument name (found by a user: "address: ...")
+    assert "error: --scheduler: cannot connect" in err, err
     assert main([*argv, "--scheduler", "tcp://127.0.0.1:9"]) == 2
     assert "needs --backend dask" in capsys.readouterr().err
 
@@ -603,3 +605,32 @@ def test_the_cli_headline_never_prints_an_index_above_one(tmp_path, capsys):
     line = capsys.readouterr().out
     values = [float(v) for v in re.findall(r" (-?\d+\.\d+)", line)]
     assert values and all(0.0 <= v <= 1.0 for v in values), line
+
+
+class ConstantOutput:
+    """A statistic that does not vary over the design (e.g. capture 0 everywhere)."""
+
+    outputs = pd.DataFrame(
+        {"statistic": ["y", "y"], "speed_m_s": [1.0, 2.0], "angle_deg": [90.0, 90.0]}
+    )
+
+    def __call__(self, rows):
+        return np.zeros((len(rows), 2))
+
+
+def test_the_cli_headline_says_when_a_statistic_varies_nowhere(capsys):
+    # found by a user: "capture_fraction: ST over 0 sweep point(s)  a -, b -"
+    from microimpact.cli import sensitivity as verb
+
+    res = sobol_analysis(
+        ConstantOutput(),
+        {"a": {"low": 0, "high": 1}, "b": {"low": 0, "high": 1}},
+        base_size=4,
+        seed=1,
+        n_resamples=10,
+    )
+    verb._print_top(res)
+    line = capsys.readouterr().out
+    assert "over 0 sweep point" not in line and " -" not in line, line
+    assert "y: does not vary over the design at any sweep point" in line
+    assert "no index" in line

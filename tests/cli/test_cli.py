@@ -231,7 +231,7 @@ def test_fit_command(tmp_path, capsys):
         (
             "fit",
             "diameter_um,v_n_m_s,e\n50,1,0.6\n50,2,0.5\n60,1,0.6\n",
-            "no diameter group was fitted",
+            "no diameter has the 5 or more impacts",
         ),
     ],
 )

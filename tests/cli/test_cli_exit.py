@@ -128,3 +128,30 @@ def test_sigterm_keeps_the_checkpoint_and_exits_143(tmp_path):
     assert "terminated" in err and "checkpoint" in err
     assert ckpt.exists()
     assert not (out / "summary.csv").exists()
+
+
+def test_python_dash_m_microimpact_runs_the_command_line():
+    # found by a user: `python -m microimpact --version` gave "No module named
+    # microimpact.__main__" (only `python -m microimpact.cli` worked)
+    src = str(Path(__file__).resolve().parents[2] / "src")
+    env = {
+        **os.environ,
+        "PYTHONPATH": src + os.pathsep + os.environ.get("PYTHONPATH", ""),
+    }
+    out = subprocess.run(
+        [sys.executable, "-m", "microimpact", "--version"],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=60,
+    )
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.startswith("microimpact ")
+    bad = subprocess.run(
+        [sys.executable, "-m", "microimpact", "run", "no-such.toml", "--out", "o"],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=60,
+    )
+    assert bad.returncode == 2 and "no-such.toml" in bad.stderr

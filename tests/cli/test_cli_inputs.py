@@ -92,6 +92,21 @@ def test_fit_at_one_speed_is_refused_with_exit_2(tmp_path, capsys):
     assert "one.csv" in err and "1 distinct speed" in err and err.count("\n") == 1
 
 
+def test_fit_with_too_few_impacts_per_diameter_names_the_need(tmp_path, capsys):
+    # found by a user: three impacts per diameter ended in "`table` has no rows
+    # ... `min_points`", names of the library the command line does not have
+    data = tmp_path / "few.csv"
+    data.write_text(
+        "diameter_um,v_n_m_s,e\n"
+        + "".join(f"{d},{v},0.5\n" for d in (50, 60) for v in (0.5, 1, 2))
+    )
+    assert main(["fit", str(data)]) == 2
+    err = capsys.readouterr().err
+    last = err.strip().splitlines()[-1]
+    assert "few.csv" in last and "`table`" not in last and "min_points" not in last
+    assert "at least 5 impacts" in last and "50 um: 3, 60 um: 3" in last
+
+
 @pytest.fixture
 def impacts(tmp_path):
     rng = np.random.default_rng(8)

@@ -172,6 +172,18 @@ def test_structural_errors(write_file, text, kwargs, match):
     _one_line_error(excinfo, p)
 
 
+def test_too_few_points_names_the_scan_only_when_there_are_scans(write_file):
+    # found by a user: a one-point file said "scan None has 1 measured point(s)"
+    p = write_file("one.csv", "x,z\n0,1\n")
+    with pytest.raises(ProfileFormatError, match="at least 2 are needed") as ei:
+        read_profile(p, unit="um")
+    assert "None" not in str(ei.value)
+    assert "the profile has 1 measured point(s) of 1" in str(ei.value)
+    p = write_file("scans.csv", "scan,x,z\na,0,1\na,1,2\nb,0,3\n")
+    with pytest.raises(ProfileFormatError, match="scan 'b' has 1 measured point"):
+        read_profiles(p, unit="um", scan_column="scan")
+
+
 def test_missing_file_and_binary(tmp_path):
     with pytest.raises(ProfileFormatError, match="file not found"):
         read_profile(tmp_path / "nope.csv")

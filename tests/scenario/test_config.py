@@ -435,8 +435,26 @@ def test_error_empty_sweep():
 def test_error_angle_outside_0_90(angle):
     check(
         minimal(sweep={"speed_m_s": 1.0, "angle_deg": [45.0, angle]}),
-        r"sweep\.angle_deg: .* must be in \(0, 90\] deg .*\(value 1\)",
+        r"sweep\.angle_deg: .* must be in \(0, 90\] deg .*\(the 2nd of 2 values\)",
     )
+
+
+def test_error_negative_speed_names_its_position_not_a_value():
+    # found by a user: "got -2 (value 0)" read as if the value were 0
+    err = check(minimal(sweep={"speed_m_s": [1.0, 3.0, -2.0]}), r"sweep\.speed_m_s: ")
+    assert "got -2 (the 3rd of 3 values)" in str(err)
+    assert "(value" not in str(err)
+
+
+def test_error_directory_given_as_a_file(tmp_path):
+    # found by a user: a folder given as a data file was "file not found"
+    (tmp_path / "data").mkdir()
+    err = check(
+        minimal(particles={"distribution": "empirical", "file": "data"}),
+        r"particles\.file: 'data' is a directory, not a file \(resolved to .*data\)",
+        base_dir=tmp_path,
+    )
+    assert "not found" not in str(err)
 
 
 def test_error_missing_file():

@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 from microimpact._core.validation import PLAUSIBLE_SPEED_M_S
 from microimpact.cli import main
 from microimpact.errors import ScenarioError
+from microimpact.population.distributions import PLAUSIBLE_DIAMETER_UM
 from microimpact.scenario.wall_law import WallLawSpec
 from microimpact.wall_law import build_wall_law
 
@@ -121,3 +122,39 @@ def test_a_reduced_node_at_an_implausible_speed_is_refused_before_any_work(
     assert "r = 900 at diameter 10 um" in msg and "mm/s" not in msg
     v = 900 * 20.0 * (10 / 52.8) ** -1.58
     assert f"{v:g} m/s" in msg and math.isfinite(v)
+
+
+DLO, DHI = PLAUSIBLE_DIAMETER_UM
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    d=st.one_of(
+        st.floats(1e-300, DLO * (1 - 1e-12)), st.floats(DHI * (1 + 1e-12), 1e300)
+    )
+)
+def test_an_implausible_wall_law_diameter_is_refused_naming_the_field(d):
+    # found by a user: diameter_um = [5e-6] (metres typed as um) in [wall_law]
+    # passed the scenario and ended in an internal error (exit 1) in the build
+    with pytest.raises(ScenarioError) as err:
+        WallLawSpec(diameters_um=(10.0, d), speeds_m_s=(1.0,), angles_deg=(45,))
+    assert err.value.field == "wall_law.diameter_um"
+    assert f"{d:g}" in str(err.value) and "0.01 to 10000 um" in str(err.value)
+
+
+@settings(max_examples=20, deadline=None)
+@given(d=st.floats(DLO, DHI))
+def test_every_plausible_wall_law_diameter_is_a_node(d):
+    spec = WallLawSpec(diameters_um=(d,), speeds_m_s=(1.0,), angles_deg=(45,))
+    assert spec.diameters_um == (d,)
+
+
+def test_the_cli_refuses_wall_law_diameters_in_metres(tmp_path, capsys):
+    f = tmp_path / "w.toml"
+    text = TOML.format(a=0.2, speeds="[1]")
+    f.write_text(text + "[wall_law]\ndiameter_um = [5e-6, 10e-6]\n")
+    assert main(["wall-law", str(f), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "w.toml" in err and "wall_law.diameter_um" in err
+    assert "was it given in metres? 5e-06 m is 5 um" in err
+    assert not (tmp_path / "out" / "wall_law.nc").exists()

@@ -179,6 +179,17 @@ def _interpolate(g, axis, x, col, se_col):
             ),
         )
     i = int(np.searchsorted(v, x)) - 1
+    missing = [v[j] for j in (i, i + 1) if math.isnan(m[j])]
+    if missing:  # e.g. e of rebounds at a fully captured speed
+        at = " and ".join(f"{axis} = {a:g}" for a in missing)
+        return (
+            math.nan,
+            math.nan,
+            (
+                f"no simulated value at {at} ({col} is NaN there, e.g. no rebounds); "
+                f"not interpolated"
+            ),
+        )
     w = (v[i + 1] - x) / (v[i + 1] - v[i])  # weight of the lower point
     mean = w * m[i] + (1.0 - w) * m[i + 1]
     se = math.sqrt((w * s[i]) ** 2 + ((1.0 - w) * s[i + 1]) ** 2)

@@ -52,6 +52,9 @@ VERBS = {
     "calibrate": "calibrate",
 }
 
+#: A library argument named in an :class:`InputError` -> the flag that sets it.
+_FLAG_OF_ARGUMENT = {"address": "--scheduler"}
+
 
 class _Parser(argparse.ArgumentParser):
     def error(self, message):  # one line, exit 2 (argparse's own convention)
@@ -149,6 +152,13 @@ def main(argv=None) -> int:
         print(f"microimpact {command}: error: {err}", file=sys.stderr)
         return EXIT_USER
     except InputError as err:
+        if err.field in _FLAG_OF_ARGUMENT:  # the library's argument, named as a flag
+            err = type(err)(
+                err.message,
+                source=err.source,
+                field=_FLAG_OF_ARGUMENT[err.field],
+                line=err.line,
+            )
         print(f"microimpact {command}: error: {_one_line(err)}", file=sys.stderr)
         return EXIT_USER
     except Terminated:

@@ -13,10 +13,14 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from ..errors import DataFormatError
 from . import _common as c
 from .sizes import _data_of
 
 HELP = "least-squares k1, k2, v_c against diameter from impact data"
+
+#: Impacts a diameter needs for its own k1, k2, v_c fit.
+MIN_IMPACTS = 5
 
 
 def cli_parse(sp):
@@ -45,7 +49,10 @@ def cli_action(args) -> int:
                 data["diameter"].to_numpy(),
                 data["v_n"].to_numpy(),
                 data["e"].to_numpy(),
+                min_points=MIN_IMPACTS,
             )
+            if len(table) == 0:
+                raise DataFormatError(_too_few(data["diameter"]), source=args.data)
             result = coefficient_laws_fit(table, form=args.form)
     except IdentifiabilityError as exc:
         raise IdentifiabilityError(
@@ -64,3 +71,15 @@ def cli_action(args) -> int:
             },
         )
     return c.EXIT_OK
+
+
+def _too_few(diameter_m) -> str:
+    """Why no diameter could be fitted: the impacts each diameter has."""
+    counts = diameter_m.value_counts().sort_index()
+    shown = ", ".join(f"{d * 1e6:g} um: {n}" for d, n in counts.iloc[:8].items())
+    more = f" and {len(counts) - 8} more" if len(counts) > 8 else ""
+    return (
+        f"no diameter has the {MIN_IMPACTS} or more impacts (rows) its k1, k2, v_c "
+        f"fit needs; impacts per diameter_um: {shown}{more}; allowed: at least "
+        f"{MIN_IMPACTS} impacts at several speeds for each diameter"
+    )

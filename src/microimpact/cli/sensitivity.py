@@ -168,4 +168,10 @@ def _print_top(result):
             for p, v in zip(sub["parameter"], sub["ST"], strict=True)
         )
         points = int(sub["points"].max()) if len(sub) else 0
+        if points == 0:  # S1, ST undefined everywhere (docs/sensitivity.md, Output)
+            print(
+                f"  {stat}: does not vary over the design at any sweep point "
+                "(or is not finite there): no index (empty in sensitivity.csv)"
+            )
+            continue
         print(f"  {stat}: ST over {points} sweep point(s)  {ranked}")

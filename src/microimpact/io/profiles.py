@@ -571,8 +571,9 @@ def _build_profiles(path, scans, *, xf, zf, dx, meta):
             z = z[order]
         measured = int(np.count_nonzero(np.isfinite(z)))
         if measured < 2:
+            which = "the profile" if sid is None else f"scan {sid!r}"
             raise ProfileFormatError(
-                f"scan {sid!r} has {measured} measured point(s) of {z.size}; at "
+                f"{which} has {measured} measured point(s) of {z.size}; at "
                 "least 2 are needed",
                 source=path,
                 line=linenos[0],

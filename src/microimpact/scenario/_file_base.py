@@ -320,6 +320,8 @@ class _Ctx:
             p = self.base_dir / p
         if not p.is_file():
             where = "" if Path(text).is_absolute() else f" (resolved to {p})"
+            if p.is_dir():
+                raise self.error(key, f"{text!r} is a directory, not a file{where}")
             raise self.error(key, f"file not found: {text!r}{where}")
         return p
 

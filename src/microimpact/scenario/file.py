@@ -285,6 +285,15 @@ def _range(ctx, t, key) -> list:
     return [float(v) for v in np.round(vals, 12)]
 
 
+def _nth(i: int, n: int) -> str:
+    """Where a value sits among the sweep's expanded values: ``the 2nd of 5 values``."""
+    k = i + 1
+    suffix = {1: "st", 2: "nd", 3: "rd"}.get(k % 10, "th")
+    if 10 <= k % 100 <= 20:
+        suffix = "th"
+    return f"the {k}{suffix} of {n} values"
+
+
 def _sweep(ctx: _Ctx, data) -> dict:
     if "sweep" not in data:
         raise ctx.error("sweep", "missing required table [sweep] (with speed_m_s)")
@@ -294,7 +303,8 @@ def _sweep(ctx: _Ctx, data) -> dict:
     for i, v in enumerate(speeds):
         if not v > 0:
             raise ctx.error(
-                "sweep.speed_m_s", f"speeds must be > 0 m/s; got {v:g} (value {i})"
+                "sweep.speed_m_s",
+                f"speeds must be > 0 m/s; got {v:g} ({_nth(i, len(speeds))})",
             )
     angles = _values(ctx, t.get("angle_deg", [90.0]), "sweep.angle_deg")
     for i, v in enumerate(angles):
@@ -302,7 +312,7 @@ def _sweep(ctx: _Ctx, data) -> dict:
             raise ctx.error(
                 "sweep.angle_deg",
                 f"apparent incidence angles from the surface plane must be in "
-                f"(0, 90] deg (90 = normal impact); got {v:g} (value {i})",
+                f"(0, 90] deg (90 = normal impact); got {v:g} ({_nth(i, len(angles))})",
             )
     spread = 0.0
     if "speed_spread" in t:

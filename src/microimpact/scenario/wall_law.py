@@ -17,6 +17,7 @@ import numpy as np
 
 from .._core.validation import as_field_error, check_choice
 from ..errors import ScenarioError
+from ..population.distributions import _plausible_um
 from .parts import _integer, _plausible_speeds, _positive_tuple
 
 __all__ = ["DEFAULT_QUANTILES", "SPEED_AXES", "WallLawSpec"]
@@ -101,6 +102,13 @@ class WallLawSpec:
             "diameters_um",
             _axis(self.diameters_um, "wall_law.diameter_um", low=0),
         )
+        for d in self.diameters_um:  # a unit mistake, refused before any build
+            try:
+                _plausible_um(d, "diameter_um")
+            except ValueError as exc:
+                raise ScenarioError(
+                    str(exc).rstrip("."), field="wall_law.diameter_um"
+                ) from None
         with as_field_error("wall_law.speed_axis", ScenarioError):
             set_(
                 self,
