@@ -501,3 +501,31 @@ def test_a_run_and_its_summary_import_no_xarray():
         [sys.executable, "-c", code], capture_output=True, text=True, check=True
     ).stdout.split("\n")
     assert out[0] == "[]" and out[1] == "True", out
+
+
+def test_qmc_capture_interval_at_full_and_no_capture_is_the_counts_wilson():
+    """Where every replicate captures all (or none), their spread is 0: the QMC
+    interval was [1, 1], claiming certainty 1,024 impacts cannot give. It is the
+    pooled counts' Wilson interval there, and inside [0, 1] everywhere."""
+    from microimpact.engine.statistics import wilson_interval
+
+    n = 1 << 10
+    sc = scenario(
+        sampling="qmc",
+        qmc_replicates=8,
+        seed=2,
+        speeds_m_s=(0.001, 0.5, 100.0),
+        angles_deg=(90.0,),
+    )
+    s = run(sc, samples=n).summary
+    full, none = s.iloc[0], s.iloc[2]
+    assert full["capture_fraction"] == 1.0 and none["capture_fraction"] == 0.0
+    for row in (full, none):
+        lo, hi = wilson_interval(
+            row["capture_fraction"] * row["n"], row["n"], confidence=0.95
+        )
+        assert row["capture_ci_low"] == pytest.approx(lo)
+        assert row["capture_ci_high"] == pytest.approx(hi)
+        assert row["capture_ci_high"] - row["capture_ci_low"] > 1e-3
+        assert row["capture_se"] > 0
+    assert (s["capture_ci_low"] >= 0).all() and (s["capture_ci_high"] <= 1).all()

@@ -12,7 +12,9 @@ those of ``docs/outputs.md``; plain Monte Carlo:
 
 Quasi-Monte Carlo (``R`` replicates): pooled estimates, intervals
 ``+- t_{R-1} SE`` with ``SE`` the standard deviation of the replicate estimates over
-``sqrt(R)`` (Owen 1997).
+``sqrt(R)`` (Owen 1997); the capture interval is clipped to [0, 1], and where the
+pooled capture fraction is exactly 0 or 1 (the replicates all agree, their spread is
+0) it is the pooled counts' Wilson interval.
 """
 
 from __future__ import annotations
@@ -687,12 +689,29 @@ def replicate_statistics(
     reps = point_statistics(replicates, confidence)
     r = n_replicates
     tq = float(student_t.ppf(0.5 + confidence / 2.0, r - 1))
+    # a pooled capture fraction of exactly 0 or 1 has replicates that all agree:
+    # their spread (0) is no interval, so the pooled counts' Wilson interval (the
+    # plain Monte Carlo one, never narrower than the counts allow) stands there
+    wilson = {
+        "lo": out["capture_ci_low"].copy(),
+        "hi": out["capture_ci_high"].copy(),
+        "se": out["capture_se"].copy(),
+    }
     for stat, (lo, hi, se_name) in _REPLICATED.items():
         vals = reps[stat].reshape(-1, r)
         se = np.std(vals, axis=1, ddof=1) / np.sqrt(r)
         out[lo] = out[stat] - tq * se
         out[hi] = out[stat] + tq * se
         out[se_name] = se
+    c = out["capture_fraction"]
+    edge = (c == 0.0) | (c == 1.0)
+    out["capture_ci_low"] = np.where(
+        edge, wilson["lo"], np.clip(out["capture_ci_low"], 0, 1)
+    )
+    out["capture_ci_high"] = np.where(
+        edge, wilson["hi"], np.clip(out["capture_ci_high"], 0, 1)
+    )
+    out["capture_se"] = np.where(edge, wilson["se"], out["capture_se"])
     out["replicates"] = np.full(pooled.counts.shape[0], r, dtype=np.int64)
     return out
 
