@@ -264,6 +264,22 @@ def test_convergence_command(tmp_path, capsys):
     assert "settled" in capsys.readouterr().out
 
 
+def test_convergence_says_when_no_point_has_a_transition(tmp_path, capsys):
+    """Speeds far above capture everywhere: the default point never varies, and
+    "settled after N = 1" alone would read as a converged study."""
+    p = tmp_path / "fast.toml"
+    p.write_text(
+        SMALL.format(samples=2000, angles="90").replace(
+            "speed_m_s = [0.2, 0.5]", "speed_m_s = [50, 80]"
+        )
+    )
+    assert main(["convergence", str(p), "--n-max", "2000"]) == 0
+    err = capsys.readouterr().err
+    assert "capture is 0 or 1 at every sweep point" in err and "--point" in err
+    assert main(["convergence", str(_scenario(tmp_path, angles="90"))]) == 0
+    assert "every sweep point" not in capsys.readouterr().err
+
+
 def test_compare_command(tmp_path, capsys):
     out = tmp_path / "run"
     assert (

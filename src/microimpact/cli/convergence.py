@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 from . import _common as c
 
 HELP = "the paper's convergence study: running capture fraction against N"
@@ -23,6 +25,9 @@ def cli_parse(sp):
 
 def cli_action(args) -> int:
     # deferred: the verb's library loads only when the verb runs (fast --help)
+    import numpy as np
+
+    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..engine.convergence import convergence_study
 
     # deferred: the verb's library loads only when the verb runs (fast --help)
@@ -42,7 +47,15 @@ def cli_action(args) -> int:
     n_points = SweepGrid.from_scenario(scenario).size
     if point is None:  # the point nearest 50 % capture in a quick pilot
         pilot = run(scenario, samples=1000, seed=args.seed, progress=False).summary
-        point = int((pilot["capture_fraction"] - 0.5).abs().to_numpy().argmin())
+        frac = pilot["capture_fraction"].to_numpy()
+        point = int(np.abs(frac - 0.5).argmin())
+        if np.all((frac == 0.0) | (frac == 1.0)):
+            warnings.warn(
+                "capture is 0 or 1 at every sweep point of a 1,000-impact pilot, so "
+                f"point {point} has nothing to converge (its fraction never varies); "
+                "sweep the capture transition, or choose a point with --point",
+                stacklevel=1,
+            )
     elif point >= n_points:
         raise InputError(
             f"must be < {n_points} (the number of sweep points)", field="--point"
