@@ -25,9 +25,6 @@ def cli_parse(sp):
 
 def cli_action(args) -> int:
     # deferred: the verb's library loads only when the verb runs (fast --help)
-    import numpy as np
-
-    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..engine.convergence import convergence_study
 
     # deferred: the verb's library loads only when the verb runs (fast --help)
@@ -47,9 +44,9 @@ def cli_action(args) -> int:
     n_points = SweepGrid.from_scenario(scenario).size
     if point is None:  # the point nearest 50 % capture in a quick pilot
         pilot = run(scenario, samples=1000, seed=args.seed, progress=False).summary
-        frac = pilot["capture_fraction"].to_numpy()
-        point = int(np.abs(frac - 0.5).argmin())
-        if np.all((frac == 0.0) | (frac == 1.0)):
+        frac = pilot["capture_fraction"]
+        point = int((frac - 0.5).abs().to_numpy().argmin())
+        if frac.isin((0.0, 1.0)).all():
             warnings.warn(
                 "capture is 0 or 1 at every sweep point of a 1,000-impact pilot, so "
                 f"point {point} has nothing to converge (its fraction never varies); "
