@@ -90,6 +90,8 @@ _N_PARAMS = 2
 #: scale``, ``x_0`` the lowest edge (``d`` or ``ln d``): the population's bulk is
 #: not entirely below the instrument's range.
 RANGE_FLOOR = 3.0
+#: ln(1e300): a log-normal fit's ln median or ln GSD beyond it has diverged.
+_LOG_HUGE = math.log(1e300)
 
 
 def _edges_iv(edges_um) -> np.ndarray:
@@ -401,6 +403,14 @@ def fit_binned_lognormal(edges_um, counts) -> FitResult:
     """
     e, n = _fit_iv(edges_um, counts)
     mu, s, cov, ll, at_floor = _fit(np.log(e), n)
+    notes = _floor_note("log-normal", "median", at_floor)
+    if max(mu, s) > _LOG_HUGE:  # the bins rise to the top of the range
+        notes += (
+            "the log-normal fit diverges (median or GSD beyond 1e300): the bins "
+            "look like the rising side of a population whose bulk lies above the "
+            "instrument's range, and its parameters are not estimates",
+        )
+        mu, s, cov = min(mu, _LOG_HUGE), min(s, _LOG_HUGE), None
     median, gsd = math.exp(mu), math.exp(s)
     se = (math.nan, math.nan)
     if cov is not None:  # delta method: d median = median d mu, d gsd = gsd s d(ln s)
@@ -419,7 +429,7 @@ def fit_binned_lognormal(edges_um, counts) -> FitResult:
         stderr={"median_um": se[0], "geometric_std": se[1]},
         n=round(float(n.sum())),
         log_likelihood=ll,
-        notes=_floor_note("log-normal", "median", at_floor),
+        notes=notes,
     )
 
 
@@ -474,7 +484,8 @@ def chi2_binned(edges_um, counts, fit, *, alpha=0.05) -> Chi2BinnedResult:
     Raises
     ------
     ValueError
-        Fewer than 4 bins with expected count >= 5 remain after merging.
+        Fewer than 4 bins ("too few bins"), or fewer than 4 bins with expected
+        count >= 5 remain after merging ("too few particles").
     """
     e = _edges_iv(edges_um)
     n = _counts_iv(counts, e.size - 1)
@@ -487,6 +498,12 @@ def chi2_binned(edges_um, counts, fit, *, alpha=0.05) -> Chi2BinnedResult:
     total = float(n.sum())
     edges, observed, expected = _merge(e, n, total * p)
     dof = expected.size - 1 - _N_PARAMS
+    if n.size - 1 - _N_PARAMS < 1:
+        raise ValueError(
+            f"too few bins for the chi-squared test on the bins: {n.size} bins leave "
+            f"{n.size - 1 - _N_PARAMS} degrees of freedom (bins - 1 - 2 fitted "
+            "parameters); need at least 4 bins"
+        )
     if dof < 1:
         raise ValueError(
             f"too few particles for the chi-squared test on the bins: {total:g} "
