@@ -149,7 +149,7 @@ def _without_preamble(lines):
         cells = [c.strip().strip('"') for c in re.split(r"[,;\t]", text)]
         roles = {_column_role(c)[0] for c in cells if c}
         if "value" in roles and roles & {"lower", "upper", "mid"}:
-            head = [t for t in lines[:i] if t.strip() and not t.lstrip().startswith("#")]
+            head = [t for t in lines[:i] if t.strip() and t.lstrip()[0] != "#"]
             if head and all(len(re.split(r"[,;\t]", t)) <= 2 for t in head):
                 return [""] * i + list(lines[i:])
             return lines
