@@ -54,3 +54,48 @@ def test_a_bad_cell_below_a_preamble_names_the_files_line(tmp_path):
     aps.write_text(PREAMBLE + TABLE.replace("410.0", "abc"))
     with pytest.raises(DataFormatError, match=r"aps\.txt:7"):
         read_size_bins(aps)
+
+
+# -- A: a wide export whose header sizes are not log-spaced, with edges_um -----------
+GRIMM = (
+    "timestamp,0.3,0.4,0.5,0.65,0.8,1.0,1.6,2.0\n"
+    "2026-01-01T10:00:00Z,120,80,60,30,15,8,3,1\n"
+    "2026-01-01T10:01:00Z,130,82,58,33,14,9,2,1\n"
+)
+THRESHOLDS = [0.3, 0.4, 0.5, 0.65, 0.8, 1.0, 1.6, 2.0, 3.0]
+
+
+def test_a_wide_export_without_log_spacing_asks_for_edges_um(tmp_path):
+    path = tmp_path / "grimm.csv"
+    path.write_text(GRIMM)
+    with pytest.raises(DataFormatError) as info:
+        read_size_bins(path, unit="um", values="count", sample="sum", syntax="cli")
+    assert "--edges-um" in str(info.value) and "lower and upper" not in str(info.value)
+    with pytest.raises(DataFormatError, match="edges_um = "):
+        read_size_bins(path, unit="um", values="count", sample="sum", syntax="toml")
+
+
+def test_a_wide_export_of_channel_thresholds_reads_with_edges_um(tmp_path):
+    path = tmp_path / "grimm.csv"
+    path.write_text(GRIMM)
+    bins, _ = read_size_bins(
+        path, unit="um", values="count", sample="sum", edges_um=THRESHOLDS
+    )
+    assert_allclose(bins.edges_um, THRESHOLDS, rtol=0)
+    assert_allclose(bins.number, [250, 162, 118, 63, 29, 17, 5, 2], rtol=0)
+    assert bins.counted and any("lower boundaries" in t for t in bins.notes)
+    # run reads the same bins from [particles] edges_um
+    sc = _scenario(path, unit="um", values="count", sample="sum", edges_um=THRESHOLDS)
+    assert_allclose(sc.particles.params["edges_um"], THRESHOLDS, rtol=1e-15)
+
+
+def test_edges_um_that_do_not_hold_the_header_sizes_are_refused(tmp_path):
+    path = tmp_path / "grimm.csv"
+    path.write_text(GRIMM)
+    bad = [0.35, *THRESHOLDS[1:]]  # 0.3 falls below its bin
+    with pytest.raises(DataFormatError, match=r"edges_um: the bin column 0\.3"):
+        read_size_bins(path, unit="um", values="count", sample="sum", edges_um=bad)
+    with pytest.raises(DataFormatError, match="9 increasing boundaries"):
+        read_size_bins(
+            path, unit="um", values="count", sample="sum", edges_um=THRESHOLDS[:-1]
+        )

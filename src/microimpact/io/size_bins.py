@@ -521,7 +521,10 @@ def _read_bins(path, layout, values, column, unit, sample, edges_um, syntax):
         try:
             edges = edges_from_midpoints(mids)
         except ValueError as exc:
-            raise DataFormatError(str(exc), source=path) from None
+            raise DataFormatError(
+                f"{exc}; give the bin edges instead (lower and upper columns)",
+                source=path,
+            ) from None
         back = np.sqrt(edges[:-1] * edges[1:])
         notes.append(
             f"bin edges derived from the {mids.size} midpoints as geometric (log) "

@@ -150,7 +150,7 @@ def edges_from_midpoints(midpoints_um, *, rtol=0.05):
             f"the midpoints are not log-spaced: the bin edges derived from them "
             f"(geometric means of neighbours) give bin {i} the midpoint {back[i]:.4g} "
             f"instead of {m[i]:.4g} ({100 * err[i]:.1f} % off, more than "
-            f"{100 * rtol:g} %); give the bin edges (lower and upper columns)."
+            f"{100 * rtol:g} %)"
         )
     return edges
 
