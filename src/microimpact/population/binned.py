@@ -92,6 +92,8 @@ _N_PARAMS = 2
 RANGE_FLOOR = 3.0
 #: ln(1e300): a log-normal fit's ln median or ln GSD beyond it has diverged.
 _LOG_HUGE = math.log(1e300)
+#: ln(1000): a log-normal fit's GSD beyond 1000 has diverged (aerosols: 1 to ~4).
+_LOG_GSD_HUGE = math.log(1e3)
 
 
 def _edges_iv(edges_um) -> np.ndarray:
@@ -404,13 +406,15 @@ def fit_binned_lognormal(edges_um, counts) -> FitResult:
     e, n = _fit_iv(edges_um, counts)
     mu, s, cov, ll, at_floor = _fit(np.log(e), n)
     notes = _floor_note("log-normal", "median", at_floor)
-    if max(mu, s) > _LOG_HUGE:  # the bins rise to the top of the range
+    if abs(mu) > _LOG_HUGE or s > _LOG_GSD_HUGE:  # no log-normal shape in the bins
         notes += (
-            "the log-normal fit diverges (median or GSD beyond 1e300): the bins "
-            "look like the rising side of a population whose bulk lies above the "
-            "instrument's range, and its parameters are not estimates",
+            f"the log-normal fit diverges (GSD beyond {math.exp(_LOG_GSD_HUGE):g} or "
+            "median beyond 1e300 um; shown clipped there): the bins have no "
+            "log-normal shape (they rise to the top of the range, or are split in "
+            "separate modes), and its parameters are not estimates",
         )
-        mu, s, cov = min(mu, _LOG_HUGE), min(s, _LOG_HUGE), None
+        mu = min(max(mu, -_LOG_HUGE), _LOG_HUGE)
+        s, cov = min(s, _LOG_GSD_HUGE), None
     median, gsd = math.exp(mu), math.exp(s)
     se = (math.nan, math.nan)
     if cov is not None:  # delta method: d median = median d mu, d gsd = gsd s d(ln s)

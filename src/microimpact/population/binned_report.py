@@ -368,6 +368,8 @@ def _unphysical(kind, fit):
     if kind == "lognormal":
         ok = ok and fit.params["geometric_std"] > 1
     word = "normal" if kind == "normal" else "log-normal"
+    if any("diverges" in t for t in fit.notes):
+        return f"the {word} fit diverges; it is not recommended"
     if ok:  # as a scenario builds it (e.g. a GSD so wide truncation cuts all)
         factory = normal_diameters if kind == "normal" else lognormal_diameters
         try:
