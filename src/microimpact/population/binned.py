@@ -311,8 +311,7 @@ def _fit(x_edges, n):
         if res.success:
             break
         q0 = res.x
-    if not res.success:
-        raise RuntimeError(f"the binned fit did not converge: {res.message}")
+    stuck = None if res.success else str(res.message).rstrip(".")
     theta = to_theta(res.x)
     scale = math.exp(theta[1])
     hess = _hessian(
@@ -325,7 +324,16 @@ def _fit(x_edges, n):
     except np.linalg.LinAlgError:
         cov = None
     at_floor = bool(math.exp(res.x[0]) < 1e-3 * scale)
-    return float(theta[0]), scale, cov, -float(res.fun), at_floor
+    return float(theta[0]), scale, cov, -float(res.fun), at_floor, stuck
+
+
+def _stuck_note(kind, stuck) -> tuple:
+    if stuck is None:
+        return ()
+    return (
+        f"the {kind} fit diverges (the optimiser did not converge: {stuck}): the "
+        "bins have no such shape, and its parameters are not estimates",
+    )
 
 
 def _fit_iv(edges_um, counts):
@@ -381,7 +389,7 @@ def fit_binned_normal(edges_um, counts) -> FitResult:
     it to minus infinity. A fit held there says so in ``notes``.
     """
     e, n = _fit_iv(edges_um, counts)
-    mu, sigma, cov, ll, at_floor = _fit(e, n)
+    mu, sigma, cov, ll, at_floor, stuck = _fit(e, n)
     se = (math.nan, math.nan)
     if cov is not None:
         se = (math.sqrt(cov[0, 0]), sigma * math.sqrt(cov[1, 1]))
@@ -392,7 +400,7 @@ def fit_binned_normal(edges_um, counts) -> FitResult:
         stderr={"mean_um": se[0], "std_um": se[1]},
         n=round(float(n.sum())),
         log_likelihood=ll,
-        notes=_floor_note("normal", "mean", at_floor),
+        notes=_floor_note("normal", "mean", at_floor) + _stuck_note("normal", stuck),
     )
 
 
@@ -404,8 +412,9 @@ def fit_binned_lognormal(edges_um, counts) -> FitResult:
     ``median_um``/``geometric_std``.
     """
     e, n = _fit_iv(edges_um, counts)
-    mu, s, cov, ll, at_floor = _fit(np.log(e), n)
+    mu, s, cov, ll, at_floor, stuck = _fit(np.log(e), n)
     notes = _floor_note("log-normal", "median", at_floor)
+    notes += _stuck_note("log-normal", stuck)
     if abs(mu) > _LOG_HUGE or s > _LOG_GSD_HUGE:  # no log-normal shape in the bins
         notes += (
             f"the log-normal fit diverges (GSD beyond {math.exp(_LOG_GSD_HUGE):g} or "
