@@ -117,3 +117,17 @@ def test_scenario_asks_for_the_aim_sample_in_toml_syntax(tmp_path, capsys):
     assert main(["run", str(sc), "--out", str(tmp_path / "o"), "--quiet"]) == 2
     err = capsys.readouterr().err
     assert "particles.file" in err and "sample = 1" in err and "--sample" not in err
+
+
+def test_sizes_of_a_grimm_wide_export_with_edges_um(tmp_path, capsys):
+    path = tmp_path / "grimm.csv"
+    path.write_text(
+        "timestamp,0.3,0.4,0.5,0.65,0.8,1.0,1.6,2.0\n"
+        "2026-01-01T10:00:00Z,120,80,60,30,15,8,3,1\n"
+    )
+    args = ["sizes", str(path), "--unit", "um", "--values", "count", "--sample", "1"]
+    assert main(args) == 2
+    assert "--edges-um" in capsys.readouterr().err
+    edges = "0.3,0.4,0.5,0.65,0.8,1.0,1.6,2.0,3.0"
+    assert main([*args, "--edges-um", edges]) == 0
+    assert "8 bins, 0.3 to 3 um" in capsys.readouterr().out

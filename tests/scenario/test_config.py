@@ -765,3 +765,16 @@ def test_error_areal_delimiter_names_the_key_and_value(tmp_path, delimiter):
         base_dir=tmp_path,
     )
     assert repr(delimiter) in str(err)
+
+
+@pytest.mark.parametrize(("counts", "got"), [([5], 1), ([1, 2, 3], 3)])
+def test_histogram_counts_of_the_wrong_length_are_worded_for_a_toml_user(counts, got):
+    table = {"distribution": "histogram", "edges_um": [1, 2, 3], "counts": counts}
+    with pytest.raises(ScenarioError) as info:
+        scenario_from_dict(minimal(particles=table))
+    msg = str(info.value)
+    assert (
+        "particles.counts: needs 2 values (one per bin between the 3 edges of "
+        f"edges_um); got {got}"
+    ) in msg
+    assert "len(" not in msg and "`" not in msg

@@ -25,6 +25,7 @@ from ._size_common import (
     _bin_value,
     _bins,
     _key,
+    _option,
     _text_lines,
     _values_choices,
 )
@@ -154,7 +155,7 @@ def _wide_rows(path):
     return None if named is None else found(*named, False)
 
 
-def _aim_edges(path, meta, mids_um):
+def _aim_edges(path, meta, mids_um, hint=""):
     """(edges [µm], note) of an AIM export's channels: on the grid of the export's
     ``Channels/Decade`` (every channel ``1/c`` wide in ``log10 d``, the grid placed
     by least squares through the printed midpoints) when the midpoints lie on it
@@ -176,12 +177,14 @@ def _aim_edges(path, meta, mids_um):
     try:
         edges = edges_from_midpoints(mids_um)
     except ValueError as exc:
-        raise DataFormatError(str(exc), source=path) from None
+        raise DataFormatError(f"{exc}{hint}", source=path, field="edges_um") from None
     return edges, "bin edges derived from the midpoints as geometric (log) midpoints"
 
 
-def _header_edges(path, meta, header, names, run, unit, what, syntax):
-    """(edges [µm], unit, unit_from, note) of a wide header of bin midpoints."""
+def _header_edges(path, meta, header, names, run, unit, what, syntax, edges_um):
+    """(edges [µm], unit, unit_from, note) of a wide header of bin sizes: derived
+    from them as midpoints, or the `edges_um` given (each header size inside its
+    bin: a midpoint, or the lower boundary of an OPC's channel)."""
     a, b = run
     mids = np.array([_mid_cell(header[k])[0] for k in range(a, b)])
     stated = [(h, header_unit(h)[0]) for h in names if _sized(h)]
@@ -197,8 +200,43 @@ def _header_edges(path, meta, header, names, run, unit, what, syntax):
             syntax,
             field="unit",
         )
-    edges, note = _aim_edges(path, meta, mids * (length_factor(unit) / 1e-6))
-    return edges, unit, unit_from, note
+    mids_um = mids * (length_factor(unit) / 1e-6)
+    k = b - a
+    if edges_um is None:
+        example = "0.3,0.4,..." if syntax == "cli" else "[0.3, 0.4, ...]"
+        hint = (
+            f"; give the {k + 1} bin boundaries in um: "
+            f"{_option('edges_um', example, syntax)} (each header size inside its "
+            "bin; a header of lower boundaries, as an OPC's channel thresholds, "
+            "fits)"
+        )
+        edges, note = _aim_edges(path, meta, mids_um, hint)
+        return edges, unit, unit_from, note
+    edges = _given_edges(path, edges_um, header, run, None, syntax)
+    tol = 1e-9
+    inside = (mids_um >= edges[:-1] * (1 - tol)) & (mids_um < edges[1:] * (1 - tol))
+    if not np.all(inside):
+        i = int(np.flatnonzero(~inside)[0])
+        raise DataFormatError(
+            f"the bin column {header[a + i].strip()} ({mids_um[i]:g} um) lies outside "
+            f"its bin [{edges[i]:g}, {edges[i + 1]:g}) um of edges_um; allowed: "
+            f"{k + 1} increasing boundaries in um with each header size inside its "
+            "bin (a midpoint, or the bin's lower boundary)",
+            source=path,
+            field="edges_um",
+        )
+    lower = bool(np.allclose(mids_um, edges[:-1], rtol=1e-6))
+    what_sizes = (
+        "the header sizes are the bins' lower boundaries (channel thresholds)"
+        if lower
+        else "each header size lies inside its bin"
+    )
+    return (
+        edges,
+        unit,
+        unit_from,
+        f"bin edges as given ({k + 1} edges_um); {what_sizes}",
+    )
 
 
 def _given_edges(path, edges_um, header, run, unit, syntax):
@@ -325,16 +363,8 @@ def _read_wide(path, found, *, values, sample, unit, edges_um, syntax):
                 cells[k], path=path, line=line, field=f"column {names[k]!r}", kind=kind
             )
     if sized:
-        if edges_um is not None:
-            raise DataFormatError(
-                "edges_um is for wide exports whose bin columns do not give sizes "
-                f"(bin0, bin1, ...); this one's headers are the midpoints "
-                f"{header[a].strip()}..{header[b - 1].strip()}; leave it out",
-                source=path,
-                field="edges_um",
-            )
         edges, unit, unit_from, how_edges = _header_edges(
-            path, meta, header, names, (a, b), unit, what, syntax
+            path, meta, header, names, (a, b), unit, what, syntax, edges_um
         )
     else:
         edges = _given_edges(path, edges_um, header, (a, b), unit, syntax)
@@ -343,7 +373,8 @@ def _read_wide(path, found, *, values, sample, unit, edges_um, syntax):
     mids_um = np.sqrt(edges[:-1] * edges[1:])
     _check_plausible(path, "bin midpoints", mids_um * 1e-6, unit, unit_from)
     shown = (
-        f"the {mids_um.size} bin midpoints in {unit}"
+        f"the {mids_um.size} bin {'sizes' if edges_um is not None else 'midpoints'} "
+        f"in {unit}"
         if sized
         else (f"the {mids_um.size} bins {header[a].strip()}..{header[b - 1].strip()}")
     )

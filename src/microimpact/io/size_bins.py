@@ -129,6 +129,7 @@ def _rows(path):
     in the first row (a header such as ``dN/dlogDp (#/cm3)`` or ``Sample #``) kept,
     trailing ``# ...`` comments cut from the rows below it."""
     lines, _ = _text_lines(path)
+    lines = _without_preamble(lines)
     rows, delimiter = split_rows(lines, source=path, delimiter=SNIFF)
     head = lines[: rows[0][0]] if rows else []  # up to the first data row
     whole, _ = split_rows(
@@ -137,6 +138,22 @@ def _rows(path):
     if rows and whole and whole[0][0] == rows[0][0] and looks_like_header(whole[0][1]):
         rows[0] = whole[0]
     return rows, delimiter
+
+
+def _without_preamble(lines):
+    """`lines` with an instrument's key/value preamble (``Sample File,...``,
+    ``Instrument,APS 3321``: lines of at most 2 cells) blanked, when a later line
+    (of the first 50) is the real header: it names a size column (lower, upper or
+    midpoint) and a value column. Blanked, not cut: line numbers stay the file's."""
+    for i, text in enumerate(lines[:50]):
+        cells = [c.strip().strip('"') for c in re.split(r"[,;\t]", text)]
+        roles = {_column_role(c)[0] for c in cells if c}
+        if "value" in roles and roles & {"lower", "upper", "mid"}:
+            head = [t for t in lines[:i] if t.strip() and t.lstrip()[0] != "#"]
+            if head and all(len(re.split(r"[,;\t]", t)) <= 2 for t in head):
+                return [""] * i + list(lines[i:])
+            return lines
+    return lines
 
 
 def _column_role(name: str):
@@ -504,7 +521,10 @@ def _read_bins(path, layout, values, column, unit, sample, edges_um, syntax):
         try:
             edges = edges_from_midpoints(mids)
         except ValueError as exc:
-            raise DataFormatError(str(exc), source=path) from None
+            raise DataFormatError(
+                f"{exc}; give the bin edges instead (lower and upper columns)",
+                source=path,
+            ) from None
         back = np.sqrt(edges[:-1] * edges[1:])
         notes.append(
             f"bin edges derived from the {mids.size} midpoints as geometric (log) "

@@ -90,6 +90,10 @@ _N_PARAMS = 2
 #: scale``, ``x_0`` the lowest edge (``d`` or ``ln d``): the population's bulk is
 #: not entirely below the instrument's range.
 RANGE_FLOOR = 3.0
+#: ln(1e300): a log-normal fit's ln median or ln GSD beyond it has diverged.
+_LOG_HUGE = math.log(1e300)
+#: ln(1000): a log-normal fit's GSD beyond 1000 has diverged (aerosols: 1 to ~4).
+_LOG_GSD_HUGE = math.log(1e3)
 
 
 def _edges_iv(edges_um) -> np.ndarray:
@@ -148,7 +152,7 @@ def edges_from_midpoints(midpoints_um, *, rtol=0.05):
             f"the midpoints are not log-spaced: the bin edges derived from them "
             f"(geometric means of neighbours) give bin {i} the midpoint {back[i]:.4g} "
             f"instead of {m[i]:.4g} ({100 * err[i]:.1f} % off, more than "
-            f"{100 * rtol:g} %); give the bin edges (lower and upper columns)."
+            f"{100 * rtol:g} %)"
         )
     return edges
 
@@ -307,8 +311,7 @@ def _fit(x_edges, n):
         if res.success:
             break
         q0 = res.x
-    if not res.success:
-        raise RuntimeError(f"the binned fit did not converge: {res.message}")
+    stuck = None if res.success else str(res.message).rstrip(".")
     theta = to_theta(res.x)
     scale = math.exp(theta[1])
     hess = _hessian(
@@ -321,7 +324,16 @@ def _fit(x_edges, n):
     except np.linalg.LinAlgError:
         cov = None
     at_floor = bool(math.exp(res.x[0]) < 1e-3 * scale)
-    return float(theta[0]), scale, cov, -float(res.fun), at_floor
+    return float(theta[0]), scale, cov, -float(res.fun), at_floor, stuck
+
+
+def _stuck_note(kind, stuck) -> tuple:
+    if stuck is None:
+        return ()
+    return (
+        f"the {kind} fit diverges (the optimiser did not converge: {stuck}): the "
+        "bins have no such shape, and its parameters are not estimates",
+    )
 
 
 def _fit_iv(edges_um, counts):
@@ -377,7 +389,7 @@ def fit_binned_normal(edges_um, counts) -> FitResult:
     it to minus infinity. A fit held there says so in ``notes``.
     """
     e, n = _fit_iv(edges_um, counts)
-    mu, sigma, cov, ll, at_floor = _fit(e, n)
+    mu, sigma, cov, ll, at_floor, stuck = _fit(e, n)
     se = (math.nan, math.nan)
     if cov is not None:
         se = (math.sqrt(cov[0, 0]), sigma * math.sqrt(cov[1, 1]))
@@ -388,7 +400,7 @@ def fit_binned_normal(edges_um, counts) -> FitResult:
         stderr={"mean_um": se[0], "std_um": se[1]},
         n=round(float(n.sum())),
         log_likelihood=ll,
-        notes=_floor_note("normal", "mean", at_floor),
+        notes=_floor_note("normal", "mean", at_floor) + _stuck_note("normal", stuck),
     )
 
 
@@ -400,7 +412,18 @@ def fit_binned_lognormal(edges_um, counts) -> FitResult:
     ``median_um``/``geometric_std``.
     """
     e, n = _fit_iv(edges_um, counts)
-    mu, s, cov, ll, at_floor = _fit(np.log(e), n)
+    mu, s, cov, ll, at_floor, stuck = _fit(np.log(e), n)
+    notes = _floor_note("log-normal", "median", at_floor)
+    notes += _stuck_note("log-normal", stuck)
+    if abs(mu) > _LOG_HUGE or s > _LOG_GSD_HUGE:  # no log-normal shape in the bins
+        notes += (
+            f"the log-normal fit diverges (GSD beyond {math.exp(_LOG_GSD_HUGE):g} or "
+            "median beyond 1e300 um; shown clipped there): the bins have no "
+            "log-normal shape (they rise to the top of the range, or are split in "
+            "separate modes), and its parameters are not estimates",
+        )
+        mu = min(max(mu, -_LOG_HUGE), _LOG_HUGE)
+        s, cov = min(s, _LOG_GSD_HUGE), None
     median, gsd = math.exp(mu), math.exp(s)
     se = (math.nan, math.nan)
     if cov is not None:  # delta method: d median = median d mu, d gsd = gsd s d(ln s)
@@ -419,7 +442,7 @@ def fit_binned_lognormal(edges_um, counts) -> FitResult:
         stderr={"median_um": se[0], "geometric_std": se[1]},
         n=round(float(n.sum())),
         log_likelihood=ll,
-        notes=_floor_note("log-normal", "median", at_floor),
+        notes=notes,
     )
 
 
@@ -474,7 +497,8 @@ def chi2_binned(edges_um, counts, fit, *, alpha=0.05) -> Chi2BinnedResult:
     Raises
     ------
     ValueError
-        Fewer than 4 bins with expected count >= 5 remain after merging.
+        Fewer than 4 bins ("too few bins"), or fewer than 4 bins with expected
+        count >= 5 remain after merging ("too few particles").
     """
     e = _edges_iv(edges_um)
     n = _counts_iv(counts, e.size - 1)
@@ -487,6 +511,12 @@ def chi2_binned(edges_um, counts, fit, *, alpha=0.05) -> Chi2BinnedResult:
     total = float(n.sum())
     edges, observed, expected = _merge(e, n, total * p)
     dof = expected.size - 1 - _N_PARAMS
+    if n.size - 1 - _N_PARAMS < 1:
+        raise ValueError(
+            f"too few bins for the chi-squared test on the bins: {n.size} bins leave "
+            f"{n.size - 1 - _N_PARAMS} degrees of freedom (bins - 1 - 2 fitted "
+            "parameters); need at least 4 bins"
+        )
     if dof < 1:
         raise ValueError(
             f"too few particles for the chi-squared test on the bins: {total:g} "

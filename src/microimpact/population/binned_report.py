@@ -26,6 +26,7 @@ diameter, aerodynamic diameters.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, replace
 
 from .._core.json import dumps
@@ -40,7 +41,12 @@ from .binned import (
     fit_binned_lognormal,
     fit_binned_normal,
 )
-from .distributions import FitResult
+from .distributions import (
+    PLAUSIBLE_DIAMETER_UM,
+    FitResult,
+    lognormal_diameters,
+    normal_diameters,
+)
 
 __all__ = ["BINNED_SCHEMA", "BinnedSizesReport", "describe_binned_sizes"]
 
@@ -142,6 +148,7 @@ class BinnedSizesReport:
             "lognormal": fit(self.lognormal, self.chi2_lognormal, self.aic_lognormal),
             "better_fit": self.better_fit,
             "delta_aic": self.delta_aic,
+            "comparison": "aic" if b.counted else "mean_log_likelihood",
             "recommended": self.recommended,
             "aerosol": dict(self.aerosol),
             "verdict": self.verdict,
@@ -163,10 +170,19 @@ class BinnedSizesReport:
 
         def test(c):
             if c is None:
-                return "no chi2 test " + (
-                    "(too few particles)" if self.bins.counted else "(not counts)"
+                if not self.bins.counted:
+                    return "no chi2 test (not counts)"
+                few = any(
+                    t.startswith("no chi-squared test: too few bins")
+                    for t in self.notes
                 )
+                return f"no chi2 test (too few {'bins' if few else 'particles'})"
             return chi2_line(c)
+
+        def score(f, aic_value):
+            if self.bins.counted:
+                return f"AIC {aic_value:.2f}"
+            return f"mean log-likelihood per particle {f.log_likelihood:.4f}"
 
         b = self.bins
         lines = [
@@ -174,9 +190,9 @@ class BinnedSizesReport:
             f"values {b.values}, total {b.total:.6g}"
             + (" particles" if b.counted else " (not counts)"),
             f"  normal     : mean {pm(n, 'mean_um')} um, std {pm(n, 'std_um')} um;"
-            f" AIC {self.aic_normal:.2f}; {test(self.chi2_normal)}",
+            f" {score(n, self.aic_normal)}; {test(self.chi2_normal)}",
             f"  log-normal : count median {pm(ln, 'median_um')} um, GSD "
-            f"{pm(ln, 'geometric_std')}; AIC {self.aic_lognormal:.2f}; "
+            f"{pm(ln, 'geometric_std')}; {score(ln, self.aic_lognormal)}; "
             f"{test(self.chi2_lognormal)}",
             f"  count median from the bins {a['count_median_bins_um']:.4g} um; mass "
             f"median from the bins {a['mass_median_bins_um']:.4g} um, of the "
@@ -233,14 +249,22 @@ def describe_binned_sizes(
     standard errors are still reported.
     """
     e, number = bins.edges_um, bins.number
-    normal, lognormal = fit_binned_normal(e, number), fit_binned_lognormal(e, number)
+    # not counts: the likelihood of the bin fractions (scale-free; module notes)
+    fitted = number if bins.counted else number / number.sum()
+    normal, lognormal = fit_binned_normal(e, fitted), fit_binned_lognormal(e, fitted)
     notes = list(bins.notes) + list(normal.notes) + list(lognormal.notes)
+    if number.size - 1 - 2 < 1:
+        notes.append(
+            f"only {number.size} bins: two parameters fitted to {number.size} bins "
+            "leave no degree of freedom to check them, so the fits' parameters are "
+            "poorly determined (and no chi-squared test is possible)"
+        )
     too_few = None
     if bins.counted:
         try:
             chi_n = chi2_binned(e, number, normal, alpha=alpha)
             chi_ln = chi2_binned(e, number, lognormal, alpha=alpha)
-        except ValueError as exc:  # too few particles for the test
+        except ValueError as exc:  # too few bins or particles for the test
             chi_n = chi_ln = None
             too_few = str(exc)
             notes.append(
@@ -257,10 +281,31 @@ def describe_binned_sizes(
             "the values are not counted particles, so there is no chi-squared test "
             "and no standard error; the better fit by likelihood is recommended"
         )
-    aic_n, aic_ln = aic(normal), aic(lognormal)
-    delta, better, recommended = recommend(aic_n, aic_ln, chi_n, chi_ln, "histogram")
+    if bins.counted:
+        aic_n, aic_ln = aic(normal), aic(lognormal)
+        delta, better, recommended = recommend(
+            aic_n, aic_ln, chi_n, chi_ln, "histogram"
+        )
+        compared = (
+            f"binned likelihood, AIC {aic_n:.2f} vs {aic_ln:.2f}, difference "
+            f"{delta:+.2f}"
+        )
+    else:  # AIC is not defined: its size would follow the concentration unit
+        aic_n = aic_ln = delta = math.nan
+        _, better, recommended = recommend(
+            -normal.log_likelihood, -lognormal.log_likelihood, None, None, "histogram"
+        )
+        compared = (
+            "likelihood of the bin fractions, mean log-likelihood per particle "
+            f"{normal.log_likelihood:.4f} vs {lognormal.log_likelihood:.4f}; AIC is "
+            "not defined for values that are not counts"
+        )
+    recommended, unusable = _usable(recommended, normal, lognormal, chi_n, chi_ln)
+    notes += unusable
     if chi_n is None:
-        why = "too few particles" if too_few else "the bins are not counts"
+        why = "the bins are not counts"
+        if too_few:
+            why = "too few bins" if "too few bins" in too_few else "too few particles"
         tests = f"no chi-squared test ({why})"
     else:
         tests = (
@@ -290,8 +335,7 @@ def describe_binned_sizes(
                 d_um * 1e-6, density_kg_m3, shape_factor=shape_factor
             )
     verdict = (
-        f"{fits_better(better)} (binned likelihood, AIC {aic_n:.2f} vs "
-        f"{aic_ln:.2f}, difference {delta:+.2f}); {tests}; recommended: {recommended}."
+        f"{fits_better(better)} ({compared}); {tests}; recommended: {recommended}."
     )
     return BinnedSizesReport(
         bins=bins,
@@ -311,3 +355,54 @@ def describe_binned_sizes(
         notes=tuple(notes),
         source=None if source is None else str(source),
     )
+
+
+def _unphysical(kind, fit):
+    """Why `fit` (``"normal"``/``"lognormal"``) is not a particle population a
+    scenario accepts (its location <= 0 or outside
+    :data:`~.distributions.PLAUSIBLE_DIAMETER_UM`), else None."""
+    lo, hi = PLAUSIBLE_DIAMETER_UM
+    key, name = ("mean_um", "mean") if kind == "normal" else ("median_um", "median")
+    value = fit.params[key]
+    ok = lo <= value <= hi
+    if kind == "lognormal":
+        ok = ok and fit.params["geometric_std"] > 1
+    word = "normal" if kind == "normal" else "log-normal"
+    if any("diverges" in t for t in fit.notes):
+        return f"the {word} fit diverges; it is not recommended"
+    if ok:  # as a scenario builds it (e.g. a GSD so wide truncation cuts all)
+        factory = normal_diameters if kind == "normal" else lognormal_diameters
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # a cut is the scenario's to report
+                factory(*fit.params.values())
+        except ValueError as exc:
+            return (
+                f"the {word} fit is not a particle population a scenario accepts "
+                f"({str(exc).rstrip('.')}); it is not recommended"
+            )
+        return None
+    return (
+        f"the {word} fit's {name} {value:.4g} um is not a particle population "
+        f"(allowed: {lo:g} to {hi:g} um); it is not recommended"
+    )
+
+
+def _usable(recommended, normal, lognormal, chi_n, chi_ln):
+    """``(recommended, notes)``: a fit that is not a particle population
+    (:func:`_unphysical`) is never recommended; the other fit is, if it is one
+    and its test (if any) does not reject it, else the measured bins."""
+    fits = {"normal": (normal, chi_n), "lognormal": (lognormal, chi_ln)}
+    bad = {k: _unphysical(k, f) for k, (f, _) in fits.items()}
+    notes = [why for why in bad.values() if why]
+    if recommended in fits and bad[recommended]:
+        other = "lognormal" if recommended == "normal" else "normal"
+        test = fits[other][1]
+        good = not bad[other] and (test is None or not test.reject)
+        recommended = other if good else "histogram"
+        if recommended == "histogram":
+            notes.append(
+                "no fit is both a particle population and not rejected: the measured "
+                "bins (a histogram population) are recommended instead"
+            )
+    return recommended, notes

@@ -183,6 +183,12 @@ def _particles(ctx: _Ctx, data, where="particles"):
             )
         edges = ctx.numbers(t["edges_um"], _join(where, "edges_um"), low=0, minimum=2)
         counts = ctx.numbers(t["counts"], _join(where, "counts"), low=0)
+        if len(counts) != len(edges) - 1:
+            raise ctx.error(
+                _join(where, "counts"),
+                f"needs {len(edges) - 1} values (one per bin between the "
+                f"{len(edges)} edges of edges_um); got {len(counts)}",
+            )
     else:
         if "counts" in t:
             raise ctx.error(
