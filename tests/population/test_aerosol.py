@@ -61,3 +61,16 @@ def test_hatch_choate_is_the_mass_median_of_a_lognormal():
     mmd = hatch_choate_mass_median(cmd, gsd)
     below = integrate.quad(mass, 0, mmd, limit=200)[0]
     assert below / total == pytest.approx(0.5, abs=1e-6)
+
+
+@pytest.mark.filterwarnings("error::RuntimeWarning")
+def test_hatch_choate_of_a_diverging_gsd_is_inf_without_a_warning():
+    """A diverged binned fit's GSD (flagged, never recommended) still gets a
+    reported mass median: inf, not NumPy's overflow warning on the terminal."""
+    assert hatch_choate_mass_median(3.0, 1e6) == pytest.approx(
+        3.0 * math.exp(3 * math.log(1e6) ** 2)
+    )
+    assert hatch_choate_mass_median(3.0, 1e9) == math.inf  # exp(1289): beyond floats
+    assert hatch_choate_mass_median(3.0, 1.69) == pytest.approx(
+        3.0 * math.exp(3 * math.log(1.69) ** 2), rel=1e-14
+    )

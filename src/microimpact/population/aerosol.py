@@ -31,9 +31,14 @@ References
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .._core.validation import as_float_array, check_scalar
+
+#: ln of the largest float: a mass median beyond it is inf.
+_LOG_MAX = math.log(np.finfo(float).max)
 
 __all__ = [
     "MEAN_FREE_PATH_AIR_M",
@@ -139,8 +144,10 @@ def hatch_choate_mass_median(count_median, geometric_std):
     Returns
     -------
     float
-        ``count_median * exp(3 ln² σ_g)``.
+        ``count_median * exp(3 ln² σ_g)``; ``inf`` where that exceeds the largest
+        float (a diverging fit's σ_g), without a NumPy overflow warning.
     """
     cmd = check_scalar(count_median, "count_median", minimum=0, strict=True)
     gsd = check_scalar(geometric_std, "geometric_std", minimum=1)
-    return float(cmd * np.exp(3.0 * np.log(gsd) ** 2))
+    log_mmd = math.log(cmd) + 3.0 * math.log(gsd) ** 2
+    return math.exp(log_mmd) if log_mmd < _LOG_MAX else math.inf
