@@ -191,3 +191,18 @@ def test_chi2_on_bins_has_nominal_size():
 def test_chi2_on_bins_rejects_a_normal_population_fitted_as_lognormal():
     rate = _rejection_rate(20, 3000, 0.05, 12, stats.norm(3.0, 0.9))
     assert rate > 0.9
+
+
+@pytest.mark.filterwarnings("error::RuntimeWarning")
+def test_chi2_of_a_fit_with_no_probability_on_the_bins_rejects_it():
+    """A diverged fit that puts no probability on the measured range (found by the
+    property test: NaN expected counts and NumPy's 'invalid value' warning): the
+    counts contradict it with certainty."""
+    from scipy import stats as st_
+
+    edges = np.array([1.0, 2.0, 3.0, 4.0, 5.0, 6.0])
+    counts = np.array([10, 20, 30, 20, 10])
+    far = st_.norm(loc=1.0, scale=1e-9)  # metres: all of it at 1 m
+    r = chi2_binned(edges, counts, far)
+    assert r.reject and r.pvalue == 0.0 and r.statistic == math.inf
+    assert r.dof == 5 - 1 - 2

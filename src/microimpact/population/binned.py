@@ -507,8 +507,23 @@ def chi2_binned(edges_um, counts, fit, *, alpha=0.05) -> Chi2BinnedResult:
         raise ValueError(f"`alpha` must be in (0, 1); got {alpha!r}.")
     dist = getattr(fit, "distribution", fit)
     cdf = np.asarray(dist.cdf(e * 1e-6), float)
-    p = np.diff(cdf) / (cdf[-1] - cdf[0])
     total = float(n.sum())
+    if n.size - 1 - _N_PARAMS >= 1 and not cdf[-1] - cdf[0] > 0:
+        # a diverged fit with no probability on the bins' range: the counts
+        # contradict it with certainty (no expected counts to merge or divide by)
+        dof = n.size - 1 - _N_PARAMS
+        return Chi2BinnedResult(
+            statistic=math.inf,
+            dof=int(dof),
+            pvalue=0.0,
+            reject=True,
+            alpha=alpha,
+            edges_um=e,
+            observed=n.astype(float),
+            expected=np.zeros(n.size),
+            n_bins_initial=int(n.size),
+        )
+    p = np.diff(cdf) / (cdf[-1] - cdf[0])
     edges, observed, expected = _merge(e, n, total * p)
     dof = expected.size - 1 - _N_PARAMS
     if n.size - 1 - _N_PARAMS < 1:
