@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from foam_box import FACES, box_case
 
 xr = pytest.importorskip("xarray")
 
@@ -506,74 +507,13 @@ def _foam_env():
     return env
 
 
-_HEAD = "FoamFile {{ version 2.0; format ascii; class {cls}; object {obj}; }}\n"
-
-# a 0.1 m box of 4 x 4 x 4 cells; the floor (y = 0) is the wall struck
-_FACES = {
-    "floor": "(0 1 5 4)",
-    "outer": "(3 7 6 2) (0 4 7 3) (2 6 5 1) (0 3 2 1) (4 5 6 7)",
-}
-
-
 def _case(case: Path, boundary: dict, include: str, speed, angle, steps=60):
-    for sub in ("0", "constant", "system"):
-        (case / sub).mkdir(parents=True, exist_ok=True)
-
-    def put(rel, cls, body):
-        (case / rel).write_text(_HEAD.format(cls=cls, obj=Path(rel).name) + body)
-
     h = 0.02  # the parcel starts 2 cm above the floor
     theta = math.radians(angle)
     u_n, u_t = speed * math.sin(theta), speed * math.cos(theta)
     t_hit = h / u_n
     dt = t_hit / 40.0  # the parcel strikes at step 40, is read at step 60
-    blocks = "\n".join(
-        f"    {name} {{ type {kind}; faces ( {faces} ); }}"
-        for name, (kind, faces) in boundary.items()
-    )
-    put(
-        "system/blockMeshDict",
-        "dictionary",
-        "convertToMeters 1;\nvertices ( (0 0 0) (0.1 0 0) (0.1 0.1 0) (0 0.1 0) "
-        "(0 0 0.1) (0.1 0 0.1) (0.1 0.1 0.1) (0 0.1 0.1) );\n"
-        "blocks ( hex (0 1 2 3 4 5 6 7) (4 4 4) simpleGrading (1 1 1) );\n"
-        f"boundary\n(\n{blocks}\n);\n",
-    )
-    put(
-        "system/controlDict",
-        "dictionary",
-        f"application {_SOLVER};\nstartFrom startTime; startTime 0; stopAt endTime;\n"
-        f"endTime {steps * dt!r}; deltaT {dt!r};\nwriteControl timeStep; "
-        f"writeInterval {steps}; purgeWrite 0; writeFormat ascii; writePrecision 17;\n"
-        "writeCompression off; timeFormat general; timePrecision 12;\n"
-        "runTimeModifiable no;\n",
-    )
-    put(
-        "system/fvSchemes",
-        "dictionary",
-        "ddtSchemes { default none; } gradSchemes { default none; }\n"
-        "divSchemes { default none; } laplacianSchemes { default none; }\n"
-        "interpolationSchemes { default linear; }\n",
-    )
-    put("system/fvSolution", "dictionary", "solvers { }\n")
-    bcs = " ".join(f"{name} {{ type zeroGradient; }}" for name in boundary)
-    put(
-        "0/U",
-        "volVectorField",
-        "dimensions [0 1 -1 0 0 0 0];\ninternalField uniform (0 0 0);\n"
-        f"boundaryField {{ {bcs} }}\n",
-    )
-    put(
-        "constant/g",
-        "uniformDimensionedVectorField",
-        "dimensions [0 1 -2 0 0 0 0];\nvalue (0 0 0);\n",
-    )
-    put(
-        "constant/transportProperties",
-        "dictionary",
-        "rhoInf 1.2; transportModel Newtonian; nu 1e-05;\n",
-    )
-    put("constant/turbulenceProperties", "dictionary", "simulationType laminar;\n")
+    put = box_case(case, boundary=boundary, solver=_SOLVER, dt=dt, steps=steps)
     put("constant/kinematicCloudPositions", "vectorField", "( (0.02 0.02 0.05) )\n")
     put(
         "constant/kinematicCloudProperties",
@@ -646,7 +586,7 @@ def _bounce(tmp_path, law, surface, layout, speed, angle):
     if layout == "whole-file":
         write_openfoam(law, law_dir, speed_m_s=speed, angle_deg=angle)
         inc = (law_dir / "openfoam" / LOCAL_INTERACTION_FILE).as_posix()
-        boundary = {surface: ("wall", _FACES["floor"] + " " + _FACES["outer"])}
+        boundary = {surface: ("wall", FACES["floor"] + " " + FACES["outer"])}
         include = f'    #include "{inc}"\n'
     else:
         write_openfoam(
@@ -658,8 +598,8 @@ def _bounce(tmp_path, law, surface, layout, speed, angle):
         )
         inc = (law_dir / "openfoam" / LOCAL_PATCHES_FILE).as_posix()
         boundary = {
-            "floor": ("wall", _FACES["floor"]),
-            "outer": ("patch", _FACES["outer"]),
+            "floor": ("wall", FACES["floor"]),
+            "outer": ("patch", FACES["outer"]),
         }
         include = (
             "    localInteractionCoeffs\n    {\n        patches\n        (\n"

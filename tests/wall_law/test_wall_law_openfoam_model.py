@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from foam_box import FACES, box_case
 
 pytest.importorskip("xarray")
 
@@ -113,13 +114,6 @@ def library(tmp_path_factory, law):
     return out, libdir, proc.stdout
 
 
-_HEAD = "FoamFile {{ version 2.0; format ascii; class {cls}; object {obj}; }}\n"
-_FACES = {
-    "floor": "(0 1 5 4)",
-    "outer": "(3 7 6 2) (0 4 7 3) (2 6 5 1) (0 3 2 1) (4 5 6 7)",
-}
-
-
 def _case(
     case: Path,
     out: Path,
@@ -135,67 +129,25 @@ def _case(
     ANGLE_DEG towards it; all strike at step 10 of 14. The exported
     stochasticWallLawCoeffs is copied into constant/ with the mesh's other patch
     added (`coeffs` replaces it) and the table into constant/wall_law.swl."""
-    for sub in ("0", "constant", "system"):
-        (case / sub).mkdir(parents=True, exist_ok=True)
-
-    def put(rel, cls, body):
-        (case / rel).write_text(_HEAD.format(cls=cls, obj=Path(rel).name) + body)
-
     theta = math.radians(ANGLE_DEG)
     u_n, u_t = speed * math.sin(theta), speed * math.cos(theta)
     h = 0.01
     dt = h / u_n / 9.5
     steps = 14
-    put(
-        "system/blockMeshDict",
-        "dictionary",
-        "convertToMeters 1;\nvertices ( (0 0 0) (0.1 0 0) (0.1 0.1 0) (0 0.1 0) "
-        "(0 0 0.1) (0.1 0 0.1) (0.1 0.1 0.1) (0 0.1 0.1) );\n"
-        "blocks ( hex (0 1 2 3 4 5 6 7) (4 4 4) simpleGrading (1 1 1) );\n"
-        "boundary\n(\n"
-        f"    formica {{ type wall; faces ( {_FACES['floor']} ); }}\n"
-        f"    outer {{ type patch; faces ( {_FACES['outer']} ); }}\n);\n",
+    boundary = {"formica": ("wall", FACES["floor"]), "outer": ("patch", FACES["outer"])}
+    put = box_case(
+        case,
+        boundary=boundary,
+        solver=SOLVER,
+        dt=dt,
+        steps=steps,
+        control_extra='libs ("libstochasticWallLaw.so");\n',
     )
-    put(
-        "system/controlDict",
-        "dictionary",
-        f"application {SOLVER};\nstartFrom startTime; startTime 0; stopAt endTime;\n"
-        f"endTime {steps * dt!r}; deltaT {dt!r};\nwriteControl timeStep; "
-        f"writeInterval {steps}; purgeWrite 0; writeFormat ascii; writePrecision 17;\n"
-        "writeCompression off; timeFormat general; timePrecision 12;\n"
-        'runTimeModifiable no;\nlibs ("libstochasticWallLaw.so");\n',
-    )
-    put(
-        "system/fvSchemes",
-        "dictionary",
-        "ddtSchemes { default none; } gradSchemes { default none; }\n"
-        "divSchemes { default none; } laplacianSchemes { default none; }\n"
-        "interpolationSchemes { default linear; }\n",
-    )
-    put("system/fvSolution", "dictionary", "solvers { }\n")
     put(
         "system/decomposeParDict",
         "dictionary",
         "numberOfSubdomains 2;\nmethod simple;\ncoeffs { n (1 1 2); delta 0.001; }\n",
     )
-    put(
-        "0/U",
-        "volVectorField",
-        "dimensions [0 1 -1 0 0 0 0];\ninternalField uniform (0 0 0);\n"
-        "boundaryField { formica { type zeroGradient; } "
-        "outer { type zeroGradient; } }\n",
-    )
-    put(
-        "constant/g",
-        "uniformDimensionedVectorField",
-        "dimensions [0 1 -2 0 0 0 0];\nvalue (0 0 0);\n",
-    )
-    put(
-        "constant/transportProperties",
-        "dictionary",
-        "rhoInf 1.2; transportModel Newtonian; nu 1e-05;\n",
-    )
-    put("constant/turbulenceProperties", "dictionary", "simulationType laminar;\n")
     side = round(math.sqrt(N_PARCELS / 2))  # 63 x 127 > N_PARCELS
     xs = np.linspace(0.005, 0.08, side)
     zs = np.linspace(0.004, 0.096, 2 * side + 1)
