@@ -39,8 +39,8 @@ scan's mean equals the drawn :math:`\sigma`. The paper's surface had asymmetric
 angles: a realization whose angle skewness lies within :data:`ASYMMETRY_K`
 standard errors of zero is not a Formica of the paper and is passed over
 (:func:`formica_ensemble` keeps the candidates that qualify, each named by its
-seed). A scan with a height more than 150 µm from its mean is measured again (its waviness redrawn): the family is conditioned on the
-instrument's range.
+seed). A scan with a height more than 150 µm from its mean is measured again
+(its waviness redrawn): the family is conditioned on the instrument's range.
 
 References
 ----------
