@@ -78,7 +78,7 @@ def angles_of(z_um, contact_length_um=20.0):
     from microimpact.surface.roughness import surface_angles
     from microimpact.units import rad_to_deg
 
-    mk = _load(SRC / "surface" / "data" / "make_formica_profile.py", "_mk")
+    mk = _load(HERE / "formica_search_recipe.py", "_mk")
     x = np.arange(z_um.shape[1]) * mk.DX_UM * 1e-6
     ps = ProfileSet(tuple(Profile(x, row * 1e-6, {}) for row in z_um))
     return rad_to_deg(
@@ -95,7 +95,7 @@ def evaluate_point(ell, w, alpha, orientation, *, samples=SAMPLES, seed=None):
     from microimpact.scenario import PRESET_DIR
     from microimpact.surface.roughness import write_angle_file
 
-    mk = _load(SRC / "surface" / "data" / "make_formica_profile.py", "_mk")
+    mk = _load(HERE / "formica_search_recipe.py", "_mk")
     pd_ = _load(SRC / "scenario" / "presets" / "make_preset_data.py", "_pd")
     z = mk.make_heights(
         correlation_length_um=ell,

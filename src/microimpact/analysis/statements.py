@@ -10,11 +10,29 @@ that shows it, and a checker that turns the evidence (:class:`Evidence`: the
 presets' results, the Formica angle sample and profile) into a :class:`Verdict`:
 held or not, our number, and by how much it misses.
 
-The thresholds of the readings are module constants, fixed before the Formica
-search (``docs/figures/formica_search.py``) and used unchanged by every reader:
+Each statement is of one of two kinds (:attr:`Statement.kind`):
+
+* ``"evidence"``: our model could contradict it; judged over the Formica family
+  (:mod:`microimpact.analysis.robustness`);
+* ``"input"``: it holds by construction (a calibrated input, algebra, a scaled
+  quantity, a property the surface family is conditioned on), so it is shown
+  apart and never counted as evidence (:attr:`Statement.input_because`).
+
+A statement whose evidence cannot be evaluated (a NaN, a missing angle) is not
+held, never held (:func:`evaluate`).
+
+The thresholds of the readings are module constants, written down (with their
+reasons in ``docs/presets.md``) before the statements were judged over the
+Formica family, and used unchanged by every reader:
 
 * a skewness is *significant* ("asymmetric", "skewed") if ``|g| > K_SKEW`` times its
   standard error ``sqrt(6 n (n - 1) / ((n - 2)(n + 1)(n + 3)))``;
+* a distribution is *relatively symmetric* if ``|g| <= SYMMETRIC_SKEW`` (Bulmer's
+  rule of thumb: below 0.5 in size, approximately symmetric);
+* a transition is *sudden* ("reached suddenly", "relatively narrow") if the speed
+  of 10 % capture is at most :data:`SUDDEN_RATIO` times the speed of 90 % capture;
+* the e_m asymmetry *comes from the smaller spheres* if one diameter (the sample's
+  median) leaves at most :data:`FROM_SIZES_SHARE` of its skewness;
 * two relative restitution curves are *similar* where they differ by at most
   :data:`SIMILAR_TOL` (5 % of the unity the rough curve tends to);
 * "toward unity": the rough relative e at 10° within :data:`UNITY_BAND` and never
@@ -32,6 +50,7 @@ import numpy as np
 
 from ..physics.impact import apparent_rebound
 from ..scenario import PRESET_DIR
+from ..surface.formica import skewness_se
 from ..surface.roughness import read_angle_file
 from ..surface.synthetic import formica_profile
 
@@ -41,6 +60,7 @@ __all__ = [
     "Statement",
     "Verdict",
     "evaluate",
+    "skewness_se",
     "statement_table_html",
     "statement_table_markdown",
 ]
@@ -51,17 +71,18 @@ K_SKEW = 5.0
 SIMILAR_TOL = 0.05
 #: The rough relative e at 10 deg "toward unity" (the issue's acceptance band).
 UNITY_BAND = (0.7, 1.3)
+#: "Relatively symmetric": a skewness at most this in size (Bulmer 1979).
+SYMMETRIC_SKEW = 0.5
+#: "Reached suddenly": v(10 % capture) / v(90 % capture) at most this.
+SUDDEN_RATIO = 2.0
+#: "Comes from the smaller spheres": one diameter keeps at most this share of the
+#: e_m skewness.
+FROM_SIZES_SHARE = 0.5
 #: Surfaces of the sst76 preset.
 ROUGH, SMOOTH = "formica", "smooth"
 OBLIQUE = "sst76-formica-oblique"
-
-
-def skewness_se(n) -> float:
-    """Standard error of the sample skewness of `n` normal values."""
-    n = float(n)
-    if n < 4:
-        return float("nan")
-    return math.sqrt(6.0 * n * (n - 1.0) / ((n - 2.0) * (n + 1.0) * (n + 3.0)))
+#: The summary key of the oblique preset run with one diameter (the mechanism).
+ONE_DIAMETER = f"{OBLIQUE}:one-diameter"
 
 
 @dataclass(frozen=True)
@@ -86,6 +107,8 @@ class Evidence:
         ``{preset name: summary DataFrame}`` (``SimulationResult.summary``).
     capture_speeds : dict
         ``{preset name: 50 % capture speed [m/s]}`` at 90 deg.
+    capture_fractions : dict
+        ``{preset name: (speeds [m/s], capture fractions)}`` at 90 deg.
     angles_deg : ndarray
         The Formica roughness-angle sample [deg].
     height_std_um : float
@@ -96,6 +119,7 @@ class Evidence:
 
     summaries: dict = field(default_factory=dict)
     capture_speeds: dict = field(default_factory=dict)
+    capture_fractions: dict = field(default_factory=dict)
     angles_deg: np.ndarray | None = None
     height_std_um: float | None = None
     contact_length_um: float | None = None
@@ -110,6 +134,11 @@ class Evidence:
         for name, r in results.items():
             s = r.summary
             if (s["angle_deg"] == 90).all() and s["speed_m_s"].nunique() > 1:
+                c = s.sort_values("speed_m_s")
+                ev.capture_fractions[name] = (
+                    c["speed_m_s"].to_numpy(float),
+                    c["capture_fraction"].to_numpy(float),
+                )
                 try:
                     cs = r.capture_speed()
                     ev.capture_speeds[name] = float(cs["speed_m_s"].iloc[0])
@@ -118,6 +147,14 @@ class Evidence:
         if surface_data:
             ev.add_shipped_surface()
         return ev
+
+    def add_realization(self, realization) -> Evidence:
+        """The angles and measured height std of a Formica family realization
+        (:class:`~microimpact.surface.formica.FormicaRealization`)."""
+        self.angles_deg = np.asarray(realization.angles_deg, dtype=float)
+        self.height_std_um = float(realization.measured["height_std_um"])
+        self.contact_length_um = 20.0
+        return self
 
     def add_shipped_surface(self) -> Evidence:
         """The shipped Formica angle sample and profile (``presets/``, ``data/``)."""
@@ -147,10 +184,13 @@ class Statement:
     reading: str  # our numerical test of them
     figure: str  # the reproduction's figure: "<preset>/<stem>"
     check: Callable[[Evidence], Verdict | None]
-    #: False for a statement the model cannot hold together with the others (the
-    #: measured trade-off, docs/presets.md); the tests then expect it to fail
-    holds: bool = True
-    why_not: str = ""
+    #: "evidence" (the model could contradict it) or "input" (holds by
+    #: construction; shown apart, never counted)
+    kind: str = "evidence"
+    #: for an input: what makes it hold by construction
+    input_because: str = ""
+    #: where the paper says it: its claim number in docs/paper-comparison.md
+    claim: str = ""
 
 
 # ------------------------------------------------------------------ checkers
@@ -332,13 +372,89 @@ def _mu_m_85_symmetric(ev):
     m85, med85 = float(r.loc[85.0, "mu_mean"]), float(r.loc[85.0, "mu_p50"])
     g85, g10 = float(r.loc[85.0, "mu_skewness"]), float(r.loc[10.0, "mu_skewness"])
     centred = max(abs(m85), abs(med85))
-    miss = max(0.0, centred - 0.05) + max(0.0, abs(g85) - abs(g10))
+    # a NaN anywhere fails: max() would drop it (max(0.0, nan) is 0.0)
+    miss = (
+        max(0.0, centred - 0.05)
+        + max(0.0, abs(g85) - SYMMETRIC_SKEW)
+        + max(0.0, abs(g85) - abs(g10))
+    )
+    ok = all(map(math.isfinite, (m85, med85, g85, g10))) and miss == 0.0
     return Verdict(
         "",
-        miss == 0.0,
+        ok,
         f"mean {m85:+.3f}, median {med85:+.3f}, skewness {g85:+.2f} (85°) "
         f"against {g10:+.2f} (10°)",
+        miss if ok or math.isfinite(miss) else math.inf,
+    )
+
+
+def _speed_at_capture(speeds, fractions, level):
+    """The speed [m/s] at which the capture fraction crosses `level`, by linear
+    interpolation of the (falling) capture curve; NaN if it never crosses."""
+    v, f = np.asarray(speeds, float), np.asarray(fractions, float)
+    for i in range(len(v) - 1):
+        a, b = f[i], f[i + 1]
+        if (a - level) * (b - level) <= 0 and a != b:
+            return float(v[i] + (level - a) * (v[i + 1] - v[i]) / (b - a))
+    return float("nan")
+
+
+def _capture_sudden(ev):
+    c = ev.capture_fractions.get("sst65-silicon-normal")
+    if c is None:
+        return None
+    v10 = _speed_at_capture(*c, 0.1)
+    v90 = _speed_at_capture(*c, 0.9)
+    ratio = v10 / v90 if v90 > 0 else float("nan")
+    ok = math.isfinite(ratio) and ratio <= SUDDEN_RATIO
+    miss = max(0.0, ratio - SUDDEN_RATIO) if math.isfinite(ratio) else math.inf
+    return Verdict(
+        "",
+        ok,
+        f"10 % capture at {v10:.3f} m/s, 90 % at {v90:.3f} m/s (ratio {ratio:.2f})",
         miss,
+    )
+
+
+def _e_m_skew_from_sizes(ev):
+    r = ev.by_angle(ROUGH)
+    one = ev.by_angle(ROUGH, preset=ONE_DIAMETER)
+    if r is None or one is None:
+        return None
+    g = [float(r.loc[a, "e_skewness"]) for a in (10.0, 85.0)]
+    g1 = [float(one.loc[a, "e_skewness"]) for a in (10.0, 85.0)]
+    kept = [abs(b) / abs(a) if a != 0 else math.inf for a, b in zip(g, g1, strict=True)]
+    ok = all(math.isfinite(k) and k <= FROM_SIZES_SHARE for k in kept)
+    miss = max(k - FROM_SIZES_SHARE for k in kept)
+    return Verdict(
+        "",
+        ok,
+        f"skewness {g[0]:+.2f} → {g1[0]:+.2f} (10°), {g[1]:+.2f} → {g1[1]:+.2f} "
+        "(85°) with one diameter",
+        max(0.0, miss) if math.isfinite(miss) else math.inf,
+    )
+
+
+def _e_m_skew_all_angles(ev):
+    r = ev.by_angle(ROUGH)
+    if r is None:
+        return None
+    r = r.loc[10.0:85.0]
+    g = r["e_skewness"].to_numpy(float)
+    lim = np.array([K_SKEW * skewness_se(n) for n in r["n_rebounds"]])
+    sign = np.sign(g[-1]) if g.size else 0.0
+    ok_each = np.isfinite(g) & (np.sign(g) == sign) & (np.abs(g) > lim)
+    ok = bool(g.size and ok_each.all())
+    short = np.where(np.sign(g) == sign, np.maximum(0.0, lim - np.abs(g)), np.abs(g))
+    miss = float(np.nanmax(short)) if g.size else math.inf
+    fails = [f"{a:g}°" for a, o in zip(r.index, ok_each, strict=True) if not o]
+    return Verdict(
+        "",
+        ok,
+        f"skewness {float(np.nanmin(g)):+.2f} to {float(np.nanmax(g)):+.2f} over "
+        f"10–85°; not significant with the 85° sign at "
+        f"{', '.join(fails) if fails else 'no angle'}",
+        0.0 if ok else miss,
     )
 
 
@@ -367,6 +483,8 @@ STATEMENTS: tuple[Statement, ...] = (
         "SST65 50 % capture speed in 0.18–0.22 m/s",
         "sst65-silicon-normal/capture",
         _capture("sst65-silicon-normal", 0.20, 0.02),
+        kind="input",
+        input_because="v_c(52.8 µm) = 0.20 m/s is calibrated to this sentence",
     ),
     Statement(
         "capture-sst125",
@@ -375,6 +493,8 @@ STATEMENTS: tuple[Statement, ...] = (
         "SST125 50 % capture speed in 0.11–0.15 m/s",
         "sst125-silicon-normal/capture",
         _capture("sst125-silicon-normal", 0.13, 0.02),
+        kind="input",
+        input_because="the v_c exponent −1.58 is calibrated to this sentence",
     ),
     Statement(
         "capture-larger-slower",
@@ -383,6 +503,19 @@ STATEMENTS: tuple[Statement, ...] = (
         "SST125's capture speed below SST65's",
         "sst125-silicon-normal/capture",
         _capture_order,
+        kind="input",
+        input_because="follows from the two calibrated capture speeds",
+    ),
+    Statement(
+        "capture-sudden",
+        "Fig. 5, Conclusions",
+        "It is seen that capture is reached suddenly as the normal velocity "
+        "decreases ... transition to capture occurs over a relatively narrow normal "
+        "impact velocity range",
+        f"SST65: the speed of 10 % capture at most {SUDDEN_RATIO:g} times the speed "
+        "of 90 % capture",
+        "sst65-silicon-normal/capture",
+        _capture_sudden,
     ),
     Statement(
         "height-std",
@@ -393,6 +526,9 @@ STATEMENTS: tuple[Statement, ...] = (
         "Formica profile height std in 43–47 µm; angles over 20 µm segments",
         _F4,
         _height_std,
+        kind="input",
+        input_because="the Formica family is drawn with a height std of 45 ± 5 µm "
+        "and angles over 20 µm",
     ),
     Statement(
         "angles-asymmetric",
@@ -403,6 +539,9 @@ STATEMENTS: tuple[Statement, ...] = (
         f"skewness of the Formica angle sample beyond {K_SKEW:g} standard errors",
         _F4,
         _angles_asymmetric,
+        kind="input",
+        input_because="the Formica family keeps only realizations with asymmetric "
+        "angles (the paper says its angles were)",
     ),
     Statement(
         "rough-e-toward-unity",
@@ -432,6 +571,9 @@ STATEMENTS: tuple[Statement, ...] = (
         "smooth relative e falls from 45° to 10° and is negative at 10°",
         _F8,
         _smooth_e_falls,
+        kind="input",
+        input_because="k1 = 4 m/s and the 1 m/s incident speed were chosen so that "
+        "the smooth relative e falls below 45°",
     ),
     Statement(
         "smooth-mu-constant",
@@ -441,6 +583,8 @@ STATEMENTS: tuple[Statement, ...] = (
         "smooth μ within 0.005 of 0.15 at every angle 10–45°",
         _F8ABS,
         _smooth_mu_flat,
+        kind="input",
+        input_because="friction 0.15 is set from this sentence",
     ),
     Statement(
         "rough-mu-never-constant",
@@ -461,23 +605,35 @@ STATEMENTS: tuple[Statement, ...] = (
         "the same sign",
         _F9,
         _e_m_asymmetric_similar,
-        holds=False,
-        why_not=(
-            "not together with 'toward unity': at 10° the facets facing the "
-            "particle give e_m a long upper tail (Eq. 8) while at 85° every tilt "
-            "lowers e_m; a significantly negative skewness at 10° needs a wider "
-            "angle spread, which overshoots unity (docs/presets.md, the Formica "
-            "search)"
-        ),
+    ),
+    Statement(
+        "e_m-asymmetry-from-small-spheres",
+        "Figs. 9, 10",
+        "This asymmetry comes from the smaller diameter microspheres travelling at "
+        "slightly lower incident velocities, where the effects of adhesion are more "
+        "significant",
+        f"rough e_m skewness at 10° and 85° with one diameter (the sample's median) "
+        f"at most {FROM_SIZES_SHARE:g} of its size with the SST76 sample",
+        _F9,
+        _e_m_skew_from_sizes,
+    ),
+    Statement(
+        "e_m-asymmetry-all-angles",
+        "Figs. 9, 10",
+        "This asymmetry remains throughout all incident angles for the same reason",
+        f"rough e_m skewness beyond {K_SKEW:g} standard errors, with the sign it has "
+        "at 85°, at every swept angle 10–85°",
+        _F9,
+        _e_m_skew_all_angles,
     ),
     Statement(
         "mu_m-85-symmetric",
         "Fig. 10",
         "The shape of the frequency distribution of μ_m at 85° is relatively "
         "symmetric about zero, as expected",
-        "μ_m at 85°: mean and median within 0.05 of 0, and skewness smaller in "
-        "size than at 10° (at 85°, μ_m ≈ −tan φ mirrors the angle distribution, "
-        "which the paper calls asymmetric: 'relatively' can only mean this)",
+        f"μ_m at 85°: mean and median within 0.05 of 0, skewness at most "
+        f"{SYMMETRIC_SKEW:g} in size (approximately symmetric) and smaller in size "
+        "than at 10°",
         _F10,
         _mu_m_85_symmetric,
     ),
@@ -501,16 +657,27 @@ STATEMENTS: tuple[Statement, ...] = (
         "Eq. 9 at μ = 0.3, φ = −20° within 0.05 of 0.7",
         "",
         _eq9,
+        kind="input",
+        input_because="Eq. 9 is algebra",
     ),
 )
 
 
 def evaluate(evidence: Evidence, statements=STATEMENTS) -> dict[str, Verdict | None]:
-    """``{statement id: Verdict}`` (None where the evidence is missing)."""
+    """``{statement id: Verdict}`` (None where the evidence is missing).
+
+    A verdict that cannot be evaluated (its shortfall is NaN) is not held."""
     out = {}
     for s in statements:
         v = s.check(evidence)
-        out[s.id] = None if v is None else Verdict(s.id, bool(v.held), v.ours, v.miss)
+        if v is None:
+            out[s.id] = None
+            continue
+        miss = float(v.miss)
+        held = bool(v.held) and math.isfinite(miss)
+        out[s.id] = Verdict(
+            s.id, held, v.ours, miss if math.isfinite(miss) else math.inf
+        )
     return out
 
 

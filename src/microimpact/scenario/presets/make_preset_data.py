@@ -15,9 +15,11 @@ which it published. This script writes documented stand-ins (see
   Gaussian. ASSUMED: a left-skewed mixture within 10-76 µm (65 %: normal 57 ± 8 µm;
   35 %: normal 38 ± 10 µm).
 * ``formica_angles_20um.csv``: 4,000 roughness angles [deg] drawn at random with
-  replacement, as the paper did, from the slope angles of the shipped SYNTHETIC
-  Formica profile (:func:`microimpact.surface.synthetic.formica_profile`) over 20 µm
-  contact lengths (the paper's SST76 contact diameter), ``method="slope"``.
+  replacement, as the paper did, 250 from each of the 16 realizations of the
+  SYNTHETIC Formica family (:func:`microimpact.surface.formica.formica_ensemble`;
+  slope angles over 20 µm contact lengths, the paper's SST76 contact diameter):
+  the pooled surface, the family's mixture. Each realization's seed is written
+  in the file's header.
 
 Diameters are rounded to 0.1 µm (a Phase Doppler analyser's resolution). Run from
 the repository root::
@@ -81,9 +83,8 @@ def write_diameters(path, d, title, recipe):
 
 
 def main():
-    from microimpact.surface.roughness import surface_angles, write_angle_file
-    from microimpact.surface.synthetic import formica_profile
-    from microimpact.units import rad_to_deg, um_to_m
+    from microimpact.surface.formica import formica_ensemble, pooled_angles_deg
+    from microimpact.surface.roughness import write_angle_file
 
     rng = np.random.default_rng(SEED)
     d125 = mixture_sample(SST125_MIXTURE, N_DIAMETERS, rng)
@@ -101,21 +102,16 @@ def main():
         "SST76 stainless-steel microspheres",
         "Mixture: 65% N(57,8) and 35% N(38,10), both in [10,76] um.",
     )
-    phi = rad_to_deg(
-        surface_angles(
-            formica_profile(),
-            contact_length=float(um_to_m(CONTACT_LENGTH_UM)),
-            method="slope",
-        )
-    )
+    ensemble = formica_ensemble()
+    phi = pooled_angles_deg(ensemble, n=N_ANGLES, rng=SEED)
     write_angle_file(
         HERE / "formica_angles_20um.csv",
         phi,
-        n=N_ANGLES,
-        rng=SEED,
+        n=None,  # already drawn, 250 from each realization
         metadata={
-            "source": "SYNTHETIC Formica profile (microimpact.surface.synthetic."
-            "formica_profile), NOT a measurement",
+            "source": "SYNTHETIC Formica family (microimpact.surface.formica), "
+            f"{len(ensemble)} realizations pooled, NOT a measurement",
+            "realizations": " ".join(r.seed_text for r in ensemble),
             "contact length": f"{CONTACT_LENGTH_UM:g} um, method slope, detrend line",
             "generator": "microimpact/presets/make_preset_data.py",
         },

@@ -1,0 +1,275 @@
+"""The paper's statements judged over the unknown Formica surface.
+
+The paper's Formica scans are not published, so no one surface can stand for
+them. :func:`robustness_study` runs ``sst76-formica-oblique`` on every
+realization of the Formica family (:mod:`microimpact.surface.formica`), each with
+its own engine seed, and the normal-impact presets over as many engine seeds, and
+reports for each statement of :mod:`microimpact.analysis.statements` the share of
+runs in which it holds, with a Wilson interval, and a verdict in three words:
+
+* **robust**: holds in at least :data:`ROBUST` of the runs;
+* **contradicted**: holds in at most :data:`CONTRADICTED` of them;
+* **depends on the unknown surface**: in between.
+
+Statements of kind ``"input"`` hold by construction; they are reported apart
+with the verdict **input** and never counted. A second table judges the
+evidence statements under the conditions the paper does not state: the incident
+speed (:data:`SPEEDS_M_S`) and the shadowing rule (:data:`SHADOWING`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+import pandas as pd
+
+from ..engine.montecarlo import run
+from ..engine.statistics import wilson_interval
+from ..population.distributions import monodisperse
+from ..scenario import load_preset
+from ..surface.angles import angles_from_sample
+from ..surface.formica import N_REALIZATIONS, ROOT_SEED, formica_ensemble
+from ..units import m_to_um
+from .statements import (
+    OBLIQUE,
+    ONE_DIAMETER,
+    ROUGH,
+    STATEMENTS,
+    Evidence,
+    evaluate,
+)
+
+__all__ = [
+    "CONTRADICTED",
+    "ROBUST",
+    "SHADOWING",
+    "SPEEDS_M_S",
+    "RobustnessStudy",
+    "robustness_study",
+    "verdict_word",
+]
+
+#: "robust": held in at least this share of the runs.
+ROBUST = 0.9
+#: "contradicted": held in at most this share.
+CONTRADICTED = 0.1
+#: Incident speeds of the conditions table [m/s] (the paper states none).
+SPEEDS_M_S = (0.5, 1.0, 2.0, 5.0)
+#: Shadowing rules of the conditions table (docs/engine.md).
+SHADOWING = ("reject", "weighted")
+#: Impacts per sweep point of the full study (the issue's minimum).
+SAMPLES = 40_000
+#: The preset's own conditions.
+BASE_SPEED_M_S, BASE_SHADOWING = 1.0, "reject"
+NORMAL_PRESETS = ("sst65-silicon-normal", "sst125-silicon-normal")
+
+
+def verdict_word(rate, kind="evidence") -> str:
+    """``"robust"``, ``"contradicted"``, ``"depends on the unknown surface"``,
+    ``"input"`` (for an input) or ``"not evaluated"`` (NaN rate)."""
+    if kind == "input":
+        return "input"
+    if not np.isfinite(rate):
+        return "not evaluated"
+    if rate >= ROBUST:
+        return "robust"
+    if rate <= CONTRADICTED:
+        return "contradicted"
+    return "depends on the unknown surface"
+
+
+@dataclass
+class RobustnessStudy:
+    """What :func:`robustness_study` found.
+
+    Attributes
+    ----------
+    table : pandas.DataFrame
+        One row per statement: ``id``, ``kind``, ``runs``, ``held``, ``rate``,
+        ``ci_low``, ``ci_high`` (95 % Wilson), ``verdict``.
+    conditions : pandas.DataFrame
+        Evidence statements (rows) by condition (``"<speed> m/s, <rule>"``
+        columns): the share of realizations in which each holds.
+    runs : pandas.DataFrame
+        One row per (run, statement): ``condition``, ``realization`` (its seed,
+        ``root/index``, or the engine seed of a normal-impact run), ``id``,
+        ``held``, ``ours``.
+    realizations : pandas.DataFrame
+        The surfaces: seed, drawn parameters and measured statistics.
+    samples : int
+        Impacts per sweep point.
+    """
+
+    table: pd.DataFrame
+    conditions: pd.DataFrame
+    runs: pd.DataFrame
+    realizations: pd.DataFrame
+    samples: int
+    settings: dict = field(default_factory=dict)
+
+    def verdict(self, statement_id) -> str:
+        """The verdict word of one statement."""
+        return str(self.table.set_index("id").loc[statement_id, "verdict"])
+
+
+def _oblique(base, realization, speed, shadowing, seed):
+    surfaces = tuple(
+        replace(s, angles=angles_from_sample(realization.angles_deg))
+        if s.name == ROUGH
+        else s
+        for s in base.surfaces
+    )
+    return base.with_options(
+        surfaces=surfaces,
+        speeds_m_s=(float(speed),),
+        shadowing=shadowing,
+        seed=int(seed),
+    )
+
+
+def _one_diameter(scenario):
+    """The scenario with every particle at the median diameter [µm] of its
+    population (the mechanism statement)."""
+    return scenario.with_options(
+        particles=monodisperse(float(m_to_um(scenario.particles.median())))
+    )
+
+
+def _seed(root, *key) -> int:
+    ss = np.random.SeedSequence(int(root), spawn_key=tuple(int(k) for k in key))
+    return int(ss.generate_state(1, dtype=np.uint32)[0])
+
+
+def _rows(condition, label, verdicts):
+    return [
+        {
+            "condition": condition,
+            "realization": label,
+            "id": k,
+            "held": None if v is None else bool(v.held),
+            "ours": "" if v is None else v.ours,
+        }
+        for k, v in verdicts.items()
+    ]
+
+
+def robustness_study(
+    n_realizations=N_REALIZATIONS,
+    samples=SAMPLES,
+    *,
+    speeds_m_s=SPEEDS_M_S,
+    shadowing=SHADOWING,
+    root=ROOT_SEED,
+    workers=1,
+) -> RobustnessStudy:
+    """Judge every statement over `n_realizations` Formica surfaces.
+
+    Parameters
+    ----------
+    n_realizations : int
+        Surfaces of the family (and engine seeds of the normal presets).
+    samples : int
+        Impacts per sweep point.
+    speeds_m_s, shadowing : sequence
+        The conditions table; the preset's own (1 m/s, ``"reject"``) gives the
+        main table.
+    root : int
+        Root seed of the surfaces and of the engine seeds.
+    workers : int
+        Passed to :func:`~microimpact.engine.montecarlo.run`.
+
+    Returns
+    -------
+    RobustnessStudy
+    """
+    n = int(n_realizations)
+    samples = int(samples)
+    surfaces = formica_ensemble(n, root=root)
+    base = load_preset(OBLIQUE)
+    rows = []
+    conditions = [(BASE_SPEED_M_S, BASE_SHADOWING)] + [
+        (v, sh)
+        for v in speeds_m_s
+        for sh in shadowing
+        if (v, sh) != (BASE_SPEED_M_S, BASE_SHADOWING)
+    ]
+    for r in surfaces:
+        for speed, rule in conditions:
+            sc = _oblique(base, r, speed, rule, _seed(root, r.index, 1))
+            res = run(sc, samples=samples, workers=workers)
+            ev = Evidence.from_results({OBLIQUE: res}, surface_data=False)
+            ev.add_realization(r)
+            one = run(_one_diameter(sc), samples=samples, workers=workers)
+            ev.summaries[ONE_DIAMETER] = one.summary
+            label = f"{float(speed):g} m/s, {rule}"
+            rows += _rows(label, r.seed_text, evaluate(ev))
+    base_label = f"{BASE_SPEED_M_S:g} m/s, {BASE_SHADOWING}"
+    for k in range(n):  # the normal presets do not see the Formica surface
+        results = {
+            name: run(
+                load_preset(name).with_options(seed=_seed(root, k, 2)),
+                samples=samples,
+                workers=workers,
+            )
+            for name in NORMAL_PRESETS
+        }
+        ev = Evidence.from_results(results, surface_data=False)
+        verdicts = {
+            key: v
+            for key, v in evaluate(ev).items()
+            if v is not None and key not in {"angles-asymmetric", "height-std"}
+        }
+        rows += _rows(base_label, f"engine seed {_seed(root, k, 2)}", verdicts)
+    runs = pd.DataFrame(rows)
+    return RobustnessStudy(
+        table=_table(runs[runs["condition"] == base_label]),
+        conditions=_conditions(runs),
+        runs=runs,
+        realizations=_realizations(surfaces),
+        samples=samples,
+        settings={
+            "root_seed": int(root),
+            "n_realizations": n,
+            "speeds_m_s": tuple(float(v) for v in speeds_m_s),
+            "shadowing": tuple(shadowing),
+        },
+    )
+
+
+def _table(runs) -> pd.DataFrame:
+    out = []
+    for s in STATEMENTS:
+        held = runs.loc[(runs["id"] == s.id) & runs["held"].notna(), "held"]
+        k, m = int(held.astype(bool).sum()), int(held.size)
+        lo, hi = wilson_interval(k, m) if m else (np.nan, np.nan)
+        rate = k / m if m else np.nan
+        out.append(
+            {
+                "id": s.id,
+                "kind": s.kind,
+                "runs": m,
+                "held": k,
+                "rate": rate,
+                "ci_low": float(lo),
+                "ci_high": float(hi),
+                "verdict": verdict_word(rate, s.kind),
+            }
+        )
+    return pd.DataFrame(out)
+
+
+def _conditions(runs) -> pd.DataFrame:
+    ev = [s.id for s in STATEMENTS if s.kind == "evidence"]
+    sub = runs[runs["id"].isin(ev) & runs["realization"].str.contains("/")]
+    sub = sub[sub["held"].notna()]
+    tab = sub.assign(held=sub["held"].astype(float)).pivot_table(
+        index="id", columns="condition", values="held", aggfunc="mean", sort=False
+    )
+    return tab.reindex([i for i in ev if i in tab.index])
+
+
+def _realizations(surfaces) -> pd.DataFrame:
+    return pd.DataFrame(
+        [{"seed": r.seed_text, **r.parameters, **r.measured} for r in surfaces]
+    )
