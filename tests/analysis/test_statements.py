@@ -130,27 +130,99 @@ def test_missing_evidence_is_not_evaluated():
     assert v["eq9-example"].held  # needs no evidence: Eq. 9 through the engine
 
 
-def test_ids_unique_and_one_failure_explained():
+def test_ids_unique_and_every_input_explained():
     ids = [s.id for s in STATEMENTS]
     assert len(ids) == len(set(ids))
     for s in STATEMENTS:
         assert s.words and s.reading and s.where
-        assert s.holds or s.why_not
+        assert s.kind in ("evidence", "input")
+        assert bool(s.input_because) == (s.kind == "input"), s.id
+    # the three statements issue 29 added (N2, O9, O10)
+    assert {
+        "capture-sudden",
+        "e_m-asymmetry-from-small-spheres",
+        "e_m-asymmetry-all-angles",
+    } <= set(ids)
+
+
+def test_a_statement_that_cannot_be_evaluated_is_not_held():
+    """A NaN never passes: mu_m at 10 deg with a NaN skewness (a smooth surface,
+    where every rebound slides) made mu_m-85-symmetric hold through
+    max(0.0, abs(g85) - abs(nan)) == 0.0 (issue 29)."""
+    g_mu = np.where(ANGLES == 10, np.nan, np.where(ANGLES == 85, -0.1, 0.0))
+    ev = oblique(unity_curve(1.0), mu_skewness=g_mu, mu_mean=0.01)
+    v = held(ev, "mu_m-85-symmetric")
+    assert not v.held and v.miss == np.inf
+    # and any checker whose shortfall is NaN is not held, whatever it says
+    from dataclasses import replace
+
+    from microimpact.analysis.statements import Verdict
+
+    fake = replace(STATEMENTS[0], check=lambda ev: Verdict("", True, "x", np.nan))
+    assert not evaluate(Evidence(), (fake,))[fake.id].held
+
+
+def test_relatively_symmetric_is_half_a_skewness_unit():
+    """Bulmer's rule (|g| <= 0.5 approximately symmetric), written down before
+    the evaluation: -0.45 holds, -0.55 does not, even when 10 deg is more skewed."""
+    for g85, ok in ((-0.45, True), (-0.55, False)):
+        g_mu = np.where(ANGLES == 10, 1.5, np.where(ANGLES == 85, g85, 0.0))
+        ev = oblique(unity_curve(1.0), mu_skewness=g_mu, mu_mean=0.01)
+        assert held(ev, "mu_m-85-symmetric").held is ok
+
+
+def test_capture_sudden_known_answers():
+    """v(10 %) / v(90 %) <= 2 by linear interpolation of the capture curve."""
+    v = np.array([0.1, 0.2, 0.3, 0.4, 0.5])
+    for f, ratio in (
+        ([1.0, 0.9, 0.5, 0.1, 0.0], 0.4 / 0.2),
+        ([1.0, 0.95, 0.7, 0.4, 0.1], 0.5 / 0.22),
+    ):
+        ev = Evidence(capture_fractions={"sst65-silicon-normal": (v, np.array(f))})
+        got = held(ev, "capture-sudden")
+        assert got.held is (ratio <= 2.0 + 1e-12)
+        assert f"ratio {ratio:.2f}" in got.ours
+
+
+def test_e_m_asymmetry_statements_known_answers():
+    from microimpact.analysis.statements import ONE_DIAMETER
+
+    g = np.where(ANGLES == 90, 0.0, -1.0)
+    ev = oblique(unity_curve(1.0), e_skewness=g)
+    assert held(ev, "e_m-asymmetry-all-angles").held
+    g2 = g.copy()
+    g2[ANGLES == 40] = 0.05  # not significant at one angle
+    assert not held(
+        oblique(unity_curve(1.0), e_skewness=g2), "e_m-asymmetry-all-angles"
+    ).held
+    # one diameter keeps 40 % of the skewness: from the sizes; 80 %: not
+    for kept, ok in ((0.4, True), (0.8, False)):
+        one = frame("formica", e_relative=unity_curve(1.0), e_skewness=kept * g)
+        ev.summaries[ONE_DIAMETER] = one
+        assert held(ev, "e_m-asymmetry-from-small-spheres").held is ok
 
 
 def test_docs_table_is_this_table():
-    """docs/presets.md's statement table shows every row of STATEMENTS, with the
-    paper's words and our reading as the module has them (written by
-    docs/figures/paper_statements.py)."""
+    """docs/presets.md shows every evidence statement with the paper's words, our
+    reading and a verdict word, and every input with why it holds by construction
+    (written by docs/figures/paper_statements.py; the numbers are compared with a
+    full-size study in tests/analysis/test_robustness.py, slow)."""
+    from microimpact.analysis.robustness import verdict_word
+
+    words = {verdict_word(x) for x in (0.0, 0.5, 1.0)}
     text = DOCS.read_text(encoding="utf-8")
     block = re.search(
         r"<!-- statements:begin -->\n(.*?)<!-- statements:end -->", text, re.DOTALL
     ).group(1)
+    assert "13 of 14 held" not in text
     for s in STATEMENTS:
         row = next(line for line in block.splitlines() if f"| `{s.id}` |" in line)
         assert f"“{_md(s.words)}”" in row
-        assert _md(s.reading) in row
-        assert ("NOT held" in row) == (not s.holds), s.id
+        if s.kind == "evidence":
+            assert _md(s.reading) in row
+            assert any(f"**{w}**" in row for w in words), s.id
+        else:
+            assert _md(s.input_because) in row
 
 
 def test_html_table_escapes_and_links():
@@ -168,12 +240,14 @@ def test_html_table_escapes_and_links():
 def test_reproduce_report_opens_with_the_table(tmp_path):
     """The reproduction report: the statement section comes before the first
     result, and every link it makes points at a figure of the page."""
+    from microimpact.analysis.robustness import robustness_study
     from microimpact.engine.montecarlo import run
     from microimpact.pipeline.report import write_report
     from microimpact.scenario import PAPER_PRESETS, load_preset
 
     results = [run(load_preset(n), samples=400) for n in PAPER_PRESETS]
-    path = write_report(results, tmp_path / "report.html", statements=True)
+    study = robustness_study(2, 1000, speeds_m_s=(1.0,), shadowing=("reject",))
+    path = write_report(results, tmp_path / "report.html", statements=study)
     page = path.read_text(encoding="utf-8")
     assert page.index('id="statements"') < page.index('<section id="r0-')
     ids = set(re.findall(r'id="([^"]+)"', page))

@@ -19,6 +19,7 @@ speed (:data:`SPEEDS_M_S`) and the shadowing rule (:data:`SHADOWING`).
 
 from __future__ import annotations
 
+import html
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -273,3 +274,202 @@ def _realizations(surfaces) -> pd.DataFrame:
     return pd.DataFrame(
         [{"seed": r.seed_text, **r.parameters, **r.measured} for r in surfaces]
     )
+
+
+# ------------------------------------------------------------------ tables
+def _pct(x) -> str:
+    return "–" if not np.isfinite(x) else f"{100.0 * x:.0f} %"
+
+
+def rate_text(row) -> str:
+    """``"12 of 16 (75 %, 95 % CI 51–90 %)"``: a row of ``RobustnessStudy.table``."""
+    if not row["runs"]:
+        return "not evaluated"
+    return (
+        f"{row['held']} of {row['runs']} ({_pct(row['rate'])}, 95 % CI "
+        f"{100.0 * row['ci_low']:.0f}–{100.0 * row['ci_high']:.0f} %)"
+    )
+
+
+def _md(text) -> str:
+    return str(text).replace("|", "\\|")
+
+
+def _n(k) -> str:
+    return f"{k} is" if k == 1 else f"{k} are"
+
+
+def summary_sentence(study) -> str:
+    """One sentence: how many evidence statements are robust, depend on the
+    surface, are contradicted; how many are inputs."""
+    t = study.table
+    ev = t[t["kind"] == "evidence"]
+    count = ev["verdict"].value_counts()
+    n_in = int((t["kind"] == "input").sum())
+    return (
+        f"Of the {len(ev)} statements our model could contradict, "
+        f"{_n(count.get('robust', 0))} robust, "
+        f"{count.get('depends on the unknown surface', 0)} depend on the unknown "
+        f"surface and {count.get('contradicted', 0)} are contradicted, judged over "
+        f"{study.settings['n_realizations']} realizations of the Formica family "
+        f"(and as many engine seeds) at {study.samples:,} impacts per point; "
+        f"{n_in} more hold by construction and are shown apart as inputs."
+    )
+
+
+def robustness_table_markdown(study) -> str:
+    """The evidence statements: the paper's words, our reading, the verdict and
+    the hold rate (``docs/presets.md``)."""
+    by_id = study.table.set_index("id")
+    rows = [
+        "| id | paper | the paper's words | our reading | verdict | held in |",
+        "|---|---|---|---|---|---|",
+    ]
+    for s in STATEMENTS:
+        if s.kind != "evidence":
+            continue
+        r = by_id.loc[s.id]
+        rows.append(
+            f"| `{s.id}` | {s.where} | “{_md(s.words)}” | {_md(s.reading)} | "
+            f"**{r['verdict']}** | {rate_text(r)} |"
+        )
+    return "\n".join(rows)
+
+
+def inputs_table_markdown(study, verdicts=None) -> str:
+    """The statements that hold by construction, and why (never counted)."""
+    verdicts = verdicts or {}
+    rows = [
+        "| id | paper | the paper's words | why it holds by construction | ours |",
+        "|---|---|---|---|---|",
+    ]
+    for s in STATEMENTS:
+        if s.kind != "input":
+            continue
+        v = verdicts.get(s.id)
+        ours = "–" if v is None else v.ours
+        rows.append(
+            f"| `{s.id}` | {s.where} | “{_md(s.words)}” | {_md(s.input_because)} | "
+            f"{_md(ours)} |"
+        )
+    return "\n".join(rows)
+
+
+def conditions_table_markdown(study) -> str:
+    """Share of realizations holding each evidence statement, by condition."""
+    c = study.conditions
+    cols = list(c.columns)
+    rows = [
+        "| id | " + " | ".join(cols) + " |",
+        "|---|" + "---|" * len(cols),
+    ]
+    for sid, r in c.iterrows():
+        rows.append(f"| `{sid}` | " + " | ".join(_pct(r[k]) for k in cols) + " |")
+    return "\n".join(rows)
+
+
+def realizations_table_markdown(study) -> str:
+    """The surfaces: seed, drawn parameters, measured statistics."""
+    t = study.realizations
+    rows = [
+        "| seed | σ [µm] | Ra [µm] | ℓ_w [µm] | ℓ_r [µm] | texture share | "
+        "period [µm] | rise | orient. | angle std [°] | angle skew |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for _, r in t.iterrows():
+        rows.append(
+            f"| {r['seed']} | {r['height_std_um']:.1f} | {r['ra_um']:.2f} | "
+            f"{r['waviness_length_um']:.0f} | {r['roughness_length_um']:.1f} | "
+            f"{r['texture_share']:.2f} | {r['texture_period_um']:.0f} | "
+            f"{r['texture_rise_fraction']:.2f} | {int(r['texture_orientation']):+d} | "
+            f"{r['angle_std_deg']:.2f} | {r['angle_skewness']:+.2f} |"
+        )
+    return "\n".join(rows)
+
+
+#: What the reader must know before the statements (report and docs/presets.md).
+DISCLOSURE = (
+    "What is the paper's, what is assumed, what is calibrated. From the paper: the "
+    "rigid-body impact model (Eqs. 1–9), the SST65 size distribution (normal, "
+    "52.8 ± 15.3 µm), the Lycopodium sizes (normal, 30 ± 1.7 µm), 4,000 impacts per "
+    "point, the 20 µm contact length and the Formica height std of about 45 µm. "
+    "Assumed (the paper does not say): the incident speed of the oblique cases "
+    "(1 m/s; 2 m/s for Lycopodium), the shadowing rule (an impact strikes only a "
+    "facet the particle can reach), the SST76 and SST125 size samples, and the "
+    "coefficient k1 = 4 m/s and the law k2 = v_c/4. Calibrated to the paper's own "
+    "sentences, so they cannot confirm them: the capture-speed law v_c = 0.20 "
+    "(d/52.8 µm)^−1.58 m/s (from the 50 % capture speeds 0.20 and 0.13 m/s) and "
+    "the friction coefficient 0.15 (from the smooth surface's impulse ratio). The "
+    "Formica roughness is synthetic: the paper's scans are unpublished, so the "
+    "preset pools 16 realizations of a documented surface family (the paper's "
+    "45 µm, its instrument's ±150 µm and a published laminate Ra; every other "
+    "parameter drawn from a stated range, none chosen against the statements), "
+    "and each statement is judged over those realizations, not at one surface."
+)
+
+
+def _e(x) -> str:
+    return html.escape(str(x))
+
+
+def robustness_table_html(study, *, anchors=None) -> str:
+    """The evidence statements with their verdicts and hold rates (the report);
+    `anchors` maps a statement's ``figure`` to an in-page link."""
+    anchors = anchors or {}
+    by_id = study.table.set_index("id")
+    out = [
+        '<table class="statements"><thead><tr><th>paper</th><th>the paper\'s '
+        "words</th><th>our reading</th><th>verdict</th><th>held in</th>"
+        "<th>figure</th></tr></thead><tbody>"
+    ]
+    for s in STATEMENTS:
+        if s.kind != "evidence":
+            continue
+        r = by_id.loc[s.id]
+        cls = {"robust": "held", "contradicted": "failed"}.get(r["verdict"], "na")
+        label = s.figure.split("/")[-1].replace("_", " ") if s.figure else "–"
+        link = anchors.get(s.figure)
+        fig = f'<a href="{_e(link)}">{_e(label)}</a>' if link else _e(label)
+        out.append(
+            f'<tr class="{cls}"><td>{_e(s.where)}</td><td>“{_e(s.words)}”</td>'
+            f"<td>{_e(s.reading)}</td><td>{_e(r['verdict'])}</td>"
+            f"<td>{_e(rate_text(r))}</td><td>{fig}</td></tr>"
+        )
+    out.append("</tbody></table>")
+    return "\n".join(out)
+
+
+def conditions_table_html(study) -> str:
+    """Hold rate of each evidence statement under each unstated condition."""
+    c = study.conditions
+    head = "".join(f"<th>{_e(k)}</th>" for k in c.columns)
+    out = [
+        f'<table class="conditions"><thead><tr><th>statement</th>{head}</tr>'
+        "</thead><tbody>"
+    ]
+    for sid, r in c.iterrows():
+        cells = "".join(f"<td>{_e(_pct(r[k]))}</td>" for k in c.columns)
+        out.append(f"<tr><td>{_e(sid)}</td>{cells}</tr>")
+    out.append("</tbody></table>")
+    return "\n".join(out)
+
+
+def inputs_table_html(study, verdicts=None) -> str:
+    """The statements that hold by construction, and why; never counted."""
+    verdicts = verdicts or {}
+    out = [
+        '<table class="inputs"><thead><tr><th>paper</th><th>the paper\'s words'
+        "</th><th>why it holds by construction</th><th>ours</th></tr></thead>"
+        "<tbody>"
+    ]
+    for s in STATEMENTS:
+        if s.kind != "input":
+            continue
+        v = verdicts.get(s.id)
+        ours = "–" if v is None else v.ours
+        out.append(
+            f"<tr><td>{_e(s.where)}</td><td>“{_e(s.words)}”</td>"
+            f"<td>{_e(s.input_because)}</td><td>{_e(ours)}</td></tr>"
+        )
+    out.append("</tbody></table>")
+    return "\n".join(out)

@@ -378,13 +378,13 @@ def _mu_m_85_symmetric(ev):
         + max(0.0, abs(g85) - SYMMETRIC_SKEW)
         + max(0.0, abs(g85) - abs(g10))
     )
-    ok = all(map(math.isfinite, (m85, med85, g85, g10))) and miss == 0.0
+    finite = all(map(math.isfinite, (m85, med85, g85, g10)))
     return Verdict(
         "",
-        ok,
+        finite and miss == 0.0,
         f"mean {m85:+.3f}, median {med85:+.3f}, skewness {g85:+.2f} (85°) "
         f"against {g10:+.2f} (10°)",
-        miss if ok or math.isfinite(miss) else math.inf,
+        miss if finite else math.inf,
     )
 
 

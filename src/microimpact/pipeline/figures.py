@@ -80,9 +80,13 @@ def distribution_speed(result, wanted=None) -> float:
     return float(share.idxmax())
 
 
-def figure_caption(stem, result, *, distribution_speed_m_s=None) -> str:
-    """Caption of the figure file `stem` (see :func:`figures_for_result`)."""
+def figure_caption(
+    stem, result, *, distribution_speed_m_s=None, experiments=False
+) -> str:
+    """Caption of the figure file `stem` (see :func:`figures_for_result`);
+    `experiments`: whether the figure shows experiments (their legend entry)."""
     sc = result.scenario
+    data = "; squares: experiments." if experiments else "."
     conf = _conf_label(result)
     ref = getattr(sc, "reference_angle_deg", None)
     if stem == "capture":
@@ -92,10 +96,13 @@ def figure_caption(stem, result, *, distribution_speed_m_s=None) -> str:
             f"percentage captured. Bands: {conf} confidence intervals; diamond: "
             "speed of 50 % capture with its interval (dotted with an arrow: a side "
             "the data do not bound; no diamond: no estimate, the legend says "
-            "why); squares: experiments."
+            "why)" + data
         )
     if stem in ("coefficients", "coefficients_relative"):
-        return _coefficients_caption(stem, result, conf, ref) + _speed_subset(result)
+        text = _coefficients_caption(stem, result, conf, ref)
+        if stem == "coefficients_relative":
+            text = text.removesuffix(".") + data
+        return text + _speed_subset(result)
     if stem.startswith("distributions_"):
         a = stem.removeprefix("distributions_").removesuffix("deg").replace("p", ".")
         return (
@@ -111,6 +118,13 @@ def figure_caption(stem, result, *, distribution_speed_m_s=None) -> str:
         )
     if stem == "profile_vs_areal":
         return CAPTION
+    if stem == "size_distribution":
+        return "Particle diameter distribution (paper Fig. 2)."
+    if stem.startswith("angle_pdf_"):
+        return (
+            f"Roughness-angle distribution of the surface "
+            f"{stem.removeprefix('angle_pdf_')} (paper Fig. 4)."
+        )
     if stem == "comparison":
         return (
             "Simulated against experimental means with their intervals; "
@@ -129,8 +143,7 @@ def _coefficients_caption(stem, result, conf, ref) -> str:
             "dotted and hatched: the median and the 5–95 % range of the rough "
             "surface's rebounds, shifted by the median at the reference angle "
             "(a mean far from its median is pulled by a tail; the panel's scale "
-            "holds the means and medians, the hatched range may leave it); "
-            "squares: experiments."
+            "holds the means and medians, the hatched range may leave it)."
         )
     return (
         "Mean apparent coefficient of restitution and impulse ratio of the "

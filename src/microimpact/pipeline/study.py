@@ -25,8 +25,10 @@ from __future__ import annotations
 from dataclasses import replace
 from pathlib import Path
 
+from .._core.files import atomic_write
 from .._core.validation import check_subset
 from ..analysis.compare import check_experiments
+from ..analysis.robustness import SAMPLES, robustness_study
 from ..engine.checkpoint import Checkpoint
 from ..engine.montecarlo import run
 from ..io.experiments import combine_experiments
@@ -275,6 +277,10 @@ def reproduce(out_dir="out", *, samples=None, figures=None, **options) -> list[S
         study.experiments()
     for study in studies:
         study.execute(out / study.scenario.name, samples=samples, **options)
+    # the statements judged over the Formica family, at full size (about 20 s);
+    # --quick / --samples shrink it with the presets
+    n = SAMPLES if samples is None else max(int(samples), 1000)
+    robust = robustness_study(samples=n, workers=options.get("workers", 1) or 1)
     with OutputFolder(out) as folder:
         path = write_report(
             [s.result for s in studies],
@@ -286,7 +292,16 @@ def reproduce(out_dir="out", *, samples=None, figures=None, **options) -> list[S
             experiments={s.scenario.name: s.experiments() for s in studies},
             csv_paths=[out / s.scenario.name / "summary.csv" for s in studies],
             title="microimpact: reproducing Li, Dunn & Brach (2000)",
-            statements=True,
+            statements=robust,
         )
-        folder.record([Path(path)], ("report",))
+        files = [Path(path)]
+        for stem, frame in (
+            ("robustness", robust.table),
+            ("robustness_conditions", robust.conditions.reset_index()),
+            ("robustness_surfaces", robust.realizations),
+        ):
+            p = folder.path / f"{stem}.csv"
+            atomic_write(p, lambda t, f=frame: f.to_csv(t, index=False))
+            files.append(p)
+        folder.record(files, ("report", "tables"))
     return studies

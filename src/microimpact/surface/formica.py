@@ -50,6 +50,7 @@ References
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 
@@ -308,6 +309,7 @@ def _waviness_scale(wav, band, sigma):
     return float((-b + math.sqrt(b * b - 4.0 * a * c0)) / (2.0 * a))
 
 
+@functools.lru_cache(maxsize=64)  # deterministic, and ~0.3 s each to make
 def formica_realization(index, *, root=ROOT_SEED) -> FormicaRealization:
     """Realization `index` of the family: parameters and heights from
     ``SeedSequence(root, spawn_key=(index,))``.
