@@ -38,7 +38,7 @@ paper's statements (``microimpact.analysis.statements``); see ``docs/presets.md`
 
 Run from the repository root::
 
-    python docs/figures/formica_search_recipe.py   # writes /tmp/formica_search_profile.csv
+    python docs/figures/formica_search_recipe.py  # /tmp/formica_search_profile.csv
 """
 
 from __future__ import annotations
@@ -49,7 +49,6 @@ import numpy as np
 
 from microimpact._core.files import atomic_write
 from microimpact.surface.synthetic import (
-    FORMICA_FILE,
     gaussian_profile,
     ripple_profile,
 )

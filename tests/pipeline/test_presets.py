@@ -248,9 +248,7 @@ def test_a_smooth_surface_fails_every_roughness_statement(results):
     base = load_preset("sst76-formica-oblique")
     smooth = base.surfaces[1]
     sc = base.with_options(surfaces=(replace_name(smooth, "formica"), smooth))
-    one = sc.with_options(
-        particles=monodisperse(float(m_to_um(sc.particles.median())))
-    )
+    one = sc.with_options(particles=monodisperse(float(m_to_um(sc.particles.median()))))
     ev = Evidence(
         summaries={
             "sst76-formica-oblique": run(sc, samples=N, seed=SEED).summary,
