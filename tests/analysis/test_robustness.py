@@ -145,3 +145,28 @@ def test_full_study_is_what_the_docs_print():
     assert robustness_table_markdown(study) in block
     assert conditions_table_markdown(study) in block
     assert summary_sentence(study) in block
+
+
+COMPARISON = DOCS.parent / "paper-comparison.md"
+
+
+def test_paper_comparison_maps_every_statement_to_its_claims():
+    """docs/paper-comparison.md's id-to-claim table names every statement with the
+    claim numbers that `Statement.claim` carries, and each claim exists."""
+    text = COMPARISON.read_text(encoding="utf-8")
+    rows = dict(re.findall(r"^\| `([a-z0-9_-]+)` \| (C\d+(?:, C\d+)*) \|", text, re.M))
+    assert rows == {s.id: s.claim for s in STATEMENTS}
+    for claims in rows.values():
+        for c in claims.split(", "):
+            assert re.search(rf"^\| {c} \|", text, re.M), c
+
+
+@pytest.mark.slow
+def test_paper_comparison_hold_counts_are_the_studys():
+    study = robustness_study()
+    text = COMPARISON.read_text(encoding="utf-8")
+    t = study.table.set_index("id")
+    for sid, held in re.findall(
+        r"^\| `([a-z0-9_-]+)` \| C[^|]*\| \w+ \| (\d+ of \d+)", text, re.M
+    ):
+        assert held == f"{t.loc[sid, 'held']} of {t.loc[sid, 'runs']}", sid

@@ -117,9 +117,9 @@ def test_angle_and_height_statements():
     sym.contact_length_um = 20.0
     assert not held(sym, "angles-asymmetric").held
     assert held(sym, "height-std").held
-    skewed = Evidence(angles_deg=rng.gamma(2.0, 6.0, 4000) - 12.0, height_std_um=50.0)
+    skewed = Evidence(angles_deg=rng.gamma(2.0, 6.0, 4000) - 12.0, height_std_um=53.0)
     assert held(skewed, "angles-asymmetric").held
-    v = held(skewed, "height-std")
+    v = held(skewed, "height-std")  # 45 +- 5 um: 53 misses by 3
     assert not v.held and v.miss == pytest.approx(3.0)
 
 
@@ -254,7 +254,7 @@ def test_reproduce_report_opens_with_the_table(tmp_path):
     start = page.index('id="statements"')
     section = page[start : page.index("</section>", start)]
     links = re.findall(r'href="#([^"]+)"', section)
-    assert len(links) >= 10
+    assert len(links) >= sum(s.kind == "evidence" for s in STATEMENTS)
     assert set(links) <= ids
     for s in STATEMENTS:
         assert s.words.replace("'", "&#x27;")[:40] in section

@@ -160,7 +160,8 @@ def _plain(obj) -> str:
     """A describe() value in words and numbers, escaped: no dicts, None, digests
     or ``inf`` (``mean 52.8 µm, std 15.3 µm, support 0–∞ µm``)."""
     if isinstance(obj, dict):
-        return _e(", ".join(_pairs(obj)) or "–")
+        text = ", ".join(p for p in _pairs(obj) if p)
+        return _e(text.replace("as sampled:,", "as sampled:") or "–")
     if isinstance(obj, list | tuple):
         return _e("; ".join(_short(v) for v in obj) or "–")
     return _e(_short(obj))
@@ -173,12 +174,21 @@ _UNITS = {"_um": " µm", "_deg": "°", "_m_s": " m/s", "_m": " m"}
 
 def _pairs(d) -> list:
     out = []
+    after_params = False
     for k, v in d.items():
         if v is None or k in _HIDDEN or (isinstance(v, float) and v != v):
             continue
-        if isinstance(v, dict):  # nested parameters read as the parent's
-            out += _pairs(v)
+        if isinstance(v, dict):  # a nested law or parameter set, under its key
+            inner = ", ".join(_pairs(v))
+            if k == "params":  # as given; what follows describes the sample
+                out.append(f"given ({inner})" if inner else "")
+                after_params = bool(inner)
+            else:
+                out.append(f"{k} ({inner})")
             continue
+        if after_params:
+            out.append("as sampled:")
+            after_params = False
         unit = ""
         name = str(k)
         for suffix, u in _UNITS.items():
@@ -193,7 +203,8 @@ def _short(v) -> str:
     if v is None:
         return "–"
     if isinstance(v, dict):
-        return ", ".join(_pairs(v)) or "–"
+        text = ", ".join(p for p in _pairs(v) if p)
+        return text.replace("as sampled:,", "as sampled:") or "–"
     if isinstance(v, list | tuple):
         if len(v) == 2 and all(isinstance(x, int | float) for x in v):
             return f"{_short(v[0])}–{_short(v[1])}"
@@ -372,6 +383,13 @@ def _capture_table(result) -> str:
         return f"<p>No capture speed: {_e(err)}</p>"
     if cs.empty:
         return "<p>No capture speed (no capture curves in the summary).</p>"
+    speeds = getattr(result.scenario, "speeds_m_s", ())
+    if len(speeds) == 1 and cs["speed_m_s"].isna().all():
+        return (
+            f"<p>No capture speed: one incident speed ({_fmt(speeds[0])} m/s) was "
+            "simulated, and a capture speed needs a sweep of speeds that brackets "
+            "the quantile. The capture fraction at each point is in the summary.</p>"
+        )
     total = len(cs)
     cs = cs.iloc[capture_rows(cs)]
     has_note = "note" in cs and cs["note"].fillna("").astype(str).str.strip().any()
