@@ -62,10 +62,7 @@ def test_areal_block_is_the_code(script):
 
 
 def _sample(name):
-    d = np.loadtxt(
-        PRESET_DIR / name, comments="#", skiprows=0, delimiter=",", dtype=str
-    )
-    return np.array([float(x) for x in d if x != "diameter_um"])
+    return pd.read_csv(PRESET_DIR / name, comment="#")["diameter_um"].to_numpy(float)
 
 
 @pytest.mark.parametrize(
