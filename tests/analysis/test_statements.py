@@ -275,3 +275,30 @@ def test_reproduce_writes_the_table_linked_to_its_figure_files(tmp_path):
     links = set(re.findall(r'href="#([^"]+)"', section))
     assert links and links <= ids
     assert "r2-sst76-formica-oblique-coefficients_relative" in links
+    # what a reader sees: the disclosure first, then no Python artefact anywhere
+    text = _visible_text(page)
+    first = text[text.index("How this compares with the paper") :][:1500]
+    for word in ("synthetic", "assumed", "calibrated", "Formica family"):
+        assert word.lower() in first.lower(), word
+    for artefact in (
+        r"\bNone\b",
+        r"[{}]",
+        r"\bnan\b",
+        r"\bNaN\b",
+        r"\binf\b",
+        r"sha256",
+        r"np\.float",
+    ):
+        assert not re.search(artefact, text), artefact
+    assert "squares: experiments" not in text  # none in the paper's presets
+    for verdict in ("robust", "contradicted", "depends on the unknown surface"):
+        assert verdict in text
+
+
+def _visible_text(page):
+    """The text a browser shows: no style, no tags, no embedded images."""
+    import html
+
+    body = page[page.index("<body>") :]
+    body = re.sub(r"<[^>]+>", " ", body)
+    return html.unescape(body)
