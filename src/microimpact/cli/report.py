@@ -21,7 +21,8 @@ def cli_parse(sp):
         nargs="+",
         default=(),
         metavar="CSV",
-        help="experiment files to draw and compare with",
+        help="experiment files to draw and compare with (default: those the run "
+        "compared with, kept in its folder as experiments.csv)",
     )
 
 
@@ -30,17 +31,22 @@ def cli_action(args) -> int:
     from .._core.formats import DEFAULT_FIGURE_FORMATS
 
     # deferred: the verb's library loads only when the verb runs (fast --help)
-    from ..engine.result import open_result
-
-    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..pipeline.study import Study
 
     # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..scenario.outputs import Outputs
 
-    figures = () if args.no_figures else (args.formats or DEFAULT_FIGURE_FORMATS)
-    outputs = Outputs(figures=figures, experiments=tuple(args.experiments))
-    study = Study.from_result(open_result(args.out), outputs=outputs)
+    study = Study.from_folder(args.out)  # the run's settings and experiments
+    o = study.outputs
+    figures = (
+        () if args.no_figures else (args.formats or o.figures or DEFAULT_FIGURE_FORMATS)
+    )
+    study.outputs = Outputs(
+        figures=figures,
+        report=True,
+        experiments=tuple(args.experiments) or o.experiments,
+        distribution_speed_m_s=o.distribution_speed_m_s,
+    )
     folder = args.out if args.out.is_dir() else args.out.parent
     study.write(folder, parts=("figures", "report"))
     print(f"-> {folder / 'report.html'}")

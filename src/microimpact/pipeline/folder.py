@@ -49,7 +49,13 @@ CHECKPOINT_NAME = ".microimpact-checkpoint.npz"
 _FIGURE_SUFFIXES = tuple(f".{f}" for f in FIGURE_FORMATS)
 _TMP = re.compile(r"^\.(?P<name>.+)\.[A-Za-z0-9_]{8}\.tmp$")
 #: Outputs a study may write (their stale temporary files are always removed).
-KNOWN = ("summary.csv", "results.nc", "capture_speed.csv", "report.html")
+KNOWN = (
+    "summary.csv",
+    "results.nc",
+    "capture_speed.csv",
+    "experiments.csv",
+    "report.html",
+)
 
 
 class OutputFolderBusy(InputError):
@@ -119,10 +125,21 @@ class OutputFolder:
             if isinstance(v, list)
         }
 
-    def record(self, written, parts) -> None:
+    def settings(self) -> dict:
+        """The output settings the last study recorded (:meth:`record`), or {}."""
+        try:
+            data = json.loads((self.path / MANIFEST_NAME).read_text())
+        except (OSError, ValueError):
+            return {}
+        got = data.get("outputs", {}) if isinstance(data, dict) else {}
+        return got if isinstance(got, dict) else {}
+
+    def record(self, written, parts, *, settings=None) -> None:
         """Record `written` (paths in this folder) as the files of `parts`; remove
         the files of those parts that the previous manifest lists and `written`
-        does not."""
+        does not. `settings` (plain data: the study's output settings) replaces
+        the recorded ones; None keeps them."""
+        kept = self.settings() if settings is None else settings
         old = self.manifest()
         names = {Path(p).name for p in written}
         new = {k: v for k, v in old.items() if k not in parts}
@@ -137,7 +154,10 @@ class OutputFolder:
         atomic_write(
             self.path / MANIFEST_NAME,
             lambda t: Path(t).write_text(
-                json.dumps({"generator": "microimpact", "parts": new}, indent=1)
+                json.dumps(
+                    {"generator": "microimpact", "parts": new, "outputs": kept},
+                    indent=1,
+                )
             ),
         )
 

@@ -31,6 +31,7 @@ from ..analysis.compare import check_experiments
 from ..analysis.robustness import SAMPLES, robustness_study
 from ..engine.checkpoint import Checkpoint
 from ..engine.montecarlo import run
+from ..engine.result import open_result
 from ..io.experiments import combine_experiments
 from ..plotting._style import use_agg
 from ..plotting.results import save_figures
@@ -88,6 +89,31 @@ class Study:
         study._setup(result.scenario, outputs)
         study.result = result
         return study
+
+    @classmethod
+    def from_folder(cls, folder, *, outputs: Outputs | None = None) -> Study:
+        """The study a run folder holds: its ``results.nc``, the output settings the
+        run recorded and the experiments it compared with (``experiments.csv``,
+        the copy the run kept), so that :meth:`write` rebuilds what the run wrote.
+        `outputs` overrides the recorded settings; its experiments, where given,
+        replace the run's."""
+        folder = Path(folder)
+        result = open_result(folder)
+        if folder.is_file():
+            folder = folder.parent
+        saved = OutputFolder(folder).settings()
+        copy = folder / EXPERIMENTS_NAME
+        recorded = Outputs(
+            figures=tuple(saved.get("figures", Outputs().figures)),
+            report=bool(saved.get("report", True)),
+            experiments=(copy,) if copy.is_file() else (),
+            distribution_speed_m_s=saved.get("distribution_speed_m_s"),
+        )
+        if outputs is not None:
+            recorded = replace(
+                outputs, experiments=outputs.experiments or recorded.experiments
+            )
+        return cls.from_result(result, outputs=recorded)
 
     def _setup(self, scenario, outputs):
         self.scenario = scenario
@@ -193,6 +219,13 @@ class Study:
                     lambda t: result.capture_speed().to_csv(t, index=False),
                 ),
             ]
+        exp = self.experiments()
+        if "tables" in parts and exp is not None:
+            # a copy of what was compared, so that `microimpact report` rebuilds
+            # the comparison without the original files
+            written.append(
+                folder.write(EXPERIMENTS_NAME, lambda t: _write_experiments(exp, t))
+            )
         figures = []
         if "figures" in parts and self.outputs.figures:
             figures = self._figures(folder)
@@ -205,7 +238,17 @@ class Study:
                     folder=folder,
                 )
             )
-        folder.record(written, parts)
+        o = self.outputs
+        folder.record(
+            written,
+            parts,
+            settings={
+                "figures": list(o.figures),
+                "report": o.report,
+                "distribution_speed_m_s": o.distribution_speed_m_s,
+                "experiments": [Path(p).name for p in o.experiments],
+            },
+        )
         self.files = written
 
     def _figures(self, folder):
@@ -241,6 +284,34 @@ class Study:
                 distribution_speeds={name: self.outputs.distribution_speed_m_s},
             )
         )
+
+
+#: The copy of the experiments a run compared with, kept in its folder.
+EXPERIMENTS_NAME = "experiments.csv"
+_EXPERIMENT_COLUMNS = (
+    "surface",
+    "speed_m_s",
+    "angle_deg",
+    "statistic",
+    "mean",
+    "ci_low",
+    "ci_high",
+    "n",
+    "confidence",
+)
+
+
+def _write_experiments(exp, path):
+    """The experiments table in the format read_experiments() reads back (same
+    means, intervals and standard errors)."""
+    sources = sorted({Path(str(s)).name for s in exp.get("source", []) if s})
+    head = "# the experiments this run compared with"
+    if sources:
+        head += " (from " + ", ".join(sources) + ")"
+    cols = [c for c in _EXPERIMENT_COLUMNS if c in exp]
+    with open(path, "w", encoding="utf-8", newline="") as fh:
+        fh.write(head + "\n")
+        exp[cols].to_csv(fh, index=False)
 
 
 def _outputs_iv(outputs):
