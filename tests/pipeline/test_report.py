@@ -4,6 +4,7 @@ summary."""
 from __future__ import annotations
 
 import base64
+import os
 import re
 import shutil
 import subprocess
@@ -156,12 +157,19 @@ def _chromium():
     return None
 
 
-def test_report_renders_in_headless_chromium(report, tmp_path):
+def _need_chromium():
+    """Chromium's path; in CI (CI=true, where .ci/run installs it) a missing
+    Chromium fails the test instead of skipping it."""
     exe = _chromium()
     if exe is None:
+        if os.environ.get("CI") == "true":
+            pytest.fail("CI: Chromium is not installed (.ci/run installs chromium)")
         pytest.skip("Chromium is not installed (chromium or chromium-browser)")
-    shot = tmp_path / "shot.png"
-    cmd = [
+    return exe
+
+
+def _chromium_cmd(exe, tmp_path, *args):
+    return [
         exe,
         "--headless",
         "--no-sandbox",
@@ -172,10 +180,71 @@ def test_report_renders_in_headless_chromium(report, tmp_path):
         "--disable-component-update",
         "--disable-sync",
         f"--user-data-dir={tmp_path / 'profile'}",
+        *args,
+    ]
+
+
+def test_reproduction_report_as_chromium_renders_it(tmp_path):
+    """What a reader sees (the DOM as Chromium renders it, --dump-dom): the
+    statements table with a verdict per evidence statement, the inputs apart,
+    and no Python artefact in the text (issue 33, item 7)."""
+    from html.parser import HTMLParser
+
+    from microimpact.analysis.robustness import robustness_study
+    from microimpact.analysis.statements import STATEMENTS
+    from microimpact.scenario import PAPER_PRESETS, load_preset
+
+    exe = _need_chromium()
+    results = [run(load_preset(n), samples=300) for n in PAPER_PRESETS]
+    study = robustness_study(2, 1000, speeds_m_s=(1.0,), shadowing=("reject",))
+    page = write_report(results, tmp_path / "report.html", statements=study)
+    cmd = _chromium_cmd(exe, tmp_path, "--dump-dom", page.resolve().as_uri())
+    try:
+        done = subprocess.run(cmd, capture_output=True, timeout=90, check=False)
+    except subprocess.TimeoutExpired:
+        pytest.fail("headless Chromium did not finish within 90 s")
+    dom = done.stdout.decode("utf-8", errors="replace")
+    assert '<table class="statements">' in dom, done.stderr[-2000:]
+
+    class Text(HTMLParser):
+        def __init__(self):
+            super().__init__()
+            self.parts, self.skip = [], 0
+
+        def handle_starttag(self, tag, attrs):
+            self.skip += tag in ("style", "script")
+
+        def handle_endtag(self, tag):
+            self.skip -= tag in ("style", "script")
+
+        def handle_data(self, data):
+            if not self.skip:
+                self.parts.append(data)
+
+    parser = Text()
+    parser.feed(dom)
+    text = " ".join(parser.parts)
+    table = dom[dom.index('<table class="statements">') :]
+    table = table[: table.index("</table>")]
+    evidence = [s for s in STATEMENTS if s.kind == "evidence"]
+    assert table.count("<tr") == len(evidence) + 1
+    for s in evidence:
+        assert s.reading.split(" ")[0] in table
+    assert '<table class="inputs">' in dom
+    for artefact in (r"\bNone\b", r"[{}]", r"\bnan\b", r"\binf\b", r"sha256"):
+        assert not re.search(artefact, text), artefact
+
+
+def test_report_renders_in_headless_chromium(report, tmp_path):
+    exe = _need_chromium()
+    shot = tmp_path / "shot.png"
+    cmd = _chromium_cmd(
+        exe,
+        tmp_path,
         f"--screenshot={shot}",
         "--window-size=1280,2000",
         report.resolve().as_uri(),
-    ]
+    )
     try:
         subprocess.run(cmd, capture_output=True, timeout=90, check=False)
     except subprocess.TimeoutExpired:
