@@ -84,6 +84,8 @@ _EXPORTS: dict[str, str] = {
     "ripple_profile": "surface.synthetic",
     "weierstrass_mandelbrot_profile": "surface.synthetic",
     "formica_profile": "surface.synthetic",
+    "formica_realization": "surface.formica",
+    "formica_ensemble": "surface.formica",
     "hertz_contact_diameter": "surface.contact",
     # areal surfaces (height maps): readers, parameters, joint facet angles
     "read_height_map": "io.areal",
@@ -127,6 +129,7 @@ _EXPORTS: dict[str, str] = {
     "Study": "pipeline.study",
     "Outputs": "scenario.outputs",
     "reproduce": "pipeline.study",
+    "robustness_study": "analysis.robustness",
     # a stochastic wall law for CFD and particle tracking
     "build_wall_law": "wall_law.build",
     "WallLaw": "wall_law.law",

@@ -1,6 +1,6 @@
 """Studies over studies: the scenario model at parameter values, comparison with
 experiments, Sobol' sensitivity, calibration, and the paper's statements checked
-against results."""
+against results and judged over the unknown Formica surface."""
 
 from .calibration import (
     CalibrationResult,
@@ -14,6 +14,11 @@ from .compare import (
 )
 from .model import (
     ScenarioModel,
+)
+from .robustness import (
+    RobustnessStudy,
+    robustness_study,
+    verdict_word,
 )
 from .sensitivity import (
     COLUMNS,
@@ -37,6 +42,7 @@ __all__ = [
     "CalibrationResult",
     "EngineModel",
     "Evidence",
+    "RobustnessStudy",
     "ScenarioModel",
     "SensitivityResult",
     "Statement",
@@ -46,6 +52,8 @@ __all__ = [
     "default_bounds",
     "evaluate",
     "parse_parameter",
+    "robustness_study",
     "sobol_analysis",
     "sobol_sensitivity",
+    "verdict_word",
 ]

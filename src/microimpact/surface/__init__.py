@@ -34,6 +34,14 @@ from .contact import (
     hertz_contact_diameter,
     hertz_max_compression,
 )
+from .formica import (
+    FORMICA_FAMILY,
+    FormicaRealization,
+    draw_formica_parameters,
+    formica_ensemble,
+    formica_realization,
+    pooled_angles_deg,
+)
 from .roughness import (
     RoughnessCharacterisation,
     characterise,
@@ -54,11 +62,13 @@ from .synthetic import (
 )
 
 __all__ = [
+    "FORMICA_FAMILY",
     "AngleDistribution",
     "ArealAngles",
     "ArealParameters",
     "FacetAngleStatistics",
     "FacetAngles",
+    "FormicaRealization",
     "RoughnessCharacterisation",
     "angles_from_file",
     "angles_from_profile",
@@ -72,9 +82,12 @@ __all__ = [
     "condition",
     "contact_patch_means",
     "detrend",
+    "draw_formica_parameters",
     "facet_angle_statistics",
     "facet_angles",
+    "formica_ensemble",
     "formica_profile",
+    "formica_realization",
     "gaussian_areal_angles",
     "gaussian_areal_surface",
     "gaussian_filter_profile",
@@ -84,6 +97,7 @@ __all__ = [
     "level_plane",
     "normal_angles",
     "plane_fit",
+    "pooled_angles_deg",
     "profile_angles",
     "profile_parameters",
     "read_angle_file",
