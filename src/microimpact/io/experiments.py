@@ -51,6 +51,7 @@ __all__ = [
     "combine_experiments",
     "read_experiments",
     "scenario_experiments",
+    "write_experiments",
 ]
 
 #: Statistics an experimental point may report.
@@ -336,3 +337,24 @@ def scenario_experiments(scenario, experiments=None):
     """
     del scenario  # not read: experiments are explicit
     return combine_experiments(experiments)
+
+
+def write_experiments(table, path, *, comment=None):
+    """Write a :func:`read_experiments` table back in the format it reads: the
+    same means, intervals, sample sizes and confidence levels, so that reading
+    the file gives the same table (its standard errors included).
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        As returned by :func:`read_experiments` or :func:`combine_experiments`.
+    path : str or path-like
+        The CSV file (written as given; wrap in an atomic write for outputs).
+    comment : str, optional
+        A first line, written after ``# ``.
+    """
+    cols = [c for c in _OUT_COLUMNS if c in table and c not in ("se", "line")]
+    with open(path, "w", encoding="utf-8", newline="") as fh:
+        if comment:
+            fh.write(f"# {comment}\n")
+        table[cols].to_csv(fh, index=False)

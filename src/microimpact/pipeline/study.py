@@ -32,7 +32,7 @@ from ..analysis.robustness import SAMPLES, robustness_study
 from ..engine.checkpoint import Checkpoint
 from ..engine.montecarlo import run
 from ..engine.result import open_result
-from ..io.experiments import combine_experiments
+from ..io.experiments import combine_experiments, write_experiments
 from ..plotting._style import use_agg
 from ..plotting.results import save_figures
 from ..scenario.file import PAPER_PRESETS
@@ -288,30 +288,15 @@ class Study:
 
 #: The copy of the experiments a run compared with, kept in its folder.
 EXPERIMENTS_NAME = "experiments.csv"
-_EXPERIMENT_COLUMNS = (
-    "surface",
-    "speed_m_s",
-    "angle_deg",
-    "statistic",
-    "mean",
-    "ci_low",
-    "ci_high",
-    "n",
-    "confidence",
-)
 
 
 def _write_experiments(exp, path):
-    """The experiments table in the format read_experiments() reads back (same
-    means, intervals and standard errors)."""
+    """The run's copy of its experiments, named after the files they came from."""
     sources = sorted({Path(str(s)).name for s in exp.get("source", []) if s})
-    head = "# the experiments this run compared with"
+    note = "the experiments this run compared with"
     if sources:
-        head += " (from " + ", ".join(sources) + ")"
-    cols = [c for c in _EXPERIMENT_COLUMNS if c in exp]
-    with open(path, "w", encoding="utf-8", newline="") as fh:
-        fh.write(head + "\n")
-        exp[cols].to_csv(fh, index=False)
+        note += " (from " + ", ".join(sources) + ")"
+    write_experiments(exp, path, comment=note)
 
 
 def _outputs_iv(outputs):
