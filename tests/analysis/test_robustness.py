@@ -14,6 +14,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy import stats
 
 from microimpact.analysis.robustness import (
@@ -170,3 +172,49 @@ def test_paper_comparison_hold_counts_are_the_studys():
         r"^\| `([a-z0-9_-]+)` \| C[^|]*\| \w+ \| (\d+ of \d+)", text, re.M
     ):
         assert held == f"{t.loc[sid, 'held']} of {t.loc[sid, 'runs']}", sid
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"n_realizations": 0}, r"`n_realizations` must be an integer >= 1; got 0"),
+        ({"samples": 10}, r"`samples` must be an integer >= 100; got 10"),
+        ({"speeds_m_s": [-1.0, 2.0]}, r"`speeds_m_s` must be positive.*got -1, 2"),
+        ({"shadowing": ("rejct",)}, r"`shadowing` must be .*'reject'"),
+    ],
+)
+def test_bad_study_arguments_are_named(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        robustness_study(**kwargs)
+
+
+def test_bad_realization_index():
+    with pytest.raises(ValueError, match=r"`index` must be >= 0; got -1"):
+        formica_realization(-1)
+
+
+@settings(max_examples=4, deadline=None, derandomize=True)
+@given(seed=st.integers(0, 2**32 - 1))
+def test_any_parameter_draw_honours_the_known_facts(seed):
+    """Hypothesis over the family: for any drawn parameters the heights keep the
+    drawn pooled std, stay within +-150 um of each scan's mean, and the filtered
+    Ra lands on the drawn Ra (within the leakage of long waviness, 60 %)."""
+    from microimpact.surface.formica import formica_heights
+
+    prm = draw_formica_parameters(seed)
+    z, _ = formica_heights(prm, seed)
+    np.testing.assert_allclose(np.sqrt(np.mean(z**2)), prm["height_std_um"], rtol=1e-9)
+    assert np.abs(z).max() <= 150.0
+    x = np.arange(z.shape[1]) * 0.5e-6
+    from microimpact.surface.roughness import gaussian_filter_profile
+
+    ra = (
+        np.mean(
+            [
+                np.abs(gaussian_filter_profile(x, r * 1e-6, cutoff=8e-4)).mean()
+                for r in z
+            ]
+        )
+        * 1e6
+    )
+    assert prm["ra_um"] * 0.98 <= ra <= prm["ra_um"] * 1.6

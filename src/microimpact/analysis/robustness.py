@@ -25,10 +25,12 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import pandas as pd
 
+from .._core.validation import as_float_array, check_int, check_subset
 from ..engine.montecarlo import run
 from ..engine.statistics import wilson_interval
 from ..population.distributions import monodisperse
 from ..scenario import load_preset
+from ..scenario.parts import SHADOWING_OPTIONS
 from ..surface.angles import angles_from_sample
 from ..surface.formica import N_REALIZATIONS, ROOT_SEED, formica_ensemble
 from ..units import m_to_um
@@ -184,8 +186,9 @@ def robustness_study(
     -------
     RobustnessStudy
     """
-    n = int(n_realizations)
-    samples = int(samples)
+    n, samples, speeds_m_s, shadowing = _robustness_study_iv(
+        n_realizations, samples, speeds_m_s, shadowing
+    )
     surfaces = formica_ensemble(n, root=root)
     base = load_preset(OBLIQUE)
     rows = []
@@ -236,6 +239,19 @@ def robustness_study(
             "shadowing": tuple(shadowing),
         },
     )
+
+
+def _robustness_study_iv(n, samples, speeds_m_s, shadowing):
+    n = check_int(n, "n_realizations", minimum=1)
+    samples = check_int(samples, "samples", minimum=100)
+    speeds = as_float_array(speeds_m_s, "speeds_m_s").ravel()
+    if speeds.size == 0 or not np.all(np.isfinite(speeds) & (speeds > 0)):
+        raise ValueError(
+            "`speeds_m_s` must be positive speeds [m/s]; got "
+            f"{', '.join(f'{v:g}' for v in speeds) or 'none'}."
+        )
+    rules = check_subset(shadowing, "shadowing", SHADOWING_OPTIONS)
+    return n, samples, tuple(float(v) for v in speeds), rules
 
 
 def _table(runs) -> pd.DataFrame:
