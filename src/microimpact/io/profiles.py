@@ -51,6 +51,7 @@ from .._core.validation import as_float_array
 from ..errors import ProfileFormatError
 from ..units import LENGTH_UNITS, length_factor
 from .instruments import open_instrument, read_instrument
+from .plausibility import check_scan
 
 __all__ = ["Profile", "ProfileSet", "read_profile", "read_profiles"]
 
@@ -614,6 +615,14 @@ def open_x3p(path):
         raise ProfileFormatError(
             f"not a readable x3p file: {msg}", source=path
         ) from None
+    except Exception as exc:  # inside the third-party reader: never a traceback
+        msg = " ".join(str(exc).split())[:200]
+        raise ProfileFormatError(
+            f"the x3pio reader failed on this x3p file ({type(exc).__name__}: "
+            f"{msg}); microimpact cannot read it",
+            source=path,
+            field="format",
+        ) from None
     return f
 
 
@@ -695,7 +704,24 @@ def _read_x3p(path, *, meta):
     return out
 
 
-def _read_any(
+def _read_any(path, **kw):
+    """The profiles of `path` (see :func:`read_profiles`), each checked for
+    physical plausibility (:mod:`microimpact.io.plausibility`)."""
+    profiles = _read_unchecked(path, **kw)
+    for p in profiles:
+        m = p.metadata
+        check_scan(
+            p.x,
+            p.z,
+            source=m.get("source"),
+            x_unit=m.get("x_unit"),
+            z_unit=m.get("z_unit"),
+            scan=m.get("scan") if len(profiles) > 1 else None,
+        )
+    return profiles
+
+
+def _read_unchecked(
     path,
     *,
     x_column,
