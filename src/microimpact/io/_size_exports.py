@@ -18,7 +18,7 @@ from .._core.files import (
     split_rows,
 )
 from ..errors import DataFormatError
-from ..population.binned import edges_from_midpoints
+from ..population.binned import BIN_VALUES, edges_from_midpoints
 from ..units import length_factor
 from ._size_common import (
     _ask,
@@ -111,6 +111,15 @@ def _named_run(cells):
     return _longest_run(nums, lambda u, v: v == u + 1)
 
 
+def _filled(cells) -> int:
+    """Number of cells up to the last non-empty one (AIM 11 pads every row of its
+    CSV export with empty cells to the width of the table)."""
+    n = len(cells)
+    while n and not cells[n - 1].strip():
+        n -= 1
+    return n
+
+
 def _wide_rows(path):
     """The header of a wide export (a TSI AIM *row* export, an OPC or SMPS time
     series): a row whose cells include >= 3 increasing bin midpoints and names
@@ -146,7 +155,7 @@ def _wide_rows(path):
         a, b = run
         others = [c for k, c in enumerate(cells) if not a <= k < b and c.strip()]
         if (
-            all(len(r) < b for _, r in whole[:i])
+            all(_filled(r) < b for _, r in whole[:i])
             and others
             and not any(is_number(c) for c in others)
             and numbers_below(i, a, b)
@@ -239,6 +248,22 @@ def _header_edges(path, meta, header, names, run, unit, what, syntax, edges_um):
     )
 
 
+def _shown(values) -> str:
+    """`values` as the user typed them: ``[0.3, 0.374]``, never a NumPy repr."""
+
+    def one(v):
+        try:
+            return f"{float(v):g}"
+        except (TypeError, ValueError):
+            return str(v)
+
+    try:
+        items = list(np.atleast_1d(np.asarray(values, dtype=object)).ravel())
+    except (TypeError, ValueError):
+        return str(values)
+    return "[" + ", ".join(one(v) for v in items) + "]"
+
+
 def _given_edges(path, edges_um, header, run, unit, syntax):
     """The `edges_um` given for the bin columns ``bin0, bin1, ...`` (run)."""
     a, b = run
@@ -271,13 +296,111 @@ def _given_edges(path, edges_um, header, run, unit, syntax):
         or np.any(np.diff(edges) <= 0)
     ):
         raise DataFormatError(
-            f"edges_um {list(np.atleast_1d(edges_um))} do not bound the {k} bin "
+            f"edges_um {_shown(edges_um)} do not bound the {k} bin "
             f"columns {header[a].strip()}..{header[b - 1].strip()}; allowed: "
             f"{k + 1} increasing boundaries > 0 in um",
             source=path,
             field="edges_um",
         )
     return edges
+
+
+#: Metadata rows of an export that state its channel grid: the lower bound of its
+#: first channel and the upper bound of its last (a TSI APS: ``Lower Channel
+#: Bound 0.486968``, ``Upper Channel Bound 20.5353``).
+_GRID_BOUNDS = ("lower channel bound", "upper channel bound")
+
+
+def _stated_grid(path, meta, header, run, unit):
+    """(edges [µm], note) of the sized channels from the grid the export states
+    (its lower and upper channel bounds, with its ``Channels/Decade`` or else the
+    number of channels it prints, the open-ended ``<0.523`` included), or None if
+    it states none. Each printed midpoint must lie in its channel."""
+    cells = [(meta.get(k) or [""])[0].strip() for k in _GRID_BOUNDS]
+    if not all(is_number(c) for c in cells):
+        return None
+    lo, hi = (float(c) for c in cells)
+    if not 0 < lo < hi:
+        raise DataFormatError(
+            f"the export's channel bounds {cells[0]}..{cells[1]} are not increasing "
+            "positive sizes",
+            source=path,
+            field="Lower Channel Bound",
+        )
+    a, b = run
+    factor = length_factor(unit) / 1e-6
+    mids_um = np.array([_mid_cell(header[k])[0] for k in range(a, b)]) * factor
+    below = int(a > 0 and header[a - 1].strip().startswith("<"))
+    above = int(b < len(header) and header[b].strip().startswith(">"))
+    per = (meta.get("channels/decade") or [""])[0].strip()
+    span = math.log10(hi / lo)
+    if is_number(per) and float(per) > 0:
+        n = round(span * float(per))
+        how = f"{float(per):g} channels per decade"
+    else:
+        n = below + (b - a) + above
+        how = f"{n} channels"
+    step = span / n
+    first = below
+    edges = lo * 10.0 ** ((first + np.arange(b - a + 1)) * step)
+    inside = (mids_um > edges[:-1]) & (mids_um < edges[1:])
+    if not np.all(inside):
+        k = int(np.flatnonzero(~inside)[0])
+        raise DataFormatError(
+            f"the printed channel {header[a + k].strip()} lies outside its channel "
+            f"[{edges[k]:.6g}, {edges[k + 1]:.6g}] um of the grid the export states "
+            f"(Lower Channel Bound {cells[0]}, Upper Channel Bound {cells[1]}, {how}); "
+            "allowed: an export whose channels lie on its stated grid",
+            source=path,
+            field="Lower Channel Bound",
+        )
+    return edges, (
+        f"bin edges on the grid the export states: {cells[0]} to {cells[1]} um in "
+        f"{n} channels of 1/{1 / step:.6g} decade ({how}); the {b - a} sized "
+        "channels from the " + ("second" if below else "first")
+    )
+
+
+#: How the diameter type an export states is noted.
+_DIAMETER_NOTES = {
+    "aerodynamic": "the diameters are aerodynamic (the export's 'Aerodynamic "
+    "Diameter'): never converted to aerodynamic diameters again",
+    "mobility": "the diameters are electrical mobility diameters (the export's "
+    "'Mobility Diameter' or a DMA classifier)",
+}
+
+
+def _diameter_type(names, meta):
+    """'aerodynamic' or 'mobility' where the export says which diameter it
+    measures, else None."""
+    folded = " ".join(n.lower() for n in names)
+    if "aerodynamic diameter" in folded:
+        return "aerodynamic"
+    if (
+        "mobility diameter" in folded
+        or "classifier model" in meta
+        or "dma model" in meta
+    ):
+        return "mobility"
+    return None
+
+
+def _values_in_rows(path, header, data, run):
+    """The value kind every data row states in a cell outside the bins (an APS
+    row's ``dN/dlogDp`` under its ``Aerodynamic Diameter`` column), else None."""
+    a, b = run
+    folded = {k.lower(): k for k in BIN_VALUES}
+    found = set()
+    for _, cells in data:
+        kinds = {
+            folded[c.strip().lower()]
+            for k, c in enumerate(cells)
+            if not a <= k < b and c.strip().lower() in folded
+        }
+        if len(kinds) != 1:
+            return None
+        found |= kinds
+    return found.pop() if len(found) == 1 else None
 
 
 #: Names (folded) of a wide export's timestamp column.
@@ -303,10 +426,36 @@ def _timestamps(header, data):
     return None if not times or any(t is None for t in times) else times
 
 
+def _one_export(path, header, meta, data, header_line, what):
+    """DataFormatError where the file holds a second export below the first (a
+    repeated header row, or a row of the first export's preamble): its samples
+    would be numbered on from the first's."""
+    names = [c.strip() for c in header if c.strip()]
+    keys = {k for k in meta if k and not is_number(k)}
+    for line, cells in data:
+        first = cells[0].strip().lower() if cells else ""
+        if [c.strip() for c in cells if c.strip()] == names or first in keys:
+            raise DataFormatError(
+                f"the file holds more than one {what}: a second one starts here "
+                f"(the first's header row is line {header_line}); samples are "
+                "numbered within one export, so it is not read as one; split the "
+                "file into one export each",
+                source=path,
+                line=line,
+            )
+
+
 def _label_column(header):
     """Index of the Sample # column of a wide header, else None."""
     for k, h in enumerate(header):
-        if re.sub(r"[\s_.]", "", h.lower()) in ("sample#", "sampleno", "samplenumber"):
+        if re.sub(r"[\s_.]", "", h.lower()) in (
+            "sample#",
+            "sampleno",
+            "samplenumber",
+            "scan#",
+            "scanno",
+            "scannumber",
+        ):
             return k
     return None
 
@@ -318,10 +467,14 @@ def _read_wide(path, found, *, values, sample, unit, edges_um, syntax):
     data = [(line, cells) for line, cells in rows[i + 1 :] if any(cells)]
     aim = "units" in meta and "weight" in meta
     what = "AIM row export" if aim else "wide export"
+    _one_export(path, header, meta, data, rows[i][0], what)
+    in_rows = _values_in_rows(path, header, data, (a, b))
     if aim:
         kind = _aim_values(path, meta, values)
     elif values is not None:
         kind = values
+    elif in_rows is not None:
+        kind = in_rows
     else:
         raise _ask(
             path,
@@ -366,6 +519,10 @@ def _read_wide(path, found, *, values, sample, unit, edges_um, syntax):
         edges, unit, unit_from, how_edges = _header_edges(
             path, meta, header, names, (a, b), unit, what, syntax, edges_um
         )
+        if edges_um is None:
+            stated = _stated_grid(path, meta, header, (a, b), unit)
+            if stated is not None:
+                edges, how_edges = stated
     else:
         edges = _given_edges(path, edges_um, header, (a, b), unit, syntax)
         unit, unit_from = "um", "argument"
@@ -383,6 +540,11 @@ def _read_wide(path, found, *, values, sample, unit, edges_um, syntax):
         f"{shown} as column headers), {chosen} of {len(labels)}; {how_edges}",
         *numbered,
     ]
+    if in_rows is not None and values is None and not aim:
+        notes.append(f"the values are {kind}, as every row says")
+    diameter = _diameter_type(names, meta)
+    if diameter is not None:
+        notes.append(_DIAMETER_NOTES[diameter])
     skipped = [h for h in names[:a] if h.startswith("<")] + [
         h for h in names[b:] if h.startswith(">")
     ]
@@ -390,7 +552,7 @@ def _read_wide(path, found, *, values, sample, unit, edges_um, syntax):
         notes.append(
             f"the open-ended bins {skipped} (outside the sized range) are not read"
         )
-    bins = _bins(path, edges, _aggregate(table, how), kind, notes)
+    bins = _bins(path, edges, _aggregate(table, how), kind, notes, diameter)
     statistics = {}
     if len(idx) == 1:
         cells = data[idx[0]][1]
@@ -402,6 +564,7 @@ def _read_wide(path, found, *, values, sample, unit, edges_um, syntax):
     return bins, {
         "source": path,
         "layout": "aim-rows" if aim else "wide",
+        "diameter": diameter,
         "header": names,
         "values": kind,
         "value_column": None,

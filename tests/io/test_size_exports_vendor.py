@@ -1,0 +1,138 @@
+"""Real instrument size exports read with what the instrument states (issue 30): a
+TSI APS 3321 row export (its stated channel bounds, its 'Aerodynamic Diameter',
+its rows' 'dN/dlogDp') and a TSI AIM 11.5 SMPS CSV export (padded rows, a 'Scan
+Number' header), both from AeroViz's public test data (MIT), checked against the
+vendor's own statistics columns of every sample; two exports in one file refused
+saying so.
+
+Oracles: the vendor's Median, Geo. Mean, Geo. Std. Dev. and Total Concentration
+columns, read here with the csv module, and the APS total recomputed by hand from
+the export's dN/dlogDp and its stated 1/32-decade channels."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+import numpy as np
+import pytest
+from test_size_exports import DATA
+
+from microimpact.cli import main
+from microimpact.errors import DataFormatError
+from microimpact.io.size_bins import read_size_data
+from microimpact.population.binned import binned_median
+from microimpact.population.binned_report import describe_binned_sizes
+
+APS = DATA / "aps3321_rows_aeroviz.txt"
+APS2 = DATA / "aps3321_rows_aeroviz_2.txt"
+AIM11 = DATA / "aim11_smps_csv_aeroviz.csv"
+
+
+def _vendor_rows(path, delimiter, header_starts, encoding):
+    """{sample: {column: cell}} of an export's data rows, read with csv."""
+    with open(path, encoding=encoding, newline="") as fh:
+        rows = list(csv.reader(fh, delimiter=delimiter))
+    i = next(k for k, r in enumerate(rows) if r and r[0].strip() == header_starts)
+    header = [h.strip() for h in rows[i]]
+    out = {}
+    for r in rows[i + 1 :]:
+        if r and r[0].strip():
+            out[r[0].strip()] = dict(zip(header, (c.strip() for c in r), strict=False))
+    return header, out
+
+
+def _geo(bins):
+    """Geometric mean and GSD [µm] of the bins' number (AIM's definitions)."""
+    mid = bins.midpoints_um
+    w = bins.number / bins.total
+    gm = np.exp(np.sum(w * np.log(mid)))
+    return gm, np.exp(np.sqrt(np.sum(w * np.log(mid / gm) ** 2)))
+
+
+APS_HEADER, APS_ROWS = _vendor_rows(APS, "\t", "Sample #", "cp1252")
+
+
+@pytest.mark.parametrize("sample", sorted(APS_ROWS, key=int))
+def test_aps_rows_match_the_vendors_statistics_on_the_stated_grid(sample):
+    row = APS_ROWS[sample]
+    bins, meta = read_size_data(APS, sample=sample)  # no values: the rows say
+    assert meta["values"] == "dN/dlogDp" and meta["diameter"] == "aerodynamic"
+    # the stated grid: 0.486968 .. 20.5353 µm in 52 channels of 1/32 decade, the
+    # first (<0.523) open-ended and left out
+    # (the bounds are printed to 6 digits: 52 channels of 1/32 decade to 1e-7)
+    assert bins.edges_um[0] == pytest.approx(0.486968 * 10 ** (1 / 32), rel=1e-6)
+    assert bins.edges_um[-1] == pytest.approx(20.5353, rel=1e-12)
+    assert np.diff(np.log10(bins.edges_um)) == pytest.approx(1 / 32, rel=1e-5)
+    # the total by hand: dN = dN/dlogDp x 1/32 over the 51 sized channels
+    sized = APS_HEADER[APS_HEADER.index("<0.523") + 1 : APS_HEADER.index("Event 1")]
+    total = sum(float(row[h]) for h in sized) / 32
+    assert bins.total == pytest.approx(total, rel=1e-3)
+    gm, gsd = _geo(bins)
+    assert gm == pytest.approx(float(row["Geo. Mean(µm)"]), rel=0.02)
+    assert gsd == pytest.approx(float(row["Geo. Std. Dev."]), rel=0.02)
+    median = binned_median(bins.edges_um, bins.number)
+    assert median == pytest.approx(float(row["Median(µm)"]), rel=0.02)
+
+
+def test_aps_geometric_mean_agrees_to_the_vendors_digits():
+    # AIM's geometric mean is over the sized channels at their geometric
+    # midpoints: on the stated grid it agrees to its 6 printed digits
+    bins, _ = read_size_data(APS, sample="1")
+    gm, gsd = _geo(bins)
+    assert gm == pytest.approx(0.702629, rel=2e-6)
+    assert gsd == pytest.approx(1.3979, rel=1e-4)
+
+
+def test_aps_is_never_converted_to_aerodynamic_again_nor_recommended_at_a_bound(
+    tmp_path, capsys
+):
+    bins, _ = read_size_data(APS, sample="1")
+    plain = describe_binned_sizes(bins)
+    dense = describe_binned_sizes(bins, density_kg_m3=1500.0)
+    a = dense.aerosol
+    assert a["aerodynamic_count_median_um"] == plain.aerosol["count_median_bins_um"]
+    assert a["aerodynamic_mass_median_um"] == plain.aerosol["mass_median_bins_um"]
+    assert any("not used" in t and "aerodynamic already" in t for t in dense.notes)
+    # the bins are the tail of a population below 0.5 µm: both fits sit at a
+    # bound of their search, so the measured bins are recommended, saying why
+    assert plain.recommended == "histogram"
+    assert any("held at a bound of its search" in t for t in plain.notes)
+    out = tmp_path / "o"
+    code = main(["sizes", str(APS), "--sample", "1", "--out", str(out)])
+    capsys.readouterr()
+    assert code == 0
+    assert 'distribution = "histogram"' in (out / "particles.toml").read_text()
+    sizes = json.loads((out / "sizes.json").read_text())
+    assert sizes["recommended"] == "histogram"
+
+
+AIM_HEADER, AIM_ROWS = _vendor_rows(AIM11, ",", "Scan Number", "utf-8-sig")
+
+
+@pytest.mark.parametrize("scan", ["1", "2", "17", "40", "62"])
+def test_aim11_csv_matches_the_vendors_statistics(scan):
+    row = AIM_ROWS[scan]
+    bins, meta = read_size_data(AIM11, sample=scan)
+    assert meta["layout"] == "aim-rows" and meta["unit"] == "nm"
+    assert meta["diameter"] == "mobility"
+    assert len(meta["samples"]) == 62
+    total = float(row["Total Concentration (#/cm³)"])
+    assert bins.total == pytest.approx(total, rel=1e-3)
+    gm, gsd = _geo(bins)
+    assert gm * 1e3 == pytest.approx(float(row["Geo. Mean (nm)"]), rel=0.02)
+    assert gsd == pytest.approx(float(row["Geo. Std. Dev"]), rel=0.02)
+    median = binned_median(bins.edges_um, bins.number) * 1e3
+    assert median == pytest.approx(float(row["Median (nm)"]), rel=0.02)
+
+
+def test_two_exports_in_one_file_are_refused_saying_so(tmp_path, capsys):
+    both = tmp_path / "two.txt"
+    both.write_bytes(APS.read_bytes() + APS2.read_bytes())
+    with pytest.raises(DataFormatError) as info:
+        read_size_data(both, sample="mean")
+    msg = str(info.value)
+    assert "more than one" in msg and ":20:" in msg and "split the file" in msg
+    code = main(["sizes", str(both), "--sample", "21"])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "more than one" in err
