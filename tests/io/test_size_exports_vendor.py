@@ -16,6 +16,8 @@ import json
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from test_size_exports import DATA
 
 from microimpact.cli import main
@@ -136,3 +138,65 @@ def test_two_exports_in_one_file_are_refused_saying_so(tmp_path, capsys):
     code = main(["sizes", str(both), "--sample", "21"])
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1 and "more than one" in err
+
+
+OPS = DATA / "ops3330_tsitools.csv"
+OPS_CUTS = [0.3, 0.374, 0.465, 0.579, 0.721, 0.897, 1.117, 1.391, 1.732, 2.156]
+OPS_CUTS += [2.685, 3.343, 4.162, 5.182, 6.451, 8.031, 10.0]
+
+
+def test_ops_cut_points_are_its_edges_and_the_oversize_bin_is_counted_out():
+    # tayebcodes/tsitools' data/2024_01_27-19_02_15-TEST_123.csv (MIT): 17 bins,
+    # 17 cut points; Bin 17 lies above 10 µm with no upper edge
+    with open(OPS, newline="") as fh:
+        rows = list(csv.reader(fh))
+    i = next(k for k, r in enumerate(rows) if r and r[0].startswith("Elapsed"))
+    counts = np.array([[float(c) for c in r[1:18]] for r in rows[i + 1 :] if r])
+    bins, _ = read_size_data(OPS, sample="sum", values="count")
+    np.testing.assert_allclose(bins.edges_um, OPS_CUTS, rtol=1e-12)
+    np.testing.assert_array_equal(bins.number, counts[:, :16].sum(axis=0))
+    assert bins.total == 10105 and bins.counted
+    oversize = [t for t in bins.notes if "oversize bin Bin 17" in t]
+    assert len(oversize) == 1 and "held 18 of 10123" in oversize[0]
+    assert "np.float64" not in " ".join(bins.notes)
+    # its upper edge given: all 17 bins
+    bins, _ = read_size_data(
+        OPS, sample="sum", values="count", edges_um=[*OPS_CUTS, 16.6]
+    )
+    assert bins.total == 10123
+
+
+def test_ops_wrong_edges_are_listed_as_typed(capsys):
+    edges = ",".join(str(c) for c in OPS_CUTS)  # 17: one short
+    args = ["sizes", str(OPS), "--sample", "1", "--values", "count"]
+    code = main([*args, "--edges-um", edges])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1
+    assert "np.float64" not in err and "[0.3, 0.374, 0.465," in err
+
+
+_REPRS = ("np.float64", "np.int64", "array(", "None", "{'", "dtype")
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    path=st.sampled_from([APS, AIM11, OPS]),
+    sample=st.one_of(st.none(), st.text(max_size=12), st.integers(-3, 80)),
+    values=st.sampled_from([None, "count", "dN/dlogDp", "dM/dlogDp", "bogus"]),
+    unit=st.sampled_from([None, "um", "nm", "m", "furlong"]),
+    edges=st.one_of(
+        st.none(),
+        st.lists(st.one_of(st.floats(-1, 30), st.just(float("nan"))), max_size=20),
+    ),
+)
+def test_every_error_path_speaks_in_the_users_numbers(
+    path, sample, values, unit, edges
+):
+    """A property over the error paths of the real exports: whatever a user types,
+    the bins, or one line naming the file with no Python or NumPy repr."""
+    try:
+        read_size_data(path, sample=sample, values=values, unit=unit, edges_um=edges)
+    except DataFormatError as exc:
+        msg = str(exc)
+        assert path.name in msg and "\n" not in msg
+        assert not any(r in msg for r in _REPRS), msg

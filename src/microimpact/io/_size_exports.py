@@ -361,6 +361,61 @@ def _stated_grid(path, meta, header, run, unit):
     )
 
 
+_CUT_POINT = re.compile(
+    r"^bin\s*(\d+)\s*cut\s*point\s*(?:[\(\[]\s*(\S+?)\s*[\)\]])?$", re.IGNORECASE
+)
+
+
+def _cut_points(path, meta, header, run):
+    """(edges [µm], unit, note) of bin columns ``Bin 1 .. Bin k`` whose export
+    states each bin's cut point (a TSI OPS 3330: ``Bin 1 Cut Point (um),0.300``):
+    bin i spans its cut point to the next one; a last bin without a next cut
+    point (the oversize bin) is not in the edges. None if the export states none."""
+    cuts = {}
+    unit = None
+    for key, cells in meta.items():
+        m = _CUT_POINT.match(key.strip())
+        if m and cells and is_number(cells[0].strip()):
+            cuts[int(m.group(1))] = float(cells[0])
+            unit = m.group(2) or unit
+    if not cuts:
+        return None
+    a, b = run
+    numbers = [int(_BIN_NAME.match(header[k]).group(1)) for k in range(a, b)]
+    if any(n not in cuts for n in numbers):
+        missing = next(n for n in numbers if n not in cuts)
+        raise DataFormatError(
+            f"the export states cut points for bins {min(cuts)}..{max(cuts)} but not "
+            f"for its bin column {header[a + numbers.index(missing)].strip()}; "
+            "allowed: a cut point for every bin (or give edges_um)",
+            source=path,
+            field="edges_um",
+        )
+    unit = unit or "um"
+    try:
+        factor = length_factor(unit) / 1e-6
+    except ValueError as exc:
+        raise DataFormatError(str(exc), source=path, field="Bin 1 Cut Point") from None
+    edges = [cuts[n] for n in numbers]
+    if numbers[-1] + 1 in cuts:
+        edges.append(cuts[numbers[-1] + 1])
+    edges = np.asarray(edges) * factor
+    if edges.size < 3 or np.any(np.diff(edges) <= 0) or edges[0] <= 0:
+        raise DataFormatError(
+            f"the export's cut points {_shown(edges / factor)} ({unit}) are not "
+            "increasing sizes > 0 bounding 2 bins or more; allowed: increasing cut "
+            "points (or give edges_um)",
+            source=path,
+            field="Bin 1 Cut Point",
+        )
+    return (
+        edges,
+        unit,
+        f"bin edges are the export's {len(cuts)} cut points (each bin from its cut "
+        "point to the next)",
+    )
+
+
 #: How the diameter type an export states is noted.
 _DIAMETER_NOTES = {
     "aerodynamic": "the diameters are aerodynamic (the export's 'Aerodynamic "
@@ -515,6 +570,7 @@ def _read_wide(path, found, *, values, sample, unit, edges_um, syntax):
             table[k - a, c] = _bin_value(
                 cells[k], path=path, line=line, field=f"column {names[k]!r}", kind=kind
             )
+    oversize = []
     if sized:
         edges, unit, unit_from, how_edges = _header_edges(
             path, meta, header, names, (a, b), unit, what, syntax, edges_um
@@ -524,22 +580,40 @@ def _read_wide(path, found, *, values, sample, unit, edges_um, syntax):
             if stated is not None:
                 edges, how_edges = stated
     else:
-        edges = _given_edges(path, edges_um, header, (a, b), unit, syntax)
-        unit, unit_from = "um", "argument"
-        how_edges = f"bin edges as given ({edges.size} edges_um)"
+        cut = None if edges_um is not None else _cut_points(path, meta, header, (a, b))
+        if cut is not None:
+            edges, unit, how_edges = cut
+            unit_from = "header"
+            keep = edges.size - 1
+            if keep < b - a:  # the oversize bin(s): no upper edge
+                held = float(np.sum(_aggregate(table[keep:], how)))
+                whole = float(np.sum(_aggregate(table, how)))
+                oversize.append(
+                    f"the oversize bin {names[a + keep]} (above {edges[-1]:g} um, no "
+                    f"upper edge) held {held:g} of {whole:g} ({kind}, "
+                    f"{100 * held / whole if whole else 0:.3g} %) and is left out; "
+                    "give its upper edge with edges_um (all "
+                    f"{b - a + 1} boundaries) to include it"
+                )
+                table = table[:keep]
+        else:
+            edges = _given_edges(path, edges_um, header, (a, b), unit, syntax)
+            unit, unit_from = "um", "argument"
+            how_edges = f"bin edges as given ({edges.size} edges_um)"
     mids_um = np.sqrt(edges[:-1] * edges[1:])
     _check_plausible(path, "bin midpoints", mids_um * 1e-6, unit, unit_from)
     shown = (
         f"the {mids_um.size} bin {'sizes' if edges_um is not None else 'midpoints'} "
         f"in {unit}"
         if sized
-        else (f"the {mids_um.size} bins {header[a].strip()}..{header[b - 1].strip()}")
+        else (f"the {b - a} bins {header[a].strip()}..{header[b - 1].strip()}")
     )
     notes = [
         f"{'TSI AIM row' if aim else 'wide'} export ({encoding}, one sample per row, "
         f"{shown} as column headers), {chosen} of {len(labels)}; {how_edges}",
         *numbered,
     ]
+    notes += oversize
     if in_rows is not None and values is None and not aim:
         notes.append(f"the values are {kind}, as every row says")
     diameter = _diameter_type(names, meta)
