@@ -200,3 +200,15 @@ def test_every_error_path_speaks_in_the_users_numbers(
         msg = str(exc)
         assert path.name in msg and "\n" not in msg
         assert not any(r in msg for r in _REPRS), msg
+
+
+def test_two_aim_column_exports_in_one_file_are_refused(tmp_path):
+    col = DATA / "aim_smps_column_pysmps.txt"
+    both = tmp_path / "two_columns.txt"
+    both.write_bytes(col.read_bytes() + col.read_bytes())
+    n_lines = len(col.read_bytes().splitlines())
+    with pytest.raises(DataFormatError) as info:
+        read_size_data(both, sample="1")
+    msg = str(info.value)
+    assert "more than one AIM column export" in msg and f":{n_lines + 1}:" in msg
+    read_size_data(col, sample="1")  # one export alone still reads

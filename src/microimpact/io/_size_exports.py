@@ -702,7 +702,17 @@ def _read_aim(path, found, *, values, sample, unit, syntax):
     meta = {c[0].strip().lower(): c[1:] for _, c in rows[:i] if c}
     stats_rows = {}
     data = []
+    keys = {k for k in meta if k and not is_number(k)} | {"diameter midpoint"}
     for line, cells in rows[i + 1 :]:
+        if cells and cells[0].strip().lower() in keys:
+            raise DataFormatError(
+                "the file holds more than one AIM column export: a second one starts "
+                f"here (the first's 'Diameter Midpoint' row is line {rows[i][0]}); "
+                "samples are numbered within one export, so it is not read as one; "
+                "split the file into one export each",
+                source=path,
+                line=line,
+            )
         if data and not is_number(cells[0]):
             stats_rows[cells[0].strip()] = cells[1:]
         elif is_number(cells[0]):

@@ -70,6 +70,7 @@ from ..population.binned import (
     BIN_VALUES,
     edges_from_midpoints,
 )
+from ..units import length_factor
 from ._size_common import (
     _SYNTAX,
     _ask,
@@ -298,6 +299,16 @@ def _unit_of(path, header, cols, unit):
     return _unit_agreed(path, unit, stated)
 
 
+def _check_unit(path, unit):
+    """DataFormatError naming the file where `unit` is not a length unit."""
+    if unit is None:
+        return
+    try:
+        length_factor(unit)
+    except ValueError as exc:
+        raise DataFormatError(str(exc), source=path, field="unit") from None
+
+
 def read_size_bins(
     path,
     *,
@@ -368,6 +379,7 @@ def read_size_bins(
     """
     path = os.fspath(path)
     check_choice(syntax, "syntax", _SYNTAX)
+    _check_unit(path, unit)
     if layout is not None and layout not in ("edges", "midpoints"):
         raise DataFormatError(
             f"layout {layout!r} is not a binned layout; allowed: edges, midpoints",
@@ -609,6 +621,7 @@ def read_size_data(
     """
     path = os.fspath(path)
     check_choice(syntax, "syntax", _SYNTAX)
+    _check_unit(path, unit)
     if layout is not None and layout not in SIZE_LAYOUTS:
         raise DataFormatError(
             f"layout {layout!r} unknown; allowed: {', '.join(SIZE_LAYOUTS)}",
