@@ -212,3 +212,23 @@ def test_two_aim_column_exports_in_one_file_are_refused(tmp_path):
     msg = str(info.value)
     assert "more than one AIM column export" in msg and f":{n_lines + 1}:" in msg
     read_size_data(col, sample="1")  # one export alone still reads
+
+
+def test_bins_in_nm_under_a_unitless_header_ask_for_the_unit(write_file, capsys):
+    # an SMPS table typed without its unit: 100 .. 200 nm read as µm would give a
+    # 150 µm median (the issue), so the unit is asked for in the caller's syntax
+    rows = "".join(
+        f"{lo},{lo + 10},{c}\n"
+        for lo, c in zip(range(100, 200, 10), range(1, 11), strict=True)
+    )
+    p = write_file("smps.csv", "lower,upper,count\n" + rows)
+    with pytest.raises(DataFormatError) as info:
+        read_size_data(p)
+    msg = str(info.value)
+    assert "median midpoint is 149.9 um" in msg and "unit='nm'" in msg
+    code = main(["sizes", str(p)])
+    assert code == 2 and "--unit nm" in capsys.readouterr().err
+    bins, meta = read_size_data(p, unit="nm")  # the answer, followed
+    assert bins.edges_um[0] == pytest.approx(0.1) and meta["unit_from"] == "argument"
+    named = write_file("smps_nm.csv", "lower_nm,upper_nm,count\n" + rows)
+    assert read_size_data(named)[1]["unit"] == "nm"
