@@ -468,7 +468,7 @@ def _read_surfacetopography(path, *, dx_um=None, dy_um=None, z_unit=None, reader
 def read_height_map(
     path, *, dx_um=None, dy_um=None, z_unit=None, delimiter=None, format=None
 ) -> HeightMap:
-    """Read an areal height map, checked for physical plausibility.
+    """Read an areal height map.
 
     Parameters
     ----------
