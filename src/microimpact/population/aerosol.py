@@ -260,8 +260,9 @@ def count_median_diameter(
     The aerodynamic mass median is the image of the volume-equivalent mass
     median (``d_a(d_v)`` is monotone, so medians map to medians). The GSD is
     taken as the volume-equivalent distribution's: exact without slip; with slip
-    ``d_a`` is not proportional to ``d_v`` and an aerodynamic GSD differs from it
-    by well under 1 % above 1 µm.
+    ``d_a`` is not proportional to ``d_v`` and the aerodynamic distribution is a
+    little narrower (GSD 2, 2000 kg/m³: 1.5 % at a count median of 1 µm, 0.7 % at
+    3 µm).
     """
     d = check_scalar(median_m, "median_m", minimum=0, strict=True)
     gsd = check_scalar(geometric_std, "geometric_std", minimum=1)
