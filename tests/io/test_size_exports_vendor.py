@@ -199,6 +199,8 @@ def test_every_error_path_speaks_in_the_users_numbers(
     except DataFormatError as exc:
         msg = str(exc)
         assert path.name in msg and "\n" not in msg
+        if isinstance(sample, str) and sample:  # the user's own text, as typed
+            msg = msg.replace(repr(sample), "").replace(sample, "")
         assert not any(r in msg for r in _REPRS), msg
 
 
@@ -232,3 +234,20 @@ def test_bins_in_nm_under_a_unitless_header_ask_for_the_unit(write_file, capsys)
     assert bins.edges_um[0] == pytest.approx(0.1) and meta["unit_from"] == "argument"
     named = write_file("smps_nm.csv", "lower_nm,upper_nm,count\n" + rows)
     assert read_size_data(named)[1]["unit"] == "nm"
+
+
+def test_bins_outside_the_instruments_class_are_refused_naming_the_slip(tmp_path):
+    # the real APS export with its statistics columns' '(µm)' taken out: no unit
+    # stated, so the user's unit is used, and nm would put an APS's channels at
+    # 0.5-20 nm, outside what an APS measures
+    text = APS.read_bytes().decode("cp1252").replace("(µm)", "")
+    bare = tmp_path / "aps_no_unit.txt"
+    bare.write_text(text, encoding="cp1252")
+    with pytest.raises(DataFormatError, match="does not say the unit"):
+        read_size_data(bare, sample="1")
+    with pytest.raises(DataFormatError) as info:
+        read_size_data(bare, sample="1", unit="nm")
+    msg = str(info.value)
+    assert "an APS measures 0.3 to 30 um" in msg and "(was it um?)" in msg
+    bins, _ = read_size_data(bare, sample="1", unit="um")  # the answer, followed
+    assert bins.total == pytest.approx(read_size_data(APS, sample="1")[0].total)

@@ -416,6 +416,66 @@ def _cut_points(path, meta, header, run):
     )
 
 
+#: The sizes each class of instrument measures [µm], with a margin: an APS
+#: 0.5-20 µm, an SMPS a few nm to about 1 µm, an OPS 3330 0.3-10 µm.
+CLASS_RANGES_UM = {
+    "APS": (0.3, 30.0),
+    "SMPS": (0.001, 1.5),
+    "OPS": (0.2, 15.0),
+}
+
+
+def _instrument_class(names, meta):
+    """'APS', 'SMPS' or 'OPS' where the export says which instrument wrote it,
+    else None."""
+    instrument = " ".join(
+        " ".join(meta.get(k) or []) for k in ("instrument", "instrument name")
+    ).lower()
+    model = " ".join(meta.get("model number") or []).strip()
+    if (
+        "aps" in instrument.split()
+        or "3321" in instrument
+        or any("aerodynamic diameter" in n.lower() for n in names)
+    ):
+        return "APS"
+    if "classifier model" in meta or "dma model" in meta or "smps" in instrument:
+        return "SMPS"
+    if model == "3330" or "optical particle sizer" in instrument:
+        return "OPS"
+    return None
+
+
+def _check_class(path, kind, mids_um, unit, unit_from):
+    """DataFormatError where the bins lie outside what the export's instrument
+    measures (:data:`CLASS_RANGES_UM`), naming the unit that would fit."""
+    if kind is None:
+        return
+    lo, hi = CLASS_RANGES_UM[kind]
+    first, last = float(mids_um[0]), float(mids_um[-1])
+    if lo <= first and last <= hi:
+        return
+    raw = mids_um / (length_factor(unit) / 1e-6)
+    fits = [
+        u
+        for u in ("nm", "um", "mm")
+        if u != unit
+        and lo <= raw[0] * length_factor(u) / 1e-6
+        and raw[-1] * length_factor(u) / 1e-6 <= hi
+    ]
+    slip = f" (was it {fits[0]}?)" if fits else ""
+    fix = (
+        "the header names it: correct the header"
+        if unit_from == "header"
+        else "give the unit the file holds (unit='nm', 'um'; --unit on the CLI)"
+    )
+    raise DataFormatError(
+        f"an {kind} measures {lo:g} to {hi:g} um, but the bins read in {unit} span "
+        f"{first:.4g} to {last:.4g} um{slip}; {fix}",
+        source=path,
+        field="unit",
+    )
+
+
 #: How the diameter type an export states is noted.
 _DIAMETER_NOTES = {
     "aerodynamic": "the diameters are aerodynamic (the export's 'Aerodynamic "
@@ -575,6 +635,8 @@ def _read_wide(path, found, *, values, sample, unit, edges_um, syntax):
         edges, unit, unit_from, how_edges = _header_edges(
             path, meta, header, names, (a, b), unit, what, syntax, edges_um
         )
+        klass = _instrument_class(names, meta)
+        _check_class(path, klass, np.sqrt(edges[:-1] * edges[1:]), unit, unit_from)
         if edges_um is None:
             stated = _stated_grid(path, meta, header, (a, b), unit)
             if stated is not None:
@@ -602,6 +664,7 @@ def _read_wide(path, found, *, values, sample, unit, edges_um, syntax):
             how_edges = f"bin edges as given ({edges.size} edges_um)"
     mids_um = np.sqrt(edges[:-1] * edges[1:])
     _check_plausible(path, "bin midpoints", mids_um * 1e-6, unit, unit_from)
+    _check_class(path, _instrument_class(names, meta), mids_um, unit, unit_from)
     shown = (
         f"the {mids_um.size} bin {'sizes' if edges_um is not None else 'midpoints'} "
         f"in {unit}"
@@ -765,6 +828,7 @@ def _read_aim(path, found, *, values, sample, unit, syntax):
     mids_um = mids * (length_factor(unit) / 1e-6)
     edges, how_edges = _aim_edges(path, meta, mids_um)
     _check_plausible(path, "Diameter Midpoint", mids_um * 1e-6, unit, unit_from)
+    _check_class(path, _instrument_class([], meta), mids_um, unit, unit_from)
     notes = [
         f"TSI AIM column export ({encoding}), {chosen} of {n_samples}; "
         f"{mids.size} midpoints in {unit}; {how_edges}",
