@@ -236,3 +236,19 @@ def test_real_files_of_the_fixture_pass_the_check():
             read_height_map(DATA / name)
         for name in ("dektak-1.csv", "opdx-3.opdx", "mitutoyo_mock.xlsx"):
             read_profiles(DATA / name)
+
+
+def test_an_exception_in_a_text_exports_reader_is_our_one_line_error(monkeypatch):
+    # a Dektak CSV is tried by our text reader first, then by SurfaceTopography's:
+    # an exception inside the latter's metadata is still one line naming it
+    from SurfaceTopography.IO.Reader import ReaderBase
+
+    def boom(self):
+        raise KeyError("unit")
+
+    monkeypatch.setattr(ReaderBase, "default_channel", property(boom))
+    for read in (read_profiles, read_height_map):
+        with pytest.raises(ProfileFormatError) as info:
+            read(DATA / "dektak-1.csv")
+        msg = str(info.value)
+        assert "dektak-1.csv" in msg and "KeyError" in msg and "reader (" in msg

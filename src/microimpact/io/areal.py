@@ -55,7 +55,7 @@ from .._core.files import MISSING, check_delimiter, parse_number, read_lines, sp
 from .._core.validation import as_float_array
 from ..errors import ProfileFormatError
 from ..units import length_factor
-from .instruments import read_instrument
+from .instruments import channel_unit, read_instrument
 from .plausibility import check_map, plausible_spacing
 from .profiles import header_unit, instrument_reader, open_x3p
 
@@ -578,7 +578,7 @@ def _read_height_map(path, *, dx_um, dy_um, z_unit, delimiter, format) -> Height
         reader = instrument_reader(path)
         if reader is None:
             raise ours from None
-        own = reader.default_channel.unit is not None or "UTF-8" in ours.message
+        own = channel_unit(reader, path) is not None or "UTF-8" in ours.message
         given = any(v is not None for v in (dx_um, dy_um, z_unit))
         if not (own or given):
             raise ours from None

@@ -178,6 +178,15 @@ def open_instrument(path):
     return reader
 
 
+def channel_unit(reader, path):
+    """The unit of `reader`'s default channel (None: the file gives none); an
+    exception inside the reader is our one-line error naming the reader."""
+    try:
+        return reader.default_channel.unit
+    except Exception as exc:  # inside the third-party reader: never a traceback
+        raise _reader_failed(path, reader, exc) from None
+
+
 def _nms_spacing(path) -> tuple[float, float]:
     """dx, dy [m] of a NanoFocus ``.nms`` file, read from its header ourselves:
     two little-endian doubles at byte 1376, in nm [2]_ (SurfaceTopography 1.25

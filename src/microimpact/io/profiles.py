@@ -50,7 +50,7 @@ from .._core.files import (
 from .._core.validation import as_float_array
 from ..errors import ProfileFormatError
 from ..units import LENGTH_UNITS, length_factor
-from .instruments import open_instrument, read_instrument
+from .instruments import channel_unit, open_instrument, read_instrument
 from .plausibility import check_scan
 
 __all__ = ["Profile", "ProfileSet", "read_profile", "read_profiles"]
@@ -798,7 +798,7 @@ def _read_unchecked(
         reader = instrument_reader(path)
         if reader is None:
             raise ours from None
-        own = reader.default_channel.unit is not None or "UTF-8" in ours.message
+        own = channel_unit(reader, path) is not None or "UTF-8" in ours.message
         given = any(e is not None for e in explicit) or dx_um is not None
         if not (own or given):
             raise ours from None
@@ -812,7 +812,7 @@ def _read_unchecked(
     if cols["x_unit"] is None or cols["z_unit"] is None:
         # an export whose header (in comments) gives the unit: SurfaceTopography
         reader = instrument_reader(path)
-        if reader is not None and reader.default_channel.unit is not None:
+        if reader is not None and channel_unit(reader, path) is not None:
             return _instrument_profiles(path, explicit, dx_um, reader)
         # structural problems (order, too few points) first, then the unit
         _build_profiles(path, scans, xf=1.0, zf=1.0, dx=dx, meta=meta)
