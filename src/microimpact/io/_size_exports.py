@@ -339,7 +339,7 @@ def _stated_grid(path, meta, header, run, unit):
         how = f"{float(per):g} channels per decade"
     else:
         n = below + (b - a) + above
-        how = f"{n} channels"
+        how = f"{n} channels printed"
     step = span / n
     first = below
     edges = lo * 10.0 ** ((first + np.arange(b - a + 1)) * step)
@@ -356,8 +356,8 @@ def _stated_grid(path, meta, header, run, unit):
         )
     return edges, (
         f"bin edges on the grid the export states: {cells[0]} to {cells[1]} um in "
-        f"{n} channels of 1/{1 / step:.6g} decade ({how}); the {b - a} sized "
-        "channels from the " + ("second" if below else "first")
+        f"{n} channels of 1/{1 / step:.6g} decade; the {b - a} sized channels "
+        f"are channels {first + 1}..{first + b - a} of them"
     )
 
 
