@@ -251,3 +251,36 @@ def test_bins_outside_the_instruments_class_are_refused_naming_the_slip(tmp_path
     assert "an APS measures 0.3 to 30 um" in msg and "(was it um?)" in msg
     bins, _ = read_size_data(bare, sample="1", unit="um")  # the answer, followed
     assert bins.total == pytest.approx(read_size_data(APS, sample="1")[0].total)
+
+
+GRIMM = (0.25, 0.28, 0.3, 0.35, 0.4, 0.45, 0.5, 0.58, 0.65, 0.7, 0.8, 1, 1.3, 1.6, 2)
+GRIMM += (2.5, 3, 3.5, 4, 5, 6.5, 7.5, 8.5, 10, 12.5, 15, 17.5, 20, 25, 30, 32)
+
+
+def test_grimm_channel_thresholds_are_lower_edges_not_midpoints(write_file):
+    # a file laid out as a Grimm 1.109 export is documented (DateTime, the 31
+    # channel thresholds in µm as headers, N, A; the last channel open above
+    # 32 µm), its counts the expected ones of a log-normal (CMD 0.9 µm, GSD 1.6)
+    # over the threshold bins: no real Grimm export with a licence was found
+    from scipy import stats
+
+    dist = stats.lognorm(np.log(1.6), scale=0.9)
+    per = np.diff(dist.cdf([*GRIMM, np.inf]))
+    counts = np.round(1e6 * per)
+    head = "DateTime," + ",".join(f"{t:g}" for t in GRIMM) + ",N,A\n"
+    row = "01/06/2024 10:00:00," + ",".join(f"{c:.0f}" for c in counts)
+    p = write_file("grimm.csv", head + row + f",{counts.sum():.0f},0\n")
+    bins, meta = read_size_data(p, values="count")
+    np.testing.assert_allclose(bins.edges_um, GRIMM, rtol=1e-12)
+    assert meta["unit_from"] == "Grimm channel set"
+    # the closed form's median, not the 0.83 µm of thresholds read as midpoints
+    median = binned_median(bins.edges_um, bins.number)
+    assert median == pytest.approx(0.9, rel=0.02)
+    assert any("channel thresholds" in t for t in bins.notes)
+    assert any("last channel 32" in t and "left out" in t for t in bins.notes)
+    # another header is still read as midpoints
+    other = write_file("opc.csv", head.replace("0.25,", "0.26,"))
+    other.write_text(other.read_text() + row + ",0,0\n")
+    assert read_size_data(other, values="count", unit="um")[1]["unit_from"] != (
+        "Grimm channel set"
+    )

@@ -476,6 +476,46 @@ def _check_class(path, kind, mids_um, unit, unit_from):
     )
 
 
+#: The channel thresholds (lower channel boundaries) [µm] of a Grimm aerosol
+#: spectrometer (models 1.108/1.109/11-D: 31 channels, the last open above 32 µm),
+#: which its exports print as the channels' column headers. As published with the
+#: instrument and used by the readers of pysmps-style and Matlab analyses.
+GRIMM_THRESHOLDS_UM = (
+    0.25, 0.28, 0.3, 0.35, 0.4, 0.45, 0.5, 0.58, 0.65, 0.7, 0.8, 1.0, 1.3, 1.6,
+    2.0, 2.5, 3.0, 3.5, 4.0, 5.0, 6.5, 7.5, 8.5, 10.0, 12.5, 15.0, 17.5, 20.0,
+    25.0, 30.0, 32.0,
+)  # fmt: skip
+
+
+def _grimm_thresholds(header, run, unit):
+    """(edges [µm], unit, unit_from, note) where the header's bin sizes are a run
+    of at least 8 consecutive Grimm channel thresholds (:data:`GRIMM_THRESHOLDS_UM`,
+    in µm, or in the `unit` given): they are the channels' lower boundaries, not
+    midpoints. The last channel has no upper boundary in the file and is not in the
+    edges. None for any other header."""
+    a, b = run
+    cells = [_mid_cell(header[k]) for k in range(a, b)]
+    if any(c is None for c in cells) or b - a < 8:
+        return None
+    stated = {u for _, u in cells if u is not None}
+    factor = length_factor(unit or (stated.pop() if len(stated) == 1 else "um")) / 1e-6
+    sizes = [round(v * factor, 6) for v, _ in cells]
+    grid = [round(t, 6) for t in GRIMM_THRESHOLDS_UM]
+    if sizes[0] not in grid:
+        return None
+    i = grid.index(sizes[0])
+    if grid[i : i + len(sizes)] != sizes:
+        return None
+    return (
+        np.asarray(sizes, dtype=float),
+        "um" if unit is None else unit,
+        "Grimm channel set" if unit is None else "argument",
+        f"the header sizes {header[a].strip()}..{header[b - 1].strip()} are a Grimm "
+        "spectrometer's channel thresholds: each channel's lower boundary, the next "
+        "threshold its upper one (not midpoints)",
+    )
+
+
 #: How the diameter type an export states is noted.
 _DIAMETER_NOTES = {
     "aerodynamic": "the diameters are aerodynamic (the export's 'Aerodynamic "
@@ -631,7 +671,20 @@ def _read_wide(path, found, *, values, sample, unit, edges_um, syntax):
                 cells[k], path=path, line=line, field=f"column {names[k]!r}", kind=kind
             )
     oversize = []
-    if sized:
+    grimm = None if edges_um is not None else _grimm_thresholds(header, (a, b), unit)
+    if grimm is not None:
+        edges, unit, unit_from, how_edges = grimm
+        keep = edges.size - 1
+        held = float(np.sum(_aggregate(table[keep:], how)))
+        whole = float(np.sum(_aggregate(table, how)))
+        oversize.append(
+            f"the last channel {names[a + keep]} (at or above {edges[-1]:g} um, no "
+            f"upper edge) held {held:g} of {whole:g} ({kind}, "
+            f"{100 * held / whole if whole else 0:.3g} %) and is left out; give its "
+            f"upper edge with edges_um (all {b - a + 1} boundaries) to include it"
+        )
+        table = table[:keep]
+    elif sized:
         edges, unit, unit_from, how_edges = _header_edges(
             path, meta, header, names, (a, b), unit, what, syntax, edges_um
         )
@@ -665,12 +718,13 @@ def _read_wide(path, found, *, values, sample, unit, edges_um, syntax):
     mids_um = np.sqrt(edges[:-1] * edges[1:])
     _check_plausible(path, "bin midpoints", mids_um * 1e-6, unit, unit_from)
     _check_class(path, _instrument_class(names, meta), mids_um, unit, unit_from)
-    shown = (
-        f"the {mids_um.size} bin {'sizes' if edges_um is not None else 'midpoints'} "
-        f"in {unit}"
-        if sized
-        else (f"the {b - a} bins {header[a].strip()}..{header[b - 1].strip()}")
-    )
+    if grimm is not None:
+        shown = f"the {b - a} channel thresholds in {unit}"
+    elif sized:
+        what_sizes = "sizes" if edges_um is not None else "midpoints"
+        shown = f"the {mids_um.size} bin {what_sizes} in {unit}"
+    else:
+        shown = f"the {b - a} bins {header[a].strip()}..{header[b - 1].strip()}"
     notes = [
         f"{'TSI AIM row' if aim else 'wide'} export ({encoding}, one sample per row, "
         f"{shown} as column headers), {chosen} of {len(labels)}; {how_edges}",
