@@ -284,3 +284,22 @@ def test_grimm_channel_thresholds_are_lower_edges_not_midpoints(write_file):
     assert read_size_data(other, values="count", unit="um")[1]["unit_from"] != (
         "Grimm channel set"
     )
+
+
+AIM103 = DATA / "aim10_3_smps_txt_aeroviz.txt"
+AIM103_HEADER, AIM103_ROWS = _vendor_rows(AIM103, "\t", "Sample #", "cp1252")
+
+
+@pytest.mark.parametrize("sample", sorted(AIM103_ROWS, key=int))
+def test_aim10_3_txt_matches_the_vendors_statistics(sample):
+    # an AIM 10.3 tab-delimited TXT row export (AeroViz, MIT), every sample
+    row = AIM103_ROWS[sample]
+    bins, meta = read_size_data(AIM103, sample=sample)
+    assert meta["layout"] == "aim-rows" and meta["diameter"] == "mobility"
+    total = float(row["Total Conc. (#/cm³)"])
+    assert bins.total == pytest.approx(total, rel=1e-3)
+    gm, gsd = _geo(bins)
+    assert gm * 1e3 == pytest.approx(float(row["Geo. Mean (nm)"]), rel=0.02)
+    assert gsd == pytest.approx(float(row["Geo. Std. Dev."]), rel=0.02)
+    median = binned_median(bins.edges_um, bins.number) * 1e3
+    assert median == pytest.approx(float(row["Median (nm)"]), rel=0.02)
