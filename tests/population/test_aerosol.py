@@ -181,3 +181,28 @@ def test_volume_equivalent_diameter_inverts_the_aerodynamic_one():
         d_a = aerodynamic_diameter(d, 2200.0, shape_factor=1.2)
         back = volume_equivalent_diameter(d_a, 2200.0, shape_factor=1.2)
         assert back == pytest.approx(d, rel=1e-9)
+
+
+def test_the_scenario_names_all_three_medians():
+    # the scenario's own summary (what reports print) shows the count median
+    # sampled, the mass median and the MMAD with its density
+    from microimpact.scenario.scenario import scenario_from_dict
+
+    data = {
+        "particles": {
+            "distribution": "lognormal",
+            "mmad_um": 3.0,
+            "geometric_std": 1.8,
+            "density_kg_m3": 1500.0,
+        },
+        "coefficients": {"k1": 4.0, "k2": 0.05, "v_c": 0.2},
+        "sweep": {"speed_m_s": [1.0]},
+    }
+    sc = scenario_from_dict(data)
+    params = sc.describe()["particles"]["params"]
+    cmd, mmd = params["median_um"], params["mass_median_um"]
+    assert mmd == pytest.approx(cmd * math.exp(3 * math.log(1.8) ** 2), rel=1e-12)
+    assert aerodynamic_diameter(mmd * 1e-6, 1500.0) == pytest.approx(3e-6, rel=1e-9)
+    assert params["mmad_um"] == 3.0 and params["density_kg_m3"] == 1500.0
+    text = repr(sc)
+    assert "median_um=" in text and "mass_median_um=" in text and "mmad_um=3" in text

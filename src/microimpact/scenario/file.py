@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -62,7 +62,7 @@ from ..io.diameters import read_diameters
 from ..io.size_bins import read_size_bins
 from ..physics.coefficients import ImpactCoefficients
 from ..population import distributions as pd_
-from ..population.aerosol import count_median_diameter
+from ..population.aerosol import count_median_diameter, hatch_choate_mass_median
 from ..population.binned import BIN_VALUES
 from ..units import m_to_um, um_to_m
 from ._file_base import (
@@ -152,9 +152,15 @@ def _lognormal(ctx: _Ctx, t, where, num, lim):
         density_kg_m3=density,
         shape_factor=shape if shape is not None else 1.0,
     )
-    return ctx.build(
+    dist = ctx.build(
         where, t, pd_.lognormal_diameters, float(m_to_um(cmd_m)), gsd, **lim
     )
+    # all three medians in the scenario's summary: the count median sampled, the
+    # mass median (Hatch-Choate) and, where given, the MMAD with its density
+    shown = {"mass_median_um": hatch_choate_mass_median(dist.params["median_um"], gsd)}
+    if convention == "mmad":
+        shown.update(mmad_um=median_um, density_kg_m3=density, shape_factor=shape)
+    return replace(dist, params={**dist.params, **shown})
 
 
 def _particles(ctx: _Ctx, data, where="particles"):
