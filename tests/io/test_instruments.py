@@ -40,11 +40,9 @@ LINE_SCANS = {
 }
 #: Height maps: file -> the arguments a user gives.
 MAPS = {
-    "gwyddion-export-english.txt": {},
     "sdf-1.sdf": {},
     "nc-1.nc": {},
     "frt-2.frt": {},
-    "matrix-6.txt": {},
     "txt_example.txt": {},
     "10x10-one_channel_without_name.ibw": {"dx_um": 1.0, "z_unit": "nm"},
 }
@@ -144,14 +142,24 @@ def test_maps_match_surfacetopography(name):
         assert areal_parameters(hm).Sq == pytest.approx(levelled, rel=0.01)
 
 
-def test_gwyddion_export_honours_its_value_unit():
-    # '# Width: 12.34 µm', '# Height: 5678.9 nm', '# Value units: m': the heights
-    # are metres (the issue: they came out 10^6 too small)
-    hm = read_height_map(DATA / "gwyddion-export-english.txt")
-    assert hm.dx == pytest.approx(12.34e-6 / hm.nx, rel=1e-9)
-    assert hm.dy == pytest.approx(5678.9e-9 / hm.ny, rel=1e-9)
-    assert np.nanmax(np.abs(hm.z)) == pytest.approx(9.0)
-    assert hm.metadata["z_unit"] == "m" and hm.metadata["z_unit_from"] == "file"
+@pytest.mark.parametrize(
+    ("name", "span", "field"),
+    [
+        # '# Width: 12.34 µm' over 3 columns: 2 spacings of 4.113 µm
+        ("gwyddion-export-english.txt", "15 m", "8.22667 µm"),
+        ("matrix-6.txt", "11 m", "7.5 µm"),
+    ],
+)
+def test_gwyddion_exports_honour_their_units_and_are_implausible(name, span, field):
+    # '# Value units: m' with heights 1 ... 9: metres (the issue of issue 21: they
+    # came out 10^6 too small), over a field of micrometres. SurfaceTopography's
+    # toy files describe no surface: a height range of metres over µm is refused
+    # (issue 30), naming the unit it was read in and the override
+    with pytest.raises(ProfileFormatError) as info:
+        read_height_map(DATA / name)
+    msg = str(info.value)
+    assert f"a range of {span} (" in msg and f"over a field of {field}" in msg
+    assert "read as m: was it µm?" in msg and "z_unit=" in msg
     # an argument that disagrees with the file is an error naming both
     with pytest.raises(ProfileFormatError, match=r"gives the unit 'm' but `z_unit`"):
         read_height_map(DATA / "gwyddion-export-english.txt", z_unit="nm")

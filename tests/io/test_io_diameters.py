@@ -259,7 +259,8 @@ def test_every_reader_reads_the_same_messy_file(write_file):
     assert_allclose(impacts["e"], [0.6, 0.7, 0.8], rtol=0)
     exp = read_experiments(path)
     assert_allclose(exp["mean"], [0.6, 0.7, 0.8], rtol=0)
-    prof = read_profile(path, x_column="speed_m_s", z_column="diameter_um", x_unit="um")
+    # (positions in mm: heights of 40-60 µm over a 1.5 µm scan are implausible)
+    prof = read_profile(path, x_column="speed_m_s", z_column="diameter_um", x_unit="mm")
     assert_allclose(prof.z, [40e-6, 50e-6, 60e-6], rtol=1e-12)  # header unit: um
     assert prof.metadata["z_unit_from"] == "header"
 

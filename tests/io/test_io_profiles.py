@@ -59,17 +59,20 @@ def test_delimiters(write_file, text, delimiter):
     [("m", 1.0), ("mm", 1e-3), ("um", 1e-6), ("µm", 1e-6), ("nm", 1e-9), ("A", 1e-10)],
 )
 def test_units(write_file, unit, factor):
-    p = write_file("a.csv", "0,2\n4,6\n")
+    # 4 µm and 0.2 / 0.6 µm written in `unit` (plausible in every unit)
+    p = write_file(
+        "a.csv", f"0,{2e-7 / factor!r}\n{4e-6 / factor!r},{6e-7 / factor!r}\n"
+    )
     prof = read_profile(p, unit=unit)
-    assert_allclose(prof.x, [0.0, 4 * factor], rtol=1e-15)
-    assert_allclose(prof.z, [2 * factor, 6 * factor], rtol=1e-15)
+    assert_allclose(prof.x, [0.0, 4e-6], rtol=1e-12)
+    assert_allclose(prof.z, [2e-7, 6e-7], rtol=1e-12)
 
 
 def test_separate_units_paper_angstrom(write_file):
     # positions in µm, heights in Å as in the paper's H_bar [Å]
-    p = write_file("a.csv", "x,z\n0,200000\n0.5,-100000\n")
+    p = write_file("a.csv", "x,z\n0,200000\n5,-100000\n")
     prof = read_profile(p, x_unit="um", z_unit="Å")
-    assert_allclose(prof.x, [0.0, 0.5e-6], rtol=1e-15)
+    assert_allclose(prof.x, [0.0, 5e-6], rtol=1e-15)
     assert_allclose(prof.z, [20e-6, -10e-6], rtol=1e-15)
 
 

@@ -11,8 +11,10 @@ from scipy import integrate, stats
 
 from microimpact.population.aerosol import (
     aerodynamic_diameter,
+    count_median_diameter,
     cunningham_correction,
     hatch_choate_mass_median,
+    volume_equivalent_diameter,
 )
 
 # Seinfeld & Pandis (2006) Table 9.3: slip correction of particles in air, 298 K, 1 atm
@@ -74,3 +76,133 @@ def test_hatch_choate_of_a_diverging_gsd_is_inf_without_a_warning():
     assert hatch_choate_mass_median(3.0, 1.69) == pytest.approx(
         3.0 * math.exp(3 * math.log(1.69) ** 2), rel=1e-14
     )
+
+
+# -- [particles] conventions: count median, mass median, MMAD (issue 30) ---------------
+def _slip(d):
+    """Seinfeld & Pandis eq. 9.34, written out here: the test's own slip factor."""
+    kn = 2 * 0.0651e-6 / d
+    return 1 + kn * (1.257 + 0.4 * math.exp(-1.1 / kn))
+
+
+def _cmd_closed_form(mmad, gsd, rho, chi):
+    """The closed form the scenario must reproduce: Hinds eq. 3.28 solved for the
+    volume-equivalent mass median by plain fixed-point iteration, then
+    Hatch-Choate CMD = MMD exp(-3 ln² σ_g)."""
+    d_v = mmad * math.sqrt(1000 * chi / rho)
+    for _ in range(200):
+        d_v = mmad * math.sqrt(1000 * chi * _slip(mmad) / (rho * _slip(d_v)))
+    return d_v * math.exp(-3 * math.log(gsd) ** 2)
+
+
+def _scenario_particles(**particles):
+    from microimpact.scenario.scenario import scenario_from_dict
+
+    data = {
+        "particles": {"distribution": "lognormal", **particles},
+        "coefficients": {"k1": 4.0, "k2": 0.05, "v_c": 0.2},
+        "sweep": {"speed_m_s": [1.0]},
+    }
+    return scenario_from_dict(data).particles
+
+
+@pytest.mark.parametrize(
+    ("mmad_um", "gsd", "rho", "chi"),
+    [(3.0, 2.0, 1000.0, 1.0), (3.0, 1.6, 1500.0, 1.0), (0.8, 1.8, 2650.0, 1.36)],
+)
+def test_an_mmad_gives_the_count_median_of_hatch_choate_and_cunningham(
+    mmad_um, gsd, rho, chi
+):
+    want = _cmd_closed_form(mmad_um * 1e-6, gsd, rho, chi)
+    got = count_median_diameter(
+        mmad_um * 1e-6, gsd, convention="mmad", density_kg_m3=rho, shape_factor=chi
+    )
+    assert got == pytest.approx(want, rel=0.005)
+    # through [particles]: the population the engine samples
+    p = _scenario_particles(
+        mmad_um=mmad_um, geometric_std=gsd, density_kg_m3=rho, shape_factor=chi
+    )
+    assert p.params["median_um"] * 1e-6 == pytest.approx(want, rel=0.005)
+    # and its mass median is, by quadrature, the particle whose aerodynamic
+    # diameter is the MMAD
+    dist = stats.lognorm(math.log(gsd), scale=p.params["median_um"])
+    mass = lambda x: x**3 * dist.pdf(x)  # noqa: E731
+    total = integrate.quad(mass, 0, np.inf, limit=200)[0]
+    mmd = dist.ppf(0.5) * math.exp(3 * math.log(gsd) ** 2)
+    assert integrate.quad(mass, 0, mmd, limit=200)[0] / total == pytest.approx(0.5)
+    assert aerodynamic_diameter(mmd * 1e-6, rho, shape_factor=chi) == pytest.approx(
+        mmad_um * 1e-6, rel=0.005
+    )
+
+
+def test_mmad_3_um_is_not_a_count_median_of_3_um():
+    # the issue: "MMAD 3 µm" (GSD 1.8) typed as median_um = 3 simulates a mass
+    # median near 8.5 µm; given as mmad_um it is a count median near 1.06 µm
+    p = _scenario_particles(mmad_um=3.0, geometric_std=1.8, density_kg_m3=1000.0)
+    want = _cmd_closed_form(3e-6, 1.8, 1000.0, 1.0)
+    assert p.params["median_um"] * 1e-6 == pytest.approx(want, rel=0.005)
+    assert p.params["median_um"] == pytest.approx(1.064, rel=0.005)
+    wrong = _scenario_particles(median_um=3.0, geometric_std=1.8)
+    assert hatch_choate_mass_median(wrong.params["median_um"], 1.8) == pytest.approx(
+        8.46, rel=0.005
+    )
+
+
+def test_a_mass_median_is_hatch_choate_inverted():
+    p = _scenario_particles(mass_median_um=8.0, geometric_std=1.7)
+    assert hatch_choate_mass_median(p.params["median_um"], 1.7) == pytest.approx(8.0)
+
+
+@pytest.mark.parametrize(
+    ("particles", "match"),
+    [
+        ({"mmad_um": 3.0, "geometric_std": 2.0}, r"density_kg_m3: missing"),
+        (
+            {"median_um": 3.0, "geometric_std": 2.0, "density_kg_m3": 1000.0},
+            r"density_kg_m3: only allowed with 'mmad_um'",
+        ),
+        (
+            {"median_um": 3.0, "mmad_um": 3.0, "geometric_std": 2.0},
+            r"exactly one of 'median_um' or 'mass_median_um' or 'mmad_um'; got both",
+        ),
+        ({"geometric_std": 2.0}, r"exactly one of 'median_um'"),
+    ],
+)
+def test_particles_conventions_refuse_what_does_not_fit(particles, match):
+    from microimpact.errors import ScenarioError
+
+    with pytest.raises(ScenarioError, match=match) as info:
+        _scenario_particles(**particles)
+    assert "np.float64" not in str(info.value)
+
+
+def test_volume_equivalent_diameter_inverts_the_aerodynamic_one():
+    for d in (0.05e-6, 0.5e-6, 5e-6, 50e-6):
+        d_a = aerodynamic_diameter(d, 2200.0, shape_factor=1.2)
+        back = volume_equivalent_diameter(d_a, 2200.0, shape_factor=1.2)
+        assert back == pytest.approx(d, rel=1e-9)
+
+
+def test_the_scenario_names_all_three_medians():
+    # the scenario's own summary (what reports print) shows the count median
+    # sampled, the mass median and the MMAD with its density
+    from microimpact.scenario.scenario import scenario_from_dict
+
+    data = {
+        "particles": {
+            "distribution": "lognormal",
+            "mmad_um": 3.0,
+            "geometric_std": 1.8,
+            "density_kg_m3": 1500.0,
+        },
+        "coefficients": {"k1": 4.0, "k2": 0.05, "v_c": 0.2},
+        "sweep": {"speed_m_s": [1.0]},
+    }
+    sc = scenario_from_dict(data)
+    params = sc.describe()["particles"]["params"]
+    cmd, mmd = params["median_um"], params["mass_median_um"]
+    assert mmd == pytest.approx(cmd * math.exp(3 * math.log(1.8) ** 2), rel=1e-12)
+    assert aerodynamic_diameter(mmd * 1e-6, 1500.0) == pytest.approx(3e-6, rel=1e-9)
+    assert params["mmad_um"] == 3.0 and params["density_kg_m3"] == 1500.0
+    text = repr(sc)
+    assert "median_um=" in text and "mass_median_um=" in text and "mmad_um=3" in text

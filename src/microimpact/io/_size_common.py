@@ -85,7 +85,7 @@ def _text_lines(path):
         return fh.read().splitlines(), "cp1252"
 
 
-def _bins(path, edges_um, values, kind, notes) -> BinnedSizes:
+def _bins(path, edges_um, values, kind, notes, diameter=None) -> BinnedSizes:
     if not np.sum(values) > 0:
         raise DataFormatError(
             "all values are zero; allowed: values >= 0 with a positive total",
@@ -108,4 +108,5 @@ def _bins(path, edges_um, values, kind, notes) -> BinnedSizes:
         values=kind,
         counted=counted,
         notes=tuple(notes),
+        diameter=diameter,
     )

@@ -30,6 +30,20 @@ from ._size_common import (
     _values_choices,
 )
 from ._size_select import _aggregate, _iso_time, _sample_key, _select, _total_conc
+from ._size_stated import (
+    _BIN_NAME,
+    _DIAMETER_NOTES,
+    _check_class,
+    _cut_points,
+    _diameter_type,
+    _grimm_thresholds,
+    _instrument_class,
+    _mid_cell,
+    _one_export,
+    _shown,
+    _stated_grid,
+    _values_in_rows,
+)
 from .diameters import (
     _check_plausible,
     _number,
@@ -37,11 +51,6 @@ from .diameters import (
     _unit_agreed,
 )
 from .profiles import header_unit
-
-_MID_CELL = re.compile(
-    r"^\s*(\d+(?:\.\d*)?(?:[eE][-+]?\d+)?)\s*(um|µm|μm|nm)?\s*$", re.IGNORECASE
-)
-
 
 #: Header names (without their unit) of a wide export whose unit is the
 #: midpoints': AIM's marker column ``Diameter Midpoint (nm)``, the sized range
@@ -68,14 +77,6 @@ def _sized(name):
     return re.sub(r"\s*[\(\[].*$", "", name).strip().lower() in _SIZED
 
 
-def _mid_cell(cell):
-    """(value, unit or None) of a header cell naming a bin midpoint, else None."""
-    m = _MID_CELL.match(cell)
-    if not m or not float(m.group(1)) > 0:
-        return None
-    return float(m.group(1)), m.group(2)
-
-
 def _longest_run(items, follows):
     """[a, b): the longest run (>= 3; the first of equal length) of items not None
     in which each follows the one before (``follows(before, item)``), else None."""
@@ -100,15 +101,21 @@ def _numeric_run(cells):
     return _longest_run([_mid_cell(c) for c in cells], lambda u, v: v[0] > u[0])
 
 
-_BIN_NAME = re.compile(r"^\s*bin\s*[_#]?\s*(\d+)\s*$", re.IGNORECASE)
-
-
 def _named_run(cells):
     """[a, b): the longest run (>= 3) of bin names with consecutive numbers
     (``bin0, bin1, ...``, ``Bin 1, Bin 2, ...``), else None."""
     nums = [_BIN_NAME.match(c) for c in cells]
     nums = [int(m.group(1)) if m else None for m in nums]
     return _longest_run(nums, lambda u, v: v == u + 1)
+
+
+def _filled(cells) -> int:
+    """Number of cells up to the last non-empty one (AIM 11 pads every row of its
+    CSV export with empty cells to the width of the table)."""
+    n = len(cells)
+    while n and not cells[n - 1].strip():
+        n -= 1
+    return n
 
 
 def _wide_rows(path):
@@ -146,7 +153,7 @@ def _wide_rows(path):
         a, b = run
         others = [c for k, c in enumerate(cells) if not a <= k < b and c.strip()]
         if (
-            all(len(r) < b for _, r in whole[:i])
+            all(_filled(r) < b for _, r in whole[:i])
             and others
             and not any(is_number(c) for c in others)
             and numbers_below(i, a, b)
@@ -271,7 +278,7 @@ def _given_edges(path, edges_um, header, run, unit, syntax):
         or np.any(np.diff(edges) <= 0)
     ):
         raise DataFormatError(
-            f"edges_um {list(np.atleast_1d(edges_um))} do not bound the {k} bin "
+            f"edges_um {_shown(edges_um)} do not bound the {k} bin "
             f"columns {header[a].strip()}..{header[b - 1].strip()}; allowed: "
             f"{k + 1} increasing boundaries > 0 in um",
             source=path,
@@ -306,7 +313,14 @@ def _timestamps(header, data):
 def _label_column(header):
     """Index of the Sample # column of a wide header, else None."""
     for k, h in enumerate(header):
-        if re.sub(r"[\s_.]", "", h.lower()) in ("sample#", "sampleno", "samplenumber"):
+        if re.sub(r"[\s_.]", "", h.lower()) in (
+            "sample#",
+            "sampleno",
+            "samplenumber",
+            "scan#",
+            "scanno",
+            "scannumber",
+        ):
             return k
     return None
 
@@ -318,10 +332,14 @@ def _read_wide(path, found, *, values, sample, unit, edges_um, syntax):
     data = [(line, cells) for line, cells in rows[i + 1 :] if any(cells)]
     aim = "units" in meta and "weight" in meta
     what = "AIM row export" if aim else "wide export"
+    _one_export(path, header, meta, data, rows[i][0], what)
+    in_rows = _values_in_rows(path, header, data, (a, b))
     if aim:
         kind = _aim_values(path, meta, values)
     elif values is not None:
         kind = values
+    elif in_rows is not None:
+        kind = in_rows
     else:
         raise _ask(
             path,
@@ -362,27 +380,72 @@ def _read_wide(path, found, *, values, sample, unit, edges_um, syntax):
             table[k - a, c] = _bin_value(
                 cells[k], path=path, line=line, field=f"column {names[k]!r}", kind=kind
             )
-    if sized:
+    oversize = []
+    grimm = None if edges_um is not None else _grimm_thresholds(header, (a, b), unit)
+    if grimm is not None:
+        edges, unit, unit_from, how_edges = grimm
+        keep = edges.size - 1
+        held = float(np.sum(_aggregate(table[keep:], how)))
+        whole = float(np.sum(_aggregate(table, how)))
+        oversize.append(
+            f"the last channel {names[a + keep]} (at or above {edges[-1]:g} um, no "
+            f"upper edge) held {held:g} of {whole:g} ({kind}, "
+            f"{100 * held / whole if whole else 0:.3g} %) and is left out; give its "
+            f"upper edge with edges_um (all {b - a + 1} boundaries) to include it"
+        )
+        table = table[:keep]
+    elif sized:
         edges, unit, unit_from, how_edges = _header_edges(
             path, meta, header, names, (a, b), unit, what, syntax, edges_um
         )
+        klass = _instrument_class(names, meta)
+        _check_class(path, klass, np.sqrt(edges[:-1] * edges[1:]), unit, unit_from)
+        if edges_um is None:
+            stated = _stated_grid(path, meta, header, (a, b), unit)
+            if stated is not None:
+                edges, how_edges = stated
     else:
-        edges = _given_edges(path, edges_um, header, (a, b), unit, syntax)
-        unit, unit_from = "um", "argument"
-        how_edges = f"bin edges as given ({edges.size} edges_um)"
+        cut = None if edges_um is not None else _cut_points(path, meta, header, (a, b))
+        if cut is not None:
+            edges, unit, how_edges = cut
+            unit_from = "header"
+            keep = edges.size - 1
+            if keep < b - a:  # the oversize bin(s): no upper edge
+                held = float(np.sum(_aggregate(table[keep:], how)))
+                whole = float(np.sum(_aggregate(table, how)))
+                oversize.append(
+                    f"the oversize bin {names[a + keep]} (above {edges[-1]:g} um, no "
+                    f"upper edge) held {held:g} of {whole:g} ({kind}, "
+                    f"{100 * held / whole if whole else 0:.3g} %) and is left out; "
+                    "give its upper edge with edges_um (all "
+                    f"{b - a + 1} boundaries) to include it"
+                )
+                table = table[:keep]
+        else:
+            edges = _given_edges(path, edges_um, header, (a, b), unit, syntax)
+            unit, unit_from = "um", "argument"
+            how_edges = f"bin edges as given ({edges.size} edges_um)"
     mids_um = np.sqrt(edges[:-1] * edges[1:])
     _check_plausible(path, "bin midpoints", mids_um * 1e-6, unit, unit_from)
-    shown = (
-        f"the {mids_um.size} bin {'sizes' if edges_um is not None else 'midpoints'} "
-        f"in {unit}"
-        if sized
-        else (f"the {mids_um.size} bins {header[a].strip()}..{header[b - 1].strip()}")
-    )
+    _check_class(path, _instrument_class(names, meta), mids_um, unit, unit_from)
+    if grimm is not None:
+        shown = f"the {b - a} channel thresholds in {unit}"
+    elif sized:
+        what_sizes = "sizes" if edges_um is not None else "midpoints"
+        shown = f"the {mids_um.size} bin {what_sizes} in {unit}"
+    else:
+        shown = f"the {b - a} bins {header[a].strip()}..{header[b - 1].strip()}"
     notes = [
         f"{'TSI AIM row' if aim else 'wide'} export ({encoding}, one sample per row, "
         f"{shown} as column headers), {chosen} of {len(labels)}; {how_edges}",
         *numbered,
     ]
+    notes += oversize
+    if in_rows is not None and values is None and not aim:
+        notes.append(f"the values are {kind}, as every row says")
+    diameter = _diameter_type(names, meta)
+    if diameter is not None:
+        notes.append(_DIAMETER_NOTES[diameter])
     skipped = [h for h in names[:a] if h.startswith("<")] + [
         h for h in names[b:] if h.startswith(">")
     ]
@@ -390,7 +453,7 @@ def _read_wide(path, found, *, values, sample, unit, edges_um, syntax):
         notes.append(
             f"the open-ended bins {skipped} (outside the sized range) are not read"
         )
-    bins = _bins(path, edges, _aggregate(table, how), kind, notes)
+    bins = _bins(path, edges, _aggregate(table, how), kind, notes, diameter)
     statistics = {}
     if len(idx) == 1:
         cells = data[idx[0]][1]
@@ -402,6 +465,7 @@ def _read_wide(path, found, *, values, sample, unit, edges_um, syntax):
     return bins, {
         "source": path,
         "layout": "aim-rows" if aim else "wide",
+        "diameter": diameter,
         "header": names,
         "values": kind,
         "value_column": None,
@@ -465,7 +529,17 @@ def _read_aim(path, found, *, values, sample, unit, syntax):
     meta = {c[0].strip().lower(): c[1:] for _, c in rows[:i] if c}
     stats_rows = {}
     data = []
+    keys = {k for k in meta if k and not is_number(k)} | {"diameter midpoint"}
     for line, cells in rows[i + 1 :]:
+        if cells and cells[0].strip().lower() in keys:
+            raise DataFormatError(
+                "the file holds more than one AIM column export: a second one starts "
+                f"here (the first's 'Diameter Midpoint' row is line {rows[i][0]}); "
+                "samples are numbered within one export, so it is not read as one; "
+                "split the file into one export each",
+                source=path,
+                line=line,
+            )
         if data and not is_number(cells[0]):
             stats_rows[cells[0].strip()] = cells[1:]
         elif is_number(cells[0]):
@@ -518,6 +592,7 @@ def _read_aim(path, found, *, values, sample, unit, syntax):
     mids_um = mids * (length_factor(unit) / 1e-6)
     edges, how_edges = _aim_edges(path, meta, mids_um)
     _check_plausible(path, "Diameter Midpoint", mids_um * 1e-6, unit, unit_from)
+    _check_class(path, _instrument_class([], meta), mids_um, unit, unit_from)
     notes = [
         f"TSI AIM column export ({encoding}), {chosen} of {n_samples}; "
         f"{mids.size} midpoints in {unit}; {how_edges}",

@@ -55,7 +55,8 @@ from .._core.files import MISSING, check_delimiter, parse_number, read_lines, sp
 from .._core.validation import as_float_array
 from ..errors import ProfileFormatError
 from ..units import length_factor
-from .instruments import read_instrument
+from .instruments import channel_unit, read_instrument
+from .plausibility import check_map, plausible_spacing
 from .profiles import header_unit, instrument_reader, open_x3p
 
 __all__ = ["HeightMap", "read_height_map"]
@@ -221,8 +222,10 @@ def _header(lines, path) -> dict:
     return out
 
 
-def _spacing(name, header, arg, xy_unit, path) -> tuple[float, str]:
-    """The spacing `name` ('dx' or 'dy') [m] and where it came from."""
+def _spacing(name, header, arg, xy_unit, path) -> tuple[float, str, str]:
+    """The spacing `name` ('dx' or 'dy') [m], where it came from and
+    the unit it was given in. An argument overrides an implausible header value
+    (a unit slip); otherwise the two must agree."""
     from_arg = None
     if arg is not None:
         v = float(arg)
@@ -241,7 +244,7 @@ def _spacing(name, header, arg, xy_unit, path) -> tuple[float, str]:
                 source=path,
                 field=name,
             )
-        return from_arg, "argument"
+        return from_arg, "argument", "um"
     value, unit, lineno = header[name]
     if unit is None:
         if xy_unit is None:
@@ -263,6 +266,8 @@ def _spacing(name, header, arg, xy_unit, path) -> tuple[float, str]:
         error=ProfileFormatError,
     )
     v *= _unit(unit, path=path, field=name, line=lineno)
+    if from_arg is not None and not plausible_spacing(v, 2):
+        return from_arg, "argument (the header's value is implausible)", "um"
     if from_arg is not None and not np.isclose(v, from_arg, rtol=1e-9, atol=0.0):
         raise ProfileFormatError(
             f"the header gives {name} = {v * 1e6:.9g} µm but `{name}_um` is "
@@ -271,7 +276,7 @@ def _spacing(name, header, arg, xy_unit, path) -> tuple[float, str]:
             line=lineno,
             field=f"{name}_um",
         )
-    return v, "header"
+    return v, "header", unit
 
 
 def _row_values(cells, *, path, lineno) -> np.ndarray:
@@ -317,11 +322,11 @@ def _read_text(path, *, dx_um, dy_um, z_unit, delimiter) -> HeightMap:
         value, _, lineno = header["xy_unit"]
         _unit(value, path=path, field="xy_unit", line=lineno)
         xy_unit = value
-    dx, dx_from = _spacing("dx", header, dx_um, xy_unit, path)
+    dx, dx_from, dx_unit = _spacing("dx", header, dx_um, xy_unit, path)
     if "dy" not in header and dy_um is None:
         dy, dy_from = dx, "dx"  # the docs: dy defaults to dx
     else:
-        dy, dy_from = _spacing("dy", header, dy_um, xy_unit, path)
+        dy, dy_from, _ = _spacing("dy", header, dy_um, xy_unit, path)
     z_from = None
     unit = None
     if "z_unit" in header:
@@ -386,6 +391,7 @@ def _read_text(path, *, dx_um, dy_um, z_unit, delimiter) -> HeightMap:
         "xy_unit_from": "file" if xy_unit is not None else "key or argument",
         "dx_from": dx_from,
         "dy_from": dy_from,
+        "dx_unit": dx_unit,
         "delimiter": delim,
         "masked_fraction": float(np.mean(~np.isfinite(z))),
     }
@@ -472,7 +478,8 @@ def read_height_map(
         SurfaceTopography (needs ``SurfaceTopography``).
     dx_um, dy_um : float, optional
         Grid spacing along x (columns) and y (rows) [µm], for text files whose header
-        does not give it (if it does, the values must agree). `dy_um` defaults to
+        does not give it (if it does, the values must agree, unless the file's
+        value is implausible: then the argument overrides it). `dy_um` defaults to
         the header's ``dy``, else to `dx_um`.
     z_unit : str, optional
         Unit of the heights in a text file: ``m``, ``mm``, ``um``/``µm``, ``nm``,
@@ -494,8 +501,33 @@ def read_height_map(
         One line naming the file, the line or field, the value and what is allowed:
         a missing or contradictory grid spacing, an unknown unit, a non-numeric
         height, rows of different lengths, a grid smaller than 2 x 2, an optional
-        package that is not installed.
+        package that is not installed, an exception inside a third-party reader,
+        or a map that is not physically plausible
+        (:mod:`microimpact.io.plausibility`: a spacing outside 0.1 nm to 1 mm, a
+        field of 1 m or more, heights spanning over ten times the field), naming
+        the likely unit slip and the override.
     """
+    hm = _read_height_map(
+        path,
+        dx_um=dx_um,
+        dy_um=dy_um,
+        z_unit=z_unit,
+        delimiter=delimiter,
+        format=format,
+    )
+    meta = hm.metadata
+    check_map(
+        hm.z,
+        hm.dx,
+        hm.dy,
+        source=hm.source,
+        xy_unit=meta.get("dx_unit", meta.get("xy_unit")),
+        z_unit=meta.get("z_unit"),
+    )
+    return hm
+
+
+def _read_height_map(path, *, dx_um, dy_um, z_unit, delimiter, format) -> HeightMap:
     path = os.fspath(path)
     if format is None:
         suffix = Path(path).suffix.lower()
@@ -546,7 +578,7 @@ def read_height_map(
         reader = instrument_reader(path)
         if reader is None:
             raise ours from None
-        own = reader.default_channel.unit is not None or "UTF-8" in ours.message
+        own = channel_unit(reader, path) is not None or "UTF-8" in ours.message
         given = any(v is not None for v in (dx_um, dy_um, z_unit))
         if not (own or given):
             raise ours from None

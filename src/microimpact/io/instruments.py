@@ -18,6 +18,9 @@ References
 ----------
 .. [1] L. Pastewka et al., SurfaceTopography,
    https://github.com/ContactEngineering/SurfaceTopography (MIT licence).
+.. [2] F. Schell, surfalize, ``surfalize/file/nms.py``,
+   https://github.com/fredericjs/surfalize: the NanoFocus ``.nms`` header read by a
+   second, independent parser (spacing at byte 1376, in nm).
 """
 
 from __future__ import annotations
@@ -31,6 +34,7 @@ import numpy as np
 
 from ..errors import ProfileFormatError
 from ..units import LENGTH_UNITS, length_factor
+from .plausibility import plausible_spacing
 
 __all__ = [
     "InstrumentMap",
@@ -60,6 +64,13 @@ class InstrumentMap(NamedTuple):
 
 
 _UNIFORM_RTOL = 1e-3
+#: Formats without a magic number, chosen by the suffix: SurfaceTopography's
+#: detection can take such a file for another format (a NanoFocus ``.nms`` for a
+#: MATLAB file, whose reader then finds no channel).
+_FORMAT_BY_SUFFIX = {".nms": "nms"}
+#: Byte offset of the NanoFocus ``.nms`` spacing (two little-endian doubles, dx and
+#: dy, in nm) [1]_ [2]_; SurfaceTopography 1.25 reads them as mm.
+_NMS_SPACING_OFFSET = 1376
 
 
 def surfacetopography_unit_factor(unit) -> float | None:
@@ -87,9 +98,34 @@ def _short(exc) -> str:
     return text if len(text) <= 200 else text[:197] + "..."
 
 
+def reader_name(reader) -> str:
+    """How a SurfaceTopography reader is named in messages: ``SurfaceTopography's
+    NanoFocus NMS reader (NMSReader)``."""
+    name = getattr(reader, "_name", None) or type(reader).__name__
+    return f"SurfaceTopography's {name} reader ({type(reader).__name__})"
+
+
+def _format_of(reader) -> str:
+    try:
+        return str(reader.format())
+    except Exception:  # a reader that cannot even name its format
+        return type(reader).__name__
+
+
+def _reader_failed(path, reader, exc) -> ProfileFormatError:
+    """Our one-line error for an exception raised inside a third-party reader."""
+    return ProfileFormatError(
+        f"{reader_name(reader)} failed on this {_format_of(reader)} file "
+        f"({type(exc).__name__}: {_short(exc)}); microimpact cannot read it: export "
+        "the map as x3p, SDF or a plain-text grid (see docs/roughness.md)",
+        source=path,
+        field="format",
+    )
+
+
 def open_instrument(path):
     """SurfaceTopography's reader of `path`; ProfileFormatError naming the file if
-    it is missing or no reader recognises it."""
+    it is missing, no reader recognises it, or the reader finds no channel."""
     try:
         # deferred: SurfaceTopography takes 1-2 s to import; only for its files
         from SurfaceTopography import open_topography
@@ -106,10 +142,11 @@ def open_instrument(path):
         raise ProfileFormatError("file not found", source=path)
     if Path(path).is_dir():
         raise ProfileFormatError("it is a directory, not a file", source=path)
+    fmt = _FORMAT_BY_SUFFIX.get(Path(path).suffix.lower())
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            return open_topography(path)
+            reader = open_topography(path, format=fmt)
     except CannotDetectFileFormat:
         raise ProfileFormatError(
             "not a format that microimpact or SurfaceTopography reads (no reader "
@@ -117,9 +154,55 @@ def open_instrument(path):
             source=path,
         ) from None
     except Exception as exc:  # SurfaceTopography raises many types for bad files
+        what = f"{fmt} " if fmt else ""
         raise ProfileFormatError(
-            f"SurfaceTopography cannot read the file: {_short(exc)}", source=path
+            f"SurfaceTopography cannot read the {what}file ({type(exc).__name__}: "
+            f"{_short(exc)})",
+            source=path,
+            field="format",
         ) from None
+    try:
+        channels = list(reader.channels)
+    except Exception as exc:  # the reader fails on its own metadata
+        raise _reader_failed(path, reader, exc) from None
+    if not channels:
+        raise ProfileFormatError(
+            f"{reader_name(reader)} finds no topography channel in this "
+            f"{_format_of(reader)} file (a channel without length units, or a "
+            "layout it does not know); allowed: a file with a height channel in "
+            "a length unit; export the map as x3p, SDF or a plain-text grid with "
+            "'# dx_um' and '# z_unit' lines",
+            source=path,
+            field="format",
+        )
+    return reader
+
+
+def channel_unit(reader, path):
+    """The unit of `reader`'s default channel (None: the file gives none); an
+    exception inside the reader is our one-line error naming the reader."""
+    try:
+        return reader.default_channel.unit
+    except Exception as exc:  # inside the third-party reader: never a traceback
+        raise _reader_failed(path, reader, exc) from None
+
+
+def _nms_spacing(path) -> tuple[float, float]:
+    """dx, dy [m] of a NanoFocus ``.nms`` file, read from its header ourselves:
+    two little-endian doubles at byte 1376, in nm [2]_ (SurfaceTopography 1.25
+    reads them as mm, a pixel 10⁶ too large)."""
+    with open(path, "rb") as f:
+        f.seek(_NMS_SPACING_OFFSET)
+        raw = f.read(16)
+    if len(raw) != 16:
+        raise ProfileFormatError(
+            "the file ends inside its header (no grid spacing at byte "
+            f"{_NMS_SPACING_OFFSET})",
+            source=path,
+            field="spacing",
+        )
+    dx_nm, dy_nm = np.frombuffer(raw, dtype="<f8")
+    return float(dx_nm) * LENGTH_UNITS["nm"], float(dy_nm) * LENGTH_UNITS["nm"]
 
 
 def read_instrument(
@@ -157,6 +240,23 @@ def read_instrument(
     path = os.fspath(path)
     if reader is None:
         reader = open_instrument(path)
+    try:
+        return _read_instrument(
+            path,
+            reader,
+            want=want,
+            x_unit=x_unit,
+            z_unit=z_unit,
+            dx_um=dx_um,
+            dy_um=dy_um,
+        )
+    except ProfileFormatError:
+        raise
+    except Exception as exc:  # inside the third-party reader: never a traceback
+        raise _reader_failed(path, reader, exc) from None
+
+
+def _read_instrument(path, reader, *, want, x_unit, z_unit, dx_um, dy_um):
     channel = reader.default_channel
     fmt = f"SurfaceTopography:{reader.format()}"
     dim = int(channel.dim)
@@ -236,9 +336,7 @@ def read_instrument(
             warnings.simplefilter("ignore")
             topo = reader.topography(**kw)
     except Exception as exc:
-        raise ProfileFormatError(
-            f"SurfaceTopography cannot read the file: {_short(exc)}", source=path
-        ) from None
+        raise _reader_failed(path, reader, exc) from None
     zf = units["z"][1]
     heights = np.ma.filled(np.ma.asarray(topo.heights(), dtype=float), np.nan) * zf
     masked = float(np.mean(~np.isfinite(heights))) if heights.size else 0.0
@@ -252,14 +350,22 @@ def read_instrument(
         "masked_fraction": masked,
     }
     # ---- lateral: from the file (in its unit or the given x unit) or dx_um / dy_um
+    own = _nms_spacing(path) if reader.format() == "nms" else None
+    if own is not None:
+        meta["spacing_read_by"] = (
+            "microimpact (the NanoFocus header's nm; SurfaceTopography reads it as mm)"
+        )
     spacings = []
     for i, name in enumerate(("dx", "dy")[:dim]):
         arg = spacing_args[name]
         from_file = None
-        if has_sizes and (uniform or dim == 2):
+        if own is not None:
+            from_file = own[i]
+        elif has_sizes and (uniform or dim == 2):
             px = float(np.atleast_1d(topo.pixel_size)[i])
             if "x" in units:
                 from_file = px * units["x"][1]
+        n = int(np.atleast_1d(channel.nb_grid_pts)[i])
         if arg is not None:
             value = float(arg) * 1e-6
             if not (np.isfinite(value) and value > 0):
@@ -275,7 +381,11 @@ def read_instrument(
                     source=path,
                     field=f"{name}_um",
                 )
-            if from_file is not None and file_factor is not None:
+            overrides = from_file is not None and not plausible_spacing(from_file, n)
+            if overrides:
+                # the file's spacing is implausible (a unit slip): the user's wins
+                meta[f"{name}_file_um"] = from_file * 1e6
+            elif from_file is not None and file_factor is not None:
                 if not np.isclose(value, from_file, rtol=1e-6, atol=0.0):
                     raise ProfileFormatError(
                         f"the file gives {name} = {from_file * 1e6:.9g} µm but "
@@ -285,7 +395,9 @@ def read_instrument(
                         field=f"{name}_um",
                     )
             spacings.append(value)
-            meta[f"{name}_from"] = "argument" if from_file is None else "file"
+            meta[f"{name}_from"] = (
+                "argument" if from_file is None or overrides else "file"
+            )
         else:
             spacings.append(from_file)
             meta[f"{name}_from"] = "file"

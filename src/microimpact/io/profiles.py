@@ -50,7 +50,8 @@ from .._core.files import (
 from .._core.validation import as_float_array
 from ..errors import ProfileFormatError
 from ..units import LENGTH_UNITS, length_factor
-from .instruments import open_instrument, read_instrument
+from .instruments import channel_unit, open_instrument, read_instrument
+from .plausibility import check_scan
 
 __all__ = ["Profile", "ProfileSet", "read_profile", "read_profiles"]
 
@@ -614,6 +615,14 @@ def open_x3p(path):
         raise ProfileFormatError(
             f"not a readable x3p file: {msg}", source=path
         ) from None
+    except Exception as exc:  # inside the third-party reader: never a traceback
+        msg = " ".join(str(exc).split())[:200]
+        raise ProfileFormatError(
+            f"the x3pio reader failed on this x3p file ({type(exc).__name__}: "
+            f"{msg}); microimpact cannot read it",
+            source=path,
+            field="format",
+        ) from None
     return f
 
 
@@ -695,7 +704,24 @@ def _read_x3p(path, *, meta):
     return out
 
 
-def _read_any(
+def _read_any(path, **kw):
+    """The profiles of `path` (see :func:`read_profiles`), each checked for
+    physical plausibility (:mod:`microimpact.io.plausibility`)."""
+    profiles = _read_unchecked(path, **kw)
+    for p in profiles:
+        m = p.metadata
+        check_scan(
+            p.x,
+            p.z,
+            source=m.get("source"),
+            x_unit=m.get("x_unit"),
+            z_unit=m.get("z_unit"),
+            scan=m.get("scan") if len(profiles) > 1 else None,
+        )
+    return profiles
+
+
+def _read_unchecked(
     path,
     *,
     x_column,
@@ -772,7 +798,7 @@ def _read_any(
         reader = instrument_reader(path)
         if reader is None:
             raise ours from None
-        own = reader.default_channel.unit is not None or "UTF-8" in ours.message
+        own = channel_unit(reader, path) is not None or "UTF-8" in ours.message
         given = any(e is not None for e in explicit) or dx_um is not None
         if not (own or given):
             raise ours from None
@@ -786,7 +812,7 @@ def _read_any(
     if cols["x_unit"] is None or cols["z_unit"] is None:
         # an export whose header (in comments) gives the unit: SurfaceTopography
         reader = instrument_reader(path)
-        if reader is not None and reader.default_channel.unit is not None:
+        if reader is not None and channel_unit(reader, path) is not None:
             return _instrument_profiles(path, explicit, dx_um, reader)
         # structural problems (order, too few points) first, then the unit
         _build_profiles(path, scans, xf=1.0, zf=1.0, dx=dx, meta=meta)

@@ -70,6 +70,7 @@ from ..population.binned import (
     BIN_VALUES,
     edges_from_midpoints,
 )
+from ..units import length_factor
 from ._size_common import (
     _SYNTAX,
     _ask,
@@ -79,7 +80,13 @@ from ._size_common import (
     _text_lines,
     _values_choices,
 )
-from ._size_exports import _aim_rows, _read_aim, _read_wide, _wide_rows
+from ._size_exports import (
+    _UNIT_CHOICES,
+    _aim_rows,
+    _read_aim,
+    _read_wide,
+    _wide_rows,
+)
 from ._size_select import _counted
 from .diameters import (
     _check_plausible,
@@ -95,6 +102,12 @@ from .diameters import (
 from .profiles import header_unit
 
 __all__ = ["SIZE_LAYOUTS", "read_size_bins", "read_size_data"]
+
+#: Bins without a stated unit whose median midpoint, read as µm, lies above this
+#: [µm] are not taken as µm: beyond every optical or aerodynamic sizer (an APS
+#: ends at 20 µm, OPCs near 40 µm) and where an SMPS's nanometres land. The unit
+#: is asked for.
+NM_LIKELY_UM = 50.0
 
 #: How a size file may be laid out.
 SIZE_LAYOUTS = ("diameters", "edges", "midpoints")
@@ -298,6 +311,16 @@ def _unit_of(path, header, cols, unit):
     return _unit_agreed(path, unit, stated)
 
 
+def _check_unit(path, unit):
+    """DataFormatError naming the file where `unit` is not a length unit."""
+    if unit is None:
+        return
+    try:
+        length_factor(unit)
+    except ValueError as exc:
+        raise DataFormatError(str(exc), source=path, field="unit") from None
+
+
 def read_size_bins(
     path,
     *,
@@ -368,6 +391,7 @@ def read_size_bins(
     """
     path = os.fspath(path)
     check_choice(syntax, "syntax", _SYNTAX)
+    _check_unit(path, unit)
     if layout is not None and layout not in ("edges", "midpoints"):
         raise DataFormatError(
             f"layout {layout!r} is not a binned layout; allowed: edges, midpoints",
@@ -534,6 +558,17 @@ def _read_bins(path, layout, values, column, unit, sample, edges_um, syntax):
         )
     mids_m = np.sqrt(edges[:-1] * edges[1:]) * 1e-6
     _check_plausible(path, f"column {names[cols[0]]!r}", mids_m, unit, unit_from)
+    median_um = float(np.median(mids_m)) * 1e6
+    if unit_from == "default" and median_um > NM_LIKELY_UM:
+        raise _ask(
+            path,
+            f"the file does not say the unit of its bin sizes, and read as um their "
+            f"median midpoint is {median_um:.4g} um, beyond every optical or "
+            f"aerodynamic sizer (read as nm: {median_um / 1e3:.4g} um)",
+            _UNIT_CHOICES,
+            syntax,
+            field="unit",
+        )
     bins = _bins(path, edges, table[:, -1], kind, notes)
     return bins, {
         "source": path,
@@ -609,6 +644,7 @@ def read_size_data(
     """
     path = os.fspath(path)
     check_choice(syntax, "syntax", _SYNTAX)
+    _check_unit(path, unit)
     if layout is not None and layout not in SIZE_LAYOUTS:
         raise DataFormatError(
             f"layout {layout!r} unknown; allowed: {', '.join(SIZE_LAYOUTS)}",

@@ -17,6 +17,12 @@ Pure functions in SI units (diameters in metres, densities in kg/m³).
   by fixed-point iteration (a contraction: ``C`` varies slowly).
 * :func:`hatch_choate_mass_median` -- the mass median diameter of a log-normal
   number distribution, ``MMD = CMD exp(3 ln² σ_g)`` ([2]_ eq. 4.39).
+* :func:`volume_equivalent_diameter` -- the inverse of
+  :func:`aerodynamic_diameter` (the particle whose aerodynamic diameter is given).
+* :func:`count_median_diameter` -- the count median of a log-normal population
+  given by its count median, its mass median (MMD) or its mass median aerodynamic
+  diameter (MMAD, with a density and a shape factor), and its GSD: the
+  conventions of ``[particles]``.
 
 No maintained, light Python package was found that does these conversions (the
 aerosol packages on PyPI are instrument readers or optics codes), so the closed
@@ -42,11 +48,17 @@ _LOG_MAX = math.log(np.finfo(float).max)
 
 __all__ = [
     "MEAN_FREE_PATH_AIR_M",
+    "MEDIAN_CONVENTIONS",
     "UNIT_DENSITY_KG_M3",
     "aerodynamic_diameter",
+    "count_median_diameter",
     "cunningham_correction",
     "hatch_choate_mass_median",
+    "volume_equivalent_diameter",
 ]
+
+#: The medians a log-normal population may be given by.
+MEDIAN_CONVENTIONS = ("count", "mass", "mmad")
 
 #: Mean free path of air at 298 K and 1 atm [m] ([1]_ p. 399).
 MEAN_FREE_PATH_AIR_M = 0.0651e-6
@@ -151,3 +163,128 @@ def hatch_choate_mass_median(count_median, geometric_std):
     gsd = check_scalar(geometric_std, "geometric_std", minimum=1)
     log_mmd = math.log(cmd) + 3.0 * math.log(gsd) ** 2
     return math.exp(log_mmd) if log_mmd < _LOG_MAX else math.inf
+
+
+def volume_equivalent_diameter(
+    aerodynamic_m,
+    density_kg_m3,
+    *,
+    shape_factor=1.0,
+    mean_free_path_m=MEAN_FREE_PATH_AIR_M,
+):
+    """Volume-equivalent diameter of a particle of aerodynamic diameter
+    `aerodynamic_m`: the inverse of :func:`aerodynamic_diameter` (eq. 3.28 of
+    [2]_ solved for ``d_v``).
+
+    ``d_a`` grows monotonically with ``d_v``, so the root is found by Brent's
+    method (:func:`scipy.optimize.brentq`) on ``ln d_v`` to a relative 1e-13.
+
+    Parameters
+    ----------
+    aerodynamic_m : float
+        Aerodynamic diameter [m], > 0.
+    density_kg_m3 : float
+        Particle density [kg/m³], > 0.
+    shape_factor : float
+        Dynamic shape factor χ (1: a sphere).
+    mean_free_path_m : float
+        Mean free path of the gas [m].
+
+    Returns
+    -------
+    float
+        Volume-equivalent diameter [m].
+    """
+    # deferred: scipy is heavy and only this conversion needs it
+    from scipy.optimize import brentq
+
+    d_a = check_scalar(aerodynamic_m, "aerodynamic_m", minimum=0, strict=True)
+    rho = check_scalar(density_kg_m3, "density_kg_m3", minimum=0, strict=True)
+    chi = check_scalar(shape_factor, "shape_factor", minimum=0, strict=True)
+
+    def gap(log_d):
+        return math.log(
+            aerodynamic_diameter(
+                math.exp(log_d),
+                rho,
+                shape_factor=chi,
+                mean_free_path_m=mean_free_path_m,
+            )
+        ) - math.log(d_a)
+
+    # slip-free guess d_a sqrt(χ ρ_0 / ρ), bracketed by a factor of 100 each way
+    guess = math.log(d_a) + 0.5 * math.log(chi * UNIT_DENSITY_KG_M3 / rho)
+    return math.exp(
+        brentq(gap, guess - math.log(100), guess + math.log(100), xtol=1e-13)
+    )
+
+
+def count_median_diameter(
+    median_m,
+    geometric_std,
+    *,
+    convention="count",
+    density_kg_m3=None,
+    shape_factor=1.0,
+    mean_free_path_m=MEAN_FREE_PATH_AIR_M,
+):
+    """Count median diameter [m] of a log-normal population given by one of its
+    medians and its GSD.
+
+    Parameters
+    ----------
+    median_m : float
+        The median [m]: the count median (``convention='count'``), the mass
+        median of the volume-equivalent diameters (``'mass'``), or the mass median
+        aerodynamic diameter (``'mmad'``).
+    geometric_std : float
+        GSD σ_g of the population, >= 1 (the same for the count and the mass
+        distributions of a log-normal).
+    convention : {'count', 'mass', 'mmad'}
+    density_kg_m3 : float, optional
+        Particle density [kg/m³]; required for ``'mmad'``, refused otherwise.
+    shape_factor : float
+        Dynamic shape factor χ of ``'mmad'`` (1: spheres).
+    mean_free_path_m : float
+        Mean free path of the gas [m].
+
+    Returns
+    -------
+    float
+        ``CMD = MMD exp(-3 ln² σ_g)`` (Hatch-Choate, [2]_ eq. 4.39), with
+        ``MMD = volume_equivalent_diameter(MMAD)`` (Hinds eq. 3.28 with the
+        Cunningham correction) for an MMAD.
+
+    Notes
+    -----
+    The aerodynamic mass median is the image of the volume-equivalent mass
+    median (``d_a(d_v)`` is monotone, so medians map to medians). The GSD is
+    taken as the volume-equivalent distribution's: exact without slip; with slip
+    ``d_a`` is not proportional to ``d_v`` and the aerodynamic distribution is a
+    little narrower (GSD 2, 2000 kg/m³: 1.5 % at a count median of 1 µm, 0.7 % at
+    3 µm).
+    """
+    d = check_scalar(median_m, "median_m", minimum=0, strict=True)
+    gsd = check_scalar(geometric_std, "geometric_std", minimum=1)
+    if convention not in MEDIAN_CONVENTIONS:
+        raise ValueError(
+            f"`convention` must be one of {', '.join(MEDIAN_CONVENTIONS)}; got "
+            f"{convention!r}."
+        )
+    if convention == "mmad":
+        if density_kg_m3 is None:
+            raise ValueError("an MMAD needs the particle density `density_kg_m3`.")
+        d = volume_equivalent_diameter(
+            d,
+            density_kg_m3,
+            shape_factor=shape_factor,
+            mean_free_path_m=mean_free_path_m,
+        )
+    elif density_kg_m3 is not None:
+        raise ValueError(
+            "`density_kg_m3` applies to an MMAD only (a count or mass median is "
+            "already a volume-equivalent diameter)."
+        )
+    if convention == "count":
+        return d
+    return d * math.exp(-3.0 * math.log(gsd) ** 2)  # [2] eq. 4.39 inverted

@@ -209,6 +209,10 @@ class BinnedSizes:
         numbers): standard errors and the chi-squared test need counts.
     notes : tuple of str
         What was derived and assumed (edges from midpoints, the d³ conversion).
+    diameter : {None, 'aerodynamic', 'mobility'}
+        The diameter the instrument measures, where its export says
+        (``Aerodynamic Diameter`` of an APS: never converted to an aerodynamic
+        diameter again); None: not stated (taken as geometric).
     """
 
     edges_um: np.ndarray
@@ -216,6 +220,7 @@ class BinnedSizes:
     values: str = "count"
     counted: bool = True
     notes: tuple = field(default_factory=tuple)
+    diameter: str | None = None
 
     @property
     def midpoints_um(self) -> np.ndarray:

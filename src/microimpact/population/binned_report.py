@@ -199,9 +199,14 @@ class BinnedSizesReport:
             f"log-normal (Hatch-Choate) {a['mass_median_hatch_choate_um']:.4g} um",
         ]
         if "aerodynamic_count_median_um" in a:
+            how = (
+                f"density {a['density_kg_m3']:g} kg/m3, shape factor "
+                f"{a['shape_factor']:g}"
+                if "density_kg_m3" in a
+                else "as measured, from the bins"
+            )
             lines.append(
-                f"  aerodynamic (density {a['density_kg_m3']:g} kg/m3, shape factor "
-                f"{a['shape_factor']:g}): count median "
+                f"  aerodynamic ({how}): count median "
                 f"{a['aerodynamic_count_median_um']:.4g} um, mass median "
                 f"{a['aerodynamic_mass_median_um']:.4g} um"
             )
@@ -324,7 +329,17 @@ def describe_binned_sizes(
         "mass_median_bins_um": binned_median(e, number * mid**3),
         "mass_median_hatch_choate_um": hatch_choate_mass_median(cmd, gsd),
     }
-    if density_kg_m3 is not None:
+    if bins.diameter == "aerodynamic":
+        # the instrument measured aerodynamic diameters: they are the medians
+        # themselves, never converted again (issue 30)
+        aerosol["aerodynamic_count_median_um"] = aerosol["count_median_bins_um"]
+        aerosol["aerodynamic_mass_median_um"] = aerosol["mass_median_bins_um"]
+        if density_kg_m3 is not None:
+            notes.append(
+                f"the density {float(density_kg_m3):g} kg/m3 is not used: the "
+                "diameters are aerodynamic already"
+            )
+    elif density_kg_m3 is not None:
         aerosol["density_kg_m3"] = float(density_kg_m3)
         aerosol["shape_factor"] = float(shape_factor)
         for key, d_um in (
@@ -370,6 +385,12 @@ def _unphysical(kind, fit):
     word = "normal" if kind == "normal" else "log-normal"
     if any("diverges" in t for t in fit.notes):
         return f"the {word} fit diverges; it is not recommended"
+
+    if ok and any("held at its bound" in t for t in fit.notes):
+        return (
+            f"the {word} fit is held at a bound of its search ({name} "
+            f"{value:.4g} um): it is not an estimate, and it is not recommended"
+        )
     if ok:  # as a scenario builds it (e.g. a GSD so wide truncation cuts all)
         factory = normal_diameters if kind == "normal" else lognormal_diameters
         try:

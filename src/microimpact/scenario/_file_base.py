@@ -57,7 +57,20 @@ TOP_KEYS = (
 )
 PARTICLE_KEYS = {
     "normal": ({"mean_um", "std_um"}, {"min_um", "max_um"}),
-    "lognormal": ({"median_um", "geometric_std"}, {"min_um", "max_um"}),
+    # one median of MEDIAN_KEYS (checked in file._particles); density and shape
+    # factor only with an MMAD
+    "lognormal": (
+        {"geometric_std"},
+        {
+            "median_um",
+            "mass_median_um",
+            "mmad_um",
+            "density_kg_m3",
+            "shape_factor",
+            "min_um",
+            "max_um",
+        },
+    ),
     "uniform": ({"min_um", "max_um"}, set()),
     "monodisperse": ({"diameter_um"}, set()),
     "empirical": (

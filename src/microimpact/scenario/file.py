@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -62,8 +62,9 @@ from ..io.diameters import read_diameters
 from ..io.size_bins import read_size_bins
 from ..physics.coefficients import ImpactCoefficients
 from ..population import distributions as pd_
+from ..population.aerosol import count_median_diameter, hatch_choate_mass_median
 from ..population.binned import BIN_VALUES
-from ..units import m_to_um
+from ..units import m_to_um, um_to_m
 from ._file_base import (
     _TOML_EOF,
     _TOML_POSITION,
@@ -111,6 +112,57 @@ def _file_keys(ctx: _Ctx, t, where):
     return path, column, unit
 
 
+#: The medians a log-normal ``[particles]`` table may give (exactly one): the count
+#: median, the mass median, or the mass median aerodynamic diameter (MMAD, with
+#: ``density_kg_m3`` and an optional ``shape_factor``).
+MEDIAN_KEYS = {"median_um": "count", "mass_median_um": "mass", "mmad_um": "mmad"}
+
+
+def _lognormal(ctx: _Ctx, t, where, num, lim):
+    """The log-normal population of a ``[particles]`` table, from its count
+    median, mass median or MMAD and its GSD (Hatch-Choate and, for an MMAD, the
+    Cunningham-corrected aerodynamic diameter: population.aerosol)."""
+    _exactly_one(ctx, t, where, tuple(MEDIAN_KEYS))
+    key = next(k for k in MEDIAN_KEYS if k in t)
+    convention = MEDIAN_KEYS[key]
+    median_um = num(key, low=0, strict=True)
+    gsd = num("geometric_std", low=1, strict=True)
+    density = shape = None
+    if convention == "mmad":
+        if "density_kg_m3" not in t:
+            raise ctx.error(
+                _join(where, "density_kg_m3"),
+                "missing: an MMAD needs the particle density (kg/m3) to give the "
+                "particles' own (volume-equivalent) diameters",
+            )
+        density = num("density_kg_m3", low=0, strict=True)
+        shape = num("shape_factor", low=0, strict=True) if "shape_factor" in t else 1.0
+    else:
+        for bad in ("density_kg_m3", "shape_factor"):
+            if bad in t:
+                raise ctx.error(
+                    _join(where, bad),
+                    f"only allowed with 'mmad_um' ('{key}' is already the particles' "
+                    "own diameter)",
+                )
+    cmd_m = count_median_diameter(
+        um_to_m(median_um),
+        gsd,
+        convention=convention,
+        density_kg_m3=density,
+        shape_factor=shape if shape is not None else 1.0,
+    )
+    dist = ctx.build(
+        where, t, pd_.lognormal_diameters, float(m_to_um(cmd_m)), gsd, **lim
+    )
+    # all three medians in the scenario's summary: the count median sampled, the
+    # mass median (Hatch-Choate) and, where given, the MMAD with its density
+    shown = {"mass_median_um": hatch_choate_mass_median(dist.params["median_um"], gsd)}
+    if convention == "mmad":
+        shown.update(mmad_um=median_um, density_kg_m3=density, shape_factor=shape)
+    return replace(dist, params={**dist.params, **shown})
+
+
 def _particles(ctx: _Ctx, data, where="particles"):
 
     t = ctx.table(data, where)
@@ -130,14 +182,7 @@ def _particles(ctx: _Ctx, data, where="particles"):
             **lim,
         )
     if kind == "lognormal":
-        return ctx.build(
-            where,
-            t,
-            pd_.lognormal_diameters,
-            num("median_um", low=0, strict=True),
-            num("geometric_std", low=1, strict=True),
-            **lim,
-        )
+        return _lognormal(ctx, t, where, num, lim)
     if kind == "uniform":
         return ctx.build(where, t, pd_.uniform_diameters, lim["min_um"], lim["max_um"])
     if kind == "monodisperse":
