@@ -169,7 +169,14 @@ def _plain(obj) -> str:
 
 #: describe() keys never shown (digests, bookkeeping)
 _HIDDEN = {"sha256", "n_kept"}
-_UNITS = {"_um": " µm", "_deg": "°", "_m_s": " m/s", "_m": " m"}
+_UNITS = {
+    "_um": " µm",
+    "_deg": "°",
+    "_m_s": " m/s",
+    "_kg_m3": " kg/m³",
+    "_j_m2": " J/m²",
+    "_m": " m",
+}
 
 
 def _pairs(d) -> list:
