@@ -118,6 +118,7 @@ def add_run_options(sp, *, seed_help="root seed (overrides the file)"):
         "process for the compiled kernel, else processes",
     )
     add_backend_options(sp)
+    add_yes_option(sp)
     sp.add_argument("--quiet", action="store_true", help="no progress bar or summary")
     sp.add_argument(
         "--formats",
@@ -126,6 +127,34 @@ def add_run_options(sp, *, seed_help="root seed (overrides the file)"):
         help="figure formats, e.g. png,pdf (default: the scenario's "
         "[outputs] figures, else png,pdf)",
     )
+
+
+def add_yes_option(sp):
+    """``--yes``: start a run too big for this machine (see :func:`check_cost`)."""
+    sp.add_argument(
+        "--yes",
+        action="store_true",
+        help="start even a run whose memory, files or time exceed what this machine "
+        "has (it is refused otherwise, with the numbers)",
+    )
+
+
+def check_cost(args, scenario, *, samples=None, out=None, runs=1, outputs=True):
+    """Refuse a run too big for this machine before any work (unless ``--yes``),
+    with the numbers and how to cut it; say what a big one will cost on stderr."""
+    # deferred: the verb's library loads only when the verb runs (fast --help)
+    from ..engine.footprint import check_footprint, footprint, machine
+
+    # deferred: the verb's library loads only when the verb runs (fast --help)
+    from ..engine.parallel import available_cores
+
+    fp = footprint(scenario, samples=samples, runs=runs, outputs=outputs)
+    workers = min(getattr(args, "workers", 1) or 1, available_cores())
+    note = check_footprint(
+        fp, machine(out), workers=workers, yes=getattr(args, "yes", False)
+    )
+    if note is not None and not getattr(args, "quiet", False):
+        print(f"microimpact: {note}", file=sys.stderr)
 
 
 def add_backend_options(sp):

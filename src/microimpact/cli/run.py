@@ -40,6 +40,7 @@ def cli_action(args) -> int:
     t0 = time.perf_counter()
     study = Study(args.scenario)
     study.scenario, study.outputs = _apply_flags(args, study)
+    c.check_cost(args, study.scenario, samples=args.samples, out=args.out)
     c.announce(args, study.scenario, samples=args.samples)
     study.execute(
         args.out,
