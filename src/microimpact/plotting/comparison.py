@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._style import STYLE, colour
+from ._style import colour, styled
 
 __all__ = ["plot_comparison"]
 
@@ -42,7 +42,6 @@ def plot_comparison(table, *, ax=None):
         simulated = experimental.
     """
     # deferred: matplotlib loads only when a figure is drawn
-    import matplotlib as mpl
 
     # deferred: matplotlib loads only when a figure is drawn
     import matplotlib.pyplot as plt
@@ -50,7 +49,7 @@ def plot_comparison(table, *, ax=None):
     need = {"statistic", "exp_mean", "sim_mean", "agree"}
     if not hasattr(table, "columns") or not need <= set(table.columns):
         raise ValueError(f"`table` must be the output of compare(); got {table!r}.")
-    with mpl.rc_context(STYLE):
+    with styled():
         if ax is None:
             _, ax = plt.subplots(figsize=(4.2, 4.0), layout="constrained")
         ok = table.dropna(subset=["sim_mean"])
