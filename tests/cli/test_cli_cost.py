@@ -157,6 +157,7 @@ def test_every_stage_after_the_simulation_reports_itself(tmp_path):
     ended = [d for d, s in seen if s is not None]
     assert started == ended  # each stage ends, in order, none nested
     order = [
+        "planning the sweep",
         "statistics of 4 sweep points",
         *(f"writing {n}" for n in ("summary.csv", "results.nc", "capture_speed.csv")),
         "writing report.html",

@@ -338,7 +338,11 @@ def announce(args, scenario, *, samples=None):
     )
     if points * per_point <= QUICK_IMPACTS and points <= QUICK_POINTS:
         return  # surely well under the announcement threshold: no pilot timing
-    seconds = estimate_duration(scenario, samples=samples, workers=workers)
+    # deferred: the verb's library loads only when the verb runs (fast --help)
+    from .._core.progress import stage
+
+    with stage("timing a calibration batch"):  # plans the sweep: ~4 s at 10^6
+        seconds = estimate_duration(scenario, samples=samples, workers=workers)
     if seconds is not None and seconds > ANNOUNCE_AFTER_S:
         print(
             "microimpact: the simulation is expected to take about "
