@@ -217,3 +217,32 @@ def test_ctrl_c_names_the_checkpoint_that_exists(tmp_path, capsys, monkeypatch):
     err = capsys.readouterr().err
     assert f"kept in {out / '.microimpact-checkpoint.npz'}" in err
     assert "the same command resumes it" in err
+
+
+def test_too_many_impacts_per_point_are_cut_per_point(tmp_path, capsys):
+    """When the impacts per point, not the points, make the run too long, the
+    message says how many impacts per point fit and names the command's flag:
+    24 points x 10^12 impacts at IMPACTS_PER_S = 2e7 on one worker is 1.2e6 s;
+    an hour holds 3600 * 2e7 / 4 = 1.8e10 impacts per point."""
+    p = _write(tmp_path, SMALL)
+    args = ["run", str(p), "--out", str(tmp_path / "o"), "--samples", "1e12"]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert "4 points (1 surface x 2 speeds x 2 angles) x 1,000,000,000,000" in err
+    assert "cut the impacts to at most about 18,000,000,000 per point" in err
+    assert "per point (--samples)" in err
+    assert "cut the sweep" not in err  # the points are not the problem
+    args = ["convergence", str(p), "--point", "1", "--n-max", "1e12"]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert "1 of 4 points" in err and "(--n-max)" in err and "--workers" not in err
+    # 3600 * 2e7 / 1 point = 7.2e10
+    assert "at most about 72,000,000,000 per point" in err
+
+
+def test_reproduce_checks_each_preset_and_names_it(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main(["reproduce", "--out", str(out), "--samples", "1e12"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("microimpact reproduce: error: preset sst65-silicon-normal:")
+    assert not out.exists()

@@ -139,19 +139,39 @@ def add_yes_option(sp):
     )
 
 
-def check_cost(args, scenario, *, samples=None, out=None, runs=1, outputs=True):
+def check_cost(
+    args,
+    scenario,
+    *,
+    samples=None,
+    out=None,
+    runs=1,
+    outputs=True,
+    simulated=None,
+    samples_flag="--samples",
+    field="sweep",
+):
     """Refuse a run too big for this machine before any work (unless ``--yes``),
-    with the numbers and how to cut it; say what a big one will cost on stderr."""
+    with the numbers and how to cut it; say what a big one will cost on stderr
+    (:func:`~microimpact.engine.footprint.footprint` for the keywords)."""
     # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..engine.footprint import check_footprint, footprint, machine
 
     # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..engine.parallel import available_cores
 
-    fp = footprint(scenario, samples=samples, runs=runs, outputs=outputs)
+    fp = footprint(
+        scenario, samples=samples, runs=runs, outputs=outputs, simulated=simulated
+    )
     workers = min(getattr(args, "workers", 1) or 1, available_cores())
     note = check_footprint(
-        fp, machine(out), workers=workers, yes=getattr(args, "yes", False)
+        fp,
+        machine(out),
+        workers=workers,
+        yes=getattr(args, "yes", False),
+        samples_flag=samples_flag,
+        workers_flag="--workers" if hasattr(args, "workers") else None,
+        field=field,
     )
     if note is not None and not getattr(args, "quiet", False):
         print(f"microimpact: {note}", file=sys.stderr)

@@ -68,6 +68,9 @@ class Footprint:
         Independent replicates per point (QMC sampling), else 1.
     runs : int
         How many times the sweep runs (design rows of a sensitivity study), else 1.
+    simulated : int or None
+        Points that are simulated, where fewer than all (a convergence study of one
+        point plans the whole sweep but runs one point); None: all.
     memory_bytes : int
         Peak memory of the process, about [bytes].
     output_bytes : int
@@ -80,6 +83,7 @@ class Footprint:
     runs: int
     memory_bytes: int
     output_bytes: int
+    simulated: int | None = None
 
     @property
     def points(self) -> int:
@@ -89,7 +93,8 @@ class Footprint:
     @property
     def impacts(self) -> int:
         """Impacts of every run together: the total work."""
-        return self.points * self.impacts_per_point * self.replicates * self.runs
+        n = self.points if self.simulated is None else self.simulated
+        return n * self.impacts_per_point * self.replicates * self.runs
 
     def seconds(self, workers: int = 1) -> float:
         """Rough wall time of the impacts on `workers` workers [s]."""
@@ -115,11 +120,14 @@ class Machine:
     disk_path: Path | None = None
 
 
-def footprint(scenario, *, samples=None, runs=1, outputs=True) -> Footprint:
+def footprint(
+    scenario, *, samples=None, runs=1, outputs=True, simulated=None
+) -> Footprint:
     """The cost of running `scenario` (a
     :class:`~microimpact.scenario.scenario.Scenario`) `runs` times with `samples`
     impacts per point (default: the scenario's, or its precision target's
-    ``max_samples``); `outputs` False: nothing is written per point."""
+    ``max_samples``); `outputs` False: nothing is written per point; `simulated`:
+    how many of the points are simulated, where not all are (all are planned)."""
     if samples is None:
         precision = getattr(scenario, "precision", None)
         samples = precision.max_samples if precision else scenario.samples
@@ -135,7 +143,7 @@ def footprint(scenario, *, samples=None, runs=1, outputs=True) -> Footprint:
     bins = min(samples, MAX_OCCUPIED_BINS) * replicates
     memory = BASE_MEMORY_BYTES + points * (POINT_MEMORY_BYTES + BIN_MEMORY_BYTES * bins)
     output = BASE_OUTPUT_BYTES + points * POINT_OUTPUT_BYTES if outputs else 0
-    return Footprint(shape, samples, replicates, int(runs), memory, output)
+    return Footprint(shape, samples, replicates, int(runs), memory, output, simulated)
 
 
 def _memory_available() -> int | None:
@@ -192,8 +200,9 @@ def describe(fp: Footprint) -> str:
     """ "100,000,000 points (1 surface x 100,000 speeds x 1,000 angles) x 4,000
     impacts", with the runs and replicates where there are several."""
     s, v, a = fp.shape
+    of = "" if fp.simulated is None else f"{fp.simulated:,} of "
     text = (
-        f"{fp.points:,} points ({s:,} surface{'s' * (s != 1)} x {v:,} "
+        f"{of}{fp.points:,} points ({s:,} surface{'s' * (s != 1)} x {v:,} "
         f"speed{'s' * (v != 1)} x {a:,} angle{'s' * (a != 1)}) x "
         f"{fp.impacts_per_point:,} impacts"
     )
@@ -205,7 +214,14 @@ def describe(fp: Footprint) -> str:
 
 
 def check_footprint(
-    fp: Footprint, where: Machine, *, workers: int = 1, yes: bool = False
+    fp: Footprint,
+    where: Machine,
+    *,
+    workers: int = 1,
+    yes: bool = False,
+    samples_flag: str | None = "--samples",
+    workers_flag: str | None = "--workers",
+    field: str = "sweep",
 ) -> str | None:
     """Refuse a run that does not fit `where`, unless `yes`.
 
@@ -222,32 +238,40 @@ def check_footprint(
     Raises
     ------
     InputError
-        With the numbers, what exceeds what, and how to cut the run (``--yes``).
+        With the numbers, what exceeds what, and how to cut the run (``--yes``;
+        `samples_flag` and `workers_flag` name the options that set the impacts
+        per point and the workers, None where the command has none; `field`
+        what the message is about).
     """
-    problems = []
+    problems, size = [], False
     mem, disk = where.memory_available, where.disk_free
     if mem is not None and fp.memory_bytes > MEMORY_SHARE * mem:
+        size = True
         problems.append(
-            f"needs about {size_text(fp.memory_bytes)} of memory "
+            f"it needs about {size_text(fp.memory_bytes)} of memory "
             f"({size_text(mem)} available)"
         )
     if disk is not None and fp.output_bytes > disk:
+        size = True
         problems.append(
-            f"writes about {size_text(fp.output_bytes)} "
+            f"it writes about {size_text(fp.output_bytes)} "
             f"({size_text(disk)} free in {where.disk_path})"
         )
     seconds = fp.seconds(workers)
     if seconds > MAX_UNASKED_S:
+        size = size or fp.simulated is None  # the time grows with the sweep
         problems.append(
-            f"{fp.impacts:.1e} impacts take roughly {_duration_text(seconds)} on "
-            f"{workers} worker{'s' * (workers != 1)}"
+            f"its {fp.impacts:.1e} impacts take roughly {_duration_text(seconds)} "
+            f"on {workers} worker{'s' * (workers != 1)}"
         )
+    flags = (samples_flag, workers_flag)
     if problems and not yes:
         raise InputError(
-            f"the run is too big to start unasked: {describe(fp)}; it "
-            + "; it ".join(problems)
-            + f"; {_how_to_cut(fp, where, workers)}, or pass --yes to start anyway",
-            field="sweep",
+            f"the run is too big to start unasked: {describe(fp)}; "
+            + "; ".join(problems)
+            + f"; {_how_to_cut(fp, where, workers, size, flags)}, or pass --yes to "
+            "start anyway",
+            field=field,
         )
     if problems or fp.points > ANNOUNCE_POINTS:
         cost = [f"about {size_text(fp.memory_bytes)} of memory"]
@@ -259,8 +283,9 @@ def check_footprint(
     return None
 
 
-def _how_to_cut(fp: Footprint, where: Machine, workers: int) -> str:
-    """ "fewer points: at most about N fit (...)"."""
+def _how_to_cut(fp: Footprint, where: Machine, workers, size, flags) -> str:
+    """How far to cut: the most points that fit, and (when time is the limit) the
+    most impacts per point."""
     limits = []
     per_point_mem = (fp.memory_bytes - BASE_MEMORY_BYTES) / fp.points
     if where.memory_available is not None:
@@ -268,13 +293,26 @@ def _how_to_cut(fp: Footprint, where: Machine, workers: int) -> str:
         limits.append(room / per_point_mem)
     if where.disk_free is not None and fp.output_bytes:
         limits.append((where.disk_free - BASE_OUTPUT_BYTES) / POINT_OUTPUT_BYTES)
-    per_point_s = fp.seconds(workers) / fp.points
-    limits.append(MAX_UNASKED_S / per_point_s)
-    most = max(0, int(min(limits)))
-    text = (
-        f"cut the sweep to at most about {most:,} points (fewer speeds or angles in "
-        "[sweep], or split it over several runs)"
-    )
-    if fp.seconds(workers) > MAX_UNASKED_S and fp.impacts_per_point > 100:
-        text += ", fewer impacts per point (--samples), more --workers"
-    return text
+    if fp.simulated is None:  # else the time does not grow with the sweep
+        per_point_s = fp.seconds(workers) / fp.points
+        limits.append(MAX_UNASKED_S / per_point_s)
+    most = int(min(limits))
+    ways = []
+    if size and most >= 1:
+        ways.append(
+            f"cut the sweep to at most about {most:,} points (fewer speeds or angles "
+            "in [sweep], or split it over several runs)"
+        )
+    if fp.seconds(workers) > MAX_UNASKED_S:
+        per_impact_s = fp.seconds(workers) / fp.impacts
+        points = fp.points if fp.simulated is None else fp.simulated
+        impacts = MAX_UNASKED_S / per_impact_s / (points * fp.replicates * fp.runs)
+        samples_flag, workers_flag = flags
+        if impacts >= 1 and samples_flag:
+            ways.append(
+                f"cut the impacts to at most about {int(impacts):,} per point "
+                f"({samples_flag})"
+            )
+        if workers_flag:
+            ways.append(f"use more {workers_flag}")
+    return ", or ".join(ways) if ways else "use a bigger machine"
