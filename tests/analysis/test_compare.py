@@ -233,7 +233,7 @@ def _exp_file(
         (
             "surface,statistic,speed_m_s,angle_deg,mean,ci_low,ci_high",
             "glass,e,1.0,90,0.5,0.4,0.6",
-            "exp.csv:2: surface 'glass' is not simulated; choose one of ['silicon']",
+            "exp.csv:2: surface 'glass' is not simulated; choose one of silicon",
         ),
         (
             "statistic,speed_m_s,angle_deg,mean,ci_low,ci_high",

@@ -134,14 +134,17 @@ def _select(summary, row):
         if len(surfaces) != 1:
             raise _mismatch(
                 row,
-                f": names no surface but the simulation has surfaces {surfaces}; "
+                ": names no surface but the simulation has surfaces "
+                f"{', '.join(map(str, surfaces))}; "
                 "add a `surface` column to the experiments",
             )
         surface = surfaces[0]
     g = summary[summary["surface"] == surface]
     if g.empty:
         raise _mismatch(
-            row, f": surface {surface!r} is not simulated; choose one of {surfaces}"
+            row,
+            f": surface {surface!r} is not simulated; choose one of "
+            f"{', '.join(map(str, surfaces))}",
         )
     axis = []
     for c in _COORDS:

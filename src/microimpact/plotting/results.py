@@ -680,8 +680,8 @@ def plot_distributions(result, *, angle_deg, speed_m_s=None, surface=None, axes=
     if speed_m_s is None:
         if speeds.size != 1:
             raise ValueError(
-                f"`speed_m_s` must be given (one of {speeds.tolist()}) when several "
-                "speeds are simulated; got None."
+                "`speed_m_s` must be given when several speeds are simulated: one "
+                f"of {_listed(speeds)}."
             )
         speed = float(speeds[0])
     else:
