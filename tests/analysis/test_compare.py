@@ -186,7 +186,7 @@ def test_path_input_and_plot(summary, tmp_path):
     assert_allclose(t["z"], [1.0, 2.2], rtol=1e-9)
     assert list(t["line"]) == [2, 3]
     ax = plot_comparison(t)
-    assert "1 of 2 points agree" in ax.get_title()
+    assert "1 of 2 compared points agree" in ax.get_title()
     assert "[–]" in ax.get_xlabel() and "[–]" in ax.get_ylabel()
     with pytest.raises(ValueError, match="compare"):
         plot_comparison(pd.DataFrame({"a": [1]}))
@@ -233,7 +233,7 @@ def _exp_file(
         (
             "surface,statistic,speed_m_s,angle_deg,mean,ci_low,ci_high",
             "glass,e,1.0,90,0.5,0.4,0.6",
-            "exp.csv:2: surface 'glass' is not simulated; choose one of ['silicon']",
+            "exp.csv:2: surface 'glass' is not simulated; choose one of silicon",
         ),
         (
             "statistic,speed_m_s,angle_deg,mean,ci_low,ci_high",
@@ -290,3 +290,132 @@ def test_mismatched_experiments_are_the_users_error_before_any_impact(
         assert main(["compare", str(res_dir), str(path)]) == 2
         assert main(["report", str(res_dir), "--experiments", str(path)]) == 2
         assert not out.exists()
+
+
+# ------------------------------------------------ issue 33: only what was compared
+def _grid(values, se=0.02, speeds=(1.0, 2.0, 3.0), angles=(10.0, 30.0, 50.0)):
+    """A one-surface summary on speeds x angles with e = values(v, a)."""
+    rows = [
+        ("g", v, a, values(v, a), se, 0.1, 0.01, 0.5, 0.4, 0.6)
+        for v in speeds
+        for a in angles
+    ]
+    cols = [
+        "surface",
+        "speed_m_s",
+        "angle_deg",
+        "e_rebound_mean",
+        "e_rebound_se",
+        "mu_mean",
+        "mu_se",
+        "capture_fraction",
+        "capture_ci_low",
+        "capture_ci_high",
+    ]
+    return pd.DataFrame(rows, columns=cols)
+
+
+def test_between_nodes_in_speed_and_angle_is_interpolated_bilinearly():
+    # e = 0.1 v + 0.01 a + 0.002 v a is bilinear: reproduced exactly, and every
+    # second difference along an axis is 0, so the error bound is exactly 0.
+    # At (1.5 m/s, 20 deg): 0.15 + 0.20 + 0.06 = 0.41; four corners of weight
+    # 1/4 with SE 0.02 each: sqrt(4 (0.25 * 0.02)^2) = 0.01.
+    summary = _grid(lambda v, a: 0.1 * v + 0.01 * a + 0.002 * v * a)
+    t = compare(summary, exp_table([("g", 1.5, 20.0, "e", 0.41, 0.01)]))
+    assert_allclose(t.loc[0, "sim_mean"], 0.41, rtol=1e-12)
+    assert_allclose(t.loc[0, "sim_se"], 0.01, rtol=1e-12)
+    assert_allclose(t.loc[0, "interpolation_error"], 0.0, atol=1e-15)
+    assert t.loc[0, "compared"] and t.loc[0, "interpolated"] and t.loc[0, "agree"]
+    note = t.loc[0, "note"]
+    assert "speed_m_s between 1 and 2 and in angle_deg between 10 and 30" in note
+    # an off-centre point: weights 0.75 x 0.25 etc. (1.25 m/s, 45 deg)
+    # e = 0.125 + 0.45 + 0.1125 = 0.6875
+    t = compare(summary, exp_table([("g", 1.25, 45.0, "e", 0.6875, 0.01)]))
+    assert_allclose(t.loc[0, "sim_mean"], 0.6875, rtol=1e-12)
+    w = np.array([0.75 * 0.25, 0.75 * 0.75, 0.25 * 0.25, 0.25 * 0.75])
+    assert_allclose(t.loc[0, "sim_se"], 0.02 * math.sqrt((w**2).sum()), rtol=1e-12)
+
+
+def test_the_interpolation_error_bound_by_hand():
+    # e = v^2 along speed (1, 4, 9 at 1, 2, 3 m/s): at 1.5 m/s linear gives 2.5,
+    # the truth is 2.25; f[1, 2, 3] = 1 so the bound is 1 * 0.5 * 0.5 = 0.25,
+    # here exactly the error (a quadratic's remainder).
+    summary = _grid(lambda v, a: v**2, se=0.001, angles=(30.0,))
+    exp = exp_table(
+        [
+            ("g", 1.5, 30.0, "e", 2.25, 0.001),  # d = 0.25: within the bound
+            ("g", 1.5, 30.0, "e", 2.00, 0.001),  # d = 0.50: beyond noise + bound
+        ]
+    )
+    t = compare(summary, exp)
+    assert_allclose(t["sim_mean"], [2.5, 2.5], rtol=1e-12)
+    assert_allclose(t["interpolation_error"], [0.25, 0.25], rtol=1e-12)
+    assert list(t["agree"]) == [True, False]
+    assert list(t["compared"]) == [True, True]
+    assert "interpolation error at most about 0.25" in t.loc[0, "note"]
+    # at a sweep point there is nothing to interpolate: bound 0
+    t = compare(summary, exp_table([("g", 2.0, 30.0, "e", 4.0, 0.001)]))
+    assert t.loc[0, "interpolation_error"] == 0.0 and not t.loc[0, "interpolated"]
+
+
+def test_with_two_sweep_points_the_bound_is_unknown_and_said():
+    summary = _grid(lambda v, a: v, speeds=(1.0, 2.0), angles=(30.0,))
+    t = compare(summary, exp_table([("g", 1.5, 30.0, "e", 1.5, 0.01)]))
+    assert math.isnan(t.loc[0, "interpolation_error"]) and t.loc[0, "compared"]
+    assert "interpolation error unknown" in t.loc[0, "note"]
+
+
+def test_points_outside_the_sweep_are_not_compared_and_not_disagreeing():
+    summary = _grid(lambda v, a: 0.5)
+    exp = exp_table(
+        [
+            ("g", 5.0, 30.0, "e", 0.5, 0.01),  # beyond the fastest speed
+            ("g", 2.0, 70.0, "e", 0.5, 0.01),  # beyond the largest angle
+            ("g", 2.0, 30.0, "e", 0.9, 0.01),  # compared, disagrees
+        ]
+    )
+    t = compare(summary, exp)
+    assert list(t["compared"]) == [False, False, True]
+    assert list(t["agree"]) == [False, False, False]
+    disagree = t["compared"] & ~t["agree"]
+    assert int(disagree.sum()) == 1
+    assert t.loc[0, "note"].startswith("not compared: speed_m_s = 5 is outside")
+    assert "angle_deg = 70 is outside the simulated range [10, 50]" in t.loc[1, "note"]
+
+
+def test_nothing_compared_draws_no_empty_legend_and_warns_nothing():
+    import warnings
+
+    import matplotlib.pyplot as plt
+
+    t = compare(_grid(lambda v, a: 0.5), exp_table([("g", 9.0, 30.0, "e", 0.5, 0.1)]))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # any library warning fails the test
+        ax = plot_comparison(t)
+    assert "0 of 0 compared points agree" in ax.get_title()
+    assert "1 not compared" in ax.get_title()
+    assert ax.get_legend() is None
+    assert any(x.get_text() == "no point was compared" for x in ax.texts)
+    plt.close("all")
+
+
+def test_cli_compare_counts_only_what_it_compared(tmp_path, capsys):
+    """The issue's case: both points outside the sweep."""
+    from microimpact.cli import main
+
+    summary = _grid(lambda v, a: 0.5)
+    summary.to_csv(tmp_path / "summary.csv", index=False)
+    (tmp_path / "exp.csv").write_text(
+        "surface,speed_m_s,angle_deg,statistic,mean,half_width\n"
+        "g,9,30,e,0.5,0.1\n"
+        "g,2,80,e,0.5,0.1\n"
+    )
+    out = tmp_path / "out"
+    args = ["compare", str(tmp_path / "summary.csv"), str(tmp_path / "exp.csv")]
+    assert main([*args, "--out", str(out)]) == 0
+    captured = capsys.readouterr()
+    assert "agree" not in captured.out.splitlines()[-1]
+    assert "none of the 2 points was compared: no figure is drawn" in captured.out
+    assert "line 2 (e, g, 9 m/s, 30 deg): not compared: speed_m_s = 9" in captured.out
+    assert "warning" not in captured.err.lower()
+    assert (out / "comparison.csv").exists() and not (out / "comparison.png").exists()

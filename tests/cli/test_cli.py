@@ -305,7 +305,7 @@ def test_compare_command(tmp_path, capsys):
         f"{row.e_rebound_mean + 0.05}\n"
     )
     assert main(["compare", str(out), str(exp), "--out", str(tmp_path / "cmp")]) == 0
-    assert "1 of 1 points agree" in capsys.readouterr().out
+    assert "1 of 1 compared points agree" in capsys.readouterr().out
 
 
 def test_presets_command(capsys):

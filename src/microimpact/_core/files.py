@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DataFormatError
+from .progress import stage
 from .validation import did_you_mean
 
 #: Cells that mean "no value" (compared case-insensitively, after stripping).
@@ -534,7 +535,8 @@ def atomic_write(path, write) -> Path:
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     os.close(fd)
     try:
-        write(tmp)
+        with stage(f"writing {path.name}"):  # shown when it takes over a second
+            write(tmp)
         umask = os.umask(0)
         os.umask(umask)
         os.chmod(tmp, 0o666 & ~umask)

@@ -1,12 +1,21 @@
 """One progress convention for every long call: ``progress`` is ``True`` (a tqdm
 bar on stderr), ``False`` (nothing), ``None`` (a bar only when stderr is a terminal)
-or a callable, called as ``progress(done, total)`` after each step."""
+or a callable, called as ``progress(done, total)`` after each step.
+
+Work without a count of its own (the statistics of a run, writing one file) is a
+:func:`stage`: silent unless it takes more than a second, then shown with its
+elapsed time, within a :func:`stages` block that asks for it (the command line
+opens one around each verb)."""
 
 from __future__ import annotations
 
+import contextlib
 import sys
+import threading
+import time
+from contextvars import ContextVar
 
-__all__ = ["Progress", "check_progress"]
+__all__ = ["Progress", "check_progress", "stage", "stages"]
 
 
 def check_progress(progress, field="progress"):
@@ -62,3 +71,109 @@ class Progress:
 
     def __exit__(self, *exc):
         self.close()
+
+
+# ------------------------------------------------------------------ stages
+#: A stage shows itself once it has taken this long [s]; quicker ones stay silent.
+STAGE_DELAY_S = 1.0
+#: While it shows, a stage's elapsed time is refreshed this often [s].
+STAGE_REFRESH_S = 1.0
+
+_STAGES: ContextVar = ContextVar("microimpact_stages", default=False)
+_IN_STAGE: ContextVar = ContextVar("microimpact_in_stage", default=False)
+
+
+@contextlib.contextmanager
+def stages(progress):
+    """Within this block, every :func:`stage` is shown as `progress` asks (the
+    convention of this module; a callable is called as ``progress(desc, None)``
+    when a stage starts and ``progress(desc, seconds)`` when it ends). Outside
+    any such block stages are silent, so the library prints nothing of its own."""
+    token = _STAGES.set(check_progress(progress))
+    try:
+        yield
+    finally:
+        _STAGES.reset(token)
+
+
+@contextlib.contextmanager
+def stage(desc):
+    """One step of work without a count of its own (the statistics of a run, the
+    writing of one file): once it has run :data:`STAGE_DELAY_S`, its name and
+    elapsed time are shown on stderr (refreshed every :data:`STAGE_REFRESH_S`)
+    until it ends, within a :func:`stages` block that asks for it."""
+    progress = _STAGES.get()
+    if progress is None:
+        progress = sys.stderr.isatty()
+    if progress is False or _IN_STAGE.get():  # a stage within a stage is its part
+        yield
+        return
+    token = _IN_STAGE.set(True)
+    try:
+        with _shown(desc, progress):
+            yield
+    finally:
+        _IN_STAGE.reset(token)
+
+
+@contextlib.contextmanager
+def _shown(desc, progress):
+    t0 = time.perf_counter()
+    if callable(progress) and not isinstance(progress, bool):
+        progress(desc, None)
+        try:
+            yield
+        finally:
+            progress(desc, time.perf_counter() - t0)
+        return
+    ticker = _Ticker(desc, t0, tty=sys.stderr.isatty())
+    ticker.start()
+    ok = False
+    try:
+        yield
+        ok = True
+    finally:
+        ticker.finish(ok)
+
+
+class _Ticker(threading.Thread):
+    """Shows a running stage on stderr: on a terminal one line rewritten with the
+    elapsed time; elsewhere (a log) one line when it shows and one when it ends."""
+
+    def __init__(self, desc, t0, *, tty):
+        super().__init__(daemon=True)
+        self.desc, self.t0, self.tty = desc, t0, tty
+        self.done = threading.Event()
+        self.shown = False
+        self.lock = threading.Lock()
+
+    def run(self):
+        if self.done.wait(STAGE_DELAY_S):
+            return
+        while True:
+            with self.lock:
+                if self.done.is_set():
+                    return
+                self._show()
+            if self.done.wait(STAGE_REFRESH_S):
+                return
+
+    def _show(self):
+        elapsed = time.perf_counter() - self.t0
+        if self.tty:
+            sys.stderr.write(f"\r{self.desc}: {elapsed:.0f} s ")
+        elif not self.shown:
+            sys.stderr.write(f"{self.desc} ...\n")
+        sys.stderr.flush()
+        self.shown = True
+
+    def finish(self, ok=True):
+        with self.lock:
+            self.done.set()
+            if self.shown:
+                elapsed = time.perf_counter() - self.t0
+                end = "\r" if self.tty else ""
+                how = "done in" if ok else "stopped after"
+                sys.stderr.write(f"{end}{self.desc}: {how} {elapsed:.1f} s\n")
+                sys.stderr.flush()
+        self.join()

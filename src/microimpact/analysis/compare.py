@@ -134,14 +134,17 @@ def _select(summary, row):
         if len(surfaces) != 1:
             raise _mismatch(
                 row,
-                f": names no surface but the simulation has surfaces {surfaces}; "
+                ": names no surface but the simulation has surfaces "
+                f"{', '.join(map(str, surfaces))}; "
                 "add a `surface` column to the experiments",
             )
         surface = surfaces[0]
     g = summary[summary["surface"] == surface]
     if g.empty:
         raise _mismatch(
-            row, f": surface {surface!r} is not simulated; choose one of {surfaces}"
+            row,
+            f": surface {surface!r} is not simulated; choose one of "
+            f"{', '.join(map(str, surfaces))}",
         )
     axis = []
     for c in _COORDS:
@@ -163,37 +166,106 @@ def _select(summary, row):
     return surface, g, axis
 
 
-def _interpolate(g, axis, x, col, se_col):
-    """Linear interpolation of an estimate and its SE at ``axis = x``."""
-    g = g.sort_values(axis)
-    v = g[axis].to_numpy(dtype=float)
-    m = g[col].to_numpy(dtype=float)
-    s = g[se_col].to_numpy(dtype=float)
-    if v.size < 2 or not v[0] < x < v[-1]:
-        return (
-            math.nan,
-            math.nan,
-            (
-                f"{axis} = {x:g} is outside the simulated range "
-                f"[{v.min():g}, {v.max():g}]; not extrapolated"
-            ),
+def _bracket(values, x, axis):
+    """Index ``i`` with ``values[i] < x < values[i + 1]``, or the reason there is
+    none (the point lies outside the sweep: never extrapolated)."""
+    if values.size < 2 or not values[0] < x < values[-1]:
+        return None, (
+            f"{axis} = {x:g} is outside the simulated range "
+            f"[{values.min():g}, {values.max():g}]; not extrapolated"
         )
-    i = int(np.searchsorted(v, x)) - 1
-    missing = [v[j] for j in (i, i + 1) if math.isnan(m[j])]
+    return int(np.searchsorted(values, x)) - 1, ""
+
+
+def _linear_error(v, m, i, x):
+    """Bound of the error of linear interpolation between ``v[i]`` and ``v[i+1]``
+    at `x`: ``|f''|/2 (x - v_i)(v_{i+1} - x)`` (the Lagrange remainder), with
+    ``f''/2`` taken as the largest second divided difference of the neighbouring
+    triples ``(i-1, i, i+1)`` and ``(i, i+1, i+2)``; NaN where the axis has no
+    third point to tell the curvature."""
+    curvatures = []
+    for a in (i - 1, i):
+        if a < 0 or a + 2 >= v.size:
+            continue
+        f0, f1, f2 = m[a : a + 3]
+        d01 = (f1 - f0) / (v[a + 1] - v[a])
+        d12 = (f2 - f1) / (v[a + 2] - v[a + 1])
+        curvatures.append(abs((d12 - d01) / (v[a + 2] - v[a])))  # f[a, a+1, a+2]
+    curvatures = [c for c in curvatures if math.isfinite(c)]
+    if not curvatures:
+        return math.nan
+    return max(curvatures) * (x - v[i]) * (v[i + 1] - x)
+
+
+def _interpolate(g, axes, coords, col, se_col):
+    """Linear (one axis) or bilinear (speed and angle) interpolation of an estimate
+    and its SE at `coords`, with the interpolation's error bound.
+
+    Returns ``(mean, se, error_bound, note)``; `mean` is NaN where the point lies
+    outside the sweep or a neighbouring point has no value (`note` says why)."""
+    if len(axes) == 1:
+        (axis,) = axes
+        g = g.sort_values(axis)
+        v = g[axis].to_numpy(dtype=float)
+        m, s = g[col].to_numpy(dtype=float), g[se_col].to_numpy(dtype=float)
+        i, why = _bracket(v, coords[axis], axis)
+        if i is None:
+            return math.nan, math.nan, math.nan, why
+        corners = {(i,): m[i], (i + 1,): m[i + 1]}
+        w = (v[i + 1] - coords[axis]) / (v[i + 1] - v[i])  # weight of the lower
+        weights = {(i,): w, (i + 1,): 1.0 - w}
+        ses = {(i,): s[i], (i + 1,): s[i + 1]}
+        error = _linear_error(v, m, i, coords[axis])
+        between = f"interpolated in {axis} between {v[i]:g} and {v[i + 1]:g}"
+        at = {(j,): f"{axis} = {v[j]:g}" for j in (i, i + 1)}
+    else:
+        vs, va = (np.unique(g[a].to_numpy(dtype=float)) for a in axes)
+        means = np.full((vs.size, va.size), np.nan)
+        sds = np.full((vs.size, va.size), np.nan)
+        j = np.searchsorted(vs, g[axes[0]].to_numpy(dtype=float))
+        k = np.searchsorted(va, g[axes[1]].to_numpy(dtype=float))
+        means[j, k] = g[col].to_numpy(dtype=float)
+        sds[j, k] = g[se_col].to_numpy(dtype=float)
+        (i, why_s), (j, why_a) = (
+            _bracket(vs, coords[axes[0]], axes[0]),
+            _bracket(va, coords[axes[1]], axes[1]),
+        )
+        if i is None or j is None:
+            return math.nan, math.nan, math.nan, why_s or why_a
+        ws = (vs[i + 1] - coords[axes[0]]) / (vs[i + 1] - vs[i])
+        wa = (va[j + 1] - coords[axes[1]]) / (va[j + 1] - va[j])
+        weights, corners, ses, at = {}, {}, {}, {}
+        for a, wa_ in ((i, ws), (i + 1, 1 - ws)):
+            for b, wb_ in ((j, wa), (j + 1, 1 - wa)):
+                weights[a, b] = wa_ * wb_
+                corners[a, b], ses[a, b] = means[a, b], sds[a, b]
+                at[a, b] = f"{axes[0]} = {vs[a]:g}, {axes[1]} = {va[b]:g}"
+        # the bilinear error is at most the sum of the linear errors along each
+        # axis (on the two grid lines that bound the cell)
+        e_s = [_linear_error(vs, means[:, b], i, coords[axes[0]]) for b in (j, j + 1)]
+        e_a = [_linear_error(va, means[a, :], j, coords[axes[1]]) for a in (i, i + 1)]
+        known = not np.isnan(e_s + e_a).any()
+        error = max(e_s) + max(e_a) if known else math.nan
+        between = (
+            f"interpolated in {axes[0]} between {vs[i]:g} and {vs[i + 1]:g} and in "
+            f"{axes[1]} between {va[j]:g} and {va[j + 1]:g}"
+        )
+    missing = [at[k] for k, value in corners.items() if math.isnan(value)]
     if missing:  # e.g. e of rebounds at a fully captured speed
-        at = " and ".join(f"{axis} = {a:g}" for a in missing)
         return (
             math.nan,
             math.nan,
-            (
-                f"no simulated value at {at} ({col} is NaN there, e.g. no rebounds); "
-                f"not interpolated"
-            ),
+            math.nan,
+            f"no simulated value at {' and '.join(missing)} ({col} is NaN there, "
+            "e.g. no rebounds); not interpolated",
         )
-    w = (v[i + 1] - x) / (v[i + 1] - v[i])  # weight of the lower point
-    mean = w * m[i] + (1.0 - w) * m[i + 1]
-    se = math.sqrt((w * s[i]) ** 2 + ((1.0 - w) * s[i + 1]) ** 2)
-    return mean, se, f"interpolated in {axis} between {v[i]:g} and {v[i + 1]:g}"
+    mean = sum(weights[k] * corners[k] for k in corners)
+    se = math.sqrt(sum((weights[k] * ses[k]) ** 2 for k in corners))
+    if math.isnan(error):
+        note = f"{between}; interpolation error unknown (no third sweep point)"
+    else:
+        note = f"{between}; interpolation error at most about {error:.2g}"
+    return mean, se, error, note
 
 
 def compare(summary_or_result, experiments, *, confidence=0.95):
@@ -218,20 +290,30 @@ def compare(summary_or_result, experiments, *, confidence=0.95):
         One row per experimental point: ``surface``, ``speed_m_s``, ``angle_deg``,
         ``statistic``, ``exp_mean``, ``exp_ci_low``, ``exp_ci_high``, ``exp_se``,
         ``sim_mean``, ``sim_se``, ``sim_ci_low``, ``sim_ci_high``
-        (``sim_mean ± z_c sim_se``), ``interpolated`` (bool), ``difference``
-        (simulated minus experimental), ``combined_se``, ``z``, ``agree`` (bool),
-        ``note`` (how the simulated value was obtained, or why it is missing) and
-        ``line``. Where the point lies outside the simulated sweep the simulated
-        columns are NaN and ``agree`` is False.
+        (``sim_mean ± z_c sim_se``), ``interpolated`` (bool),
+        ``interpolation_error`` (the bound of the interpolation's error: 0 at a
+        sweep point, NaN where unknown), ``compared`` (bool: the point had a
+        simulated value), ``difference`` (simulated minus experimental),
+        ``combined_se``, ``z``, ``agree`` (bool), ``note`` (how the simulated value
+        was obtained, or why the point was not compared) and ``line``. Where the
+        point lies outside the simulated sweep, or a neighbouring sweep point has
+        no value, the simulated columns are NaN, ``compared`` is False and so is
+        ``agree``: count disagreement as ``compared & ~agree``, never ``~agree``.
 
     Notes
     -----
-    ``agree`` is ``|difference| <= z_c * combined_se`` with
+    ``agree`` is ``|difference| <= z_c * combined_se + interpolation_error`` with
     ``combined_se = sqrt(sim_se² + exp_se²)`` and ``z_c`` the two-sided normal
     quantile of `confidence`. Interpolating between sweep points ``a`` and ``b``
     with weight ``w`` on ``a`` gives ``w m_a + (1 - w) m_b`` and standard error
-    ``sqrt(w² s_a² + (1 - w)² s_b²)`` (independent points); the error of the
-    linear interpolation itself is not included.
+    ``sqrt(w² s_a² + (1 - w)² s_b²)`` (independent points); a point between sweep
+    points in both speed and angle is interpolated bilinearly from the four
+    corners of its cell, the weights the products of the two axes' weights.
+    The interpolation's error bound is the Lagrange remainder
+    ``|f''| / 2 (x - a)(b - x)`` with ``|f''| / 2`` the largest second divided
+    difference of the neighbouring sweep points (bilinear: the sum of the two
+    axes' bounds); it needs a third sweep point on the axis, else it is NaN and
+    the note says it is unknown.
     """
     # deferred: pandas loads only where a table is made (import time)
     import pandas as pd
@@ -263,7 +345,7 @@ def compare(summary_or_result, experiments, *, confidence=0.95):
             )
         surface, g, axis = _select(summary, row)
         coords = {c: float(row[c]) for c in _COORDS}
-        interpolated = False
+        error = 0.0
         if not axis:
             if len(g) != 1:
                 raise _mismatch(
@@ -274,28 +356,33 @@ def compare(summary_or_result, experiments, *, confidence=0.95):
             sim, sim_se, note = float(g[col].iloc[0]), float(g[se_col].iloc[0]), ""
             for c in _COORDS:
                 coords[c] = float(g[c].iloc[0])
-        elif len(axis) == 2:
-            sim, sim_se = math.nan, math.nan
-            note = "between sweep points in both speed and angle; not interpolated"
         else:
-            (ax_name,) = axis
-            other = next(c for c in _COORDS if c != ax_name)
-            if np.unique(g[other].to_numpy(dtype=float)).size != 1:
-                raise _mismatch(row, f": matches several {other} values; give {other}")
-            coords[other] = float(g[other].iloc[0])
-            sim, sim_se, note = _interpolate(g, ax_name, coords[ax_name], col, se_col)
-            interpolated = not math.isnan(sim)
+            if len(axis) == 1:
+                other = next(c for c in _COORDS if c != axis[0])
+                if np.unique(g[other].to_numpy(dtype=float)).size != 1:
+                    raise _mismatch(
+                        row, f": matches several {other} values; give {other}"
+                    )
+                coords[other] = float(g[other].iloc[0])
+            sim, sim_se, error, note = _interpolate(g, axis, coords, col, se_col)
+        interpolated = bool(axis) and not math.isnan(sim)
         if math.isnan(sim) and not note:
             note = f"no simulated value ({col} is NaN)"
+        compared = not math.isnan(sim)
+        if not compared:
+            note = f"not compared: {note}"
         d = sim - float(row["mean"])
         comb = math.hypot(sim_se, float(row["se"]))
-        if math.isnan(d) or math.isnan(comb):
+        if not compared or math.isnan(comb):
             z = math.nan  # no simulated value: nothing to test
         elif comb > 0:
             z = d / comb
         else:
             z = 0.0 if d == 0 else math.copysign(math.inf, d)
-        agree = bool(abs(d) <= zc * comb) if not math.isnan(d) else False
+        # the interpolation's error bound widens the tolerance (a bias, not noise);
+        # an unknown bound (two sweep points on the axis) is said in the note
+        tolerance = zc * comb + (error if math.isfinite(error) else 0.0)
+        agree = bool(compared and abs(d) <= tolerance)
         rows.append(
             {
                 "surface": surface,
@@ -310,6 +397,8 @@ def compare(summary_or_result, experiments, *, confidence=0.95):
                 "sim_ci_low": sim - zc * sim_se,
                 "sim_ci_high": sim + zc * sim_se,
                 "interpolated": interpolated,
+                "interpolation_error": error,
+                "compared": compared,
                 "difference": d,
                 "combined_se": comb,
                 "z": z,
@@ -361,4 +450,5 @@ def check_experiments(scenario, experiments):
     for k, note in enumerate(table["note"]):
         if not math.isnan(table["sim_mean"].iloc[k]):
             continue
+        note = note.removeprefix("not compared: ")
         raise _mismatch(exp.iloc[k], f": {note}; the sweep cannot serve it")

@@ -11,7 +11,8 @@ and turns exceptions into one-line messages and exit codes (see
   pipe, out of memory): exit 3, naming the path and the cause;
 * anything else is a bug of ours: exit 1, with the traceback saved to a file
   (``MICROIMPACT_DEBUG=1`` re-raises it instead);
-* Ctrl-C exits 130 and SIGTERM 143, each after the checkpoint is saved.
+* Ctrl-C exits 130 and SIGTERM 143, each after the checkpoint is saved; the
+  message names the checkpoint only where one exists.
 """
 
 from __future__ import annotations
@@ -25,8 +26,10 @@ import sys
 import tempfile
 import traceback
 import warnings
+from pathlib import Path
 
 from .. import __version__
+from .._core.progress import stages
 from ..errors import InputError, ScenarioErrors, _one_line
 from ._common import (
     EXIT_ENVIRONMENT,
@@ -130,6 +133,38 @@ def _save_traceback(command) -> str:
     return path
 
 
+def _checkpoints(command, args) -> list[Path]:
+    """The checkpoints that `command` keeps and that exist now."""
+    # deferred: only an interrupted run needs the name
+    from ..pipeline.folder import CHECKPOINT_NAME
+
+    out = getattr(args, "out", None)
+    if out is None:
+        return []
+    out = Path(out)
+    if command == "run":
+        found = [out / CHECKPOINT_NAME]
+    elif command == "reproduce":
+        found = sorted(out.glob(f"*/{CHECKPOINT_NAME}"))
+    elif command == "wall-law":
+        folder = out / _verb(command).CHECKPOINT_DIR
+        found = [folder] if folder.is_dir() and any(folder.iterdir()) else []
+    else:
+        return []
+    return [p for p in found if p.exists()]
+
+
+def _kept(command, args) -> str:
+    """What an interrupted `command` kept: only a checkpoint that exists, by path."""
+    if command not in ("run", "reproduce", "wall-law"):
+        return "nothing was kept (this command keeps no checkpoint)"
+    found = _checkpoints(command, args)
+    if not found:
+        return "no work had finished, so no checkpoint was kept; nothing to resume"
+    where = ", ".join(str(p) for p in found)
+    return f"finished work is kept in {where}; the same command resumes it"
+
+
 def main(argv=None) -> int:
     """Entry point of the ``microimpact`` command; returns the exit code."""
     parser = build_parser()
@@ -147,7 +182,8 @@ def main(argv=None) -> int:
     try:
         with warnings.catch_warnings():  # restores the default printer after
             warnings.showwarning = _warning_printer(command)
-            return _verb(command).cli_action(args)
+            with stages(False if getattr(args, "quiet", False) else None):
+                return _verb(command).cli_action(args)
     except ScenarioErrors as err:  # every problem of the file, one per line
         print(f"microimpact {command}: error: {err}", file=sys.stderr)
         return EXIT_USER
@@ -161,20 +197,10 @@ def main(argv=None) -> int:
             )
         print(f"microimpact {command}: error: {_one_line(err)}", file=sys.stderr)
         return EXIT_USER
-    except Terminated:
-        print(
-            "terminated; finished work is kept in the checkpoint and a re-run "
-            "resumes it",
-            file=sys.stderr,
-        )
-        return EXIT_TERMINATED
-    except KeyboardInterrupt:
-        print(
-            "interrupted; finished work is kept in the checkpoint and a re-run "
-            "resumes it",
-            file=sys.stderr,
-        )
-        return EXIT_INTERRUPTED
+    except KeyboardInterrupt as err:
+        what = "terminated" if isinstance(err, Terminated) else "interrupted"
+        print(f"{what}; {_kept(command, args)}", file=sys.stderr)
+        return EXIT_TERMINATED if isinstance(err, Terminated) else EXIT_INTERRUPTED
     except (OSError, MemoryError) as err:
         message = _environment_message(err)
         if isinstance(err, BrokenPipeError):  # nothing more can be printed there

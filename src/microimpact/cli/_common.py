@@ -118,6 +118,7 @@ def add_run_options(sp, *, seed_help="root seed (overrides the file)"):
         "process for the compiled kernel, else processes",
     )
     add_backend_options(sp)
+    add_yes_option(sp)
     sp.add_argument("--quiet", action="store_true", help="no progress bar or summary")
     sp.add_argument(
         "--formats",
@@ -126,6 +127,54 @@ def add_run_options(sp, *, seed_help="root seed (overrides the file)"):
         help="figure formats, e.g. png,pdf (default: the scenario's "
         "[outputs] figures, else png,pdf)",
     )
+
+
+def add_yes_option(sp):
+    """``--yes``: start a run too big for this machine (see :func:`check_cost`)."""
+    sp.add_argument(
+        "--yes",
+        action="store_true",
+        help="start even a run whose memory, files or time exceed what this machine "
+        "has (it is refused otherwise, with the numbers)",
+    )
+
+
+def check_cost(
+    args,
+    scenario,
+    *,
+    samples=None,
+    out=None,
+    runs=1,
+    outputs=True,
+    simulated=None,
+    samples_flag="--samples",
+    field="sweep",
+):
+    """Refuse a run too big for this machine before any work (unless ``--yes``),
+    with the numbers and how to cut it; say what a big one will cost on stderr
+    (:func:`~microimpact.engine.footprint.footprint` for the keywords)."""
+    # deferred: the verb's library loads only when the verb runs (fast --help)
+    from ..engine.footprint import check_footprint, footprint, machine
+
+    # deferred: the verb's library loads only when the verb runs (fast --help)
+    from ..engine.parallel import available_cores
+
+    fp = footprint(
+        scenario, samples=samples, runs=runs, outputs=outputs, simulated=simulated
+    )
+    workers = min(getattr(args, "workers", 1) or 1, available_cores())
+    note = check_footprint(
+        fp,
+        machine(out),
+        workers=workers,
+        yes=getattr(args, "yes", False),
+        samples_flag=samples_flag,
+        workers_flag="--workers" if hasattr(args, "workers") else None,
+        field=field,
+    )
+    if note is not None and not getattr(args, "quiet", False):
+        print(f"microimpact: {note}", file=sys.stderr)
 
 
 def add_backend_options(sp):
@@ -309,7 +358,11 @@ def announce(args, scenario, *, samples=None):
     )
     if points * per_point <= QUICK_IMPACTS and points <= QUICK_POINTS:
         return  # surely well under the announcement threshold: no pilot timing
-    seconds = estimate_duration(scenario, samples=samples, workers=workers)
+    # deferred: the verb's library loads only when the verb runs (fast --help)
+    from .._core.progress import stage
+
+    with stage("timing a calibration batch"):  # plans the sweep: ~4 s at 10^6
+        seconds = estimate_duration(scenario, samples=samples, workers=workers)
     if seconds is not None and seconds > ANNOUNCE_AFTER_S:
         print(
             "microimpact: the simulation is expected to take about "

@@ -49,6 +49,7 @@ def cli_parse(sp):
         help="workers for the model runs (default 1; capped at the cores)",
     )
     c.add_backend_options(sp)
+    c.add_yes_option(sp)
     sp.add_argument("--no-figures", action="store_true", help="write no figure")
     sp.add_argument("--quiet", action="store_true", help="print nothing but errors")
 
@@ -66,6 +67,7 @@ def cli_action(args) -> int:
 
             raise InputError(f"{key!r} is given twice", field="--parameter")
         parameters[key] = bounds
+    _check_cost(args)
     t0 = time.perf_counter()
     with c.executor_of(args) as executor:
         result = calibrate(
@@ -97,3 +99,17 @@ def cli_action(args) -> int:
             + f"; {time.perf_counter() - t0:.1f} s -> {args.out}"
         )
     return c.EXIT_OK
+
+
+def _check_cost(args):
+    """One model run's cost before any (the search runs the model many times; each
+    run is checked for memory and files, the search's length is its own)."""
+    # deferred: the verb's library loads only when the verb runs (fast --help)
+    from ..errors import InputError
+    from ..scenario.scenario import read_scenario
+
+    try:
+        scenario = read_scenario(args.scenario).scenario
+    except InputError:
+        return  # calibrate reads the file again and says what is wrong with it
+    c.check_cost(args, scenario, samples=args.samples, outputs=False)

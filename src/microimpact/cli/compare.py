@@ -30,17 +30,25 @@ def cli_action(args) -> int:
     exp = read_experiments(args.experiment)
     table = compare(summary, exp, confidence=args.confidence)
     print(table.to_string(index=False))
-    n_agree = int(table["agree"].sum())
-    print(
-        f"{n_agree} of {len(table)} points agree at the "
-        f"{args.confidence:.0%} confidence level"
-    )
-    if args.out is not None:
-        c.write_outputs(
-            args.out,
-            tables={"comparison.csv": table},
-            figures={"comparison": lambda: plot_comparison(table)},
+    compared = table["compared"]
+    n_agree = int((table["agree"] & compared).sum())
+    n_compared = int(compared.sum())
+    if n_compared:
+        print(
+            f"{n_agree} of {n_compared} compared points agree at the "
+            f"{args.confidence:.0%} confidence level"
         )
+    for _, row in table[~compared].iterrows():
+        print(
+            f"line {row['line']} ({row['statistic']}, {row['surface']}, "
+            f"{row['speed_m_s']:g} m/s, {row['angle_deg']:g} deg): "
+            f"{row['note']}"
+        )
+    if not n_compared:
+        print(f"none of the {len(table)} points was compared: no figure is drawn")
+    if args.out is not None:
+        figures = {"comparison": lambda: plot_comparison(table)} if n_compared else {}
+        c.write_outputs(args.out, tables={"comparison.csv": table}, figures=figures)
     return c.EXIT_OK
 
 

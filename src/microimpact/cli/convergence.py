@@ -21,6 +21,7 @@ def cli_parse(sp):
     sp.add_argument("--n-max", type=c.count, default=20_000)
     sp.add_argument("--tolerance", type=c.fraction, default=0.03)
     sp.add_argument("--seed", type=c.nonneg_int)
+    c.add_yes_option(sp)
 
 
 def cli_action(args) -> int:
@@ -43,6 +44,7 @@ def cli_action(args) -> int:
     point = args.point
     n_points = SweepGrid.from_scenario(scenario).size
     if point is None:  # the point nearest 50 % capture in a quick pilot
+        c.check_cost(args, scenario, samples=1000, outputs=False, samples_flag=None)
         pilot = run(scenario, samples=1000, seed=args.seed, progress=False).summary
         frac = pilot["capture_fraction"]
         point = int((frac - 0.5).abs().to_numpy().argmin())
@@ -57,6 +59,15 @@ def cli_action(args) -> int:
         raise InputError(
             f"must be < {n_points} (the number of sweep points)", field="--point"
         )
+    # the study plans the whole sweep and runs one point
+    c.check_cost(
+        args,
+        scenario,
+        samples=args.n_max,
+        outputs=False,
+        simulated=1,
+        samples_flag="--n-max",
+    )
     res = convergence_study(
         scenario,
         point=point,

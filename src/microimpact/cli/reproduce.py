@@ -24,8 +24,20 @@ def cli_action(args) -> int:
     # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..pipeline.study import reproduce
 
+    # deferred: the verb's library loads only when the verb runs (fast --help)
+    from ..scenario.file import PAPER_PRESETS
+    from ..scenario.scenario import Scenario
+
     t0 = time.perf_counter()
     samples = args.samples or (1000 if args.quick else None)
+    for name in PAPER_PRESETS:  # each preset's cost before any runs
+        c.check_cost(
+            args,
+            Scenario.from_preset(name),
+            samples=samples,
+            out=args.out,
+            field=f"preset {name}",
+        )
     studies = reproduce(
         args.out, samples=samples, figures=args.formats, **c.run_options(args)
     )

@@ -35,11 +35,18 @@ def cli_parse(sp):
 
 def cli_action(args) -> int:
     # deferred: the verb's library loads only when the verb runs (fast --help)
-    from ..pipeline.study import Study
+    from ..scenario.scenario import read_scenario
 
     t0 = time.perf_counter()
-    study = Study(args.scenario)
-    study.scenario, study.outputs = _apply_flags(args, study)
+    file = read_scenario(args.scenario)  # read once, here
+    scenario, outputs = _apply_flags(args, file)
+    # the cost is checked before the pipeline (xarray, matplotlib) is even loaded
+    c.check_cost(args, scenario, samples=args.samples, out=args.out)
+
+    # deferred: the verb's library loads only when the verb runs (fast --help)
+    from ..pipeline.study import Study
+
+    study = Study(scenario, outputs=outputs)
     c.announce(args, study.scenario, samples=args.samples)
     study.execute(
         args.out,
@@ -62,7 +69,8 @@ def cli_action(args) -> int:
 
 
 def _apply_flags(args, study):
-    """The scenario and outputs after --precision, --formats, --no-figures."""
+    """The scenario and outputs (of a study or a scenario file) after
+    --precision, --formats, --no-figures."""
 
     # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..errors import InputError

@@ -121,6 +121,7 @@ def cli_action(args) -> int:
     from ..analysis.sensitivity import sobol_sensitivity
 
     parameters = dict(args.parameter) if args.parameter else None
+    _check_cost(args, parameters)
     t0 = time.perf_counter()
     last = [0.0]
 
@@ -154,6 +155,20 @@ def cli_action(args) -> int:
     if not args.quiet:
         _print_top(result)
     return c.EXIT_OK
+
+
+def _check_cost(args, parameters):
+    """The study's cost before any run: the sweep, n * (d + 2) times."""
+    # deferred: the verb's library loads only when the verb runs (fast --help)
+    from ..scenario.scenario import read_scenario
+    from ..scenario.sensitivity import DEFAULT_BASE_SIZE
+
+    file = read_scenario(args.scenario)
+    settings = file.sensitivity
+    n = args.base_size or (settings.base_size if settings else DEFAULT_BASE_SIZE)
+    d = len(parameters or (settings.parameters if settings else {}))
+    runs = n * (d + 2) if d else 1
+    c.check_cost(args, file.scenario, samples=args.samples, runs=runs, outputs=False)
 
 
 def _print_top(result):

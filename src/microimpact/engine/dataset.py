@@ -535,6 +535,51 @@ def encoding(ds) -> dict:
     return out
 
 
+#: The variable of the surface names in the files: a CF auxiliary coordinate (CF
+#: 1.10 §5), while the dimension coordinate ``surface`` holds the surfaces' index
+#: (§1.3: coordinate variables are numeric and strictly monotonic).
+SURFACE_NAME = "surface_name"
+
+
+def surfaces_to_cf(ds):
+    """`ds` as it is written: the string ``surface`` coordinate becomes the index
+    ``0 .. n-1`` and the names move to the auxiliary coordinate ``surface_name``
+    (a Dataset without string surfaces is returned as it is)."""
+    if "surface" not in ds.dims or ds["surface"].dtype.kind not in "OUS":
+        return ds
+    names = np.array([str(s) for s in ds["surface"].values], dtype=object)
+    attrs = dict(ds["surface"].attrs)
+    long_name = attrs.pop("long_name", "surface variant")
+    out = ds.drop_vars("surface")
+    return out.assign_coords(
+        surface=(
+            "surface",
+            np.arange(names.size, dtype=np.int32),
+            {**attrs, "long_name": f"{long_name} index", "units": "1"},
+        ),
+        **{SURFACE_NAME: ("surface", names, {"long_name": f"{long_name} name"})},
+    )
+
+
+def surfaces_from_cf(ds):
+    """`ds` as it is used: the surfaces' names as the ``surface`` coordinate, so that
+    ``ds.sel(surface="formica")`` works. Reads both forms: the names in the
+    ``surface_name`` auxiliary coordinate (files since 0.1.0 of issue 33) or in
+    ``surface`` itself (older files)."""
+    if SURFACE_NAME not in ds.variables or "surface" not in ds.dims:
+        return ds
+    names = np.array([str(s) for s in ds[SURFACE_NAME].values], dtype=object)
+    attrs = {
+        k: v for k, v in ds["surface"].attrs.items() if k not in ("units", "long_name")
+    }
+    long_name = str(ds[SURFACE_NAME].attrs.get("long_name", "surface variant name"))
+    long_name = long_name.removesuffix(" name")
+    out = ds.drop_vars([SURFACE_NAME, "surface"], errors="ignore")
+    return out.assign_coords(
+        surface=("surface", names, {**attrs, "long_name": long_name})
+    )
+
+
 def history_line(command: str) -> str:
     """A CF ``history`` entry: the UTC time and what wrote the file."""
     now = _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")

@@ -35,7 +35,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .._core.progress import Progress, check_progress
+from .._core.progress import Progress, check_progress, stage
 from .._core.validation import check_choice, check_int
 from ..errors import ConvergenceWarning, InputError
 from ..scenario.scenario import as_scenario
@@ -427,7 +427,10 @@ class _Job:
                 self.workers_requested, backend=backend, address=address
             )
         self.samples = samples
-        self.plan = build_plan(scenario, seed=seed) if plan is None else plan
+        if plan is None:
+            with stage("planning the sweep"):  # ~3 s at 10^6 points
+                plan = build_plan(scenario, seed=seed)
+        self.plan = plan
         self.precision = scenario.precision if samples is None else None
         n_target = samples if samples is not None else scenario.samples
         self.streams = _Streams(

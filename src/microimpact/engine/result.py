@@ -24,6 +24,7 @@ import numpy as np
 from .._core.files import atomic_write
 from .._core.json import dumps as json_dumps
 from .._core.json import restore_nonfinite
+from .._core.progress import stage
 from .._core.validation import check_choice
 from ..errors import InputError
 from ..scenario.grid import DIMS, SweepGrid
@@ -41,6 +42,8 @@ from .dataset import (
     point_histogram,
     summary_frame,
     summary_frame_of,
+    surfaces_from_cf,
+    surfaces_to_cf,
 )
 from .kernel import KERNEL
 from .plan import BLOCK_SIZE
@@ -335,6 +338,33 @@ class SimulationResult:
         replicate) as the rows of a :class:`~.summary.Stacked` (point-major: row
         ``point * replicates + replicate``); otherwise as :meth:`from_accumulators`.
         `prepared` is :meth:`prepare`'s value for `scenario` (computed if None)."""
+        with stage(f"statistics of {len(plan.points):,} sweep points"):
+            return cls._from_stacked(
+                scenario,
+                plan,
+                stacked,
+                elapsed=elapsed,
+                samples=samples,
+                workers=workers,
+                backend=backend,
+                provenance=provenance,
+                prepared=prepared,
+            )
+
+    @classmethod
+    def _from_stacked(
+        cls,
+        scenario,
+        plan,
+        stacked,
+        *,
+        elapsed,
+        samples,
+        workers,
+        backend,
+        provenance,
+        prepared,
+    ) -> SimulationResult:
         if prepared is None:
             prepared = cls.prepare(scenario)
         grid = prepared["grid"]
@@ -442,7 +472,9 @@ class SimulationResult:
             raise ValueError(
                 "`dataset` is not a microimpact result (no `capture_fraction`)."
             )
-        return cls(_with_lateral(dataset), scenario)
+        # either form of the surfaces (names as the coordinate, or CF's index with
+        # the names in `surface_name`) gives the names as the coordinate
+        return cls(_with_lateral(surfaces_from_cf(dataset)), scenario)
 
     # -------------------------------------------------------------- metadata
     @property
@@ -600,7 +632,7 @@ class SimulationResult:
     # -------------------------------------------------------------- files
     def to_netcdf(self, path) -> Path:
         """Write the Dataset to `path` (NetCDF-4, compressed), atomically."""
-        ds = self.dataset
+        ds = surfaces_to_cf(self.dataset)  # CF: a numeric index, names aside
         return atomic_write(
             Path(path),
             lambda t: ds.to_netcdf(t, engine="netcdf4", encoding=encoding(ds)),
@@ -724,7 +756,7 @@ def open_result(path) -> SimulationResult:
         )
     try:
         with xr.open_dataset(path, engine="netcdf4") as ds:
-            ds = ds.load()
+            ds = surfaces_from_cf(ds.load())  # the names as the coordinate again
     except (OSError, ValueError) as exc:
         raise InputError(f"not a readable NetCDF file ({exc})", source=path) from None
     if "capture_fraction" not in ds or "seed_entropy" not in ds.attrs:

@@ -1,5 +1,6 @@
 """The house style of every figure: palette and local rcParams (a leaf module)."""
 
+import contextlib
 import sys
 
 #: Okabe-Ito colours (distinguishable with colour-vision deficiency).
@@ -39,3 +40,24 @@ def use_agg():
         import matplotlib
 
         matplotlib.use("Agg")
+
+
+@contextlib.contextmanager
+def styled():
+    """Apply :data:`STYLE` for the figure drawn in this block, then put back the
+    values of those keys only.
+
+    Not ``matplotlib.rc_context``: that restores *every* rcParam on exit, among
+    them ``interactive``, which a notebook's inline backend sets to True when the
+    first figure of a session resolves the backend inside the block. Restored to
+    False, no later figure is drawn inline: only the first figure of a kernel
+    session showed (matplotlib#25041, #24351; issue 33)."""
+    # deferred: matplotlib loads only when a figure is drawn
+    import matplotlib as mpl
+
+    saved = {key: mpl.rcParams[key] for key in STYLE}
+    mpl.rcParams.update(STYLE)
+    try:
+        yield
+    finally:
+        mpl.rcParams.update(saved)

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..engine.result import dataset_surface_flags, is_areal_surface
-from ._style import STYLE, colour
+from ._style import STYLE, colour, styled
 
 #: Caption of the figure (also used by the report).
 CAPTION = (
@@ -67,7 +67,6 @@ def plot_profile_vs_areal(result, *, speed_m_s=None, axes=None):
         If the result has no areal surface.
     """
     # deferred: matplotlib loads only when a figure is drawn
-    import matplotlib as mpl
 
     # deferred: matplotlib loads only when a figure is drawn
     import matplotlib.pyplot as plt
@@ -107,7 +106,7 @@ def plot_profile_vs_areal(result, *, speed_m_s=None, axes=None):
         ),
         (("lateral_std_deg", None, None), 1.0, "Lateral scatter std $ψ_f$ [°]"),
     )
-    with mpl.rc_context(STYLE):
+    with styled():
         if axes is None:
             _, axes = plt.subplots(
                 2, 2, figsize=(7.6, 5.6), sharex=True, layout="constrained"

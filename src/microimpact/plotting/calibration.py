@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from ._style import STYLE, colour
+from ._style import STYLE, colour, styled
 
 __all__ = ["plot_calibration"]
 
@@ -54,7 +54,6 @@ def plot_calibration(result, *, axes=None):
         bootstrap refits (or parameter draws from the covariance).
     """
     # deferred: matplotlib loads only when a figure is drawn
-    import matplotlib as mpl
 
     # deferred: matplotlib loads only when a figure is drawn
     import matplotlib.pyplot as plt
@@ -63,7 +62,7 @@ def plot_calibration(result, *, axes=None):
     stats = list(dict.fromkeys(points["statistic"]))
     x_col = _axis(points, curves)
     other = "speed_m_s" if x_col == "angle_deg" else "angle_deg"
-    with mpl.rc_context(STYLE):
+    with styled():
         if axes is None:
             fig, axes = plt.subplots(
                 1,

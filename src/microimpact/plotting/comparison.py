@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._style import STYLE, colour
+from ._style import colour, styled
 
 __all__ = ["plot_comparison"]
 
@@ -42,7 +42,6 @@ def plot_comparison(table, *, ax=None):
         simulated = experimental.
     """
     # deferred: matplotlib loads only when a figure is drawn
-    import matplotlib as mpl
 
     # deferred: matplotlib loads only when a figure is drawn
     import matplotlib.pyplot as plt
@@ -50,7 +49,7 @@ def plot_comparison(table, *, ax=None):
     need = {"statistic", "exp_mean", "sim_mean", "agree"}
     if not hasattr(table, "columns") or not need <= set(table.columns):
         raise ValueError(f"`table` must be the output of compare(); got {table!r}.")
-    with mpl.rc_context(STYLE):
+    with styled():
         if ax is None:
             _, ax = plt.subplots(figsize=(4.2, 4.0), layout="constrained")
         ok = table.dropna(subset=["sim_mean"])
@@ -85,10 +84,29 @@ def plot_comparison(table, *, ax=None):
             ax.set_xlim(lo - pad, hi + pad)
             ax.set_ylim(lo - pad, hi + pad)
             ax.set_aspect("equal", adjustable="box")
-        n_ok, n = int(table["agree"].sum()), len(table)
+        compared = (
+            table["compared"].astype(bool)
+            if "compared" in table
+            else table["sim_mean"].notna()
+        )
+        n_ok = int((table["agree"].astype(bool) & compared).sum())
+        n, missing = int(compared.sum()), int((~compared).sum())
         conf = table.attrs.get("confidence", 0.95)
-        ax.set_title(f"{n_ok} of {n} points agree at the {conf:.0%} level")
+        title = f"{n_ok} of {n} compared points agree at the {conf:.0%} level"
+        if missing:
+            title += f"\n{missing} not compared (see the table's note)"
+        ax.set_title(title, fontsize="medium")
         ax.set_xlabel("Experimental mean [–]")
         ax.set_ylabel("Simulated mean [–]")
-        ax.legend(loc="upper left", fontsize="small")
+        if len(ok):
+            ax.legend(loc="upper left", fontsize="small")
+        else:  # nothing to draw: say so on the axes, not with an empty legend
+            ax.text(
+                0.5,
+                0.5,
+                "no point was compared",
+                ha="center",
+                va="center",
+                transform=ax.transAxes,
+            )
     return ax

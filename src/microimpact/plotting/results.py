@@ -4,7 +4,7 @@
 matplotlib is imported only when a figure is made. Each ``plot_*`` function takes
 ``axes=None`` (a new figure) or the Axes to draw on, and returns the Axes. Bands are
 the confidence intervals of the summary table; experimental points are drawn with
-their interval bars. The style is applied with a local ``rc_context`` only.
+their interval bars. The style is applied around each figure only (``_style.styled``).
 
 References
 ----------
@@ -26,7 +26,7 @@ from .._core.validation import check_subset
 from ..engine.result import dataset_surface_flags
 from ..engine.statistics import capture_speed, z_value
 from ..io.experiments import combine_experiments
-from ._style import STYLE, colour
+from ._style import STYLE, colour, styled
 
 __all__ = [
     "FIGURE_FORMATS",
@@ -104,16 +104,30 @@ def _smooth(result, name) -> bool:
     return smooth_surfaces(result).get(str(name), False)
 
 
+def _listed(values, limit=8) -> str:
+    """ "1, 2, 3" or, for many values, "1, 2, 3, ..., 90 (1000 values)"."""
+    text = [f"{float(v):g}" for v in values]
+    if len(text) <= limit:
+        return ", ".join(text)
+    return f"{', '.join(text[:3])}, ..., {text[-1]} ({len(text)} values)"
+
+
 def _pick(values, wanted, name):
     """The element of `values` close to `wanted`, or ValueError listing them."""
     values = np.unique(np.asarray(values, dtype=float))
     hit = values[np.isclose(values, float(wanted), rtol=1e-9, atol=1e-9)]
     if hit.size == 0:
         raise ValueError(
-            f"`{name}` must be one of the simulated values {values.tolist()}; "
-            f"got {wanted!r}."
+            f"`{name}` must be one of the simulated values {_listed(values)}; "
+            f"got {float(wanted):g}."
         )
     return float(hit[0])
+
+
+def _nearest(values, target) -> float:
+    """The element of `values` nearest `target` (a default that always exists)."""
+    values = np.unique(np.asarray(values, dtype=float))
+    return float(values[np.argmin(np.abs(values - target))])
 
 
 def _surfaces(summary, surface):
@@ -123,7 +137,10 @@ def _surfaces(summary, surface):
     wanted = [surface] if isinstance(surface, str) else list(surface)
     bad = [w for w in wanted if w not in names]
     if bad or not wanted:
-        raise ValueError(f"`surface` must be one of {names}; got {surface!r}.")
+        raise ValueError(
+            f"`surface` must be one of {', '.join(map(str, names))}; got "
+            f"{', '.join(map(str, bad)) or 'none'}."
+        )
     return wanted
 
 
@@ -164,7 +181,7 @@ def _new_axes(axes, nrows, ncols, figsize, *, sharex=False):
 
 
 # --------------------------------------------------------------------- capture
-def plot_capture(result, *, surface=None, angle_deg=90, experiments=None, axes=None):
+def plot_capture(result, *, surface=None, angle_deg=None, experiments=None, axes=None):
     """Coefficient of restitution and capture percentage against impact speed.
 
     The paper's Figs. 5 and 6 [1]_: the upper panel is the mean coefficient of
@@ -178,8 +195,9 @@ def plot_capture(result, *, surface=None, angle_deg=90, experiments=None, axes=N
         A run with at least one speed at `angle_deg`.
     surface : str, optional
         Surface to draw (default: every simulated surface, one colour each).
-    angle_deg : float, default 90
-        Apparent incidence angle [deg]; at 90° the speed is the normal impact speed.
+    angle_deg : float, optional
+        Apparent incidence angle [deg]; at 90° the speed is the normal impact
+        speed. Default: the swept angle nearest 90°.
     experiments : DataFrame, path or sequence of them, optional
         Experimental points (:func:`~microimpact.io.experiments.read_experiments`);
         rows with ``statistic`` ``e`` go to the upper panel, ``capture_fraction``
@@ -193,9 +211,12 @@ def plot_capture(result, *, surface=None, angle_deg=90, experiments=None, axes=N
         The two panels.
     """
 
-    mpl, _ = _mpl()
+    _mpl()
     summary = _summary(result)
-    angle = _pick(summary["angle_deg"], angle_deg, "angle_deg")
+    if angle_deg is None:
+        angle = _nearest(summary["angle_deg"], 90.0)
+    else:
+        angle = _pick(summary["angle_deg"], angle_deg, "angle_deg")
     names = _surfaces(summary, surface)
     exp = combine_experiments(experiments)
     if exp is not None:
@@ -204,7 +225,7 @@ def plot_capture(result, *, surface=None, angle_deg=90, experiments=None, axes=N
         cap = result.capture_speed(0.5)
     else:
         cap = capture_speed(summary, 0.5)
-    with mpl.rc_context(STYLE):
+    with styled():
         ax_e, ax_c = _new_axes(axes, 2, 1, (5.0, 5.6), sharex=True)
         for k, name in enumerate(names):
             g = summary[
@@ -343,7 +364,7 @@ def _conf_label(result) -> str:
 
 # --------------------------------------------------------------------- angles
 def plot_coefficients_vs_angle(
-    result, *, relative=True, experiments=None, axes=None, speed_m_s=None
+    result, *, relative=None, experiments=None, axes=None, speed_m_s=None
 ):
     """Coefficient of restitution and impulse ratio against incidence angle.
 
@@ -355,10 +376,12 @@ def plot_coefficients_vs_angle(
     ----------
     result : SimulationResult
         A run with an angle sweep.
-    relative : bool, default True
+    relative : bool, optional
         Draw the paper's relative coefficients ``e - e(θ_ref)`` and
         ``μ - μ(θ_ref)`` (band ``± z SE``), else the means of rebounds
-        ``e`` and ``μ`` (band: their confidence interval).
+        ``e`` and ``μ`` (band: their confidence interval). Default: the relative
+        ones where the reference angle (``reference_angle_deg``, 85° by default)
+        is in the sweep, else the means.
     experiments : DataFrame, path or sequence of them, optional
         Rows with ``statistic`` ``e_relative``/``mu_relative`` (or ``e``/``mu``
         when ``relative=False``) and an ``angle_deg``.
@@ -371,16 +394,19 @@ def plot_coefficients_vs_angle(
     -------
     numpy.ndarray of matplotlib.axes.Axes
     """
-    mpl, _ = _mpl()
+    _mpl()
     summary = _summary(result)
     if speed_m_s is not None:
         sp = _pick(summary["speed_m_s"], speed_m_s, "speed_m_s")
         summary = summary[np.isclose(summary["speed_m_s"], sp)]
     ref = getattr(result.scenario, "reference_angle_deg", None)
+    if relative is None:  # the paper's relative form where the sweep allows it
+        relative = "e_relative" in summary
     if relative and "e_relative" not in summary:
+        where = "no reference angle" if ref is None else f"reference angle {ref:g} deg"
         raise ValueError(
-            "`relative=True` needs the reference angle "
-            f"({ref!r} deg) in the angle sweep; pass `relative=False`."
+            f"`relative=True` needs the {where} in the angle sweep "
+            f"({_listed(summary['angle_deg'].unique())}); pass `relative=False`."
         )
     z = _z(result)
     if relative:
@@ -410,7 +436,7 @@ def plot_coefficients_vs_angle(
     drawn = drawn_speeds(speeds)
     smooth = {name: _smooth(result, name) for name in names}
     curves = _angle_curves(summary, names, drawn)
-    with mpl.rc_context(STYLE):
+    with styled():
         axs = _new_axes(axes, 2, 1, (5.0, 5.6), sharex=True)
         scale_of = {ax: [] for ax in axs}
         for ax, (col, se_col, lo_col, hi_col) in zip(axs, specs, strict=True):
@@ -647,15 +673,15 @@ def plot_distributions(result, *, angle_deg, speed_m_s=None, surface=None, axes=
     -------
     numpy.ndarray of matplotlib.axes.Axes
     """
-    mpl, _ = _mpl()
+    _mpl()
     summary = _summary(result)
     angle = _pick(summary["angle_deg"], angle_deg, "angle_deg")
     speeds = np.unique(summary["speed_m_s"].to_numpy(dtype=float))
     if speed_m_s is None:
         if speeds.size != 1:
             raise ValueError(
-                f"`speed_m_s` must be given (one of {speeds.tolist()}) when several "
-                "speeds are simulated; got None."
+                "`speed_m_s` must be given when several speeds are simulated: one "
+                f"of {_listed(speeds)}."
             )
         speed = float(speeds[0])
     else:
@@ -669,7 +695,7 @@ def plot_distributions(result, *, angle_deg, speed_m_s=None, surface=None, axes=
             & np.isclose(summary["speed_m_s"], speed)
         )
         points.append((name, int(idx[0])))
-    with mpl.rc_context(STYLE):
+    with styled():
         axs = _new_axes(axes, 1, 2, (7.4, 3.2))
         for ax, stat, xl in zip(
             axs,
@@ -746,7 +772,7 @@ def plot_convergence(convergence, *, ax=None):
     -------
     matplotlib.axes.Axes
     """
-    mpl, plt = _mpl()
+    _, plt = _mpl()
     t = getattr(convergence, "table", None)
     if t is None or not {"n", "capture_fraction", "ci_low", "ci_high"} <= set(
         t.columns
@@ -755,7 +781,7 @@ def plot_convergence(convergence, *, ax=None):
             "`convergence` must be a ConvergenceResult; "
             f"got {type(convergence).__name__}."
         )
-    with mpl.rc_context(STYLE):
+    with styled():
         if ax is None:
             _, ax = plt.subplots(figsize=(5.0, 3.4), layout="constrained")
         n = t["n"].to_numpy(dtype=float)

@@ -47,7 +47,15 @@ def plot_angle_pdf(angles_deg_or_result, *, ax=None, bins="sturges", **kwargs):
         edges = rad_to_deg(np.asarray(r.pdf_edges))
         label = f"{r.method} method, L = {m_to_um(r.contact_length):.3g} µm"
     else:
-        a = np.asarray(angles_deg_or_result, dtype=float).ravel()
+        try:
+            a = np.asarray(angles_deg_or_result, dtype=float).ravel()
+        except (TypeError, ValueError):
+            raise TypeError(
+                "`angles_deg_or_result` must be angles [deg] or the result of "
+                "characterise(); got a "
+                f"{type(angles_deg_or_result).__name__} (a simulation's input "
+                "angles are drawn by microimpact.pipeline.report.input_figures)"
+            ) from None
         a = a[np.isfinite(a)]
         if a.size == 0:
             raise ValueError("`angles_deg_or_result` has no finite angles to plot.")

@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from ._style import STYLE, colour
+from ._style import colour, styled
 
 __all__ = ["plot_sensitivity"]
 
@@ -52,7 +52,6 @@ def plot_sensitivity(table, *, statistic=None, index="ST", ax=None):
     numpy.ndarray of matplotlib.axes.Axes
     """
     # deferred: matplotlib loads only when a figure is drawn
-    import matplotlib as mpl
 
     # deferred: matplotlib loads only when a figure is drawn
     import matplotlib.pyplot as plt
@@ -73,7 +72,7 @@ def plot_sensitivity(table, *, statistic=None, index="ST", ax=None):
     surfaces = list(dict.fromkeys(table["surface"])) if "surface" in table else [None]
     styles = ("-", "--", ":", "-.")
     markers = ("o", "s", "^", "v", "D", "P", "X")
-    with mpl.rc_context(STYLE):
+    with styled():
         if ax is None:
             n = len(stats)
             cols = min(n, 3)

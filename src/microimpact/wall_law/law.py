@@ -23,7 +23,13 @@ import numpy as np
 from .. import __version__
 from .._core.files import atomic_write
 from .._core.json import dumps
-from ..engine.dataset import CONVENTIONS, encoding, history_line
+from ..engine.dataset import (
+    CONVENTIONS,
+    encoding,
+    history_line,
+    surfaces_from_cf,
+    surfaces_to_cf,
+)
 from ..engine.statistics import wilson_interval
 from ..errors import DataFormatError
 from ..scenario.wall_law import REBOUND_VARIABLES, RESERVOIR_VARIABLES
@@ -304,6 +310,7 @@ class WallLaw:
     """
 
     def __init__(self, dataset):
+        dataset = surfaces_from_cf(dataset)  # names in `surface_name` or `surface`
         missing = [
             v
             for v in (
@@ -640,4 +647,5 @@ class WallLaw:
     def _write_netcdf(self, path):
         ds = self.dataset.copy()
         ds["surface"] = ds["surface"].astype(str)
+        ds = surfaces_to_cf(ds)  # CF: a numeric index, the names aside
         ds.to_netcdf(path, engine="netcdf4", encoding=encoding(ds))
