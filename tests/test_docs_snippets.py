@@ -41,19 +41,7 @@ FENCE = re.compile(r"^( *)```(\w*)[^\n]*\n(.*?)^\1```", re.S | re.M)
 MARKER = re.compile(r"<!--\s*snippet:\s*skip\b\s*(.*?)\s*-->")
 #: (page, first line of the block) -> why it is skipped, for pages this test may
 #: not edit yet (each to become a marker on the page).
-SKIPS: dict[tuple[str, str], str] = {
-    (
-        "docs/roughness.md",
-        "from microimpact.io.profiles import read_profile, read_profiles",
-    ): "alternatives, one per kind of instrument file (x3p, Dektak, OPDx)",
-    ("docs/roughness.md", "import microimpact as mi"): (
-        "alternatives, one per kind of height-map file (x3p, .sur)"
-    ),
-    (
-        "docs/sensitivity.md",
-        "from microimpact.analysis.sensitivity import sobol_sensitivity",
-    ): "a long run: 768 model runs of 2,000 impacts per point",
-}
+SKIPS: dict[tuple[str, str], str] = {}
 
 
 @dataclass(frozen=True)

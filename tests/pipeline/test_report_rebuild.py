@@ -122,3 +122,28 @@ def test_explicit_experiments_replace_the_runs(run_folder, tmp_path):
     html = (run_folder / "report.html").read_text(encoding="utf-8")
     sec = _sections(html)["Comparison with experiments"]
     assert sec.count("<tr") == 2  # one point compared now (header row + one)
+
+
+def test_report_counts_only_compared_points(tmp_path):
+    """A point outside the sweep is 'not compared' in the report's table and is
+    not counted among the points that disagree (issue 33)."""
+    from microimpact.engine.result import open_result
+    from microimpact.pipeline.report import write_report
+
+    (tmp_path / "s.toml").write_text(SCENARIO.replace('experiments = "exp.csv"\n', ""))
+    out = tmp_path / "out"
+    assert main(["run", str(tmp_path / "s.toml"), "--out", str(out), "--quiet"]) == 0
+    exp = tmp_path / "e.csv"
+    exp.write_text(
+        "surface,speed_m_s,angle_deg,statistic,mean,half_width\n"
+        "rough,0.5,30,e,0.95,0.01\n"  # compared, far off: disagrees
+        "rough,3.0,30,e,0.5,0.1\n"  # outside the swept speeds: not compared
+    )
+    res = open_result(out)
+    html = write_report(
+        res, tmp_path / "r.html", experiments={res.scenario.name: exp}
+    ).read_text(encoding="utf-8")
+    sec = _sections(html)["Comparison with experiments"]
+    assert "0 of 1 compared experimental points agree" in sec
+    assert "1 not compared" in sec
+    assert sec.count("not compared") >= 2  # the header and the row

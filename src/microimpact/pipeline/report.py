@@ -549,8 +549,11 @@ def _comparison_html(table) -> str:
     rows = []
     for _, r in table.iterrows():
         where = f"{_fmt(r['speed_m_s'])} m s⁻¹, {_fmt(r['angle_deg'])}°, {r['surface']}"
+        compared = bool(r.get("compared", True))
         ok = (
-            '<span class="yes">yes</span>'
+            "not compared"
+            if not compared
+            else '<span class="yes">yes</span>'
             if r["agree"]
             else '<span class="no">no</span>'
         )
@@ -565,13 +568,25 @@ def _comparison_html(table) -> str:
                 _e(r["note"]),
             ]
         )
-    n_ok = int(table["agree"].sum())
+    done = (
+        table["compared"].astype(bool)
+        if "compared" in table
+        else table["agree"].notna()
+    )
+    n_ok = int((table["agree"].astype(bool) & done).sum())
     conf = table.attrs.get("confidence", 0.95)
+    skipped = len(table) - int(done.sum())
     head = (
-        f"<p>{n_ok} of {len(table)} experimental points agree with the simulation at "
-        f"the {100 * conf:g} % level (|simulated − experimental| within "
-        "z·√(SE²<sub>sim</sub> + SE²<sub>exp</sub>); see <code>docs/outputs.md</code>)."
-        "</p>"
+        f"<p>{n_ok} of {int(done.sum())} compared experimental points agree with the "
+        f"simulation at the {100 * conf:g} % level (|simulated − experimental| "
+        "within z·√(SE²<sub>sim</sub> + SE²<sub>exp</sub>), widened by the "
+        "interpolation's error bound; see <code>docs/outputs.md</code>)"
+        + (
+            f"; {skipped} not compared (outside the sweep: the note says why)"
+            if skipped
+            else ""
+        )
+        + ".</p>"
     )
     return head + _table(
         [
