@@ -43,6 +43,7 @@ from ..analysis.robustness import (
 from ..analysis.statements import STATEMENTS, Evidence, evaluate
 from ..engine.summary import TAIL_FRACTION, TAIL_SHARE_LIMIT
 from ..io.experiments import combine_experiments
+from ..plotting._style import styled
 from ..plotting.areal import CAPTION
 from ..plotting.results import STYLE, _confidence, smooth_surfaces
 from ..plotting.roughness import plot_angle_pdf
@@ -779,12 +780,9 @@ def _result_section(result, k, csv_href, experiments, saved, speeds=None) -> str
         )
         stems = {id(f): stem for stem, _, f in made}
         figs = [(c, f) for _, c, f in made]
-    # deferred: matplotlib loads only when a figure is drawn
-    import matplotlib as mpl
-
-    rc = {**STYLE, "figure.figsize": (5.0, 3.4), "figure.constrained_layout.use": True}
+    rc = {"figure.figsize": (5.0, 3.4), "figure.constrained_layout.use": True}
     if saved is None:  # otherwise the caller wrote the input figures too
-        with mpl.rc_context(rc):
+        with styled(rc):  # not rc_context: it would reset a notebook's interactive
             inputs = input_figures(result)
         stems.update({id(f): stem for stem, _, f in inputs})
         figs += [(c, f) for _, c, f in inputs]

@@ -43,9 +43,9 @@ def use_agg():
 
 
 @contextlib.contextmanager
-def styled():
-    """Apply :data:`STYLE` for the figure drawn in this block, then put back the
-    values of those keys only.
+def styled(extra=None):
+    """Apply :data:`STYLE` (and the rcParams in `extra`) for the figure drawn in
+    this block, then put back the values of those keys only.
 
     Not ``matplotlib.rc_context``: that restores *every* rcParam on exit, among
     them ``interactive``, which a notebook's inline backend sets to True when the
@@ -55,8 +55,9 @@ def styled():
     # deferred: matplotlib loads only when a figure is drawn
     import matplotlib as mpl
 
-    saved = {key: mpl.rcParams[key] for key in STYLE}
-    mpl.rcParams.update(STYLE)
+    rc = {**STYLE, **(extra or {})}
+    saved = {key: mpl.rcParams[key] for key in rc}
+    mpl.rcParams.update(rc)
     try:
         yield
     finally:
