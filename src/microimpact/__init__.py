@@ -86,6 +86,7 @@ _EXPORTS: dict[str, str] = {
     "formica_profile": "surface.synthetic",
     "formica_realization": "surface.formica",
     "formica_ensemble": "surface.formica",
+    "FormicaRealization": "surface.formica",
     "hertz_contact_diameter": "surface.contact",
     # areal surfaces (height maps): readers, parameters, joint facet angles
     "read_height_map": "io.areal",
@@ -130,6 +131,7 @@ _EXPORTS: dict[str, str] = {
     "Outputs": "scenario.outputs",
     "reproduce": "pipeline.study",
     "robustness_study": "analysis.robustness",
+    "RobustnessStudy": "analysis.robustness",
     # a stochastic wall law for CFD and particle tracking
     "build_wall_law": "wall_law.build",
     "WallLaw": "wall_law.law",
