@@ -374,8 +374,10 @@ def band_overlaps(tables, rows):
 def test_search_bound_covers_every_band(formica, monkeypatch):
     """``lam_i`` is at least ``g_ij w_k`` for every atom ``j`` of every band
     ``k`` as the kernels compute it (the closed form of the peak, with its
-    margin); the bands cover ``[m_i, n_i)`` exactly, and accept 85 % or more of
-    the proposals for the Formica angles."""
+    margin); the bands cover ``[m_i, n_i)`` exactly, and accept 80 % or more of
+    the proposals for the Formica angles (0.82 at 5°, 0.91 at 30°, 0.99 at 90°
+    for the family's pooled angles; 0.86, 0.90, 0.95 for the tuned surface that
+    shipped before issue 29)."""
     sc, _, _ = formica
     cases = [(sc, theta) for theta in (5.0, 30.0, 90.0)]
     monkeypatch.setattr(plan_module, "MAX_SUM_ATOMS", 0)
@@ -411,7 +413,7 @@ def test_search_bound_covers_every_band(formica, monkeypatch):
             gw = g[:, None, :] * width[:, :, None]
             assert np.all(np.where(share > 0, gw, 0.0) < q[:, P.Q_BOUND, None, None])
         if s is sc:
-            assert tables.pair_acceptance > 0.85, theta
+            assert tables.pair_acceptance > 0.80, theta
 
 
 def test_proposal_masses_are_the_particle_cells(monkeypatch):
