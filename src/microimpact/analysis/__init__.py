@@ -15,6 +15,11 @@ from .compare import (
 from .model import (
     ScenarioModel,
 )
+from .resuspension import (
+    ResuspensionResult,
+    resuspend,
+    sample_remaining_fraction,
+)
 from .sensitivity import (
     COLUMNS,
     EngineModel,
@@ -37,6 +42,7 @@ __all__ = [
     "CalibrationResult",
     "EngineModel",
     "Evidence",
+    "ResuspensionResult",
     "ScenarioModel",
     "SensitivityResult",
     "Statement",
@@ -46,6 +52,8 @@ __all__ = [
     "default_bounds",
     "evaluate",
     "parse_parameter",
+    "resuspend",
+    "sample_remaining_fraction",
     "sobol_analysis",
     "sobol_sensitivity",
 ]

@@ -81,7 +81,6 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import integrate, special
 
 from .._core.validation import as_float_array, check_positive
 from ..units import m_to_um
@@ -342,6 +341,9 @@ def quasi_static_rate(adhesion_force, mean_force, rms_force, burst_frequency):
         [s⁻¹]; 0 where there is no flow (``rms_force == 0`` and
         ``burst_frequency == 0``).
     """
+    # deferred: scipy loads only when a rate is computed (import stays fast)
+    from scipy import special
+
     fa = _nonneg(adhesion_force, "adhesion_force")
     mean = _nonneg(mean_force, "mean_force")
     rms = _nonneg(rms_force, "rms_force")
@@ -488,17 +490,21 @@ def air_properties(temperature, pressure):
 
 
 # --------------------------------------------------------------------- quadrature
-def _rate(fa, mean, rms, n):
+def _rate(fa, mean, rms, n, log_ndtr):
     """:func:`quasi_static_rate` of scalars, without the checks (quadrature)."""
     if rms == 0.0:
         return n if fa < mean else 0.0
     x = (fa - mean) / rms
-    return n * math.exp(-0.5 * x * x - float(special.log_ndtr(x)))  # [1], [2]
+    return n * math.exp(-0.5 * x * x - float(log_ndtr(x)))  # [1], [2]
 
 
 def _survival_integral(jkr, median, spread, steps, *, moment=0):
     r"""``∫ φ(z) p_last^moment exp(-Σ p_k t_k) dz`` over the standard normal z,
     with f_a = jkr median spread^z; `steps` is a list of (mean, rms, n, t)."""
+    # deferred: scipy loads only when an integral is taken (import stays fast)
+    from scipy import integrate
+    from scipy.special import log_ndtr
+
     log_s = math.log(spread)
     if moment and not steps:
         return 0.0
@@ -508,7 +514,7 @@ def _survival_integral(jkr, median, spread, steps, *, moment=0):
 
     def exponent(z):
         f = fa(z)
-        return sum(_rate(f, m, s, n) * t for m, s, n, t in steps)
+        return sum(_rate(f, m, s, n, log_ndtr) * t for m, s, n, t in steps)
 
     def integrand(z):
         phi = math.exp(-0.5 * z * z) / math.sqrt(2.0 * math.pi)
@@ -516,7 +522,7 @@ def _survival_integral(jkr, median, spread, steps, *, moment=0):
         value = phi * math.exp(-e)
         if moment:
             m, s, n, _ = steps[-1]
-            value *= _rate(fa(z), m, s, n) ** moment
+            value *= _rate(fa(z), m, s, n, log_ndtr) ** moment
         return value
 
     # breakpoints: where each step's mean force and the survival edge sit in z
