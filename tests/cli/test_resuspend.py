@@ -160,9 +160,14 @@ def test_capture_independent_of_diameter_gives_the_particles_result(tmp_path):
     assert_allclose(got, np.broadcast_to(dep.dataset["remaining_fraction"], got.shape))
 
 
-def test_monte_carlo_agrees_with_the_quadrature(tmp_path):
+@pytest.mark.parametrize(
+    ("ramp", "exposures"),
+    [("[0.3, 0.8, 2.0]", "[1.0, 2.0, 1.0]"), ("[0.8, 0.8, 0.8]", "[1e3, 1.0, 1.0]")],
+)
+def test_monte_carlo_agrees_with_the_quadrature(tmp_path, ramp, exposures):
     path = tmp_path / "p.toml"
-    path.write_text(PARTICLES_ONLY)
+    text = PARTICLES_ONLY.replace("[0.3, 0.8, 2.0]", ramp)
+    path.write_text(text.replace("[1.0, 2.0, 1.0]", exposures))
     ds = mi.resuspend(path).dataset
     quad = ds["remaining_fraction"].values
     mc, se = ds["remaining_fraction_mc"].values, ds["remaining_fraction_mc_se"].values
