@@ -17,18 +17,18 @@ quantile (k+1/2)/K. Within a class the integral over the adhesion distribution i
 the quadrature of :mod:`microimpact.physics.resuspension`, accurate to 1e-6.
 
 With ``monte_carlo_samples = N`` each point also gets a per-particle Monte Carlo
-estimate with its standard error: N particles drawn by class (with the deposited
-weights), each with its own adhesion reduction factor, from a
-:class:`numpy.random.Generator` keyed by the scenario's seed and the sweep point
-(SPEC 7); the quadrature is its oracle. Its standard error covers the class and
-adhesion draws, not the engine's capture estimate, whose standard errors are in
-the Dataset (``capture_se``).
+estimate with its standard error: for a captured population, the engine's own
+first N impacts at the point (the draws :func:`~microimpact.engine.run` makes for
+this seed), of which the captured ones carry their diameters into resuspension;
+for a deposited one, N particles drawn from ``[particles]``. Each particle draws
+its own adhesion reduction factor from a :class:`numpy.random.Generator` keyed by
+the seed and the sweep point (SPEC 7). It needs no diameter classes; the
+quadrature is its oracle.
 """
 
 from __future__ import annotations
 
 import json
-import math
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -37,14 +37,15 @@ import numpy as np
 
 from .. import __version__
 from ..engine.dataset import CONVENTIONS, history_line
-from ..engine.montecarlo import run
+from ..engine.montecarlo import iter_point_samples, run
+from ..engine.plan import build_plan
 from ..errors import ScenarioError
 from ..physics import resuspension as rnr
 from ..population.distributions import monodisperse
 from ..scenario.file import PRESETS, particles_from_dict, preset_path, read_toml
 from ..scenario.resuspension import ResuspensionSpec, resuspension_from_dict
 from ..scenario.scenario import Scenario, read_scenario
-from ..units import m_to_um
+from ..units import m_to_um, um_to_m
 
 __all__ = ["ResuspensionResult", "resuspend", "sample_remaining_fraction"]
 
@@ -166,64 +167,109 @@ def _adhesion(spec, radii, where):
 
 
 def _step_rates(spec, radius, fprime):
-    """Rates p [s-1] of particles of `radius` with reduction factors `fprime`,
-    one row per step."""
-    u = np.asarray(spec.friction_velocities_m_s)
+    """Rates p [s-1] of particles of radii `radius` with reduction factors
+    `fprime` (both (N,)), one row per step: shape (K, N)."""
+    u = np.asarray(spec.friction_velocities_m_s)[:, None]
+    radius = np.asarray(radius, float)[None, :]
     f = rnr.aerodynamic_forces(
         radius, u, spec.density_kg_m3, spec.kinematic_viscosity_m2_s
     )
     n = rnr.burst_frequency(u, spec.kinematic_viscosity_m2_s)
-    fa = np.asarray(fprime) * rnr.jkr_pull_off_force(radius, spec.surface_energy_j_m2)
-    return rnr.quasi_static_rate(
-        fa[None, :],
-        np.atleast_1d(f.mean_force)[:, None],
-        np.atleast_1d(f.rms_force)[:, None],
-        np.atleast_1d(n)[:, None],
+    fa = np.asarray(fprime)[None, :] * rnr.jkr_pull_off_force(
+        radius, spec.surface_energy_j_m2
     )
+    return rnr.quasi_static_rate(fa, f.mean_force, f.rms_force, n)
 
 
-def sample_remaining_fraction(
-    radii, weights, median, spread, spec, samples, *, rng=None
-):
+def sample_remaining_fraction(diameters, spec, *, rng=None):
     """Per-particle Monte Carlo estimate of the remaining fraction after each step.
 
-    Draws `samples` particles: a class by `weights`, then a log-normal adhesion
-    reduction factor with the class's `median` and `spread`; each survives the
-    ramp with probability ``exp(-sum_k p_k t_k)``.
+    Each particle draws its own adhesion reduction factor f' (log-normal: the
+    Biasi (2001) median and spread at its radius, or the spec's explicit ones)
+    and survives the ramp with probability ``exp(-sum_{j<=k} p_j t_j)``; the
+    estimate is the mean survival over the particles.
 
     Parameters
     ----------
-    radii, weights, median, spread : array_like
-        Per class: radius [m], probability (summing to 1), and the reduction
-        factor's median and geometric spread.
+    diameters : array_like or iterable of array_like
+        Diameters [m] of the deposited particles, or blocks of them (bounded
+        memory: each block is drawn from and forgotten).
     spec : ResuspensionSpec
-        The ramp and the fluid.
-    samples : int
-        Number of particles, >= 2.
+        The ramp, the fluid and the adhesion.
     rng : None, int, SeedSequence or Generator
-        SPEC 7: normalised with :func:`numpy.random.default_rng`.
+        SPEC 7: normalised with :func:`numpy.random.default_rng`; one standard
+        normal per particle, in the order given.
 
     Returns
     -------
     mean, se : ndarray
-        The estimate and its standard error per step.
+        The estimate and its standard error per step (NaN with fewer than two
+        particles).
+    n : int
+        The number of particles.
     """
     rng = np.random.default_rng(rng)
-    if isinstance(samples, bool) or not isinstance(samples, int) or samples < 2:
-        raise ValueError(f"`samples` must be an integer >= 2; got {samples!r}.")
-    w = np.asarray(weights, float)
-    cls = rng.choice(w.size, size=samples, p=w / w.sum())
-    z = rng.standard_normal(samples)  # drawn in a fixed order: classes, then z
+    if isinstance(diameters, np.ndarray) or np.isscalar(diameters):
+        diameters = [diameters]
     t = np.asarray(spec.exposures_s)
-    survival = np.empty((t.size, samples))
-    for k in np.unique(cls):
-        sel = cls == k
-        fprime = median[k] * np.exp(z[sel] * math.log(spread[k]))
-        rates = _step_rates(spec, float(radii[k]), fprime)
-        survival[:, sel] = np.exp(-np.cumsum(rates * t[:, None], axis=0))
-    mean = survival.mean(axis=1)
-    se = survival.std(axis=1, ddof=1) / math.sqrt(samples)
-    return mean, se
+    s1 = np.zeros(t.size)
+    s2 = np.zeros(t.size)
+    n = 0
+    for block in diameters:
+        d = np.atleast_1d(np.asarray(block, float))
+        if d.size == 0:
+            continue
+        radius = 0.5 * d
+        if spec.adhesion_median is None:
+            red = rnr.biasi2001_adhesion(radius, outside="ignore")
+            median, spread = red.median, red.spread
+        else:
+            median, spread = spec.adhesion_median, spec.adhesion_spread
+        z = rng.standard_normal(d.size)
+        fprime = median * np.exp(z * np.log(spread))
+        rates = _step_rates(spec, radius, fprime)
+        survival = np.exp(-np.cumsum(rates * t[:, None], axis=0))
+        s1 += survival.sum(axis=1)
+        s2 += (survival**2).sum(axis=1)
+        n += d.size
+    if n < 2:
+        return np.full(t.size, np.nan), np.full(t.size, np.nan), n
+    mean = s1 / n
+    var = np.maximum(s2 - n * mean**2, 0.0) / (n - 1)
+    return mean, np.sqrt(var / n), n
+
+
+#: Particles per block of the Monte Carlo estimate of a [particles] population.
+_MC_BLOCK = 65536
+
+
+def _particle_blocks(particles, n, rng):
+    for start in range(0, n, _MC_BLOCK):
+        yield particles.rvs(min(_MC_BLOCK, n - start), rng=rng)
+
+
+def _captured_blocks(plan, point, n):
+    for sample in iter_point_samples(plan, point, n):
+        yield sample["diameter"][sample["captured"].astype(bool)]
+
+
+def _check_mc_adhesion(spec, particles, where):
+    """With Biasi adhesion, refuse a population whose tail reaches the radius
+    where the correlation has no distribution (checked at quantile 1 - 1e-9, so
+    the draws never meet it in practice)."""
+    if spec.adhesion_median is not None or not spec.monte_carlo_samples:
+        return
+    top = float(np.nanmax(np.atleast_1d(particles.ppf(1.0 - 1e-9))))
+    edge = 2 * float(um_to_m(rnr.BIASI2001_POSITIVE_RADIUS_UM))
+    if top >= edge:
+        raise ScenarioError(
+            f"the population's tail reaches {float(m_to_um(top)):.4g} µm, beyond the "
+            f"{float(m_to_um(edge)):.3g} µm where 'biasi2001' has no adhesion "
+            "distribution; give adhesion = { median, spread } for the Monte Carlo "
+            "estimate, or truncate the [particles] (max_um)",
+            source=where,
+            field="resuspension.monte_carlo_samples",
+        )
 
 
 def _open(scenario, resuspension):
@@ -313,6 +359,7 @@ def resuspend(scenario, resuspension=None, *, samples=None, seed=None):
     diameters, weights = _classes(particles, spec.diameter_classes)
     radii = 0.5 * diameters
     median, spread = _adhesion(spec, radii, source)
+    _check_mc_adhesion(spec, particles, source)
     per_class = np.stack(
         [
             rnr.remaining_fraction_ramp(
@@ -342,19 +389,34 @@ def resuspend(scenario, resuspension=None, *, samples=None, seed=None):
     whole = np.einsum("cp,cs->ps", w, per_class)  # (point, step)
     mc = None
     if spec.monte_carlo_samples:
-        mc = np.full((2, *whole.shape), np.nan)
-        for p in range(whole.shape[0]):
-            if np.all(np.isfinite(w[:, p])):
-                stream = np.random.SeedSequence(entropy, spawn_key=(p, _STREAM))
-                mc[:, p] = sample_remaining_fraction(
-                    radii, w[:, p], median, spread, spec,
-                    spec.monte_carlo_samples, rng=stream,
-                )  # fmt: skip
+        mc = _monte_carlo(spec, particles, scen, entropy, whole.shape[0])
     ds = _dataset(
         spec, name, diameters, weights, median, spread, per_class, whole, w,
         capture, capture_se, coords, mc, entropy,
     )  # fmt: skip
     return ResuspensionResult(ds, spec, name)
+
+
+def _monte_carlo(spec, particles, scenario, entropy, points):
+    """(2, point, step): the per-particle estimate and its standard error. A
+    [particles] population: `monte_carlo_samples` particles drawn from it. A
+    captured one: the engine's own first `monte_carlo_samples` impacts at each
+    point (the draws :func:`~microimpact.engine.run` makes for this seed), of
+    which the captured ones carry their diameters into resuspension."""
+    out = np.full((2, points, len(spec.friction_velocities_m_s)), np.nan)
+    n = spec.monte_carlo_samples
+    plan = build_plan(scenario, seed=entropy) if spec.source == "captured" else None
+    for p in range(points):
+        stream = np.random.default_rng(
+            np.random.SeedSequence(entropy, spawn_key=(p, _STREAM))
+        )
+        if plan is None:
+            blocks = _particle_blocks(particles, n, stream)
+        else:
+            blocks = _captured_blocks(plan, p, n)
+        mean, se, _ = sample_remaining_fraction(blocks, spec, rng=stream)
+        out[:, p] = mean, se
+    return out
 
 
 def _capture_by_class(scenario, diameters, samples, entropy):

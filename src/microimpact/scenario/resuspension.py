@@ -80,7 +80,8 @@ class ResuspensionSpec:
     diameter_classes : int
         Equiprobable diameter classes resolving a polydisperse population.
     monte_carlo_samples : int
-        Per-particle draws of the Monte Carlo estimate (0: none).
+        Impacts per sweep point (captured) or particles (deposited) of the
+        per-particle Monte Carlo estimate (0: none).
     fluid_description : str
         How the fluid was given, for the report.
     """
@@ -144,7 +145,7 @@ class ResuspensionSpec:
                 bad("adhesion.spread", f"must be > 1; got {self.adhesion_spread:g}")
         for name, hi in (
             ("diameter_classes", MAX_CLASSES),
-            ("monte_carlo_samples", 10**8),
+            ("monte_carlo_samples", 10**8),  # streamed in blocks
         ):
             v = getattr(self, name)
             low = 1 if name == "diameter_classes" else 0
