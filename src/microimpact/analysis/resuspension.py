@@ -42,9 +42,14 @@ from ..engine.plan import build_plan
 from ..errors import ScenarioError
 from ..physics import resuspension as rnr
 from ..population.distributions import monodisperse
-from ..scenario.file import PRESETS, particles_from_dict, preset_path, read_toml
+from ..scenario.file import (
+    PRESETS,
+    particles_from_dict,
+    preset_path,
+    read_toml_text,
+)
 from ..scenario.resuspension import ResuspensionSpec, resuspension_from_dict
-from ..scenario.scenario import Scenario, read_scenario
+from ..scenario.scenario import Scenario, scenario_file_from_dict
 from ..units import m_to_um, um_to_m
 
 __all__ = ["ResuspensionResult", "resuspend", "sample_remaining_fraction"]
@@ -273,7 +278,8 @@ def _check_mc_adhesion(spec, particles, where):
 
 
 def _open(scenario, resuspension):
-    """``(data, source, spec, scenario or None)`` of what :func:`resuspend` got."""
+    """``(text, data, source, spec, scenario or None)`` of what :func:`resuspend`
+    got; a file is read once."""
     if isinstance(scenario, Scenario):
         if resuspension is None:
             raise ScenarioError(
@@ -281,12 +287,12 @@ def _open(scenario, resuspension):
                 "`resuspension` (a ResuspensionSpec or the table as a dict)",
                 field="resuspension",
             )
-        return None, scenario.source, resuspension, scenario
+        return None, None, scenario.source, resuspension, scenario
     path = Path(scenario)
     if isinstance(scenario, str) and not path.exists() and scenario in PRESETS:
         path = preset_path(scenario)
-    data = read_toml(path)
-    return data, str(path), resuspension, None
+    text, data = read_toml_text(path)
+    return text, data, str(path), resuspension, None
 
 
 def resuspend(scenario, resuspension=None, *, samples=None, seed=None):
@@ -318,7 +324,7 @@ def resuspend(scenario, resuspension=None, *, samples=None, seed=None):
     ScenarioError
         A bad or missing table or value, named by file and key path.
     """
-    data, source, spec, scen = _open(scenario, resuspension)
+    text, data, source, spec, scen = _open(scenario, resuspension)
     # the file's [particles] and top-level keys first: a misspelt table is named
     particles = None if data is None else particles_from_dict(data, source=source)
     if isinstance(spec, dict):
@@ -346,7 +352,10 @@ def resuspend(scenario, resuspension=None, *, samples=None, seed=None):
                 source=source,
                 field="resuspension.source",
             )
-        scen = read_scenario(source).scenario
+        base = Path(source).resolve().parent
+        scen = scenario_file_from_dict(
+            data, source=source, base_dir=base, text=text
+        ).scenario
     if scen is not None:
         particles, name = scen.particles, scen.name
     else:
