@@ -145,6 +145,10 @@ _EXPORTS: dict[str, str] = {
     "calibrate": "analysis.calibration",
     "CalibrationResult": "analysis.calibration",
     "plot_calibration": "plotting.calibration",
+    # resuspension after capture (Rock'n'Roll)
+    "resuspend": "analysis.resuspension",
+    "ResuspensionResult": "analysis.resuspension",
+    "plot_resuspension": "plotting.resuspension",
     # figures
     "plot_capture": "plotting.results",
     "plot_coefficients_vs_angle": "plotting.results",

@@ -15,6 +15,11 @@ from .compare import (
 from .model import (
     ScenarioModel,
 )
+from .resuspension import (
+    ResuspensionResult,
+    resuspend,
+    sample_remaining_fraction,
+)
 from .robustness import (
     RobustnessStudy,
     robustness_study,
@@ -42,6 +47,7 @@ __all__ = [
     "CalibrationResult",
     "EngineModel",
     "Evidence",
+    "ResuspensionResult",
     "RobustnessStudy",
     "ScenarioModel",
     "SensitivityResult",
@@ -52,7 +58,9 @@ __all__ = [
     "default_bounds",
     "evaluate",
     "parse_parameter",
+    "resuspend",
     "robustness_study",
+    "sample_remaining_fraction",
     "sobol_analysis",
     "sobol_sensitivity",
     "verdict_word",

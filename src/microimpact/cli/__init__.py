@@ -53,6 +53,7 @@ VERBS = {
     "wall-law": "wall_law",
     "sensitivity": "sensitivity",
     "calibrate": "calibrate",
+    "resuspend": "resuspend",
 }
 
 #: A library argument named in an :class:`InputError` -> the flag that sets it.

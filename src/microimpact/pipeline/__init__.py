@@ -17,6 +17,11 @@ from .report import (
     summary_text,
     write_report,
 )
+from .resuspension import (
+    RESUSPENSION_FILES,
+    resuspension_section_html,
+    write_resuspension,
+)
 from .study import (
     Outputs,
     Study,
@@ -27,6 +32,7 @@ __all__ = [
     "CHECKPOINT_NAME",
     "LOCK_NAME",
     "MANIFEST_NAME",
+    "RESUSPENSION_FILES",
     "OutputFolder",
     "OutputFolderBusy",
     "Outputs",
@@ -36,6 +42,8 @@ __all__ = [
     "figures_for_result",
     "reproduce",
     "result_figures",
+    "resuspension_section_html",
     "summary_text",
     "write_report",
+    "write_resuspension",
 ]

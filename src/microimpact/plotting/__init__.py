@@ -19,6 +19,9 @@ from .results import (
     save_figures,
     smooth_surfaces,
 )
+from .resuspension import (
+    plot_resuspension,
+)
 from .roughness import (
     plot_angle_pdf,
     plot_profile,
@@ -42,6 +45,7 @@ __all__ = [
     "plot_distributions",
     "plot_profile",
     "plot_profile_vs_areal",
+    "plot_resuspension",
     "plot_sensitivity",
     "plot_size_distribution",
     "plot_size_quantiles",

@@ -41,6 +41,10 @@ from .parts import (
     SAMPLING_OPTIONS,
     SHADOWING_OPTIONS,
 )
+from .resuspension import (
+    ResuspensionSpec,
+    resuspension_from_dict,
+)
 from .scenario import (
     Precision,
     Scenario,
@@ -89,6 +93,7 @@ __all__ = [
     "Outputs",
     "ParsedScenario",
     "Precision",
+    "ResuspensionSpec",
     "Scenario",
     "ScenarioFile",
     "SensitivitySettings",
@@ -111,6 +116,7 @@ __all__ = [
     "read_scenario",
     "read_toml",
     "read_toml_text",
+    "resuspension_from_dict",
     "scenario_file",
     "scenario_file_from_dict",
     "scenario_from_dict",

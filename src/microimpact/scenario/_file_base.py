@@ -54,6 +54,7 @@ TOP_KEYS = (
     "outputs",
     "wall_law",
     "sensitivity",
+    "resuspension",
 )
 PARTICLE_KEYS = {
     "normal": ({"mean_um", "std_um"}, {"min_um", "max_um"}),

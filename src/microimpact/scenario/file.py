@@ -50,6 +50,7 @@ __all__ = [
     "outputs_from_dict",
     "outputs_from_toml",
     "parse_scenario",
+    "particles_from_dict",
     "preset_path",
     "read_toml",
     "read_toml_text",
@@ -486,6 +487,18 @@ def _read_table(read, data, source, base_dir):
     ctx = _Ctx(source, base_dir)
     ctx.table(data, "(top level)")
     return read(ctx, data)
+
+
+def particles_from_dict(data: dict, *, source=None, base_dir=None):
+    """The size distribution of parsed scenario data's ``[particles]`` table alone
+    (a file that needs no impact tables, e.g. ``[resuspension]`` with
+    ``source = "particles"``); its top-level keys are checked too."""
+
+    def read(ctx, data):
+        ctx.keys(data, "", TOP_KEYS, ("particles",))
+        return _particles(ctx, data["particles"])
+
+    return _read_table(read, data, source, base_dir)
 
 
 def outputs_from_dict(data: dict, *, source=None, base_dir=None):

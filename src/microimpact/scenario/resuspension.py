@@ -1,0 +1,283 @@
+"""Scenario files: the ``[resuspension]`` table (see ``docs/resuspension.md``).
+
+::
+
+    [resuspension]
+    source = "captured"                 # or "particles" (the [particles] as deposited)
+    friction_velocity_m_s = [0.5, 1.0, 2.0]     # one value, or the steps of a ramp
+    exposure_s = 1.0                    # one value for every step, or one per step
+    adhesion = "biasi2001"              # or { median = 0.01, spread = 3.0 }
+    surface_energy_j_m2 = 0.56
+    fluid = { name = "air", temperature_k = 293.15, pressure_pa = 101325 }
+    # or fluid = { density_kg_m3 = 1.2, kinematic_viscosity_m2_s = 1.5e-5 }
+    diameter_classes = 8                # equiprobable diameter classes (optional)
+    monte_carlo_samples = 0             # per-particle draws beside the quadrature
+
+Part of the scenario configuration, split out to keep modules small. Every problem
+is one :class:`~microimpact.errors.ScenarioError` naming the file and key path.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from ..errors import ScenarioError
+from ..physics.resuspension import air_properties
+from ._file_base import _Ctx, _join, _show, _type_name
+
+__all__ = [
+    "ADHESION_MODELS",
+    "RESUSPENSION_KEYS",
+    "RESUSPENSION_SOURCES",
+    "ResuspensionSpec",
+    "resuspension_from_dict",
+]
+
+#: Keys of the ``[resuspension]`` table.
+RESUSPENSION_KEYS = (
+    "source",
+    "friction_velocity_m_s",
+    "exposure_s",
+    "adhesion",
+    "surface_energy_j_m2",
+    "fluid",
+    "diameter_classes",
+    "monte_carlo_samples",
+)
+#: What is resuspended: the ``[particles]`` population as deposited, or the
+#: particles captured at each sweep point of the engine's run.
+RESUSPENSION_SOURCES = ("particles", "captured")
+#: Named adhesion laws (the alternative is an explicit median and spread).
+ADHESION_MODELS = ("biasi2001",)
+#: Keys of a fluid given by its properties, and of air at a state.
+FLUID_PROPERTY_KEYS = ("density_kg_m3", "kinematic_viscosity_m2_s")
+FLUID_AIR_KEYS = ("name", "temperature_k", "pressure_pa")
+#: Largest number of ramp steps and of diameter classes (each is quadratures).
+MAX_STEPS, MAX_CLASSES = 1000, 200
+#: Friction velocities above this are a unit mistake (a hurricane's is ~3 m/s).
+MAX_FRICTION_VELOCITY_M_S = 100.0
+
+
+@dataclass(frozen=True)
+class ResuspensionSpec:
+    """A validated ``[resuspension]`` table (SI inside, units in the names).
+
+    Attributes
+    ----------
+    friction_velocities_m_s : tuple of float
+        Friction velocity of each ramp step [m s⁻¹], >= 0.
+    exposures_s : tuple of float
+        Duration of each step [s], >= 0 (one per step).
+    surface_energy_j_m2 : float
+        Surface energy of the JKR pull-off force [J m⁻²], > 0.
+    density_kg_m3, kinematic_viscosity_m2_s : float
+        The fluid's density and kinematic viscosity, > 0.
+    source : {"particles", "captured"}
+    adhesion_median, adhesion_spread : float or None
+        An explicit log-normal adhesion reduction factor (median > 0, spread > 1);
+        None for the Biasi (2001) correlation.
+    diameter_classes : int
+        Equiprobable diameter classes resolving a polydisperse population.
+    monte_carlo_samples : int
+        Impacts per sweep point (captured) or particles (deposited) of the
+        per-particle Monte Carlo estimate (0: none).
+    fluid_description : str
+        How the fluid was given, for the report.
+    """
+
+    friction_velocities_m_s: tuple
+    exposures_s: tuple
+    surface_energy_j_m2: float
+    density_kg_m3: float
+    kinematic_viscosity_m2_s: float
+    source: str = "particles"
+    adhesion_median: float | None = None
+    adhesion_spread: float | None = None
+    diameter_classes: int = 8
+    monte_carlo_samples: int = 0
+    fluid_description: str = ""
+
+    def __post_init__(self):
+        def bad(field, message):
+            raise ScenarioError(message, field=f"resuspension.{field}")
+
+        if self.source not in RESUSPENSION_SOURCES:
+            bad(
+                "source", f"must be one of 'particles', 'captured'; got {self.source!r}"
+            )
+        u = tuple(float(v) for v in self.friction_velocities_m_s)
+        t = tuple(float(v) for v in self.exposures_s)
+        if not 1 <= len(u) <= MAX_STEPS:
+            bad("friction_velocity_m_s", f"must hold 1 to {MAX_STEPS} steps")
+        if len(t) == 1 and len(u) > 1:
+            t = t * len(u)
+        if len(t) != len(u):
+            bad(
+                "exposure_s",
+                f"must be one value or one per step ({len(u)}); got {len(t)} values",
+            )
+        for name, values, high in (
+            ("friction_velocity_m_s", u, MAX_FRICTION_VELOCITY_M_S),
+            ("exposure_s", t, math.inf),
+        ):
+            for v in values:
+                if not (math.isfinite(v) and 0 <= v <= high):
+                    limit = f"<= {high:g} " if math.isfinite(high) else ""
+                    bad(name, f"must be finite numbers >= 0 {limit}; got {v:g}")
+        object.__setattr__(self, "friction_velocities_m_s", u)
+        object.__setattr__(self, "exposures_s", t)
+        for name in (
+            "surface_energy_j_m2",
+            "density_kg_m3",
+            "kinematic_viscosity_m2_s",
+        ):
+            v = float(getattr(self, name))
+            if not (math.isfinite(v) and v > 0):
+                bad(name, f"must be a finite number > 0; got {v:g}")
+            object.__setattr__(self, name, v)
+        if (self.adhesion_median is None) != (self.adhesion_spread is None):
+            bad("adhesion", "give both median and spread, or 'biasi2001'")
+        if self.adhesion_median is not None:
+            if not (math.isfinite(self.adhesion_median) and self.adhesion_median > 0):
+                bad("adhesion.median", f"must be > 0; got {self.adhesion_median:g}")
+            if not (math.isfinite(self.adhesion_spread) and self.adhesion_spread > 1):
+                bad("adhesion.spread", f"must be > 1; got {self.adhesion_spread:g}")
+        for name, hi in (
+            ("diameter_classes", MAX_CLASSES),
+            ("monte_carlo_samples", 10**8),  # streamed in blocks
+        ):
+            v = getattr(self, name)
+            low = 1 if name == "diameter_classes" else 0
+            if isinstance(v, bool) or not isinstance(v, int) or not low <= v <= hi:
+                bad(name, f"must be an integer from {low} to {hi}; got {_show(v)}")
+
+    @property
+    def adhesion(self) -> str:
+        """``"biasi2001"`` or ``"median M, spread S"``."""
+        if self.adhesion_median is None:
+            return "biasi2001"
+        return f"median {self.adhesion_median:g}, spread {self.adhesion_spread:g}"
+
+    def describe(self) -> dict:
+        """Plain data for provenance (JSON-able)."""
+        return {
+            "source": self.source,
+            "friction_velocity_m_s": list(self.friction_velocities_m_s),
+            "exposure_s": list(self.exposures_s),
+            "adhesion": self.adhesion,
+            "surface_energy_j_m2": self.surface_energy_j_m2,
+            "density_kg_m3": self.density_kg_m3,
+            "kinematic_viscosity_m2_s": self.kinematic_viscosity_m2_s,
+            "fluid": self.fluid_description,
+            "diameter_classes": self.diameter_classes,
+            "monte_carlo_samples": self.monte_carlo_samples,
+        }
+
+
+def _steps(ctx: _Ctx, value, key):
+    if isinstance(value, list):
+        return ctx.numbers(value, key, low=0)
+    return [ctx.number(value, key, low=0)]
+
+
+def _fluid(ctx: _Ctx, t) -> tuple[float, float, str]:
+    where = "resuspension.fluid"
+    if "fluid" not in t:
+        raise ctx.error(
+            where,
+            "missing required key (a table: density_kg_m3 and "
+            'kinematic_viscosity_m2_s, or name = "air" with temperature_k and '
+            "pressure_pa)",
+        )
+    f = ctx.table(t["fluid"], where)
+    if "name" in f or "temperature_k" in f or "pressure_pa" in f:
+        ctx.keys(f, where, FLUID_AIR_KEYS, FLUID_AIR_KEYS)
+        ctx.choice(f["name"], _join(where, "name"), ("air",))
+        temp = ctx.number(
+            f["temperature_k"], _join(where, "temperature_k"), low=0, strict=True
+        )
+        pres = ctx.number(
+            f["pressure_pa"], _join(where, "pressure_pa"), low=0, strict=True
+        )
+        rho, nu = air_properties(temp, pres)
+        return float(rho), float(nu), f"air at {temp:g} K and {pres:g} Pa"
+    ctx.keys(f, where, FLUID_PROPERTY_KEYS, FLUID_PROPERTY_KEYS)
+    rho = ctx.number(
+        f["density_kg_m3"], _join(where, "density_kg_m3"), low=0, strict=True
+    )
+    nu = ctx.number(
+        f["kinematic_viscosity_m2_s"],
+        _join(where, "kinematic_viscosity_m2_s"),
+        low=0,
+        strict=True,
+    )
+    return rho, nu, f"density {rho:g} kg/m3, kinematic viscosity {nu:g} m2/s"
+
+
+def _adhesion(ctx: _Ctx, t):
+    where = "resuspension.adhesion"
+    value = t.get("adhesion", "biasi2001")
+    if isinstance(value, str):
+        ctx.choice(value, where, ADHESION_MODELS)
+        return None, None
+    if not isinstance(value, dict):
+        raise ctx.error(
+            where,
+            f"must be 'biasi2001' or a table {{ median, spread }}; got "
+            f"{_type_name(value)} {_show(value)}",
+        )
+    ctx.keys(value, where, ("median", "spread"), ("median", "spread"))
+    median = ctx.number(value["median"], _join(where, "median"), low=0, strict=True)
+    spread = ctx.number(value["spread"], _join(where, "spread"), low=1, strict=True)
+    return median, spread
+
+
+def _resuspension(ctx: _Ctx, data):
+    if "resuspension" not in data:
+        return None
+    where = "resuspension"
+    t = ctx.table(data["resuspension"], where)
+    ctx.keys(
+        t,
+        where,
+        RESUSPENSION_KEYS,
+        ("friction_velocity_m_s", "exposure_s", "surface_energy_j_m2"),
+    )
+    source = ctx.choice(
+        t.get("source", "particles"), "resuspension.source", RESUSPENSION_SOURCES
+    )
+    u = _steps(ctx, t["friction_velocity_m_s"], "resuspension.friction_velocity_m_s")
+    e = _steps(ctx, t["exposure_s"], "resuspension.exposure_s")
+    gamma = ctx.number(
+        t["surface_energy_j_m2"], "resuspension.surface_energy_j_m2", low=0, strict=True
+    )
+    rho, nu, described = _fluid(ctx, t)
+    median, spread = _adhesion(ctx, t)
+    kw = {}
+    for key, low in (("diameter_classes", 1), ("monte_carlo_samples", 0)):
+        if key in t:
+            kw[key] = ctx.integer(t[key], f"resuspension.{key}", low=low)
+    try:
+        return ResuspensionSpec(
+            friction_velocities_m_s=tuple(u),
+            exposures_s=tuple(e),
+            surface_energy_j_m2=gamma,
+            density_kg_m3=rho,
+            kinematic_viscosity_m2_s=nu,
+            source=source,
+            adhesion_median=median,
+            adhesion_spread=spread,
+            fluid_description=described,
+            **kw,
+        )
+    except ScenarioError as exc:
+        raise ctx.error(exc.field, exc.message) from None
+
+
+def resuspension_from_dict(data: dict, *, source=None, base_dir=None):
+    """The :class:`ResuspensionSpec` of parsed scenario data (its ``[resuspension]``
+    table), or None if it has none. Errors name `source` and the key path."""
+    ctx = _Ctx(source, base_dir)
+    ctx.table(data, "(top level)")
+    return _resuspension(ctx, data)
