@@ -124,6 +124,10 @@ def test_captured_chain_end_to_end_and_cf(tmp_path):
     rc, out = _run(tmp_path, CAPTURED)
     assert rc == 0
     assert _cf_messages(out / "resuspension.nc", tmp_path) == []
+    # the report: one page holding the resuspension section and its figure
+    page = (out / "report.html").read_text(encoding="utf-8")
+    assert page.count('<section id="resuspension">') == 1
+    assert "data:image/png;base64," in page and "Remaining fraction" in page
     with netCDF4.Dataset(out / "resuspension.nc") as ds:
         for v in ds.variables.values():
             assert "long_name" in v.ncattrs()

@@ -1,7 +1,8 @@
 """Files and the report section of a resuspension study.
 
-:func:`write_resuspension` writes ``resuspension.csv``, ``resuspension.nc`` and
-``resuspension.png`` (each atomically); :func:`resuspension_section_html` gives the
+:func:`write_resuspension` writes ``resuspension.csv``, ``resuspension.nc``,
+``resuspension.png`` and ``report.html`` (each atomically);
+:func:`resuspension_section_html` gives the
 report's section as an HTML fragment (an ``<section>`` element), for
 ``pipeline/report.py`` to place in a study's report.
 """
@@ -28,6 +29,7 @@ RESUSPENSION_FILES = {
     "csv": "resuspension.csv",
     "netcdf": "resuspension.nc",
     "figure": "resuspension.png",
+    "report": "report.html",
 }
 
 
@@ -47,7 +49,7 @@ def write_resuspension(result, out_dir) -> dict[str, Path]:
     Returns
     -------
     dict
-        ``{"csv": path, "netcdf": path, "figure": path}``.
+        ``{"csv": path, "netcdf": path, "figure": path, "report": path}``.
     """
     out = Path(out_dir)
     table = result.table
@@ -69,7 +71,30 @@ def write_resuspension(result, out_dir) -> dict[str, Path]:
         )
     finally:
         plt.close(fig)
+    page = _page(result)
+    paths["report"] = atomic_write(
+        out / RESUSPENSION_FILES["report"],
+        lambda t: Path(t).write_text(page, encoding="utf-8"),
+    )
     return paths
+
+
+def _page(result) -> str:
+    """A self-contained report page holding the resuspension section."""
+    # the report's own style sheet, so the page reads like the other reports
+    from .report import _CSS
+
+    title = "microimpact report: resuspension"
+    name = result.dataset.attrs.get("scenario", "")
+    return (
+        '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
+        '<meta name="viewport" content="width=device-width, initial-scale=1">'
+        f"<title>{html.escape(title)}</title><style>{_CSS}</style></head>"
+        f"<body><main><h1>{html.escape(title)}</h1>"
+        + (f'<p class="sub">{html.escape(str(name))}</p>' if name else "")
+        + resuspension_section_html(result)
+        + "</main></body></html>\n"
+    )
 
 
 def resuspension_section_html(result) -> str:
