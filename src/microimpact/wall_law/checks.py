@@ -163,3 +163,34 @@ def dataset_problem(ds, dims) -> str | None:
         int(ds.sizes["sample"]),
         dims,
     )
+
+
+#: Queries that look like a wrong unit (swl.c: SWL_MIN_DIAMETER_UM,
+#: SWL_MAX_SPEED_M_S; SWL_E_UNIT): a diameter below 10 nm (metres given as µm:
+#: 3e-6 for 3 µm) and a speed above 1 km/s beyond the table's fastest node (mm/s
+#: given as m/s; cold spray reaches ~1 km/s, and a table built that fast takes it).
+WRONG_UNIT_DIAMETER_UM = 0.01
+WRONG_UNIT_SPEED_M_S = 1000.0
+
+
+def wrong_unit(diameter_um, speed_m_s, top_speed_m_s: float) -> str | None:
+    """Why a query looks like a wrong unit (naming the first such value and the
+    likely slip), or None."""
+    d = np.asarray(diameter_um, dtype=float)
+    v = np.asarray(speed_m_s, dtype=float)
+    small = d < WRONG_UNIT_DIAMETER_UM
+    if small.any():
+        x = float(d[small][0])
+        return (
+            f"`diameter_um` = {x:g} is below 0.01 um, not a particle: was it given "
+            f"in metres? {x:g} m is {x * 1e6:g} um; diameters are in um here"
+        )
+    fast = (v > WRONG_UNIT_SPEED_M_S) & (v > top_speed_m_s)
+    if fast.any():
+        x = float(v[fast][0])
+        return (
+            f"`speed_m_s` = {x:g} is above 1 km/s and above the table's fastest "
+            f"node ({top_speed_m_s:g} m/s): was it given in mm/s? {x:g} mm/s is "
+            f"{x * 1e-3:g} m/s; speeds are in m/s here"
+        )
+    return None

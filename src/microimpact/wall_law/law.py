@@ -27,7 +27,7 @@ from ..engine.dataset import CONVENTIONS, encoding, history_line
 from ..engine.statistics import wilson_interval
 from ..errors import DataFormatError
 from ..scenario.wall_law import REBOUND_VARIABLES, RESERVOIR_VARIABLES
-from .checks import dataset_problem
+from .checks import dataset_problem, wrong_unit
 from .export_c import write_c
 from .openfoam import write_openfoam, write_stochastic_model
 
@@ -497,6 +497,11 @@ class WallLaw:
         d = _check_query("diameter_um", diameter_um, n, True)
         v = _check_query("speed_m_s", speed_m_s, n, True)
         a = _check_query("angle_deg", angle_deg, n, False)
+        # a unit slip (metres as um, mm/s as m/s), refused as the C sampler does
+        top = self._log_v[-1] + (0.0 if self._log_vc is None else self._log_vc.max())
+        problem = wrong_unit(d, v, math.exp(top))  # the fastest node [m/s]
+        if problem:
+            raise ValueError(problem)
         idx, clamped = [], np.zeros(n, bool)
         log_v = np.log(v)
         for axis, coord in enumerate((self._log_d, self._log_v, self._angle)):
