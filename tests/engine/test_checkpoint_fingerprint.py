@@ -137,3 +137,66 @@ def test_friction_through_the_scenario():
     fa = plan_fingerprint(build_plan(a, kernel="numpy"), (100,))
     fb = plan_fingerprint(build_plan(b, kernel="numpy"), (100,))
     assert fa["scenario"] != fb["scenario"] and fa["seed"] == fb["seed"]
+
+
+def test_a_plan_without_optional_tables_has_the_same_fingerprint_in_any_process():
+    """A smooth surface and no speed spread leave tables out (None): they must
+    hash as a fixed marker, not as the bytes of an object array (an address that
+    differs from process to process, so a run could never resume)."""
+    import subprocess
+    import sys
+
+    code = (
+        "import microimpact as mi\n"
+        "from microimpact.engine.plan import build_plan\n"
+        "from microimpact.engine.checkpoint import plan_fingerprint\n"
+        "s = mi.Scenario(name='f', particles=mi.lognormal_diameters(10.0, 1.5),\n"
+        "    coefficients=mi.ImpactCoefficients(k1=4.0, k2=0.05, v_c=0.5),\n"
+        "    surfaces=(mi.SurfaceVariant('smooth'),), seed=1, samples=10)\n"
+        "print(plan_fingerprint(build_plan(s, kernel='numpy'), (10,))['scenario'])\n"
+    )
+    runs = [
+        subprocess.run(
+            [sys.executable, "-c", code], capture_output=True, text=True, check=True
+        ).stdout.strip()
+        for _ in range(2)
+    ]
+    plan = build_plan(
+        mi.Scenario(
+            name="f",
+            particles=mi.lognormal_diameters(10.0, 1.5),
+            coefficients=mi.ImpactCoefficients(k1=4.0, k2=0.05, v_c=0.5),
+            surfaces=(mi.SurfaceVariant("smooth"),),
+            seed=1,
+            samples=10,
+        ),
+        kernel="numpy",
+    )
+    assert plan.speeds is None and plan.surface_atoms == (None,)
+    assert runs[0] == runs[1] == plan_fingerprint(plan, (10,))["scenario"]
+
+
+def test_the_pair_drawing_algorithm_is_in_the_fingerprint(monkeypatch):
+    """An areal surface's pairs are drawn by ArealSampler.ALGORITHM: a checkpoint
+    written by another algorithm (other pairs from the same seed) is not
+    resumed."""
+    from microimpact.engine.plan import ArealSampler
+    from microimpact.surface.areal_angles import gaussian_areal_angles
+
+    areal = gaussian_areal_angles(
+        nx=32,
+        ny=32,
+        dx_um=1.0,
+        rms_um=1.0,
+        corr_x_um=6.0,
+        contact_diameter_um=3.0,
+        seed=4,
+        azimuth_deg=None,
+    )
+    plan = build_plan(
+        _scenario(surfaces=(mi.SurfaceVariant("areal", areal),)), kernel="numpy"
+    )
+    assert plan.pair_algorithm(0)
+    before = plan_fingerprint(plan, (100,))
+    monkeypatch.setattr(ArealSampler, "ALGORITHM", "another algorithm")
+    assert plan_fingerprint(plan, (100,))["scenario"] != before["scenario"]

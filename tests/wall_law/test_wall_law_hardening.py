@@ -409,3 +409,32 @@ def test_fuzzing_for_longer(fuzzer, real_tables, tmp_path, seed):
         fuzzer, "fuzz", seed, 30.0, 10**8, tmp_path, *real_tables, timeout=300
     )
     assert counts["iterations"] >= 2000 and counts["loads"].get(0, 0) > 0
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        (
+            _axis("angle_deg", [15.0, 50.0, 95.0]),
+            "angle_deg must be in (0, 90]; node 2 is 95",
+        ),
+        (
+            _axis("speed_m_s", [-0.5, 2.0, 8.0, 30.0]),
+            "speed_m_s must be finite and > 0; node 0 is -0.5",
+        ),
+        (
+            _set("reservoir_speed_ratio", 2.0),
+            "reservoir_speed_ratio must be in [0, 1] where it is held; at surface 0, "
+            "diameter_um 0, speed_m_s 0, angle_deg 2, sample 0 it is 2",
+        ),
+        (
+            _set("capture_probability", 1.5),
+            "capture_probability must be in [0, 1] or NaN; at surface 0, "
+            "diameter_um 0, speed_m_s 0, angle_deg 2 it is 1.5",
+        ),
+    ],
+)
+def test_the_message_names_the_node_and_the_value(dataset, change, message):
+    with pytest.raises(DataFormatError) as err:
+        WallLaw(change(dataset))
+    assert message in str(err.value), str(err.value)
