@@ -348,6 +348,10 @@ class WallLaw:
                     "not a wall-law table: a reduced speed axis needs "
                     "critical_speed_m_s (diameter_um), finite and > 0"
                 )
+        # the value ranges every reader and writer checks (wall_law/checks.py)
+        problem = dataset_problem(dataset, self._dims)
+        if problem:
+            raise DataFormatError(f"not a valid wall-law table: {problem}")
         self.dataset = dataset
         ds = dataset.transpose(*self._dims, ...)
         self._log_d = np.log(ds["diameter_um"].values.astype(float))
@@ -366,10 +370,6 @@ class WallLaw:
         self._res = {
             n: ds[f"reservoir_{n}"].values.astype(float) for n in RESERVOIR_VARIABLES
         }
-        # the value ranges every reader and writer checks (wall_law/checks.py)
-        problem = dataset_problem(dataset, self._dims)
-        if problem:
-            raise DataFormatError(f"not a valid wall-law table: {problem}")
 
     # ---------------------------------------------------------------- loading
     @classmethod
