@@ -30,6 +30,9 @@
  *   to the built-in trap condition (check the report of your release). Count
  *   captures with `microimpact_wall_report` (per process) or your own UDM.
  *   SWL_CAPTURE_STATUS changes the returned status.
+ * - A particle whose diameter is below 0.01 um or whose speed is above 1 km/s
+ *   beyond the table (SWL_E_UNIT: a unit slip) is aborted (PATH_ABORT) and the
+ *   reason is printed once with Message().
  * - Uniform numbers: `float uniform_random(void)` of Fluent's random.h [2] (which
  *   also declares cheap_uniform_random, the one the wall-jet example [1] uses);
  *   define SWL_UNIFORM() to use another generator.
