@@ -53,6 +53,14 @@ static double uniform(void) { return (double)(next_u64() >> 11) * 0x1.0p-53; }
 
 static size_t below(size_t n) { return n ? (size_t)(next_u64() % n) : 0; }
 
+/* x finite, by its bits (a signalling NaN traps even in isfinite) */
+static int finite_bits(double x)
+{
+    uint64_t b;
+    memcpy(&b, &x, sizeof b);
+    return (b & UINT64_C(0x7FF0000000000000)) != UINT64_C(0x7FF0000000000000);
+}
+
 static double from_bits(uint64_t b)
 {
     double x;
@@ -210,7 +218,7 @@ static void mutate(unsigned char *buf, size_t *size, const region *reg, int nr)
             /* the mutator's own arithmetic must not trap: scale only finite
              * values and only where the product stays finite */
             double g = f[below(6)];
-            if (isfinite(x) && (fabs(x) <= 1.0 || fabs(g) <= 1.0))
+            if (finite_bits(x) && (fabs(x) <= 1.0 || fabs(g) <= 1.0))
                 put_double(buf + at, x * g);
         }
         break;
@@ -299,21 +307,13 @@ static double query_uniform(void)
     }
 }
 
-/* x finite, by its bits (a signalling NaN traps even in isfinite) */
-static int finite_bits(double x)
-{
-    uint64_t b;
-    memcpy(&b, &x, sizeof b);
-    return (b & UINT64_C(0x7FF0000000000000)) != UINT64_C(0x7FF0000000000000);
-}
-
 /* Is the query valid per swl.h (else SWL_E_ARG is due)? */
 static int valid_query(double d, double s, double a, const double u[5])
 {
     for (int i = 0; i < 5; i++)
         if (!finite_bits(u[i]) || !(u[i] >= 0.0 && u[i] < 1.0))
             return 0;
-    return finite_bits(d) && finite_bits(s) && finite_bits(a) && d > 0.0 && s > 0.0 &&
+    return finite_bits(d) && finite_bits(s) && finite_bits(a) && d > 0.0 && s >= DBL_MIN &&
            a > 0.0 && a <= 90.0;
 }
 
@@ -340,7 +340,8 @@ static int sample_table(const swl_law *law)
         if (rc == SWL_REBOUND) {
             if (!isfinite(vel[0]) || !isfinite(vel[1]) || !isfinite(vel[2]))
                 return fail("a non-finite rebound", d, s, a, vel, rc);
-            if (!(hypot(hypot(vel[0], vel[1]), vel[2]) <= s * (1.0 + 1e-12)))
+            /* |U| / s, each component divided first: s may be near DBL_MAX */
+            if (!(hypot(hypot(vel[0] / s, vel[1] / s), vel[2] / s) <= 1.0 + 1e-12))
                 return fail("a rebound faster than the impact", d, s, a, vel, rc);
         } else if (rc == SWL_CAPTURED) {
             if (vel[0] != 0.0 || vel[1] != 0.0 || vel[2] != 0.0)
@@ -360,7 +361,8 @@ static int sample_table(const swl_law *law)
             speed = hypot(hypot(v_in[0], v_in[1]), v_in[2]);
             if (rc == SWL_REBOUND &&
                 (!isfinite(out[0]) || !isfinite(out[1]) || !isfinite(out[2]) ||
-                 !(hypot(hypot(out[0], out[1]), out[2]) <= speed * (1.0 + 1e-12))))
+                 !(hypot(hypot(out[0] / speed, out[1] / speed), out[2] / speed) <=
+                   1.0 + 1e-12)))
                 return fail("a bad rebound_velocity", d, speed, 0, out, rc);
         }
     }

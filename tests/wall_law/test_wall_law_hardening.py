@@ -317,6 +317,7 @@ def test_a_subnormal_direction_is_scaled_without_overflow(swl, dataset, tmp_path
         (1.0, 1.0, float("nan")),
         (float("inf"), 1.0, 45.0),
         (1.0, float("-inf"), 45.0),
+        (1.0, 1e-320, 45.0),  # subnormal: |U| <= s cannot be rounded so
     ],
 )
 def test_nan_and_inf_queries_are_refused_without_a_trap(
@@ -438,3 +439,8 @@ def test_the_message_names_the_node_and_the_value(dataset, change, message):
     with pytest.raises(DataFormatError) as err:
         WallLaw(change(dataset))
     assert message in str(err.value), str(err.value)
+
+
+def test_python_refuses_a_subnormal_speed_as_c_does(dataset):
+    with pytest.raises(ValueError, match="speed_m_s"):
+        WallLaw(dataset).sample(1.0, 1e-320, 45.0, rng=1)

@@ -497,6 +497,11 @@ class WallLaw:
         d = _check_query("diameter_um", diameter_um, n, True)
         v = _check_query("speed_m_s", speed_m_s, n, True)
         a = _check_query("angle_deg", angle_deg, n, False)
+        if np.any(v < np.finfo(float).tiny):  # as swl.c: |U| <= s needs a normal s
+            raise ValueError(
+                f"`speed_m_s` must be at least {np.finfo(float).tiny:g} (a normal "
+                f"number); got {float(v[v < np.finfo(float).tiny][0])!r}"
+            )
         # a unit slip (metres as um, mm/s as m/s), refused as the C sampler does
         top = self._log_v[-1] + (0.0 if self._log_vc is None else self._log_vc.max())
         problem = wrong_unit(d, v, math.exp(top))  # the fastest node [m/s]

@@ -618,10 +618,11 @@ int swl_sample(const swl_law *law, int surface, double diameter_um, double speed
     if (!velocity)
         return SWL_E_ARG;
     velocity[0] = velocity[1] = velocity[2] = NAN;
-    /* finite by the bits before any comparison: a NaN argument must not trap */
+    /* finite by the bits before any comparison: a NaN argument must not trap; a
+     * subnormal speed is refused: its rebound could not be rounded to |U| <= s */
     if (!law || !u || surface < 0 || surface >= law->n[0] || !good_uniforms(u) ||
         !finite_bits(diameter_um) || !finite_bits(speed_m_s) || !finite_bits(angle_deg) ||
-        !(diameter_um > 0.0) || !(speed_m_s > 0.0) || !(angle_deg > 0.0) ||
+        !(diameter_um > 0.0) || !(speed_m_s >= DBL_MIN) || !(angle_deg > 0.0) ||
         !(angle_deg <= 90.0))
         return SWL_E_ARG;
     /* a diameter in metres, or a speed in mm/s, given where um and m/s belong */

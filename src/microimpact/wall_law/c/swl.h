@@ -105,8 +105,9 @@ enum {
     SWL_REBOUND = 0,     /* velocity holds the rebound */
     SWL_CAPTURED = 1,    /* the particle sticks; velocity is (0, 0, 0) */
     SWL_NO_DATA = 2,     /* the chosen node had no impact (NaN); velocity is NaN */
-    SWL_E_ARG = -1,      /* bad argument: NULL, unknown surface, a diameter or speed
-                            not > 0, an angle outside (0, 90], u outside [0, 1), NaN */
+    SWL_E_ARG = -1,      /* bad argument: NULL, unknown surface, a diameter not > 0,
+                            a speed below DBL_MIN (2.2e-308, or not a number), an
+                            angle outside (0, 90], u outside [0, 1), NaN */
     SWL_E_IO = -2,       /* the file cannot be opened or read */
     SWL_E_MAGIC = -3,    /* not a wall-law table (wrong magic) */
     SWL_E_VERSION = -4,  /* a format version this reader does not know */
