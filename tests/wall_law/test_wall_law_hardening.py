@@ -433,6 +433,41 @@ def test_fuzzing_for_longer(fuzzer, real_tables, tmp_path, seed):
             "capture_probability must be in [0, 1] or NaN; at surface 0, "
             "diameter_um 0, speed_m_s 0, angle_deg 2 it is 1.5",
         ),
+        (
+            _set("reservoir_count", 9),
+            "reservoir_count must be in [0, 8]; at surface 0, diameter_um 0, "
+            "speed_m_s 0, angle_deg 2 it is 9",
+        ),
+        (
+            _set("reservoir_count", -1),
+            "reservoir_count must be in [0, 8]; at surface 0, diameter_um 0, "
+            "speed_m_s 0, angle_deg 2 it is -1",
+        ),
+        (
+            _set("reservoir_e_n", 1e300),
+            "reservoir_e_n must be in [-1e+06, 1e+06] where it is held; at surface 0,"
+            " diameter_um 0, speed_m_s 0, angle_deg 2, sample 0 it is 1e+300",
+        ),
+        (
+            _set("reservoir_mu", 2e12),
+            "reservoir_mu must be in [-1e+12, 1e+12] where it is held",
+        ),
+        (
+            _set("reservoir_lateral_angle_deg", 90.0),
+            "reservoir_lateral_angle_deg must be in (-90, 90) where it is held",
+        ),
+        (
+            _set("reservoir_e_n", 1.01),
+            "reservoir_e_n must be such that |e_n sin(angle)| <= 1 (no normal "
+            "rebound faster than the impact) where it is held",
+        ),
+        (
+            _set("reservoir_mu", -0.2, (0, 0, 0, 0)),
+            "reservoir_mu must be such that |cos(angle) - mu (1 + e_n) sin(angle)| "
+            "<= 1 (no tangential rebound faster than the impact) where it is held; "
+            "at surface 0, diameter_um 0, speed_m_s 0, angle_deg 0, sample 0 it is "
+            "-0.2",
+        ),
     ],
 )
 def test_the_message_names_the_node_and_the_value(dataset, change, message):
@@ -444,3 +479,17 @@ def test_the_message_names_the_node_and_the_value(dataset, change, message):
 def test_python_refuses_a_subnormal_speed_as_c_does(dataset):
     with pytest.raises(ValueError, match="speed_m_s"):
         WallLaw(dataset).sample(1.0, 1e-320, 45.0, rng=1)
+
+
+def test_the_bounds_themselves_are_inside(dataset):
+    """A rebound exactly as fast as the impact is allowed: e_n = 1, mu = 0 at 90
+    degrees (|U_z| = s), a speed ratio of exactly 1 and 0."""
+    ds = dataset.copy(deep=True)
+    at = (0, 0, 0, 2, 0)
+    ds["reservoir_e_n"].values[at] = 1.0
+    ds["reservoir_e_n"].values[(0, 0, 0, 2, 1)] = -1.0
+    ds["reservoir_mu"].values[at] = 0.0
+    ds["reservoir_speed_ratio"].values[at] = 1.0
+    ds["reservoir_speed_ratio"].values[(0, 0, 0, 2, 1)] = 0.0
+    assert int(ds["reservoir_count"].values[at[:4]]) >= 2
+    assert WallLaw(ds) is not None

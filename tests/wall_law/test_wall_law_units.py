@@ -54,6 +54,22 @@ def test_python_sampler_refuses_a_wrong_unit(dataset, d, v, match):
     assert "\n" not in str(err.value) and "np." not in str(err.value)
 
 
+def test_the_messages_give_the_value_in_the_likely_unit(dataset):
+    law = WallLaw(dataset)
+    with pytest.raises(ValueError, match=r"3e-06 m is 3 um"):
+        law.sample(3e-6, 1.0, 45.0, rng=1)
+    with pytest.raises(ValueError, match=r"1500 mm/s is 1\.5 m/s"):
+        law.sample(5.0, 1500.0, 45.0, rng=1)
+
+
+def test_the_speed_limits_themselves_are_taken(dataset):
+    """1 km/s exactly is a speed; and a table whose fastest node is 1.5 km/s
+    takes 1.5 km/s exactly."""
+    assert WallLaw(dataset).sample(5.0, 1000.0, 45.0, rng=1).valid.all()
+    fast = dataset.assign_coords(speed_m_s=SPEEDS * 50.0)  # top node 1500 m/s
+    assert WallLaw(fast).sample(5.0, 1500.0, 45.0, rng=1).valid.all()
+
+
 def test_python_sampler_takes_what_is_plausible(dataset):
     law = WallLaw(dataset)
     s = law.sample([0.01, 5.0, 5.0], [1.0, 999.0, 1.0], 45.0, rng=1)
