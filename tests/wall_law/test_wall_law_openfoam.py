@@ -377,7 +377,8 @@ def test_normal_incidence_is_refused(tmp_path):
 
 def test_surface_captured_everywhere_is_written_stick(tmp_path):
     ds, raw = make_dataset(capture="glass")
-    write_openfoam(_law(ds), tmp_path)
+    with pytest.warns(UserWarning, match="'glass' has no rebound anywhere"):
+        write_openfoam(_law(ds), tmp_path)
     for name in (LOCAL_INTERACTION_FILE, LOCAL_PATCHES_FILE):
         patches = _patches(tmp_path / "openfoam" / name)
         assert patches["glass"] == {"type": "stick"}

@@ -110,7 +110,26 @@ def cli_action(args) -> int:
         f"{scenario.name}: wall law {law!r}, seed entropy {law.dataset.attrs['seed']}, "
         f"{time.perf_counter() - t0:.1f} s -> {args.out}",
     )
+    c.say(args, _accuracy_line(law))
     return c.EXIT_OK
+
+
+def _accuracy_line(law) -> str:
+    """What the node spacing costs at the capture edge (wall_law/accuracy.py)."""
+    # deferred: the verb's library loads only when the verb runs (fast --help)
+    from ..wall_law.accuracy import capture_steps
+
+    steps = [s for s in capture_steps(law) if s.step == s.step]  # not NaN
+    if not steps:
+        return "capture between nodes: the table has one node on every axis"
+    return (
+        "capture between nodes may be off by up to "
+        + "; ".join(s.describe() for s in steps)
+        + ": the largest capture change between neighbouring nodes, which bounds "
+        "the interpolation where capture is monotone (plus the nodes' Monte Carlo "
+        'noise); add nodes there for less (docs/wall-law.md, "Accuracy between '
+        'nodes")'
+    )
 
 
 def _check_condition(spec, condition, scenario):

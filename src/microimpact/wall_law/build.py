@@ -45,6 +45,7 @@ from ..scenario.grid import SweepGrid
 from ..scenario.scenario import Scenario, read_scenario
 from ..scenario.wall_law import REBOUND_VARIABLES, RESERVOIR_VARIABLES, WallLawSpec
 from ..units import um_to_m
+from .checks import MAX_LATERAL_DEG
 from .law import WallLaw, wall_law_dataset
 
 __all__ = ["build_wall_law", "critical_speed_m_s", "node_outcomes"]
@@ -311,6 +312,12 @@ def _node_rows(plan, points, spec: WallLawSpec, samples: int, buffers=None) -> d
         if name in RESERVOIR_VARIABLES:  # before the sort: in draw order
             res = np.full((p, spec.reservoir), np.nan)
             res[:, :width] = np.where(keep, out[v, :, :width], np.nan)
+            # within the readers' ranges (wall_law/checks.py) also at round-off:
+            # a lateral angle that rounds to 90 degrees, a ratio 1 + 1 ulp
+            if name == "lateral_angle_deg":
+                np.clip(res, -MAX_LATERAL_DEG, MAX_LATERAL_DEG, out=res)
+            elif name == "speed_ratio":
+                np.minimum(res, 1.0, out=res)
             rows[f"reservoir_{name}"] = res
     out[: len(REBOUND_VARIABLES)].sort(axis=2)
     q = np.asarray(spec.quantiles, dtype=float)

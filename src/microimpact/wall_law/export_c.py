@@ -20,6 +20,7 @@ import numpy as np
 
 from .._core.files import atomic_write
 from ..errors import DataFormatError
+from .checks import RESERVOIRS, dataset_problem
 
 __all__ = ["read_binary", "write_binary", "write_c"]
 
@@ -40,7 +41,6 @@ DIMS = ("surface", "diameter_um", "speed_m_s", "angle_deg")
 REDUCED_DIMS = ("surface", "diameter_um", "reduced_speed", "angle_deg")
 #: Header codes of the speed axis' kind (format version 2, offset 36).
 SPEED_AXIS_CODES = {"absolute": 0, "reduced": 1}
-RESERVOIRS = ("e_n", "mu", "lateral_angle_deg", "speed_ratio")
 
 
 def _dataset(law):
@@ -54,33 +54,18 @@ def _dims(ds):
     return REDUCED_DIMS if "reduced_speed" in ds.dims else DIMS
 
 
-def _check(names, axes, p, count, res, k):
-    """Raise ValueError where the table breaks the format (what swl_load checks)."""
+def _check(names, ds):
+    """Raise ValueError where the table breaks the format (what swl_load checks;
+    the value ranges of :mod:`.checks`, shared with the Python reader)."""
     for name in names:
         if len(name) >= NAME_WIDTH or b"\0" in name:
             raise ValueError(
                 f"surface name {name.decode()!r} must be at most {NAME_WIDTH - 1} "
                 "bytes of UTF-8 without NUL for the binary table"
             )
-    for dim, x in zip(("diameter_um", "speed axis", "angle_deg"), axes, strict=True):
-        if not (np.all(np.isfinite(x)) and np.all(np.diff(x) > 0)):
-            raise ValueError(f"{dim} must be finite and strictly increasing")
-        if dim != "angle_deg" and not np.all(x > 0):
-            raise ValueError(f"{dim} must be > 0")
-    if np.any((p < 0) | (p > 1)):
-        raise ValueError("capture_probability must be in [0, 1] or NaN")
-    if np.any((count < 0) | (count > k)):
-        raise ValueError(f"reservoir_count must be in [0, {k}]")
-    if np.any((count == 0) & ~(np.isnan(p) | (p == 1))):
-        raise ValueError("a node with reservoir_count 0 must have capture 1 or NaN")
-    held = np.arange(k) < count[..., None]
-    for name, a in zip(RESERVOIRS, res, strict=True):
-        a, allowed = a[held], "finite"
-        ok = np.abs(a) < (90.0 if name == "lateral_angle_deg" else np.inf)
-        if name == "speed_ratio":
-            ok, allowed = ok & (a >= 0), "finite and >= 0"
-        if not np.all(ok):
-            raise ValueError(f"reservoir_{name} must be {allowed} where it is held")
+    problem = dataset_problem(ds, _dims(ds))
+    if problem:
+        raise ValueError(problem)
 
 
 def encode(law, version: int = VERSION) -> bytes:
@@ -102,7 +87,7 @@ def encode(law, version: int = VERSION) -> bytes:
     count = np.asarray(ds["reservoir_count"].values)
     res = [np.asarray(ds[f"reservoir_{n}"].values, dtype=float) for n in RESERVOIRS]
     k = int(ds.sizes["sample"])
-    _check(names, axes, p, count, res, k)
+    _check(names, ds)
     critical = []
     if reduced:
         v_c = np.asarray(ds["critical_speed_m_s"].values, dtype=float)

@@ -33,6 +33,7 @@ from ..engine.dataset import (
 from ..engine.statistics import wilson_interval
 from ..errors import DataFormatError
 from ..scenario.wall_law import REBOUND_VARIABLES, RESERVOIR_VARIABLES
+from .checks import dataset_problem, wrong_unit
 from .export_c import write_c
 from .openfoam import write_openfoam, write_stochastic_model
 
@@ -354,6 +355,10 @@ class WallLaw:
                     "not a wall-law table: a reduced speed axis needs "
                     "critical_speed_m_s (diameter_um), finite and > 0"
                 )
+        # the value ranges every reader and writer checks (wall_law/checks.py)
+        problem = dataset_problem(dataset, self._dims)
+        if problem:
+            raise DataFormatError(f"not a valid wall-law table: {problem}")
         self.dataset = dataset
         ds = dataset.transpose(*self._dims, ...)
         self._log_d = np.log(ds["diameter_um"].values.astype(float))
@@ -499,6 +504,16 @@ class WallLaw:
         d = _check_query("diameter_um", diameter_um, n, True)
         v = _check_query("speed_m_s", speed_m_s, n, True)
         a = _check_query("angle_deg", angle_deg, n, False)
+        if np.any(v < np.finfo(float).tiny):  # as swl.c: |U| <= s needs a normal s
+            raise ValueError(
+                f"`speed_m_s` must be at least {np.finfo(float).tiny:g} (a normal "
+                f"number); got {float(v[v < np.finfo(float).tiny][0])!r}"
+            )
+        # a unit slip (metres as um, mm/s as m/s), refused as the C sampler does
+        top = self._log_v[-1] + (0.0 if self._log_vc is None else self._log_vc.max())
+        problem = wrong_unit(d, v, math.exp(top))  # the fastest node [m/s]
+        if problem:
+            raise ValueError(problem)
         idx, clamped = [], np.zeros(n, bool)
         log_v = np.log(v)
         for axis, coord in enumerate((self._log_d, self._log_v, self._angle)):
@@ -528,15 +543,18 @@ class WallLaw:
         th = a * (math.pi / 180.0)
         sin_t, cos_t = np.sin(th), np.cos(th)
         vel = np.zeros((n, 3))
-        u_z = e_n * v * sin_t
-        u_x = v * cos_t - mu * (1.0 + e_n) * v * sin_t
+        # the direction per unit speed (the reader bounds e_n, mu and the lateral
+        # angle: no overflow), then |U| = speed_ratio * s (no energy gained when
+        # the corner's angle differs from the query's); as swl.c, component by
+        # component u / |u| (at most 1) times speed_ratio * s
+        u_z = e_n * sin_t
+        u_x = cos_t - mu * (1.0 + e_n) * sin_t
         u_y = np.tan(psi * (math.pi / 180.0)) * np.hypot(u_x, u_z)
-        # the magnitude is the sample's: |U| = speed_ratio * s (no energy gained
-        # when the corner's angle differs from the query's)
-        norm = np.sqrt(u_x * u_x + u_y * u_y + u_z * u_z)
+        norm = np.hypot(np.hypot(u_x, u_z), u_y)
         with np.errstate(invalid="ignore", divide="ignore"):
-            scale = np.where(norm > 0.0, ratio * v / norm, 0.0)
-        u_x, u_y, u_z = u_x * scale, u_y * scale, u_z * scale
+            safe = np.where(norm > 0.0, norm, 1.0)
+            scale = np.where(norm > 0.0, ratio * v, 0.0)
+            u_x, u_y, u_z = u_x / safe * scale, u_y / safe * scale, u_z / safe * scale
         vel[:, 0] = np.where(rebound, u_x, 0.0)
         vel[:, 1] = np.where(rebound, u_y, 0.0)
         vel[:, 2] = np.where(rebound, u_z, 0.0)

@@ -54,6 +54,7 @@ from __future__ import annotations
 import hashlib
 import math
 import re
+import warnings
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -68,6 +69,7 @@ __all__ = [
     "LOCAL_INTERACTION_FILE",
     "LOCAL_PATCHES_FILE",
     "STOCHASTIC_FILE",
+    "OpenFOAMFallbackWarning",
     "fallback_condition",
     "openfoam_coefficients",
     "write_demo_case",
@@ -225,10 +227,44 @@ def _value(ds, name, s, node):
     return float(a.values)
 
 
+class OpenFOAMFallbackWarning(UserWarning):
+    """The no-compile fallback applies something other than the node's mean
+    rebound: a whole patch sticks, or the table's mean rebound replaces a node that
+    captures everything (the CLI prints it as a one-line warning)."""
+
+
+def _table_mean(ds, s) -> tuple[float, float, int, int]:
+    """``(mean e_n, mean e_t, rebounds, nodes)`` over every rebound of surface
+    `s` in the table: each node's means weighted by its rebounds (e_t over the
+    oblique nodes only, where it is defined)."""
+    node = ds.sel(surface=s)
+    n = np.asarray(node["n_rebounds"].values, dtype=float)
+    e_n = np.asarray(node["e_n_mean"].values, dtype=float)
+    e_t = np.asarray(node["e_t_mean"].values, dtype=float)
+    oblique = np.asarray(node["angle_deg"].values, dtype=float) < 90.0
+    ok = (n > 0) & np.isfinite(e_n)
+    ok_t = ok & np.isfinite(e_t) & np.broadcast_to(oblique, n.shape)
+    if not ok.any():
+        return math.nan, math.nan, 0, 0
+    mean_n = float(np.sum(n[ok] * e_n[ok]) / np.sum(n[ok]))
+    mean_t = (
+        float(np.sum(n[ok_t] * e_t[ok_t]) / np.sum(n[ok_t])) if ok_t.any() else math.nan
+    )
+    return mean_n, mean_t, int(np.sum(n[ok])), int(np.count_nonzero(ok))
+
+
 def openfoam_coefficients(law, *, diameter_um=None, speed_m_s=None, angle_deg=None):
     """The fallback's numbers: the condition and, per surface, a dict with ``type``
-    (``"rebound"``, or ``"stick"`` where every impact is captured), ``e``
-    (mean e_n), ``mu`` (OpenFOAM's: 1 - mean e_t) and the node's statistics.
+    (``"rebound"`` or ``"stick"``), ``e`` (mean e_n), ``mu`` (OpenFOAM's: 1 - mean
+    e_t), ``applied`` (what the entry applies: ``"node"``, ``"table mean"`` or
+    ``"stick"``), ``note`` (why, where it is not the node's mean rebound, else
+    ``""``) and the node's statistics.
+
+    A surface that captures every impact at the node is never made to stick
+    silently: where the condition was not given on every axis, its entry is the
+    mean rebound over the whole table (each node weighted by its rebounds); where
+    the user gave the condition, or the table has no rebound of that surface at
+    all, it is ``stick``; either way `note` says so.
 
     Raises ``ValueError`` naming the argument for a value outside the table, at
     normal incidence (e_t is undefined there) and for a surface with no impact at
@@ -269,8 +305,32 @@ def openfoam_coefficients(law, *, diameter_um=None, speed_m_s=None, angle_deg=No
                 f"surface {label!r} has no impact {where} (every draw shadowed); "
                 "choose another `angle_deg`"
             )
+        applied, note = "node", ""
         if p >= 1.0 or not math.isfinite(stats["e_n_mean"]):
-            kind, e, mu = "stick", math.nan, math.nan
+            mean_n, mean_t, rebounds, nodes = _table_mean(ds, s)
+            given = None not in (diameter_um, speed_m_s, angle_deg)
+            if given or not (math.isfinite(mean_n) and math.isfinite(mean_t)):
+                kind, e, mu, applied = "stick", math.nan, math.nan, "stick"
+                why = (
+                    f"captures every impact {where}, the condition given"
+                    if given
+                    else "has no rebound anywhere in the table"
+                )
+                note = (
+                    f"surface {label!r} {why}: its OpenFOAM patch is written "
+                    "'type stick', so every parcel that strikes it sticks"
+                )
+            else:
+                kind, e, mu, applied = "rebound", mean_n, 1.0 - mean_t, "table mean"
+                note = (
+                    f"surface {label!r} captures every impact {where}; OpenFOAM's "
+                    "localInteraction cannot apply a capture probability, so instead "
+                    "of making the whole patch stick its entry is the mean rebound "
+                    f"over the table's {rebounds} rebounds at {nodes} nodes (e "
+                    f"{mean_n:.4g}, mu {1.0 - mean_t:.4g}), applied to every "
+                    "parcel; give the condition (--diameter-um, --speed-m-s, "
+                    "--angle-deg) or use the stochastic model"
+                )
         else:
             if cond["angle_deg"][1] >= 90.0 or not math.isfinite(stats["e_t_mean"]):
                 raise ValueError(
@@ -281,7 +341,14 @@ def openfoam_coefficients(law, *, diameter_um=None, speed_m_s=None, angle_deg=No
             kind = "rebound"
             e = stats["e_n_mean"]
             mu = 1.0 - stats["e_t_mean"]
-        out[label] = {"type": kind, "e": e, "mu": mu, **stats}
+        out[label] = {
+            "type": kind,
+            "e": e,
+            "mu": mu,
+            "applied": applied,
+            "note": note,
+            **stats,
+        }
     return {axis: v for axis, (_, v) in cond.items()}, out
 
 
@@ -344,8 +411,8 @@ _CONVENTION = [
     "  U_n' = -e U_n and U_t' = (1 - mu) U_t, so e = mean e_n and",
     "  mu = 1 - mean e_t: OpenFOAM's mu is NOT a friction coefficient.",
     "OpenFOAM has no per-patch sticking probability (types none, rebound, stick,",
-    "escape): the capture probability above is NOT applied by this dictionary.",
-    "A surface whose every impact is captured at the node is written 'stick'.",
+    "escape): the capture probability above is NOT applied by this dictionary;",
+    "what each patch entry applies is said above it.",
 ]
 
 
@@ -353,10 +420,26 @@ def _patch_entries(coeffs, names, indent) -> str:
     pad = " " * indent
     out = []
     for s, c in coeffs.items():
-        out.append(
-            f"{pad}// surface {s!r}: capture probability "
-            f"{_fmt(c['capture_probability'])} (not applied)\n"
-        )
+        p = _fmt(c["capture_probability"])
+        said = {
+            "node": [
+                f"surface {s!r}: applied: the mean rebound at the node (e, mu) to "
+                "every parcel;",
+                f"its capture probability {p} there is NOT applied.",
+            ],
+            "table mean": [
+                f"surface {s!r}: captures every impact at the node (probability {p});",
+                "applied: the mean rebound over the whole table (e, mu) to every "
+                "parcel;",
+                "the capture is NOT applied (no sticking probability in OpenFOAM).",
+            ],
+            "stick": [
+                f"surface {s!r}: applied: type stick, EVERY parcel that strikes it "
+                "sticks",
+                f"(capture probability {p} at the node).",
+            ],
+        }[c.get("applied", "node")]
+        out.extend(f"{pad}// {line}\n" for line in said)
         if c["type"] == "stick":
             out.append(f"{pad}{names[s]}\n{pad}{{\n{pad}    type    stick;\n{pad}}}\n")
         else:
@@ -429,6 +512,11 @@ def write_openfoam(
     cond, coeffs = openfoam_coefficients(
         law, diameter_um=diameter_um, speed_m_s=speed_m_s, angle_deg=angle_deg
     )
+    for c in coeffs.values():
+        if c["note"]:  # said on the terminal: never a silent all-stick wall
+            warnings.warn(
+                f"OpenFOAM fallback: {c['note']}", OpenFOAMFallbackWarning, stacklevel=2
+            )
     names = _patch_names(list(coeffs), patches)
     header = _header(ds, cond, coeffs, requested)
     folder = Path(out_dir) / "openfoam"

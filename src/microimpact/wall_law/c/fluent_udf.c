@@ -30,6 +30,9 @@
  *   to the built-in trap condition (check the report of your release). Count
  *   captures with `microimpact_wall_report` (per process) or your own UDM.
  *   SWL_CAPTURE_STATUS changes the returned status.
+ * - A particle whose diameter is below 0.01 um or whose speed is above 1 km/s
+ *   beyond the table (SWL_E_UNIT: a unit slip) is aborted (PATH_ABORT) and the
+ *   reason is printed once with Message().
  * - Uniform numbers: `float uniform_random(void)` of Fluent's random.h [2] (which
  *   also declares cheap_uniform_random, the one the wall-jet example [1] uses);
  *   define SWL_UNIFORM() to use another generator.
@@ -81,6 +84,7 @@ static int swl_fluent_state = 1; /* 1 not tried, 0 loaded, < 0 the load error */
 /* outcomes in this process: rebound, captured, reflected specularly (no data at
  * the node, or a particle sliding along the face), aborted (no table) */
 static long swl_fluent_count[4] = {0, 0, 0, 0};
+static int swl_fluent_unit_said = 0; /* the wrong-unit message was printed */
 
 static int swl_fluent_load(void)
 {
@@ -195,6 +199,19 @@ static int swl_fluent_hit(Tracked_Particle *tp, real f_normal[], int dim,
             vn += v[i] * n[i];
         for (i = 0; i < idim; i++)
             out[i] = v[i] - 2.0 * vn * n[i];
+    } else if (rc == SWL_E_UNIT) {
+        /* a diameter below 0.01 um or a speed above 1 km/s beyond the table: a
+         * unit slip (TP_DIAM is in metres; the table's diameters in um). Said
+         * once, the particle aborted every time. */
+        swl_fluent_count[3]++;
+        if (!swl_fluent_unit_said) {
+            swl_fluent_unit_said = 1;
+            Message("\nmicroimpact wall law: %s (diameter %g um, speed %g m/s); "
+                    "such particles are aborted, this is said once\n",
+                    swl_strerror(rc), 1.0e6 * (double)TP_DIAM(tp),
+                    sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]));
+        }
+        return PATH_ABORT;
     } else if (rc != SWL_REBOUND) {
         swl_fluent_count[3]++;
         return PATH_ABORT;

@@ -5,6 +5,7 @@
  */
 #include "swl.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -25,6 +26,22 @@
  * metres, a speed r v_c(d)) is not clamped. Python: law.CLAMP_TOLERANCE. */
 #define SWL_CLAMP_TOLERANCE 1e-9
 
+/* Value ranges of a reservoir sample (swl.h, "Value ranges"; Python:
+ * wall_law/checks.py). The caps on e_n and mu keep every product in the sampler
+ * far from overflow; the model's own values are far inside them (|e_n| <= 1 /
+ * sin theta, 57 at a 1-degree node). SWL_MAX_LATERAL is the largest double below
+ * 90. SWL_VALUE_TOLERANCE is the round-off allowed on |U| / s <= 1 at a node. */
+#define SWL_MAX_E_N 1e6
+#define SWL_MAX_MU 1e12
+#define SWL_MAX_LATERAL 89.99999999999999
+#define SWL_VALUE_TOLERANCE 1e-9
+/* Queries that look like a wrong unit (swl.h, SWL_E_UNIT): below 0.01 um is a
+ * molecule (a diameter in metres, 3e-6 for 3 um, lands here); above 1 km/s and
+ * above the table's fastest node is mm/s given as m/s (cold spray reaches
+ * ~1 km/s: a table built that fast accepts it). Python: law.WRONG_UNIT_*. */
+#define SWL_MIN_DIAMETER_UM 0.01
+#define SWL_MAX_SPEED_M_S 1000.0
+
 static const char SWL_MAGIC[8] = {'S', 'W', 'L', 'T', 'A', 'B', 'L', '\0'};
 
 struct swl_law {
@@ -36,6 +53,7 @@ struct swl_law {
     int speed_axis;              /* SWL_SPEED_ABSOLUTE or SWL_SPEED_REDUCED */
     double *critical;            /* v_c at each diameter node [m/s] (reduced axis) */
     double *log_critical;        /* log(critical) */
+    double top_speed;            /* the table's fastest node [m/s] */
     double *capture;             /* capture_probability [S*D*V*A] */
     double *e_n, *mu, *lateral, *ratio; /* reservoirs [S*D*V*A*K] */
     int32_t *count;              /* reservoir_count [S*D*V*A] */
@@ -86,13 +104,19 @@ static int read_block(FILE *fp, void *dst, size_t len, uint32_t *crc)
     return 0;
 }
 
-/* Turn `n` little-endian float64 values read into `v` into host doubles. */
+/* Turn `n` little-endian float64 values read into `v` into host doubles. Every
+ * NaN becomes the quiet NaN, by its bits: a signalling NaN raises FE_INVALID even
+ * in isnan() and the quiet comparison macros, so it must never reach one. */
 static void fix_doubles(double *v, size_t n)
 {
     size_t i;
     uint64_t bits;
+    const uint64_t exponent = UINT64_C(0x7FF0000000000000);
+    const uint64_t mantissa = UINT64_C(0x000FFFFFFFFFFFFF);
     for (i = 0; i < n; i++) {
         bits = get_u64((const unsigned char *)&v[i]);
+        if ((bits & exponent) == exponent && (bits & mantissa) != 0)
+            bits = UINT64_C(0x7FF8000000000000); /* the quiet NaN */
         memcpy(&v[i], &bits, sizeof bits);
     }
 }
@@ -105,6 +129,16 @@ static void fix_int32(int32_t *v, size_t n)
         bits = get_u32((const unsigned char *)&v[i]);
         memcpy(&v[i], &bits, sizeof bits);
     }
+}
+
+/* x finite, by its bits: no floating-point operation touches x, so even a
+ * signalling NaN argument raises nothing (isfinite may compare, and a comparison
+ * of a signalling NaN raises FE_INVALID, a SIGFPE where the host traps). */
+static int finite_bits(double x)
+{
+    uint64_t bits;
+    memcpy(&bits, &x, sizeof bits);
+    return (bits & UINT64_C(0x7FF0000000000000)) != UINT64_C(0x7FF0000000000000);
 }
 
 /* ---- loading --------------------------------------------------------------- */
@@ -130,12 +164,35 @@ void swl_free(swl_law *law)
     free(law);
 }
 
+/* x finite and lo <= x <= hi, without an ordered comparison of a NaN (which
+ * raises FE_INVALID, a SIGFPE where the host traps floating-point exceptions, as
+ * OpenFOAM does): isfinite first, then C99's quiet comparison macros. */
+static int within(double x, double lo, double hi)
+{
+    return isfinite(x) && isgreaterequal(x, lo) && islessequal(x, hi);
+}
+
+/* One held reservoir sample at a node of incidence angle theta (sin st, cos ct)
+ * against the documented ranges (swl.h, "Value ranges"). */
+static int good_sample(double e_n, double mu, double lateral, double ratio, double st,
+                       double ct)
+{
+    if (!within(e_n, -SWL_MAX_E_N, SWL_MAX_E_N) || !within(mu, -SWL_MAX_MU, SWL_MAX_MU) ||
+        !within(lateral, -SWL_MAX_LATERAL, SWL_MAX_LATERAL) || !within(ratio, 0.0, 1.0))
+        return 0;
+    /* |U_z| / s = |e_n| sin theta and |U_x| / s = |cos theta - mu (1 + e_n) sin
+     * theta| are at most 1 at the node: a rebound is never faster than the
+     * impact (the operands are bounded above, so nothing overflows) */
+    return islessequal(fabs(e_n * st), 1.0 + SWL_VALUE_TOLERANCE) &&
+           islessequal(fabs(ct - mu * (1.0 + e_n) * st), 1.0 + SWL_VALUE_TOLERANCE);
+}
+
 static int check_values(swl_law *law, size_t nodes)
 {
-    const size_t k = (size_t)law->n[4];
+    const size_t k = (size_t)law->n[4], n_angle = (size_t)law->n[3];
     size_t a, i, j, base;
     int32_t c;
-    double p;
+    double p, th, st, ct;
     for (a = 0; a < (size_t)law->n[0]; a++) {
         const char *name = law->names + a * SWL_NAME_WIDTH;
         if (memchr(name, '\0', SWL_NAME_WIDTH) == NULL)
@@ -144,30 +201,33 @@ static int check_values(swl_law *law, size_t nodes)
     for (a = 0; a < 3; a++) {
         const double *x = law->axis[a];
         for (i = 0; i < (size_t)law->n[a + 1]; i++) {
-            if (!isfinite(x[i]) || (a < 2 && !(x[i] > 0.0)))
+            /* diameters and speeds in (0, inf), angles in (0, 90] */
+            if (!within(x[i], 0.0, a < 2 ? DBL_MAX : 90.0) || !isgreater(x[i], 0.0))
                 return SWL_E_VALUE;
-            if (i > 0 && !(x[i] > x[i - 1]))
+            if (i > 0 && !isgreater(x[i], x[i - 1]))
                 return SWL_E_VALUE;
         }
     }
     if (law->critical)
         for (i = 0; i < (size_t)law->n[1]; i++)
-            if (!isfinite(law->critical[i]) || !(law->critical[i] > 0.0))
+            if (!within(law->critical[i], 0.0, DBL_MAX) || !isgreater(law->critical[i], 0.0))
                 return SWL_E_VALUE;
     for (i = 0; i < nodes; i++) {
         p = law->capture[i];
         c = law->count[i];
-        if (!isnan(p) && !(p >= 0.0 && p <= 1.0))
+        if (!isnan(p) && !within(p, 0.0, 1.0))
             return SWL_E_VALUE;
         if (c < 0 || (size_t)c > k)
             return SWL_E_VALUE;
         if (c == 0 && !(isnan(p) || p == 1.0))
             return SWL_E_VALUE; /* a node that can rebound needs a sample */
         base = i * k;
+        th = law->axis[2][i % n_angle] * (SWL_PI / 180.0);
+        st = sin(th);
+        ct = cos(th);
         for (j = 0; j < (size_t)c; j++)
-            if (!isfinite(law->e_n[base + j]) || !isfinite(law->mu[base + j]) ||
-                !(fabs(law->lateral[base + j]) < 90.0) ||
-                !(law->ratio[base + j] >= 0.0) || !isfinite(law->ratio[base + j]))
+            if (!good_sample(law->e_n[base + j], law->mu[base + j], law->lateral[base + j],
+                             law->ratio[base + j], st, ct))
                 return SWL_E_VALUE;
     }
     return 0;
@@ -324,11 +384,27 @@ static int load_file(FILE *fp, swl_law **out)
                                : SWL_CLAMP_TOLERANCE * fabs(law->axis[i][0]);
         law->tol[i][1] = i < 2 ? SWL_CLAMP_TOLERANCE
                                : SWL_CLAMP_TOLERANCE * fabs(law->axis[i][dims[i + 1] - 1]);
+        /* two nodes a last place apart can have the same log: a cell of width 0
+         * would divide by zero */
+        for (j = 1; j < dims[i + 1]; j++)
+            if (!(law->scaled[i][j] > law->scaled[i][j - 1])) {
+                swl_free(law);
+                return SWL_E_VALUE;
+            }
     }
+    law->top_speed = law->axis[1][dims[2] - 1];
     if (law->critical) {
         uint32_t j;
-        for (j = 0; j < dims[1]; j++)
+        double top = 0.0;
+        for (j = 0; j < dims[1]; j++) {
             law->log_critical[j] = log(law->critical[j]);
+            top = fmax(top, law->critical[j]);
+        }
+        /* r v_c, without overflow (DBL_MAX for a crafted table: that only
+         * disables the wrong-unit check on speed) */
+        law->top_speed = (top <= 1.0 || law->top_speed <= DBL_MAX / top)
+                             ? top * law->top_speed
+                             : DBL_MAX;
     }
     *out = law;
     return 0;
@@ -364,8 +440,13 @@ const char *swl_strerror(int code)
     case SWL_E_TRUNCATED: return "the file is truncated";
     case SWL_E_SIZE: return "the sizes in the header are invalid or disagree with the file";
     case SWL_E_CHECKSUM: return "the table is corrupt (CRC-32 mismatch)";
-    case SWL_E_VALUE: return "the table holds an invalid value";
+    case SWL_E_VALUE:
+        return "the table holds an invalid value (NaN, out of its documented range, "
+               "or an axis not strictly increasing)";
     case SWL_E_NOMEM: return "out of memory";
+    case SWL_E_UNIT:
+        return "a diameter below 0.01 um or a speed above 1 km/s (and above the "
+               "table): a wrong unit? diameters are in um, speeds in m/s";
     default: return "unknown code";
     }
 }
@@ -493,16 +574,23 @@ static int sample_checked(const swl_law *law, int surface, double diameter_um,
     th = angle_deg * (SWL_PI / 180.0);
     st = sin(th);
     ct = cos(th);
-    uz = en * s * st;
-    ux = s * ct - mu * (1.0 + en) * s * st;
+    /* the direction per unit speed (swl_load bounds e_n, mu and the lateral
+     * angle, so each factor is finite and far from overflow), then scaled to
+     * |U| = speed_ratio * s: hypot never overflows, each component's share
+     * |u_i| / norm is at most 1 and speed_ratio at most 1, so |U| <= s up to
+     * rounding (a zero vector stays zero) */
+    uz = en * st;
+    ux = ct - mu * (1.0 + en) * st;
     uy = tan(law->lateral[at] * (SWL_PI / 180.0)) * hypot(ux, uz);
-    /* scaled to |U| = speed_ratio * s: between nodes the sample keeps its own
-     * energy loss (a zero vector stays zero) */
-    norm = sqrt(ux * ux + uy * uy + uz * uz);
-    scale = norm > 0.0 ? law->ratio[at] * s / norm : 0.0;
-    ux *= scale;
-    uy *= scale;
-    uz *= scale;
+    norm = hypot(hypot(ux, uz), uy);
+    scale = law->ratio[at] * s;
+    if (norm > 0.0) { /* |u_i| / norm <= 1: no overflow even for a tiny norm */
+        ux = ux / norm * scale;
+        uy = uy / norm * scale;
+        uz = uz / norm * scale;
+    } else {
+        ux = uy = uz = 0.0;
+    }
     velocity[0] = ux;
     velocity[1] = uy;
     velocity[2] = uz;
@@ -515,7 +603,7 @@ static int good_uniforms(const double u[5])
 {
     int i;
     for (i = 0; i < 5; i++)
-        if (!(u[i] >= 0.0 && u[i] < 1.0))
+        if (!finite_bits(u[i]) || !(u[i] >= 0.0 && u[i] < 1.0))
             return 0;
     return 1;
 }
@@ -530,10 +618,17 @@ int swl_sample(const swl_law *law, int surface, double diameter_um, double speed
     if (!velocity)
         return SWL_E_ARG;
     velocity[0] = velocity[1] = velocity[2] = NAN;
+    /* finite by the bits before any comparison: a NaN argument must not trap; a
+     * subnormal speed is refused: its rebound could not be rounded to |U| <= s */
     if (!law || !u || surface < 0 || surface >= law->n[0] || !good_uniforms(u) ||
-        !(diameter_um > 0.0) || !(speed_m_s > 0.0) || !isfinite(diameter_um) ||
-        !isfinite(speed_m_s) || !(angle_deg > 0.0 && angle_deg <= 90.0))
+        !finite_bits(diameter_um) || !finite_bits(speed_m_s) || !finite_bits(angle_deg) ||
+        !(diameter_um > 0.0) || !(speed_m_s >= DBL_MIN) || !(angle_deg > 0.0) ||
+        !(angle_deg <= 90.0))
         return SWL_E_ARG;
+    /* a diameter in metres, or a speed in mm/s, given where um and m/s belong */
+    if (diameter_um < SWL_MIN_DIAMETER_UM ||
+        (speed_m_s > SWL_MAX_SPEED_M_S && speed_m_s > law->top_speed))
+        return SWL_E_UNIT;
     return sample_checked(law, surface, diameter_um, speed_m_s, angle_deg, u, velocity,
                           flags);
 }
@@ -576,13 +671,21 @@ int swl_rebound_velocity(const swl_law *law, int surface, double diameter_um,
     if (!v_in || !normal)
         return SWL_E_ARG;
     for (i = 0; i < 3; i++)
-        if (!isfinite(v_in[i]) || !isfinite(normal[i]))
+        if (!finite_bits(v_in[i]) || !finite_bits(normal[i]))
             return SWL_E_ARG;
-    nn = sqrt(dot3(normal, normal));
-    if (!(nn > 0.0) || !isfinite(nn))
+    /* |v_in| above 1e150 m/s is no speed (and would overflow below) */
+    for (i = 0; i < 3; i++)
+        if (!isless(fabs(v_in[i]), 1e150))
+            return SWL_E_UNIT;
+    /* the normal divided by its largest component first: no overflow */
+    nn = fmax(fabs(normal[0]), fmax(fabs(normal[1]), fabs(normal[2])));
+    if (!(nn > 0.0))
         return SWL_E_ARG;
     for (i = 0; i < 3; i++)
         z[i] = normal[i] / nn;
+    nn = sqrt(dot3(z, z));
+    for (i = 0; i < 3; i++)
+        z[i] = z[i] / nn;
     vn = dot3(v_in, z);
     if (!(vn < 0.0))
         return SWL_E_ARG; /* moving along or away from the wall, not into it */

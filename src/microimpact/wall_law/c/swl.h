@@ -64,6 +64,24 @@
  * swl_load checks all of this and returns an error code for any file that breaks
  * it (truncated, trailing bytes, wrong magic or version, bad CRC, bad values).
  *
+ * Value ranges (checked on load, SWL_E_VALUE; every check is NaN-safe, so a host
+ * that traps floating-point exceptions never traps inside swl_load or
+ * swl_sample):
+ *     diameter and speed nodes, critical speeds: finite, > 0, and the axes
+ *         strictly increasing, in log too (two nodes one last place apart are not);
+ *     angle nodes in (0, 90], strictly increasing;
+ *     capture_probability in [0, 1] or NaN;
+ *     each held sample: |e_n| <= 1e6, |mu| <= 1e12 (far beyond the model's
+ *         values; they keep the sampler's arithmetic far from overflow),
+ *         lateral angle in (-90, 90), speed_ratio in [0, 1], and at its node's
+ *         angle theta |e_n sin theta| <= 1 and |cos theta - mu (1 + e_n) sin
+ *         theta| <= 1, to 1e-9 (|U_z| and |U_x| at most the incoming speed).
+ *         e_n is the apparent restitution: negative for a re-impact, above 1 at
+ *         grazing angles (up to 1 / sin theta), so [0, 1] would refuse real
+ *         tables.
+ * A sample is therefore always finite and never faster than the impact:
+ * |U| = speed_ratio * s <= s, up to rounding (a few units in the last place).
+ *
  * ---------------------------------------------------------------------------
  * Uniform numbers
  * ---------------------------------------------------------------------------
@@ -87,8 +105,9 @@ enum {
     SWL_REBOUND = 0,     /* velocity holds the rebound */
     SWL_CAPTURED = 1,    /* the particle sticks; velocity is (0, 0, 0) */
     SWL_NO_DATA = 2,     /* the chosen node had no impact (NaN); velocity is NaN */
-    SWL_E_ARG = -1,      /* bad argument: NULL, unknown surface, a diameter or speed
-                            not > 0, an angle outside (0, 90], u outside [0, 1), NaN */
+    SWL_E_ARG = -1,      /* bad argument: NULL, unknown surface, a diameter not > 0,
+                            a speed below DBL_MIN (2.2e-308, or not a number), an
+                            angle outside (0, 90], u outside [0, 1), NaN */
     SWL_E_IO = -2,       /* the file cannot be opened or read */
     SWL_E_MAGIC = -3,    /* not a wall-law table (wrong magic) */
     SWL_E_VERSION = -4,  /* a format version this reader does not know */
@@ -96,7 +115,11 @@ enum {
     SWL_E_SIZE = -6,     /* sizes in the header are invalid or disagree with the file */
     SWL_E_CHECKSUM = -7, /* the CRC-32 of the payload does not match */
     SWL_E_VALUE = -8,    /* a value breaks the format (unsorted axis, count > K, ...) */
-    SWL_E_NOMEM = -9     /* out of memory */
+    SWL_E_NOMEM = -9,    /* out of memory */
+    SWL_E_UNIT = -10     /* a query that looks like a wrong unit: a diameter below
+                            0.01 um (metres given as um: 3e-6 for 3 um), or a speed
+                            above 1 km/s and above the table's fastest node (mm/s
+                            given as m/s), or a velocity component above 1e150 */
 };
 
 /* The speed axis of a table (swl_speed_axis). */
