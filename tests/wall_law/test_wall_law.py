@@ -794,3 +794,27 @@ def test_compiled_statistics_equal_their_numpy_form():
     np.testing.assert_array_equal(out_c[:, profile], out_n[:, profile])
     np.testing.assert_allclose(st_c, st_n, rtol=1e-13, atol=1e-13)
     np.testing.assert_allclose(out_c, out_n, rtol=1e-13, atol=1e-13)
+
+
+def test_fallback_at_in_the_file_sets_the_openfoam_condition(tmp_path, capsys):
+    """[wall_law] fallback_at states the condition of the OpenFOAM fallback (issue
+    33, item 5); a flag wins over it key by key; a bad value names the key."""
+    from microimpact.wall_law.openfoam import LOCAL_INTERACTION_FILE
+
+    law = "[wall_law]\ndiameter_um = [5, 20]\nreservoir = 8\nangle_deg = [30, 60, 90]"
+    path = _toml(tmp_path, law + "\nfallback_at = { angle_deg = 55, diameter_um = 5 }")
+    out = tmp_path / "out"
+    args = ["wall-law", str(path), "--out", str(out), "--quiet", "--no-c"]
+    assert main(args) == 0
+    text = (out / "openfoam" / LOCAL_INTERACTION_FILE).read_text()
+    assert "angle_deg given 55" in text and "diameter_um given 5" in text
+    assert main([*args, "--angle-deg", "35"]) == 0
+    text = (out / "openfoam" / LOCAL_INTERACTION_FILE).read_text()
+    assert "angle_deg given 35" in text and "diameter_um given 5" in text
+    capsys.readouterr()
+    bad = _toml(tmp_path, law + "\nfallback_at = { angle_deg = 89 }")
+    assert main(["wall-law", str(bad), "--out", str(tmp_path / "b"), "--no-c"]) == 2
+    assert "wall_law.fallback_at.angle_deg" in capsys.readouterr().err
+    typo = _toml(tmp_path, law + "\nfallback_at = { angle = 30 }")
+    assert main(["wall-law", str(typo), "--out", str(tmp_path / "c"), "--no-c"]) == 2
+    assert "fallback_at" in capsys.readouterr().err

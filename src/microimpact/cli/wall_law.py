@@ -68,18 +68,22 @@ def cli_action(args) -> int:
         )
     changes = {k: getattr(args, k) for k in ("samples", "reservoir")}
     spec = dataclasses.replace(spec, **{k: v for k, v in changes.items() if v})
-    condition = {
+    flags = {
         k: getattr(args, k)
         for k in ("diameter_um", "speed_m_s", "angle_deg")
         if getattr(args, k) is not None
     }
-    if condition and args.no_openfoam:
+    # the flags win over the file's [wall_law] fallback_at, key by key
+    condition = {**(spec.fallback_at or {}), **flags}
+    where = {k: f"wall_law.fallback_at.{k}" for k in spec.fallback_at or {}}
+    where.update({k: "--" + k.replace("_", "-") for k in flags})
+    if flags and args.no_openfoam:
         raise ScenarioError(
             "the condition flags set the OpenFOAM coefficients; drop --no-openfoam",
             field="--no-openfoam",
         )
     if condition:
-        _check_condition(spec, condition, scenario)
+        _check_condition(spec, condition, scenario, where)
     if args.scheduler is not None:  # as before --backend existed here
         args.backend = "dask"
 
@@ -132,7 +136,7 @@ def _accuracy_line(law) -> str:
     )
 
 
-def _check_condition(spec, condition, scenario):
+def _check_condition(spec, condition, scenario, where):
     """Refuse condition flags the table cannot serve, before it is built (on a
     reduced speed axis the speeds are r v_c(d), from the scenario's v_c law)."""
     # deferred: the verb's library loads only when the verb runs (fast --help)
@@ -153,16 +157,18 @@ def _check_condition(spec, condition, scenario):
         "speed_m_s": speeds,
         "angle_deg": spec.angles_deg,
     }
-    flag = {k: "--" + k.replace("_", "-") for k in condition}
+    flag = where
     try:
         chosen = fallback_condition(coords, **condition)
     except ValueError as err:
         bad = next((k for k in condition if f"`{k}`" in str(err)), None)
-        raise InputError(str(err), field=flag.get(bad, "--angle-deg")) from None
+        raise InputError(
+            str(err), field=flag.get(bad, flag.get("angle_deg", "--angle-deg"))
+        ) from None
     if "angle_deg" in condition and chosen["angle_deg"][1] >= 90.0:
         raise InputError(
             f"{condition['angle_deg']:g} is nearest the 90 deg node, where the "
             "tangential restitution (OpenFOAM's mu) is undefined; choose an oblique "
             "angle",
-            field="--angle-deg",
+            field=flag.get("angle_deg", "--angle-deg"),
         )

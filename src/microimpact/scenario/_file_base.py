@@ -157,7 +157,11 @@ WALL_LAW_KEYS = (
     "samples",
     "speed_axis",
     "reduced_speed",
+    "fallback_at",
 )
+#: Keys of ``[wall_law] fallback_at``: the condition whose mean coefficients a
+#: compiler-less OpenFOAM fallback applies.
+FALLBACK_KEYS = ("diameter_um", "speed_m_s", "angle_deg")
 SPACINGS = ("linear", "log")
 ANGLE_METHODS = ("slope", "paper")
 DETREND = ("line", "mean", "none")

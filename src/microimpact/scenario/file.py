@@ -70,6 +70,7 @@ from ._file_base import (
     _TOML_EOF,
     _TOML_POSITION,
     COEFFICIENT_KEYS,
+    FALLBACK_KEYS,
     MAX_SWEEP_POINTS,
     OUTPUT_KEYS,
     PAPER_PRESETS,
@@ -555,6 +556,14 @@ def _wall_law(ctx: _Ctx, data):
     for key in ("reservoir", "samples"):
         if key in t:
             kw[key] = ctx.integer(t[key], f"wall_law.{key}", low=1)
+    if "fallback_at" in t:
+        at = ctx.table(t["fallback_at"], "wall_law.fallback_at")
+        ctx.keys(at, "wall_law.fallback_at", FALLBACK_KEYS, ())
+        kw["fallback_at"] = {
+            k: ctx.number(at[k], f"wall_law.fallback_at.{k}", low=0, strict=True)
+            for k in FALLBACK_KEYS
+            if k in at
+        }
     try:
         return WallLawSpec(**kw)
     except ScenarioError as exc:

@@ -84,6 +84,11 @@ class WallLawSpec:
         follow the capture edge.
     reduced_speeds : sequence of float, optional
         The ratios r = v / v_c(d) (> 0) of a ``"reduced"`` speed axis.
+    fallback_at : dict, optional
+        ``{"diameter_um": ..., "speed_m_s": ..., "angle_deg": ...}`` (any of
+        them): the condition whose node the compiler-less OpenFOAM fallback
+        applies (``microimpact wall-law``'s ``--diameter-um`` etc. win over it);
+        default: the mean rebound over the whole table.
     """
 
     diameters_um: tuple
@@ -94,6 +99,7 @@ class WallLawSpec:
     quantiles: tuple = DEFAULT_QUANTILES
     speed_axis: str = "absolute"
     reduced_speeds: tuple | None = None
+    fallback_at: dict | None = None
 
     def __post_init__(self):
         set_ = object.__setattr__
