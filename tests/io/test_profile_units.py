@@ -83,10 +83,12 @@ def test_instrument_non_uniform_scan_without_units(x_unit, z_unit):
     assert (scan.metadata["x_unit"], scan.metadata["z_unit"]) == (x_unit, z_unit)
 
 
-@pytest.mark.parametrize(("x_unit", "z_unit"), [("mm", "nm"), ("nm", "mm")])
+@pytest.mark.parametrize(("x_unit", "z_unit"), [("um", "nm")])
 def test_the_same_file_through_read_profiles(x_unit, z_unit):
     """The same file through the public reader (microimpact's text reader takes
-    it): the same numbers."""
+    it): the same numbers. (x in mm or z in mm makes this file implausible, a
+    12.7 mm spacing or 61 mm of height over 1.7 mm, which the reader refuses:
+    tests/io/test_plausibility.py.)"""
     path = DATA / "nonuniform.asc"
     (p,) = read_profiles(path, x_unit=x_unit, z_unit=z_unit)
     (scan,) = read_instrument(

@@ -21,6 +21,7 @@ from .._core.files import atomic_write
 from ..engine.dataset import encoding
 from ..plotting._style import STYLE
 from ..plotting.resuspension import plot_resuspension
+from .report import _CSS  # the reports' own style sheet
 
 __all__ = ["RESUSPENSION_FILES", "resuspension_section_html", "write_resuspension"]
 
@@ -81,9 +82,6 @@ def write_resuspension(result, out_dir) -> dict[str, Path]:
 
 def _page(result) -> str:
     """A self-contained report page holding the resuspension section."""
-    # the report's own style sheet, so the page reads like the other reports
-    from .report import _CSS
-
     title = "microimpact report: resuspension"
     name = result.dataset.attrs.get("scenario", "")
     return (
