@@ -718,8 +718,9 @@ def _statements_section(results, study) -> str:
         '<section id="statements"><h2>How this compares with the paper</h2>'
         f"<p>{_e(DISCLOSURE)}</p>"
         f"<p>{_e(summary_sentence(study))} Verdicts: <b>robust</b> (held in at "
-        f"least {ROBUST:.0%} of the runs), <b>contradicted</b> (at most "
-        f"{CONTRADICTED:.0%}), otherwise <b>depends on the unknown surface</b>; "
+        f"least {100 * ROBUST:.0f} % of the runs), <b>contradicted</b> (at most "
+        f"{100 * CONTRADICTED:.0f} %), otherwise <b>depends on the unknown "
+        "surface</b>; "
         "the interval is a 95 % Wilson interval. Every claim of the paper, with "
         "ours: <code>docs/paper-comparison.md</code>; the readings' thresholds and "
         "their reasons: <code>docs/presets.md</code>.</p>"
@@ -727,7 +728,9 @@ def _statements_section(results, study) -> str:
         + "<h3>Under the conditions the paper does not state</h3>"
         "<p>Share of the surfaces on which each statement holds, by incident speed "
         "of the oblique case and shadowing rule (the preset: 1 m/s, reject).</p>"
+        + '<div class="scroll">'
         + conditions_table_html(study)
+        + "</div>"
         + "<h3>Inputs: statements that hold by construction</h3>"
         "<p>Calibrated inputs, algebra and properties the surface family is built "
         "with. They hold here because we made them hold; they are not evidence.</p>"
