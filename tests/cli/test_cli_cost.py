@@ -13,10 +13,10 @@ import time
 
 import pytest
 
+from microimpact._core import footprint as fp_module
 from microimpact._core import progress as progress_module
 from microimpact._core.progress import stage, stages
 from microimpact.cli import main
-from microimpact.engine import footprint as fp_module
 from microimpact.engine.footprint import footprint
 from microimpact.scenario.scenario import read_scenario
 
@@ -246,3 +246,50 @@ def test_reproduce_checks_each_preset_and_names_it(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.startswith("microimpact reproduce: error: preset sst65-silicon-normal:")
     assert not out.exists()
+
+
+def test_a_huge_sweep_is_refused_before_scipy_loads(tmp_path):
+    """The pre-check reads the scenario file's text alone: in a fresh process a
+    10^8-point sweep is refused (exit 2, the numbers) without importing SciPy,
+    the engine or the scenario reader, in well under a second."""
+    import subprocess
+    import sys
+    import textwrap
+    import time
+
+    path = tmp_path / "big.toml"
+    path.write_text(
+        textwrap.dedent(
+            """\
+            name = "big"
+            samples = 4000
+            [particles]
+            distribution = "normal"
+            mean_um = 52.8
+            std_um = 15.3
+            [coefficients]
+            k1 = 4.0
+            k2 = 0.05
+            v_c = 0.2
+            [sweep]
+            speed_m_s = { start = 0.01, stop = 10, num = 100000 }
+            angle_deg = { start = 1, stop = 90, num = 1000 }
+            """
+        )
+    )
+    code = (
+        "import sys\n"
+        "from microimpact.cli import main\n"
+        f"rc = main(['run', {str(path)!r}, '--out', {str(tmp_path / 'o')!r}])\n"
+        "loaded = [m for m in ('scipy', 'microimpact.engine', "
+        "'microimpact.scenario.file') if m in sys.modules]\n"
+        "print(rc, loaded)\n"
+    )
+    t0 = time.perf_counter()
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=60
+    )
+    elapsed = time.perf_counter() - t0
+    assert done.stdout.strip() == "2 []", done.stdout + done.stderr
+    assert "100,000,000 points" in done.stderr
+    assert elapsed < 5.0  # ~0.2 s on this machine; generous for loaded CI

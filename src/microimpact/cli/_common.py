@@ -20,7 +20,11 @@ import argparse
 import contextlib
 import math
 import sys
+import tomllib
 from pathlib import Path
+from types import SimpleNamespace
+
+from .._core.footprint import check_footprint, footprint, machine
 
 EXIT_OK, EXIT_INTERNAL, EXIT_USER, EXIT_ENVIRONMENT = 0, 1, 2, 3
 EXIT_INTERRUPTED, EXIT_TERMINATED = 130, 143
@@ -155,9 +159,6 @@ def check_cost(
     with the numbers and how to cut it; say what a big one will cost on stderr
     (:func:`~microimpact.engine.footprint.footprint` for the keywords)."""
     # deferred: the verb's library loads only when the verb runs (fast --help)
-    from ..engine.footprint import check_footprint, footprint, machine
-
-    # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..engine.parallel import available_cores
 
     fp = footprint(
@@ -175,6 +176,70 @@ def check_cost(
     )
     if note is not None and not getattr(args, "quiet", False):
         print(f"microimpact: {note}", file=sys.stderr)
+
+
+def _count(value) -> int | None:
+    """How many sweep values a [sweep] entry gives, as the scenario reader would:
+    a number, a list, or a range table with ``num`` or ``step``; None where the
+    entry is anything else (the full reader then says what is wrong)."""
+    if isinstance(value, bool):
+        return None
+    if isinstance(value, int | float):
+        return 1
+    if isinstance(value, list):
+        return len(value)
+    if isinstance(value, dict):
+        num, step = value.get("num"), value.get("step")
+        if isinstance(num, int) and not isinstance(num, bool) and num > 0:
+            return num
+        start, stop = value.get("start"), value.get("stop")
+        numbers = (start, stop, step)
+        if all(isinstance(x, int | float) and not isinstance(x, bool) for x in numbers):
+            if step > 0 and stop >= start:
+                return math.floor((stop - start) / step + 1e-9) + 1
+    return None
+
+
+def precheck_cost(args, path, *, samples=None, out=None):
+    """Refuse a sweep too big for this machine from the scenario file's text
+    alone, before the scenario reader (and SciPy) load: a 10^8-point sweep is
+    refused in a fraction of a second. Anything this light reading cannot count
+    is left to :func:`check_cost` after the full read."""
+    try:
+        data = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, ValueError, UnicodeDecodeError):
+        return  # not a readable TOML file (a preset name, a typo): the reader says
+    sweep = data.get("sweep", {})
+    if not isinstance(sweep, dict):
+        return
+    speeds = _count(sweep.get("speed_m_s", 1.0))
+    angles = _count(sweep.get("angle_deg", 90.0))
+    surfaces = data.get("surfaces", [{}])
+    n_surfaces = len(surfaces) if isinstance(surfaces, list) and surfaces else 1
+    precision = (
+        data.get("precision") if isinstance(data.get("precision"), dict) else None
+    )
+    n = samples or (precision or {}).get("max_samples") or data.get("samples", 4000)
+    if speeds is None or angles is None or not isinstance(n, int) or n < 1:
+        return
+    scenario = SimpleNamespace(
+        surfaces=[None] * n_surfaces,
+        speeds_m_s=range(speeds),
+        angles_deg=range(angles),
+        samples=n,
+        precision=None,
+        sampling=data.get("sampling", "mc"),
+        qmc_replicates=int(data.get("qmc_replicates", 8) or 8),
+    )
+    check_footprint(
+        footprint(scenario, samples=n),
+        machine(out),
+        workers=max(1, getattr(args, "workers", 1) or 1),
+        yes=getattr(args, "yes", False),
+        samples_flag="--samples",
+        workers_flag="--workers" if hasattr(args, "workers") else None,
+        field="sweep",
+    )
 
 
 def add_backend_options(sp):

@@ -34,10 +34,14 @@ def cli_parse(sp):
 
 
 def cli_action(args) -> int:
+    t0 = time.perf_counter()
+    # a sweep too big for the machine is refused from the file's text, before
+    # the reader loads SciPy (the full check below covers the rest)
+    c.precheck_cost(args, args.scenario, samples=args.samples, out=args.out)
+
     # deferred: the verb's library loads only when the verb runs (fast --help)
     from ..scenario.scenario import read_scenario
 
-    t0 = time.perf_counter()
     file = read_scenario(args.scenario)  # read once, here
     scenario, outputs = _apply_flags(args, file)
     # the cost is checked before the pipeline (xarray, matplotlib) is even loaded

@@ -42,7 +42,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import optimize, special, stats
 
 from .._core.validation import as_float_array, check_choice, check_scalar
 from .distributions import (
@@ -240,6 +239,10 @@ class BinnedSizes:
 # -- the binned likelihood ------------------------------------------------------
 def _log_interval(za, zb):
     """log(Φ(zb) - Φ(za)) for za < zb, accurate in both tails."""
+    # deferred: scipy loads only when a binned fit runs (it took 0.7 s
+    # of every command that reads a scenario, before any check)
+    from scipy import special
+
     za, zb = np.asarray(za, float), np.asarray(zb, float)
     upper = za > 0
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -292,6 +295,10 @@ def _fit(x_edges, n):
 
     The location is kept above ``x_0 - RANGE_FLOOR * scale`` (searched as
     ``loc = x_0 - RANGE_FLOOR * scale + exp(u)``)."""
+    # deferred: scipy loads only when a binned fit runs (it took 0.7 s
+    # of every command that reads a scenario, before any check)
+    from scipy import optimize
+
     floor = RANGE_FLOOR
     mids = 0.5 * (x_edges[:-1] + x_edges[1:])
     w = n / n.sum()
@@ -393,6 +400,10 @@ def fit_binned_normal(edges_um, counts) -> FitResult:
     the tail of a population whose bulk is below the range would otherwise send
     it to minus infinity. A fit held there says so in ``notes``.
     """
+    # deferred: scipy loads only when a binned fit runs (it took 0.7 s
+    # of every command that reads a scenario, before any check)
+    from scipy import stats
+
     e, n = _fit_iv(edges_um, counts)
     mu, sigma, cov, ll, at_floor, stuck = _fit(e, n)
     se = (math.nan, math.nan)
@@ -416,6 +427,10 @@ def fit_binned_lognormal(edges_um, counts) -> FitResult:
     Parameters and returns as :func:`fit_binned_normal`, with ``params``
     ``median_um``/``geometric_std``.
     """
+    # deferred: scipy loads only when a binned fit runs (it took 0.7 s
+    # of every command that reads a scenario, before any check)
+    from scipy import stats
+
     e, n = _fit_iv(edges_um, counts)
     mu, s, cov, ll, at_floor, stuck = _fit(np.log(e), n)
     notes = _floor_note("log-normal", "median", at_floor)
@@ -505,6 +520,10 @@ def chi2_binned(edges_um, counts, fit, *, alpha=0.05) -> Chi2BinnedResult:
         Fewer than 4 bins ("too few bins"), or fewer than 4 bins with expected
         count >= 5 remain after merging ("too few particles").
     """
+    # deferred: scipy loads only when a binned fit runs (it took 0.7 s
+    # of every command that reads a scenario, before any check)
+    from scipy import stats
+
     e = _edges_iv(edges_um)
     n = _counts_iv(counts, e.size - 1)
     alpha = check_scalar(alpha, "alpha", minimum=0, strict=True)
