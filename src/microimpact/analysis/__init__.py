@@ -1,7 +1,12 @@
 """Studies over studies: the scenario model at parameter values, comparison with
-experiments, Sobol' sensitivity, calibration, and the paper's statements checked
-against results and judged over the unknown Formica surface."""
+experiments, Sobol' sensitivity, calibration (least squares and Bayesian, with the
+posterior's wall law), and the paper's statements checked against results and judged
+over the unknown Formica surface."""
 
+from .bayes import (
+    BayesResult,
+    calibrate_bayes,
+)
 from .calibration import (
     CalibrationResult,
     calibrate,
@@ -14,6 +19,10 @@ from .compare import (
 )
 from .model import (
     ScenarioModel,
+)
+from .priors import (
+    Prior,
+    make_prior,
 )
 from .robustness import (
     RobustnessStudy,
@@ -34,24 +43,34 @@ from .statements import (
     Verdict,
     evaluate,
 )
+from .wall_law_posterior import (
+    posterior_draws,
+    posterior_wall_law,
+)
 
 __all__ = [
     "COLUMNS",
     "SIMULATED",
     "STATEMENTS",
+    "BayesResult",
     "CalibrationResult",
     "EngineModel",
     "Evidence",
+    "Prior",
     "RobustnessStudy",
     "ScenarioModel",
     "SensitivityResult",
     "Statement",
     "Verdict",
     "calibrate",
+    "calibrate_bayes",
     "compare",
     "default_bounds",
     "evaluate",
+    "make_prior",
     "parse_parameter",
+    "posterior_draws",
+    "posterior_wall_law",
     "robustness_study",
     "sobol_analysis",
     "sobol_sensitivity",

@@ -73,6 +73,7 @@ from ..plotting._style import use_agg
 from ..plotting.calibration import plot_calibration
 from ..scenario.parameters import with_values
 from ..scenario.scenario import scenario_from_dict
+from .bayes import BayesResult, calibrate_bayes
 from .calibration_inputs import (
     _parameters,
     _read_experiments,
@@ -571,7 +572,9 @@ def calibrate(
     bootstrap_seed: int | None = 0,
     band_draws: int = BAND_DRAWS,
     progress=None,
-) -> CalibrationResult:
+    method: str = "lsq",
+    **bayes_options,
+) -> CalibrationResult | BayesResult:
     """Fit scenario parameters to measured rebound statistics.
 
     Parameters
@@ -615,6 +618,11 @@ def calibrate(
         Progress of the steps (the fit, each bootstrap refit, the band): ``True``
         shows a bar (tqdm, on stderr), a callable is called as
         ``progress(done, total)``; default: a bar only when stderr is a terminal.
+    method : {"lsq", "bayes"}
+        Least squares (this function), or the posterior by MCMC
+        (:func:`~microimpact.analysis.bayes.calibrate_bayes`, which takes the
+        `bayes_options` ``priors``, ``walkers``, ``steps``, ...; the least-squares
+        options are not used).
 
     Returns
     -------
@@ -627,6 +635,29 @@ def calibrate(
         bounds that are empty or that the scenario rejects, an experiment file
         that cannot be read or whose points are not in the sweep.
     """
+    if method == "bayes":
+        return calibrate_bayes(
+            scenario,
+            experiments,
+            parameters,
+            bounds=bounds,
+            seed=seed,
+            samples=samples,
+            workers=workers,
+            executor=executor,
+            confidence=confidence,
+            source=source,
+            base_dir=base_dir,
+            progress=progress,
+            **bayes_options,
+        )
+    if method != "lsq" or bayes_options:
+        raise InputError(
+            f"method {method} takes no option(s) {', '.join(bayes_options)}"
+            if method == "lsq"
+            else f"must be lsq or bayes; got {method}",
+            field="method",
+        )
     if not (isinstance(confidence, float | int) and 0 < confidence < 1):
         raise InputError(f"must be in (0, 1); got {confidence!r}", field="confidence")
     if isinstance(bootstrap, bool) or not isinstance(bootstrap, int) or bootstrap < 0:
