@@ -414,19 +414,23 @@ class BayesResult:
 
 
 # ---------------------------------------------------------------------- the run
-def _scenario_and_table(scenario, source, base_dir):
-    """The scenario (a path's ``[calibration]`` table taken out) and that table."""
+def split_calibration_table(scenario, source=None, base_dir=None):
+    """``(scenario, [calibration] table or None, source, base_dir)``: a scenario
+    file's ``[calibration]`` table taken out (the scenario reader does not know
+    it); a scenario without one is returned as given."""
     if isinstance(scenario, str | os.PathLike) and Path(scenario).is_file():
         path = Path(scenario)
         try:
             data = tomllib.loads(path.read_text(encoding="utf-8"))
-        except tomllib.TOMLDecodeError as exc:
-            raise InputError(f"not valid TOML ({exc})", source=path) from None
-        table = data.pop("calibration", None)
+        except (tomllib.TOMLDecodeError, UnicodeDecodeError):
+            return scenario, None, source, base_dir  # the reader's own error
+        if "calibration" not in data:
+            return scenario, None, source, base_dir
+        table = data.pop("calibration")
         return data, table, str(path), path.resolve().parent
-    if isinstance(scenario, Mapping):
+    if isinstance(scenario, Mapping) and "calibration" in scenario:
         data = dict(scenario)
-        return data, data.pop("calibration", None), source, base_dir
+        return data, data.pop("calibration"), source, base_dir
     return scenario, None, source, base_dir
 
 
@@ -533,7 +537,7 @@ def calibrate_bayes(
         if isinstance(v, bool) or not isinstance(v, int) or v < least:
             raise InputError(f"must be an integer >= {least}; got {v}", field=name)
     check_progress(progress)
-    data_, table, source, base_dir = _scenario_and_table(scenario, source, base_dir)
+    data_, table, source, base_dir = split_calibration_table(scenario, source, base_dir)
     smodel = ScenarioModel(data_, samples=samples, source=source, base_dir=base_dir)
     keys, x0, B = _parameters(smodel, parameters, bounds)
     smodel.set_keys(keys)

@@ -73,7 +73,7 @@ from ..plotting._style import use_agg
 from ..plotting.calibration import plot_calibration
 from ..scenario.parameters import with_values
 from ..scenario.scenario import scenario_from_dict
-from .bayes import BayesResult, calibrate_bayes
+from .bayes import BayesResult, calibrate_bayes, split_calibration_table
 from .calibration_inputs import (
     _parameters,
     _read_experiments,
@@ -665,6 +665,8 @@ def calibrate(
             f"must be an integer >= 0; got {bootstrap!r}", field="bootstrap"
         )
     check_progress(progress)
+    # the priors of a [calibration] table are for the Bayesian method only
+    scenario, _, source, base_dir = split_calibration_table(scenario, source, base_dir)
     smodel = ScenarioModel(scenario, samples=samples, source=source, base_dir=base_dir)
     source, base_dir = smodel.source, smodel.base_dir
     keys, x0, B = _parameters(smodel, parameters, bounds)

@@ -34,6 +34,7 @@ import numpy as np
 from ..engine.statistics import wilson_interval
 from ..errors import InputError
 from ..wall_law import WallLaw, build_wall_law
+from .bayes import split_calibration_table
 from .model import ScenarioModel
 
 __all__ = ["posterior_draws", "posterior_wall_law"]
@@ -178,7 +179,8 @@ def posterior_wall_law(
         ``posterior_parameters``.
     """
     values = posterior_draws(posterior, draws)
-    model = ScenarioModel(scenario, list(values))
+    scenario, _, source, base_dir = split_calibration_table(scenario)
+    model = ScenarioModel(scenario, list(values), source=source, base_dir=base_dir)
     spec = model.file.wall_law if spec is None else spec
     if seed is None:
         seed = model.base.seed if model.base.seed is not None else 0
