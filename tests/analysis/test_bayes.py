@@ -350,6 +350,29 @@ def test_outputs_files_and_cli(tmp_path, capsys):
     for f in ("corner.png", "posterior_predictive.png"):
         assert (out / f).stat().st_size > 10_000, f
     assert "## Calibration (Bayesian)" in (out / "calibration.md").read_text()
+    # the run report's section, from the folder: a table row per parameter, the
+    # verdict, no Python artefact (read back by the standard library's HTML parser)
+    from html.parser import HTMLParser
+
+    from microimpact.analysis.bayes_output import section_html_of_folder
+
+    class Cells(HTMLParser):
+        def __init__(self):
+            super().__init__()
+            self.text, self.tags = [], []
+
+        def handle_starttag(self, tag, attrs):
+            self.tags.append(tag)
+
+        def handle_data(self, data):
+            self.text.append(data)
+
+    parser = Cells()
+    parser.feed(section_html_of_folder(out))
+    text = " ".join(parser.text)
+    assert STD in text and "NOT converged" in text and "truncnormal" in text
+    assert parser.tags.count("tr") == 2 and parser.tags.count("img") == 2
+    assert not re.search(r"None|nan|np\.|float64|\{", text)
     # least squares reads the same file, its [calibration] table left aside (its
     # fit of two points from 300 impacts is not the point here: no warning shown)
     with warnings.catch_warnings():

@@ -15,7 +15,14 @@ from .._core.files import atomic_write
 from ..plotting._style import use_agg
 from ..plotting.posterior import plot_corner, plot_posterior_predictive
 
-__all__ = ["inference_data", "predictive_table", "report_html", "write_result"]
+__all__ = [
+    "inference_data",
+    "predictive_table",
+    "report_html",
+    "section_html",
+    "section_html_of_folder",
+    "write_result",
+]
 
 _LABELS = {
     "e": "e (rebounds)",
@@ -24,6 +31,9 @@ _LABELS = {
     "mu_relative": "μ relative",
     "capture_fraction": "capture fraction",
 }
+
+
+_DOMINATED = "prior-dominated: the data do not constrain it"
 
 
 def _split(res):
@@ -218,33 +228,54 @@ def report_markdown(res) -> str:
 
 
 def report_html(res, *, figures_dir="") -> str:
-    """The report section as HTML (a ``<section>``), for the run report; the
-    figures are referred to under `figures_dir`."""
+    """The report section of `res` as HTML (see :func:`section_html`)."""
+    return section_html(res.to_dict(), figures_dir=figures_dir)
+
+
+def section_html(doc: dict, *, figures_dir="") -> str:
+    """The run report's section of a Bayesian calibration, as one HTML
+    ``<section>``, from its ``calibration.json`` (`doc`, parsed); the figures are
+    referred to under `figures_dir`. Everything shown is escaped."""
     e = html.escape
-    d = res.diagnostics
-    rows = "".join(
-        f"<tr><td><code>{e(key)}</code></td><td>{e(p.describe())}</td>"
-        f"<td>{m:.5g}</td><td>[{lo:.4g}, {hi:.4g}]</td><td>{r:.3f}</td>"
-        f"<td>{ess:.0f}</td><td>{'prior-dominated' if dom else ''}</td></tr>"
-        for key, m, lo, hi, r, ess, p, dom in _table_rows(res)
-    )
-    notes = "".join(
-        f"<li>{e(s.strip())}</li>" for s in res.summary_lines()[len(res.keys) :]
+    conf = float(doc["confidence"])
+    rows = []
+    for key, p in doc["parameters"].items():
+        prior = p["prior"]
+        fields = ", ".join(
+            f"{k} = {v:g}" for k, v in prior.items() if k != "distribution"
+        )
+        rows.append(
+            f"<tr><td><code>{e(key)}</code></td>"
+            f"<td>{e(prior['distribution'])}({e(fields)})</td>"
+            f"<td>{p['posterior_median']:.5g}</td>"
+            f"<td>[{p['credible_low']:.4g}, {p['credible_high']:.4g}]</td>"
+            f"<td>{p['r_hat']:.3f}</td><td>{p['ess']:.0f}</td>"
+            f"<td>{_DOMINATED if p['prior_dominated'] else ''}</td></tr>"
+        )
+    notes = [
+        f"{a} and {b} are correlated (r = {r['correlation']:+.2f}): the data fix a "
+        "combination of them"
+        for r in doc.get("correlated_pairs", [])
+        for a, b in [r["keys"]]
+    ]
+    verdict = (
+        f"converged ({doc['steps']} steps, burn-in {doc['burn_in']})"
+        if doc["converged"]
+        else f"NOT converged after {doc['steps']} steps "
+        f"({'; '.join(doc['not_converged_because'])}): run about "
+        f"{doc['more_steps_needed']} more steps"
     )
     base = (figures_dir.rstrip("/") + "/") if figures_dir else ""
-    verdict = (
-        "converged"
-        if d.converged
-        else f"not converged: run about {d.more_steps} more steps"
-    )
+    items = "".join(f"<li>{e(n)}</li>" for n in [verdict, *notes])
     return (
         '<section id="calibration-bayes"><h2>Calibration (Bayesian)</h2>'
-        f"<p>emcee ensemble of {res.walkers} walkers, {d.steps} steps "
-        f"(burn-in {d.burn_in}), {e(verdict)}.</p>"
+        f"<p>emcee ensemble of {int(doc['walkers'])} walkers; engine seed "
+        f"{int(doc['seed'])}, {int(doc['samples'])} impacts per sweep point (common "
+        "random numbers).</p>"
         "<table><thead><tr><th>parameter</th><th>prior</th><th>posterior median</th>"
-        f"<th>{res.confidence:.0%} credible interval</th><th>R-hat</th><th>ESS</th>"
-        f"<th>note</th></tr></thead><tbody>{rows}</tbody></table>"
-        f"<ul>{notes}</ul>"
+        f"<th>{conf:.0%} credible interval</th><th>R-hat</th><th>ESS</th>"
+        f"<th>note</th></tr></thead><tbody>{''.join(rows)}</tbody></table>"
+        f"<ul>{items}</ul>"
         f'<figure><img src="{e(base)}corner.png" alt="posterior corner plot">'
         "<figcaption>Posterior after burn-in.</figcaption></figure>"
         f'<figure><img src="{e(base)}posterior_predictive.png" '
@@ -252,6 +283,19 @@ def report_html(res, *, figures_dir="") -> str:
         "<figcaption>Posterior predictive against the measurements.</figcaption>"
         "</figure></section>"
     )
+
+
+def section_html_of_folder(folder, *, figures_dir="") -> str:
+    """:func:`section_html` of the ``calibration.json`` in `folder`; ``""`` where
+    there is none or it is not a Bayesian calibration (the hook for the run
+    report)."""
+    path = Path(folder) / "calibration.json"
+    if not path.is_file():
+        return ""
+    doc = json.loads(path.read_text(encoding="utf-8"))
+    if doc.get("method") != "bayes":
+        return ""
+    return section_html(doc, figures_dir=figures_dir)
 
 
 def write_result(res, out, *, figure=True) -> Path:
