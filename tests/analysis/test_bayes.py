@@ -313,12 +313,15 @@ def test_outputs_files_and_cli(tmp_path, capsys):
     )
     exp_path = tmp_path / "exp.csv"
     exp.to_csv(exp_path, index=False)
+    impacts = tmp_path / "impacts.csv"  # per-impact rebounds, a second file
+    impacts.write_text("angle_deg,e\n" + "".join(f"30,{v}\n" for v in (0.5, 0.6, 0.7)))
     out = tmp_path / "out"
     rc = main(
         [
             "calibrate",
             str(scen),
             str(exp_path),
+            str(impacts),
             "--parameter",
             STD,
             "--method",
@@ -347,6 +350,8 @@ def test_outputs_files_and_cli(tmp_path, capsys):
     } <= set(idata.groups())
     assert idata.posterior[STD].shape[0] == doc["walkers"]
     np.testing.assert_allclose(idata.observed_data["mean"].values, exp["mean"])
+    np.testing.assert_allclose(idata.observed_data["e"].values, [0.5, 0.6, 0.7])
+    assert idata.posterior_predictive["e_mean"].shape[-1] == 1
     for f in ("corner.png", "posterior_predictive.png"):
         assert (out / f).stat().st_size > 10_000, f
     assert "## Calibration (Bayesian)" in (out / "calibration.md").read_text()
@@ -403,15 +408,8 @@ def test_cli_refuses_bayes_options_with_least_squares(tmp_path, capsys):
 
 
 # ---------------------------------------------------------------------- wall law
-def test_posterior_wall_law_capture_is_the_average_over_draws(tmp_path):
-    """The mixture table's capture probability at every node is the mean of the
-    tables built separately (public build API) at each posterior draw."""
-    import arviz as az
-
-    from microimpact.analysis.wall_law_posterior import posterior_wall_law
-    from microimpact.scenario.scenario import read_scenario
-    from microimpact.wall_law import build_wall_law
-
+def wall_law_scenario(tmp_path):
+    """A small scenario file with a [wall_law] table."""
     path = tmp_path / "w.toml"
     path.write_text(
         'name = "w"\nseed = 3\nsamples = 300\n'
@@ -423,6 +421,19 @@ def test_posterior_wall_law_capture_is_the_average_over_draws(tmp_path):
         "[wall_law]\ndiameter_um = [5, 20]\nspeed_m_s = [0.5, 2.0]\n"
         "angle_deg = [30, 90]\nreservoir = 16\n"
     )
+    return path
+
+
+def test_posterior_wall_law_capture_is_the_average_over_draws(tmp_path):
+    """The mixture table's capture probability at every node is the mean of the
+    tables built separately (public build API) at each posterior draw."""
+    import arviz as az
+
+    from microimpact.analysis.wall_law_posterior import posterior_wall_law
+    from microimpact.scenario.scenario import read_scenario
+    from microimpact.wall_law import build_wall_law
+
+    path = wall_law_scenario(tmp_path)
     a = np.array([[0.3, 0.5], [0.8, 0.4]])  # 2 walkers x 2 draws
     idata = az.from_dict(posterior={VC: a})
     mix = posterior_wall_law(path, idata, draws=4)
@@ -563,3 +574,37 @@ def test_common_random_numbers_make_the_likelihood_continuous():
     c, _ = post(np.array([12.5]))
     assert abs(a - b) < 1e-3
     assert a != c  # the likelihood does depend on the spread
+
+
+def test_per_impact_likelihood_is_the_kernel_density_of_the_simulated_e():
+    """Per-impact rebounds: the log-likelihood is the sum over impacts of the log
+    of scipy's weighted gaussian_kde over the simulated e histogram (Silverman's
+    bandwidth, recomputed here from the histogram's moments and quartiles) mixed
+    with the stated uniform floor."""
+    from scipy.stats import gaussian_kde
+
+    from microimpact.analysis.bayes_data import Likelihood, read_calibration_data
+    from microimpact.engine.accumulators import E_EDGES
+
+    data = tiny(angles=(30.0, 60.0), samples=800)
+    result = microimpact.run(
+        scenario_from_dict(data), samples=800, seed=4, progress=False
+    )
+    e = np.array([0.55, 0.6, 0.62, 0.7, 0.75])
+    impacts = pd.DataFrame({"angle_deg": 60.0, "speed_m_s": 1.0, "e": e})
+    ll, blob = Likelihood(read_calibration_data(impacts), 800).evaluate(result)
+    counts, _ = result.histogram(1, "e")
+    counts = np.asarray(counts, float)
+    centres = 0.5 * (E_EDGES[:-1] + E_EDGES[1:])
+    n = counts.sum()
+    mean = counts @ centres / n
+    sd = math.sqrt(counts @ (centres - mean) ** 2 / (n - 1))
+    rep = np.repeat(centres, counts.astype(int))
+    iqr = np.subtract(*np.quantile(rep, [0.75, 0.25], method="inverted_cdf"))
+    h = max(0.9 * min(sd, iqr / 1.34) * n**-0.2, 0.01)
+    kde = gaussian_kde(centres[counts > 0], weights=counts[counts > 0])
+    kde.set_bandwidth(h / math.sqrt(kde.covariance[0, 0] / kde.factor**2))
+    eps, span = 0.5 / n, E_EDGES[-1] - E_EDGES[0]
+    oracle = np.sum(np.log((1 - eps) * kde(e) + eps / span))
+    assert ll == pytest.approx(oracle, rel=1e-6)
+    assert blob[-1] == pytest.approx(mean, abs=1e-12)

@@ -64,6 +64,14 @@ class CalibrationData:
         )
 
 
+def _group_keys(t):
+    """One label per row for its (surface, speed, angle) point."""
+    return [
+        f"{s}|{v!r}|{a!r}"
+        for s, v, a in zip(t["surface"], t["speed_m_s"], t["angle_deg"], strict=True)
+    ]
+
+
 def _csv(path):
     # deferred: pandas loads only where a table is made (import time)
     import pandas as pd
@@ -319,7 +327,7 @@ class Likelihood:
         self.n_counts = 0 if c is None else len(c)
         self.impact_groups = []
         if i is not None:
-            keys = i[["surface", "speed_m_s", "angle_deg"]].astype(str).agg("|".join, 1)
+            keys = _group_keys(i)
             for _, idx in i.groupby(keys, sort=False).groups.items():
                 self.impact_groups.append(np.asarray(idx))
         self.count_exp = None if c is None else _as_experiment(c, "capture_fraction")

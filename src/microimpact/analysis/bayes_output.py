@@ -14,6 +14,7 @@ from .._core import json as _json
 from .._core.files import atomic_write
 from ..plotting._style import use_agg
 from ..plotting.posterior import plot_corner, plot_posterior_predictive
+from .bayes_data import _group_keys
 
 __all__ = [
     "inference_data",
@@ -177,7 +178,7 @@ def predictive_table(res):
         add(t, "capture fraction (counts)", k / n, lo, hi, captured / n)
     if data.impacts is not None:
         t = data.impacts
-        keys = t[["surface", "speed_m_s", "angle_deg"]].astype(str).agg("|".join, 1)
+        keys = _group_keys(t)
         g = t.groupby(keys, sort=False)
         first = g.head(1).reset_index(drop=True)
         m = g["e"].mean().to_numpy(float)
