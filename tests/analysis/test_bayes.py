@@ -576,6 +576,29 @@ def test_common_random_numbers_make_the_likelihood_continuous():
     assert a != c  # the likelihood does depend on the spread
 
 
+def test_wall_law_cli_builds_the_posterior_mixture(tmp_path):
+    """``wall-law --posterior posterior.nc --draws K`` writes the mixture table:
+    the draws' spread is in it, and its capture probability is the API's."""
+    import arviz as az
+    import xarray as xr
+
+    from microimpact.analysis.wall_law_posterior import posterior_wall_law
+    from microimpact.cli import main
+
+    path = wall_law_scenario(tmp_path)
+    nc = tmp_path / "posterior.nc"
+    az.from_dict(posterior={VC: np.array([[0.3, 0.5], [0.8, 0.4]])}).to_netcdf(nc)
+    out = tmp_path / "law"
+    argv = ["wall-law", str(path), "--posterior", str(nc), "--draws", "3"]
+    assert main([*argv, "--out", str(out), "--no-c", "--no-openfoam", "--quiet"]) == 0
+    with xr.open_dataset(out / "wall_law.nc") as ds:
+        assert ds.attrs["posterior_draws"] == 3
+        p = ds["capture_probability"].values
+        assert "capture_probability_draw_std" in ds
+    api = posterior_wall_law(path, nc, draws=3).dataset["capture_probability"].values
+    np.testing.assert_array_equal(p, api)
+
+
 def test_per_impact_likelihood_is_the_kernel_density_of_the_simulated_e():
     """Per-impact rebounds: the log-likelihood is the sum over impacts of the log
     of scipy's weighted gaussian_kde over the simulated e histogram (Silverman's
