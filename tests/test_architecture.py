@@ -40,6 +40,8 @@ DEFERRABLE = {
     "x3pio",
     "SurfaceTopography",
     "statsmodels",
+    "emcee",
+    "arviz",
 }
 
 

@@ -1,7 +1,12 @@
 """Studies over studies: the scenario model at parameter values, comparison with
-experiments, Sobol' sensitivity, calibration, and the paper's statements checked
-against results and judged over the unknown Formica surface."""
+experiments, Sobol' sensitivity, calibration (least squares and Bayesian, with the
+posterior's wall law), and the paper's statements checked against results and judged
+over the unknown Formica surface."""
 
+from .bayes import (
+    BayesResult,
+    calibrate_bayes,
+)
 from .calibration import (
     CalibrationResult,
     calibrate,
@@ -14,6 +19,10 @@ from .compare import (
 )
 from .model import (
     ScenarioModel,
+)
+from .priors import (
+    Prior,
+    make_prior,
 )
 from .resuspension import (
     ResuspensionResult,
@@ -39,14 +48,20 @@ from .statements import (
     Verdict,
     evaluate,
 )
+from .wall_law_posterior import (
+    posterior_draws,
+    posterior_wall_law,
+)
 
 __all__ = [
     "COLUMNS",
     "SIMULATED",
     "STATEMENTS",
+    "BayesResult",
     "CalibrationResult",
     "EngineModel",
     "Evidence",
+    "Prior",
     "ResuspensionResult",
     "RobustnessStudy",
     "ScenarioModel",
@@ -54,10 +69,14 @@ __all__ = [
     "Statement",
     "Verdict",
     "calibrate",
+    "calibrate_bayes",
     "compare",
     "default_bounds",
     "evaluate",
+    "make_prior",
     "parse_parameter",
+    "posterior_draws",
+    "posterior_wall_law",
     "resuspend",
     "robustness_study",
     "sample_remaining_fraction",

@@ -47,7 +47,6 @@ from __future__ import annotations
 import contextlib
 import copy
 import math
-import os
 import re
 import warnings
 from collections.abc import Mapping, Sequence
@@ -70,12 +69,18 @@ from ..engine.parallel import (
 )
 from ..engine.statistics import z_value
 from ..errors import InputError
-from ..io.experiments import read_experiments
 from ..plotting._style import use_agg
 from ..plotting.calibration import plot_calibration
-from ..scenario.parameters import check_parameter_key, with_values
+from ..scenario.parameters import with_values
 from ..scenario.scenario import scenario_from_dict
-from .compare import _experiments_iv, compare
+from .bayes import BayesResult, calibrate_bayes, split_calibration_table
+from .calibration_inputs import (
+    _parameters,
+    _read_experiments,
+    default_bounds,
+    parse_parameter,
+)
+from .compare import compare
 from .model import ScenarioModel
 
 __all__ = [
@@ -109,82 +114,6 @@ _CURVE = {
     "mu_relative": "mu_relative",
     "capture_fraction": "capture_fraction",
 }
-
-
-# ---------------------------------------------------------------------- inputs
-def parse_parameter(text: str):
-    """``KEY`` or ``KEY=LOW:HIGH`` (either limit may be empty: its default) ->
-    ``(key, (low, high) or None)``; None for an empty limit.
-
-    >>> parse_parameter("surfaces.formica.std_deg=2:20")
-    ('surfaces.formica.std_deg', (2.0, 20.0))
-    """
-    text = str(text).strip()
-    if "=" not in text:
-        if not text:
-            raise InputError(
-                "empty parameter; give KEY or KEY=LOW:HIGH", field="--parameter"
-            )
-        return text, None
-    key, _, rng = text.partition("=")
-    key = key.strip()
-    lo, sep, hi = rng.partition(":")
-    if not key or not sep:
-        raise InputError(
-            f"{text!r}: give KEY or KEY=LOW:HIGH (e.g. surfaces.rough.std_deg=2:20)",
-            field="--parameter",
-        )
-
-    def num(s, which):
-        s = s.strip()
-        if not s:
-            return None
-        try:
-            v = float(s)
-        except ValueError:
-            raise InputError(
-                f"{text!r}: the {which} bound {s!r} is not a number",
-                field="--parameter",
-            ) from None
-        if math.isnan(v):
-            raise InputError(f"{text!r}: the {which} bound is NaN", field="--parameter")
-        return v
-
-    return key, (num(lo, "lower"), num(hi, "upper"))
-
-
-def default_bounds(key: str, value: float) -> tuple[float, float]:
-    """The bounds of a parameter without ``=LOW:HIGH``: physically valid ranges.
-
-    * roughness angles: ``*std_deg`` in [0, 45] deg (a spread of 45 deg is already
-      a surface of cliffs), ``*mean_deg`` in [-45, 45] deg;
-    * ``speed_spread`` (a relative spread) in [0, 0.5];
-    * any other number keeps its sign within a decade either side of its file
-      value: ``[v/10, 10 v]`` for ``v > 0`` (lengths, diameters, speeds, the
-      coefficients' prefactors, friction), ``[10 v, v/10]`` for ``v < 0`` (the
-      exponents ``b`` of the power laws);
-    * a zero value has no natural scale: give the bounds.
-    """
-    last = key.rsplit(".", 1)[-1]
-    if last.endswith("std_deg"):
-        return 0.0, 45.0
-    if last.endswith("mean_deg"):
-        return -45.0, 45.0
-    if last == "speed_spread":
-        return 0.0, 0.5
-    if value > 0:
-        return value / 10.0, value * 10.0
-    if value < 0:
-        return value * 10.0, value / 10.0
-    raise InputError(
-        "its file value is 0, so there is no default range; give one as "
-        f"--parameter {key}=LOW:HIGH",
-        field=key,
-    )
-
-
-def _check_key(data, key, source):
-    return check_parameter_key(data, key, source=source)
 
 
 # ---------------------------------------------------------------------- the model
@@ -643,7 +572,9 @@ def calibrate(
     bootstrap_seed: int | None = 0,
     band_draws: int = BAND_DRAWS,
     progress=None,
-) -> CalibrationResult:
+    method: str = "lsq",
+    **bayes_options,
+) -> CalibrationResult | BayesResult:
     """Fit scenario parameters to measured rebound statistics.
 
     Parameters
@@ -687,6 +618,11 @@ def calibrate(
         Progress of the steps (the fit, each bootstrap refit, the band): ``True``
         shows a bar (tqdm, on stderr), a callable is called as
         ``progress(done, total)``; default: a bar only when stderr is a terminal.
+    method : {"lsq", "bayes"}
+        Least squares (this function), or the posterior by MCMC
+        (:func:`~microimpact.analysis.bayes.calibrate_bayes`, which takes the
+        `bayes_options` ``priors``, ``walkers``, ``steps``, ...; the least-squares
+        options are not used).
 
     Returns
     -------
@@ -699,6 +635,29 @@ def calibrate(
         bounds that are empty or that the scenario rejects, an experiment file
         that cannot be read or whose points are not in the sweep.
     """
+    if method == "bayes":
+        return calibrate_bayes(
+            scenario,
+            experiments,
+            parameters,
+            bounds=bounds,
+            seed=seed,
+            samples=samples,
+            workers=workers,
+            executor=executor,
+            confidence=confidence,
+            source=source,
+            base_dir=base_dir,
+            progress=progress,
+            **bayes_options,
+        )
+    if method != "lsq" or bayes_options:
+        raise InputError(
+            f"method {method} takes no option(s) {', '.join(bayes_options)}"
+            if method == "lsq"
+            else f"must be lsq or bayes; got {method}",
+            field="method",
+        )
     if not (isinstance(confidence, float | int) and 0 < confidence < 1):
         raise InputError(f"must be in (0, 1); got {confidence!r}", field="confidence")
     if isinstance(bootstrap, bool) or not isinstance(bootstrap, int) or bootstrap < 0:
@@ -706,6 +665,8 @@ def calibrate(
             f"must be an integer >= 0; got {bootstrap!r}", field="bootstrap"
         )
     check_progress(progress)
+    # the priors of a [calibration] table are for the Bayesian method only
+    scenario, _, source, base_dir = split_calibration_table(scenario, source, base_dir)
     smodel = ScenarioModel(scenario, samples=samples, source=source, base_dir=base_dir)
     source, base_dir = smodel.source, smodel.base_dir
     keys, x0, B = _parameters(smodel, parameters, bounds)
@@ -809,83 +770,6 @@ def calibrate(
         info=info,
         base_dir=None if base_dir is None else str(base_dir),
     )
-
-
-def _parameters(smodel, parameters, bounds):
-    """``(keys, x0, B)``: the parameters' keys, file values and bounds (each bound
-    checked to be a value the scenario accepts, with its one-line error)."""
-    source = smodel.source
-    if isinstance(parameters, str):
-        parameters = [parameters]
-    given = dict(bounds or {})
-    if isinstance(parameters, Mapping):
-        for k, b in parameters.items():
-            if b is not None:
-                given.setdefault(k, b)
-    keys = list(parameters)
-    if not keys:
-        raise InputError("give at least one parameter", field="--parameter")
-    dup = {k for k in keys if keys.count(k) > 1}
-    if dup:
-        raise InputError(f"given twice: {sorted(dup)}", field="--parameter")
-    unknown = set(given) - set(keys)
-    if unknown:
-        raise InputError(
-            f"bounds for keys that are not parameters: {sorted(unknown)}",
-            field="bounds",
-        )
-    x0 = np.array([_check_key(smodel.data, k, source) for k in keys])
-    B = np.empty((len(keys), 2))
-    for j, key in enumerate(keys):
-        b = given.get(key)
-        lo = hi = None
-        if b is not None:
-            try:
-                lo, hi = b
-            except (TypeError, ValueError):
-                raise InputError(
-                    f"bounds must be (low, high); got {b!r}", field=key
-                ) from None
-        if lo is None or hi is None:
-            dlo, dhi = default_bounds(key, x0[j])
-            lo = dlo if lo is None else lo
-            hi = dhi if hi is None else hi
-        lo, hi = float(lo), float(hi)
-        if not lo < hi:
-            raise InputError(
-                f"empty range {lo:g}:{hi:g}; the lower bound must be below the upper",
-                field=key,
-            )
-        B[j] = lo, hi
-        for v in (lo, hi):  # the scenario must accept its bounds (one-line error)
-            if math.isfinite(v):
-                try:
-                    smodel.scenario({key: v})
-                except InputError as exc:
-                    raise InputError(
-                        f"the bound {v:g} is not allowed: {exc.message}"
-                        + (
-                            ""
-                            if b is not None
-                            else f"; give --parameter {key}=LOW:HIGH"
-                        ),
-                        source=source,
-                        field=key,
-                    ) from None
-    return keys, x0, B
-
-
-def _read_experiments(experiments):
-    """``(table, file name or None)`` of the experiments."""
-    if isinstance(experiments, str | os.PathLike):
-        exp_source = str(experiments)
-        experiments = read_experiments(experiments)
-    else:
-        exp_source = None
-    try:
-        return _experiments_iv(experiments), exp_source
-    except (TypeError, ValueError) as exc:
-        raise InputError(str(exc), source=exp_source) from None
 
 
 def _start(model, x0, exp_source):

@@ -14,7 +14,10 @@ def cli_parse(sp):
     sp.add_argument("scenario", help="scenario TOML file or preset name")
     sp.add_argument(
         "experiments",
-        help="experiment CSV (speed_m_s/angle_deg, statistic, mean, interval)",
+        nargs="+",
+        help="experiment CSV (speed_m_s/angle_deg, statistic, mean, interval); "
+        "with --method bayes also capture counts (captured, n) or per-impact "
+        "rebounds (e), several files allowed",
     )
     sp.add_argument(
         "--parameter",
@@ -50,6 +53,24 @@ def cli_parse(sp):
     )
     c.add_backend_options(sp)
     c.add_yes_option(sp)
+    sp.add_argument(
+        "--method",
+        choices=("lsq", "bayes"),
+        default="lsq",
+        help="lsq: least squares (default); bayes: the posterior by MCMC (emcee), "
+        "priors uniform over the bounds or from the scenario's [calibration] table",
+    )
+    sp.add_argument(
+        "--walkers",
+        type=c.positive_int,
+        help="bayes: ensemble walkers (default max(8, 4 x parameters))",
+    )
+    sp.add_argument(
+        "--steps",
+        type=c.positive_int,
+        default=5000,
+        help="bayes: the most MCMC steps; the run stops once converged (default 5000)",
+    )
     sp.add_argument("--no-figures", action="store_true", help="write no figure")
     sp.add_argument("--quiet", action="store_true", help="print nothing but errors")
 
@@ -69,6 +90,22 @@ def cli_action(args) -> int:
         parameters[key] = bounds
     _check_cost(args)
     t0 = time.perf_counter()
+    if args.method == "bayes":
+        return _bayes(args, parameters, t0)
+    if len(args.experiments) > 1:
+        # deferred: the verb's library loads only when the verb runs (fast --help)
+        from ..errors import InputError
+
+        raise InputError(
+            "least squares takes one experiment file; several need --method bayes",
+            field="experiments",
+        )
+    if args.walkers is not None or args.steps != 5000:
+        # deferred: the verb's library loads only when the verb runs (fast --help)
+        from ..errors import InputError
+
+        raise InputError("only with --method bayes", field="--walkers/--steps")
+    args.experiments = args.experiments[0]
     with c.executor_of(args) as executor:
         result = calibrate(
             args.scenario,
@@ -113,3 +150,33 @@ def _check_cost(args):
     except InputError:
         return  # calibrate reads the file again and says what is wrong with it
     c.check_cost(args, scenario, samples=args.samples, outputs=False)
+
+
+def _bayes(args, parameters, t0) -> int:
+    """``--method bayes``: the posterior, its files and the terminal summary."""
+    # deferred: the verb's library loads only when the verb runs (fast --help)
+    from ..analysis.calibration import calibrate
+
+    with c.executor_of(args) as executor:
+        result = calibrate(
+            args.scenario,
+            args.experiments,
+            parameters,
+            samples=args.samples,
+            seed=args.seed,
+            workers=args.workers,
+            executor=executor,
+            confidence=args.confidence,
+            progress=False if args.quiet else None,
+            method="bayes",
+            walkers=args.walkers,
+            steps=args.steps,
+        )
+    result.write(args.out, figure=not args.no_figures)
+    if not args.quiet:
+        for line in result.summary_lines():
+            print(line)
+        print(f"  {time.perf_counter() - t0:.1f} s -> {args.out}")
+    return c.EXIT_OK
+
+

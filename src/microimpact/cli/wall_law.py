@@ -37,6 +37,19 @@ def cli_parse(sp):
             type=c.positive_float,
             help=f"{what} of the OpenFOAM constant e and mu (default: mid-table)",
         )
+    # ---- issue 36: the wall law of a calibration's posterior ----
+    sp.add_argument(
+        "--posterior",
+        help="posterior.nc of calibrate --method bayes: build the table averaged "
+        "over posterior draws of its parameters (docs/calibration.md)",
+    )
+    sp.add_argument(
+        "--draws",
+        type=c.positive_int,
+        default=20,
+        help="posterior draws with --posterior (default 20; one build each)",
+    )
+    # ---- end issue 36 ----
     sp.add_argument("--no-c", action="store_true", help="write no C sampler")
     sp.add_argument("--no-openfoam", action="store_true", help="no OpenFOAM files")
     sp.add_argument("--quiet", action="store_true", help="no progress")
@@ -92,15 +105,29 @@ def cli_action(args) -> int:
             print(f"\r  diameters {done}/{total}", end="", file=sys.stderr, flush=True)
 
     with OutputFolder(args.out) as folder, c.executor_of(args) as executor:
-        law = build_wall_law(
-            file,
-            spec,
-            workers=args.workers,
-            seed=args.seed,
-            executor=executor,
-            progress=progress,
-            checkpoint=folder.path / CHECKPOINT_DIR,
-        )
+        if args.posterior is not None:  # issue 36: the posterior mixture
+            # deferred: the verb's library loads only when the verb runs (fast --help)
+            from ..analysis.wall_law_posterior import posterior_wall_law
+
+            law = posterior_wall_law(
+                args.scenario,
+                args.posterior,
+                draws=args.draws,
+                spec=spec,
+                seed=args.seed,
+                workers=args.workers,
+                executor=executor,
+            )
+        else:
+            law = build_wall_law(
+                file,
+                spec,
+                workers=args.workers,
+                seed=args.seed,
+                executor=executor,
+                progress=progress,
+                checkpoint=folder.path / CHECKPOINT_DIR,
+            )
         if not args.quiet:
             print(file=sys.stderr)
         law.write(

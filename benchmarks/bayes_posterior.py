@@ -1,0 +1,157 @@
+"""Bayesian calibration: wall time of a posterior to convergence (docs/calibration.md).
+
+    python benchmarks/bayes_posterior.py two   # roughness spread + v_c coefficient
+    python benchmarks/bayes_posterior.py one   # the issue's case: 1 parameter, 7
+                                               # points x 4,000 impacts
+    python benchmarks/bayes_posterior.py two --smoke   # a few steps, end to end
+
+Measurements are synthetic: the engine at a known truth with another seed. ``two``
+fits the spread of a normal-rough surface (truth 12 deg) and the v_c law's
+coefficient (truth 0.2 m/s) to e and mu at 30 and 60 deg (1 m/s, 300 measured
+impacts each) and capture counts at 0.235 m/s (300 particles each), with 3,000
+simulated impacts per point (the Monte Carlo variance ratio 0.1 of
+docs/calibration.md). ``one`` fits the spread alone to e at 7 angles (15-85 deg,
+4,000 measured rebounds each) with 4,000 simulated impacts per point. Each prints
+one JSON line: wall seconds, steps, walkers, model runs, seconds per run, R-hat,
+ESS, autocorrelation times, convergence, the estimates and the truth.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+import numpy as np
+import pandas as pd
+
+import microimpact as mi
+from microimpact.analysis.calibration import calibrate
+from microimpact.scenario.parameters import with_values
+from microimpact.scenario.scenario import scenario_from_dict
+
+STD = "surfaces.rough.std_deg"
+VC = "coefficients.v_c.a_m_s"
+
+
+def scenario(angles, speeds, samples):
+    return {
+        "name": "bench",
+        "seed": 1,
+        "samples": samples,
+        "particles": {"distribution": "monodisperse", "diameter_um": 50.0},
+        "coefficients": {
+            "k1": 4.0,
+            "k2": {"law": "power", "a_m_s": 0.05, "b": -1.58, "d_ref_um": 52.8},
+            "v_c": {"law": "power", "a_m_s": 0.2, "b": -1.58, "d_ref_um": 52.8},
+            "p": 1.0,
+            "q": 1.0,
+            "friction": 0.15,
+        },
+        "surfaces": [{"name": "rough", "kind": "normal", "std_deg": 10.0}],
+        "sweep": {"speed_m_s": list(speeds), "angle_deg": list(angles)},
+    }
+
+
+def _summary(data, truth, samples, seed):
+    sc = scenario_from_dict(with_values(data, truth))
+    return mi.run(sc, samples=samples, seed=seed, progress=False).summary
+
+
+def _means(s, stats):
+    cols = {"e": ("e_rebound_mean", "e_rebound_se"), "mu": ("mu_mean", "mu_se")}
+    rows = []
+    for _, r in s.iterrows():
+        for stat in stats:
+            c, se = cols[stat]
+            rows.append(
+                {
+                    "speed_m_s": r["speed_m_s"],
+                    "angle_deg": r["angle_deg"],
+                    "statistic": stat,
+                    "mean": r[c],
+                    "ci_low": r[c] - 1.959964 * r[se],
+                    "ci_high": r[c] + 1.959964 * r[se],
+                }
+            )
+    return pd.DataFrame(rows)
+
+
+def two(workers, steps):
+    truth = {STD: 12.0, VC: 0.2}
+    data = scenario((30.0, 60.0), (0.235, 1.0), 3000)
+    s = _summary(data, truth, 300, seed=101)
+    means = _means(s[s["speed_m_s"] == 1.0], ("e", "mu"))
+    c = s[s["speed_m_s"] == 0.235]
+    counts = pd.DataFrame(
+        {
+            "speed_m_s": c["speed_m_s"],
+            "angle_deg": c["angle_deg"],
+            "captured": np.rint(c["capture_fraction"] * c["n"]).astype(int),
+            "n": c["n"].astype(int),
+        }
+    )
+    bounds = {STD: (2.0, 30.0), VC: (0.1, 0.4)}
+    return _timed([means, counts], data, bounds, truth, workers, steps)
+
+
+def one(workers, steps):
+    truth = {STD: 12.0}
+    data = scenario((15.0, 30.0, 45.0, 60.0, 70.0, 80.0, 85.0), (1.0,), 4000)
+    means = _means(_summary(data, truth, 4000, seed=102), ("e",))
+    return _timed(means, data, {STD: (2.0, 30.0)}, truth, workers, steps)
+
+
+def _timed(exp, data, bounds, truth, workers, steps):
+    t0 = time.perf_counter()
+    res = calibrate(
+        data,
+        exp,
+        bounds,
+        method="bayes",
+        workers=workers,
+        steps=steps,
+        confidence=0.9,
+        progress=False,
+    )
+    wall = time.perf_counter() - t0
+    d = res.diagnostics
+    lo, hi = res.credible()
+    runs = res.info["model_runs"]
+    return {
+        "wall_s": round(wall, 1),
+        "workers": workers,
+        "steps": d.steps,
+        "walkers": res.walkers,
+        "burn_in": d.burn_in,
+        "model_runs": runs,
+        "s_per_run_per_worker": round(wall * workers / runs, 4),
+        "converged": d.converged,
+        "r_hat": d.r_hat.round(4).tolist(),
+        "ess": d.ess.round(0).tolist(),
+        "tau": d.tau.round(2).tolist(),
+        "median": dict(
+            zip(res.keys, res.posterior_median.round(4).tolist(), strict=True)
+        ),
+        "credible_90": {
+            k: [round(float(lo[j]), 4), round(float(hi[j]), 4)]
+            for j, k in enumerate(res.keys)
+        },
+        "truth": truth,
+    }
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("what", choices=("two", "one"))
+    p.add_argument("--workers", type=int, default=2)
+    p.add_argument("--steps", type=int, default=5000)
+    p.add_argument("--smoke", action="store_true", help="20 steps: end to end only")
+    args = p.parse_args()
+    steps = 20 if args.smoke else args.steps
+    run = two if args.what == "two" else one
+    print(json.dumps(run(args.workers, steps)))
+
+
+if __name__ == "__main__":
+    main()
