@@ -178,5 +178,3 @@ def _bayes(args, parameters, t0) -> int:
             print(line)
         print(f"  {time.perf_counter() - t0:.1f} s -> {args.out}")
     return c.EXIT_OK
-
-
