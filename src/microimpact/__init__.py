@@ -131,6 +131,7 @@ _EXPORTS: dict[str, str] = {
     "Outputs": "scenario.outputs",
     "reproduce": "pipeline.study",
     "robustness_study": "analysis.robustness",
+    "BayesResult": "analysis.bayes",
     "RobustnessStudy": "analysis.robustness",
     # a stochastic wall law for CFD and particle tracking
     "build_wall_law": "wall_law.build",

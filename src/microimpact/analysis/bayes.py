@@ -424,9 +424,8 @@ def split_calibration_table(scenario, source=None, base_dir=None):
             data = tomllib.loads(path.read_text(encoding="utf-8"))
         except (tomllib.TOMLDecodeError, UnicodeDecodeError):
             return scenario, None, source, base_dir  # the reader's own error
-        if "calibration" not in data:
-            return scenario, None, source, base_dir
-        table = data.pop("calibration")
+        # the file is read once: its data go on to the model, [calibration] out
+        table = data.pop("calibration", None)
         return data, table, str(path), path.resolve().parent
     if isinstance(scenario, Mapping) and "calibration" in scenario:
         data = dict(scenario)

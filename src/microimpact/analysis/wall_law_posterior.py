@@ -128,7 +128,15 @@ def _mixture(laws):
             out[name].values = np.nanmean(q, axis=0) if k > 1 else q[0]
     counts = np.stack([d["reservoir_count"].values for d in dss])
     keep = counts.min(axis=0)
-    out["reservoir_count"].values = keep.astype(out["reservoir_count"].dtype)
+    # a node where some draw has no rebound at all (it captured everything there)
+    # takes its rebounds from the draw with the most, so that a node the mixture
+    # does not capture with certainty always holds rebounds (the table's rule)
+    most = counts.max(axis=0)
+    alone = (keep == 0) & (most > 0)
+    best = counts.argmax(axis=0)
+    out["reservoir_count"].values = np.where(alone, most, keep).astype(
+        out["reservoir_count"].dtype
+    )
     for name in out.data_vars:
         if name.startswith("reservoir_") and name != "reservoir_count":
             arr = np.stack([d[name].values for d in dss])  # (K, ..., sample)
@@ -139,7 +147,8 @@ def _mixture(laws):
                 pick.reshape((1,) * (arr.ndim - 2) + (size, 1)),
                 axis=-1,
             )[..., 0]
-            out[name].values = mixed
+            one = np.take_along_axis(arr, best[None, ..., None], axis=0)[0]
+            out[name].values = np.where(alone[..., None], one, mixed)
     return out
 
 

@@ -173,6 +173,14 @@ def _bayes(args, parameters, t0) -> int:
             steps=args.steps,
         )
     result.write(args.out, figure=not args.no_figures)
+    # deferred: the pipeline (matplotlib) loads only for the Bayesian report page
+    from ..pipeline.report import write_section_page
+
+    write_section_page(
+        args.out / "report.html",
+        "microimpact report: Bayesian calibration",
+        result.report_html(figures_dir=""),
+    )
     if not args.quiet:
         for line in result.summary_lines():
             print(line)

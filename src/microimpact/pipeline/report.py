@@ -1012,6 +1012,25 @@ microimpact {_e(__version__)}; {_e(created)}.</p>
     return atomic_write(out_path, lambda t: Path(t).write_text(page, encoding="utf-8"))
 
 
+def write_section_page(path, title, section_html, *, subtitle="") -> Path:
+    """Write a self-contained report page (the reports' style sheet) around one
+    section's HTML, atomically: the page of a verb whose report is one section
+    (``microimpact resuspend``, ``microimpact calibrate --method bayes``)."""
+    page = (
+        '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
+        '<meta name="viewport" content="width=device-width, initial-scale=1">'
+        f'<meta name="generator" content="microimpact {_e(__version__)}">'
+        f"<title>{_e(title)}</title><style>{_CSS}</style></head>"
+        f"<body><main><h1>{_e(title)}</h1>"
+        + (f'<p class="sub">{_e(subtitle)}</p>' if subtitle else "")
+        + section_html
+        + "</main></body></html>\n"
+    )
+    return atomic_write(
+        Path(path), lambda t: Path(t).write_text(page, encoding="utf-8")
+    )
+
+
 # ------------------------------------------------------------------ text
 def summary_text(result) -> str:
     """A plain-text (Markdown) summary of a result for terminals.

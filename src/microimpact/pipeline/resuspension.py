@@ -21,7 +21,7 @@ from .._core.files import atomic_write
 from ..engine.dataset import encoding
 from ..plotting._style import STYLE
 from ..plotting.resuspension import plot_resuspension
-from .report import _CSS  # the reports' own style sheet
+from .report import write_section_page
 
 __all__ = ["RESUSPENSION_FILES", "resuspension_section_html", "write_resuspension"]
 
@@ -72,27 +72,13 @@ def write_resuspension(result, out_dir) -> dict[str, Path]:
         )
     finally:
         plt.close(fig)
-    page = _page(result)
-    paths["report"] = atomic_write(
+    paths["report"] = write_section_page(
         out / RESUSPENSION_FILES["report"],
-        lambda t: Path(t).write_text(page, encoding="utf-8"),
+        "microimpact report: resuspension",
+        resuspension_section_html(result),
+        subtitle=str(result.dataset.attrs.get("scenario", "")),
     )
     return paths
-
-
-def _page(result) -> str:
-    """A self-contained report page holding the resuspension section."""
-    title = "microimpact report: resuspension"
-    name = result.dataset.attrs.get("scenario", "")
-    return (
-        '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
-        '<meta name="viewport" content="width=device-width, initial-scale=1">'
-        f"<title>{html.escape(title)}</title><style>{_CSS}</style></head>"
-        f"<body><main><h1>{html.escape(title)}</h1>"
-        + (f'<p class="sub">{html.escape(str(name))}</p>' if name else "")
-        + resuspension_section_html(result)
-        + "</main></body></html>\n"
-    )
 
 
 def resuspension_section_html(result) -> str:
