@@ -341,6 +341,9 @@ def test_outputs_files_and_cli(tmp_path, capsys):
         assert math.isfinite(p[name]), name
     assert p["prior"]["distribution"] == "truncnormal"
     assert doc["converged"] is False and doc["more_steps_needed"] > 0
+    page = (out / "report.html").read_text(encoding="utf-8")  # the report section
+    assert "<section" in page and "posterior_median" not in page
+    assert STD in page
     idata = az.from_netcdf(out / "posterior.nc")
     assert {
         "posterior",
