@@ -634,3 +634,24 @@ def test_per_impact_likelihood_is_the_kernel_density_of_the_simulated_e():
     oracle = np.sum(np.log((1 - eps) * kde(e) + eps / span))
     assert ll == pytest.approx(oracle, rel=1e-6)
     assert blob[-1] == pytest.approx(mean, abs=1e-12)
+
+
+def test_a_scenario_with_priors_runs_everywhere(tmp_path):
+    """A [calibration] table (the Bayesian priors) does not stop the scenario's
+    other verbs: read_scenario and `microimpact run` take the file as it is."""
+    from microimpact.cli import main
+    from microimpact.scenario.scenario import read_scenario
+
+    path = tmp_path / "s.toml"
+    path.write_text(
+        'name = "p"\nseed = 1\nsamples = 200\n'
+        '[particles]\ndistribution = "normal"\nmean_um = 52.8\nstd_um = 15.3\n'
+        "[coefficients]\nk1 = 4.0\nk2 = 0.05\nv_c = 0.2\nfriction = 0.15\n"
+        "[sweep]\nspeed_m_s = [0.5]\nangle_deg = [90]\n"
+        '[calibration.priors."coefficients.friction"]\n'
+        'distribution = "uniform"\nlow = 0.05\nhigh = 0.5\n'
+    )
+    assert read_scenario(path).scenario.name == "p"
+    out = tmp_path / "out"
+    assert main(["run", str(path), "--out", str(out), "--quiet", "--no-figures"]) == 0
+    assert (out / "summary.csv").exists()

@@ -55,6 +55,7 @@ TOP_KEYS = (
     "wall_law",
     "sensitivity",
     "resuspension",
+    "calibration",  # read by `calibrate --method bayes` (its priors); others skip it
 )
 PARTICLE_KEYS = {
     "normal": ({"mean_um", "std_um"}, {"min_um", "max_um"}),
