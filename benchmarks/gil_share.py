@@ -1,0 +1,168 @@
+"""The share of a path's wall time that holds the GIL, sampled with py-spy, and
+the Amdahl projection it implies (issue 31, item 4).
+
+Each path runs in a child process twice under ``py-spy record``: once sampling
+every active moment (``--format raw``), once only the moments that hold the GIL
+(``--gil``). Only the samples inside the path's own call (the frame named below)
+count, so imports and planning outside it do not. The GIL share g bounds the
+speed-up of n threads by Amdahl's law, ``1 / (g + (1 - g) / n)``.
+
+    pip install py-spy                      # not a dependency of the package
+    python benchmarks/gil_share.py          # about a minute on 2 cores
+    python benchmarks/gil_share.py --json out.json
+
+Paths, one worker each (the sizes of issue 31's targets):
+
+* ``run``: ``run()`` over 64 points of 10^6 impacts (sst76-formica-oblique physics);
+* ``grid``: a 60 x 60 speed-angle grid at 8,000 impacts per point;
+* ``wall_law``: a 16^3 wall law at 2,000 impacts per node.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+CHILD = {
+    "run": (
+        "from microimpact.scenario import load_preset\n"
+        "from microimpact.engine.montecarlo import run\n"
+        "sc = load_preset('sst76-formica-oblique').with_options(\n"
+        "    surfaces=load_preset('sst76-formica-oblique').surfaces[:1],\n"
+        "    speeds_m_s=(0.5, 1.0, 2.0, 5.0),\n"
+        "    angles_deg=tuple(range(10, 90, 5))[:16])\n"
+        "def path():\n"
+        "    run(sc, samples=1_000_000, workers=1)\n"
+        "path()\n"
+    ),
+    "grid": (
+        "import numpy as np\n"
+        "from microimpact.scenario import load_preset\n"
+        "from microimpact.engine.montecarlo import run\n"
+        "base = load_preset('sst76-formica-oblique')\n"
+        "sc = base.with_options(surfaces=base.surfaces[:1],\n"
+        "    speeds_m_s=tuple(np.linspace(0.2, 5.0, 60)),\n"
+        "    angles_deg=tuple(np.linspace(5.0, 90.0, 60)))\n"
+        "def path():\n"
+        "    run(sc, samples=8000, workers=1)\n"
+        "path()\n"
+    ),
+    "wall_law": (
+        "import numpy as np\n"
+        "from microimpact.scenario import load_preset\n"
+        "from microimpact.wall_law import WallLawSpec, build_wall_law\n"
+        "base = load_preset('sst76-formica-oblique')\n"
+        "sc = base.with_options(surfaces=base.surfaces[:1])\n"
+        "spec = WallLawSpec(diameters_um=tuple(np.geomspace(10, 80, 16)),\n"
+        "    speeds_m_s=tuple(np.geomspace(0.2, 10, 16)),\n"
+        "    angles_deg=tuple(np.linspace(6, 90, 16)), samples=2000, reservoir=64)\n"
+        "def path():\n"
+        "    build_wall_law(sc, spec, workers=1, seed=1)\n"
+        "path()\n"
+    ),
+}
+#: The frame of the path's own call in every sample that counts.
+FRAME = "path (child.py:"
+
+
+def _samples(raw: Path) -> int:
+    n = 0
+    for line in raw.read_text(encoding="utf-8").splitlines():
+        stack, _, count = line.rpartition(" ")
+        if FRAME in stack:
+            n += int(count)
+    return n
+
+
+def measure(name: str, pyspy: str, rate: int = 250) -> dict:
+    with tempfile.TemporaryDirectory() as tmp:
+        child = Path(tmp) / "child.py"
+        child.write_text(CHILD[name], encoding="utf-8")
+        counts = {}
+        for kind, extra in (("all", []), ("gil", ["--gil"])):
+            raw = Path(tmp) / f"{kind}.txt"
+            subprocess.run(
+                [
+                    pyspy,
+                    "record",
+                    "--rate",
+                    str(rate),
+                    "--format",
+                    "raw",
+                    *extra,
+                    "-o",
+                    str(raw),
+                    "--",
+                    sys.executable,
+                    str(child),
+                ],
+                check=True,
+                capture_output=True,
+                cwd=tmp,
+            )
+            counts[kind] = _samples(raw)
+    n = counts["all"]
+    g = min(counts["gil"] / n, 1.0) if n else float("nan")
+    return {
+        "path": name,
+        "samples": n,
+        "gil_samples": counts["gil"],
+        "gil_share": g,
+        # the two recordings are separate runs: a binomial standard error of the
+        # share, as if the GIL samples were a subset of the active ones
+        "gil_share_se": (g * (1.0 - g) / n) ** 0.5 if n else float("nan"),
+        "amdahl_16": 1.0 / (g + (1.0 - g) / 16.0),
+        "amdahl_64": 1.0 / (g + (1.0 - g) / 64.0),
+    }
+
+
+def _cpu() -> str:
+    try:
+        info = Path("/proc/cpuinfo").read_text()
+    except OSError:
+        return platform.processor()
+    model = next(
+        (
+            x.split(":", 1)[1].strip()
+            for x in info.splitlines()
+            if x.startswith("model name")
+        ),
+        "?",
+    )
+    flags = next((x for x in info.splitlines() if x.startswith("flags")), "")
+    return f"{model}, {os.cpu_count()} CPUs, AVX-512 {'avx512f' in flags}"
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--paths", nargs="+", default=list(CHILD), choices=list(CHILD))
+    ap.add_argument("--json", type=Path)
+    args = ap.parse_args(argv)
+    pyspy = shutil.which("py-spy") or str(Path(sys.executable).with_name("py-spy"))
+    if not Path(pyspy).exists():
+        print("py-spy is not installed: pip install py-spy", file=sys.stderr)
+        return 2
+    rows = [measure(name, pyspy) for name in args.paths]
+    print(f"CPU: {_cpu()}")
+    print("| path | samples | GIL held | Amdahl 16 cores | Amdahl 64 cores |")
+    print("|---|---|---|---|---|")
+    for r in rows:
+        share = f"{100 * r['gil_share']:.1f} ± {100 * r['gil_share_se']:.1f} %"
+        print(
+            f"| `{r['path']}` | {r['samples']} | {share} | "
+            f"{r['amdahl_16']:.1f}x | {r['amdahl_64']:.1f}x |"
+        )
+    if args.json:
+        args.json.write_text(json.dumps({"cpu": _cpu(), "rows": rows}, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
