@@ -27,6 +27,7 @@ import pandas as pd
 
 import microimpact as mi
 from microimpact.analysis.calibration import calibrate
+from microimpact.analysis.compare import experiments_from_summary
 from microimpact.scenario.parameters import with_values
 from microimpact.scenario.scenario import scenario_from_dict
 
@@ -59,22 +60,7 @@ def _summary(data, truth, samples, seed):
 
 
 def _means(s, stats):
-    cols = {"e": ("e_rebound_mean", "e_rebound_se"), "mu": ("mu_mean", "mu_se")}
-    rows = []
-    for _, r in s.iterrows():
-        for stat in stats:
-            c, se = cols[stat]
-            rows.append(
-                {
-                    "speed_m_s": r["speed_m_s"],
-                    "angle_deg": r["angle_deg"],
-                    "statistic": stat,
-                    "mean": r[c],
-                    "ci_low": r[c] - 1.959964 * r[se],
-                    "ci_high": r[c] + 1.959964 * r[se],
-                }
-            )
-    return pd.DataFrame(rows)
+    return experiments_from_summary(s, stats, by_surface=False)
 
 
 def two(workers, steps):

@@ -22,6 +22,7 @@ import pandas as pd
 
 import microimpact
 from microimpact._core.toml import to_toml
+from microimpact.analysis.compare import experiments_from_summary
 from microimpact.scenario.parameters import with_values
 from microimpact.scenario.scenario import scenario_from_dict
 
@@ -57,23 +58,10 @@ high = 45.0
 def measurements(out: Path):
     sc = scenario_from_dict(with_values(SCENARIO, TRUTH))
     s = microimpact.run(sc, samples=300, seed=2024, progress=False).summary
-    rows = []
-    for _, r in s[s["speed_m_s"] == 1.0].iterrows():
-        for stat, col, se in (
-            ("e", "e_rebound_mean", "e_rebound_se"),
-            ("mu", "mu_mean", "mu_se"),
-        ):
-            rows.append(
-                {
-                    "speed_m_s": r["speed_m_s"],
-                    "angle_deg": r["angle_deg"],
-                    "statistic": stat,
-                    "mean": round(r[col], 5),
-                    "ci_low": round(r[col] - 1.959964 * r[se], 5),
-                    "ci_high": round(r[col] + 1.959964 * r[se], 5),
-                }
-            )
-    pd.DataFrame(rows).to_csv(out / "means.csv", index=False)
+    means = experiments_from_summary(s[s["speed_m_s"] == 1.0], by_surface=False)
+    cols = ["mean", "ci_low", "ci_high"]
+    means[cols] = means[cols].round(5)
+    means.to_csv(out / "means.csv", index=False)
     c = s[s["speed_m_s"] == 0.235]
     pd.DataFrame(
         {

@@ -18,6 +18,7 @@ from scipy import special, stats
 import microimpact
 from microimpact.analysis.bayes import diagnose, run_sampler
 from microimpact.analysis.calibration import calibrate
+from microimpact.analysis.compare import experiments_from_summary
 from microimpact.analysis.priors import make_prior
 from microimpact.errors import InputError
 from microimpact.scenario.parameters import with_values
@@ -52,28 +53,9 @@ def tiny(angles=(45.0,), speeds=(1.0,), *, std=10.0, samples=600):
 
 def simulated(data, values, *, seed, samples, stats=("e",)):
     """Means with 95 % intervals simulated by the engine at `values`."""
-    cols = {
-        "e": ("e_rebound_mean", "e_rebound_se"),
-        "mu": ("mu_mean", "mu_se"),
-        "capture_fraction": ("capture_fraction", "capture_se"),
-    }
     sc = scenario_from_dict(with_values(data, values))
     summary = microimpact.run(sc, samples=samples, seed=seed, progress=False).summary
-    rows = []
-    for _, r in summary.iterrows():
-        for stat in stats:
-            col, se = cols[stat]
-            rows.append(
-                {
-                    "speed_m_s": r["speed_m_s"],
-                    "angle_deg": r["angle_deg"],
-                    "statistic": stat,
-                    "mean": r[col],
-                    "ci_low": r[col] - 1.959964 * r[se],
-                    "ci_high": r[col] + 1.959964 * r[se],
-                }
-            )
-    return pd.DataFrame(rows)
+    return experiments_from_summary(summary, stats, by_surface=False)
 
 
 # ---------------------------------------------------------------------- priors

@@ -30,7 +30,7 @@ from ..errors import InputError
 from ..io.experiments import read_experiments
 from ..scenario.grid import SweepGrid
 
-__all__ = ["SIMULATED", "check_experiments", "compare"]
+__all__ = ["SIMULATED", "check_experiments", "compare", "experiments_from_summary"]
 
 #: experimental statistic -> (summary column of the estimate, column of its SE).
 #: The capture fraction's SE is the summary's ``capture_se``; a summary without it
@@ -46,6 +46,52 @@ SIMULATED = {
 }
 
 _EXP_COLUMNS = ("statistic", "mean", "ci_low", "ci_high")
+
+
+def experiments_from_summary(
+    summary, statistics=("e", "mu"), *, confidence=0.95, surface=None, by_surface=True
+):
+    """An experiments table (:func:`~microimpact.io.experiments.read_experiments`'s
+    columns) made from a simulated summary: each point's mean of each statistic
+    of :data:`SIMULATED` with its normal interval at `confidence`. For synthetic
+    measurements with a known truth (calibration tests, examples, benchmarks).
+
+    Parameters
+    ----------
+    summary : pandas.DataFrame
+        ``SimulationResult.summary``.
+    statistics : sequence of str
+        Keys of :data:`SIMULATED`.
+    confidence : float
+        Level of the intervals.
+    surface : str, optional
+        Only this surface's rows.
+    by_surface : bool
+        Keep the ``surface`` column (the rows then match by surface).
+    """
+    # deferred: pandas loads only where a table is made (import time)
+    import pandas as pd
+
+    z = z_value(confidence)
+    rows = []
+    for _, r in summary.iterrows():
+        if surface is not None and r["surface"] != surface:
+            continue
+        for stat in statistics:
+            col, se = SIMULATED[stat]
+            row = {"surface": r["surface"]} if by_surface else {}
+            row.update(
+                speed_m_s=r["speed_m_s"],
+                angle_deg=r["angle_deg"],
+                statistic=stat,
+                mean=r[col],
+                ci_low=r[col] - z * r[se],
+                ci_high=r[col] + z * r[se],
+            )
+            rows.append(row)
+    return pd.DataFrame(rows)
+
+
 _COORDS = ("speed_m_s", "angle_deg")
 
 

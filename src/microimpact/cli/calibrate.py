@@ -77,7 +77,7 @@ def cli_parse(sp):
 
 def cli_action(args) -> int:
     # deferred: the verb's library loads only when the verb runs (fast --help)
-    from ..analysis.calibration import calibrate, parse_parameter
+    from ..analysis.calibration import parse_parameter
 
     parameters = {}
     for text in args.parameter:
@@ -106,19 +106,7 @@ def cli_action(args) -> int:
 
         raise InputError("only with --method bayes", field="--walkers/--steps")
     args.experiments = args.experiments[0]
-    with c.executor_of(args) as executor:
-        result = calibrate(
-            args.scenario,
-            args.experiments,
-            parameters,
-            samples=args.samples,
-            seed=args.seed,
-            workers=args.workers,
-            executor=executor,
-            bootstrap=args.bootstrap,
-            confidence=args.confidence,
-            progress=False if args.quiet else None,
-        )
+    result = _calibrate(args, parameters, bootstrap=args.bootstrap)
     result.write(args.out, figure=not args.no_figures)
     if not args.quiet:
         for k, key in enumerate(result.keys):
@@ -138,6 +126,26 @@ def cli_action(args) -> int:
     return c.EXIT_OK
 
 
+def _calibrate(args, parameters, **method):
+    """The library call both methods share, with the method's own keywords."""
+    # deferred: the verb's library loads only when the verb runs (fast --help)
+    from ..analysis.calibration import calibrate
+
+    with c.executor_of(args) as executor:
+        return calibrate(
+            args.scenario,
+            args.experiments,
+            parameters,
+            samples=args.samples,
+            seed=args.seed,
+            workers=args.workers,
+            executor=executor,
+            confidence=args.confidence,
+            progress=False if args.quiet else None,
+            **method,
+        )
+
+
 def _check_cost(args):
     """One model run's cost before any (the search runs the model many times; each
     run is checked for memory and files, the search's length is its own)."""
@@ -155,23 +163,10 @@ def _check_cost(args):
 def _bayes(args, parameters, t0) -> int:
     """``--method bayes``: the posterior, its files and the terminal summary."""
     # deferred: the verb's library loads only when the verb runs (fast --help)
-    from ..analysis.calibration import calibrate
 
-    with c.executor_of(args) as executor:
-        result = calibrate(
-            args.scenario,
-            args.experiments,
-            parameters,
-            samples=args.samples,
-            seed=args.seed,
-            workers=args.workers,
-            executor=executor,
-            confidence=args.confidence,
-            progress=False if args.quiet else None,
-            method="bayes",
-            walkers=args.walkers,
-            steps=args.steps,
-        )
+    result = _calibrate(
+        args, parameters, method="bayes", walkers=args.walkers, steps=args.steps
+    )
     result.write(args.out, figure=not args.no_figures)
     # deferred: the pipeline (matplotlib) loads only for the Bayesian report page
     from ..pipeline.report import write_section_page
