@@ -638,21 +638,16 @@ def remaining_fraction_ramp(
     burst_coefficient = params.pop("burst_coefficient")
     r, median, spread, gamma = np.broadcast_arrays(r, median, spread, gamma)
     out = np.empty(r.shape + u.shape)
+    n = np.atleast_1d(burst_frequency(u, kinematic_viscosity, burst_coefficient))
     for idx in np.ndindex(r.shape):
         ri = float(r[idx])
         forces = aerodynamic_forces(ri, u, density, kinematic_viscosity, **params)
-        n = burst_frequency(u, kinematic_viscosity, burst_coefficient)
+        mean = np.atleast_1d(forces.mean_force)
+        rms = np.atleast_1d(forces.rms_force)
         jkr = float(jkr_pull_off_force(ri, gamma[idx]))
         steps = []
-        for k in range(u.size):
-            steps.append(
-                (
-                    float(np.atleast_1d(forces.mean_force)[k]),
-                    float(np.atleast_1d(forces.rms_force)[k]),
-                    float(np.atleast_1d(n)[k]),
-                    float(t[k]),
-                )
-            )
+        for k in range(u.size):  # step k acts on what steps 0..k-1 left
+            steps.append((float(mean[k]), float(rms[k]), float(n[k]), float(t[k])))
             out[(*idx, k)] = _survival_integral(
                 jkr, float(median[idx]), float(spread[idx]), steps
             )
