@@ -12,6 +12,7 @@ import numpy as np
 
 from .._core import json as _json
 from .._core.files import atomic_write
+from ..io.experiments import STATISTIC_LABELS as _LABELS
 from ..plotting._style import use_agg
 from ..plotting.posterior import plot_corner, plot_posterior_predictive
 from .bayes_data import _group_keys
@@ -24,14 +25,6 @@ __all__ = [
     "section_html_of_folder",
     "write_result",
 ]
-
-_LABELS = {
-    "e": "e (rebounds)",
-    "mu": "μ",
-    "e_relative": "e relative",
-    "mu_relative": "μ relative",
-    "capture_fraction": "capture fraction",
-}
 
 
 _DOMINATED = "prior-dominated: the data do not constrain it"

@@ -48,6 +48,7 @@ from ..errors import DataFormatError
 __all__ = [
     "COORDINATES",
     "STATISTICS",
+    "STATISTIC_LABELS",
     "combine_experiments",
     "read_experiments",
     "scenario_experiments",
@@ -56,6 +57,14 @@ __all__ = [
 
 #: Statistics an experimental point may report.
 STATISTICS = ("e", "mu", "e_relative", "mu_relative", "capture_fraction")
+#: How figures and reports name each statistic.
+STATISTIC_LABELS = {
+    "e": "e (rebounds)",
+    "mu": "μ",
+    "e_relative": "e relative",
+    "mu_relative": "μ relative",
+    "capture_fraction": "capture fraction",
+}
 #: Columns that locate a point in the sweep.
 COORDINATES = ("speed_m_s", "angle_deg")
 

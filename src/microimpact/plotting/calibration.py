@@ -14,17 +14,10 @@ import math
 
 import numpy as np
 
+from ..io.experiments import STATISTIC_LABELS as _LABELS
 from ._style import STYLE, colour, styled
 
 __all__ = ["plot_calibration"]
-
-_LABELS = {
-    "e": "e (rebounds)",
-    "mu": "μ",
-    "e_relative": "e relative",
-    "mu_relative": "μ relative",
-    "capture_fraction": "capture fraction",
-}
 
 
 def _axis(points, curves):
