@@ -11,6 +11,12 @@ speed-up of n threads by Amdahl's law, ``1 / (g + (1 - g) / n)``.
     python benchmarks/gil_share.py          # about a minute on 2 cores
     python benchmarks/gil_share.py --json out.json
 
+Each path is measured twice: ``cold``, its first call in a fresh process (the
+imports of xarray, SciPy and the first-call set-up fall inside it: a one-off cost
+per process, which dominates a path that runs for about a second), and ``warm``,
+after a tiny call of the same path (the share that grows with the work and bounds
+the scaling of a large job).
+
 Paths, one worker each (the sizes of issue 31's targets):
 
 * ``run``: ``run()`` over 64 points of 10^6 impacts (sst76-formica-oblique physics);
@@ -21,6 +27,7 @@ Paths, one worker each (the sizes of issue 31's targets):
 from __future__ import annotations
 
 import argparse
+import collections
 import json
 import os
 import platform
@@ -29,6 +36,10 @@ import subprocess
 import sys
 import tempfile
 from pathlib import Path
+
+#: Each child starts with this: ``WARM`` set means the path runs once at a tiny
+#: size before the measured call (imports, lazy set-up and caches done).
+PRELUDE = "import os\nWARM = os.environ.get('MICROIMPACT_GIL_WARM') == '1'\n"
 
 CHILD = {
     "run": (
@@ -40,6 +51,8 @@ CHILD = {
         "    angles_deg=tuple(range(10, 90, 5))[:16])\n"
         "def path():\n"
         "    run(sc, samples=1_000_000, workers=1)\n"
+        "if WARM:\n"
+        "    run(sc, samples=1000, workers=1, seed=2)\n"
         "path()\n"
     ),
     "grid": (
@@ -52,6 +65,8 @@ CHILD = {
         "    angles_deg=tuple(np.linspace(5.0, 90.0, 60)))\n"
         "def path():\n"
         "    run(sc, samples=8000, workers=1)\n"
+        "if WARM:\n"
+        "    run(sc, samples=100, workers=1, seed=2)\n"
         "path()\n"
     ),
     "wall_law": (
@@ -65,6 +80,10 @@ CHILD = {
         "    angles_deg=tuple(np.linspace(6, 90, 16)), samples=2000, reservoir=64)\n"
         "def path():\n"
         "    build_wall_law(sc, spec, workers=1, seed=1)\n"
+        "if WARM:\n"
+        "    build_wall_law(sc, WallLawSpec(diameters_um=(10.0, 20.0),\n"
+        "        speeds_m_s=(1.0, 2.0), angles_deg=(30.0, 60.0), samples=100,\n"
+        "        reservoir=8), workers=1, seed=2)\n"
         "path()\n"
     ),
 }
@@ -72,19 +91,29 @@ CHILD = {
 FRAME = "path (child.py:"
 
 
-def _samples(raw: Path) -> int:
+def _samples(raw: Path, where: collections.Counter | None = None) -> int:
+    """Samples inside the path's call; `where` counts them by their deepest
+    microimpact frame (or the leaf frame where there is none)."""
     n = 0
     for line in raw.read_text(encoding="utf-8").splitlines():
         stack, _, count = line.rpartition(" ")
         if FRAME in stack:
             n += int(count)
+            if where is not None:
+                frames = stack.split(";")
+                own = [f for f in frames if "microimpact" in f]
+                where[(own or frames)[-1]] += int(count)
     return n
 
 
-def measure(name: str, pyspy: str, rate: int = 250) -> dict:
+def measure(name: str, pyspy: str, rate: int = 250, *, warm: bool = False) -> dict:
+    """GIL share of path `name`: in a fresh process (cold: the path's first call
+    pays the imports and lazy set-up) or after a tiny warm-up call (warm)."""
+    where = collections.Counter()
+    env = dict(os.environ, MICROIMPACT_GIL_WARM="1" if warm else "0")
     with tempfile.TemporaryDirectory() as tmp:
         child = Path(tmp) / "child.py"
-        child.write_text(CHILD[name], encoding="utf-8")
+        child.write_text(PRELUDE + CHILD[name], encoding="utf-8")
         counts = {}
         for kind, extra in (("all", []), ("gil", ["--gil"])):
             raw = Path(tmp) / f"{kind}.txt"
@@ -106,12 +135,14 @@ def measure(name: str, pyspy: str, rate: int = 250) -> dict:
                 check=True,
                 capture_output=True,
                 cwd=tmp,
+                env=env,
             )
-            counts[kind] = _samples(raw)
+            counts[kind] = _samples(raw, where if kind == "gil" else None)
     n = counts["all"]
     g = min(counts["gil"] / n, 1.0) if n else float("nan")
     return {
         "path": name,
+        "start": "warm" if warm else "cold",
         "samples": n,
         "gil_samples": counts["gil"],
         "gil_share": g,
@@ -120,6 +151,7 @@ def measure(name: str, pyspy: str, rate: int = 250) -> dict:
         "gil_share_se": (g * (1.0 - g) / n) ** 0.5 if n else float("nan"),
         "amdahl_16": 1.0 / (g + (1.0 - g) / 16.0),
         "amdahl_64": 1.0 / (g + (1.0 - g) / 64.0),
+        "gil_frames": where.most_common(5),
     }
 
 
@@ -149,16 +181,22 @@ def main(argv=None) -> int:
     if not Path(pyspy).exists():
         print("py-spy is not installed: pip install py-spy", file=sys.stderr)
         return 2
-    rows = [measure(name, pyspy) for name in args.paths]
+    rows = [
+        measure(name, pyspy, warm=warm) for name in args.paths for warm in (False, True)
+    ]
     print(f"CPU: {_cpu()}")
-    print("| path | samples | GIL held | Amdahl 16 cores | Amdahl 64 cores |")
-    print("|---|---|---|---|---|")
+    print("| path | start | samples | GIL held | Amdahl 16 cores | Amdahl 64 cores |")
+    print("|---|---|---|---|---|---|")
     for r in rows:
         share = f"{100 * r['gil_share']:.1f} ± {100 * r['gil_share_se']:.1f} %"
         print(
-            f"| `{r['path']}` | {r['samples']} | {share} | "
+            f"| `{r['path']}` | {r['start']} | {r['samples']} | {share} | "
             f"{r['amdahl_16']:.1f}x | {r['amdahl_64']:.1f}x |"
         )
+    print("\nWhere the GIL samples are (deepest microimpact frame):")
+    for r in rows:
+        top = ", ".join(f"{f} {c}" for f, c in r["gil_frames"][:3])
+        print(f"- {r['path']} ({r['start']}): {top}")
     if args.json:
         args.json.write_text(json.dumps({"cpu": _cpu(), "rows": rows}, indent=1))
     return 0
