@@ -116,3 +116,50 @@ def test_a_time_range_without_a_zone_says_the_allowed_forms():
     msg = str(info.value)
     assert "'2022-02-15T21:20'..'2022-02-15T21:25'" in msg
     assert "allowed: both with (e.g. Z, +02:00) or both without" in msg
+
+
+def _wide(tmp_path, header="0.5,0.7,2,2.2"):
+    # a wide OPC-style table: sizes in the header, one row of counts
+    path = tmp_path / "wide.csv"
+    path.write_text(f"Time,{header}\n10:00,1,2,3,4\n")
+    return path
+
+
+def test_given_edges_must_hold_each_header_size_in_its_own_bin(tmp_path):
+    path = _wide(tmp_path)
+    kw = {"values": "count", "unit": "um"}
+    bins, _ = read_size_data(path, edges_um=[0.4, 0.6, 1.5, 2.15, 5], **kw)
+    assert any("each header size lies inside its bin" in t for t in bins.notes)
+    # size 2 lies above the first edge but below its own bin [2.1, 3)
+    with pytest.raises(DataFormatError) as info:
+        read_size_data(path, edges_um=[0.4, 0.6, 2.1, 3, 5], **kw)
+    assert (
+        "the bin column 2 (2 um) lies outside its bin [2.1, 3) um of edges_um; "
+        "allowed: 5 increasing boundaries in um with each header size inside its "
+        "bin (a midpoint, or the bin's lower boundary)"
+    ) in str(info.value)
+
+
+def test_header_sizes_on_the_lower_edges_are_channel_thresholds(tmp_path):
+    path = _wide(tmp_path, "0.5,1,2,4")
+    kw = {"values": "count", "unit": "um"}
+    bins, _ = read_size_data(path, edges_um=[0.5, 1, 2, 4, 8], **kw)
+    assert any("lower boundaries (channel thresholds)" in t for t in bins.notes)
+    # 5e-6 below the header sizes: inside the bins, not on their edges (rtol 1e-6)
+    near = [0.5 * (1 - 5e-6), 1 * (1 - 5e-6), 2 * (1 - 5e-6), 4 * (1 - 5e-6), 8]
+    bins, _ = read_size_data(path, edges_um=near, **kw)
+    assert any("each header size lies inside its bin" in t for t in bins.notes)
+
+
+def test_underivable_edges_ask_in_the_callers_syntax(tmp_path, capsys):
+    from microimpact.cli import main
+
+    path = _wide(tmp_path)
+    with pytest.raises(DataFormatError) as info:
+        read_size_data(path, values="count", unit="um")
+    assert "give the 5 bin boundaries in um: edges_um='[0.3, 0.4, ...]'" in str(
+        info.value
+    )
+    code = main(["sizes", str(path), "--values", "count", "--unit", "um"])
+    err = capsys.readouterr().err
+    assert code == 2 and "--edges-um '0.3,0.4,...'" in err
