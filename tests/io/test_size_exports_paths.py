@@ -163,3 +163,18 @@ def test_underivable_edges_ask_in_the_callers_syntax(tmp_path, capsys):
     code = main(["sizes", str(path), "--values", "count", "--unit", "um"])
     err = capsys.readouterr().err
     assert code == 2 and "--edges-um '0.3,0.4,...'" in err
+
+
+def test_an_aim_weighting_it_does_not_know_asks_for_the_values(tmp_path):
+    text = AIM_COLUMNS.read_text(encoding="latin-1")
+    path = tmp_path / "aim_surface.txt"
+    path.write_text(text.replace("Weight,Number", "Weight,Surface"), "latin-1")
+    with pytest.raises(DataFormatError) as info:
+        read_size_data(path, sample="1")
+    assert str(info.value) == (
+        f"{path}: values: the export's Units 'dw/dlogdp' and Weight 'surface' are "
+        "not a number, mass or volume weighting this reader knows; export with "
+        "Weight Number (or Mass, Volume), or give the values"
+    )
+    bins, meta = read_size_data(path, sample="1", values="dN/dlogDp")  # given
+    assert meta["values"] == "dN/dlogDp" and bins.number.sum() > 0
