@@ -405,6 +405,8 @@ def test_keyed_array_checkpoints_keep_what_they_were_given(tmp_path):
     with pytest.raises(CheckpointMismatch) as err:
         load_arrays(path, "fp")
     assert err.value.reason == "corrupt"
+    # the detail names what numpy's reader raised (a truncated zip archive)
+    assert err.value.detail.startswith("BadZipFile: "), err.value.detail
 
 
 def test_a_checkpoint_of_many_points_builds_no_accumulator_per_point(
