@@ -29,7 +29,6 @@ quadrature is its oracle.
 from __future__ import annotations
 
 import json
-import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -134,41 +133,6 @@ def _classes(particles, k):
         return np.array([float(atoms[0])]), np.array([1.0])
     q = (np.arange(k) + 0.5) / k
     return np.asarray(particles.ppf(q), dtype=float), np.full(k, 1.0 / k)
-
-
-def _adhesion(spec, radii, where):
-    """Median and spread of the reduction factor per class; a refused radius is a
-    ScenarioError naming the adhesion key."""
-    if spec.adhesion_median is not None:
-        return (
-            np.full(radii.shape, spec.adhesion_median),
-            np.full(radii.shape, spec.adhesion_spread),
-        )
-    try:
-        red = rnr.biasi2001_adhesion(radii, outside="ignore")
-    except ValueError:
-        edge = 2 * rnr.BIASI2001_POSITIVE_RADIUS_UM
-        raise ScenarioError(
-            f"'biasi2001' cannot serve diameter {2 * float(m_to_um(radii.max())):.4g} "
-            f"µm of the population: beyond {edge:.3g} µm the correlation's median "
-            "adhesion reduction is not positive; give adhesion = { median, spread }",
-            source=where,
-            field="resuspension.adhesion",
-        ) from None
-    lo, hi = rnr.BIASI2001_FITTED_RADIUS_UM
-    r_um = m_to_um(radii)
-    if np.any((r_um < lo) | (r_um > hi)):
-        span = f"{2 * r_um.min():.3g}"
-        if r_um.max() > r_um.min():
-            span += f" to {2 * r_um.max():.3g}"
-        warnings.warn(
-            f"diameter {span} µm is outside the diameters the Biasi (2001) adhesion "
-            f"correlation was fitted to ({2 * lo:g} to {2 * hi:g} µm, radii {lo:g} to "
-            f"{hi:g} µm); give adhesion = {{ median, spread }} if known",
-            rnr.AdhesionRangeWarning,
-            stacklevel=3,
-        )
-    return np.asarray(red.median, float), np.asarray(red.spread, float)
 
 
 def _step_rates(spec, radius, fprime):
@@ -367,7 +331,9 @@ def resuspend(scenario, resuspension=None, *, samples=None, seed=None):
 
     diameters, weights = _classes(particles, spec.diameter_classes)
     radii = 0.5 * diameters
-    median, spread = _adhesion(spec, radii, source)
+    median, spread = spec.adhesion_parameters(
+        radii, source=source, field="the population's diameter classes"
+    )
     _check_mc_adhesion(spec, particles, source)
     per_class = np.stack(
         [

@@ -20,10 +20,15 @@ is one :class:`~microimpact.errors.ScenarioError` naming the file and key path.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 
+import numpy as np
+
 from ..errors import ScenarioError
+from ..physics import resuspension as rnr
 from ..physics.resuspension import air_properties
+from ..units import m_to_um
 from ._file_base import _Ctx, _join, _show, _type_name
 
 __all__ = [
@@ -173,6 +178,81 @@ class ResuspensionSpec:
             "diameter_classes": self.diameter_classes,
             "monte_carlo_samples": self.monte_carlo_samples,
         }
+
+    def adhesion_parameters(self, radius, *, source=None, field="resuspension"):
+        """Median and spread of the adhesion reduction factor at each radius [m].
+
+        The explicit ``{ median, spread }`` everywhere, or the Biasi (2001)
+        correlation: a radius beyond the one where its median is not positive
+        is refused (:class:`~microimpact.errors.ScenarioError` naming `source`,
+        ``resuspension.adhesion`` and `field`, the diameter and the edge), and
+        one outside the fitted range warns
+        (:class:`~microimpact.physics.resuspension.AdhesionRangeWarning`, the
+        range named in diameters and radii).
+        """
+        radii = np.atleast_1d(np.asarray(radius, dtype=float))
+        if self.adhesion_median is not None:
+            return (
+                np.full(radii.shape, self.adhesion_median),
+                np.full(radii.shape, self.adhesion_spread),
+            )
+        edge = rnr.BIASI2001_POSITIVE_RADIUS_UM
+        r_um = m_to_um(radii)
+        if np.any(r_um >= edge):
+            raise ScenarioError(
+                f"'biasi2001' cannot serve diameter {2 * float(r_um.max()):.4g} µm "
+                f"({field}): at diameters beyond {2 * edge:.3g} µm the "
+                "correlation's median adhesion reduction is not positive; give "
+                "adhesion = { median, spread }",
+                source=source,
+                field="resuspension.adhesion",
+            )
+        lo, hi = rnr.BIASI2001_FITTED_RADIUS_UM
+        out = (r_um < lo) | (r_um > hi)
+        if np.any(out):
+            span = f"{2 * r_um[out].min():.3g}"
+            if r_um[out].max() > r_um[out].min():
+                span += f" to {2 * r_um[out].max():.3g}"
+            warnings.warn(
+                f"diameter {span} µm ({field}) is outside the diameters the Biasi "
+                f"(2001) adhesion correlation was fitted to ({2 * lo:g} to "
+                f"{2 * hi:g} µm, radii {lo:g} to {hi:g} µm); give adhesion = "
+                "{ median, spread } if known",
+                rnr.AdhesionRangeWarning,
+                stacklevel=3,
+            )
+        red = rnr.biasi2001_adhesion(radii, outside="ignore")
+        return np.asarray(red.median, float), np.asarray(red.spread, float)
+
+    def remaining_fraction(self, radius, *, source=None, field="resuspension"):
+        """Fraction of particles of each radius [m] left after the whole ramp.
+
+        The quadrature of
+        :func:`~microimpact.physics.resuspension.remaining_fraction_ramp` at the
+        last step, with this table's flow, fluid, surface energy and adhesion
+        (:meth:`adhesion_parameters`: refusals and warnings name `field`).
+        Returns an array of the shape of `radius`.
+        """
+        radii = np.asarray(radius, dtype=float)
+        median, spread = self.adhesion_parameters(radii, source=source, field=field)
+        flat = radii.reshape(-1)
+        out = np.array(
+            [
+                rnr.remaining_fraction_ramp(
+                    flat[k],
+                    self.friction_velocities_m_s,
+                    self.exposures_s,
+                    self.density_kg_m3,
+                    self.kinematic_viscosity_m2_s,
+                    self.surface_energy_j_m2,
+                    adhesion_median=median[k],
+                    adhesion_spread=spread[k],
+                    outside="ignore",
+                )[-1]
+                for k in range(flat.size)
+            ]
+        )
+        return out.reshape(radii.shape)
 
 
 def _steps(ctx: _Ctx, value, key):
