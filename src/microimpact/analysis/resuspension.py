@@ -292,7 +292,10 @@ def resuspend(scenario, resuspension=None, *, samples=None, seed=None):
     # the file's [particles] and top-level keys first: a misspelt table is named
     particles = None if data is None else particles_from_dict(data, source=source)
     if isinstance(spec, dict):
-        spec = resuspension_from_dict({"resuspension": spec}, source=source)
+        law = scen.coefficients.v_c if scen is not None else None
+        spec = resuspension_from_dict(
+            {**(data or {}), "resuspension": spec}, source=source, capture_law=law
+        )
     elif spec is None:
         spec = resuspension_from_dict(data, source=source)
         if spec is None:
