@@ -355,3 +355,26 @@ def test_the_surface_energy_from_the_capture_law(tmp_path):
         "thornton_ning"
         in json.loads(result.dataset.attrs["resuspension"])["surface_energy_source"]
     )
+
+
+def test_the_monte_carlo_names_the_range_its_particles_leave():
+    # issue 32 leftover (b): per-particle draws with Biasi adhesion warn with the
+    # share outside the fitted diameters and the range; inside it, silence
+    from microimpact.analysis.resuspension import sample_remaining_fraction
+    from microimpact.scenario.resuspension import ResuspensionSpec
+
+    spec = ResuspensionSpec(
+        friction_velocities_m_s=(1.0,),
+        exposures_s=(1.0,),
+        surface_energy_j_m2=0.56,
+        density_kg_m3=1.2,
+        kinematic_viscosity_m2_s=1.5e-5,
+    )
+    with pytest.warns(
+        rnr.AdhesionRangeWarning,
+        match=r"^1 of the 3 particles \(33\.3 %\).*0\.2 to 20 µm",
+    ):
+        sample_remaining_fraction(np.array([2e-6, 5e-6, 30e-6]), spec, rng=1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", rnr.AdhesionRangeWarning)
+        sample_remaining_fraction(np.array([2e-6, 5e-6, 19e-6]), spec, rng=1)

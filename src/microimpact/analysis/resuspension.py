@@ -29,6 +29,7 @@ quadrature is its oracle.
 from __future__ import annotations
 
 import json
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -176,8 +177,16 @@ def sample_remaining_fraction(diameters, spec, *, rng=None):
         particles).
     n : int
         The number of particles.
+
+    Warns
+    -----
+    AdhesionRangeWarning
+        With the Biasi (2001) correlation, where particles lie outside the
+        diameters it was fitted to (their share and the range named).
     """
     rng = np.random.default_rng(rng)
+    lo, hi = (2 * float(um_to_m(x)) for x in rnr.BIASI2001_FITTED_RADIUS_UM)
+    outside = 0
     if isinstance(diameters, np.ndarray) or np.isscalar(diameters):
         diameters = [diameters]
     t = np.asarray(spec.exposures_s)
@@ -192,6 +201,7 @@ def sample_remaining_fraction(diameters, spec, *, rng=None):
         if spec.adhesion_median is None:
             red = rnr.biasi2001_adhesion(radius, outside="ignore")
             median, spread = red.median, red.spread
+            outside += int(np.count_nonzero((d < lo) | (d > hi)))
         else:
             median, spread = spec.adhesion_median, spec.adhesion_spread
         z = rng.standard_normal(d.size)
@@ -201,6 +211,15 @@ def sample_remaining_fraction(diameters, spec, *, rng=None):
         s1 += survival.sum(axis=1)
         s2 += (survival**2).sum(axis=1)
         n += d.size
+    if outside:
+        warnings.warn(
+            f"{outside} of the {n} particles ({100 * outside / n:.3g} %) have "
+            "diameters outside those the Biasi (2001) adhesion correlation was "
+            f"fitted to ({m_to_um(lo):g} to {m_to_um(hi):g} µm); give adhesion = "
+            "{ median, spread } if known",
+            rnr.AdhesionRangeWarning,
+            stacklevel=2,
+        )
     if n < 2:
         return np.full(t.size, np.nan), np.full(t.size, np.nan), n
     mean = s1 / n
