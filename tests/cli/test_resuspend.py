@@ -355,6 +355,16 @@ def test_the_surface_energy_from_the_capture_law(tmp_path):
         "thornton_ning"
         in json.loads(result.dataset.attrs["resuspension"])["surface_energy_source"]
     )
+    # a Scenario object and the table as a dict: the Scenario's capture law
+    scenario = mi.Scenario(
+        name="ps",
+        particles=mi.monodisperse(8.0),
+        coefficients=mi.ImpactCoefficients(
+            k1=4.0, k2=0.05, v_c=ThorntonNingLaw(1050.0, 3e9, 0.2), friction=0.2
+        ),
+    )
+    result = mi.resuspend(scenario, {**table, "source": "particles"})
+    assert result.spec.surface_energy_j_m2 == 0.2
 
 
 def test_the_monte_carlo_names_the_range_its_particles_leave():
