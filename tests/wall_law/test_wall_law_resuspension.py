@@ -16,6 +16,7 @@ from __future__ import annotations
 import ctypes
 import json
 import math
+import re
 import struct
 import warnings
 import zlib
@@ -550,3 +551,77 @@ def test_fluent_counts_the_resuspended(swl, stay_ds, tmp_path, monkeypatch):
         f"{counts['captured']} captured ({counts['resuspended']} of them resuspended"
         in message
     )
+
+
+# ------------------------------------------------------------------ OpenFOAM
+@pytest.mark.slow  # builds the OpenFOAM model (minutes) and runs a case
+def test_openfoam_removes_the_resuspended_captures(tmp_path):
+    # `resuspension yes;`: of the parcels captured at a node, the share the
+    # model removes is the node's stay probability's complement, within 4 SE;
+    # the others stick. Without the switch nothing is removed; with it on a
+    # table without the column, a fatal error that says why.
+    import shutil
+    import subprocess
+
+    import test_wall_law_openfoam_model as fm
+
+    if shutil.which(fm.SOLVER) is None:
+        pytest.skip("OpenFOAM (Debian package openfoam) is not installed")
+    spec = WallLawSpec(
+        diameters_um=(10.0, fm.DIAMETER_UM, 40.0),
+        speeds_m_s=(0.5, 1.0, 2.0, 4.0),
+        angles_deg=(30.0, fm.ANGLE_DEG, 90.0),
+        reservoir=256,
+        samples=2000,
+    )
+    scenario = mi.Scenario.from_preset("sst76-formica-oblique").with_options(
+        surfaces=(mi.SurfaceVariant("formica", mi.normal_angles(22.0)),)
+    )
+    res = _spec(u=(0.5,), t=(1.0,))
+    with warnings.catch_warnings():  # 40 um: outside Biasi's fitted diameters
+        warnings.simplefilter("ignore", rnr.AdhesionRangeWarning)
+        law = build_wall_law(scenario, spec, seed=3, resuspension=res)
+    out = tmp_path / "law"
+    law.write(out)
+    libdir = tmp_path / "lib"
+    proc = subprocess.run(
+        ["bash", str(out / "openfoam" / "build.sh"), str(libdir)],
+        capture_output=True,
+        text=True,
+        timeout=1200,
+    )
+    if proc.returncode == 3:
+        pytest.skip(f"stochasticWallLaw cannot be built here: {proc.stderr[-200:]}")
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    q = float(
+        law.dataset["stay_probability"].sel(diameter_um=fm.DIAMETER_UM).values.flat[0]
+    )
+    assert 0.3 < q < 0.8
+
+    def run(name, switch, table_out=out):
+        case = tmp_path / name
+        fm._case(case, table_out, 1.0, max_reimpacts=0)
+        coeffs = case / "constant" / fm.STOCHASTIC_FILE
+        text = coeffs.read_text()
+        entry = re.compile(r"^(\s*)(maxReimpacts\s+\d+;)", re.M)
+        assert len(entry.findall(text)) == 1
+        coeffs.write_text(entry.sub(rf"\1{switch}\n\1\2", text))
+        return fm._run(case, libdir, check=False)
+
+    log, rc = run("on", "resuspension yes;")
+    assert rc == 0, log[-3000:]
+    c = fm._counters(log)
+    gone = re.findall(r"stochasticWallLaw: resuspended (\d+) of the captured", log)
+    assert gone, log[-2000:]
+    r, k = int(gone[-1]), c["captured_first"]
+    se = math.sqrt(q * (1 - q) / k)
+    assert abs((k - r) / k - q) < 4 * se, (k, r, q, se)
+    assert c["formica_escape"] == r and c["formica_stick"] == k - r + c["forced"]
+    log, rc = run("off", "resuspension no;")
+    assert rc == 0 and not re.search(r"resuspended \d+", log)
+    assert fm._counters(log)["formica_escape"] == 0
+    plain = tmp_path / "plain"
+    build_wall_law(scenario, spec, seed=3).write(plain, openfoam=False)
+    shutil.copytree(out / "openfoam", plain / "openfoam")
+    log, rc = run("no-column", "resuspension yes;", table_out=plain)
+    assert rc != 0 and "stay_probability" in log
