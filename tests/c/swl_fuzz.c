@@ -164,6 +164,8 @@ static int layout(const unsigned char *buf, size_t size, region out[12])
         off += 8u * values;
     }
     out[n].start = off, out[n].count = nodes, out[n++].width = 4, off += 4u * nodes;
+    if (get_u32(buf + 8) >= 3 && (get_u32(buf + 52) & 1u)) /* stay_probability */
+        out[n].start = off, out[n].count = nodes, out[n++].width = 8, off += 8u * nodes;
     return off == size ? n : 0;
 }
 
@@ -203,7 +205,10 @@ static void mutate(unsigned char *buf, size_t *size, const region *reg, int nr)
         kind = 3; /* a count */
         /* FALLTHROUGH */
     case 3: { /* a count: -1, 0, K, K + 1, extremes, any */
-        const region *c = &reg[nr - 1];
+        const region *c = &reg[0];
+        for (int j = 0; j < nr; j++) /* the counts: the one int32 region */
+            if (reg[j].width == 4)
+                c = &reg[j];
         uint32_t k = get_u32(buf + 28), pick[6] = {0xFFFFFFFFu, 0u, 0, 0, 0x7FFFFFFFu, 0};
         pick[2] = k;
         pick[3] = k + 1u;
@@ -346,8 +351,18 @@ static int sample_table(const swl_law *law)
         } else if (rc == SWL_CAPTURED) {
             if (vel[0] != 0.0 || vel[1] != 0.0 || vel[2] != 0.0)
                 return fail("a capture with a velocity", d, s, a, vel, rc);
+        } else if (flags & SWL_FLAG_RESUSPENDED) {
+            return fail("resuspended but not captured", d, s, a, vel, rc);
         } else if (!isnan(vel[0]) || !isnan(vel[1]) || !isnan(vel[2])) {
             return fail("no data or an error without NaN velocity", d, s, a, vel, rc);
+        }
+        if (rc >= 0) { /* a checked query: its stay probability, in [0, 1] */
+            double prob;
+            int src = swl_stay_probability(law, surface, d, s, a, &prob, &flags);
+            if (!(src == 0 || src == SWL_NO_DATA || src == SWL_E_NO_STAY) ||
+                (src == 0 && !(prob >= 0.0 && prob <= 1.0)) ||
+                (src != 0 && !isnan(prob)) || (src == SWL_E_NO_STAY) == swl_has_stay(law))
+                return fail("a bad stay probability", d, s, a, vel, src);
         }
         if (q % 4 == 0) { /* the same through swl_rebound_velocity */
             double v_in[3], normal[3], out[3], speed;

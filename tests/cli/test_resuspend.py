@@ -21,6 +21,7 @@ from microimpact.cli import main
 from microimpact.physics import resuspension as rnr
 from microimpact.pipeline.resuspension import resuspension_section_html
 
+AIR = {"density_kg_m3": 1.2, "kinematic_viscosity_m2_s": 1.5e-5}
 FLUID = "fluid = { density_kg_m3 = 1.2, kinematic_viscosity_m2_s = 1.5e-5 }"
 
 PARTICLES_ONLY = f"""name = "dust"
@@ -288,3 +289,102 @@ def test_subprocess_smoke(tmp_path):
     )  # fmt: skip
     assert done.returncode == 0, done.stderr
     assert (tmp_path / "o" / "resuspension.csv").is_file()
+
+
+def test_the_surface_energy_from_the_capture_law(tmp_path):
+    # issue 32 leftover (a): without surface_energy_j_m2 the thornton_ning law's
+    # work of adhesion w is gamma (the same pull-off force 1.5 pi w r); from two
+    # materials' surface energies w = 2 sqrt(g1 g2): polystyrene on itself,
+    # 40.7 mJ/m2 each (S. Wu 1982, physics/adhesion.py), so w = 2 x 0.0407
+    from microimpact.errors import ScenarioError
+    from microimpact.physics.coefficients import ThorntonNingLaw
+    from microimpact.scenario.resuspension import resuspension_from_dict
+
+    table = {"friction_velocity_m_s": 1.0, "exposure_s": 1.0, "fluid": AIR}
+    polystyrene = {"law": "thornton_ning", "particle": "ps", "surface": "ps"}
+    res = resuspension_from_dict(
+        {"coefficients": {"v_c": polystyrene}, "resuspension": table}
+    )
+    assert_allclose(res.surface_energy_j_m2, 2 * 0.0407, rtol=1e-12)
+    assert "thornton_ning" in res.surface_energy_source
+    assert res.describe()["surface_energy_source"] == res.surface_energy_source
+    given = {**polystyrene, "work_of_adhesion_J_m2": 0.4}  # the law's own w
+    res = resuspension_from_dict(
+        {"coefficients": {"v_c": given}, "resuspension": table}
+    )
+    assert res.surface_energy_j_m2 == 0.4
+    law = ThorntonNingLaw(density=1050.0, contact_modulus=1e9, work_of_adhesion=0.3)
+    res = resuspension_from_dict({"resuspension": table}, capture_law=law)
+    assert res.surface_energy_j_m2 == 0.3  # a Scenario object's capture law
+    res = resuspension_from_dict(
+        {
+            "coefficients": {"v_c": given},
+            "resuspension": {**table, "surface_energy_j_m2": 0.56},
+        }
+    )
+    assert (res.surface_energy_j_m2, res.surface_energy_source) == (0.56, "given")
+    # without a thornton_ning law (or with w = 0) the key is required
+    for v_c in (0.2, {**polystyrene, "work_of_adhesion_J_m2": 0.0}):
+        with pytest.raises(
+            ScenarioError, match=r"s\.toml: resuspension\.surface_energy_j_m2.*thornton"
+        ):
+            resuspension_from_dict(
+                {"coefficients": {"v_c": v_c}, "resuspension": table}, source="s.toml"
+            )
+    # through the study: the quadrature with gamma = 2 x 0.0407
+    text = PARTICLES_ONLY.replace("surface_energy_j_m2 = 0.56\n", "").replace(
+        "monte_carlo_samples = 20000", ""
+    )
+    text += (
+        "[coefficients]\nk1 = 4.0\nk2 = 0.05\n"
+        'v_c = { law = "thornton_ning", particle = "ps", surface = "ps" }\n'
+    )
+    path = tmp_path / "ps.toml"
+    path.write_text(text)
+    result = mi.resuspend(path)
+    assert_allclose(result.spec.surface_energy_j_m2, 2 * 0.0407, rtol=1e-12)
+    d = result.dataset["diameter"].values[0]
+    want = rnr.remaining_fraction_ramp(
+        d / 2, [0.3, 0.8, 2.0], [1.0, 2.0, 1.0], 1.2, 1.5e-5, 2 * 0.0407,
+        outside="ignore",
+    )  # fmt: skip
+    assert_allclose(
+        result.dataset["remaining_fraction_class"].values[0], want, rtol=1e-9
+    )
+    assert (
+        "thornton_ning"
+        in json.loads(result.dataset.attrs["resuspension"])["surface_energy_source"]
+    )
+    # a Scenario object and the table as a dict: the Scenario's capture law
+    scenario = mi.Scenario(
+        name="ps",
+        particles=mi.monodisperse(8.0),
+        coefficients=mi.ImpactCoefficients(
+            k1=4.0, k2=0.05, v_c=ThorntonNingLaw(1050.0, 3e9, 0.2), friction=0.2
+        ),
+    )
+    result = mi.resuspend(scenario, {**table, "source": "particles"})
+    assert result.spec.surface_energy_j_m2 == 0.2
+
+
+def test_the_monte_carlo_names_the_range_its_particles_leave():
+    # issue 32 leftover (b): per-particle draws with Biasi adhesion warn with the
+    # share outside the fitted diameters and the range; inside it, silence
+    from microimpact.analysis.resuspension import sample_remaining_fraction
+    from microimpact.scenario.resuspension import ResuspensionSpec
+
+    spec = ResuspensionSpec(
+        friction_velocities_m_s=(1.0,),
+        exposures_s=(1.0,),
+        surface_energy_j_m2=0.56,
+        density_kg_m3=1.2,
+        kinematic_viscosity_m2_s=1.5e-5,
+    )
+    with pytest.warns(
+        rnr.AdhesionRangeWarning,
+        match=r"^1 of the 3 particles \(33\.3 %\).*0\.2 to 20 µm",
+    ):
+        sample_remaining_fraction(np.array([2e-6, 5e-6, 30e-6]), spec, rng=1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", rnr.AdhesionRangeWarning)
+        sample_remaining_fraction(np.array([2e-6, 5e-6, 19e-6]), spec, rng=1)

@@ -41,7 +41,7 @@ REBOUND, CAPTURED, NO_DATA = 0, 1, 2
 E_ARG, E_IO, E_MAGIC, E_VERSION, E_TRUNCATED, E_SIZE, E_CHECKSUM, E_VALUE = range(
     -1, -9, -1
 )
-CLAMPED, REIMPACT = 7, 8
+CLAMPED, REIMPACT, RESUSPENDED = 7, 8, 16
 TOL = 1e-12
 
 DIMS = ("surface", "diameter_um", "speed_m_s", "angle_deg")
@@ -113,6 +113,20 @@ def synthetic_dataset(seed=7):
     )
 
 
+#: Stay probabilities of the three diameters of a table with the resuspension
+#: column (format version 3): the edges 1 and 0 and one between.
+STAY = (1.0, 0.37, 0.0)
+
+
+def with_stay(ds, stay=STAY):
+    """`ds` with a ``stay_probability`` per diameter node on every node."""
+    ds = ds.copy(deep=True)
+    p = ds["capture_probability"]
+    q = np.asarray(stay, float)[None, :, None, None]
+    ds["stay_probability"] = (p.dims, np.broadcast_to(q, p.shape).copy())
+    return ds
+
+
 def reduced_dataset(seed=7):
     """The synthetic table on a reduced speed axis: the same nodes' values, the
     speed axis the ratios :data:`RATIOS`, v_c(d) :data:`CRITICAL`."""
@@ -127,7 +141,9 @@ def reference_sample(ds, surface, d, v, a, u):
     """docs/wall-law.md, "The sampling rule", written out for this test: status
     (0 rebound, 1 captured, 2 no data), flags (as C's), velocity and the fractions
     t (N x 3) of the three axes. On a reduced speed axis the speed variable is
-    log v - log v_c(d), log v_c linear in log d at the diameter's fraction."""
+    log v - log v_c(d), log v_c linear in log d at the diameter's fraction. With
+    a ``stay_probability`` q a capture is flagged resuspended where
+    u[3] >= p q."""
     reduced = "reduced_speed" in ds.dims
     ds = ds.transpose(*(REDUCED_DIMS if reduced else DIMS), "sample", ...)
     n = u.shape[0]
@@ -189,6 +205,9 @@ def reference_sample(ds, surface, d, v, a, u):
     vel[status == CAPTURED] = 0.0
     vel[status == NO_DATA] = np.nan
     flags |= np.where((status == REBOUND) & (uz < 0), REIMPACT, 0)
+    if "stay_probability" in ds:
+        q = ds["stay_probability"].values[node]
+        flags |= np.where((status == CAPTURED) & ~(u[:, 3] < p * q), RESUSPENDED, 0)
     return status, flags, vel, fractions
 
 
@@ -391,7 +410,10 @@ def compare_with_wall_law(got, wall_law, surface, d, v, a, u, *, what):
     py = wall_law.sample_uniform(d, v, a, u, surface=surface)
     status = np.where(~py.valid, NO_DATA, np.where(py.captured, CAPTURED, REBOUND))
     flags = np.where(py.clamped, CLAMPED, 0) | np.where(py.reimpact, REIMPACT, 0)
-    c_flags = np.where(got[1] & CLAMPED, CLAMPED, 0) | (got[1] & REIMPACT)
+    flags |= np.where(py.resuspended, RESUSPENDED, 0)
+    c_flags = np.where(got[1] & CLAMPED, CLAMPED, 0) | (
+        got[1] & (REIMPACT | RESUSPENDED)
+    )
     t = reference_sample(wall_law.dataset, surface, d, v, a, u)[3]
     return assert_agree(
         (got[0], c_flags, got[2]), (status, flags, py.velocity), u, t, v, what=what
@@ -399,8 +421,10 @@ def compare_with_wall_law(got, wall_law, surface, d, v, a, u, *, what):
 
 
 # ------------------------------------------------------------------- tests
-#: The tables of both speed axes in both format versions: (kind, version).
-FORMATS = [("absolute", 1), ("absolute", 2), ("reduced", 2)]
+#: The tables of both speed axes in every format version: (kind, version);
+#: version 3 with the stay_probability section.
+FORMATS = [("absolute", 1), ("absolute", 2), ("reduced", 2), ("absolute", 3),
+           ("reduced", 3)]  # fmt: skip
 
 
 @pytest.fixture(scope="module")
@@ -413,6 +437,8 @@ def any_table(request, dataset, reduced, tmp_path_factory):
     """(dataset, path) of each of :data:`FORMATS`."""
     kind, version = request.param
     ds = reduced if kind == "reduced" else dataset
+    if version == 3:
+        ds = with_stay(ds)
     path = tmp_path_factory.mktemp("tables") / f"{kind}-{version}.swl"
     return ds, write_binary(ds, path, version=version)
 
@@ -423,7 +449,8 @@ def test_binary_round_trip(any_table):
     n = 2 * 3 * 4 * 3
     reduced = "reduced_speed" in dataset.dims
     size = 64 + 2 * 64 + 8 * (3 + 4 + 3) + 8 * n * (1 + 4 * K) + 4 * n
-    assert len(data) == size + (8 * 3 if reduced else 0)
+    stay = "stay_probability" in dataset
+    assert len(data) == size + (8 * 3 if reduced else 0) + (8 * n if stay else 0)
     magic, version, *dims = struct.unpack_from("<8s8I", data)
     want_version = int(table.stem[-1])
     assert (magic, version, dims) == (
@@ -433,6 +460,11 @@ def test_binary_round_trip(any_table):
     )
     back = read_binary(table)
     assert back.attrs["format_version"] == want_version
+    assert struct.unpack_from("<I", data, 52) == (int(stay),)  # sections word
+    if stay:
+        np.testing.assert_array_equal(
+            back["stay_probability"].values, dataset["stay_probability"].values
+        )
     if reduced:
         np.testing.assert_array_equal(back["reduced_speed"].values, RATIOS)
         np.testing.assert_array_equal(back["critical_speed_m_s"].values, CRITICAL)
@@ -464,7 +496,7 @@ def test_version_1_is_version_2_with_an_absolute_axis(dataset, reduced):
     with pytest.raises(ValueError, match="version 2"):
         export_c.encode(reduced, 1)
     with pytest.raises(ValueError, match="version"):
-        export_c.encode(dataset, 3)
+        export_c.encode(dataset, 4)
 
 
 def test_c_agrees_with_python_on_both_axes_and_versions(swl, any_table):
@@ -495,6 +527,12 @@ def test_c_agrees_with_python_on_both_axes_and_versions(swl, any_table):
                 )
             assert {REBOUND, CAPTURED} <= set(got[0])
             assert np.any(got[1] & CLAMPED) and not np.all(got[1] & CLAMPED)
+            resuspended = (got[1] & RESUSPENDED) != 0
+            stays = (got[0] == CAPTURED) & ~resuspended
+            if "stay_probability" in dataset:  # both outcomes of a capture occur
+                assert resuspended.any() and stays.any()
+            else:
+                assert not resuspended.any()
     finally:
         swl.lib.swl_free(handle)
 
@@ -749,7 +787,7 @@ def test_truncated_and_corrupt_files_give_error_codes(swl, table, tmp_path):
         "half": (data[: len(data) // 2], E_TRUNCATED),
         "one byte short": (data[:-1], E_TRUNCATED),
         "one byte more": (data + b"\0", E_SIZE),
-        "version 3": (_patched(data, 8, "<I", 3), E_VERSION),
+        "version 4": (_patched(data, 8, "<I", 4), E_VERSION),
         "version 0": (_patched(data, 8, "<I", 0), E_VERSION),
         "speed axis 2": (_patched(data, 36, "<I", 2), E_SIZE),
         "reduced, no v_c": (_patched(data, 36, "<I", 1), E_SIZE),

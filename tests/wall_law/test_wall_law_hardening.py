@@ -24,6 +24,7 @@ import re
 import signal
 import subprocess
 import sys
+import warnings
 
 import numpy as np
 import pytest
@@ -45,6 +46,8 @@ from test_wall_law_c import (
 
 import microimpact as mi
 from microimpact.errors import DataFormatError
+from microimpact.physics.resuspension import AdhesionRangeWarning
+from microimpact.scenario.resuspension import ResuspensionSpec
 from microimpact.wall_law import WallLaw, WallLawSpec, build_wall_law, export_c
 
 pytestmark = [
@@ -121,9 +124,26 @@ def real_tables(tmp_path_factory):
             reduced_speeds=(0.7, 1.4, 4.0),
         ),
     )
+    stay = build_wall_law(  # format version 3: the stay_probability section
+        _scenario(ROUGH, samples=400),
+        WallLawSpec(
+            diameters_um=(3.0, 12.0),
+            speeds_m_s=(0.3, 3.0),
+            angles_deg=(10.0, 90.0),
+            reservoir=12,
+        ),
+        resuspension=ResuspensionSpec(
+            friction_velocities_m_s=(1.0, 3.0),
+            exposures_s=(1.0,),
+            surface_energy_j_m2=0.56,
+            density_kg_m3=1.2,
+            kinematic_viscosity_m2_s=1.5e-5,
+        ),
+    )
     return [
         export_c.write_binary(absolute, out / "absolute.swl"),
         export_c.write_binary(reduced, out / "reduced.swl"),
+        export_c.write_binary(stay, out / "stay.swl"),
         ROOT / "tests" / "wall_law" / "data" / "format_v1.swl",
     ]
 
@@ -346,14 +366,21 @@ def test_nan_and_inf_queries_are_refused_without_a_trap(
     std=st.sampled_from([0.0, 8.0, 30.0]),
     reservoir=st.integers(1, 24),
     seed=st.integers(0, 2**32),
+    stay=st.none()
+    | st.tuples(
+        st.lists(st.floats(0.0, 5.0), min_size=1, max_size=3),
+        st.floats(0.0, 1e6),
+        st.none() | st.tuples(st.floats(1e-4, 0.1), st.floats(1.01, 10.0)),
+    ),
 )
 def test_the_writer_never_writes_what_the_readers_refuse(
-    swl, tmp_path, angles, std, reservoir, seed
+    swl, tmp_path, angles, std, reservoir, seed, stay
 ):
     """Built tables at random (grazing to normal incidence, smooth to very rough:
-    e_n reaches 1 / sin(angle), re-impacts make it negative) always pass the
-    Python reader, the writer and the C reader under traps, and C rebounds are
-    finite and never faster than the impact."""
+    e_n reaches 1 / sin(angle), re-impacts make it negative; with or without a
+    resuspension column of any flow and adhesion) always pass the Python reader,
+    the writer and the C reader under traps, and C rebounds are finite and never
+    faster than the impact; only captures are flagged resuspended."""
     surfaces = (
         (mi.SurfaceVariant("smooth"),)
         if std == 0
@@ -366,7 +393,23 @@ def test_the_writer_never_writes_what_the_readers_refuse(
         reservoir=reservoir,
         samples=96,
     )
-    law = build_wall_law(_scenario(surfaces, seed=seed), spec)  # the Python reader
+    res = None
+    if stay is not None:
+        u_tau, exposure, adhesion = stay
+        median, spread = adhesion if adhesion is not None else (None, None)
+        res = ResuspensionSpec(
+            friction_velocities_m_s=tuple(u_tau),
+            exposures_s=(exposure,),
+            surface_energy_j_m2=0.56,
+            density_kg_m3=1.2,
+            kinematic_viscosity_m2_s=1.5e-5,
+            adhesion_median=median,
+            adhesion_spread=spread,
+        )
+    with warnings.catch_warnings():  # Biasi at 30 um: outside its fitted range
+        warnings.simplefilter("ignore", AdhesionRangeWarning)
+        # the Python reader
+        law = build_wall_law(_scenario(surfaces, seed=seed), spec, resuspension=res)
     path = export_c.write_binary(law, tmp_path / f"w{seed}.swl")  # the writer
     rc, handle = swl.load(path)
     assert rc == 0, swl.lib.swl_strerror(rc)
@@ -376,7 +419,8 @@ def test_the_writer_never_writes_what_the_readers_refuse(
         d = np.exp(rng.uniform(np.log(0.5), np.log(100.0), n))
         v = np.exp(rng.uniform(np.log(0.05), np.log(50.0), n))
         a = rng.uniform(0.1, 90.0, n)
-        status, _, vel = swl.sample_n(handle, 0, d, v, a, rng.random((n, 5)))
+        status, flags, vel = swl.sample_n(handle, 0, d, v, a, rng.random((n, 5)))
+        assert not np.any((flags & 16) & (status != 1))  # SWL_FLAG_RESUSPENDED
         reb = status == 0
         assert np.isfinite(vel[reb]).all()
         assert np.all(np.linalg.norm(vel[reb], axis=1) <= v[reb] * (1 + 1e-12))

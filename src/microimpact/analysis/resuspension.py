@@ -136,41 +136,6 @@ def _classes(particles, k):
     return np.asarray(particles.ppf(q), dtype=float), np.full(k, 1.0 / k)
 
 
-def _adhesion(spec, radii, where):
-    """Median and spread of the reduction factor per class; a refused radius is a
-    ScenarioError naming the adhesion key."""
-    if spec.adhesion_median is not None:
-        return (
-            np.full(radii.shape, spec.adhesion_median),
-            np.full(radii.shape, spec.adhesion_spread),
-        )
-    try:
-        red = rnr.biasi2001_adhesion(radii, outside="ignore")
-    except ValueError:
-        edge = 2 * rnr.BIASI2001_POSITIVE_RADIUS_UM
-        raise ScenarioError(
-            f"'biasi2001' cannot serve diameter {2 * float(m_to_um(radii.max())):.4g} "
-            f"µm of the population: beyond {edge:.3g} µm the correlation's median "
-            "adhesion reduction is not positive; give adhesion = { median, spread }",
-            source=where,
-            field="resuspension.adhesion",
-        ) from None
-    lo, hi = rnr.BIASI2001_FITTED_RADIUS_UM
-    r_um = m_to_um(radii)
-    if np.any((r_um < lo) | (r_um > hi)):
-        span = f"{2 * r_um.min():.3g}"
-        if r_um.max() > r_um.min():
-            span += f" to {2 * r_um.max():.3g}"
-        warnings.warn(
-            f"diameter {span} µm is outside the diameters the Biasi (2001) adhesion "
-            f"correlation was fitted to ({2 * lo:g} to {2 * hi:g} µm, radii {lo:g} to "
-            f"{hi:g} µm); give adhesion = {{ median, spread }} if known",
-            rnr.AdhesionRangeWarning,
-            stacklevel=3,
-        )
-    return np.asarray(red.median, float), np.asarray(red.spread, float)
-
-
 def _step_rates(spec, radius, fprime):
     """Rates p [s-1] of particles of radii `radius` with reduction factors
     `fprime` (both (N,)), one row per step: shape (K, N)."""
@@ -212,8 +177,16 @@ def sample_remaining_fraction(diameters, spec, *, rng=None):
         particles).
     n : int
         The number of particles.
+
+    Warns
+    -----
+    AdhesionRangeWarning
+        With the Biasi (2001) correlation, where particles lie outside the
+        diameters it was fitted to (their share and the range named).
     """
     rng = np.random.default_rng(rng)
+    lo, hi = (2 * float(um_to_m(x)) for x in rnr.BIASI2001_FITTED_RADIUS_UM)
+    outside = 0
     if isinstance(diameters, np.ndarray) or np.isscalar(diameters):
         diameters = [diameters]
     t = np.asarray(spec.exposures_s)
@@ -228,6 +201,7 @@ def sample_remaining_fraction(diameters, spec, *, rng=None):
         if spec.adhesion_median is None:
             red = rnr.biasi2001_adhesion(radius, outside="ignore")
             median, spread = red.median, red.spread
+            outside += int(np.count_nonzero((d < lo) | (d > hi)))
         else:
             median, spread = spec.adhesion_median, spec.adhesion_spread
         z = rng.standard_normal(d.size)
@@ -237,6 +211,15 @@ def sample_remaining_fraction(diameters, spec, *, rng=None):
         s1 += survival.sum(axis=1)
         s2 += (survival**2).sum(axis=1)
         n += d.size
+    if outside:
+        warnings.warn(
+            f"{outside} of the {n} particles ({100 * outside / n:.3g} %) have "
+            "diameters outside those the Biasi (2001) adhesion correlation was "
+            f"fitted to ({m_to_um(lo):g} to {m_to_um(hi):g} µm); give adhesion = "
+            "{ median, spread } if known",
+            rnr.AdhesionRangeWarning,
+            stacklevel=2,
+        )
     if n < 2:
         return np.full(t.size, np.nan), np.full(t.size, np.nan), n
     mean = s1 / n
@@ -328,7 +311,10 @@ def resuspend(scenario, resuspension=None, *, samples=None, seed=None):
     # the file's [particles] and top-level keys first: a misspelt table is named
     particles = None if data is None else particles_from_dict(data, source=source)
     if isinstance(spec, dict):
-        spec = resuspension_from_dict({"resuspension": spec}, source=source)
+        law = scen.coefficients.v_c if scen is not None else None
+        spec = resuspension_from_dict(
+            {**(data or {}), "resuspension": spec}, source=source, capture_law=law
+        )
     elif spec is None:
         spec = resuspension_from_dict(data, source=source)
         if spec is None:
@@ -367,7 +353,9 @@ def resuspend(scenario, resuspension=None, *, samples=None, seed=None):
 
     diameters, weights = _classes(particles, spec.diameter_classes)
     radii = 0.5 * diameters
-    median, spread = _adhesion(spec, radii, source)
+    median, spread = spec.adhesion_parameters(
+        radii, source=source, field="the population's diameter classes"
+    )
     _check_mc_adhesion(spec, particles, source)
     per_class = np.stack(
         [

@@ -39,7 +39,8 @@ velocity, :math:`\rho` and :math:`\nu` the fluid's density and kinematic viscosi
            \frac{f_a-\langle f\rangle}{\sqrt2\, f_{rms}}\right)\right]}
 
 * adhesive force :math:`f_a = f'\,\tfrac32\pi\gamma r` (JKR pull-off force of a
-  sphere on a flat, with :math:`\gamma` the surface energy as in [1]_ and [2]_),
+  sphere on a flat; :math:`\gamma`, which [1]_ and [2]_ call the surface energy,
+  takes the place of JKR's Dupré work of adhesion w, docs/adhesion.md §2.1),
   :math:`f'` log-normal with median :math:`\bar f'` and geometric spread
   :math:`\sigma'`; Biasi's correlation ([2]_), with :math:`r` in µm:
   :math:`\bar f' = 0.016 - 0.0023\,r^{0.545}`,
@@ -363,9 +364,10 @@ def jkr_pull_off_force(radius, surface_energy):
     r"""
     Smooth-contact pull-off force of a sphere on a flat, :math:`\tfrac32\pi\gamma r`.
 
-    Johnson, Kendall & Roberts [4]_; with :math:`\gamma` the surface energy as
-    Reeks & Hall [1]_ and Biasi et al. [2]_ use it (the work of adhesion is
-    :math:`2\gamma`).
+    Johnson, Kendall & Roberts [4]_, with :math:`\gamma` as Reeks & Hall [1]_
+    and Biasi et al. [2]_ use it: they call it the surface energy, and it takes
+    the place of the Dupré work of adhesion w of the JKR pull-off force
+    :math:`\tfrac32\pi w R` (docs/adhesion.md, section 2.1).
 
     Parameters
     ----------

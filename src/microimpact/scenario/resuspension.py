@@ -7,7 +7,7 @@
     friction_velocity_m_s = [0.5, 1.0, 2.0]     # one value, or the steps of a ramp
     exposure_s = 1.0                    # one value for every step, or one per step
     adhesion = "biasi2001"              # or { median = 0.01, spread = 3.0 }
-    surface_energy_j_m2 = 0.56
+    surface_energy_j_m2 = 0.56          # optional with a thornton_ning v_c law
     fluid = { name = "air", temperature_k = 293.15, pressure_pa = 101325 }
     # or fluid = { density_kg_m3 = 1.2, kinematic_viscosity_m2_s = 1.5e-5 }
     diameter_classes = 8                # equiprobable diameter classes (optional)
@@ -20,10 +20,16 @@ is one :class:`~microimpact.errors.ScenarioError` naming the file and key path.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 
+import numpy as np
+
 from ..errors import ScenarioError
+from ..physics import resuspension as rnr
+from ..physics.coefficients import ThorntonNingLaw, law_from_dict
 from ..physics.resuspension import air_properties
+from ..units import m_to_um
 from ._file_base import _Ctx, _join, _show, _type_name
 
 __all__ = [
@@ -84,6 +90,10 @@ class ResuspensionSpec:
         per-particle Monte Carlo estimate (0: none).
     fluid_description : str
         How the fluid was given, for the report.
+    surface_energy_source : str
+        Where ``surface_energy_j_m2`` came from: ``"given"`` (the table's key),
+        or the scenario's ``thornton_ning`` capture law (its work of adhesion w,
+        so that the pull-off force 1.5 pi w r is the one the capture model uses).
     """
 
     friction_velocities_m_s: tuple
@@ -97,6 +107,7 @@ class ResuspensionSpec:
     diameter_classes: int = 8
     monte_carlo_samples: int = 0
     fluid_description: str = ""
+    surface_energy_source: str = "given"
 
     def __post_init__(self):
         def bad(field, message):
@@ -167,12 +178,88 @@ class ResuspensionSpec:
             "exposure_s": list(self.exposures_s),
             "adhesion": self.adhesion,
             "surface_energy_j_m2": self.surface_energy_j_m2,
+            "surface_energy_source": self.surface_energy_source,
             "density_kg_m3": self.density_kg_m3,
             "kinematic_viscosity_m2_s": self.kinematic_viscosity_m2_s,
             "fluid": self.fluid_description,
             "diameter_classes": self.diameter_classes,
             "monte_carlo_samples": self.monte_carlo_samples,
         }
+
+    def adhesion_parameters(self, radius, *, source=None, field="resuspension"):
+        """Median and spread of the adhesion reduction factor at each radius [m].
+
+        The explicit ``{ median, spread }`` everywhere, or the Biasi (2001)
+        correlation: a radius beyond the one where its median is not positive
+        is refused (:class:`~microimpact.errors.ScenarioError` naming `source`,
+        ``resuspension.adhesion`` and `field`, the diameter and the edge), and
+        one outside the fitted range warns
+        (:class:`~microimpact.physics.resuspension.AdhesionRangeWarning`, the
+        range named in diameters and radii).
+        """
+        radii = np.atleast_1d(np.asarray(radius, dtype=float))
+        if self.adhesion_median is not None:
+            return (
+                np.full(radii.shape, self.adhesion_median),
+                np.full(radii.shape, self.adhesion_spread),
+            )
+        edge = rnr.BIASI2001_POSITIVE_RADIUS_UM
+        r_um = m_to_um(radii)
+        if np.any(r_um >= edge):
+            raise ScenarioError(
+                f"'biasi2001' cannot serve diameter {2 * float(r_um.max()):.4g} µm "
+                f"({field}): at diameters beyond {2 * edge:.3g} µm the "
+                "correlation's median adhesion reduction is not positive; give "
+                "adhesion = { median, spread }",
+                source=source,
+                field="resuspension.adhesion",
+            )
+        lo, hi = rnr.BIASI2001_FITTED_RADIUS_UM
+        out = (r_um < lo) | (r_um > hi)
+        if np.any(out):
+            span = f"{2 * r_um[out].min():.3g}"
+            if r_um[out].max() > r_um[out].min():
+                span += f" to {2 * r_um[out].max():.3g}"
+            warnings.warn(
+                f"diameter {span} µm ({field}) is outside the diameters the Biasi "
+                f"(2001) adhesion correlation was fitted to ({2 * lo:g} to "
+                f"{2 * hi:g} µm, radii {lo:g} to {hi:g} µm); give adhesion = "
+                "{ median, spread } if known",
+                rnr.AdhesionRangeWarning,
+                stacklevel=3,
+            )
+        red = rnr.biasi2001_adhesion(radii, outside="ignore")
+        return np.asarray(red.median, float), np.asarray(red.spread, float)
+
+    def remaining_fraction(self, radius, *, source=None, field="resuspension"):
+        """Fraction of particles of each radius [m] left after the whole ramp.
+
+        The quadrature of
+        :func:`~microimpact.physics.resuspension.remaining_fraction_ramp` at the
+        last step, with this table's flow, fluid, surface energy and adhesion
+        (:meth:`adhesion_parameters`: refusals and warnings name `field`).
+        Returns an array of the shape of `radius`.
+        """
+        radii = np.asarray(radius, dtype=float)
+        median, spread = self.adhesion_parameters(radii, source=source, field=field)
+        flat = radii.reshape(-1)
+        out = np.array(
+            [
+                rnr.remaining_fraction_ramp(
+                    flat[k],
+                    self.friction_velocities_m_s,
+                    self.exposures_s,
+                    self.density_kg_m3,
+                    self.kinematic_viscosity_m2_s,
+                    self.surface_energy_j_m2,
+                    adhesion_median=median[k],
+                    adhesion_spread=spread[k],
+                    outside="ignore",
+                )[-1]
+                for k in range(flat.size)
+            ]
+        )
+        return out.reshape(radii.shape)
 
 
 def _steps(ctx: _Ctx, value, key):
@@ -233,25 +320,49 @@ def _adhesion(ctx: _Ctx, t):
     return median, spread
 
 
-def _resuspension(ctx: _Ctx, data):
+#: Where a surface energy taken from the capture law comes from (the report's words).
+FROM_CAPTURE_LAW = (
+    "coefficients.v_c: the thornton_ning law's work of adhesion w (the pull-off "
+    "force 1.5 pi w r of the capture model)"
+)
+
+
+def _surface_energy(ctx: _Ctx, t, data, capture_law):
+    """``(gamma, where it came from)``: the table's ``surface_energy_j_m2``, else
+    the work of adhesion of the scenario's ``thornton_ning`` v_c law (given, or
+    from its materials' surface energies), which enters the JKR pull-off force
+    1.5 pi w r exactly as gamma does here (docs/adhesion.md, section 2.1)."""
+    key = "resuspension.surface_energy_j_m2"
+    if "surface_energy_j_m2" in t:
+        return ctx.number(t["surface_energy_j_m2"], key, low=0, strict=True), "given"
+    law = capture_law
+    if law is None:
+        v_c = data.get("coefficients", {})
+        v_c = v_c.get("v_c") if isinstance(v_c, dict) else None
+        if isinstance(v_c, dict) and v_c.get("law") == "thornton_ning":
+            law = law_from_dict(v_c, source=ctx.source, field="coefficients.v_c")
+    if isinstance(law, ThorntonNingLaw) and law.work_of_adhesion > 0:
+        return float(law.work_of_adhesion), FROM_CAPTURE_LAW
+    raise ctx.error(
+        key,
+        "missing required key (gamma of the pull-off force 1.5 pi gamma r, J/m2): "
+        "it can come from the materials only through a thornton_ning v_c law with "
+        "a work of adhesion > 0, and this scenario has none",
+    )
+
+
+def _resuspension(ctx: _Ctx, data, capture_law=None):
     if "resuspension" not in data:
         return None
     where = "resuspension"
     t = ctx.table(data["resuspension"], where)
-    ctx.keys(
-        t,
-        where,
-        RESUSPENSION_KEYS,
-        ("friction_velocity_m_s", "exposure_s", "surface_energy_j_m2"),
-    )
+    ctx.keys(t, where, RESUSPENSION_KEYS, ("friction_velocity_m_s", "exposure_s"))
     source = ctx.choice(
         t.get("source", "particles"), "resuspension.source", RESUSPENSION_SOURCES
     )
     u = _steps(ctx, t["friction_velocity_m_s"], "resuspension.friction_velocity_m_s")
     e = _steps(ctx, t["exposure_s"], "resuspension.exposure_s")
-    gamma = ctx.number(
-        t["surface_energy_j_m2"], "resuspension.surface_energy_j_m2", low=0, strict=True
-    )
+    gamma, gamma_source = _surface_energy(ctx, t, data, capture_law)
     rho, nu, described = _fluid(ctx, t)
     median, spread = _adhesion(ctx, t)
     kw = {}
@@ -269,15 +380,21 @@ def _resuspension(ctx: _Ctx, data):
             adhesion_median=median,
             adhesion_spread=spread,
             fluid_description=described,
+            surface_energy_source=gamma_source,
             **kw,
         )
     except ScenarioError as exc:
         raise ctx.error(exc.field, exc.message) from None
 
 
-def resuspension_from_dict(data: dict, *, source=None, base_dir=None):
+def resuspension_from_dict(data: dict, *, source=None, base_dir=None, capture_law=None):
     """The :class:`ResuspensionSpec` of parsed scenario data (its ``[resuspension]``
-    table), or None if it has none. Errors name `source` and the key path."""
+    table), or None if it has none. Errors name `source` and the key path.
+
+    Without ``surface_energy_j_m2`` the surface energy is the work of adhesion of
+    the capture law: `capture_law` (a v_c law, e.g. a Scenario's
+    ``coefficients.v_c``), else the ``[coefficients]`` table's ``v_c`` when it
+    is a ``thornton_ning`` law; with neither, the key is required."""
     ctx = _Ctx(source, base_dir)
     ctx.table(data, "(top level)")
-    return _resuspension(ctx, data)
+    return _resuspension(ctx, data, capture_law)

@@ -42,13 +42,19 @@ from ..engine.plan import ArealSampler, build_plan, diameter_sampler, resolve_en
 from ..errors import ScenarioError
 from ..population.distributions import monodisperse
 from ..scenario.grid import SweepGrid
+from ..scenario.resuspension import ResuspensionSpec, resuspension_from_dict
 from ..scenario.scenario import Scenario, read_scenario
 from ..scenario.wall_law import REBOUND_VARIABLES, RESERVOIR_VARIABLES, WallLawSpec
 from ..units import um_to_m
 from .checks import MAX_LATERAL_DEG
 from .law import WallLaw, wall_law_dataset
 
-__all__ = ["build_wall_law", "critical_speed_m_s", "node_outcomes"]
+__all__ = [
+    "build_wall_law",
+    "critical_speed_m_s",
+    "node_outcomes",
+    "stay_probability_at_nodes",
+]
 
 
 def critical_speed_m_s(scenario, diameter_um) -> np.ndarray:
@@ -77,6 +83,48 @@ def critical_speed_m_s(scenario, diameter_um) -> np.ndarray:
             field="wall_law.speed_axis",
         )
     return np.array(v_c, dtype=float)
+
+
+def _resuspension(scenario, data, resuspension):
+    """The ResuspensionSpec of a build: `resuspension` (a spec, or a dict read as
+    the ``[resuspension]`` table), else the scenario file's table (`data`, None
+    where no file was read), else None; ``False`` for none at all."""
+    if resuspension is False:
+        return None
+    if isinstance(resuspension, ResuspensionSpec):
+        return resuspension
+    law = scenario.coefficients.v_c
+    if isinstance(resuspension, dict):
+        return resuspension_from_dict(
+            {**(data or {}), "resuspension": resuspension},
+            source=scenario.source,
+            capture_law=law,
+        )
+    if resuspension is not None:
+        raise TypeError(
+            "`resuspension` must be a ResuspensionSpec, a dict, None or False; got "
+            f"{type(resuspension).__name__}"
+        )
+    if data is None:
+        return None
+    return resuspension_from_dict(data, source=scenario.source, capture_law=law)
+
+
+def stay_probability_at_nodes(resuspension, diameters_um, *, source=None):
+    """The probability that a particle captured at each diameter node [µm] stays
+    on the wall after the ``[resuspension]`` ramp: the Rock'n'Roll remaining
+    fraction of a fresh deposit of that diameter (the quadrature of
+    :func:`~microimpact.physics.resuspension.remaining_fraction_ramp`, last step).
+
+    It depends on the diameter only (the adhesion of a captured particle does not
+    depend here on how it struck); the table carries it per (d, v, theta) node.
+    A diameter where the Biasi (2001) correlation has no distribution is refused
+    (:class:`~microimpact.errors.ScenarioError` naming ``resuspension.adhesion``
+    and ``wall_law.diameter_um``); one outside its fitted range warns."""
+    d = np.asarray(diameters_um, dtype=float)
+    return resuspension.remaining_fraction(
+        0.5 * um_to_m(d), source=source, field="wall_law.diameter_um"
+    )
 
 
 def _check_reduced_speeds(scenario, spec, critical) -> None:
@@ -456,6 +504,7 @@ def build_wall_law(
     executor=None,
     progress=None,
     checkpoint=None,
+    resuspension=None,
 ):
     """Tabulate the wall law of `scenario` at the nodes of `spec`.
 
@@ -485,19 +534,26 @@ def build_wall_law(
         A folder where each finished diameter is kept until the table is complete:
         an interrupted build re-run with the same arguments simulates only the
         diameters that were not finished (and gives the same table).
+    resuspension : ResuspensionSpec, dict or False, optional
+        The ``[resuspension]`` table (a dict is read as that table): the table
+        then carries ``stay_probability``, the probability that a particle
+        captured at a node stays after the ramp
+        (:func:`stay_probability_at_nodes`). Default: the scenario file's
+        table, where a file was read (a path, a preset, a ScenarioFile, or a
+        Scenario without `spec`); False: none.
 
     Returns
     -------
     WallLaw
     """
-    source_text = None
+    source_text = data = None
     if not isinstance(scenario, Scenario):  # a file, path or preset name: read once
         file = read_scenario(scenario)
-        scenario, source_text = file.scenario, file.text
+        scenario, source_text, data = file.scenario, file.text, file.data
         spec = file.wall_law if spec is None else spec
     elif spec is None and scenario.source is not None:  # its file's [wall_law]
         file = read_scenario(scenario.source)
-        spec, source_text = file.wall_law, file.text
+        spec, source_text, data = file.wall_law, file.text, file.data
     if spec is None:
         raise ScenarioError(
             "no wall-law nodes: give `spec=WallLawSpec(...)` or a [wall_law] table "
@@ -513,6 +569,10 @@ def build_wall_law(
     if spec.speed_axis == "reduced":  # refused before any simulation
         critical = critical_speed_m_s(scenario, spec.diameters_um)
         _check_reduced_speeds(scenario, spec, critical)
+    res = _resuspension(scenario, data, resuspension)
+    stay = None
+    if res is not None:  # a few quadratures; refused before any simulation
+        stay = stay_probability_at_nodes(res, spec.diameters_um, source=scenario.source)
     nodes_scenario = scenario.with_options(
         # the ratios r on a reduced axis: each diameter multiplies them by v_c(d)
         speeds_m_s=spec.speed_nodes,
@@ -567,6 +627,8 @@ def build_wall_law(
         source_text=source_text,
         seconds=time.perf_counter() - started,
         critical_speed_m_s=critical,
+        stay_probability=stay,
+        resuspension=res,
     )
     if partial is not None:
         partial.remove()

@@ -14,6 +14,9 @@ never write what a reader refuses (docs/wall-law.md, "Value ranges"):
   ``|e_n sin theta| <= 1`` and ``|cos theta - mu (1 + e_n) sin theta| <= 1`` to
   1e-9: neither the normal nor the tangential rebound is faster than the impact.
 
+* ``stay_probability``, where the table carries it, finite and in [0, 1] at
+  every node (NaN too is refused: it is a function of the diameter only).
+
 ``e_n`` is the apparent restitution: negative for a re-impact and above 1 at
 grazing angles (up to 1 / sin theta), so it is bounded through ``|e_n sin theta|``
 rather than to [0, 1].
@@ -139,6 +142,21 @@ def node_problem(angle_deg, p, count, reservoirs: dict, k: int, dims) -> str | N
     return None
 
 
+def stay_problem(q, dims) -> str | None:
+    """Why the ``stay_probability`` array `q` (shape (surface, diameter, speed,
+    angle)) breaks its range (finite, in [0, 1], NaN-safe), or None."""
+    q = np.asarray(q, dtype=float)
+    with np.errstate(invalid="ignore"):
+        bad = ~(np.isfinite(q) & (q >= 0.0) & (q <= 1.0))
+    if bad.any():
+        i = _first(bad)
+        return (
+            f"stay_probability must be finite and in [0, 1]; at {_at(i, dims)} it "
+            f"is {q[i]:g}"
+        )
+    return None
+
+
 def dataset_problem(ds, dims) -> str | None:
     """Why the wall-law Dataset `ds` (node dimensions `dims`: surface, diameter,
     speed axis, angle) breaks the documented ranges, or None. (The critical
@@ -151,7 +169,7 @@ def dataset_problem(ds, dims) -> str | None:
         )
         if problem:
             return problem
-    return node_problem(
+    problem = node_problem(
         ds["angle_deg"].values,
         ds["capture_probability"].values,
         ds["reservoir_count"].values,
@@ -159,6 +177,9 @@ def dataset_problem(ds, dims) -> str | None:
         int(ds.sizes["sample"]),
         dims,
     )
+    if problem is None and "stay_probability" in ds:
+        problem = stay_problem(ds["stay_probability"].transpose(*dims).values, dims)
+    return problem
 
 
 #: Queries that look like a wrong unit (swl.c: SWL_MIN_DIAMETER_UM,

@@ -32,11 +32,15 @@ C_FILES = ("swl.h", "swl.c", "fluent_udf.c")
 MAGIC = b"SWLTABL\0"
 #: The format version written by default (2: the speed axis' kind in the
 #: header, v_c per diameter on a reduced axis); version 1 (absolute speed axis
-#: only) is still written on request and read.
+#: only) is still written on request and read. Version 3 is version 2 with a
+#: sections word (offset 52) and optional sections after the counts; it is
+#: written (by default) only for a table with a ``stay_probability``.
 VERSION = 2
-VERSIONS = (1, 2)
+VERSIONS = (1, 2, 3)
 NAME_WIDTH = 64
-HEADER = struct.Struct("<8s8IQI12x")  # 64 bytes; see c/swl.h
+HEADER = struct.Struct("<8s8IQII8x")  # 64 bytes; see c/swl.h
+#: Bits of the sections word (format version 3, offset 52).
+SECTION_STAY = 1
 DIMS = ("surface", "diameter_um", "speed_m_s", "angle_deg")
 REDUCED_DIMS = ("surface", "diameter_um", "reduced_speed", "angle_deg")
 #: Header codes of the speed axis' kind (format version 2, offset 36).
@@ -68,12 +72,22 @@ def _check(names, ds):
         raise ValueError(problem)
 
 
-def encode(law, version: int = VERSION) -> bytes:
+def encode(law, version: int | None = None) -> bytes:
     """The binary table (format version `version` of ``c/swl.h``: 2, or 1 for a
-    table on an absolute speed axis) of a WallLaw or its Dataset."""
+    table on an absolute speed axis, or 3 with the ``stay_probability``
+    section; default 3 where the table has that column, else 2) of a WallLaw or
+    its Dataset."""
+    ds = _dataset(law)
+    stay = "stay_probability" in ds
+    if version is None:
+        version = 3 if stay else VERSION
     if version not in VERSIONS:
         raise ValueError(f"`version` must be one of {VERSIONS}; got {version!r}")
-    ds = _dataset(law)
+    if stay and version < 3:
+        raise ValueError(
+            "a table with stay_probability needs format version 3 (drop the "
+            "variable to write version 1 or 2)"
+        )
     dims = _dims(ds)
     reduced = dims is REDUCED_DIMS
     if reduced and version < 2:
@@ -102,6 +116,11 @@ def encode(law, version: int = VERSION) -> bytes:
             np.ascontiguousarray(p, "<f8").tobytes(),
             *(np.ascontiguousarray(a, "<f8").tobytes() for a in res),
             np.ascontiguousarray(count, "<i4").tobytes(),
+            *(
+                [np.ascontiguousarray(ds["stay_probability"].values, "<f8").tobytes()]
+                if stay
+                else []
+            ),
         ]
     )
     s, d, v, a = p.shape
@@ -117,23 +136,24 @@ def encode(law, version: int = VERSION) -> bytes:
         SPEED_AXIS_CODES["reduced" if reduced else "absolute"],
         HEADER.size + len(payload),
         zlib.crc32(payload),
+        SECTION_STAY if stay else 0,
     )
     return header + payload
 
 
-def write_binary(law, path, *, version: int = VERSION) -> Path:
+def write_binary(law, path, *, version: int | None = None) -> Path:
     """Write the binary table of `law` (a WallLaw or its Dataset) to `path`
-    (atomically), in format `version` (default 2; 1, which readers older than
-    the reduced speed axis know, only for a table on an absolute speed axis);
-    returns the path."""
+    (atomically), in format `version` (default 2, or 3 for a table with
+    ``stay_probability``; 1, which readers older than the reduced speed axis
+    know, only for a table on an absolute speed axis); returns the path."""
     data = encode(law, version)
     return atomic_write(path, lambda tmp: Path(tmp).write_bytes(data))
 
 
 def read_binary(path):
     """The binary table at `path` as an xarray Dataset (``capture_probability``,
-    ``reservoir_count`` and the reservoirs of e_n, mu, the lateral angle and the
-    speed ratio).
+    ``reservoir_count``, the reservoirs of e_n, mu, the lateral angle and the
+    speed ratio, and ``stay_probability`` where the file has that section).
 
     Raises :class:`~microimpact.errors.DataFormatError` where ``swl_load`` would
     return an error (values are not re-checked).
@@ -147,13 +167,16 @@ def read_binary(path):
     data = Path(path).read_bytes()
     if len(data) < HEADER.size:
         raise bad("file too short for the header")
-    magic, version, s, d, v, a, k, width, kind, size, crc = HEADER.unpack_from(data)
+    head = HEADER.unpack_from(data)
+    magic, version, s, d, v, a, k, width, kind, size, crc, sections = head
     if magic != MAGIC:
         raise bad("wrong magic")
     if version not in VERSIONS:
         raise bad(f"format version {version}, this reader knows {VERSIONS}")
     if kind not in ((0,) if version == 1 else (0, 1)):
         raise bad(f"speed axis code {kind} in the header")
+    if sections & ~(SECTION_STAY if version >= 3 else 0):
+        raise bad(f"sections word {sections} in the header")
     reduced = kind == 1
     if width != NAME_WIDTH or size != len(data):
         raise bad(f"header says {size} bytes, the file has {len(data)}")
@@ -181,6 +204,8 @@ def read_binary(path):
     count = take("<i4", nodes)
     dims = REDUCED_DIMS if reduced else DIMS
     variables = {"capture_probability": (dims, p), "reservoir_count": (dims, count)}
+    if sections & SECTION_STAY:
+        variables["stay_probability"] = (dims, take("<f8", nodes))
     for name, arr in zip(RESERVOIRS, res, strict=True):
         variables[f"reservoir_{name}"] = ((*dims, "sample"), arr)
     coords = dict(zip(dims, [np.array(names, dtype=object), *axes], strict=True))
@@ -211,7 +236,15 @@ def _readme(law) -> str:
         )
     else:
         speeds = f"{rng['speed_m_s']} m/s"
+    stay = "no stay probability (built without a [resuspension] table)"
+    if "stay_probability" in ds:
+        stay = (
+            "the probability that a captured particle stays, per node "
+            f"({float(ds['stay_probability'].min()):.4g} … "
+            f"{float(ds['stay_probability'].max()):.4g}): see Resuspension below"
+        )
     return _README.format(
+        stay=stay,
         surfaces=s,
         diameters=rng["diameter_um"],
         speeds=speeds,
@@ -249,7 +282,8 @@ only); `fluent_udf.c` is an Ansys Fluent `DEFINE_DPM_BC` wrapper around them.
 * diameter {diameters} µm;
 * speed {speeds};
 * angle {angles} degrees from the wall plane;
-* K = {k} rebound samples per node.
+* K = {k} rebound samples per node;
+* {stay}.
 
 The frame and the sampling rule are in microimpact's docs/wall-law.md; the binary
 format is documented at the top of `swl.h`.
@@ -303,6 +337,19 @@ its cell in log d, log v and theta (on a reduced speed axis log(v / v_c(d)), v_c
 interpolated in log-log between the diameter nodes); a query outside an axis is
 clamped to the end node, and flagged if it lies outside by more than 1e-9
 relative.
+
+## Resuspension
+
+A table built from a scenario with a `[resuspension]` table (format version 3)
+carries, per node, the probability q that a captured particle stays on the wall
+after the stated exposure at the stated friction velocity (microimpact's
+docs/resuspension.md; quasi-steady flow, independent particles). No extra
+uniform is drawn: a captured particle (u[3] < p) stays where u[3] < p * q, and
+otherwise `swl_sample` sets `SWL_FLAG_RESUSPENDED` in flags (it still returns
+`SWL_CAPTURED`). `swl_stay_probability(law, s, d_um, speed, theta_deg, &q)` gives
+the probability that a particle captured at that query stays (the trilinear
+corners weighted by their capture probabilities). `swl_has_stay(law)` says
+whether the table carries it.
 
 ## Fluent
 

@@ -8,7 +8,9 @@ otherwise take one of the corner's reservoir samples (on a reduced speed axis,
 ``speed_axis = "reduced"``, the speed variable is log(v / v_c(d)): the nodes
 follow the capture edge). Each node's distribution, and
 the correlation of e_n, e_t and the lateral angle within it, are kept; nothing is
-averaged across nodes.
+averaged across nodes. A table built with a ``[resuspension]`` table also carries
+each node's ``stay_probability``: a captured particle stays where the capture
+uniform is below ``capture_probability * stay_probability`` (no extra uniform).
 """
 
 from __future__ import annotations
@@ -72,6 +74,16 @@ INTERPOLATION = (
     "U_y = tan(psi) hypot(U_x, U_z), then U scaled to |U| = speed_ratio s"
 )
 
+#: What ``stay_probability`` assumes (its attribute ``assumptions``).
+STAY_ASSUMPTIONS = (
+    "quasi-steady flow at the stated friction velocity of each step for its "
+    "stated exposure, steps acting in order on what the earlier ones left; "
+    "particles independent of each other (a monolayer); the quasi-static "
+    "Rock'n'Roll rate with the stated adhesion, surface energy and fluid, at the "
+    "node's diameter; the adhesion of a captured particle does not depend on how "
+    "it struck"
+)
+
 _UNITS = {
     "e_n": ("1", "normal restitution e_n = U_z / (s sin theta) (apparent e_m)"),
     "e_t": ("1", "tangential restitution e_t = U_x / (s cos theta)"),
@@ -92,6 +104,12 @@ VARIABLES: dict[str, tuple[str, str]] = {
     "capture_ci_high": ("1", "upper Wilson confidence limit of capture_probability"),
     "reimpact_probability": ("1", "fraction of rebounds with U_z < 0"),
     "reservoir_count": ("1", "rebound samples held in the reservoir"),
+    "stay_probability": (
+        "1",
+        "probability that a particle captured at the node stays on the wall after "
+        "the [resuspension] exposure (Rock'n'Roll quadrature at the node's "
+        "diameter; quasi-steady flow, independent particles)",
+    ),
     "critical_speed_m_s": (
         "m s-1",
         "critical (capture) speed v_c(d) at normal incidence on a smooth surface "
@@ -130,6 +148,8 @@ def wall_law_dataset(
     source_text=None,
     seconds=None,
     critical_speed_m_s=None,
+    stay_probability=None,
+    resuspension=None,
 ):
     """The wall law's CF-1.10 Dataset from per-diameter stacked node columns.
 
@@ -139,6 +159,9 @@ def wall_law_dataset(
     ratios r) `critical_speed_m_s` holds v_c at each diameter node: the speed
     dimension is ``reduced_speed``, with ``critical_speed_m_s`` (diameter) and the
     node speeds ``speed_m_s`` = r v_c(d) (diameter, reduced_speed) as variables.
+    `stay_probability` (one value per diameter node) and `resuspension` (the
+    :class:`~microimpact.scenario.resuspension.ResuspensionSpec` it came from)
+    add ``stay_probability`` on every node, with the flow in its attributes.
     """
     reduced = spec.speed_axis == "reduced"
     dims = REDUCED_DIMS if reduced else DIMS
@@ -174,6 +197,9 @@ def wall_law_dataset(
     data["capture_ci_low"] = (dims, np.where(n > 0, low, np.nan))
     data["capture_ci_high"] = (dims, np.where(n > 0, high, np.nan))
     data["reimpact_probability"] = (dims, reimp)
+    if stay_probability is not None:  # a function of d only, carried per node
+        q = np.asarray(stay_probability, dtype=float).reshape(1, n_d, 1, 1)
+        data["stay_probability"] = (dims, np.broadcast_to(q, p.shape).copy())
     coords = {
         "surface": np.array(grid.surfaces, dtype=object),
         "diameter_um": np.array(spec.diameters_um),
@@ -200,6 +226,13 @@ def wall_law_dataset(
         ds[c].attrs["long_name"] = long_name
         if units is not None:
             ds[c].attrs["units"] = units
+    if "stay_probability" in ds and resuspension is not None:
+        ds["stay_probability"].attrs.update(
+            friction_velocity_m_s=np.asarray(resuspension.friction_velocities_m_s),
+            exposure_s=np.asarray(resuspension.exposures_s),
+            assumptions=STAY_ASSUMPTIONS,
+        )
+        ds.attrs["resuspension"] = dumps(resuspension.describe())
     ds["diameter_um"].attrs["axis_spacing"] = "interpolated in log"
     ds[dims[2]].attrs["axis_spacing"] = "interpolated in log"
     ds.attrs.update(
@@ -256,6 +289,12 @@ class WallLawSample:
     valid : ndarray of bool
         False where the chosen node has no impact to draw from (every draw there
         shadowed).
+    resuspended : ndarray of bool
+        Captured, but removed by the flow of the ``[resuspension]`` table: the
+        capture uniform lay in ``[p q, p)`` with p the chosen node's capture
+        probability and q its ``stay_probability``. All False for a table
+        without ``stay_probability``. A captured particle stays where
+        ``captured & ~resuspended``.
     """
 
     captured: np.ndarray
@@ -263,6 +302,7 @@ class WallLawSample:
     reimpact: np.ndarray
     clamped: np.ndarray
     valid: np.ndarray
+    resuspended: np.ndarray
 
 
 def _bracket(coord: np.ndarray, x: np.ndarray, tol_low: float, tol_high: float):
@@ -373,6 +413,11 @@ class WallLaw:
             _tolerances(self._angle, False),
         )
         self._p = ds["capture_probability"].values.astype(float)
+        self._q = (
+            ds["stay_probability"].values.astype(float)
+            if "stay_probability" in ds
+            else None
+        )
         self._count = ds["reservoir_count"].values.astype(np.int64)
         self._res = {
             n: ds[f"reservoir_{n}"].values.astype(float) for n in RESERVOIR_VARIABLES
@@ -441,6 +486,12 @@ class WallLaw:
         return self.dataset["angle_deg"].values
 
     @property
+    def has_stay_probability(self) -> bool:
+        """Whether the table carries ``stay_probability`` (built with a
+        ``[resuspension]`` table)."""
+        return self._q is not None
+
+    @property
     def reservoir(self) -> int:
         return int(self.dataset.sizes["sample"])
 
@@ -485,8 +536,10 @@ class WallLaw:
             interpolated linearly in log-log between the diameter nodes.
         u : array_like, shape (N, 5)
             Uniform numbers in [0, 1): u[:, 0..2] pick the cell corner along the
-            diameter, speed and angle axes, u[:, 3] decides capture, u[:, 4] picks
-            the reservoir sample (docs/wall-law.md, "The sampling rule").
+            diameter, speed and angle axes, u[:, 3] decides capture (and, on a
+            table with ``stay_probability``, whether a captured particle stays:
+            ``u[:, 3] < p q``), u[:, 4] picks the reservoir sample
+            (docs/wall-law.md, "The sampling rule").
         surface : int or str
             The surface (index or name).
 
@@ -501,33 +554,9 @@ class WallLaw:
         if u.size and (np.any(~(u >= 0.0)) or np.any(~(u < 1.0))):
             raise ValueError("`u` must hold uniform numbers in [0, 1)")
         n = u.shape[0]
-        d = _check_query("diameter_um", diameter_um, n, True)
-        v = _check_query("speed_m_s", speed_m_s, n, True)
-        a = _check_query("angle_deg", angle_deg, n, False)
-        if np.any(v < np.finfo(float).tiny):  # as swl.c: |U| <= s needs a normal s
-            raise ValueError(
-                f"`speed_m_s` must be at least {np.finfo(float).tiny:g} (a normal "
-                f"number); got {float(v[v < np.finfo(float).tiny][0])!r}"
-            )
-        # a unit slip (metres as um, mm/s as m/s), refused as the C sampler does
-        top = self._log_v[-1] + (0.0 if self._log_vc is None else self._log_vc.max())
-        problem = wrong_unit(d, v, math.exp(top))  # the fastest node [m/s]
-        if problem:
-            raise ValueError(problem)
-        idx, clamped = [], np.zeros(n, bool)
-        log_v = np.log(v)
-        for axis, coord in enumerate((self._log_d, self._log_v, self._angle)):
-            x = (np.log(d), log_v, a)[axis]
-            i, t, c = _bracket(coord, x, *self._tol[axis])
-            if axis == 0 and self._log_vc is not None:
-                # reduced axis: x = log v - log v_c(d), log v_c linear in log d
-                # between the diameter nodes (the query's own fraction, clipped)
-                lvc = self._log_vc
-                if lvc.size > 1:
-                    lvc = lvc[i] + t * (lvc[i + 1] - lvc[i])
-                log_v = log_v - lvc
-            idx.append(np.where(u[:, axis] < t, i + 1, i))
-            clamped |= c
+        d, v, a = self._queries(diameter_um, speed_m_s, angle_deg, n)
+        cells, clamped = self._cells(d, v, a)
+        idx = [np.where(u[:, k] < t, i + 1, i) for k, (i, t) in enumerate(cells)]
         node = (s, idx[0], idx[1], idx[2])
         p = self._p[node]
         valid = ~np.isnan(p)
@@ -559,13 +588,114 @@ class WallLaw:
         vel[:, 1] = np.where(rebound, u_y, 0.0)
         vel[:, 2] = np.where(rebound, u_z, 0.0)
         vel[~valid] = np.nan
+        if self._q is None:
+            resuspended = np.zeros(n, bool)
+        else:  # as swl.c: the capture uniform in [p q, p)
+            resuspended = captured & ~(u[:, 3] < p * self._q[node])
         return WallLawSample(
             captured=captured,
             velocity=vel,
             reimpact=rebound & (u_z < 0.0),
             clamped=clamped,
             valid=valid,
+            resuspended=resuspended,
         )
+
+    def _queries(self, diameter_um, speed_m_s, angle_deg, n):
+        """The checked queries as three arrays of length `n` (as swl.c refuses)."""
+        d = _check_query("diameter_um", diameter_um, n, True)
+        v = _check_query("speed_m_s", speed_m_s, n, True)
+        a = _check_query("angle_deg", angle_deg, n, False)
+        if np.any(v < np.finfo(float).tiny):  # as swl.c: |U| <= s needs a normal s
+            raise ValueError(
+                f"`speed_m_s` must be at least {np.finfo(float).tiny:g} (a normal "
+                f"number); got {float(v[v < np.finfo(float).tiny][0])!r}"
+            )
+        # a unit slip (metres as um, mm/s as m/s), refused as the C sampler does
+        top = self._log_v[-1] + (0.0 if self._log_vc is None else self._log_vc.max())
+        problem = wrong_unit(d, v, math.exp(top))  # the fastest node [m/s]
+        if problem:
+            raise ValueError(problem)
+        return d, v, a
+
+    def _cells(self, d, v, a):
+        """``([(lower node, fraction t) per axis], clamped)`` of the queries:
+        step 1 of the sampling rule (docs/wall-law.md)."""
+        cells, clamped = [], np.zeros(d.shape, bool)
+        log_v = np.log(v)
+        for axis, coord in enumerate((self._log_d, self._log_v, self._angle)):
+            x = (np.log(d), log_v, a)[axis]
+            i, t, c = _bracket(coord, x, *self._tol[axis])
+            if axis == 0 and self._log_vc is not None:
+                # reduced axis: x = log v - log v_c(d), log v_c linear in log d
+                # between the diameter nodes (the query's own fraction, clipped)
+                lvc = self._log_vc
+                if lvc.size > 1:
+                    lvc = lvc[i] + t * (lvc[i + 1] - lvc[i])
+                log_v = log_v - lvc
+            cells.append((i, t))
+            clamped |= c
+        return cells, clamped
+
+    def stay_probability(self, diameter_um, speed_m_s, angle_deg, *, surface=0):
+        """Probability that a particle captured at each query stays on the wall.
+
+        Under the sampling rule the corner c of the query's cell is picked with
+        its trilinear weight w_c, and a particle is captured there with the
+        corner's capture probability p_c and then stays with its
+        ``stay_probability`` q_c, so
+
+        ``P(stay | captured) = sum_c w_c p_c q_c / sum_c w_c p_c``
+
+        over the corners with w_c > 0 and p_c not NaN, summed in the corner
+        order (diameter, speed, angle; lower node first) of ``swl.c``'s
+        ``swl_stay_probability``, which gives the same bits. Where no corner
+        can capture (the denominator is 0) it is ``sum_c w_c q_c / sum_c w_c``
+        over those corners; NaN where no corner has data.
+
+        Raises ValueError for a table without ``stay_probability`` and for the
+        queries :meth:`sample_uniform` refuses.
+        """
+        if self._q is None:
+            raise ValueError(
+                "this wall law carries no stay_probability: build it from a "
+                "scenario with a [resuspension] table (docs/resuspension.md)"
+            )
+        s = self.surface_index(surface)
+        shape = np.broadcast_shapes(
+            np.shape(diameter_um), np.shape(speed_m_s), np.shape(angle_deg)
+        )
+        if len(shape) > 1:
+            raise ValueError(f"queries must be scalars or 1-D; got shape {shape}")
+        n = shape[0] if shape else 1
+        d, v, a = self._queries(
+            np.broadcast_to(diameter_um, (n,)),
+            np.broadcast_to(speed_m_s, (n,)),
+            np.broadcast_to(angle_deg, (n,)),
+            n,
+        )
+        cells, _ = self._cells(d, v, a)
+        num, den = np.zeros(n), np.zeros(n)
+        w_num, w_den = np.zeros(n), np.zeros(n)
+        for corner in range(8):  # bits: diameter 4, speed 2, angle 1 (as swl.c)
+            w = np.ones(n)
+            index = []
+            for axis, (i, t) in enumerate(cells):
+                up = (corner >> (2 - axis)) & 1
+                w = w * (t if up else 1.0 - t)
+                index.append(np.minimum(i + up, self._p.shape[axis + 1] - 1))
+            node = (s, *index)
+            p, q = self._p[node], self._q[node]
+            use = (w > 0.0) & ~np.isnan(p)
+            num = np.where(use, num + w * p * q, num)
+            den = np.where(use, den + w * p, den)
+            w_num = np.where(use, w_num + w * q, w_num)
+            w_den = np.where(use, w_den + w, w_den)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out = np.where(
+                den > 0.0, num / den, np.where(w_den > 0.0, w_num / w_den, np.nan)
+            )
+        return out if shape else out[0]
 
     def sample(self, diameter_um, speed_m_s, angle_deg, *, rng, surface=0):
         """Sample impacts (vectorised): ``rng.random((N, 5))`` drives
@@ -614,6 +744,7 @@ class WallLaw:
             "capture_ci_low",
             "capture_ci_high",
             "reimpact_probability",
+            *(("stay_probability",) if self._q is not None else ()),
         ):
             cols[v] = ds[v].values.ravel()
         for name in REBOUND_VARIABLES:

@@ -16,7 +16,7 @@
  * MICROIMPACT_SWL_SURFACE, else SWL_SURFACE_NAME, else the table's first surface.
  * For several surfaces, copy `microimpact_wall` below under another name with
  * another surface name. Either speed axis of the table (absolute, or reduced
- * v / v_c(d); binary format version 1 or 2) is handled inside swl.c: the
+ * v / v_c(d); binary format version 1, 2 or 3) is handled inside swl.c: the
  * wrapper always passes the particle's diameter in um and its velocity in m/s.
  *
  * What it does the Fluent way (sources [1]-[4] below):
@@ -30,6 +30,13 @@
  *   to the built-in trap condition (check the report of your release). Count
  *   captures with `microimpact_wall_report` (per process) or your own UDM.
  *   SWL_CAPTURE_STATUS changes the returned status.
+ * - Resuspension: a table built with a [resuspension] table (format version 3)
+ *   says, from the same five numbers, whether a captured particle stays after
+ *   the stated exposure at the stated friction velocity (swl.h,
+ *   SWL_FLAG_RESUSPENDED; quasi-steady flow, independent particles). Such a
+ *   particle is counted as resuspended (`microimpact_wall_report`) and ends
+ *   with SWL_RESUSPENDED_STATUS (default PATH_ABORT, as a capture: it leaves
+ *   the wall's deposit, and this wrapper does not re-inject it).
  * - A particle whose diameter is below 0.01 um or whose speed is above 1 km/s
  *   beyond the table (SWL_E_UNIT: a unit slip) is aborted (PATH_ABORT) and the
  *   reason is printed once with Message().
@@ -78,12 +85,16 @@
 #ifndef SWL_CAPTURE_STATUS
 #define SWL_CAPTURE_STATUS PATH_ABORT
 #endif
+#ifndef SWL_RESUSPENDED_STATUS
+#define SWL_RESUSPENDED_STATUS PATH_ABORT
+#endif
 
 static swl_law *swl_fluent_law = NULL;
 static int swl_fluent_state = 1; /* 1 not tried, 0 loaded, < 0 the load error */
 /* outcomes in this process: rebound, captured, reflected specularly (no data at
- * the node, or a particle sliding along the face), aborted (no table) */
-static long swl_fluent_count[4] = {0, 0, 0, 0};
+ * the node, or a particle sliding along the face), aborted (no table), and of
+ * the captured those resuspended (SWL_FLAG_RESUSPENDED) */
+static long swl_fluent_count[5] = {0, 0, 0, 0, 0};
 static int swl_fluent_unit_said = 0; /* the wrong-unit message was printed */
 
 static int swl_fluent_load(void)
@@ -187,6 +198,10 @@ static int swl_fluent_hit(Tracked_Particle *tp, real f_normal[], int dim,
         swl_fluent_count[1]++;
         for (i = 0; i < idim; i++)
             TP_VEL(tp)[i] = TP_VEL0(tp)[i] = 0.0;
+        if (flags & SWL_FLAG_RESUSPENDED) {
+            swl_fluent_count[4]++;
+            return SWL_RESUSPENDED_STATUS;
+        }
         return SWL_CAPTURE_STATUS;
     }
     if (rc == SWL_NO_DATA || rc == SWL_E_ARG) {
@@ -236,8 +251,9 @@ DEFINE_DPM_BC(microimpact_wall, tp, t, f, f_normal, dim)
 DEFINE_ON_DEMAND(microimpact_wall_report)
 {
     if (swl_fluent_load() == 0)
-        Message("microimpact wall law: %ld rebounds, %ld captured, %ld reflected "
+        Message("microimpact wall law: %ld rebounds, %ld captured (%ld of them "
+                "resuspended after the table's exposure), %ld reflected "
                 "specularly, %ld aborted\n",
-                swl_fluent_count[0], swl_fluent_count[1], swl_fluent_count[2],
-                swl_fluent_count[3]);
+                swl_fluent_count[0], swl_fluent_count[1], swl_fluent_count[4],
+                swl_fluent_count[2], swl_fluent_count[3]);
 }

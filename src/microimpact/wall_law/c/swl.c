@@ -57,6 +57,7 @@ struct swl_law {
     double *capture;             /* capture_probability [S*D*V*A] */
     double *e_n, *mu, *lateral, *ratio; /* reservoirs [S*D*V*A*K] */
     int32_t *count;              /* reservoir_count [S*D*V*A] */
+    double *stay;                /* stay_probability [S*D*V*A], or NULL */
 };
 
 /* ---- little-endian decoding and CRC-32 ------------------------------------ */
@@ -161,6 +162,7 @@ void swl_free(swl_law *law)
     free(law->lateral);
     free(law->ratio);
     free(law->count);
+    free(law->stay);
     free(law);
 }
 
@@ -229,6 +231,9 @@ static int check_values(swl_law *law, size_t nodes)
             if (!good_sample(law->e_n[base + j], law->mu[base + j], law->lateral[base + j],
                              law->ratio[base + j], st, ct))
                 return SWL_E_VALUE;
+        /* a probability, finite (NaN-safe: within tests isfinite first) */
+        if (law->stay && !within(law->stay[i], 0.0, 1.0))
+            return SWL_E_VALUE;
     }
     return 0;
 }
@@ -236,7 +241,7 @@ static int check_values(swl_law *law, size_t nodes)
 static int load_file(FILE *fp, swl_law **out)
 {
     unsigned char h[SWL_HEADER_SIZE];
-    uint32_t dims[5], crc = 0, width, version, kind;
+    uint32_t dims[5], crc = 0, width, version, kind, sections;
     uint64_t size, expected, nodes, values;
     swl_law *law;
     int rc, i, extra;
@@ -252,8 +257,8 @@ static int load_file(FILE *fp, swl_law **out)
     if (got < 12)
         return SWL_E_TRUNCATED;
     version = get_u32(h + 8);
-    if (version != 1 && version != SWL_FORMAT_VERSION)
-        return SWL_E_VERSION; /* this reader knows versions 1 and 2 */
+    if (version < 1 || version > SWL_FORMAT_VERSION)
+        return SWL_E_VERSION; /* this reader knows versions 1, 2 and 3 */
     if (got < sizeof h)
         return SWL_E_TRUNCATED;
     for (i = 0; i < 5; i++) {
@@ -265,7 +270,11 @@ static int load_file(FILE *fp, swl_law **out)
     kind = get_u32(h + 36); /* version 2: the speed axis; version 1: 0 */
     if (width != SWL_NAME_WIDTH || kind > (version >= 2 ? 1u : 0u))
         return SWL_E_SIZE;
-    for (i = 52; i < SWL_HEADER_SIZE; i++)
+    /* version 3: the sections word (bit 0: stay_probability); before, 0 */
+    sections = version >= 3 ? get_u32(h + 52) : 0u;
+    if (sections & ~1u)
+        return SWL_E_SIZE;
+    for (i = version >= 3 ? 56 : 52; i < SWL_HEADER_SIZE; i++)
         if (h[i] != 0)
             return SWL_E_SIZE;
     /* each factor is <= 1e6, so nodes fits a uint64 when checked step by step */
@@ -283,7 +292,8 @@ static int load_file(FILE *fp, swl_law **out)
         return SWL_E_SIZE;
     expected = SWL_HEADER_SIZE + (uint64_t)dims[0] * SWL_NAME_WIDTH +
                8u * ((uint64_t)dims[1] + dims[2] + dims[3]) + 8u * nodes +
-               32u * values + 4u * nodes + (kind == 1 ? 8u * (uint64_t)dims[1] : 0u);
+               32u * values + 4u * nodes + (kind == 1 ? 8u * (uint64_t)dims[1] : 0u) +
+               ((sections & 1u) ? 8u * nodes : 0u);
     size = get_u64(h + 40);
     if (size != expected)
         return SWL_E_SIZE;
@@ -309,6 +319,13 @@ static int load_file(FILE *fp, swl_law **out)
         law->critical = (double *)malloc(dims[1] * sizeof(double));
         law->log_critical = (double *)malloc(dims[1] * sizeof(double));
         if (!law->critical || !law->log_critical) {
+            swl_free(law);
+            return SWL_E_NOMEM;
+        }
+    }
+    if (sections & 1u) {
+        law->stay = (double *)malloc((size_t)nodes * sizeof(double));
+        if (!law->stay) {
             swl_free(law);
             return SWL_E_NOMEM;
         }
@@ -348,6 +365,8 @@ static int load_file(FILE *fp, swl_law **out)
         rc = read_block(fp, law->ratio, (size_t)values * sizeof(double), &crc);
     if (rc == 0)
         rc = read_block(fp, law->count, (size_t)nodes * sizeof(int32_t), &crc);
+    if (rc == 0 && law->stay)
+        rc = read_block(fp, law->stay, (size_t)nodes * sizeof(double), &crc);
     if (rc == 0) {
         extra = fgetc(fp);
         if (extra != EOF)
@@ -368,6 +387,8 @@ static int load_file(FILE *fp, swl_law **out)
         fix_doubles(law->lateral, (size_t)values);
         fix_doubles(law->ratio, (size_t)values);
         fix_int32(law->count, (size_t)nodes);
+        if (law->stay)
+            fix_doubles(law->stay, (size_t)nodes);
         rc = check_values(law, (size_t)nodes);
     }
     if (rc != 0) {
@@ -447,6 +468,9 @@ const char *swl_strerror(int code)
     case SWL_E_UNIT:
         return "a diameter below 0.01 um or a speed above 1 km/s (and above the "
                "table): a wrong unit? diameters are in um, speeds in m/s";
+    case SWL_E_NO_STAY:
+        return "the table carries no stay probability (build it from a scenario "
+               "with a [resuspension] table)";
     default: return "unknown code";
     }
 }
@@ -465,6 +489,11 @@ int swl_surface_index(const swl_law *law, const char *name)
 int swl_speed_axis(const swl_law *law)
 {
     return law ? law->speed_axis : SWL_E_ARG;
+}
+
+int swl_has_stay(const swl_law *law)
+{
+    return law ? law->stay != NULL : SWL_E_ARG;
 }
 
 int swl_size(const swl_law *law, int what)
@@ -523,34 +552,50 @@ static int pick(int lo, double t, double u)
     return u < t ? lo + 1 : lo;
 }
 
+/* Step 1 on the three axes: the lower node lo[a] and fraction t[a] of the
+ * query's cell on each axis, and the clamped flags. */
+static int cell(const swl_law *law, double diameter_um, double speed_m_s,
+                double angle_deg, int lo[3], double t[3])
+{
+    int c1, c2, c3;
+    double xv, lvc;
+    bracket(law->scaled[0], law->n[1], law->tol[0], log(diameter_um), &lo[0], &t[0],
+            &c1);
+    xv = log(speed_m_s);
+    if (law->speed_axis == SWL_SPEED_REDUCED) {
+        /* x = log v - log v_c(d), log v_c linear in log d between the diameter
+         * nodes at the query's own (clipped) fraction */
+        lvc = law->log_critical[lo[0]];
+        if (law->n[1] > 1)
+            lvc = law->log_critical[lo[0]] + t[0] * (law->log_critical[lo[0] + 1] -
+                                                     law->log_critical[lo[0]]);
+        xv = xv - lvc;
+    }
+    bracket(law->scaled[1], law->n[2], law->tol[1], xv, &lo[1], &t[1], &c2);
+    bracket(law->scaled[2], law->n[3], law->tol[2], angle_deg, &lo[2], &t[2], &c3);
+    return (c1 ? SWL_FLAG_CLAMPED_DIAMETER : 0) | (c2 ? SWL_FLAG_CLAMPED_SPEED : 0) |
+           (c3 ? SWL_FLAG_CLAMPED_ANGLE : 0);
+}
+
+static size_t node_index(const swl_law *law, int surface, int id, int iv, int ia)
+{
+    return (((size_t)surface * law->n[1] + id) * law->n[2] + iv) * law->n[3] + ia;
+}
+
 /* Steps 1-4 for a query already checked; the velocity in the wall frame. */
 static int sample_checked(const swl_law *law, int surface, double diameter_um,
                           double speed_m_s, double angle_deg, const double u[5],
                           double velocity[3], int *flags)
 {
-    int id, iv, ia, c1, c2, c3, k, count, lo;
+    int id, iv, ia, k, count, lo[3];
     size_t node, at;
-    double p, th, st, ct, s, en, mu, ux, uy, uz, norm, scale, t, xv, lvc;
+    double p, th, st, ct, s, en, mu, ux, uy, uz, norm, scale, t[3];
 
-    bracket(law->scaled[0], law->n[1], law->tol[0], log(diameter_um), &lo, &t, &c1);
-    id = pick(lo, t, u[0]);
-    xv = log(speed_m_s);
-    if (law->speed_axis == SWL_SPEED_REDUCED) {
-        /* x = log v - log v_c(d), log v_c linear in log d between the diameter
-         * nodes at the query's own (clipped) fraction */
-        lvc = law->log_critical[lo];
-        if (law->n[1] > 1)
-            lvc = law->log_critical[lo] + t * (law->log_critical[lo + 1] -
-                                               law->log_critical[lo]);
-        xv = xv - lvc;
-    }
-    bracket(law->scaled[1], law->n[2], law->tol[1], xv, &lo, &t, &c2);
-    iv = pick(lo, t, u[1]);
-    bracket(law->scaled[2], law->n[3], law->tol[2], angle_deg, &lo, &t, &c3);
-    ia = pick(lo, t, u[2]);
-    *flags = (c1 ? SWL_FLAG_CLAMPED_DIAMETER : 0) | (c2 ? SWL_FLAG_CLAMPED_SPEED : 0) |
-             (c3 ? SWL_FLAG_CLAMPED_ANGLE : 0);
-    node = (((size_t)surface * law->n[1] + id) * law->n[2] + iv) * law->n[3] + ia;
+    *flags = cell(law, diameter_um, speed_m_s, angle_deg, lo, t);
+    id = pick(lo[0], t[0], u[0]);
+    iv = pick(lo[1], t[1], u[1]);
+    ia = pick(lo[2], t[2], u[2]);
+    node = node_index(law, surface, id, iv, ia);
 
     p = law->capture[node];
     count = law->count[node];
@@ -558,9 +603,13 @@ static int sample_checked(const swl_law *law, int surface, double diameter_um,
         velocity[0] = velocity[1] = velocity[2] = NAN;
         return SWL_NO_DATA;
     }
-    /* step 3 */
+    /* step 3; on a table with stay_probability q the same u[3] decides whether
+     * the captured particle stays: u[3] < p q (given capture u[3] / p is
+     * uniform) */
     if (u[3] < p) {
         velocity[0] = velocity[1] = velocity[2] = 0.0;
+        if (law->stay && !(u[3] < p * law->stay[node]))
+            *flags |= SWL_FLAG_RESUSPENDED;
         return SWL_CAPTURED;
     }
     /* step 4: sample k = floor(u[4] * count), at most count - 1 */
@@ -608,29 +657,89 @@ static int good_uniforms(const double u[5])
     return 1;
 }
 
+/* 0 for a query the sampler takes, else SWL_E_ARG or SWL_E_UNIT. */
+static int check_query(const swl_law *law, int surface, double diameter_um,
+                       double speed_m_s, double angle_deg)
+{
+    /* finite by the bits before any comparison: a NaN argument must not trap; a
+     * subnormal speed is refused: its rebound could not be rounded to |U| <= s */
+    if (!law || surface < 0 || surface >= law->n[0] || !finite_bits(diameter_um) ||
+        !finite_bits(speed_m_s) || !finite_bits(angle_deg) || !(diameter_um > 0.0) ||
+        !(speed_m_s >= DBL_MIN) || !(angle_deg > 0.0) || !(angle_deg <= 90.0))
+        return SWL_E_ARG;
+    /* a diameter in metres, or a speed in mm/s, given where um and m/s belong */
+    if (diameter_um < SWL_MIN_DIAMETER_UM ||
+        (speed_m_s > SWL_MAX_SPEED_M_S && speed_m_s > law->top_speed))
+        return SWL_E_UNIT;
+    return 0;
+}
+
 int swl_sample(const swl_law *law, int surface, double diameter_um, double speed_m_s,
                double angle_deg, const double u[5], double velocity[3], int *flags)
 {
-    int dummy;
+    int dummy, rc;
     if (!flags)
         flags = &dummy;
     *flags = 0;
     if (!velocity)
         return SWL_E_ARG;
     velocity[0] = velocity[1] = velocity[2] = NAN;
-    /* finite by the bits before any comparison: a NaN argument must not trap; a
-     * subnormal speed is refused: its rebound could not be rounded to |U| <= s */
-    if (!law || !u || surface < 0 || surface >= law->n[0] || !good_uniforms(u) ||
-        !finite_bits(diameter_um) || !finite_bits(speed_m_s) || !finite_bits(angle_deg) ||
-        !(diameter_um > 0.0) || !(speed_m_s >= DBL_MIN) || !(angle_deg > 0.0) ||
-        !(angle_deg <= 90.0))
+    if (!u || !good_uniforms(u))
         return SWL_E_ARG;
-    /* a diameter in metres, or a speed in mm/s, given where um and m/s belong */
-    if (diameter_um < SWL_MIN_DIAMETER_UM ||
-        (speed_m_s > SWL_MAX_SPEED_M_S && speed_m_s > law->top_speed))
-        return SWL_E_UNIT;
+    rc = check_query(law, surface, diameter_um, speed_m_s, angle_deg);
+    if (rc != 0)
+        return rc;
     return sample_checked(law, surface, diameter_um, speed_m_s, angle_deg, u, velocity,
                           flags);
+}
+
+int swl_stay_probability(const swl_law *law, int surface, double diameter_um,
+                         double speed_m_s, double angle_deg, double *probability,
+                         int *flags)
+{
+    int dummy, rc, c, a, lo[3], ix[3], up;
+    size_t node;
+    double t[3], w, p, q, num = 0.0, den = 0.0, wq = 0.0, wsum = 0.0;
+    if (!flags)
+        flags = &dummy;
+    *flags = 0;
+    if (!probability)
+        return SWL_E_ARG;
+    *probability = NAN;
+    rc = check_query(law, surface, diameter_um, speed_m_s, angle_deg);
+    if (rc != 0)
+        return rc;
+    if (!law->stay)
+        return SWL_E_NO_STAY;
+    *flags = cell(law, diameter_um, speed_m_s, angle_deg, lo, t);
+    /* the corners in the order of the Python reader (WallLaw.stay_probability):
+     * bit 4 the diameter, 2 the speed, 1 the angle; lower node first */
+    for (c = 0; c < 8; c++) {
+        w = 1.0;
+        for (a = 0; a < 3; a++) {
+            up = (c >> (2 - a)) & 1;
+            w = w * (up ? t[a] : 1.0 - t[a]);
+            ix[a] = lo[a] + up;
+            if (ix[a] > law->n[a + 1] - 1)
+                ix[a] = law->n[a + 1] - 1; /* an axis of one node (weight 0) */
+        }
+        node = node_index(law, surface, ix[0], ix[1], ix[2]);
+        p = law->capture[node];
+        q = law->stay[node];
+        if (!(w > 0.0) || isnan(p))
+            continue; /* never picked, or no impact there */
+        num = num + w * p * q;
+        den = den + w * p;
+        wq = wq + w * q;
+        wsum = wsum + w;
+    }
+    if (den > 0.0)
+        *probability = num / den;
+    else if (wsum > 0.0)
+        *probability = wq / wsum;
+    else
+        return SWL_NO_DATA;
+    return 0;
 }
 
 int swl_sample_n(const swl_law *law, int surface, long n, const double *diameter_um,

@@ -18,12 +18,15 @@
  * (90 deg = normal incidence): u = (s cos theta, 0, -s sin theta).
  *
  * ---------------------------------------------------------------------------
- * Binary format, version 2 (all numbers little-endian; offsets in bytes).
- * This reader also reads version 1, which is version 2 with speed axis code 0.
+ * Binary format, version 3 (all numbers little-endian; offsets in bytes).
+ * This reader also reads version 2, which is version 3 with the sections word
+ * 0, and version 1, which is version 2 with speed axis code 0. microimpact
+ * writes version 3 only for a table with a section (else version 2), so a
+ * reader older than version 3 still reads every table without one.
  * ---------------------------------------------------------------------------
  * Header, 64 bytes:
  *     0  char[8]   magic "SWLTABL\0"
- *     8  uint32    format version (2, or 1)
+ *     8  uint32    format version (3, 2 or 1)
  *    12  uint32    S  number of surfaces           (>= 1)
  *    16  uint32    D  number of diameters          (>= 1)
  *    20  uint32    V  number of speeds             (>= 1)
@@ -35,7 +38,10 @@
  *                  critical speeds v_c follow the axes); always 0 in version 1
  *    40  uint64    total file size in bytes
  *    48  uint32    CRC-32 (zlib's) of every byte after the header
- *    52  char[12]  0  (reserved)
+ *    52  uint32    sections (version 3; 0 in versions 1 and 2): bit 0 set
+ *                  where the stay_probability section follows the counts;
+ *                  no other bit may be set
+ *    56  char[8]   0  (reserved)
  * Payload, in this order (N = S*D*V*A nodes, arrays in C order over
  * (surface, diameter, speed, angle[, sample])):
  *     S * W bytes      surface names, UTF-8, NUL-padded (at least one NUL)
@@ -53,8 +59,16 @@
  *     N int32          reservoir_count, in [0, K]; 0 only where the capture
  *                      probability is 1 or NaN; the first count samples of a
  *                      node are finite, the rest are ignored (NaN by convention)
+ *     N float64        stay_probability, finite and in [0, 1]: present only
+ *                      where sections bit 0 is set. The probability that a
+ *                      particle captured at the node stays on the wall after
+ *                      the exposure of the scenario's [resuspension] table
+ *                      (Rock'n'Roll, at the node's diameter; microimpact's
+ *                      docs/resuspension.md: quasi-steady flow, independent
+ *                      particles, the stated friction velocity and exposure)
  * The file ends there: its size is 64 + S*W + 8*(D+V+A) + 8*N*(1+4K) + 4*N,
- * plus 8*D on a reduced speed axis.
+ * plus 8*D on a reduced speed axis and 8*N with the stay_probability section.
+ * The CRC-32 covers every section.
  *
  * On a reduced speed axis the speed variable of a query (d, v) is
  * log(v) - log v_c(d), where log v_c(d) is interpolated linearly in log d between
@@ -88,7 +102,11 @@
  * Each sample takes u[0..4] in [0, 1): u[0] picks the diameter corner, u[1] the
  * speed corner, u[2] the angle corner, u[3] decides capture and u[4] picks the
  * reservoir sample. All five are consumed on every call, whatever the outcome,
- * so a caller may draw them in blocks of five.
+ * so a caller may draw them in blocks of five. On a table with a
+ * stay_probability q the same u[3] also decides whether a captured particle
+ * stays: captured where u[3] < p, stays where u[3] < p * q (given capture,
+ * u[3] / p is uniform, so it stays with probability q), else the sample is
+ * still SWL_CAPTURED with SWL_FLAG_RESUSPENDED set. No sixth number is drawn.
  */
 #ifndef SWL_H
 #define SWL_H
@@ -97,7 +115,7 @@
 extern "C" {
 #endif
 
-#define SWL_FORMAT_VERSION 2 /* the newest format read; version 1 is read too */
+#define SWL_FORMAT_VERSION 3 /* the newest format read; versions 1, 2 too */
 #define SWL_NAME_WIDTH 64 /* bytes per surface name in the file, NULs included */
 
 /* Results of a sample (>= 0) and errors (< 0). */
@@ -116,10 +134,12 @@ enum {
     SWL_E_CHECKSUM = -7, /* the CRC-32 of the payload does not match */
     SWL_E_VALUE = -8,    /* a value breaks the format (unsorted axis, count > K, ...) */
     SWL_E_NOMEM = -9,    /* out of memory */
-    SWL_E_UNIT = -10     /* a query that looks like a wrong unit: a diameter below
+    SWL_E_UNIT = -10,    /* a query that looks like a wrong unit: a diameter below
                             0.01 um (metres given as um: 3e-6 for 3 um), or a speed
                             above 1 km/s and above the table's fastest node (mm/s
                             given as m/s), or a velocity component above 1e150 */
+    SWL_E_NO_STAY = -11  /* the table carries no stay_probability (built without
+                            a [resuspension] table) */
 };
 
 /* The speed axis of a table (swl_speed_axis). */
@@ -132,6 +152,8 @@ enum { SWL_SPEED_ABSOLUTE = 0, SWL_SPEED_REDUCED = 1 };
 #define SWL_FLAG_CLAMPED_ANGLE 4    /* the angle was outside the table's range */
 #define SWL_FLAG_CLAMPED 7          /* any of the three */
 #define SWL_FLAG_REIMPACT 8         /* rebound with U_z < 0: strike the wall again */
+#define SWL_FLAG_RESUSPENDED 16     /* captured, then removed by the flow of the
+                                       [resuspension] table (u[3] >= p * q) */
 
 typedef struct swl_law swl_law; /* opaque; read only after swl_load */
 
@@ -157,6 +179,27 @@ int swl_size(const swl_law *law, int what);
  * sampler handles itself: queries are always in m/s), SWL_E_ARG for NULL. */
 int swl_speed_axis(const swl_law *law);
 
+/* 1 where the table carries stay_probability (format version 3, section bit
+ * 0), 0 where not, SWL_E_ARG for NULL. */
+int swl_has_stay(const swl_law *law);
+
+/*
+ * The probability that a particle captured at the query (surface, diameter
+ * [um], speed [m/s], angle [deg]; checked as in swl_sample) stays on the wall
+ * after the table's [resuspension] exposure, under the sampling rule: with w_c
+ * the probability of picking corner c of the query's cell, p_c its capture
+ * probability and q_c its stay_probability,
+ *     *probability = sum_c w_c p_c q_c / sum_c w_c p_c
+ * over the corners with w_c > 0 and p_c not NaN (in the corner order diameter,
+ * speed, angle, lower node first); where that denominator is 0 (nothing can be
+ * captured there) sum_c w_c q_c / sum_c w_c. Returns 0, SWL_NO_DATA (no
+ * corner has data; *probability NaN), SWL_E_NO_STAY, or an error of
+ * swl_sample. *flags (may be NULL) gets the SWL_FLAG_CLAMPED_* bits.
+ */
+int swl_stay_probability(const swl_law *law, int surface, double diameter_um,
+                         double speed_m_s, double angle_deg, double *probability,
+                         int *flags);
+
 /* The name of surface `surface` (NUL-terminated), or NULL if out of range. */
 const char *swl_surface_name(const swl_law *law, int surface);
 
@@ -164,7 +207,8 @@ const char *swl_surface_name(const swl_law *law, int surface);
  * Sample the law at (surface, diameter [um] > 0, speed [m/s] > 0, angle [deg from
  * the wall plane] in (0, 90]) with the uniform numbers u[0..4] (see above).
  * Writes the rebound velocity in the wall frame into velocity[3] and the
- * SWL_FLAG_* bits into *flags (flags may be NULL). Returns SWL_REBOUND,
+ * SWL_FLAG_* bits into *flags (flags may be NULL; SWL_FLAG_RESUSPENDED on a
+ * capture that does not stay, on a table with stay_probability). Returns SWL_REBOUND,
  * SWL_CAPTURED, SWL_NO_DATA or a negative error (then velocity is NaN).
  * Queries outside an axis' range use its end node and are flagged clamped; the
  * velocity is always built at the query's own speed and angle.

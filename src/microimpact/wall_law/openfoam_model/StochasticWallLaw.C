@@ -273,7 +273,9 @@ Foam::StochasticWallLaw<CloudType>::StochasticWallLaw
     nReimpacts_(0),
     nForced_(0),
     nClamped_(0),
-    struck_()
+    struck_(),
+    resuspension_(this->coeffDict().lookupOrDefault("resuspension", false)),
+    nResuspended_(0)
 {
     const fileName given(table_);
     table_.expand();
@@ -295,6 +297,13 @@ Foam::StochasticWallLaw<CloudType>::StochasticWallLaw
             << "(docs/wall-law.md)" << exit(FatalIOError);
     }
     law_.reset(raw, swl_free);
+    if (resuspension_ && swl_has_stay(law_.get()) != 1)
+    {
+        FatalIOErrorInFunction(this->coeffDict())
+            << "resuspension yes needs a table with stay_probability (built "
+            << "with [resuspension]); " << table_ << " has none"
+            << exit(FatalIOError);
+    }
 
     readPatches();
 
@@ -343,7 +352,9 @@ Foam::StochasticWallLaw<CloudType>::StochasticWallLaw
     nReimpacts_(pim.nReimpacts_),
     nForced_(pim.nForced_),
     nClamped_(pim.nClamped_),
-    struck_(pim.struck_)
+    struck_(pim.struck_),
+    resuspension_(pim.resuspension_),
+    nResuspended_(pim.nResuspended_)
 {}
 
 
@@ -477,7 +488,12 @@ bool Foam::StochasticWallLaw<CloudType>::correct
             {
                 nFirstCaptured_++;
             }
-            removeParcel(p, entryi, captureEscapes_[entryi], keepParticle);
+            const bool gone = resuspension_ && (flags & SWL_FLAG_RESUSPENDED);
+            nResuspended_ += gone;
+            removeParcel
+            (
+                p, entryi, gone || captureEscapes_[entryi], keepParticle
+            );
             return true;
         }
         if (rc == SWL_REBOUND)
@@ -533,6 +549,7 @@ void Foam::StochasticWallLaw<CloudType>::info(Ostream& os)
     const label nReimpacts = total("reimpacts", nReimpacts_);
     const label nForced = total("forcedCaptures", nForced_);
     const label nClamped = total("clampedQueries", nClamped_);
+    const label nResuspended = total("resuspended", nResuspended_);
 
     forAll(entries_, i)
     {
@@ -560,6 +577,11 @@ void Foam::StochasticWallLaw<CloudType>::info(Ostream& os)
             << " queries lay outside the table and used its end nodes; "
             << "extend the table's nodes" << nl;
     }
+    if (resuspension_)
+    {
+        os  << "    stochasticWallLaw: resuspended " << nResuspended
+            << " of the captured parcels" << nl;
+    }
 
     this->file()
         << tab << nFirst << tab << nFirstCaptured << tab << nStrikes
@@ -577,6 +599,7 @@ void Foam::StochasticWallLaw<CloudType>::info(Ostream& os)
         this->setModelProperty("reimpacts", nReimpacts);
         this->setModelProperty("forcedCaptures", nForced);
         this->setModelProperty("clampedQueries", nClamped);
+        this->setModelProperty("resuspended", nResuspended);
 
         nEscape_ = Zero;
         massEscape_ = Zero;
@@ -588,5 +611,6 @@ void Foam::StochasticWallLaw<CloudType>::info(Ostream& os)
         nReimpacts_ = 0;
         nForced_ = 0;
         nClamped_ = 0;
+        nResuspended_ = 0;
     }
 }
