@@ -40,6 +40,12 @@ angle_deg = [30, 90]
 [wall_law]
 diameter_um = [5, 20]
 reservoir = 16
+
+[resuspension]  # wall_law.nc carries the stay probability too
+friction_velocity_m_s = [0.5, 1.0]
+exposure_s = 2.0
+surface_energy_j_m2 = 0.56
+fluid = { name = "air", temperature_k = 293.15, pressure_pa = 101325 }
 """
 
 
@@ -106,6 +112,9 @@ def outputs(tmp_path_factory):
 @pytest.mark.parametrize("which", [1, 2], ids=["results.nc", "wall_law.nc"])
 def test_cf_checker_reports_no_error_and_no_warning(outputs, tmp_path, which):
     path = outputs[which]
+    if which == 2:
+        with netCDF4.Dataset(path) as ds:
+            assert "stay_probability" in ds.variables
     errors, warnings = _cf_messages(path, tmp_path)
     assert errors == []
     assert warnings == []
