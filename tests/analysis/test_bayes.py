@@ -409,6 +409,52 @@ def wall_law_scenario(tmp_path):
     return path
 
 
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")  # nodes with no rebound
+def test_posterior_wall_law_carries_the_stay_probability_of_its_captures(tmp_path):
+    """With [resuspension] the mixture keeps ``stay_probability``: at the nodes,
+    the Rock'n'Roll quadrature at each diameter (the same in every draw here:
+    the surface energy is given); and the mixture weights each draw's stay
+    probability by its captures, checked by hand on two altered draws."""
+    import types
+
+    import arviz as az
+
+    from microimpact.analysis.wall_law_posterior import _mixture, posterior_wall_law
+    from microimpact.physics.resuspension import (
+        air_properties,
+        remaining_fraction_ramp,
+    )
+
+    path = wall_law_scenario(tmp_path)
+    path.write_text(
+        path.read_text()
+        + "[resuspension]\nfriction_velocity_m_s = [0.5, 1.0]\nexposure_s = 2.0\n"
+        "surface_energy_j_m2 = 0.56\n"
+        'fluid = { name = "air", temperature_k = 293.15, pressure_pa = 101325 }\n'
+    )
+    idata = az.from_dict(posterior={VC: np.array([[0.3, 0.8]])})
+    mix = posterior_wall_law(path, idata, draws=2)
+    q = mix.dataset["stay_probability"]
+    rho, nu = air_properties(293.15, 101325.0)
+    for j, d_um in enumerate((5.0, 20.0)):
+        want = remaining_fraction_ramp(
+            d_um * 0.5e-6, [0.5, 1.0], [2.0, 2.0], rho, nu, 0.56, outside="ignore"
+        )[-1]
+        np.testing.assert_allclose(q.isel(diameter_um=j).values, want, rtol=1e-6)
+    # two draws with other stay probabilities and captures: weighted by captures
+    a, b = mix.dataset.copy(deep=True), mix.dataset.copy(deep=True)
+    a["n_captured"].values[...] = 30
+    b["n_captured"].values[...] = 10
+    a["stay_probability"].values[...] = 0.2
+    b["stay_probability"].values[...] = 0.6
+    pooled = _mixture([types.SimpleNamespace(dataset=x) for x in (a, b)])
+    np.testing.assert_allclose(pooled["stay_probability"].values, 0.3)  # (6+6)/40
+    b["n_captured"].values[...] = 0
+    a["n_captured"].values[...] = 0
+    pooled = _mixture([types.SimpleNamespace(dataset=x) for x in (a, b)])
+    np.testing.assert_allclose(pooled["stay_probability"].values, 0.4)  # no capture
+
+
 def test_posterior_wall_law_capture_is_the_average_over_draws(tmp_path):
     """The mixture table's capture probability at every node is the mean of the
     tables built separately (public build API) at each posterior draw."""

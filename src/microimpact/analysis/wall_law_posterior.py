@@ -19,7 +19,10 @@ their Monte Carlo noise). The mixture table pools them:
   random sample, so this is a random sample of the mixture), as many as the fewest
   any draw holds;
 * ``capture_probability_draw_std`` and ``<name>_mean_draw_std``: the standard
-  deviation over the draws, the parameters' uncertainty at each node.
+  deviation over the draws, the parameters' uncertainty at each node;
+* ``stay_probability`` (where the scenario has ``[resuspension]``): the
+  probability that a particle the mixture captures stays, each draw's weighted
+  by its captures at the node (the draws' average where none captured).
 
 The C sampler, the Fluent UDF and the OpenFOAM model read the table as any other
 (the added variables are ignored by them).
@@ -33,6 +36,7 @@ import numpy as np
 
 from ..engine.statistics import wilson_interval
 from ..errors import InputError
+from ..scenario.resuspension import resuspension_from_dict
 from ..wall_law import WallLaw, build_wall_law
 from .bayes import split_calibration_table
 from .model import ScenarioModel
@@ -93,6 +97,14 @@ def _mixture(laws):
     low, high = wilson_interval(cap, n, float(out.attrs.get("confidence", 0.95)))
     out["capture_ci_low"].values = np.where(n > 0, low, np.nan)
     out["capture_ci_high"].values = np.where(n > 0, high, np.nan)
+    if "stay_probability" in out:
+        # P(stays | captured) of the mixture: each draw's weighted by its captures
+        q = np.stack([d["stay_probability"].values for d in dss])
+        c = np.stack([d["n_captured"].values for d in dss]).astype(float)
+        total = c.sum(axis=0)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            mixed = (c * q).sum(axis=0) / total
+        out["stay_probability"].values = np.where(total > 0, mixed, q.mean(axis=0))
     p = np.stack([d["capture_probability"].values for d in dss])
     spread = out["capture_probability"].copy(data=np.std(p, axis=0))
     spread.attrs.update(
@@ -196,6 +208,14 @@ def posterior_wall_law(
     laws = []
     for i in range(draws):
         sc = model.scenario({k: float(v[i]) for k, v in values.items()})
+        # the file's [resuspension] at this draw (its surface energy may come
+        # from the draw's capture law)
+        res = resuspension_from_dict(
+            model.file.data,
+            source=model.source,
+            base_dir=model.base_dir,
+            capture_law=sc.coefficients.v_c,
+        )
         laws.append(
             build_wall_law(
                 sc,
@@ -204,6 +224,7 @@ def posterior_wall_law(
                 workers=workers,
                 executor=executor,
                 progress=progress,
+                resuspension=False if res is None else res,
             )
         )
     with warnings.catch_warnings():  # a node with no rebound in a draw: NaN
