@@ -122,6 +122,7 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=34)
     ap.add_argument("--workdir", type=Path)
     ap.add_argument("--json", type=Path)
+    ap.add_argument("--batch", type=int, default=20, help="mutants per mutmut run")
     args = ap.parse_args(argv)
     work = args.workdir or Path(tempfile.mkdtemp(prefix="microimpact-mutmut-"))
     if not (work / "pyproject.toml").exists():
@@ -132,9 +133,13 @@ def main(argv=None) -> int:
     rng = np.random.default_rng(args.seed)
     pick = sorted(rng.choice(len(names), size=args.sample, replace=False))
     sample = [names[i] for i in pick]
-    todo = [m for m in sample if exit_codes(work).get(m) in UNCHECKED]
-    for i in range(0, len(todo), 50):  # in batches: an interruption keeps results
-        mutmut(work, todo[i : i + 50])
+    done = exit_codes(work)
+    todo = [m for m in sample if done.get(m) in UNCHECKED]
+    # in a random order and in batches: an interrupted run keeps its results,
+    # and the mutants checked so far are themselves a random sample
+    todo = [todo[i] for i in rng.permutation(len(todo))]
+    for i in range(0, len(todo), args.batch):
+        mutmut(work, todo[i : i + args.batch])
     codes = exit_codes(work)
     verdict = {m: codes.get(m) for m in sample}
     checked = {m: c for m, c in verdict.items() if c not in UNCHECKED}
