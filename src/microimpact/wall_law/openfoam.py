@@ -96,8 +96,15 @@ MODEL_FILES = (
     "StochasticWallLaw.H",
     "StochasticWallLaw.C",
     "swlPatchEntry.H",
+    # one registration per cloud type of OpenFOAM v1912's solvers (Make/files)
     "makeStochasticWallLawKinematicCloud.C",
     "makeStochasticWallLawKinematicCollidingCloud.C",
+    "makeStochasticWallLawKinematicMPPICCloud.C",
+    "makeStochasticWallLawThermoCloud.C",
+    "makeStochasticWallLawReactingCloud.C",
+    "makeStochasticWallLawReactingMultiphaseCloud.C",
+    "makeStochasticWallLawHeterogeneousReactingCloud.C",
+    "makeStochasticWallLawSprayCloud.C",
     "Make/files",
     "Make/options",
 )

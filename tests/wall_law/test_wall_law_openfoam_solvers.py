@@ -1,0 +1,428 @@
+"""``stochasticWallLaw`` in every Lagrangian solver of Debian's OpenFOAM 1912.
+
+The library is built once per machine and source (``foam_box.build_library``) by
+the exported ``build.sh``. Each solver runs a box of 64 cells whose floor is the
+wall-law patch, with ballistic parcels (no forces, no heat or mass transfer) that
+strike it once at one node of the table (20 um, 1 m/s, 60 deg). The oracle is
+the table's capture probability at that node: the capture at the first strike,
+K of F, lies within 4 binomial standard errors of it.
+
+Where OpenFOAM, a solver, mpirun or the compiler is missing, the tests skip and
+say why.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import shutil
+import subprocess
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+from foam_box import (
+    SOLVERS,
+    build_error,
+    build_library,
+    cloud_properties,
+    foam_env,
+    solver_case,
+)
+
+pytest.importorskip("xarray")
+
+from microimpact.wall_law.openfoam import (
+    MODEL_DIR,
+    MODEL_FILES,
+    MODEL_SOURCES,
+    STOCHASTIC_FILE,
+    OpenFOAMFallbackWarning,
+    write_stochastic_model,
+)
+
+DIAMETER_UM = 20.0
+SPEED = 1.0
+ANGLE_DEG = 60.0
+#: The cloud types of OpenFOAM v1912's lagrangian/intermediate and
+#: lagrangian/spray (clouds/derived), written out here as the oracle of what the
+#: model must be registered for.
+CLOUD_TYPES = {
+    "basicKinematicCloud",
+    "basicKinematicCollidingCloud",
+    "basicKinematicMPPICCloud",
+    "basicThermoCloud",
+    "basicReactingCloud",
+    "basicReactingMultiphaseCloud",
+    "basicHeterogeneousReactingCloud",
+    "basicSprayCloud",
+}
+
+needs_openfoam = pytest.mark.skipif(
+    shutil.which("blockMesh") is None
+    or shutil.which("icoUncoupledKinematicParcelFoam") is None,
+    reason="OpenFOAM (Debian package openfoam) is not installed",
+)
+
+
+@pytest.fixture(scope="module")
+def law():
+    """The model tests' table (20 um, 1 m/s, 60 deg is an inner node)."""
+    import microimpact as mi
+
+    spec = mi.WallLawSpec(
+        diameters_um=(10.0, DIAMETER_UM, 40.0),
+        speeds_m_s=(0.5, SPEED, 2.0, 4.0),
+        angles_deg=(30.0, ANGLE_DEG, 90.0),
+        reservoir=256,
+        samples=4000,
+    )
+    sc = mi.Scenario.from_preset("sst76-formica-oblique")
+    rough = mi.SurfaceVariant("formica", mi.normal_angles(22.0))
+    sc = sc.with_options(surfaces=(rough, *sc.surfaces[1:]))
+    return mi.build_wall_law(sc, spec, seed=3)
+
+
+@pytest.fixture(scope="module")
+def exported(tmp_path_factory, law):
+    out = tmp_path_factory.mktemp("law")
+    with warnings.catch_warnings():  # the localInteraction fallback's, not tested here
+        warnings.simplefilter("ignore", OpenFOAMFallbackWarning)
+        law.write(out)
+    return out
+
+
+@pytest.fixture(scope="module")
+def library(exported):
+    if shutil.which("icoUncoupledKinematicParcelFoam") is None:
+        pytest.skip("OpenFOAM (Debian package openfoam) is not installed")
+    rc, libdir, log = build_library(
+        exported / "openfoam", "icoUncoupledKinematicParcelFoam"
+    )
+    if rc == 3:
+        pytest.skip(f"stochasticWallLaw cannot be built here: {build_error(log)}")
+    assert rc == 0, f"build.sh failed:\n{log}"
+    return libdir, log
+
+
+def _p_node(law):
+    node = law.dataset.sel(
+        surface="formica",
+        diameter_um=DIAMETER_UM,
+        speed_m_s=SPEED,
+        angle_deg=ANGLE_DEG,
+    )
+    return float(node.capture_probability)
+
+
+def _case(case: Path, exported: Path, solver: str, n: int, *, escape="escape"):
+    """`n` parcels 1 cm above the floor, at SPEED and ANGLE_DEG towards it, in
+    every cloud of `solver`; they strike in step 10 of 14."""
+    theta = math.radians(ANGLE_DEG)
+    u_n, u_t = SPEED * math.sin(theta), SPEED * math.cos(theta)
+    h = 0.01
+    put, family = solver_case(
+        case,
+        solver,
+        dt=h / u_n / 9.5,
+        steps=14,
+        control_extra='libs ("libstochasticWallLaw.so");\n',
+    )
+    put(
+        "system/decomposeParDict",
+        "dictionary",
+        "numberOfSubdomains 2;\nmethod simple;\ncoeffs { n (1 1 2); delta 0.001; }\n",
+    )
+    shutil.copy(exported / "c" / "wall_law.swl", case / "constant" / "wall_law.swl")
+    text = (exported / "openfoam" / STOCHASTIC_FILE).read_text()
+    text = text.replace(
+        "// the mesh's other patches, e.g. outlet { type escape; }",
+        f"outer {{ type {escape}; }}",
+    )
+    (case / "constant" / STOCHASTIC_FILE).write_text(text)
+    side = math.ceil(math.sqrt(n / 2))
+    xs = np.linspace(0.005, 0.08, side)
+    zs = np.linspace(0.004, 0.096, 2 * side + 1)
+    pts = [(float(x), h, float(z)) for z in zs for x in xs][:n]
+    assert len(pts) == n
+    positions = f"{n}\n(\n" + "".join(f"({x!r} {h!r} {z!r})\n" for x, _, z in pts)
+    for cloud in SOLVERS[solver][1]:
+        put(f"constant/{cloud}Positions", "vectorField", positions + ")\n")
+        injection = (
+            "        model1 { type manualInjection; massTotal 1e-9;\n"
+            "            parcelBasisType fixed; nParticle 1; SOI 0;\n"
+            "            massFlowRate constant 1e-9; duration 1;\n"
+            f'            positionsFile "{cloud}Positions"; U0 ({u_t!r} {-u_n!r} 0);\n'
+            "            sizeDistribution { type fixedValue; fixedValueDistribution "
+            f"{{ value {DIAMETER_UM * 1e-6!r}; }} }} }}\n"
+        )
+        put(
+            f"constant/{cloud}Properties",
+            "dictionary",
+            cloud_properties(
+                family,
+                cloud,
+                injection=injection,
+                patch_model="patchInteractionModel stochasticWallLaw;\n"
+                f'    #include "{STOCHASTIC_FILE}"',
+            ),
+        )
+
+
+def _run(case: Path, solver: str, libdir: Path, *, nprocs=1, check=True):
+    env = foam_env(libdir)
+    apps = [["blockMesh"]]
+    if nprocs > 1:
+        apps += [["decomposePar"], ["mpirun", "-np", str(nprocs), solver, "-parallel"]]
+    else:
+        apps += [[solver]]
+    for cmd in apps:
+        proc = subprocess.run(
+            [*cmd, "-case", str(case)],
+            capture_output=True,
+            text=True,
+            env=env,
+            timeout=600,
+        )
+        log = proc.stdout + proc.stderr
+        (case / f"log.{cmd[0]}").write_text(log)
+        if proc.returncode != 0:
+            if check:
+                raise AssertionError(f"{' '.join(cmd)} failed:\n{log[-4000:]}")
+            return log
+    return log
+
+
+def _summaries(log: str, cloud: str) -> list[tuple[int, int]]:
+    """(first strikes, captured at first strike) of every summary of `cloud`."""
+    out = []
+    for part in log.split("Cloud: ")[1:]:
+        if part.split(None, 1)[0] == cloud:
+            m = re.search(
+                r"stochasticWallLaw: first strikes (\d+), captured at first strike "
+                r"(\d+)",
+                part,
+            )
+            if m:
+                out.append((int(m.group(1)), int(m.group(2))))
+    return out
+
+
+def _z(k: int, n: int, p: float) -> float:
+    return (k / n - p) / math.sqrt(p * (1 - p) / n)
+
+
+def test_every_cloud_type_is_registered_and_exported():
+    """One registration file per cloud type of OpenFOAM v1912, each in Make/files
+    and in the exporter's file list, and no other source."""
+    files = (MODEL_SOURCES / "Make" / "files").read_text()
+    listed = re.findall(r"^(\S+\.C)$", files, re.M)
+    on_disk = sorted(p.name for p in MODEL_SOURCES.glob("makeStochasticWallLaw*.C"))
+    assert sorted(listed) == on_disk
+    assert set(on_disk) <= set(MODEL_FILES)
+    registered = set()
+    for name in on_disk:
+        text = (MODEL_SOURCES / name).read_text()
+        found = re.findall(
+            r"^makePatchInteractionModelType\(StochasticWallLaw, (\w+)\);", text, re.M
+        )
+        assert len(found) == 1, name  # one cloud type per file
+        registered |= set(found)
+    assert registered == CLOUD_TYPES
+    # every solver's cloud type is among them (coalCloud is the multiphase type)
+    for _, _, types in SOLVERS.values():
+        for t in types.split(", "):
+            assert t.replace("coalCloud", "basicReactingMultiphaseCloud") in registered
+
+
+def test_export_writes_every_registration(tmp_path, law):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", OpenFOAMFallbackWarning)
+        written = write_stochastic_model(law, tmp_path)
+    names = {p.name for p in written if p.parent.name == MODEL_DIR}
+    for name in MODEL_SOURCES.glob("makeStochasticWallLaw*.C"):
+        assert name.name in names
+
+
+@needs_openfoam
+def test_build_log_names_the_clouds_registered(library):
+    _, log = library
+    m = re.search(r"build\.sh: clouds registered \((\d+)\): (.*)", log)
+    assert m, log
+    assert int(m.group(1)) == len(CLOUD_TYPES)
+    assert set(m.group(2).split()) == CLOUD_TYPES
+
+
+@needs_openfoam
+@pytest.mark.parametrize("solver", sorted(SOLVERS))
+def test_every_solver_finds_the_model(tmp_path, library, exported, law, solver):
+    """Start-up: the solver selects stochasticWallLaw for each of its clouds, and
+    the summary counts every parcel's first strike (49 parcels)."""
+    if shutil.which(solver) is None:
+        pytest.skip(f"{solver} is not installed")
+    libdir, _ = library
+    n = 49
+    _case(tmp_path / "case", exported, solver, n)
+    log = _run(tmp_path / "case", solver, libdir)
+    assert "Unknown patchInteractionModel" not in log
+    p = _p_node(law)
+    for cloud in SOLVERS[solver][1]:
+        found = _summaries(log, cloud)
+        assert found, f"no stochasticWallLaw summary of {cloud}:\n{log[-3000:]}"
+        f, k = found[-1]
+        assert f == n
+        assert abs(_z(k, f, p)) < 4
+
+
+@needs_openfoam
+@pytest.mark.parametrize("solver", ["MPPICFoam", "reactingParcelFoam"])
+def test_capture_at_a_node(tmp_path, library, exported, law, solver):
+    """4,000 parcels at one node: capture at the first strike is the table's."""
+    if shutil.which(solver) is None:
+        pytest.skip(f"{solver} is not installed")
+    libdir, _ = library
+    n = 4000
+    _case(tmp_path / "case", exported, solver, n)
+    log = _run(tmp_path / "case", solver, libdir)
+    (f, k) = _summaries(log, SOLVERS[solver][1][0])[-1]
+    assert f == n
+    p = _p_node(law)
+    assert 0.2 < p < 0.8
+    assert abs(_z(k, f, p)) < 4, (k, f, p)
+
+
+@needs_openfoam
+def test_mppic_on_two_processors(tmp_path, library, exported, law):
+    """MPPICFoam on 2 processors: both processors' counters are summed, every
+    parcel's first strike is counted once and capture agrees with the table."""
+    for tool in ("mpirun", "decomposePar", "MPPICFoam"):
+        if shutil.which(tool) is None:
+            pytest.skip(f"{tool} is not installed")
+    libdir, _ = library
+    n = 4000
+    case = tmp_path / "case"
+    _case(case, exported, "MPPICFoam", n)
+    log = _run(case, "MPPICFoam", libdir, nprocs=2)
+    assert (case / "processor1").is_dir()
+    assert "nProcs : 2" in log
+    (f, k) = _summaries(log, "kinematicCloud")[-1]
+    assert f == n
+    assert abs(_z(k, f, _p_node(law))) < 4
+
+
+def _needed(lib: Path) -> set[str]:
+    """The DT_NEEDED entries of a shared library (readelf -d)."""
+    out = subprocess.run(
+        ["readelf", "-d", str(lib)], capture_output=True, text=True, check=True
+    ).stdout
+    return set(re.findall(r"\(NEEDED\)\s+Shared library: \[([^\]]+)\]", out))
+
+
+@needs_openfoam
+def test_make_options_libraries_are_linked(library):
+    """The spray cloud's libraries come from Make/options into the library."""
+    if shutil.which("readelf") is None:
+        pytest.skip("readelf (binutils) is not installed")
+    libdir, _ = library
+    needed = _needed(libdir / "libstochasticWallLaw.so")
+    options = (MODEL_SOURCES / "Make" / "options").read_text()
+    for name in re.findall(r"-l(\w+)", options):
+        if name != "m":
+            assert f"lib{name}.so" in needed, name
+    assert {"liblagrangianSpray.so", "liblagrangianTurbulence.so"} <= needed
+
+
+@needs_openfoam
+def test_build_takes_a_new_library_and_include_folder_from_make_options(
+    tmp_path, exported
+):
+    """A library and an include folder added to Make/options, and a source to
+    Make/files, reach the compiler and the linker without a change to build.sh:
+    the source compiles only if the include folder is on the compiler's path,
+    and libcoalCombustion.so is then NEEDED by the library (readelf)."""
+    if shutil.which("readelf") is None or shutil.which("g++") is None:
+        pytest.skip("readelf or g++ is not installed")
+    folder = tmp_path / "openfoam"
+    shutil.copytree(exported / "openfoam", folder)
+    model = folder / MODEL_DIR
+    (model / "probe.C").write_text(
+        '#if !__has_include("coalCloud.H")\n'
+        '#error "coalCombustion/lnInclude is not on the include path"\n'
+        "#endif\n"
+        'extern "C" int microimpactProbe() { return 0; }\n'
+    )
+    # only the sampler and the probe: no minute-long cloud registration
+    (model / "Make" / "files").write_text(
+        "swl.c\nprobe.C\n\nLIB = $(FOAM_USER_LIBBIN)/libstochasticWallLaw\n"
+    )
+    options = (model / "Make" / "options").read_text()
+    options = options.replace(
+        "EXE_INC = \\\n",
+        "EXE_INC = \\\n    -I$(LIB_SRC)/lagrangian/coalCombustion/lnInclude \\\n",
+    ).replace("LIB_LIBS = \\\n", "LIB_LIBS = \\\n    -lcoalCombustion \\\n")
+    (model / "Make" / "options").write_text(options)
+    proc = subprocess.run(
+        ["bash", str(folder / "build.sh"), str(tmp_path / "lib")],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    if proc.returncode == 3:
+        pytest.skip(f"cannot build here: {build_error(proc.stdout + proc.stderr)}")
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "no source in Make/files registers stochasticWallLaw" in proc.stdout
+    assert "-lcoalCombustion" in proc.stdout
+    needed = _needed(tmp_path / "lib" / "libstochasticWallLaw.so")
+    assert "libcoalCombustion.so" in needed
+    # a library that does not exist is named, exit 3 (the environment)
+    (model / "Make" / "options").write_text(
+        options.replace("-lcoalCombustion", "-lnoSuchFoamLibrary")
+    )
+    proc = subprocess.run(
+        ["bash", str(folder / "build.sh"), str(tmp_path / "lib2")],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert proc.returncode == 3
+    assert "-lnoSuchFoamLibrary" in proc.stderr
+    assert "libnoSuchFoamLibrary.so" in proc.stderr
+
+
+def test_build_with_wmake_names_the_clouds_and_uses_make(tmp_path, exported):
+    """Where wmake and the headers exist, build.sh runs `wmake libso` in a copy of
+    the model's folder (a stand-in wmake records what it was given) and its log
+    names the clouds that Make/files registers."""
+    src = tmp_path / "src"
+    (src / "lagrangian" / "intermediate" / "lnInclude").mkdir(parents=True)
+    bindir = tmp_path / "bin"
+    bindir.mkdir()
+    record = tmp_path / "wmake.txt"
+    (bindir / "wmake").write_text(
+        "#!/usr/bin/env bash\n"
+        f'{{ echo "args: $*"; echo "libbin: $FOAM_USER_LIBBIN"; ls Make; }}'
+        f" > {record}\n"
+        'touch "$FOAM_USER_LIBBIN/libstochasticWallLaw.so"\n'
+    )
+    (bindir / "wmake").chmod(0o755)
+    env = {
+        "PATH": f"{bindir}:/usr/bin:/bin",
+        "HOME": str(tmp_path),
+        "FOAM_SRC": str(src),
+        "WM_PROJECT_VERSION": "1912",
+    }
+    proc = subprocess.run(
+        ["bash", str(exported / "openfoam" / "build.sh"), str(tmp_path / "lib")],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=60,
+    )
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    text = record.read_text()
+    assert "args: libso" in text and f"libbin: {tmp_path / 'lib'}" in text
+    assert "files" in text and "options" in text
+    m = re.search(r"clouds registered \((\d+)\): (.*)", proc.stdout)
+    assert m and set(m.group(2).split()) == CLOUD_TYPES
+    assert "built " in proc.stdout
