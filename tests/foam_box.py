@@ -41,6 +41,7 @@ def box_case(
         (case / sub).mkdir(parents=True, exist_ok=True)
 
     def put(rel, cls, body):
+        (case / rel).parent.mkdir(parents=True, exist_ok=True)
         (case / rel).write_text(HEAD.format(cls=cls, obj=Path(rel).name) + body)
 
     blocks = "\n".join(
@@ -567,3 +568,69 @@ def build_error(log: str) -> str:
     """The last error line of a build.sh log (its reason to stop)."""
     errors = [line for line in log.splitlines() if "build.sh: error" in line]
     return errors[-1] if errors else (log.strip().splitlines() or [""])[-1]
+
+
+# --- a surface film on the floor ------------------------------------------------------
+
+#: The applications that make the film region: a face zone of the floor, extruded
+#: into the region wallFilmRegion (the floor becomes the mapped wall patch
+#: FILM_PATCH of the fluid's mesh).
+FILM_APPS = (["topoSet"], ["extrudeToRegionMesh", "-overwrite"])
+FILM_PATCH = "region0_to_wallFilmRegion_wallFilmFaces"
+
+
+def film_region(put, floor="formica"):
+    """The dictionaries and fields of a thermoSingleLayer film of water on the
+    patch `floor`, after reactingParcelFoam/splashPanel of OpenFOAM v1912's
+    tutorials; run :data:`FILM_APPS` after blockMesh."""
+    put(
+        "system/topoSetDict",
+        "dictionary",
+        "actions (\n { name filmFaces; type faceSet; action new; source patchToFace;"
+        f" patch {floor}; }}\n {{ name wallFilmFaces; type faceZoneSet; action new;"
+        " source setToFaceZone; faceSet filmFaces; } );\n",
+    )
+    put(
+        "system/extrudeToRegionMeshDict",
+        "dictionary",
+        "region wallFilmRegion;\nfaceZones (wallFilmFaces);\noneD false;\n"
+        "sampleMode nearestPatchFace;\nextrudeModel linearNormal;\nnLayers 1;\n"
+        "expansionRatio 1;\nadaptMesh yes;\nlinearNormalCoeffs { thickness 0.001; }\n",
+    )
+    put(
+        "constant/surfaceFilmProperties",
+        "dictionary",
+        "surfaceFilmModel thermoSingleLayer;\nregion wallFilmRegion;\nactive true;\n"
+        "thermoSingleLayerCoeffs\n{\n"
+        "    filmThermoModel liquid; liquidCoeffs { useReferenceValues no; "
+        "liquid H2O; }\n    filmViscosityModel liquid;\n"
+        "    deltaWet 2e-4; hydrophilic no; turbulence laminar;\n"
+        "    laminarCoeffs { Cf 0.005; }\n    forces ( ); injectionModels ( );\n"
+        "    phaseChangeModel none; radiationModel none;\n"
+        "    upperSurfaceModels { heatTransferModel constant; "
+        "constantCoeffs { c0 1e-8; } }\n"
+        "    lowerSurfaceModels { heatTransferModel constant; "
+        "constantCoeffs { c0 1e-8; } }\n}\n",
+    )
+    for name, cls, dims, value in (
+        ("Tf", "volScalarField", "[0 0 0 1 0 0 0]", "300"),
+        ("Uf", "volVectorField", "[0 1 -1 0 0 0 0]", "(0 0 0)"),
+        ("deltaf", "volScalarField", "[0 1 0 0 0 0 0]", "0"),
+    ):
+        _field(put, f"wallFilmRegion/{name}", cls, dims, value, "type zeroGradient;")
+    put(
+        "system/wallFilmRegion/fvSchemes",
+        "dictionary",
+        "ddtSchemes { default Euler; }\ndivSchemes { default Gauss upwind; }\n"
+        "gradSchemes { default Gauss linear; }\n"
+        "laplacianSchemes { default Gauss linear uncorrected; }\n"
+        "snGradSchemes { default uncorrected; }\n"
+        "interpolationSchemes { default linear; }\n",
+    )
+    put(
+        "system/wallFilmRegion/fvSolution",
+        "dictionary",
+        'solvers { ".*" { solver PBiCGStab; preconditioner DILU; tolerance 1e-10;'
+        " relTol 0; } }\nPISO { momentumPredictor yes; nCorr 1; nNonOrthCorr 0; }\n"
+        'relaxationFactors { fields { ".*" 1; } equations { ".*" 1; } }\n',
+    )

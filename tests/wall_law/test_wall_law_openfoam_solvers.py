@@ -23,10 +23,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 from foam_box import (
+    FILM_APPS,
+    FILM_PATCH,
     SOLVERS,
     build_error,
     build_library,
     cloud_properties,
+    film_region,
     foam_env,
     solver_case,
 )
@@ -116,9 +119,12 @@ def _p_node(law):
     return float(node.capture_probability)
 
 
-def _case(case: Path, exported: Path, solver: str, n: int, *, escape="escape"):
+def _case(
+    case: Path, exported: Path, solver: str, n: int, *, escape="escape", film=False
+):
     """`n` parcels 1 cm above the floor, at SPEED and ANGLE_DEG towards it, in
-    every cloud of `solver`; they strike in step 10 of 14."""
+    every cloud of `solver`; they strike in step 10 of 14. `film`: a water film
+    on the floor (run FILM_APPS after blockMesh), which the clouds absorb into."""
     theta = math.radians(ANGLE_DEG)
     u_n, u_t = SPEED * math.sin(theta), SPEED * math.cos(theta)
     h = 0.01
@@ -147,6 +153,8 @@ def _case(case: Path, exported: Path, solver: str, n: int, *, escape="escape"):
     pts = [(float(x), h, float(z)) for z in zs for x in xs][:n]
     assert len(pts) == n
     positions = f"{n}\n(\n" + "".join(f"({x!r} {h!r} {z!r})\n" for x, _, z in pts)
+    if film:
+        film_region(put)
     for cloud in SOLVERS[solver][1]:
         put(f"constant/{cloud}Positions", "vectorField", positions + ")\n")
         injection = (
@@ -157,22 +165,25 @@ def _case(case: Path, exported: Path, solver: str, n: int, *, escape="escape"):
             "            sizeDistribution { type fixedValue; fixedValueDistribution "
             f"{{ value {DIAMETER_UM * 1e-6!r}; }} }} }}\n"
         )
-        put(
-            f"constant/{cloud}Properties",
-            "dictionary",
-            cloud_properties(
-                family,
-                cloud,
-                injection=injection,
-                patch_model="patchInteractionModel stochasticWallLaw;\n"
-                f'    #include "{STOCHASTIC_FILE}"',
-            ),
+        body = cloud_properties(
+            family,
+            cloud,
+            injection=injection,
+            patch_model="patchInteractionModel stochasticWallLaw;\n"
+            f'    #include "{STOCHASTIC_FILE}"',
         )
+        if film:
+            body = body.replace(
+                "surfaceFilmModel none;",
+                "surfaceFilmModel thermoSurfaceFilm;\n"
+                "thermoSurfaceFilmCoeffs { interactionType absorb; }\n",
+            )
+        put(f"constant/{cloud}Properties", "dictionary", body)
 
 
-def _run(case: Path, solver: str, libdir: Path, *, nprocs=1, check=True):
+def _run(case: Path, solver: str, libdir: Path, *, nprocs=1, check=True, pre=()):
     env = foam_env(libdir)
-    apps = [["blockMesh"]]
+    apps = [["blockMesh"], *pre]
     if nprocs > 1:
         apps += [["decomposePar"], ["mpirun", "-np", str(nprocs), solver, "-parallel"]]
     else:
@@ -426,3 +437,42 @@ def test_build_with_wmake_names_the_clouds_and_uses_make(tmp_path, exported):
     m = re.search(r"clouds registered \((\d+)\): (.*)", proc.stdout)
     assert m and set(m.group(2).split()) == CLOUD_TYPES
     assert "built " in proc.stdout
+
+
+@needs_openfoam
+def test_a_wall_law_patch_that_a_surface_film_claims_is_refused(
+    tmp_path, library, exported
+):
+    """A water film on the floor (thermoSingleLayer, parcels absorbed): a
+    wall-law entry on the film's patch stops the run and names the patch; a
+    localInteraction entry there runs with a warning, and the film, not the
+    model, takes every parcel (absorbed 49, first strikes 0), as the docs say."""
+    for tool in ("reactingParcelFoam", "topoSet", "extrudeToRegionMesh"):
+        if shutil.which(tool) is None:
+            pytest.skip(f"{tool} is not installed")
+    libdir, _ = library
+    solver = "reactingParcelFoam"
+    case = tmp_path / "law"
+    _case(case, exported, solver, 49, film=True)
+    coeffs = case / "constant" / STOCHASTIC_FILE
+    text = coeffs.read_text()
+    assert "        formica\n" in text
+    coeffs.write_text(text.replace("        formica\n", f"        {FILM_PATCH}\n"))
+    log = _run(case, solver, libdir, pre=FILM_APPS, check=False)
+    assert "FOAM FATAL ERROR" in log
+    assert re.search(rf"patches 1\({FILM_PATCH}\) are wall-law patches", log)
+    assert "surface film region (surfaceFilmModel thermoSurfaceFilm)" in log
+
+    case = tmp_path / "local"
+    _case(case, exported, solver, 49, film=True)
+    coeffs = case / "constant" / STOCHASTIC_FILE
+    coeffs.write_text(
+        coeffs.read_text().replace(
+            "outer { type escape; }",
+            f"outer {{ type escape; }}\n        {FILM_PATCH} {{ type rebound; }}",
+        )
+    )
+    log = _run(case, solver, libdir, pre=FILM_APPS)
+    assert f"patches 1({FILM_PATCH}) of cloud reactingCloud1 never act" in log
+    assert re.search(r"parcels absorbed\s*=\s*49\b", log)
+    assert _summaries(log, "reactingCloud1")[-1] == (0, 0)

@@ -6,6 +6,7 @@
 
 #include "StochasticWallLaw.H"
 #include "emptyPolyPatch.H"
+#include "surfaceFilmRegionModel.H"
 
 #include <cmath>
 
@@ -127,6 +128,72 @@ void Foam::StochasticWallLaw<CloudType>::readPatches()
             << "non-coupled, non-empty patch in `patches`. Add entries for "
             << "patches:" << nl << missing << nl
             << "(e.g. outlet { type escape; })" << exit(FatalIOError);
+    }
+}
+
+
+template<class CloudType>
+void Foam::StochasticWallLaw<CloudType>::checkFilm()
+{
+    if (filmChecked_)
+    {
+        return;
+    }
+    filmChecked_ = true;
+
+    const word film
+    (
+        this->owner().subModelProperties().template
+            lookupOrDefault<word>("surfaceFilmModel", "none")
+    );
+    typedef regionModels::surfaceFilmModels::surfaceFilmRegionModel filmType;
+    const objectRegistry& db = mesh_.time();
+    if (film == "none" || !db.foundObject<filmType>("surfaceFilmProperties"))
+    {
+        return;
+    }
+    const filmType& filmModel =
+        db.lookupObject<filmType>("surfaceFilmProperties");
+
+    DynamicList<word> lawPatches;
+    DynamicList<word> otherPatches;
+    forAll(patchToEntry_, patchi)
+    {
+        const label entryi = patchToEntry_[patchi];
+        if (entryi < 0 || !filmModel.isRegionPatch(patchi))
+        {
+            continue;
+        }
+        const word& name = mesh_.boundaryMesh()[patchi].name();
+        if (kind_[entryi] == pkWallLaw)
+        {
+            lawPatches.append(name);
+        }
+        else if (kind_[entryi] != pkNone)
+        {
+            otherPatches.append(name);
+        }
+    }
+    if (otherPatches.size())
+    {
+        WarningInFunction
+            << "the stochasticWallLaw entries of patches " << otherPatches
+            << " of cloud " << this->owner().name() << " never act: the "
+            << "surface film model " << film << " takes every parcel that "
+            << "strikes them" << endl;
+    }
+    if (lawPatches.size())
+    {
+        FatalErrorInFunction
+            << "patches " << lawPatches << " are wall-law patches of "
+            << "stochasticWallLaw (cloud " << this->owner().name()
+            << ") and patches of the surface film region (surfaceFilmModel "
+            << film << "). OpenFOAM gives a parcel that strikes a film patch "
+            << "to the film model, never to the patch interaction model, so "
+            << "the wall law would not act there. Give these patches a "
+            << "localInteraction entry in `patches` (e.g. { type rebound; }), "
+            << "take them out of the film region, or set surfaceFilmModel none"
+            << exit(FatalError);
     }
 }
 
@@ -273,7 +340,8 @@ Foam::StochasticWallLaw<CloudType>::StochasticWallLaw
     nReimpacts_(0),
     nForced_(0),
     nClamped_(0),
-    struck_()
+    struck_(),
+    filmChecked_(false)
 {
     const fileName given(table_);
     table_.expand();
@@ -343,7 +411,8 @@ Foam::StochasticWallLaw<CloudType>::StochasticWallLaw
     nReimpacts_(pim.nReimpacts_),
     nForced_(pim.nForced_),
     nClamped_(pim.nClamped_),
-    struck_(pim.struck_)
+    struck_(pim.struck_),
+    filmChecked_(pim.filmChecked_)
 {}
 
 
@@ -357,6 +426,8 @@ bool Foam::StochasticWallLaw<CloudType>::correct
     bool& keepParticle
 )
 {
+    checkFilm();
+
     const label patchi = pp.index();
     if (patchi < 0 || patchi >= patchToEntry_.size())
     {
@@ -521,6 +592,7 @@ template<class CloudType>
 void Foam::StochasticWallLaw<CloudType>::info(Ostream& os)
 {
     PatchInteractionModel<CloudType>::info(os);
+    checkFilm();
 
     const labelList npe(total("nEscape", nEscape_));
     const scalarList mpe(total("massEscape", massEscape_));
