@@ -539,7 +539,12 @@ def build_library(openfoam_dir: Path, solver: str, *, timeout=1800):
     :func:`model_key`: the first caller builds into the cache (others wait on a
     lock, e.g. pytest-xdist's workers), later ones reuse it. Returns ``(returncode,
     libdir, log)``; the log is the build's stdout and stderr (the cached build's
-    where reused). A failed build is not cached."""
+    where reused). A failed build is not cached. $MICROIMPACT_TEST_LIBRARY, a
+    folder holding a library built by other means (a hand-mutated model for
+    mutation testing), replaces the build."""
+    given = os.environ.get("MICROIMPACT_TEST_LIBRARY")
+    if given:  # a library built elsewhere, e.g. a hand-mutated model
+        return 0, Path(given), f"build.sh: MICROIMPACT_TEST_LIBRARY={given}\n"
     cache = library_cache()
     cache.mkdir(parents=True, exist_ok=True)
     key = model_key(openfoam_dir, solver)

@@ -215,14 +215,72 @@ void Foam::StochasticWallLaw<CloudType>::removeParcel
         keepParticle = false;
         nEscape_[entryi]++;
         massEscape_[entryi] += dm;
-        // a removed parcel strikes no more: forget it
-        struck_.erase(labelPair(p.origProc(), p.origId()));
     }
     else
     {
         keepParticle = true;
         nStick_[entryi]++;
         massStick_[entryi] += dm;
+    }
+    // a removed or stopped (inactive) parcel strikes no more: forget it
+    struck_.erase(labelPair(p.origProc(), p.origId()));
+}
+
+
+template<class CloudType>
+void Foam::StochasticWallLaw<CloudType>::pruneStruck()
+{
+    ++mark_;
+    if (struck_.size())
+    {
+        for (const typename CloudType::parcelType& p : this->owner())
+        {
+            auto iter = struck_.find(labelPair(p.origProc(), p.origId()));
+            if (iter.found())
+            {
+                *iter = mark_;
+            }
+        }
+    }
+    DynamicList<labelPair> gone;
+    forAllConstIters(struck_, iter)
+    {
+        if (*iter != mark_)
+        {
+            gone.append(iter.key());
+        }
+    }
+    for (const labelPair& key : gone)
+    {
+        struck_.erase(key);
+    }
+
+    if (Pstream::parRun())
+    {
+        // parcels that left another processor may be here now
+        List<labelPairList> left(Pstream::nProcs());
+        left[Pstream::myProcNo()] = gone;
+        Pstream::gatherList(left);
+        Pstream::scatterList(left);
+        labelPairHashSet elsewhere;
+        forAll(left, proci)
+        {
+            if (proci != Pstream::myProcNo())
+            {
+                elsewhere.insert(left[proci]);
+            }
+        }
+        if (elsewhere.size())
+        {
+            for (const typename CloudType::parcelType& p : this->owner())
+            {
+                const labelPair key(p.origProc(), p.origId());
+                if (elsewhere.found(key))
+                {
+                    struck_.set(key, mark_);
+                }
+            }
+        }
     }
 }
 
@@ -341,6 +399,7 @@ Foam::StochasticWallLaw<CloudType>::StochasticWallLaw
     nForced_(0),
     nClamped_(0),
     struck_(),
+    mark_(0),
     filmChecked_(false)
 {
     const fileName given(table_);
@@ -365,6 +424,19 @@ Foam::StochasticWallLaw<CloudType>::StochasticWallLaw
     law_.reset(raw, swl_free);
 
     readPatches();
+
+    // the struck parcels of a restart (all processors' at the write)
+    labelPairList stored;
+    this->getModelProperty("struckParcels", stored);
+    for (const labelPair& key : stored)
+    {
+        struck_.insert(key, 0);
+    }
+    if (stored.size())
+    {
+        Info<< "    stochasticWallLaw: " << stored.size() << " struck parcels "
+            << "restored from the restart" << endl;
+    }
 
     Info<< "    stochasticWallLaw: table " << table_ << " ("
         << swl_size(law_.get(), SWL_DIM_SURFACE) << " surfaces, "
@@ -412,6 +484,7 @@ Foam::StochasticWallLaw<CloudType>::StochasticWallLaw
     nForced_(pim.nForced_),
     nClamped_(pim.nClamped_),
     struck_(pim.struck_),
+    mark_(pim.mark_),
     filmChecked_(pim.filmChecked_)
 {}
 
@@ -499,7 +572,7 @@ bool Foam::StochasticWallLaw<CloudType>::correct
     double vIn[3] = {Urel.x(), Urel.y(), Urel.z()};
     double vOut[3];
 
-    const bool first = struck_.insert(labelPair(p.origProc(), p.origId()));
+    const bool first = struck_.insert(labelPair(p.origProc(), p.origId()), 0);
     if (first)
     {
         nFirst_++;
@@ -593,6 +666,7 @@ void Foam::StochasticWallLaw<CloudType>::info(Ostream& os)
 {
     PatchInteractionModel<CloudType>::info(os);
     checkFilm();
+    pruneStruck();
 
     const labelList npe(total("nEscape", nEscape_));
     const scalarList mpe(total("massEscape", massEscape_));
@@ -625,7 +699,10 @@ void Foam::StochasticWallLaw<CloudType>::info(Ostream& os)
         << "    stochasticWallLaw: strikes " << nStrikes
         << ", re-impacts " << nReimpacts
         << ", forced captures " << nForced
-        << ", clamped queries " << nClamped << nl;
+        << ", clamped queries " << nClamped << nl
+        << "    stochasticWallLaw: struck parcels remembered "
+        << returnReduce(struck_.size(), sumOp<label>())
+        << " (in the cloud, not captured)" << nl;
     if (warnClamped_ && nClamped > 0)
     {
         os  << "    stochasticWallLaw: warning: " << nClamped
@@ -649,6 +726,19 @@ void Foam::StochasticWallLaw<CloudType>::info(Ostream& os)
         this->setModelProperty("reimpacts", nReimpacts);
         this->setModelProperty("forcedCaptures", nForced);
         this->setModelProperty("clampedQueries", nClamped);
+
+        // every processor's struck parcels, for a restart (the properties
+        // are written by the master)
+        List<labelPairList> keys(Pstream::nProcs());
+        keys[Pstream::myProcNo()] = struck_.toc();
+        Pstream::gatherList(keys);
+        Pstream::scatterList(keys);
+        labelPairList all;
+        for (const labelPairList& k : keys)
+        {
+            all.append(k);
+        }
+        this->setModelProperty("struckParcels", all);
 
         nEscape_ = Zero;
         massEscape_ = Zero;
