@@ -487,6 +487,39 @@ def test_a_wall_law_patch_that_a_surface_film_claims_is_refused(
     assert _summaries(log, "reactingCloud1")[-1] == (0, 0)
 
 
+@needs_openfoam
+def test_strict_clamp_makes_a_query_outside_the_table_fatal(
+    tmp_path, library, exported
+):
+    """500 um parcels on a 10-40 um table: with strictClamp yes the run stops
+    and names the parcel and the axis; by default it runs, clamps and warns."""
+    libdir, _ = library
+    solver = "icoUncoupledKinematicParcelFoam"
+    case = tmp_path / "strict"
+    _case(case, exported, solver, 9, diameter_um=500.0)
+    coeffs = case / "constant" / STOCHASTIC_FILE
+    text = coeffs.read_text()
+    assert "    strictClamp     no;\n" in text
+    coeffs.write_text(
+        text.replace("    strictClamp     no;\n", "    strictClamp     yes;\n")
+    )
+    log = _run(case, solver, libdir, check=False)
+    assert "strictClamp yes" in log
+    assert "FOAM FATAL ERROR" in log
+    assert re.search(
+        r"strictClamp: a parcel of diameter 500 um at (1|0\.9999\d*) m/s, "
+        r"(60|59\.9999\d*) deg from the wall, on patch formica lies outside",
+        log,
+    )
+    assert "(diameter outside its nodes)" in log
+    case = tmp_path / "default"
+    _case(case, exported, solver, 9, diameter_um=500.0)
+    log = _run(case, solver, libdir)
+    assert "lies outside the table" in log
+    clamped = re.findall(r"clamped queries (\d+)", log)
+    assert int(clamped[-1]) >= 9  # every parcel's first query, and re-impacts
+
+
 # --- issue 34: the struck parcels stay bounded; first strikes counted once -----------
 
 STREAM_DT = 2.5e-3

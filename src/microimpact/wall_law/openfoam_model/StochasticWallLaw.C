@@ -387,6 +387,7 @@ Foam::StochasticWallLaw<CloudType>::StochasticWallLaw
         this->coeffDict().template lookupOrDefault<label>("maxReimpacts", 10)
     ),
     warnClamped_(this->coeffDict().lookupOrDefault("warnClamped", true)),
+    strictClamp_(this->coeffDict().lookupOrDefault("strictClamp", false)),
     warnedClamped_(false),
     nEscape_(entries_.size(), Zero),
     massEscape_(entries_.size(), Zero),
@@ -449,7 +450,8 @@ Foam::StochasticWallLaw<CloudType>::StochasticWallLaw
            )
         << swl_size(law_.get(), SWL_DIM_ANGLE) << " nodes, "
         << swl_size(law_.get(), SWL_DIM_RESERVOIR) << " rebounds per node)"
-        << ", maxReimpacts " << maxReimpacts_ << endl;
+        << ", maxReimpacts " << maxReimpacts_
+        << (strictClamp_ ? ", strictClamp yes" : "") << endl;
 }
 
 
@@ -472,6 +474,7 @@ Foam::StochasticWallLaw<CloudType>::StochasticWallLaw
     patchToEntry_(pim.patchToEntry_),
     maxReimpacts_(pim.maxReimpacts_),
     warnClamped_(pim.warnClamped_),
+    strictClamp_(pim.strictClamp_),
     warnedClamped_(pim.warnedClamped_),
     nEscape_(pim.nEscape_),
     massEscape_(pim.massEscape_),
@@ -597,6 +600,27 @@ bool Foam::StochasticWallLaw<CloudType>::correct
             &flags
         );
 
+        if ((flags & SWL_FLAG_CLAMPED) && strictClamp_)
+        {
+            const double speed =
+                std::sqrt(vIn[0]*vIn[0] + vIn[1]*vIn[1] + vIn[2]*vIn[2]);
+            const double vn = std::fabs
+            (
+                vIn[0]*normal[0] + vIn[1]*normal[1] + vIn[2]*normal[2]
+            );
+            const double angleDeg =
+                speed > 0 ? std::asin(std::min(1.0, vn/speed))*180.0/M_PI : 0;
+            FatalErrorInFunction
+                << "strictClamp: a parcel of diameter " << diameterUm
+                << " um at " << speed << " m/s, " << angleDeg
+                << " deg from the wall, on patch " << pp.name()
+                << " lies outside the table " << table_ << " ("
+                << ((flags & SWL_FLAG_CLAMPED_DIAMETER) ? "diameter " : "")
+                << ((flags & SWL_FLAG_CLAMPED_SPEED) ? "speed " : "")
+                << ((flags & SWL_FLAG_CLAMPED_ANGLE) ? "angle " : "")
+                << "outside its nodes); extend the table's nodes, or set "
+                << "strictClamp no to use its end nodes" << exit(FatalError);
+        }
         if (flags & SWL_FLAG_CLAMPED)
         {
             nClamped_++;
