@@ -313,22 +313,23 @@ def test_capture_at_a_node(tmp_path, library, exported, law, solver):
 
 
 @needs_openfoam
-def test_mppic_on_two_processors(tmp_path, library, exported, law):
-    """MPPICFoam on 2 processors: both processors' counters are summed, every
-    parcel's first strike is counted once and capture agrees with the table."""
-    for tool in ("mpirun", "decomposePar", "MPPICFoam"):
+@pytest.mark.parametrize("solver", ["MPPICFoam", "reactingParcelFoam"])
+def test_capture_on_two_processors(tmp_path, library, exported, law, solver):
+    """On 2 processors: both processors' counters are summed, every parcel's
+    first strike is counted once and capture agrees with the table."""
+    for tool in ("mpirun", "decomposePar", solver):
         if shutil.which(tool) is None:
             pytest.skip(f"{tool} is not installed")
     libdir, _ = library
     n = 4000
     case = tmp_path / "case"
-    _case(case, exported, "MPPICFoam", n)
-    log = _run(case, "MPPICFoam", libdir, nprocs=2)
+    _case(case, exported, solver, n)
+    log = _run(case, solver, libdir, nprocs=2)
     assert (case / "processor1").is_dir()
     assert "nProcs : 2" in log
-    (f, k) = _summaries(log, "kinematicCloud")[-1]
+    (f, k) = _summaries(log, SOLVERS[solver][1][0])[-1]
     assert f == n
-    assert abs(_z(k, f, _p_node(law))) < 4
+    assert abs(_z(k, f, _p_node(law))) < 4, (k, f)
 
 
 def _needed(lib: Path) -> set[str]:
