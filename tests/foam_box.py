@@ -1,7 +1,16 @@
-"""The OpenFOAM case both real-solver wall-law test files run: a 0.1 m box of
-4 x 4 x 4 cells whose floor (y = 0) is the wall struck, a ballistic kinematic cloud
-in a still, laminar fluid (no drag, no gravity). Each test adds its own parcels
-and cloud properties with the `put` this returns."""
+"""OpenFOAM cases and the model's library for the real-solver wall-law tests.
+
+* :func:`box_case`: a 0.1 m box of 4 x 4 x 4 cells whose floor (y = 0) is the
+  wall struck, a ballistic kinematic cloud in a still, laminar fluid (no drag,
+  no gravity); each test adds its own parcels and cloud properties with the
+  `put` this returns.
+* :data:`SOLVERS`, :func:`solver_case`, :func:`cloud_properties`: the same box
+  for every Lagrangian solver of Debian's OpenFOAM 1912 (the fluid each needs,
+  at rest; ballistic parcels without heat or mass transfer).
+* :func:`film_region`: a water film on the floor.
+* :func:`build_library`: ``libstochasticWallLaw.so`` built once per machine and
+  source by the exported ``build.sh`` (a cache keyed by a hash of the sources).
+"""
 
 from __future__ import annotations
 
