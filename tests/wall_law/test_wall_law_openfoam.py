@@ -429,7 +429,13 @@ def test_stochastic_dictionary_keys(tmp_path):
     write_openfoam(_law(ds), tmp_path / "law")
     text = (tmp_path / "law" / "openfoam" / STOCHASTIC_FILE).read_text()
     d = parse_foam(text)["stochasticWallLawCoeffs"]
-    assert set(d) == {"table", "patches", "maxReimpacts", "warnClamped"}
+    assert set(d) == {
+        "table",
+        "patches",
+        "maxReimpacts",
+        "warnClamped",
+        "strictClamp",
+    }
     # the case's copy of the table, not a path of the machine that built it
     assert d["table"] == ("string", "$FOAM_CASE/constant/wall_law.swl")
     assert str(tmp_path) not in text
@@ -438,6 +444,7 @@ def test_stochastic_dictionary_keys(tmp_path):
         "glass": {"surface": ("string", "glass"), "captured": "stick"},
     }
     assert d["maxReimpacts"] == 10.0 and d["warnClamped"] == "yes"
+    assert d["strictClamp"] == "no"
     for key in (
         "table",
         "patches",
@@ -445,6 +452,7 @@ def test_stochastic_dictionary_keys(tmp_path):
         "captured",
         "maxReimpacts",
         "warnClamped",
+        "strictClamp",
     ):
         assert f"  {key}" in text  # every key is described in the file
 

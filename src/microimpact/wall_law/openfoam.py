@@ -96,8 +96,15 @@ MODEL_FILES = (
     "StochasticWallLaw.H",
     "StochasticWallLaw.C",
     "swlPatchEntry.H",
+    # one registration per cloud type of OpenFOAM v1912's solvers (Make/files)
     "makeStochasticWallLawKinematicCloud.C",
     "makeStochasticWallLawKinematicCollidingCloud.C",
+    "makeStochasticWallLawKinematicMPPICCloud.C",
+    "makeStochasticWallLawThermoCloud.C",
+    "makeStochasticWallLawReactingCloud.C",
+    "makeStochasticWallLawReactingMultiphaseCloud.C",
+    "makeStochasticWallLawHeterogeneousReactingCloud.C",
+    "makeStochasticWallLawSprayCloud.C",
     "Make/files",
     "Make/options",
 )
@@ -619,6 +626,8 @@ _STOCHASTIC_KEYS = [
     "                after that the parcel is captured. Default 10.",
     "  warnClamped   report parcels whose diameter, speed or angle lay outside the",
     "                table (they use its end nodes, SWL_FLAG_CLAMPED). Default yes.",
+    "  strictClamp   yes: a query outside the table stops the run with a fatal",
+    "                error naming the parcel and the patch. Default no.",
     "Per strike the model takes, relative to the patch velocity Up: d = the",
     "parcel's diameter * 1e6 [um], v_in = U - Up, normal = -nw (OpenFOAM's patch",
     "normal points out of the fluid; the table's z points into it), five",
@@ -646,7 +655,8 @@ def _stochastic_text(surfaces, names, header) -> str:
         + "        // the mesh's other patches, e.g. outlet { type escape; }\n"
         + "    );\n"
         + "    maxReimpacts    10;\n"
-        + "    warnClamped     yes;\n}\n"
+        + "    warnClamped     yes;\n"
+        + "    strictClamp     no;\n}\n"
     )
 
 

@@ -6,6 +6,7 @@
 
 #include "StochasticWallLaw.H"
 #include "emptyPolyPatch.H"
+#include "surfaceFilmRegionModel.H"
 
 #include <cmath>
 
@@ -132,6 +133,72 @@ void Foam::StochasticWallLaw<CloudType>::readPatches()
 
 
 template<class CloudType>
+void Foam::StochasticWallLaw<CloudType>::checkFilm()
+{
+    if (filmChecked_)
+    {
+        return;
+    }
+    filmChecked_ = true;
+
+    const word film
+    (
+        this->owner().subModelProperties().template
+            lookupOrDefault<word>("surfaceFilmModel", "none")
+    );
+    typedef regionModels::surfaceFilmModels::surfaceFilmRegionModel filmType;
+    const objectRegistry& db = mesh_.time();
+    if (film == "none" || !db.foundObject<filmType>("surfaceFilmProperties"))
+    {
+        return;
+    }
+    const filmType& filmModel =
+        db.lookupObject<filmType>("surfaceFilmProperties");
+
+    DynamicList<word> lawPatches;
+    DynamicList<word> otherPatches;
+    forAll(patchToEntry_, patchi)
+    {
+        const label entryi = patchToEntry_[patchi];
+        if (entryi < 0 || !filmModel.isRegionPatch(patchi))
+        {
+            continue;
+        }
+        const word& name = mesh_.boundaryMesh()[patchi].name();
+        if (kind_[entryi] == pkWallLaw)
+        {
+            lawPatches.append(name);
+        }
+        else if (kind_[entryi] != pkNone)
+        {
+            otherPatches.append(name);
+        }
+    }
+    if (otherPatches.size())
+    {
+        WarningInFunction
+            << "the stochasticWallLaw entries of patches " << otherPatches
+            << " of cloud " << this->owner().name() << " never act: the "
+            << "surface film model " << film << " takes every parcel that "
+            << "strikes them" << endl;
+    }
+    if (lawPatches.size())
+    {
+        FatalErrorInFunction
+            << "patches " << lawPatches << " are wall-law patches of "
+            << "stochasticWallLaw (cloud " << this->owner().name()
+            << ") and patches of the surface film region (surfaceFilmModel "
+            << film << "). OpenFOAM gives a parcel that strikes a film patch "
+            << "to the film model, never to the patch interaction model, so "
+            << "the wall law would not act there. Give these patches a "
+            << "localInteraction entry in `patches` (e.g. { type rebound; }), "
+            << "take them out of the film region, or set surfaceFilmModel none"
+            << exit(FatalError);
+    }
+}
+
+
+template<class CloudType>
 void Foam::StochasticWallLaw<CloudType>::removeParcel
 (
     typename CloudType::parcelType& p,
@@ -148,14 +215,72 @@ void Foam::StochasticWallLaw<CloudType>::removeParcel
         keepParticle = false;
         nEscape_[entryi]++;
         massEscape_[entryi] += dm;
-        // a removed parcel strikes no more: forget it
-        struck_.erase(labelPair(p.origProc(), p.origId()));
     }
     else
     {
         keepParticle = true;
         nStick_[entryi]++;
         massStick_[entryi] += dm;
+    }
+    // a removed or stopped (inactive) parcel strikes no more: forget it
+    struck_.erase(labelPair(p.origProc(), p.origId()));
+}
+
+
+template<class CloudType>
+void Foam::StochasticWallLaw<CloudType>::pruneStruck()
+{
+    ++mark_;
+    if (struck_.size())
+    {
+        for (const typename CloudType::parcelType& p : this->owner())
+        {
+            auto iter = struck_.find(labelPair(p.origProc(), p.origId()));
+            if (iter.found())
+            {
+                *iter = mark_;
+            }
+        }
+    }
+    DynamicList<labelPair> gone;
+    forAllConstIters(struck_, iter)
+    {
+        if (*iter != mark_)
+        {
+            gone.append(iter.key());
+        }
+    }
+    for (const labelPair& key : gone)
+    {
+        struck_.erase(key);
+    }
+
+    if (Pstream::parRun())
+    {
+        // parcels that left another processor may be here now
+        List<labelPairList> left(Pstream::nProcs());
+        left[Pstream::myProcNo()] = gone;
+        Pstream::gatherList(left);
+        Pstream::scatterList(left);
+        labelPairHashSet elsewhere;
+        forAll(left, proci)
+        {
+            if (proci != Pstream::myProcNo())
+            {
+                elsewhere.insert(left[proci]);
+            }
+        }
+        if (elsewhere.size())
+        {
+            for (const typename CloudType::parcelType& p : this->owner())
+            {
+                const labelPair key(p.origProc(), p.origId());
+                if (elsewhere.found(key))
+                {
+                    struck_.set(key, mark_);
+                }
+            }
+        }
     }
 }
 
@@ -262,6 +387,7 @@ Foam::StochasticWallLaw<CloudType>::StochasticWallLaw
         this->coeffDict().template lookupOrDefault<label>("maxReimpacts", 10)
     ),
     warnClamped_(this->coeffDict().lookupOrDefault("warnClamped", true)),
+    strictClamp_(this->coeffDict().lookupOrDefault("strictClamp", false)),
     warnedClamped_(false),
     nEscape_(entries_.size(), Zero),
     massEscape_(entries_.size(), Zero),
@@ -274,6 +400,8 @@ Foam::StochasticWallLaw<CloudType>::StochasticWallLaw
     nForced_(0),
     nClamped_(0),
     struck_(),
+    mark_(0),
+    filmChecked_(false),
     resuspension_(this->coeffDict().lookupOrDefault("resuspension", false)),
     nResuspended_(0)
 {
@@ -307,6 +435,19 @@ Foam::StochasticWallLaw<CloudType>::StochasticWallLaw
 
     readPatches();
 
+    // the struck parcels of a restart (all processors' at the write)
+    labelPairList stored;
+    this->getModelProperty("struckParcels", stored);
+    for (const labelPair& key : stored)
+    {
+        struck_.insert(key, 0);
+    }
+    if (stored.size())
+    {
+        Info<< "    stochasticWallLaw: " << stored.size() << " struck parcels "
+            << "restored from the restart" << endl;
+    }
+
     Info<< "    stochasticWallLaw: table " << table_ << " ("
         << swl_size(law_.get(), SWL_DIM_SURFACE) << " surfaces, "
         << swl_size(law_.get(), SWL_DIM_DIAMETER) << " x "
@@ -318,7 +459,8 @@ Foam::StochasticWallLaw<CloudType>::StochasticWallLaw
            )
         << swl_size(law_.get(), SWL_DIM_ANGLE) << " nodes, "
         << swl_size(law_.get(), SWL_DIM_RESERVOIR) << " rebounds per node)"
-        << ", maxReimpacts " << maxReimpacts_ << endl;
+        << ", maxReimpacts " << maxReimpacts_
+        << (strictClamp_ ? ", strictClamp yes" : "") << endl;
 }
 
 
@@ -341,6 +483,7 @@ Foam::StochasticWallLaw<CloudType>::StochasticWallLaw
     patchToEntry_(pim.patchToEntry_),
     maxReimpacts_(pim.maxReimpacts_),
     warnClamped_(pim.warnClamped_),
+    strictClamp_(pim.strictClamp_),
     warnedClamped_(pim.warnedClamped_),
     nEscape_(pim.nEscape_),
     massEscape_(pim.massEscape_),
@@ -353,6 +496,8 @@ Foam::StochasticWallLaw<CloudType>::StochasticWallLaw
     nForced_(pim.nForced_),
     nClamped_(pim.nClamped_),
     struck_(pim.struck_),
+    mark_(pim.mark_),
+    filmChecked_(pim.filmChecked_),
     resuspension_(pim.resuspension_),
     nResuspended_(pim.nResuspended_)
 {}
@@ -368,6 +513,8 @@ bool Foam::StochasticWallLaw<CloudType>::correct
     bool& keepParticle
 )
 {
+    checkFilm();
+
     const label patchi = pp.index();
     if (patchi < 0 || patchi >= patchToEntry_.size())
     {
@@ -439,7 +586,7 @@ bool Foam::StochasticWallLaw<CloudType>::correct
     double vIn[3] = {Urel.x(), Urel.y(), Urel.z()};
     double vOut[3];
 
-    const bool first = struck_.insert(labelPair(p.origProc(), p.origId()));
+    const bool first = struck_.insert(labelPair(p.origProc(), p.origId()), 0);
     if (first)
     {
         nFirst_++;
@@ -464,6 +611,27 @@ bool Foam::StochasticWallLaw<CloudType>::correct
             &flags
         );
 
+        if ((flags & SWL_FLAG_CLAMPED) && strictClamp_)
+        {
+            const double speed =
+                std::sqrt(vIn[0]*vIn[0] + vIn[1]*vIn[1] + vIn[2]*vIn[2]);
+            const double vn = std::fabs
+            (
+                vIn[0]*normal[0] + vIn[1]*normal[1] + vIn[2]*normal[2]
+            );
+            const double angleDeg =
+                speed > 0 ? std::asin(std::min(1.0, vn/speed))*180.0/M_PI : 0;
+            FatalErrorInFunction
+                << "strictClamp: a parcel of diameter " << diameterUm
+                << " um at " << speed << " m/s, " << angleDeg
+                << " deg from the wall, on patch " << pp.name()
+                << " lies outside the table " << table_ << " ("
+                << ((flags & SWL_FLAG_CLAMPED_DIAMETER) ? "diameter " : "")
+                << ((flags & SWL_FLAG_CLAMPED_SPEED) ? "speed " : "")
+                << ((flags & SWL_FLAG_CLAMPED_ANGLE) ? "angle " : "")
+                << "outside its nodes); extend the table's nodes, or set "
+                << "strictClamp no to use its end nodes" << exit(FatalError);
+        }
         if (flags & SWL_FLAG_CLAMPED)
         {
             nClamped_++;
@@ -537,6 +705,8 @@ template<class CloudType>
 void Foam::StochasticWallLaw<CloudType>::info(Ostream& os)
 {
     PatchInteractionModel<CloudType>::info(os);
+    checkFilm();
+    pruneStruck();
 
     const labelList npe(total("nEscape", nEscape_));
     const scalarList mpe(total("massEscape", massEscape_));
@@ -570,7 +740,10 @@ void Foam::StochasticWallLaw<CloudType>::info(Ostream& os)
         << "    stochasticWallLaw: strikes " << nStrikes
         << ", re-impacts " << nReimpacts
         << ", forced captures " << nForced
-        << ", clamped queries " << nClamped << nl;
+        << ", clamped queries " << nClamped << nl
+        << "    stochasticWallLaw: struck parcels remembered "
+        << returnReduce(struck_.size(), sumOp<label>())
+        << " (in the cloud, not captured)" << nl;
     if (warnClamped_ && nClamped > 0)
     {
         os  << "    stochasticWallLaw: warning: " << nClamped
@@ -600,6 +773,19 @@ void Foam::StochasticWallLaw<CloudType>::info(Ostream& os)
         this->setModelProperty("forcedCaptures", nForced);
         this->setModelProperty("clampedQueries", nClamped);
         this->setModelProperty("resuspended", nResuspended);
+
+        // every processor's struck parcels, for a restart (the properties
+        // are written by the master)
+        List<labelPairList> keys(Pstream::nProcs());
+        keys[Pstream::myProcNo()] = struck_.toc();
+        Pstream::gatherList(keys);
+        Pstream::scatterList(keys);
+        labelPairList all;
+        for (const labelPairList& k : keys)
+        {
+            all.append(k);
+        }
+        this->setModelProperty("struckParcels", all);
 
         nEscape_ = Zero;
         massEscape_ = Zero;

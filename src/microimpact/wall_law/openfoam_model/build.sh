@@ -3,6 +3,12 @@
 # stochastic wall law as an OpenFOAM patch interaction model (the sources are
 # in stochasticWallLaw/ next to this script), against the OpenFOAM on the PATH.
 #
+#  * What is built comes from stochasticWallLaw/Make/files (the sources: one
+#    registration file per cloud type) and Make/options (EXE_INC: include
+#    folders; LIB_LIBS: libraries), as wmake reads them: a cloud is added by
+#    a registration file listed in Make/files, and a library by a line of
+#    Make/options, without a change to this script. The log names the clouds
+#    registered.
 #  * Where OpenFOAM has wmake and its headers (a source build, OpenCFD's or the
 #    Foundation's packages with a sourced etc/bashrc): `wmake libso` with
 #    FOAM_USER_LIBBIN=LIBDIR.
@@ -14,7 +20,8 @@
 #    change to /etc/apt), the src/ tree of its .orig tarball is unpacked into
 #    a cache, lnInclude folders are made as wmakeLnInclude makes them, and the
 #    model is compiled with the release's wmake flags (linux64Gcc, DP, Int32,
-#    Opt) and linked against the installed libraries.
+#    Opt), MICROIMPACT_BUILD_JOBS sources at a time (default: the CPUs), and
+#    linked against the installed libraries.
 #
 # The cache: $MICROIMPACT_OPENFOAM_SRC if set, else
 # ${XDG_CACHE_HOME:-~/.cache}/microimpact/openfoam-<source version>; it is
@@ -27,7 +34,7 @@ say() { printf 'build.sh: %s\n' "$*"; }
 missing() { printf 'build.sh: error: %s\n' "$*" >&2; exit 3; }
 
 if [ "$#" -ne 1 ] || [ -z "$1" ] || [ "$1" = "-h" ] || [ "$1" = "--help" ]; then
-    sed -n '2,24p' "$0" | sed 's/^# \{0,1\}//' >&2
+    sed -n '2,30p' "$0" | sed 's/^# \{0,1\}//' >&2
     printf 'usage: bash build.sh LIBDIR\n' >&2
     exit 2
 fi
@@ -41,6 +48,29 @@ libdir="$(cd -- "$1" && pwd)"
 lib="$libdir/libstochasticWallLaw.so"
 say "model sources: $model"
 say "library to build: $lib"
+
+# the sources of Make/files, and the clouds their registrations name
+sources=()
+while IFS= read -r f; do sources+=("$f"); done \
+    < <(sed -n 's/^[[:space:]]*\([^[:space:]=]*\.[cC]\)[[:space:]]*$/\1/p' "$model/Make/files")
+clouds=()
+for f in "${sources[@]}"; do
+    [ -f "$model/$f" ] || missing "$model/Make/files lists $f, which is not in $model"
+    while IFS= read -r c; do clouds+=("$c"); done < <(sed -n \
+        's/^[[:space:]]*makePatchInteractionModelType([[:space:]]*StochasticWallLaw[[:space:]]*,[[:space:]]*\([A-Za-z0-9_:]*\)[[:space:]]*).*/\1/p' \
+        "$model/$f")
+done
+if [ "${#clouds[@]}" -gt 0 ]; then
+    say "clouds registered (${#clouds[@]}): ${clouds[*]}"
+else
+    say "warning: no source in Make/files registers stochasticWallLaw for a cloud (makePatchInteractionModelType); the library will add no model"
+fi
+
+# the words of a Make/options variable (backslash-continued lines joined)
+options_var() {
+    sed -e ':a' -e '/\\$/{N;s/\\\n/ /;ba' -e '}' "$model/Make/options" \
+        | sed -n "s/^[[:space:]]*$1[[:space:]]*=//p" | tr -s ' \t' '\n\n' | sed '/^$/d'
+}
 
 # --- 1. the OpenFOAM on the PATH ------------------------------------------------
 solver=""
@@ -62,7 +92,7 @@ if command -v wmake >/dev/null 2>&1 && [ -n "${FOAM_SRC:-}" ] \
     (cd "$build" && FOAM_USER_LIBBIN="$libdir" wmake libso) \
         || { printf 'build.sh: error: wmake libso failed (messages above)\n' >&2; exit 1; }
     [ -f "$lib" ] || { printf 'build.sh: error: wmake did not write %s\n' "$lib" >&2; exit 1; }
-    say "built $lib"
+    say "built $lib (stochasticWallLaw for ${#clouds[@]} clouds: ${clouds[*]})"
     exit 0
 fi
 
@@ -147,13 +177,25 @@ else
 fi
 src="$cache/src"
 
-# the include folders: Make/options' -I$(LIB_SRC)/... plus OpenFOAM and OSspecific
-incs=(-I"$model" -I"$model/lnInclude")
+# the include folders of Make/options' EXE_INC: -I$(LIB_SRC)/... (lnInclude
+# folders made where missing), -I. and other folders relative to the model,
+# plus OpenFOAM's and OSspecific's, which wmake adds itself; -D words pass on
+incs=(-I"$model/lnInclude")
+defs=()
 dirs=(OpenFOAM/lnInclude OSspecific/POSIX/lnInclude)
-while IFS= read -r d; do dirs+=("$d"); done < <(grep -o '\$(LIB_SRC)/[^[:space:]\\]*' "$model/Make/options" | sed 's|^\$(LIB_SRC)/||')
+while IFS= read -r w; do
+    case "$w" in
+        '-I$(LIB_SRC)/'* | '-I$(FOAM_SRC)/'*) dirs+=("${w#-I\$(*SRC)/}") ;;
+        -I\$*) missing "Make/options' EXE_INC has $w: only \$(LIB_SRC)/... and folders relative to the model are known here (no wmake)" ;;
+        -I/*) incs+=("$w") ;;
+        -I*) incs+=(-I"$model/${w#-I}") ;;
+        -D*) defs+=("$w") ;;
+        *) say "warning: Make/options' EXE_INC word $w is not an include folder nor a -D definition: ignored" ;;
+    esac
+done < <(options_var EXE_INC)
 for d in "${dirs[@]}"; do
     top="$src/${d%/lnInclude}"
-    [ -d "$top" ] || missing "the OpenFOAM sources in $cache have no ${d%/lnInclude}"
+    [ -d "$top" ] || missing "the OpenFOAM sources in $cache have no ${d%/lnInclude} (named in Make/options' EXE_INC)"
     if [ "${d##*/}" = lnInclude ] && [ ! -f "$top/lnInclude/.done" ]; then
         say "step: lnInclude of ${d%/lnInclude} (links to its .C/.H files, as wmakeLnInclude)"
         mkdir -p "$top/lnInclude"
@@ -166,31 +208,61 @@ for d in "${dirs[@]}"; do
 done
 exec 9>&-  # the cache is complete: release the lock
 
+# the libraries of Make/options' LIB_LIBS (-lNAME, -L folders), then
+# -lOpenFOAM and -ldl, which wmake adds to every library
+libs=(-L"$foamlib")
+while IFS= read -r w; do
+    case "$w" in
+        '-L$(FOAM_LIBBIN)' | '-L$(FOAM_LIBBIN)/'*) libs+=(-L"$foamlib${w#-L\$(FOAM_LIBBIN)}") ;;
+        '-L$(FOAM_USER_LIBBIN)') libs+=(-L"$libdir") ;;
+        -L\$*) missing "Make/options' LIB_LIBS has $w: only \$(FOAM_LIBBIN) and \$(FOAM_USER_LIBBIN) are known here (no wmake)" ;;
+        -L*) libs+=("$w") ;;
+        -l*)
+            name="${w#-l}"
+            if [ ! -f "$foamlib/lib$name.so" ] && [ "$(gcc -print-file-name="lib$name.so")" = "lib$name.so" ]; then
+                missing "Make/options' LIB_LIBS names $w, but there is no lib$name.so in $foamlib nor on the compiler's library path (install the OpenFOAM package that has it)"
+            fi
+            libs+=("$w") ;;
+        *) say "warning: Make/options' LIB_LIBS word $w is not -lNAME nor -LFOLDER: ignored" ;;
+    esac
+done < <(options_var LIB_LIBS)
+libs+=(-lOpenFOAM -ldl)
+say "libraries (Make/options' LIB_LIBS, then -lOpenFOAM -ldl): ${libs[*]}"
+
 # wmake/rules of the release: linux64Gcc c++ + c++Opt + General/Gcc/c++, DP, Int32
 cxxflags=(-std=c++11 -m64 -pthread "-DOPENFOAM=$api" -DWM_DP -DWM_LABEL_SIZE=32
           -Wall -Wextra -Wold-style-cast -Wnon-virtual-dtor -Wno-unused-parameter
           -Wno-invalid-offsetof -Wno-attributes -Wno-unknown-pragmas
           -O3 -DNoRepository -ftemplate-depth-100 -fPIC)
 cflags=(-std=c99 -m64 -O3 -fPIC -ffp-contract=off)
-say "compiler flags of OpenFOAM $api (wmake/rules/linux64Gcc, Opt, DP, Int32): ${cxxflags[*]}"
+say "compiler flags of OpenFOAM $api (wmake/rules/linux64Gcc, Opt, DP, Int32): ${cxxflags[*]} ${defs[*]}"
 objdir="$(mktemp -d "${TMPDIR:-/tmp}/stochasticWallLaw-obj.XXXXXX")"
 trap 'rm -rf -- "$objdir" "${work:-}"' EXIT
-objs=()
-while IFS= read -r f; do
+
+jobs="${MICROIMPACT_BUILD_JOBS:-$(nproc 2>/dev/null || echo 1)}"
+case "$jobs" in ''|*[!0-9]*|0) printf 'build.sh: error: MICROIMPACT_BUILD_JOBS must be a positive integer; got %s\n' "$jobs" >&2; exit 2 ;; esac
+compile() {  # compile Make/files' source $1 into $objdir; its messages in $objdir/$1.log
+    local f="$1" o="$objdir/${1%.*}.o"
     case "$f" in
-        *.c)
-            say "step: gcc ${f}"
-            gcc "${cflags[@]}" -I"$model" -c "$model/$f" -o "$objdir/${f%.c}.o" \
-                || { printf 'build.sh: error: compiling %s failed\n' "$f" >&2; exit 1; } ;;
-        *.C)
-            say "step: g++ ${f} (up to a minute)"
-            g++ "${cxxflags[@]}" "${incs[@]}" -c "$model/$f" -o "$objdir/${f%.C}.o" \
-                || { printf 'build.sh: error: compiling %s failed\n' "$f" >&2; exit 1; } ;;
-        *) continue ;;
+        *.c) gcc "${cflags[@]}" "${defs[@]}" -I"$model" -c "$model/$f" -o "$o" ;;
+        *.C) g++ "${cxxflags[@]}" "${defs[@]}" "${incs[@]}" -c "$model/$f" -o "$o" ;;
     esac
-    objs+=("$objdir/$(basename "${f%.*}").o")
-done < <(sed -n 's/^[[:space:]]*\([^[:space:]=]*\.[cC]\)[[:space:]]*$/\1/p' "$model/Make/files")
-libs=(-L"$foamlib" -lfiniteVolume -lmeshTools -llagrangian -llagrangianIntermediate -lOpenFOAM -ldl -lm)
+}
+say "step: compile ${#sources[@]} sources, $jobs at a time (a C++ registration: 10 s to a minute)"
+objs=()
+for f in "${sources[@]}"; do
+    while [ "$(jobs -rp | wc -l)" -ge "$jobs" ]; do wait -n || true; done
+    case "$f" in *.c) say "step: gcc $f" ;; *) say "step: g++ $f" ;; esac
+    { compile "$f" > "$objdir/$f.log" 2>&1 && touch "$objdir/$f.ok"; } &
+    objs+=("$objdir/${f%.*}.o")
+done
+wait
+failed=()
+for f in "${sources[@]}"; do
+    cat "$objdir/$f.log" >&2
+    [ -f "$objdir/$f.ok" ] || failed+=("$f")
+done
+[ "${#failed[@]}" -eq 0 ] || { printf 'build.sh: error: compiling %s failed (messages above)\n' "${failed[*]}" >&2; exit 1; }
 say "step: link ${lib}"
 g++ "${cxxflags[@]}" -shared -Xlinker --add-needed -Xlinker --no-as-needed \
     -o "$lib.tmp" "${objs[@]}" "${libs[@]}" \
@@ -203,5 +275,5 @@ if [ -n "$undefined" ]; then
     exit 1
 fi
 mv -f -- "$lib.tmp" "$lib"
-say "built $lib"
+say "built $lib (stochasticWallLaw for ${#clouds[@]} clouds: ${clouds[*]})"
 say "use it: libs (\"libstochasticWallLaw.so\"); in system/controlDict, with LD_LIBRARY_PATH=$libdir (or copy it to \$FOAM_USER_LIBBIN)"
