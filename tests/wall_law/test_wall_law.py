@@ -189,6 +189,48 @@ def test_nodes_match_direct_runs_of_the_engine(rough_law):
 
 
 # ---------------------------------------------------------------- the sampler
+def test_node_statistics_are_those_of_the_nodes_rebounds():
+    """With a reservoir as large as the samples, each node's reservoir holds all
+    of its rebounds: the node's mean and standard deviation are theirs (NumPy on
+    the reservoir, ddof 1), and the standard deviation is NaN where a node has
+    fewer than 2 rebounds (a rough wall near v_c: nodes with 0 to 6 of 6)."""
+    sc = mi.scenario_from_dict(
+        {
+            "name": "few",
+            "seed": 5,
+            "samples": 10,
+            "particles": {"distribution": "monodisperse", "diameter_um": 10.0},
+            "coefficients": {"k1": 4.0, "k2": 0.05, "v_c": 0.5, "friction": 0.2},
+            "surfaces": [{"name": "rough", "kind": "normal", "std_deg": 15}],
+            "sweep": {"speed_m_s": [1.0], "angle_deg": [45.0]},
+        }
+    )
+    spec = WallLawSpec(
+        diameters_um=(10.0,),
+        speeds_m_s=tuple(np.linspace(0.5, 0.7, 9)),
+        angles_deg=tuple(np.linspace(40.0, 90.0, 11)),
+        samples=6,
+        reservoir=6,
+    )
+    ds = build_wall_law(sc, spec, seed=1).dataset
+    n = ds["n_rebounds"].values
+    assert set(np.unique(n)) >= {0, 1, 2, 6}  # the cases this test is about
+    np.testing.assert_array_equal(ds["reservoir_count"].values, n)
+    for name in ("e_n", "mu", "e_t"):  # a 2-D wall: no lateral angle
+        res = ds[f"reservoir_{name}"].values
+        mean, std = ds[f"{name}_mean"].values, ds[f"{name}_std"].values
+        for i in np.ndindex(n.shape):
+            x = res[i][: n[i]]
+            if n[i] == 0 or np.isnan(x).all():  # e_t at normal incidence: none
+                assert np.isnan(mean[i]) and np.isnan(std[i])
+                continue
+            assert mean[i] == pytest.approx(x.mean(), rel=1e-12, abs=1e-12)
+            if n[i] < 2:
+                assert np.isnan(std[i]), (name, i)
+            else:
+                assert std[i] == pytest.approx(x.std(ddof=1), rel=1e-9, abs=1e-12)
+
+
 def test_sampling_at_a_node_draws_that_node(rough_law):
     ds = rough_law.dataset.isel(surface=0).sel(diameter_um=10.0, speed_m_s=1.0)
     node = ds.sel(angle_deg=40.0)
