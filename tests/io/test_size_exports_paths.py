@@ -157,9 +157,9 @@ def test_underivable_edges_ask_in_the_callers_syntax(tmp_path, capsys):
     path = _wide(tmp_path)
     with pytest.raises(DataFormatError) as info:
         read_size_data(path, values="count", unit="um")
-    assert "give the 5 bin boundaries in um: edges_um='[0.3, 0.4, ...]'" in str(
-        info.value
-    )
+    msg = str(info.value)
+    assert msg.startswith(f"{path}: edges_um: the midpoints are not log-spaced")
+    assert "give the 5 bin boundaries in um: edges_um='[0.3, 0.4, ...]'" in msg
     code = main(["sizes", str(path), "--values", "count", "--unit", "um"])
     err = capsys.readouterr().err
     assert code == 2 and "--edges-um '0.3,0.4,...'" in err
@@ -178,3 +178,26 @@ def test_an_aim_weighting_it_does_not_know_asks_for_the_values(tmp_path):
     )
     bins, meta = read_size_data(path, sample="1", values="dN/dlogDp")  # given
     assert meta["values"] == "dN/dlogDp" and bins.number.sum() > 0
+
+
+def test_an_export_of_zeros_is_refused_naming_the_file(tmp_path):
+    rows = _ops_rows()
+    i = next(k for k, r in enumerate(rows) if r and r[0].startswith("Elapsed"))
+    zero = [
+        [r[0], *["0"] * 17, *r[18:]] if k > i and r else r for k, r in enumerate(rows)
+    ]
+    path = _write(tmp_path / "ops_0.csv", zero)
+    with pytest.raises(DataFormatError) as info:
+        read_size_data(path, sample="sum", values="count")
+    assert str(info.value) == (
+        f"{path}: values: all values are zero; allowed: values >= 0 with a "
+        "positive total"
+    )
+
+
+def test_mean_and_sum_are_named_alike_however_typed():
+    for typed in ("Sum", " SUM "):
+        _, meta = read_size_data(AIM_COLUMNS, sample=typed)
+        assert meta["sample"] == "sum" and meta["aggregate"] == "sum"
+    _, meta = read_size_data(AIM_COLUMNS, sample="Mean")
+    assert meta["sample"] == "mean"

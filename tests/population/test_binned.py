@@ -206,3 +206,18 @@ def test_chi2_of_a_fit_with_no_probability_on_the_bins_rejects_it():
     r = chi2_binned(edges, counts, far)
     assert r.reject and r.pvalue == 0.0 and r.statistic == math.inf
     assert r.dof == 5 - 1 - 2
+
+
+@pytest.mark.parametrize(
+    ("values", "message"),
+    [
+        ([1.0, 2.0], "`counts` needs 3 values (one per bin); got 2."),
+        ([1.0, -1.0, 2.0], "`counts` must be finite, >= 0 and not all 0."),
+        ([1.0, np.nan, 2.0], "`counts` must be finite, >= 0 and not all 0."),
+        ([0.0, 0.0, 0.0], "`counts` must be finite, >= 0 and not all 0."),
+    ],
+)
+def test_bad_bin_values_are_refused_saying_what_is_allowed(values, message):
+    with pytest.raises(ValueError) as info:
+        number_per_bin([1.0, 2.0, 4.0, 8.0], values, "count")
+    assert str(info.value) == message

@@ -63,6 +63,11 @@ def test_read_text_arguments_xy_unit_and_delimiters(tmp_path):
     assert hm.z[1, 1] == pytest.approx(4e-10)
     same = read_height_map(DATA / "areal_small.txt", dx_um=0.5, z_unit="nm")
     assert_array_equal(same.z, read_height_map(DATA / "areal_small.txt").z)
+    # no dy anywhere: square pixels, and the metadata says where dy came from
+    r = _write(tmp_path, "# dx_um: 2\n# z_unit: nm\n1\t2\n3\t4\n", "c.tsv")
+    hm = read_height_map(r)
+    assert hm.dy == hm.dx == pytest.approx(2e-6)
+    assert hm.metadata["dy_from"] == "dx" and hm.metadata["dx_from"] == "header"
 
 
 @pytest.mark.parametrize(
