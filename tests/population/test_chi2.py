@@ -150,3 +150,28 @@ def test_errors():
         chi2_normality([5.0] * 40)
     with pytest.raises(ValueError, match="diameters > 0"):
         chi2_normality([*TINY_UM, -1.0])
+
+
+def test_classes_merge_tails_inward_then_the_smallest_class():
+    """Hand-worked: expected [10, 3, 10, 1, 1, 1] (MIN_EXPECTED 5). The tail
+    merges inward until the last class holds 5 or more: [10, 3, 10, 3], then
+    [10, 3, 13]; then the interior 3 joins its smaller neighbour (10, on its
+    left): [13, 13]."""
+    from microimpact.population.distributions import _merge
+
+    edges = [0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0]
+    observed = [9, 4, 11, 2, 0, 1]
+    expected = [10.0, 3.0, 10.0, 1.0, 1.0, 1.0]
+    e, o, x = _merge(edges, observed, expected)
+    np.testing.assert_array_equal(e, [0.0, 2.0, 6.0])
+    np.testing.assert_array_equal(x, [13.0, 13.0])
+    np.testing.assert_array_equal(o, [13, 14])
+    # the head merges first, outward-in: [1, 1, 8, 10] -> [2, 8, 10] -> [10, 10]
+    e, o, x = _merge([0, 1, 2, 3, 4], [1, 2, 7, 9], [1.0, 1.0, 8.0, 10.0])
+    np.testing.assert_array_equal(e, [0, 3, 4])
+    np.testing.assert_array_equal(x, [10.0, 10.0])
+    np.testing.assert_array_equal(o, [10, 9])
+    # two classes, the first too small: one class is left
+    e, o, x = _merge([0, 1, 2], [1, 8], [1.0, 9.0])
+    np.testing.assert_array_equal(e, [0, 2])
+    np.testing.assert_array_equal(x, [10.0])
