@@ -122,6 +122,21 @@ def test_histogram_columns_layout(write_file):
 
 
 @pytest.mark.parametrize(
+    ("row", "said"),
+    [
+        ("x,20,12", "column 0 (lower edge): non-numeric value 'x'; allowed: a number"),
+        ("10,x,12", "column 1 (upper edge): non-numeric value 'x'; allowed: a number"),
+        ("10,20,x", "column 2 (count): non-numeric value 'x'; allowed: a number >= 0"),
+    ],
+)
+def test_histogram_cells_name_their_column(write_file, row, said):
+    path = write_file("bad.csv", "lower_um,upper_um,count\n" + row + "\n")
+    with pytest.raises(DataFormatError) as info:
+        read_histogram(path)
+    assert f"bad.csv:2: {said}" in str(info.value)
+
+
+@pytest.mark.parametrize(
     "text",
     [
         "10 20 30 40\n0.1 0.5 0.4\n",

@@ -370,6 +370,8 @@ def test_profile_set_metadata_is_not_duplicated(write_file):
     assert ps.sources == [str(p1)] and ps.n_points == 6 and len(ps) == 2
     assert ps.metadata == {}
     assert ProfileSet((Profile([0.0, 1.0], [0.0, 1.0]),)).sources == []
+    with pytest.raises(ValueError, match=r"^a ProfileSet needs at least one profile"):
+        ProfileSet(())
 
 
 # ------------------------------------------------------------------ header units

@@ -162,6 +162,9 @@ def test_point_clouds_read_where_they_are_a_line_and_refused_otherwise(tmp_path)
     with pytest.raises(ProfileFormatError, match="not a line scan") as info:
         read_profile(tmp_path / "cloud.x3p")
     assert "\n" not in str(info.value)
+    assert "allowed: points along one line (a profile), or a surface on a " in str(
+        info.value
+    )
     with pytest.raises(ProfileFormatError, match="read a line scan with read_profiles"):
         mi.read_height_map(tmp_path / "line.x3p")
 
