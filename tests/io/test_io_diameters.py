@@ -148,6 +148,13 @@ def test_histogram_rows_layout(write_file, text):
     assert_allclose(edges, np.array([10, 20, 30, 40]) * UM, rtol=1e-15)
     assert_allclose(counts, [0.1, 0.5, 0.4], rtol=1e-15)
     assert meta["layout"] == "rows"
+    # the same file through the general size-data reader: the same bins
+    from microimpact.io.size_bins import read_size_bins
+
+    bins, meta2 = read_size_bins(write_file("h2.txt", text), values="count")
+    assert_allclose(bins.edges_um, [10, 20, 30, 40], rtol=1e-15)
+    assert_allclose(bins.number, [0.1, 0.5, 0.4], rtol=1e-15)
+    assert meta2["layout"] == "rows" and bins.values == "count"
 
 
 def test_histogram_file_to_distribution_reproduces_counts(write_file):

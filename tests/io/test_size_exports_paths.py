@@ -201,3 +201,22 @@ def test_mean_and_sum_are_named_alike_however_typed():
         assert meta["sample"] == "sum" and meta["aggregate"] == "sum"
     _, meta = read_size_data(AIM_COLUMNS, sample="Mean")
     assert meta["sample"] == "mean"
+
+
+@pytest.mark.parametrize("name", ["Optical Particle Sizer", "Particle counter"])
+def test_an_ops_known_by_name_or_model_number_refuses_sizes_it_cannot_measure(
+    tmp_path, name
+):
+    # cut points typed in mm: 335-8962 um, outside what an OPS 3330 measures;
+    # the export says it is one by its name, or (renamed) by Model Number 3330
+    rows = [
+        [r[0].replace("(um)", "(mm)"), *r[1:]] if r and "Cut Point" in r[0] else r
+        for r in _ops_rows()
+    ]
+    rows = [[r[0], name] if r and r[0] == "Instrument Name" else r for r in rows]
+    path = _write(tmp_path / "ops_mm.csv", rows)
+    with pytest.raises(DataFormatError) as info:
+        read_size_data(path, sample="sum", values="count")
+    assert "an OPS measures 0.2 to 15 um, but the bins read in mm span 335" in str(
+        info.value
+    )

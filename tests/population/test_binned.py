@@ -206,6 +206,9 @@ def test_chi2_of_a_fit_with_no_probability_on_the_bins_rejects_it():
     r = chi2_binned(edges, counts, far)
     assert r.reject and r.pvalue == 0.0 and r.statistic == math.inf
     assert r.dof == 5 - 1 - 2
+    np.testing.assert_array_equal(r.observed, counts)  # the bins as measured
+    np.testing.assert_array_equal(r.expected, np.zeros(5))
+    np.testing.assert_array_equal(r.edges_um, edges)
 
 
 @pytest.mark.parametrize(

@@ -39,3 +39,14 @@ def test_the_better_fit_the_test_keeps_else_the_measured(aics, rejects, wants):
                                              ((5.0, 10.0), "normal")])  # fmt: skip
 def test_without_a_test_the_better_fit_is_recommended(aics, wants):
     assert recommend(*aics, None, None, "measured")[1:] == (wants, wants)
+
+
+def test_a_chi2_summary_line_says_the_outcome():
+    import types
+
+    from microimpact.population._compare import chi2_line
+
+    c = types.SimpleNamespace(statistic=3.14159, dof=4, pvalue=0.53219, reject=False)
+    assert chi2_line(c) == "chi2 3.142, dof 4, p = 0.5322: not rejected"
+    c.reject, c.pvalue = True, 0.0012345
+    assert chi2_line(c) == "chi2 3.142, dof 4, p = 0.001234: rejected"
