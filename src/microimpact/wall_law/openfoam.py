@@ -580,7 +580,7 @@ def write_stochastic_model(law, out_dir, *, patches=None) -> list[Path]:
     written = [
         _write_text(
             folder / STOCHASTIC_FILE,
-            _stochastic_text(surfaces, names, _provenance(ds)),
+            _stochastic_text(surfaces, names, _provenance(ds), _resuspension(ds)),
         )
     ]
     model = folder / MODEL_DIR
@@ -628,6 +628,11 @@ _STOCHASTIC_KEYS = [
     "                table (they use its end nodes, SWL_FLAG_CLAMPED). Default yes.",
     "  strictClamp   yes: a query outside the table stops the run with a fatal",
     "                error naming the parcel and the patch. Default no.",
+    "  resuspension  yes: a captured parcel that the table flags resuspended",
+    "                (SWL_FLAG_RESUSPENDED, from its stay_probability) is removed",
+    "                (counted as escape; the summary says how many). Needs a",
+    "                table with stay_probability (else a fatal error); written",
+    "                yes where the table has it. Default no.",
     "Per strike the model takes, relative to the patch velocity Up: d = the",
     "parcel's diameter * 1e6 [um], v_in = U - Up, normal = -nw (OpenFOAM's patch",
     "normal points out of the fluid; the table's z points into it), five",
@@ -637,8 +642,41 @@ _STOCHASTIC_KEYS = [
 ]
 
 
-def _stochastic_text(surfaces, names, header) -> str:
+def _steps(values, unit) -> str:
+    return ", ".join(f"{float(v):g}" for v in np.atleast_1d(values)) + f" {unit}"
+
+
+def _resuspension(ds) -> tuple[str, list[str]]:
+    """The ``resuspension`` switch for `ds` (``yes`` where it carries
+    ``stay_probability``) and the comment said above it."""
+    if "stay_probability" not in ds:
+        return "no", [
+            "resuspension no: the table has no stay_probability (built without a",
+            "[resuspension] table), so every captured parcel stays captured.",
+        ]
+    attrs = ds["stay_probability"].attrs
+    if "friction_velocity_m_s" in attrs and "exposure_s" in attrs:
+        flow = (
+            f"friction velocity {_steps(attrs['friction_velocity_m_s'], 'm/s')} "
+            f"for {_steps(attrs['exposure_s'], 's')}"
+        )
+    else:
+        flow = "friction velocity and exposure (see wall_law.nc)"
+    return "yes", [
+        "resuspension yes: the table carries stay_probability; a captured parcel",
+        "that the table says does not stay is removed (as escape) at its capture,",
+        "as if the whole exposure had passed. It assumes quasi-steady flow at the",
+        f"table's {flow} (steps in order),",
+        "independent particles (a monolayer) and the table's adhesion, not the",
+        "time your run has left. Set no to keep every capture.",
+    ]
+
+
+def _stochastic_text(surfaces, names, header, resuspension) -> str:
+    """The ``stochasticWallLawCoeffs`` dictionary; `resuspension` is
+    :func:`_resuspension`'s ``(switch, comment)``."""
     table = CASE_TABLE
+    switch, said = resuspension
     entries = []
     for index, s in enumerate(surfaces):
         entries.append(
@@ -656,7 +694,9 @@ def _stochastic_text(surfaces, names, header) -> str:
         + "    );\n"
         + "    maxReimpacts    10;\n"
         + "    warnClamped     yes;\n"
-        + "    strictClamp     no;\n}\n"
+        + "    strictClamp     no;\n"
+        + "".join(f"    // {line}\n" for line in said)
+        + f"    resuspension    {switch};\n}}\n"
     )
 
 
@@ -816,7 +856,9 @@ def write_demo_case(law, case_dir, *, parcels: int = 1000) -> list[Path]:
         "    stochasticCollisionModel none;\n    collisionModel none;\n"
         "    radiation off;\n}\n\ncloudFunctions { }\n",
     )
-    coeffs = _stochastic_text(surfaces, names, _provenance(ds)).replace(
+    coeffs = _stochastic_text(
+        surfaces, names, _provenance(ds), _resuspension(ds)
+    ).replace(
         "        // the mesh's other patches, e.g. outlet { type escape; }\n",
         "        outer { type escape; }\n",
     )
