@@ -68,11 +68,13 @@ from .openfoam_stochastic import (
     C_TABLE,  # noqa: F401
     CASE_TABLE,  # noqa: F401
     DEMO_CASE,  # noqa: F401
+    DEMO_FAMILIES,  # noqa: F401
     MODEL_DIR,  # noqa: F401
     MODEL_FILES,  # noqa: F401
     MODEL_SOURCES,  # noqa: F401
     STOCHASTIC_FILE,
     _comment_block,
+    _demo_family_iv,
     _patch_names,
     _provenance,
     _write_text,
@@ -375,6 +377,7 @@ def write_openfoam(
     speed_m_s=None,
     angle_deg=None,
     patches: Mapping[str, str] | None = None,
+    demo_family: str = "kinematic",
 ) -> list[Path]:
     """Write ``out_dir/openfoam/``: OpenFOAM dictionaries of the wall law `law`.
 
@@ -405,12 +408,17 @@ def write_openfoam(
         Surface name -> mesh patch name (or OpenFOAM regular expression, written in
         double quotes, e.g. ``"(top|bottom)Wall"``). Default: the surface name,
         with characters other than ``A-Z a-z 0-9 _ . : + -`` replaced by ``_``.
+    demo_family : {"kinematic", "mppic", "reacting"}, optional
+        The solver family of ``demoCase/`` (:func:`write_demo_case`):
+        ``icoUncoupledKinematicParcelFoam``, ``MPPICFoam`` or
+        ``reactingParcelFoam``. Default ``"kinematic"``.
 
     Returns
     -------
     list of Path
         The files written.
     """
+    _demo_family_iv(demo_family)
     ds = law.dataset
     requested = {
         "diameter_um": diameter_um,
@@ -462,5 +470,7 @@ def write_openfoam(
     )
     written.append(_write_text(folder / LOCAL_PATCHES_FILE, text))
 
-    written.extend(write_stochastic_model(law, out_dir, patches=patches))
+    written.extend(
+        write_stochastic_model(law, out_dir, patches=patches, demo_family=demo_family)
+    )
     return written

@@ -34,6 +34,7 @@ __all__ = [
     "CASE_TABLE",
     "C_TABLE",
     "DEMO_CASE",
+    "DEMO_FAMILIES",
     "MODEL_DIR",
     "MODEL_FILES",
     "MODEL_SOURCES",
@@ -160,14 +161,18 @@ def _write_text(path: Path, text: str) -> Path:
     return atomic_write(path, write)
 
 
-def write_stochastic_model(law, out_dir, *, patches=None) -> list[Path]:
+def write_stochastic_model(
+    law, out_dir, *, patches=None, demo_family: str = "kinematic"
+) -> list[Path]:
     """Write the stochastic model into ``out_dir/openfoam/``: its coefficients
     (``stochasticWallLawCoeffs``), the C++ sources of the patch interaction model
     ``stochasticWallLaw`` with the C sampler (``stochasticWallLaw/``, for
-    ``wmake libso``) and ``build.sh`` (``bash build.sh LIBDIR`` builds
-    ``LIBDIR/libstochasticWallLaw.so``). Needs no condition: every node is used.
-    `patches` maps surfaces to mesh patch names as in :func:`write_openfoam`.
-    Returns the paths written."""
+    ``wmake libso``), ``build.sh`` (``bash build.sh LIBDIR`` builds
+    ``LIBDIR/libstochasticWallLaw.so``) and the demo case ``demoCase/`` of the
+    solver family `demo_family` (:func:`write_demo_case`). Needs no condition:
+    every node is used. `patches` maps surfaces to mesh patch names as in
+    :func:`write_openfoam`. Returns the paths written."""
+    _demo_family_iv(demo_family)
     ds = law.dataset
     surfaces = [str(s) for s in np.asarray(ds["surface"].values).tolist()]
     names = _patch_names(surfaces, patches)
@@ -190,7 +195,7 @@ def write_stochastic_model(law, out_dir, *, patches=None) -> list[Path]:
     )
     path.chmod(path.stat().st_mode | 0o111)  # executable, as `bash build.sh` needs not
     written.append(path)
-    written.extend(write_demo_case(law, folder / DEMO_CASE))
+    written.extend(write_demo_case(law, folder / DEMO_CASE, family=demo_family))
     return written
 
 
@@ -302,12 +307,26 @@ def _quote(text: str) -> str:
 
 #: The demonstration case written by :func:`write_stochastic_model`.
 DEMO_CASE = "demoCase"
+#: The demo case's families: ``family -> (solver, cloud)``.
+DEMO_FAMILIES = {
+    "kinematic": ("icoUncoupledKinematicParcelFoam", "kinematicCloud"),
+    "mppic": ("MPPICFoam", "kinematicCloud"),
+    "reacting": ("reactingParcelFoam", "reactingCloud1"),
+}
 
 _DEMO_HEAD = (
     "FoamFile\n{{\n    version     2.0;\n    format      ascii;\n"
     "    class       {cls};\n    object      {obj};\n}}\n"
     "// microimpact: demonstration case of the stochasticWallLaw model\n\n"
 )
+
+
+def _demo_family_iv(family, name="demo_family") -> None:
+    if family not in DEMO_FAMILIES:
+        raise ValueError(
+            f"`{name}` must be one of {', '.join(map(repr, DEMO_FAMILIES))}; "
+            f"got {family!r}"
+        )
 
 
 def _demo_condition(ds) -> dict:
@@ -330,20 +349,30 @@ def _demo_condition(ds) -> dict:
     }
 
 
-def write_demo_case(law, case_dir, *, parcels: int = 1000) -> list[Path]:
+def write_demo_case(
+    law, case_dir, *, parcels: int = 1000, family: str = "kinematic"
+) -> list[Path]:
     """Write a small OpenFOAM case that runs the stochastic model: a 0.1 m box
     (4 x 4 x 4 cells) whose floor (y = 0) is the wall patch of the table's first
     surface and whose other faces (patch ``outer``) let parcels escape. `parcels`
     parcels start 1 cm above the floor (lower at angles below about 11 deg, so that
     they strike it within the box) and strike it once, at the diameter, speed
     and angle of the node of that surface whose capture probability is nearest
-    0.5 (oblique angles only); no drag, no gravity, under
-    ``icoUncoupledKinematicParcelFoam``; the run ends 4 steps after the strike.
+    0.5 (oblique angles only); no drag, no gravity, in a fluid at rest; the run
+    ends 4 steps after the strike.
+
+    `family` picks the solver (:data:`DEMO_FAMILIES`): ``"kinematic"``
+    (``icoUncoupledKinematicParcelFoam``, cloud ``kinematicCloud``),
+    ``"mppic"`` (``MPPICFoam``, ``kinematicCloud``, air as the continuous
+    phase ``air``) or ``"reacting"`` (``reactingParcelFoam``,
+    ``reactingCloud1``: water droplets in air, no heat or mass transfer, no
+    chemistry).
 
     The case holds ``constant/stochasticWallLawCoeffs`` (the exported
     coefficients with ``outer { type escape; }`` added) but **not** the table:
     copy ``c/wall_law.swl`` to ``constant/wall_law.swl`` (docs/wall-law.md).
-    Returns the paths written."""
+    Returns the paths written. Raises ``ValueError`` for another `family`."""
+    _demo_family_iv(family, "family")
     ds = law.dataset
     surfaces = [str(s) for s in np.asarray(ds["surface"].values).tolist()]
     names = _patch_names(surfaces, None)
@@ -451,6 +480,8 @@ def write_demo_case(law, case_dir, *, parcels: int = 1000) -> list[Path]:
         "    stochasticCollisionModel none;\n    collisionModel none;\n"
         "    radiation off;\n}\n\ncloudFunctions { }\n",
     )
+    if family != "kinematic":
+        _family_files(files, family, injection=(u_t, u_n, d_m))
     coeffs = _stochastic_text(
         surfaces, names, _provenance(ds), _resuspension(ds)
     ).replace(
@@ -463,3 +494,208 @@ def write_demo_case(law, case_dir, *, parcels: int = 1000) -> list[Path]:
         written.append(_write_text(case / rel, text))
     written.append(_write_text(case / "constant" / STOCHASTIC_FILE, coeffs))
     return written
+
+
+# ----------------------------------------------------- the MPPIC and reacting demos
+# After tests/foam_box.py, whose cases run every Lagrangian solver of Debian's
+# OpenFOAM 1912: the carrier at rest, laminar; ballistic parcels (no forces, no
+# heat or mass transfer, no breakup).
+
+
+def _uniform(cls, dims, value, bc) -> tuple[str, str]:
+    """A field of value `value` whose every patch has the condition `bc`."""
+    return (
+        cls,
+        f"dimensions      {dims};\ninternalField   uniform {value};\n"
+        f'boundaryField\n{{\n    ".*" {{ {bc} }}\n}}\n',
+    )
+
+
+_SCALAR, _VECTOR = "volScalarField", "volVectorField"
+_VELOCITY, _PRESSURE = "[0 1 -1 0 0 0 0]", "[1 -1 -2 0 0 0 0]"
+_ZERO_GRADIENT = "type zeroGradient;"
+_LINEAR_SOLVERS = (
+    'solvers\n{\n    "(U|h|e|Yi|T).*" { solver smoothSolver; smoother '
+    "symGaussSeidel;\n        tolerance 1e-8; relTol 0; }\n"
+    '    "(p|p_rgh|rho|pcorr|alpha).*" { solver PCG; preconditioner DIC;\n'
+    "        tolerance 1e-8; relTol 0; }\n}\n"
+    "PIMPLE\n{\n    nOuterCorrectors 1; nCorrectors 1; nNonOrthogonalCorrectors 0;\n"
+    "    momentumPredictor no; pRefCell 0; pRefValue 0;\n}\n"
+    'relaxationFactors { equations { ".*" 1; } }\n'
+)
+
+
+def _fv_schemes(div: str) -> tuple[str, str]:
+    return (
+        "dictionary",
+        "ddtSchemes { default Euler; }\ngradSchemes { default Gauss linear; }\n"
+        f"divSchemes\n{{\n    default Gauss linear;\n{div}}}\n"
+        "laplacianSchemes { default Gauss linear corrected; }\n"
+        "interpolationSchemes { default linear; }\n"
+        "snGradSchemes { default corrected; }\n",
+    )
+
+
+def _mppic_fluid(files) -> None:
+    """MPPICFoam's continuous phase ``air`` at rest."""
+    del files["0/U"], files["constant/turbulenceProperties"]
+    files["0/U.air"] = _uniform(_VECTOR, _VELOCITY, "(0 0 0)", _ZERO_GRADIENT)
+    files["0/p"] = _uniform(_SCALAR, "[0 2 -2 0 0 0 0]", "0", _ZERO_GRADIENT)
+    files["constant/transportProperties"] = (
+        "dictionary",
+        "continuousPhase air;\nrho.air         1.2;\ntransportModel  Newtonian;\n"
+        "nu              1e-05;\n",
+    )
+    files["constant/turbulenceProperties.air"] = (
+        "dictionary",
+        "simulationType  laminar;\n",
+    )
+    files["system/fvSchemes"] = _fv_schemes(
+        "    div(alphaPhi.air,U.air) Gauss upwind;\n"
+        "    div(((alpha.air*nuEff.air)*dev2(T(grad(U.air))))) Gauss linear;\n"
+    )
+    files["system/fvSolution"] = ("dictionary", _LINEAR_SOLVERS)
+
+
+def _reacting_fluid(files) -> None:
+    """reactingParcelFoam's gas: air at rest, one inert specie with constant
+    properties (and H2O, the droplets' liquid), no chemistry, no combustion."""
+    del files["0/U"], files["constant/transportProperties"]
+    files["0/U"] = _uniform(
+        _VECTOR, _VELOCITY, "(0 0 0)", "type fixedValue; value uniform (0 0 0);"
+    )
+    files["0/T"] = _uniform(_SCALAR, "[0 0 0 1 0 0 0]", "300", _ZERO_GRADIENT)
+    files["0/p"] = _uniform(
+        _SCALAR, _PRESSURE, "100000", "type calculated; value uniform 100000;"
+    )
+    files["0/p_rgh"] = _uniform(
+        _SCALAR,
+        _PRESSURE,
+        "100000",
+        "type fixedFluxPressure; value uniform 100000;",
+    )
+    for specie, value in (("air", 1), ("H2O", 0), ("Ydefault", 0)):
+        files[f"0/{specie}"] = _uniform(
+            _SCALAR, "[0 0 0 0 0 0 0]", value, _ZERO_GRADIENT
+        )
+    files["constant/thermophysicalProperties"] = (
+        "dictionary",
+        "thermoType\n{\n    type heRhoThermo; mixture reactingMixture;\n"
+        "    transport const; thermo hConst; energy sensibleEnthalpy;\n"
+        "    equationOfState perfectGas; specie specie;\n}\n"
+        "chemistryReader foamChemistryReader;\n"
+        'foamChemistryFile "<constant>/reactions";\n'
+        'foamChemistryThermoFile "<constant>/thermo.air";\n'
+        "inertSpecie air;\nliquids { H2O; }\nsolids { }\n",
+    )
+    files["constant/reactions"] = (
+        "dictionary",
+        "species ( air H2O );\nreactions { }\n",
+    )
+    files["constant/thermo.air"] = (
+        "dictionary",
+        "air { specie { molWeight 28.96; } thermodynamics { Cp 1004.5; Hf 0; }\n"
+        "      transport { mu 1.8e-05; Pr 0.7; } }\n"
+        "H2O { specie { molWeight 18.0153; }\n"
+        "      thermodynamics { Cp 1900; Hf -1.3423e7; }\n"
+        "      transport { mu 1e-05; Pr 1; } }\n",
+    )
+    files["constant/chemistryProperties"] = (
+        "dictionary",
+        "chemistryType { solver none; method standard; }\nchemistry off;\n"
+        "initialChemicalTimeStep 1e-07;\n",
+    )
+    files["constant/combustionProperties"] = (
+        "dictionary",
+        "combustionModel none;\n",
+    )
+    files["constant/radiationProperties"] = (
+        "dictionary",
+        "radiation off;\nradiationModel none;\n",
+    )
+    files["constant/surfaceFilmProperties"] = (
+        "dictionary",
+        "surfaceFilmModel none;\n",
+    )
+    files["system/fvSchemes"] = _fv_schemes(
+        "    div(phi,U) Gauss upwind; div(phi,K) Gauss upwind;\n"
+        "    div(phi,h) Gauss upwind; div(phi,Yi_h) Gauss upwind;\n"
+        "    div(((rho*nuEff)*dev2(T(grad(U))))) Gauss linear;\n"
+    )
+    files["system/fvSolution"] = ("dictionary", _LINEAR_SOLVERS)
+
+
+def _family_files(files, family, *, injection) -> None:
+    """Turn the kinematic demo's `files` into `family`'s (:data:`DEMO_FAMILIES`):
+    its solver, its carrier at rest and its cloud's properties."""
+    solver, cloud = DEMO_FAMILIES[family]
+    cls, control = files["system/controlDict"]
+    control = control.replace(
+        "application     icoUncoupledKinematicParcelFoam;\n",
+        f"application     {solver};\n",
+    ).replace(
+        "runTimeModifiable no;\n",
+        "runTimeModifiable no;\nadjustTimeStep  no;\nmaxCo           1;\n"
+        "maxDeltaT       1;\n",
+    )
+    files["system/controlDict"] = (cls, control)
+    (_mppic_fluid if family == "mppic" else _reacting_fluid)(files)
+    files[f"constant/{cloud}Positions"] = files.pop("constant/kinematicCloudPositions")
+    del files["constant/kinematicCloudProperties"]
+    u_t, u_n, d_m = injection
+    if family == "mppic":
+        interpolation = "rho.air cell; U.air cellPoint; mu.air cell; alpha.air cell;"
+        integration = "U Euler;"
+        constant = "alphaMax        0.9;\n"
+        models = "    packingModel none; dampingModel none; isotropyModel none;\n"
+    else:
+        interpolation = (
+            "rho cell; U cellPoint; thermo:mu cell; T cell; Cp cell;\n"
+            "        kappa cell; p cell; G cell;"
+        )
+        integration = "U Euler; T analytical;"
+        constant = (
+            "T0              300;\n    Cp0             4100;\n"
+            "    constantVolume  false;\n    TDevol 400; LDevol 0; hRetentionCoeff 1;\n"
+            "    epsilon0 1; f0 0.5; Pr 0.7; TMin 200; TMax 5000;\n"
+        )
+        models = (
+            "    phaseChangeModel none; devolatilisationModel none;\n"
+            "    surfaceReactionModel none;\n"
+            "    compositionModel singleMixtureFraction;\n"
+            "    singleMixtureFractionCoeffs\n    {\n"
+            "        phases ( gas { } liquid { H2O 1; } solid { } );\n"
+            "        YGasTot0 0; YLiquidTot0 1; YSolidTot0 0;\n    }\n"
+        )
+    files[f"constant/{cloud}Properties"] = (
+        "dictionary",
+        "solution\n{\n    active          true;\n    coupled         false;\n"
+        "    transient       yes;\n    cellValueSourceCorrection off;\n"
+        "    maxCo           0.3;\n    averagingMethod basic;\n"
+        "    calcFrequency   1;\n    maxTrackTime    1;\n"
+        "    resetSourcesOnStartup false;\n"
+        f"    interpolationSchemes {{ {interpolation} }}\n"
+        f"    integrationSchemes {{ {integration} }}\n"
+        "    sourceTerms { schemes { } resetOnStartup false; }\n}\n\n"
+        "constantProperties\n{\n    rho0            2500;\n"
+        "    youngsModulus   1e8;\n    poissonsRatio   0.35;\n"
+        f"    {constant}}}\n\n"
+        "subModels\n{\n    particleForces { }    // no drag, no gravity\n\n"
+        "    injectionModels\n    {\n        model1\n        {\n"
+        "            type            manualInjection;\n"
+        "            massTotal       1e-9;\n            parcelBasisType fixed;\n"
+        "            nParticle       1;\n            SOI             0;\n"
+        "            massFlowRate    constant 1e-9;\n            duration        1;\n"
+        f'            positionsFile   "{cloud}Positions";\n'
+        f"            U0              ({u_t:.12g} {-u_n:.12g} 0);\n"
+        "            sizeDistribution\n            {\n"
+        "                type fixedValue;\n"
+        f"                fixedValueDistribution {{ value {d_m:.12g}; }}\n"
+        "            }\n        }\n    }\n\n"
+        "    dispersionModel none;\n"
+        "    patchInteractionModel stochasticWallLaw;\n"
+        f'    #include "{STOCHASTIC_FILE}"\n\n'
+        "    heatTransferModel none;\n    surfaceFilmModel none;\n"
+        "    stochasticCollisionModel none;\n    collisionModel none;\n"
+        f"    radiation off;\n{models}}}\n\ncloudFunctions {{ }}\n",
+    )
