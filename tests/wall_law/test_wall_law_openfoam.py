@@ -424,6 +424,42 @@ def test_bad_patch_mapping(tmp_path, patches, match):
         write_openfoam(_law(ds), tmp_path, patches=patches)
 
 
+def _with_stay(ds):
+    """`ds` with a ``stay_probability`` column and the flow it was computed for
+    (a ramp of two friction velocities, 60 s each), as build_wall_law writes it."""
+    ds = ds.copy()
+    p = ds["capture_probability"]
+    ds["stay_probability"] = (p.dims, np.full(p.shape, 0.6))
+    ds["stay_probability"].attrs.update(
+        friction_velocity_m_s=np.array([0.5, 1.25]), exposure_s=np.array([60.0, 60.0])
+    )
+    return ds
+
+
+@pytest.mark.parametrize("stay", [False, True])
+def test_resuspension_switch_follows_the_stay_column(tmp_path, stay):
+    """``resuspension yes;`` exactly where the table carries stay_probability,
+    in the exported coefficients and in the demo case's copy, with the flow the
+    column assumes said in the comment above it."""
+    ds, _ = make_dataset()
+    write_openfoam(_law(_with_stay(ds) if stay else ds), tmp_path)
+    folder = tmp_path / "openfoam"
+    for path in (folder, folder / DEMO_CASE / "constant"):
+        text = (path / STOCHASTIC_FILE).read_text()
+        d = parse_foam(text)["stochasticWallLawCoeffs"]
+        assert d["resuspension"] == ("yes" if stay else "no")
+        said = " ".join(
+            line.strip().removeprefix("//").strip()
+            for line in text.split("strictClamp     no;")[1].splitlines()
+            if line.strip().startswith("//")
+        )
+        if stay:
+            assert "quasi-steady flow" in said and "independent particles" in said
+            assert "friction velocity 0.5, 1.25 m/s for 60, 60 s" in said
+        else:
+            assert "no stay_probability" in said
+
+
 def test_stochastic_dictionary_keys(tmp_path):
     ds, _ = make_dataset()
     write_openfoam(_law(ds), tmp_path / "law")
@@ -435,6 +471,7 @@ def test_stochastic_dictionary_keys(tmp_path):
         "maxReimpacts",
         "warnClamped",
         "strictClamp",
+        "resuspension",
     }
     # the case's copy of the table, not a path of the machine that built it
     assert d["table"] == ("string", "$FOAM_CASE/constant/wall_law.swl")
@@ -444,7 +481,7 @@ def test_stochastic_dictionary_keys(tmp_path):
         "glass": {"surface": ("string", "glass"), "captured": "stick"},
     }
     assert d["maxReimpacts"] == 10.0 and d["warnClamped"] == "yes"
-    assert d["strictClamp"] == "no"
+    assert d["strictClamp"] == "no" and d["resuspension"] == "no"
     for key in (
         "table",
         "patches",
@@ -453,6 +490,7 @@ def test_stochastic_dictionary_keys(tmp_path):
         "maxReimpacts",
         "warnClamped",
         "strictClamp",
+        "resuspension",
     ):
         assert f"  {key}" in text  # every key is described in the file
 
@@ -660,8 +698,10 @@ def test_openfoam_parcel_rebounds_with_a_built_laws_means(tmp_path, real_law):
 
 @needs_openfoam
 @pytest.mark.skipif(shutil.which("foamDictionary") is None, reason="no foamDictionary")
-def test_openfoam_reads_the_stochastic_dictionary(tmp_path):
+@pytest.mark.parametrize("stay", [False, True])
+def test_openfoam_reads_the_stochastic_dictionary(tmp_path, stay):
     ds, _ = make_dataset()
+    ds = _with_stay(ds) if stay else ds
     write_openfoam(_law(ds), tmp_path, patches={"glass": "(window|pane)"})
     path = tmp_path / "openfoam" / STOCHASTIC_FILE
 
@@ -687,6 +727,8 @@ def test_openfoam_reads_the_stochastic_dictionary(tmp_path):
         patches,
     ), patches
     assert entry("stochasticWallLawCoeffs/maxReimpacts") == "10"
+    # the model reads it as a switch, default no (StochasticWallLaw.C)
+    assert entry("stochasticWallLawCoeffs/resuspension") == ("yes" if stay else "no")
 
 
 @pytest.mark.parametrize("angle", [5.0, 10.0, 45.0, 80.0])

@@ -30,11 +30,15 @@ from foam_box import foam_env as _foam_env
 
 pytest.importorskip("xarray")
 
+from microimpact.cli import main
+from microimpact.cli.wall_law import DEMO_FAMILIES as CLI_FAMILIES
 from microimpact.wall_law.export_c import C_SOURCES
 from microimpact.wall_law.openfoam import (
     CASE_TABLE,
     DEMO_CASE,
+    DEMO_FAMILIES,
     STOCHASTIC_FILE,
+    write_demo_case,
     write_openfoam,
 )
 
@@ -498,6 +502,80 @@ def test_demo_case_runs_as_the_docs_say(tmp_path, library):
     assert c["first"] == c["strikes"] == 1000
     # the demo's node captures about half the parcels (the node nearest 0.5)
     assert 0.2 < c["captured_first"] / c["first"] < 0.8
+
+
+@needs_openfoam
+@pytest.mark.parametrize("family", ["kinematic", "mppic", "reacting"])
+def test_demo_case_of_each_family_runs_its_solver(tmp_path, library, law, family):
+    """write_demo_case(family=...): the family's solver (icoUncoupledKinematic-
+    ParcelFoam, MPPICFoam, reactingParcelFoam) starts on the case as written,
+    selects the model for its cloud, and the capture at the first strike of its
+    400 parcels agrees with the table's capture probability at the node the
+    parcels were sent to (read back from the case's injection), within 4 SE."""
+    out, libdir, _ = library
+    solver, cloud = DEMO_FAMILIES[family]
+    case = tmp_path / family
+    write_demo_case(law, case, parcels=400, family=family)
+    shutil.copy(out / "c" / "wall_law.swl", case / "constant" / "wall_law.swl")
+    assert f"application     {solver};" in (case / "system/controlDict").read_text()
+    props = (case / "constant" / f"{cloud}Properties").read_text()
+    u = [float(x) for x in re.search(r"U0\s+\(([^)]*)\)", props)[1].split()]
+    d_m = float(re.search(r"fixedValueDistribution \{ value (\S+); \}", props)[1])
+    env = _foam_env(libdir)
+    for cmd in (["blockMesh"], [solver]):
+        proc = subprocess.run(
+            [*cmd, "-case", str(case)],
+            capture_output=True,
+            text=True,
+            env=env,
+            timeout=300,
+        )
+        log = proc.stdout + proc.stderr
+        assert proc.returncode == 0, log[-3000:]
+    assert f"Cloud: {cloud}" in log
+    c = _counters(log)
+    assert c["first"] == 400
+    node = law.dataset.sel(surface="formica").sel(
+        diameter_um=d_m * 1e6,
+        speed_m_s=math.hypot(u[0], u[1]),
+        angle_deg=math.degrees(math.atan2(-u[1], u[0])),
+        method="nearest",
+    )
+    p = float(node.capture_probability)
+    assert 0.1 < p < 0.9
+    se = math.sqrt(p * (1 - p) / 400)
+    assert abs(c["captured_first"] / 400 - p) < 4 * se, (c, p)
+
+
+def test_demo_family_is_checked_and_chosen_from_the_cli(tmp_path, law, capsys):
+    with pytest.raises(ValueError, match=r"`family` must be one of 'kinematic'"):
+        write_demo_case(law, tmp_path / "x", family="spray")
+    with pytest.raises(ValueError, match=r"`demo_family` .* got 'MPPIC'"):
+        write_openfoam(law, tmp_path / "y", demo_family="MPPIC")
+    assert not (tmp_path / "x").exists() and not (tmp_path / "y").exists()
+    path = tmp_path / "study.toml"
+    path.write_text(
+        'name = "w"\nseed = 3\nsamples = 100\n[particles]\n'
+        'distribution = "monodisperse"\ndiameter_um = 10\n'
+        "[coefficients]\nk1 = 4.0\nk2 = 0.05\nv_c = 0.4\nfriction = 0.2\n"
+        '[[surfaces]]\nname = "rough"\nkind = "normal"\nstd_deg = 5\n'
+        "[sweep]\nspeed_m_s = [1.0, 2.0]\nangle_deg = [30, 90]\n"
+        "[wall_law]\ndiameter_um = [5, 20]\nreservoir = 8\n"
+    )
+    out = tmp_path / "out"
+    argv = ["wall-law", str(path), "--out", str(out), "--quiet", "--no-c"]
+    assert main([*argv, "--demo-family", "reacting"]) == 0
+    demo = out / "openfoam" / DEMO_CASE
+    control = (demo / "system" / "controlDict").read_text()
+    assert "application     reactingParcelFoam;" in control
+    assert (demo / "constant" / "reactingCloud1Properties").is_file()
+    assert not (demo / "constant" / "kinematicCloudProperties").exists()
+    assert main([*argv, "--demo-family", "mppic", "--no-openfoam"]) == 2
+    assert "--no-openfoam" in capsys.readouterr().err
+    assert CLI_FAMILIES == tuple(DEMO_FAMILIES)  # written out for a fast --help
+    assert main([*argv, "--demo-family", "spray"]) == 2
+    err = capsys.readouterr().err
+    assert "--demo-family" in err and "'reacting'" in err
 
 
 def _script(tmp_path, law):

@@ -554,16 +554,17 @@ def test_fluent_counts_the_resuspended(swl, stay_ds, tmp_path, monkeypatch):
 
 
 # ------------------------------------------------------------------ OpenFOAM
-@pytest.mark.slow  # builds the OpenFOAM model (minutes) and runs a case
 def test_openfoam_removes_the_resuspended_captures(tmp_path):
-    # `resuspension yes;`: of the parcels captured at a node, the share the
-    # model removes is the node's stay probability's complement, within 4 SE;
-    # the others stick. Without the switch nothing is removed; with it on a
-    # table without the column, a fatal error that says why.
+    # The exported coefficients say `resuspension yes;` for a table with the
+    # column, and the model then removes, of the parcels captured at a node, the
+    # node's stay probability's complement, within 4 SE; the others stick.
+    # Switched to no, nothing is removed; a table without the column is
+    # exported with no, and switched to yes it is a fatal error that says why.
+    # The model is built once per source (foam_box.build_library's cache).
     import shutil
-    import subprocess
 
     import test_wall_law_openfoam_model as fm
+    from foam_box import build_error, build_library
 
     if shutil.which(fm.SOLVER) is None:
         pytest.skip("OpenFOAM (Debian package openfoam) is not installed")
@@ -583,32 +584,27 @@ def test_openfoam_removes_the_resuspended_captures(tmp_path):
         law = build_wall_law(scenario, spec, seed=3, resuspension=res)
     out = tmp_path / "law"
     law.write(out)
-    libdir = tmp_path / "lib"
-    proc = subprocess.run(
-        ["bash", str(out / "openfoam" / "build.sh"), str(libdir)],
-        capture_output=True,
-        text=True,
-        timeout=1200,
-    )
-    if proc.returncode == 3:
-        pytest.skip(f"stochasticWallLaw cannot be built here: {proc.stderr[-200:]}")
-    assert proc.returncode == 0, proc.stdout + proc.stderr
+    rc, libdir, build_log = build_library(out / "openfoam", fm.SOLVER)
+    if rc == 3:  # something missing in the environment
+        pytest.skip(f"stochasticWallLaw cannot be built here: {build_error(build_log)}")
+    assert rc == 0, build_log
     q = float(
         law.dataset["stay_probability"].sel(diameter_um=fm.DIAMETER_UM).values.flat[0]
     )
     assert 0.3 < q < 0.8
 
-    def run(name, switch, table_out=out):
+    def run(name, exported, switch, table_out=out):
+        # the case's coefficients as exported, the switch set to `switch`
         case = tmp_path / name
         fm._case(case, table_out, 1.0, max_reimpacts=0)
         coeffs = case / "constant" / fm.STOCHASTIC_FILE
         text = coeffs.read_text()
-        entry = re.compile(r"^(\s*)(maxReimpacts\s+\d+;)", re.M)
-        assert len(entry.findall(text)) == 1
-        coeffs.write_text(entry.sub(rf"\1{switch}\n\1\2", text))
+        entry = re.compile(r"^(\s*)resuspension\s+(\w+);", re.M)
+        assert [m[2] for m in entry.finditer(text)] == [exported], text
+        coeffs.write_text(entry.sub(rf"\1resuspension {switch};", text))
         return fm._run(case, libdir, check=False)
 
-    log, rc = run("on", "resuspension yes;")
+    log, rc = run("on", "yes", "yes")
     assert rc == 0, log[-3000:]
     c = fm._counters(log)
     gone = re.findall(r"stochasticWallLaw: resuspended (\d+) of the captured", log)
@@ -617,11 +613,10 @@ def test_openfoam_removes_the_resuspended_captures(tmp_path):
     se = math.sqrt(q * (1 - q) / k)
     assert abs((k - r) / k - q) < 4 * se, (k, r, q, se)
     assert c["formica_escape"] == r and c["formica_stick"] == k - r + c["forced"]
-    log, rc = run("off", "resuspension no;")
+    log, rc = run("off", "yes", "no")
     assert rc == 0 and not re.search(r"resuspended \d+", log)
     assert fm._counters(log)["formica_escape"] == 0
     plain = tmp_path / "plain"
-    build_wall_law(scenario, spec, seed=3).write(plain, openfoam=False)
-    shutil.copytree(out / "openfoam", plain / "openfoam")
-    log, rc = run("no-column", "resuspension yes;", table_out=plain)
+    build_wall_law(scenario, spec, seed=3).write(plain)
+    log, rc = run("no-column", "no", "yes", table_out=plain)
     assert rc != 0 and "stay_probability" in log

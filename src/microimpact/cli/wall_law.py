@@ -10,6 +10,9 @@ from . import _common as c
 
 HELP = "tabulate a stochastic wall law (NetCDF, CSV, C sampler, OpenFOAM)"
 
+#: The families of --demo-family (wall_law.openfoam_stochastic.DEMO_FAMILIES's
+#: keys, written out so that --help loads no library).
+DEMO_FAMILIES = ("kinematic", "mppic", "reacting")
 #: Folder (in --out) keeping finished diameters of an interrupted build.
 CHECKPOINT_DIR = ".microimpact-wall-law-checkpoint"
 
@@ -52,6 +55,13 @@ def cli_parse(sp):
     # ---- end issue 36 ----
     sp.add_argument("--no-c", action="store_true", help="write no C sampler")
     sp.add_argument("--no-openfoam", action="store_true", help="no OpenFOAM files")
+    sp.add_argument(
+        "--demo-family",
+        choices=DEMO_FAMILIES,
+        help="the solvers of openfoam/demoCase: kinematic "
+        "(icoUncoupledKinematicParcelFoam, the default), mppic (MPPICFoam) or "
+        "reacting (reactingParcelFoam)",
+    )
     sp.add_argument("--quiet", action="store_true", help="no progress")
 
 
@@ -95,6 +105,11 @@ def cli_action(args) -> int:
             "the condition flags set the OpenFOAM coefficients; drop --no-openfoam",
             field="--no-openfoam",
         )
+    if args.demo_family is not None and args.no_openfoam:
+        raise ScenarioError(
+            "--demo-family sets the OpenFOAM demo case; drop --no-openfoam",
+            field="--no-openfoam",
+        )
     if condition:
         _check_condition(spec, condition, scenario, where)
     if args.scheduler is not None:  # as before --backend existed here
@@ -135,6 +150,7 @@ def cli_action(args) -> int:
             c=not args.no_c,
             openfoam=not args.no_openfoam,
             condition=condition or None,
+            demo_family=args.demo_family or "kinematic",
         )
     c.say(
         args,

@@ -38,6 +38,7 @@ from ..scenario.wall_law import REBOUND_VARIABLES, RESERVOIR_VARIABLES
 from .checks import dataset_problem, wrong_unit
 from .export_c import write_c
 from .openfoam import write_openfoam, write_stochastic_model
+from .openfoam_stochastic import _demo_family_iv
 
 __all__ = ["WallLaw", "WallLawSample", "wall_law_dataset"]
 
@@ -756,16 +757,19 @@ class WallLaw:
                     cols[f"{name}_{tag}"] = qa[:, q.index(level)]
         return pd.DataFrame(cols)
 
-    def write(self, out_dir, *, c=True, openfoam=True, condition=None) -> list[Path]:
+    def write(
+        self, out_dir, *, c=True, openfoam=True, condition=None, demo_family="kinematic"
+    ) -> list[Path]:
         """Write ``wall_law.nc``, ``wall_law.csv`` and (by default) the C sampler
         with its binary table (``c/``) and the OpenFOAM dictionaries
         (``openfoam/``) into `out_dir`; every file is written whole or not at all.
 
         `condition` is a dict with any of ``diameter_um``, ``speed_m_s``,
         ``angle_deg``: where the OpenFOAM constant coefficients are taken.
+        `demo_family`: ``openfoam/demoCase/``'s solvers (:func:`write_demo_case`).
         Returns the paths written.
         """
-
+        _demo_family_iv(demo_family)  # before anything is written
         out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
         written = [
@@ -781,7 +785,8 @@ class WallLaw:
             written.extend(write_c(self, out))
         if openfoam:
             try:
-                written.extend(write_openfoam(self, out, **(condition or {})))
+                foam = {"demo_family": demo_family, **(condition or {})}
+                written.extend(write_openfoam(self, out, **foam))
             except ValueError as err:
                 if condition:  # the caller's condition: their error to fix
                     raise
@@ -790,7 +795,8 @@ class WallLaw:
                     RuntimeWarning,
                     stacklevel=2,
                 )
-                written.extend(write_stochastic_model(self, out))
+                foam = {"demo_family": demo_family}
+                written.extend(write_stochastic_model(self, out, **foam))
         return written
 
     def _write_netcdf(self, path):

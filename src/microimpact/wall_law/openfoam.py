@@ -41,7 +41,9 @@ Two kinds of file:
   through ``c/swl.h``'s ``swl_rebound_velocity``) at every wall strike, and its
   coefficients ``stochasticWallLawCoeffs``, whose table path is the case's
   ``$FOAM_CASE/constant/wall_law.swl``. The keys are described in the file itself
-  and in docs/wall-law.md.
+  and in docs/wall-law.md. Its exporter (:func:`write_stochastic_model`,
+  :func:`write_demo_case`) lives in :mod:`.openfoam_stochastic` and is imported
+  from here as before.
 
 The condition of the fallback: on each axis the node nearest the middle of the
 axis' range, measured in the axis' interpolation variable (log d, log v, angle in
@@ -51,19 +53,34 @@ that value in the same variable (a value outside the axis' range is an error).
 
 from __future__ import annotations
 
-import hashlib
 import math
-import re
 import warnings
 from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
 
-from .. import __version__
-from .._core.files import atomic_write
-from .._core.validation import did_you_mean
-from .export_c import C_SOURCES
+# the stochastic model and the writing it shares (openfoam_stochastic.py); its
+# constants are imported from here too, as before the split (hence the noqa)
+from .openfoam_stochastic import (
+    _FOAMFILE,
+    BUILD_SCRIPT,  # noqa: F401
+    C_TABLE,  # noqa: F401
+    CASE_TABLE,  # noqa: F401
+    DEMO_CASE,  # noqa: F401
+    DEMO_FAMILIES,  # noqa: F401
+    MODEL_DIR,  # noqa: F401
+    MODEL_FILES,  # noqa: F401
+    MODEL_SOURCES,  # noqa: F401
+    STOCHASTIC_FILE,
+    _comment_block,
+    _demo_family_iv,
+    _patch_names,
+    _provenance,
+    _write_text,
+    write_demo_case,
+    write_stochastic_model,
+)
 
 __all__ = [
     "LOCAL_INTERACTION_FILE",
@@ -81,40 +98,6 @@ __all__ = [
 LOCAL_INTERACTION_FILE = "localInteractionCoeffs"
 #: The same patch entries alone, to ``#include`` inside the user's ``patches ( )``.
 LOCAL_PATCHES_FILE = "localInteractionPatches"
-#: The stochastic model's coefficients (the model: ``stochasticWallLaw/``).
-STOCHASTIC_FILE = "stochasticWallLawCoeffs"
-#: The binary table of the C sampler, relative to the wall law's folder.
-C_TABLE = ("c", "wall_law.swl")
-#: Where the stochastic model's dictionary looks for the table: in the case, so
-#: that no path of the machine that built the law is written.
-CASE_TABLE = "$FOAM_CASE/constant/wall_law.swl"
-#: The model's C++ sources and build script shipped with the package.
-MODEL_SOURCES = Path(__file__).with_name("openfoam_model")
-#: The model's folder in ``openfoam/`` and its files (from :data:`MODEL_SOURCES`).
-MODEL_DIR = "stochasticWallLaw"
-MODEL_FILES = (
-    "StochasticWallLaw.H",
-    "StochasticWallLaw.C",
-    "swlPatchEntry.H",
-    # one registration per cloud type of OpenFOAM v1912's solvers (Make/files)
-    "makeStochasticWallLawKinematicCloud.C",
-    "makeStochasticWallLawKinematicCollidingCloud.C",
-    "makeStochasticWallLawKinematicMPPICCloud.C",
-    "makeStochasticWallLawThermoCloud.C",
-    "makeStochasticWallLawReactingCloud.C",
-    "makeStochasticWallLawReactingMultiphaseCloud.C",
-    "makeStochasticWallLawHeterogeneousReactingCloud.C",
-    "makeStochasticWallLawSprayCloud.C",
-    "Make/files",
-    "Make/options",
-)
-#: The build script, written to ``openfoam/build.sh``.
-BUILD_SCRIPT = "build.sh"
-
-#: Characters of a patch name written as a plain OpenFOAM word; any other name is
-#: written in double quotes, which OpenFOAM reads as a regular expression.
-_WORD = re.compile(r"[A-Za-z0-9_.:+-]+")
-_PLAIN = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.:+-]*")
 #: The axes of the condition and whether the node distance is taken in log.
 _AXES = (("diameter_um", True), ("speed_m_s", True), ("angle_deg", False))
 
@@ -177,52 +160,6 @@ def fallback_condition(dataset, *, diameter_um=None, speed_m_s=None, angle_deg=N
             raise
         out[axis] = (i, float(coord[i]))
     return out
-
-
-def _patch_names(surfaces, patches) -> dict:
-    """Surface -> the OpenFOAM keyword written for it (plain word or "regex")."""
-    names = {}
-    if patches is None:
-        patches = {}
-    elif not isinstance(patches, Mapping):
-        raise TypeError(
-            "`patches` must map surface names to mesh patch names; "
-            f"got {type(patches).__name__}"
-        )
-    for key in patches:
-        if key not in surfaces:
-            raise ValueError(
-                f"`patches` names surface {key!r}, which the table does not have"
-                f"{did_you_mean(key, surfaces)}; surfaces: "
-                + ", ".join(repr(s) for s in surfaces)
-            )
-    for s in surfaces:
-        if s in patches:
-            p = patches[s]
-            if not isinstance(p, str) or not p.strip():
-                raise ValueError(
-                    f"`patches[{s!r}]` must be a non-empty patch name; got {p!r}"
-                )
-            if '"' in p or "\\" in p or any(ord(c) < 32 for c in p):
-                raise ValueError(
-                    f"`patches[{s!r}]` = {p!r}: a patch name or regular expression "
-                    "without quotes, backslashes or control characters"
-                )
-            names[s] = p if _PLAIN.fullmatch(p) else f'"{p}"'
-        else:
-            word = "".join(c if _WORD.fullmatch(c) else "_" for c in s) or "_"
-            if not _PLAIN.fullmatch(word):
-                word = "_" + word
-            names[s] = word
-    seen: dict = {}
-    for s, w in names.items():
-        if w in seen:
-            raise ValueError(
-                f"surfaces {seen[w]!r} and {s!r} would both be written as patch "
-                f"{w}; give `patches` to name their mesh patches"
-            )
-        seen[w] = s
-    return names
 
 
 def _value(ds, name, s, node):
@@ -363,23 +300,6 @@ def _fmt(x: float) -> str:
     return "nan" if not math.isfinite(x) else f"{x:.10g}"
 
 
-def _provenance(ds) -> list[str]:
-    """The first lines of every file's header: versions, scenario, seed."""
-    attrs = ds.attrs
-    scenario = str(attrs.get("scenario", "") or "")
-    digest = hashlib.sha256(scenario.encode()).hexdigest()[:16] if scenario else "-"
-    title = str(attrs.get("title", "microimpact wall law"))
-    return [
-        f"Generated by microimpact {__version__} (table built by microimpact "
-        f"{attrs.get('microimpact_version', '?')}); do not edit, regenerate.",
-        f"{title}",
-        f"scenario: sha256 {digest} of the scenario text held in wall_law.nc",
-        f"seed: {attrs.get('seed', '?')}; samples per node: "
-        f"{attrs.get('samples_per_node', '?')}; shadowing: "
-        f"{attrs.get('shadowing', '?')}",
-    ]
-
-
 def _header(ds, cond, coeffs, requested) -> list[str]:
     lines = [
         *_provenance(ds),
@@ -403,15 +323,6 @@ def _header(ds, cond, coeffs, requested) -> list[str]:
         )
     return lines
 
-
-def _comment_block(lines) -> str:
-    return "".join(f"// {line}".rstrip() + "\n" for line in lines)
-
-
-_FOAMFILE = (
-    "FoamFile\n{{\n    version     2.0;\n    format      ascii;\n"
-    "    class       dictionary;\n    object      {obj};\n}}\n\n"
-)
 
 _CONVENTION = [
     "OpenFOAM's rebound (localInteraction, standardWallInteraction):",
@@ -458,14 +369,6 @@ def _patch_entries(coeffs, names, indent) -> str:
     return "".join(out)
 
 
-def _write_text(path: Path, text: str) -> Path:
-    def write(tmp):
-        with open(tmp, "w", encoding="utf-8", newline="\n") as fh:
-            fh.write(text)
-
-    return atomic_write(path, write)
-
-
 def write_openfoam(
     law,
     out_dir,
@@ -474,6 +377,7 @@ def write_openfoam(
     speed_m_s=None,
     angle_deg=None,
     patches: Mapping[str, str] | None = None,
+    demo_family: str = "kinematic",
 ) -> list[Path]:
     """Write ``out_dir/openfoam/``: OpenFOAM dictionaries of the wall law `law`.
 
@@ -504,12 +408,17 @@ def write_openfoam(
         Surface name -> mesh patch name (or OpenFOAM regular expression, written in
         double quotes, e.g. ``"(top|bottom)Wall"``). Default: the surface name,
         with characters other than ``A-Z a-z 0-9 _ . : + -`` replaced by ``_``.
+    demo_family : {"kinematic", "mppic", "reacting"}, optional
+        The solver family of ``demoCase/`` (:func:`write_demo_case`):
+        ``icoUncoupledKinematicParcelFoam``, ``MPPICFoam`` or
+        ``reactingParcelFoam``. Default ``"kinematic"``.
 
     Returns
     -------
     list of Path
         The files written.
     """
+    _demo_family_iv(demo_family)
     ds = law.dataset
     requested = {
         "diameter_um": diameter_um,
@@ -561,268 +470,7 @@ def write_openfoam(
     )
     written.append(_write_text(folder / LOCAL_PATCHES_FILE, text))
 
-    written.extend(write_stochastic_model(law, out_dir, patches=patches))
-    return written
-
-
-def write_stochastic_model(law, out_dir, *, patches=None) -> list[Path]:
-    """Write the stochastic model into ``out_dir/openfoam/``: its coefficients
-    (``stochasticWallLawCoeffs``), the C++ sources of the patch interaction model
-    ``stochasticWallLaw`` with the C sampler (``stochasticWallLaw/``, for
-    ``wmake libso``) and ``build.sh`` (``bash build.sh LIBDIR`` builds
-    ``LIBDIR/libstochasticWallLaw.so``). Needs no condition: every node is used.
-    `patches` maps surfaces to mesh patch names as in :func:`write_openfoam`.
-    Returns the paths written."""
-    ds = law.dataset
-    surfaces = [str(s) for s in np.asarray(ds["surface"].values).tolist()]
-    names = _patch_names(surfaces, patches)
-    folder = Path(out_dir) / "openfoam"
-    written = [
-        _write_text(
-            folder / STOCHASTIC_FILE,
-            _stochastic_text(surfaces, names, _provenance(ds)),
-        )
-    ]
-    model = folder / MODEL_DIR
-    sources = [(MODEL_SOURCES / f, model / f) for f in MODEL_FILES]
-    sources += [(C_SOURCES / f, model / f) for f in ("swl.h", "swl.c")]
-    for src, dst in sources:
-        data = src.read_bytes()
-        written.append(atomic_write(dst, lambda tmp, b=data: Path(tmp).write_bytes(b)))
-    script = (MODEL_SOURCES / BUILD_SCRIPT).read_bytes()
-    path = atomic_write(
-        folder / BUILD_SCRIPT, lambda tmp: Path(tmp).write_bytes(script)
+    written.extend(
+        write_stochastic_model(law, out_dir, patches=patches, demo_family=demo_family)
     )
-    path.chmod(path.stat().st_mode | 0o111)  # executable, as `bash build.sh` needs not
-    written.append(path)
-    written.extend(write_demo_case(law, folder / DEMO_CASE))
-    return written
-
-
-_STOCHASTIC_KEYS = [
-    "Coefficients of the patch interaction model stochasticWallLaw, written",
-    "next to this file (stochasticWallLaw/, built by build.sh LIBDIR into",
-    "LIBDIR/libstochasticWallLaw.so), which samples the wall law at every wall",
-    "strike through c/swl.h (swl_rebound_velocity). In system/controlDict:",
-    '  libs ("libstochasticWallLaw.so");',
-    "and in constant/<cloud>Properties, subModels:",
-    "  patchInteractionModel stochasticWallLaw;",
-    '  #include "<this file>"',
-    "Keys:",
-    "  table         the binary table c/wall_law.swl: copy it to the case's",
-    "                constant/wall_law.swl (the model expands $FOAM_CASE and",
-    "                other environment variables in the path).",
-    '  patches       a list of  <mesh patch name or "regex"> { ... }  entries',
-    "                that, as in localInteraction, names every non-coupled,",
-    "                non-empty patch of the mesh (first match wins). An entry is",
-    "                either a wall-law patch:",
-    "    surface     the table's surface name (swl_surface_index);",
-    "    captured    what a captured parcel does: stick (kept, inactive, U = 0)",
-    "                or escape (removed); default stick;",
-    "                or one of localInteraction's own entries, e.g.",
-    "                outlet { type escape; }  or  { type rebound; e 1; mu 0; }.",
-    "  maxReimpacts  a rebound with U_z < 0 (SWL_FLAG_REIMPACT) strikes the same",
-    "                wall again with the rebound velocity, at most this many times;",
-    "                after that the parcel is captured. Default 10.",
-    "  warnClamped   report parcels whose diameter, speed or angle lay outside the",
-    "                table (they use its end nodes, SWL_FLAG_CLAMPED). Default yes.",
-    "  strictClamp   yes: a query outside the table stops the run with a fatal",
-    "                error naming the parcel and the patch. Default no.",
-    "Per strike the model takes, relative to the patch velocity Up: d = the",
-    "parcel's diameter * 1e6 [um], v_in = U - Up, normal = -nw (OpenFOAM's patch",
-    "normal points out of the fluid; the table's z points into it), five",
-    "uniform numbers from the cloud's rndGen, and sets U = Up + v_out, or applies",
-    "'captured' on SWL_CAPTURED. SWL_NO_DATA (no impact tabulated at the node) is",
-    "a fatal error naming the patch.",
-]
-
-
-def _stochastic_text(surfaces, names, header) -> str:
-    table = CASE_TABLE
-    entries = []
-    for index, s in enumerate(surfaces):
-        entries.append(
-            f"        {names[s]}\n        {{\n"
-            f"            surface     {_quote(s)};  // index {index} in the table\n"
-            "            captured    stick;\n        }\n"
-        )
-    return (
-        _FOAMFILE.format(obj=STOCHASTIC_FILE)
-        + _comment_block([*header, "", *_STOCHASTIC_KEYS])
-        + f"\nstochasticWallLawCoeffs\n{{\n    table           {_quote(table)};\n"
-        + "    patches\n    (\n"
-        + "".join(entries)
-        + "        // the mesh's other patches, e.g. outlet { type escape; }\n"
-        + "    );\n"
-        + "    maxReimpacts    10;\n"
-        + "    warnClamped     yes;\n"
-        + "    strictClamp     no;\n}\n"
-    )
-
-
-def _quote(text: str) -> str:
-    """An OpenFOAM string: double quotes, with ``\\`` and ``"`` escaped."""
-    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
-
-
-#: The demonstration case written by :func:`write_stochastic_model`.
-DEMO_CASE = "demoCase"
-
-_DEMO_HEAD = (
-    "FoamFile\n{{\n    version     2.0;\n    format      ascii;\n"
-    "    class       {cls};\n    object      {obj};\n}}\n"
-    "// microimpact: demonstration case of the stochasticWallLaw model\n\n"
-)
-
-
-def _demo_condition(ds) -> dict:
-    """The node of the first surface whose capture probability is nearest 0.5,
-    among the oblique angles (below 90 deg) where the table has any; the first
-    such node in (d, v, angle) order on a tie."""
-    p = np.asarray(ds["capture_probability"].isel(surface=0).values, dtype=float)
-    angles = np.asarray(ds["angle_deg"].values, dtype=float)
-    dist = np.abs(p - 0.5)
-    dist[~np.isfinite(dist)] = np.inf
-    if np.any(angles < 90.0):
-        dist[..., angles >= 90.0] = np.inf
-    i, j, k = np.unravel_index(int(np.argmin(dist)), dist.shape)
-    speeds = np.asarray(ds["speed_m_s"].values, dtype=float)
-    return {
-        "diameter_um": float(ds["diameter_um"].values[i]),
-        # on a reduced speed axis the speeds are (diameter, ratio): r v_c(d)
-        "speed_m_s": float(speeds[i, j] if speeds.ndim == 2 else speeds[j]),
-        "angle_deg": float(angles[k]),
-    }
-
-
-def write_demo_case(law, case_dir, *, parcels: int = 1000) -> list[Path]:
-    """Write a small OpenFOAM case that runs the stochastic model: a 0.1 m box
-    (4 x 4 x 4 cells) whose floor (y = 0) is the wall patch of the table's first
-    surface and whose other faces (patch ``outer``) let parcels escape. `parcels`
-    parcels start 1 cm above the floor (lower at angles below about 11 deg, so that
-    they strike it within the box) and strike it once, at the diameter, speed
-    and angle of the node of that surface whose capture probability is nearest
-    0.5 (oblique angles only); no drag, no gravity, under
-    ``icoUncoupledKinematicParcelFoam``; the run ends 4 steps after the strike.
-
-    The case holds ``constant/stochasticWallLawCoeffs`` (the exported
-    coefficients with ``outer { type escape; }`` added) but **not** the table:
-    copy ``c/wall_law.swl`` to ``constant/wall_law.swl`` (docs/wall-law.md).
-    Returns the paths written."""
-    ds = law.dataset
-    surfaces = [str(s) for s in np.asarray(ds["surface"].values).tolist()]
-    names = _patch_names(surfaces, None)
-    wall = names[surfaces[0]]
-    cond = _demo_condition(ds)
-    theta = math.radians(cond["angle_deg"])
-    speed = cond["speed_m_s"]
-    u_n, u_t = speed * math.sin(theta), speed * math.cos(theta)
-    # the parcels strike the floor inside the box: below ~11 deg they start lower
-    # than 1 cm, so that they travel at most 5 cm along it before the strike
-    h = min(0.01, 0.05 * math.tan(theta))
-    travel = h * u_t / u_n
-    dt = h / u_n / 9.5  # every parcel strikes in step 10
-    steps = 14
-    case = Path(case_dir)
-    files: dict[str, tuple[str, str]] = {}
-    files["system/blockMeshDict"] = (
-        "dictionary",
-        "scale 1;\n\nvertices\n(\n    (0 0 0) (0.1 0 0) (0.1 0.1 0) "
-        "(0 0.1 0)\n    (0 0 0.1) (0.1 0 0.1) (0.1 0.1 0.1) (0 0.1 0.1)\n);\n\n"
-        "blocks ( hex (0 1 2 3 4 5 6 7) (4 4 4) simpleGrading (1 1 1) );\n\n"
-        "boundary\n(\n"
-        f"    {wall} {{ type wall; faces ( (0 1 5 4) ); }}\n"
-        "    outer\n    {\n        type patch;\n        faces ( (3 7 6 2) (0 4 7 3) "
-        "(2 6 5 1) (0 3 2 1) (4 5 6 7) );\n    }\n);\n",
-    )
-    files["system/controlDict"] = (
-        "dictionary",
-        "application     icoUncoupledKinematicParcelFoam;\n"
-        "startFrom       startTime;\nstartTime       0;\nstopAt          endTime;\n"
-        f"endTime         {steps * dt!r};\ndeltaT          {dt!r};\n"
-        f"writeControl    timeStep;\nwriteInterval   {steps};\npurgeWrite      0;\n"
-        "writeFormat     ascii;\nwritePrecision  12;\nwriteCompression off;\n"
-        "timeFormat      general;\ntimePrecision   12;\nrunTimeModifiable no;\n\n"
-        "// the model, built by ../build.sh LIBDIR: LIBDIR on LD_LIBRARY_PATH, or\n"
-        "// the library copied into $FOAM_USER_LIBBIN\n"
-        'libs ("libstochasticWallLaw.so");\n',
-    )
-    files["system/fvSchemes"] = (
-        "dictionary",
-        "ddtSchemes { default none; }\ngradSchemes { default none; }\n"
-        "divSchemes { default none; }\nlaplacianSchemes { default none; }\n"
-        "interpolationSchemes { default linear; }\n",
-    )
-    files["system/fvSolution"] = ("dictionary", "solvers { }\n")
-    files["system/decomposeParDict"] = (
-        "dictionary",
-        "numberOfSubdomains 2;\nmethod          simple;\n"
-        "coeffs { n (1 1 2); delta 0.001; }\n",
-    )
-    files["0/U"] = (
-        "volVectorField",
-        "dimensions      [0 1 -1 0 0 0 0];\ninternalField   uniform (0 0 0);\n"
-        f"boundaryField\n{{\n    {wall} {{ type zeroGradient; }}\n"
-        "    outer { type zeroGradient; }\n}\n",
-    )
-    files["constant/g"] = (
-        "uniformDimensionedVectorField",
-        "dimensions      [0 1 -2 0 0 0 0];\nvalue           (0 0 0);\n",
-    )
-    files["constant/transportProperties"] = (
-        "dictionary",
-        "rhoInf          1.2;\ntransportModel  Newtonian;\nnu              1e-05;\n",
-    )
-    files["constant/turbulenceProperties"] = (
-        "dictionary",
-        "simulationType  laminar;\n",
-    )
-    side = max(1, math.ceil(math.sqrt(parcels)))
-    xs = np.linspace(0.005, min(0.08, 0.095 - travel), side)
-    zs = np.linspace(0.005, 0.095, side)
-    pts = [(float(x), h, float(z)) for z in zs for x in xs][:parcels]
-    files["constant/kinematicCloudPositions"] = (
-        "vectorField",
-        f"{len(pts)}\n(\n"
-        + "".join(f"({x:.6g} {y:.6g} {z:.6g})\n" for x, y, z in pts)
-        + ")\n",
-    )
-    d_m = cond["diameter_um"] * 1e-6
-    files["constant/kinematicCloudProperties"] = (
-        "dictionary",
-        "solution\n{\n    active          true;\n    coupled         false;\n"
-        "    transient       yes;\n    cellValueSourceCorrection off;\n"
-        "    maxCo           0.3;\n"
-        "    interpolationSchemes { rho cell; U cellPoint; mu cell; }\n"
-        "    integrationSchemes { U Euler; }\n    sourceTerms { schemes { } }\n}\n\n"
-        "constantProperties\n{\n    rho0            2500;\n"
-        "    youngsModulus   1e8;\n    poissonsRatio   0.35;\n}\n\n"
-        "subModels\n{\n    particleForces { }    // no drag, no gravity\n\n"
-        "    injectionModels\n    {\n        model1\n        {\n"
-        "            type            manualInjection;\n"
-        "            massTotal       0;\n            parcelBasisType fixed;\n"
-        "            nParticle       1;\n            SOI             0;\n"
-        '            positionsFile   "kinematicCloudPositions";\n'
-        f"            U0              ({u_t:.12g} {-u_n:.12g} 0);  "
-        f"// {speed:g} m/s at {cond['angle_deg']:g} deg\n"
-        "            sizeDistribution\n            {\n"
-        "                type fixedValue;\n"
-        f"                fixedValueDistribution {{ value {d_m:.12g}; }}  "
-        f"// {cond['diameter_um']:g} um\n            }}\n        }}\n    }}\n\n"
-        "    dispersionModel none;\n"
-        "    patchInteractionModel stochasticWallLaw;\n"
-        f'    #include "{STOCHASTIC_FILE}"\n\n'
-        "    heatTransferModel none;\n    surfaceFilmModel none;\n"
-        "    stochasticCollisionModel none;\n    collisionModel none;\n"
-        "    radiation off;\n}\n\ncloudFunctions { }\n",
-    )
-    coeffs = _stochastic_text(surfaces, names, _provenance(ds)).replace(
-        "        // the mesh's other patches, e.g. outlet { type escape; }\n",
-        "        outer { type escape; }\n",
-    )
-    written = []
-    for rel, (cls, body) in files.items():
-        text = _DEMO_HEAD.format(cls=cls, obj=Path(rel).name) + body
-        written.append(_write_text(case / rel, text))
-    written.append(_write_text(case / "constant" / STOCHASTIC_FILE, coeffs))
     return written
