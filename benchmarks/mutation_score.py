@@ -164,7 +164,12 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=34)
     ap.add_argument("--workdir", type=Path)
     ap.add_argument("--json", type=Path)
-    ap.add_argument("--batch", type=int, default=20, help="mutants per mutmut run")
+    ap.add_argument(
+        "--batch",
+        type=int,
+        default=1000,
+        help="mutants per mutmut run (each run maps the tests again: minutes)",
+    )
     args = ap.parse_args(argv)
     work = args.workdir or Path(tempfile.mkdtemp(prefix="microimpact-mutmut-"))
     if not (work / "pyproject.toml").exists():
@@ -177,8 +182,8 @@ def main(argv=None) -> int:
     sample = [names[i] for i in pick]
     done = exit_codes(work)
     todo = [m for m in sample if done.get(m) in UNCHECKED]
-    # in a random order and in batches: an interrupted run keeps its results,
-    # and the mutants checked so far are themselves a random sample
+    # in a random order: an interrupted run keeps its results, and the mutants
+    # checked so far are themselves a random sample
     todo = [todo[i] for i in rng.permutation(len(todo))]
     for i in range(0, len(todo), args.batch):
         mutmut(work, todo[i : i + args.batch])
