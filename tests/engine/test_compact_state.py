@@ -251,3 +251,49 @@ def test_the_state_of_a_small_point_is_a_few_hundred_bytes():
         arrays += [s.offset, s.length, s.counts]
     per_point = sum(a.nbytes for a in arrays) / len(st)
     assert per_point < 400, per_point
+
+
+def test_results_nc_is_written_with_a_small_chunk_cache(tmp_path, monkeypatch):
+    """netCDF-C keeps each variable's compressed chunks in a cache of 64 MiB
+    until the file closes (~570 MiB at 10^6 points): the writer opens the file
+    with a 1 MiB cache per variable and restores the setting after."""
+    netCDF4 = pytest.importorskip("netCDF4")
+    import xarray as xr
+
+    seen = []
+    real = xr.Dataset.to_netcdf
+
+    def spy(self, *args, **kwargs):
+        seen.append(netCDF4.get_chunk_cache()[0])
+        return real(self, *args, **kwargs)
+
+    monkeypatch.setattr(xr.Dataset, "to_netcdf", spy)
+    before = netCDF4.get_chunk_cache()
+    run(_sweep(), samples=300, seed=3).to_netcdf(tmp_path / "results.nc")
+    assert seen == [dataset.NETCDF_CHUNK_CACHE]
+    assert netCDF4.get_chunk_cache() == before
+
+
+def test_a_large_run_gives_its_freed_memory_back(monkeypatch):
+    """A run of many blocks collects its garbage and trims the heap when it
+    ends, and so do a large sweep's statistics (wiring: the thresholds lowered
+    to this small sweep)."""
+    from microimpact.engine import result as result_module
+
+    calls = []
+    monkeypatch.setattr(montecarlo, "RELEASE_BLOCKS", 18)
+    monkeypatch.setattr(result_module, "TRIM_POINTS", 18)
+    monkeypatch.setattr(
+        montecarlo, "release_memory", lambda **kw: calls.append(("run", kw))
+    )
+    monkeypatch.setattr(
+        result_module, "release_memory", lambda **kw: calls.append(("stats", kw))
+    )
+    res = run(_sweep(), samples=300, seed=3)  # 18 points of one block
+    assert calls == [("run", {"collect": True})]
+    assert len(res.summary) == 18
+    assert calls[-1] == ("stats", {})
+    monkeypatch.setattr(montecarlo, "RELEASE_BLOCKS", 19)
+    calls.clear()
+    run(_sweep(), samples=300, seed=3)
+    assert calls == []

@@ -177,9 +177,9 @@ def _write_arrays(path, arrays: dict) -> int:
 
 
 class _Columns:
-    """Float arrays of equal rows (4 columns each: a moments array), stored side by side as one ``.npy`` array
-    (what ``np.hstack`` would give) without forming it: the rows are written
-    :data:`ROWS` at a time (a sweep of 10^6 points: ~6 MB, not 96)."""
+    """Moments arrays of equal rows (4 columns each), stored side by side as one
+    ``.npy`` array (what ``np.hstack`` would give) without forming it: the rows
+    are written :data:`ROWS` at a time (a sweep of 10^6 points: ~6 MB, not 96)."""
 
     ROWS = 2**16
 

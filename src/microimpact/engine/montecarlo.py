@@ -63,7 +63,7 @@ from .parallel import (
 from .plan import BLOCK_SIZE, Plan, build_plan, resolve_entropy  # noqa: F401
 from .result import SimulationResult
 from .statistics import wilson_interval, z_value
-from .summary import Spans, Stacked, gather_segments
+from .summary import Spans, Stacked, gather_segments, release_memory
 
 __all__ = [
     "BlockResult",
@@ -948,7 +948,7 @@ def run(
         job.in_background(functools.partial(SimulationResult.prepare, job.scenario))
         stacked = job.drain()
         elapsed = time.perf_counter() - t0
-        return SimulationResult.from_stacked(
+        result = SimulationResult.from_stacked(
             job.scenario,
             job.plan,
             stacked,
@@ -959,6 +959,16 @@ def run(
             provenance=job.provenance(),
             prepared=job.background_result(),
         )
+        large = job.total_blocks >= RELEASE_BLOCKS
+        del job, stacked
+    if large:  # the plan and the driver's state of a large sweep are garbage now
+        release_memory(collect=True)
+    return result
+
+
+#: Runs of at least this many blocks (a sweep of 65,536 small points) give the
+#: memory they freed back to the system when they end (:func:`release_memory`).
+RELEASE_BLOCKS = 2**16
 
 
 # ------------------------------------------------------------------ estimate

@@ -40,6 +40,7 @@ from .dataset import (
     encoding,
     history_line,
     point_histogram,
+    small_chunk_cache,
     summary_columns_of,
     summary_frame,
     summary_frame_of,
@@ -54,6 +55,7 @@ from .summary import (
     Stacked,
     point_statistics,
     relative_to_reference,
+    release_memory,
     replicate_statistics,
 )
 
@@ -71,6 +73,11 @@ CAPTURE_COLUMNS = (
     "capture_se",
     "replicates",
 )
+
+#: Sweeps of at least this many points give the freed temporaries of their
+#: statistics and of writing results.nc back to the system
+#: (``summary.release_memory``).
+TRIM_POINTS = 2**16
 
 #: Rows of the summary a notebook shows (the rest stay in ``.summary``).
 HTML_ROWS = 12
@@ -254,6 +261,8 @@ class SimulationResult:
             statistics, self._statistics = self._statistics, None
             with stage(f"statistics of {self._grid.size:,} sweep points"):
                 self._columns_value = statistics()
+            if self._grid.size >= TRIM_POINTS:  # the slices' temporaries
+                release_memory()
         return self._columns_value
 
     @property
@@ -644,10 +653,14 @@ class SimulationResult:
     def to_netcdf(self, path) -> Path:
         """Write the Dataset to `path` (NetCDF-4, compressed), atomically."""
         ds = surfaces_to_cf(self.dataset)  # CF: a numeric index, names aside
-        return atomic_write(
-            Path(path),
-            lambda t: ds.to_netcdf(t, engine="netcdf4", encoding=encoding(ds)),
-        )
+        with small_chunk_cache():  # not every variable held until the file closes
+            out = atomic_write(
+                Path(path),
+                lambda t: ds.to_netcdf(t, engine="netcdf4", encoding=encoding(ds)),
+            )
+        if ds["capture_fraction"].size >= TRIM_POINTS:  # the writer's freed buffers
+            release_memory()
+        return out
 
     def to_csv(self, path) -> Path:
         """Write the summary table to `path`, atomically."""

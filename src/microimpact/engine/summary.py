@@ -19,7 +19,9 @@ pooled capture fraction is exactly 0 or 1 (the replicates all agree, their sprea
 
 from __future__ import annotations
 
+import ctypes
 import functools
+import gc
 import math
 from dataclasses import dataclass
 
@@ -154,6 +156,21 @@ def compact_counts(counts) -> np.ndarray:
     if counts.dtype.itemsize <= np.dtype(dtype).itemsize:
         return counts
     return counts.astype(dtype)
+
+
+def release_memory(*, collect: bool = False) -> None:
+    """Give the memory this process freed back to the system: with `collect`, a
+    full garbage collection first (the run deferred them), then glibc's
+    ``malloc_trim``, as Dask's workers do (elsewhere nothing). A 10^6-point
+    sweep's plan, driver state and temporaries otherwise stay in the resident
+    set as freed heap (~240 MiB measured after the run)."""
+    if collect:
+        gc.collect()
+    try:
+        libc = ctypes.CDLL("libc.so.6")
+    except OSError:  # pragma: no cover - not glibc (macOS, Windows, musl)
+        return
+    libc.malloc_trim(0)
 
 
 def gather_segments(flat, start, length) -> np.ndarray:
