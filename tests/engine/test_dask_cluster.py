@@ -150,7 +150,9 @@ class _Cluster:
         self.scheduler = self._start(
             "scheduler", "--host", "127.0.0.1", "--port", port, "--no-dashboard"
         )
+        # the workers import the package as they start (not on their first task)
         options = ("--nthreads", "1", "--no-nanny", "--no-dashboard")
+        options += ("--preload", "microimpact.engine.parallel")
         self.workers = [
             self._start("worker", self.address, *options, "--name", f"w{k}")
             for k in range(workers)
@@ -215,10 +217,19 @@ def test_a_tcp_cluster_loses_a_worker_and_resumes_with_the_same_bits(
     of one thread."""
     pytest.importorskip("dask.distributed")
     monkeypatch.setattr(parallel, "BATCH_TASKS", 1)  # a batch of 2 tasks
+    received = []  # what reached the client: one partial per batch
+    reduced = parallel.DaskRunner.reduced
+
+    def spy(self, tasks, **kw):
+        for partial in reduced(self, tasks, **kw):
+            received.append(len(partial[3]))
+            yield partial
+
+    monkeypatch.setattr(parallel.DaskRunner, "reduced", spy)
     sc = _sweep()
-    local = run(sc, seed=9)
     cluster = _Cluster(tmp_path, workers=2)
     try:
+        local = run(sc, seed=9)  # while the cluster starts
         cluster.wait(2)
         ck = Checkpoint(tmp_path / "run.npz", interval=1e-9)
 
@@ -252,6 +263,11 @@ def test_a_tcp_cluster_loses_a_worker_and_resumes_with_the_same_bits(
             progress=kill,
         )
         assert ck.restored_blocks > 0
+        # reduced on the workers: each batch of 2 tasks (a group each; 36 groups
+        # in all) reached the client as one partial, and a stream's first two
+        # groups as one row
+        assert 0 < len(received) <= 36 // 2
+        assert any(rows < 2 for rows in received)
         assert res.provenance["resumed_blocks"] == ck.restored_blocks
         assert seen and seen[0][0] < seen[0][1]  # killed mid-run
         assert cluster.workers[0].wait(10) == -signal.SIGKILL

@@ -446,7 +446,7 @@ def dask_client(*, address=None, workers: int = 2):
 #: Tasks per Dask worker in one reduced batch (:meth:`DaskRunner.reduced`): the
 #: client receives one partial result per batch, and the checkpoint is written
 #: between batches.
-BATCH_TASKS = 16
+BATCH_TASKS = 4
 #: Partials combined by one reduction task.
 REDUCE_FAN_IN = 8
 
@@ -458,7 +458,9 @@ class DaskRunner:
     ``LocalCluster`` with `workers` single-threaded worker processes.
     """
 
-    background = "later"  # as before: the driver's thread starts with the first result
+    #: the cluster (a LocalCluster too) is up before the first task: no fork to
+    #: come, so the driver's own work runs while the workers do theirs
+    background = "now"
     local_workers = None
 
     def __init__(self, plan, *, address=None, workers: int = 2):
