@@ -10,6 +10,7 @@ the provenance. ``summary.csv`` is derived from this Dataset
 from __future__ import annotations
 
 import contextlib
+import csv
 import datetime as _dt
 import math
 
@@ -545,8 +546,6 @@ def write_csv(path, columns) -> None:
     (no table of strings for the whole file, no pandas): a 10^6-point summary
     (~600 MB) is written in seconds rather than half a minute.
     """
-    import csv  # deferred: only the writers of tables need it
-
     if hasattr(columns, "columns"):  # a DataFrame
         columns = {c: columns[c].to_numpy() for c in columns.columns}
     names = list(columns)
