@@ -39,7 +39,13 @@ from .._core.progress import Progress, check_progress, stage
 from .._core.validation import check_choice, check_int
 from ..errors import ConvergenceWarning, InputError
 from ..scenario.scenario import as_scenario
-from .accumulators import PointAccumulator
+from .accumulators import (
+    E_EDGES,
+    LATERAL_BINS,
+    MU_EDGES,
+    Moments,
+    PointAccumulator,
+)
 from .checkpoint import (
     Checkpoint,
     CheckpointWarning,
@@ -57,7 +63,7 @@ from .parallel import (
 from .plan import BLOCK_SIZE, Plan, build_plan, resolve_entropy  # noqa: F401
 from .result import SimulationResult
 from .statistics import wilson_interval, z_value
-from .summary import Stacked
+from .summary import Spans, Stacked, gather_segments, release_memory
 
 __all__ = [
     "BlockResult",
@@ -127,44 +133,6 @@ class BlockResult:
 
 
 # ----------------------------------------------------------------- driver state
-class _Stream:
-    """Driver-side state of one (point, replicate): blocks ``[0, next_block)`` are
-    merged into `acc`.
-
-    A stream whose first group is merged keeps that group's row of its task's
-    :class:`~.summary.Stacked` (``row``), not an accumulator object: a sweep of
-    many small points, each one group, never builds one per point. :attr:`acc`
-    builds it on first use (a later merge, a convergence test, a checkpoint)."""
-
-    __slots__ = ("_acc", "done", "index", "max_samples", "next_block", "row")
-
-    def __init__(self, max_samples: int, index: int = 0):
-        self.max_samples = max_samples  # the target, or the cap of a precision target
-        self.index = index  # the stream's place in key order
-        self.next_block = 0
-        self._acc: PointAccumulator | None = None
-        self.row: tuple | None = None  # (Stacked, index) while it is the only group
-        self.done = False
-
-    @property
-    def acc(self) -> PointAccumulator | None:
-        if self._acc is None and self.row is not None:
-            rows, i = self.row
-            self._acc = rows.accumulator(i)
-        return self._acc
-
-    @acc.setter
-    def acc(self, value: PointAccumulator | None) -> None:
-        self._acc = value
-        self.row = None
-
-    def samples_done(self) -> int:
-        if self.row is not None:
-            rows, i = self.row
-            return int(rows.counts[i, 0])
-        return self._acc.n if self._acc is not None else 0
-
-
 def _converged(acc: PointAccumulator, precision, confidence) -> bool:
     if acc.n < precision.min_samples:
         return False
@@ -178,158 +146,347 @@ def _converged(acc: PointAccumulator, precision, confidence) -> bool:
     return hw <= precision.half_width
 
 
+#: The histograms a stream keeps, in the order of :class:`~.summary.Stacked`.
+_SPANS = ("e", "mu", "lateral")
+
+
 class _Streams:
     """The merged prefix of every (point, replicate), in key order; merges groups.
 
     Merging is the only place results are combined, always in block order, so the
     bits depend on the plan alone.
+
+    Stream ``k`` is (the ``k // R``-th point in index order, replicate ``k % R``).
+    Its state is held in lists and arrays, not in an object per stream (a sweep of
+    10^6 points): ``next_block[k]`` (blocks ``[0, next_block)`` are merged),
+    ``done[k]``, and its total. A stream whose only merged group is its first
+    (every point of a sweep of small points) keeps that group's row in
+    preallocated arrays (counts, moments, the spans' offsets and lengths) and its
+    histogram counts as a segment of its task's flat arrays: nothing is built per
+    point, and :meth:`stacked` returns those arrays themselves. A stream merged
+    from several groups, or restored from a checkpoint, holds a
+    :class:`~.accumulators.PointAccumulator` (`loose`).
     """
 
     def __init__(self, plan: Plan, n_target, precision, confidence):
         self.block_size = plan.block_size
         self.precision = precision
         self.confidence = confidence
-        caps = _caps(plan, n_target, precision)
-        self.by_key = {key: _Stream(caps[key], k) for k, key in enumerate(sorted(caps))}
-        # the task rows that hold streams' totals (kept alive here), and per stream
-        # in key order: which of them and which row (-1: none, see `acc`)
-        self._chunks: list[Stacked] = []
-        self._chunk_ids: dict[int, int] = {}
-        self._src_chunk = [-1] * len(self.by_key)
-        self._src_row = [0] * len(self.by_key)
+        R = self.replicates = plan.replicates
+        # the samples of every stream (for a precision target: its cap)
+        self.cap = (
+            precision.max_samples
+            if precision is not None
+            else math.ceil(n_target / plan.replicates)
+        )
+        ids = np.fromiter((sp.index for sp in plan.points), np.int64, len(plan.points))
+        ids.sort()
+        # the point of each stream: its index in the common case of every point
+        # (no list of 10^6 numbers); else the sorted indices
+        identity = np.array_equal(ids, np.arange(ids.size))
+        self.point_ids = None if identity else ids.tolist()
+        self._pos = None if identity else {p: i for i, p in enumerate(self.point_ids)}
+        K = self.size = ids.size * R
+        self.next_block = [0] * K
+        self.done = [False] * K
+        self.loose: dict[int, PointAccumulator] = {}
+        # the table of streams held as their first group's row
+        self._held = np.zeros(K, dtype=bool)
+        self._counts = np.zeros((K, 5), dtype=np.int64)
+        self._moments = {n: np.zeros((K, 4)) for n in _SPANS}
+        # per histogram: offset, length, chunk (the flat array), start in it
+        self._spans = {
+            n: (
+                np.zeros(K, dtype=np.int32),
+                np.zeros(K, dtype=np.int32),
+                np.zeros(K, dtype=np.int32),
+                np.zeros(K, dtype=np.int64),
+            )
+            for n in _SPANS
+        }
+        self._flats: dict[str, list] = {n: [] for n in _SPANS}
+        self._flat_ids: dict[str, dict] = {n: {} for n in _SPANS}
 
-    def n_blocks(self, st: _Stream) -> int:
-        return -(-st.max_samples // self.block_size)
+    # ------------------------------------------------------------ addressing
+    def index(self, point: int, rep: int) -> int:
+        pos = point if self._pos is None else self._pos[point]
+        return pos * self.replicates + rep
 
-    def specs(self, key, start: int, stop: int) -> tuple:
-        """Block specifications ``(point, rep, block, n)`` for blocks start..stop-1."""
-        cap, B = self.by_key[key].max_samples, self.block_size
-        return tuple((*key, b, min(B, cap - b * B)) for b in range(start, stop))
+    def key(self, k: int) -> tuple[int, int]:
+        point, rep = divmod(k, self.replicates)
+        return (point if self.point_ids is None else self.point_ids[point]), rep
+
+    def n_blocks(self) -> int:
+        """Blocks of every stream (at the cap of a precision target)."""
+        return -(-self.cap // self.block_size)
+
+    def specs(self, k: int, start: int, stop: int) -> tuple:
+        """Block specifications ``(point, rep, block, n)`` of stream `k`'s blocks
+        start..stop-1."""
+        cap, B = self.cap, self.block_size
+        return tuple((*self.key(k), b, min(B, cap - b * B)) for b in range(start, stop))
 
     @property
     def total_blocks(self) -> int:
-        return sum(self.n_blocks(st) for st in self.by_key.values())
+        return self.size * self.n_blocks()
 
     @property
     def merged_blocks(self) -> int:
-        return sum(st.next_block for st in self.by_key.values())
+        return sum(self.next_block)
 
     def samples_done(self) -> int:
-        return sum(st.samples_done() for st in self.by_key.values())
+        held = int(self._counts[self._held, 0].sum())
+        return held + sum(acc.n for acc in self.loose.values())
 
-    def active(self) -> list:
-        return [k for k, st in self.by_key.items() if not st.done]
+    def active(self) -> list[int]:
+        """The streams not done, in key order."""
+        return [k for k, d in enumerate(self.done) if not d]
 
+    def any_active(self) -> bool:
+        return not all(self.done)
+
+    def acc(self, k: int) -> PointAccumulator | None:
+        """Stream `k`'s total (None before its first group)."""
+        acc = self.loose.get(k)
+        if acc is not None or not self._held[k]:
+            return acc
+        spans = {}
+        for n in _SPANS:
+            off, ln, chunk, start = self._spans[n]
+            at = int(start[k])
+            flat = self._flats[n][chunk[k]]
+            spans[n] = (int(off[k]), flat[at : at + int(ln[k])])
+        c = self._counts[k].tolist()
+        m = {n: self._moments[n][k].tolist() for n in _SPANS}
+        return PointAccumulator(
+            *c,
+            e=Moments(int(m["e"][0]), *m["e"][1:]),
+            mu=Moments(int(m["mu"][0]), *m["mu"][1:]),
+            e_span=spans["e"],
+            mu_span=spans["mu"],
+            lateral=Moments(int(m["lateral"][0]), *m["lateral"][1:]),
+            lateral_span=spans["lateral"],
+        )
+
+    # ------------------------------------------------------------ restoring
     def restore(self, saved: dict) -> None:
         """Take the prefixes of a checkpoint (keys of this run only)."""
-        for key, (nxt, acc) in saved.items():
-            st = self.by_key.get(key)
-            if st is None:
+        for (point, rep), (nxt, acc) in saved.items():
+            if rep >= self.replicates or (
+                point not in self._pos
+                if self._pos is not None
+                else not 0 <= point < self.size // self.replicates
+            ):
                 continue
-            st.next_block, st.acc = nxt, acc
-            st.done = self._finished(st)
+            k = self.index(point, rep)
+            self.next_block[k] = nxt
+            self.loose[k] = acc
+            self._held[k] = False
+            self.done[k] = self._finished(k)
 
-    def _finished(self, st: _Stream) -> bool:
-        if st.next_block >= self.n_blocks(st):
+    def _finished(self, k: int) -> bool:
+        if self.next_block[k] >= self.n_blocks():
             return True
         return self.precision is not None and _converged(
-            st.acc, self.precision, self.confidence
+            self.acc(k), self.precision, self.confidence
         )
 
     def finished_results(self) -> Iterator[BlockResult]:
         """The (point, replicate) already done (restored), as they were."""
-        for (p, r), st in self.by_key.items():
-            if st.done:
-                yield BlockResult(p, r, st.next_block - 1, None, st.acc, True)
+        for k, d in enumerate(self.done):
+            if d:
+                p, r = self.key(k)
+                yield BlockResult(p, r, self.next_block[k] - 1, None, self.acc(k), True)
 
-    def merge(self, group: tuple, rows: Stacked, i: int) -> _Stream | None:
+    # ------------------------------------------------------------ merging
+    def merge(self, group: tuple, rows: Stacked, i: int) -> int | None:
         """Merge `group` (its accumulator: row `i` of `rows`) if its first block is
-        the next one of its stream; returns the stream, or None if the stream is
-        done or the group is not next (blocks run after convergence: discarded,
-        deterministically)."""
+        the next one of its stream; returns the stream's index, or None if the
+        stream is done or the group is not next (blocks run after convergence:
+        discarded, deterministically)."""
         point, rep, first, _n = group[0]
-        st = self.by_key[(point, rep)]
-        if st.done or first != st.next_block:
+        k = self.index(point, rep)
+        if self.done[k] or first != self.next_block[k]:
             return None
-        if first == 0:
-            # nothing merged before: the group's row is the stream's total
-            st.row = (rows, i)
-            c = self._chunk_ids.get(id(rows))
-            if c is None:
-                c = self._chunk_ids[id(rows)] = len(self._chunks)
-                self._chunks.append(rows)
-            self._src_chunk[st.index] = c
-            self._src_row[st.index] = i
+        if first == 0:  # nothing merged before: the group's row is the total
+            self._hold([k], rows, [i])
         else:
-            st.acc = st.acc.merge(rows.accumulator(i))
-            self._src_chunk[st.index] = -1
-        st.next_block = group[-1][2] + 1
-        st.done = self._finished(st)
-        return st
+            self.loose[k] = self.acc(k).merge(rows.accumulator(i))
+            self._held[k] = False
+        self.next_block[k] = group[-1][2] + 1
+        self.done[k] = self._finished(k)
+        return k
 
+    def merge_task(self, task: tuple, rows: Stacked) -> int:
+        """Merge every group of `task` (row ``i`` of `rows` for its ``i``-th group)
+        as :meth:`merge` does, the first groups' rows copied into the table in one
+        step; returns the samples merged."""
+        items = ((*g[0][:3], g[-1][2]) for g in task)
+        return self._merge_rows(items, rows)
+
+    def merge_partial(self, partial: tuple) -> int:
+        """Merge a partial result of the workers (``parallel.combine_partials``:
+        rows of (point, replicate) ``keys`` holding blocks ``first .. last``)
+        as :meth:`merge_task` merges a task's groups; returns the samples merged."""
+        keys, first, last, rows = partial
+        items = zip(
+            keys[:, 0].tolist(),
+            keys[:, 1].tolist(),
+            first.tolist(),
+            last.tolist(),
+            strict=True,
+        )
+        return self._merge_rows(items, rows)
+
+    def _merge_rows(self, items, rows: Stacked) -> int:
+        """Merge row ``i`` of `rows`, blocks ``first .. last`` of stream (point,
+        rep), for every ``(point, rep, first, last)`` of `items`; a row that does
+        not start its stream is a single group (``combine_partials``)."""
+        nb, done, n_blocks = self.next_block, self.done, self.n_blocks()
+        ks, idx = [], []
+        merged = 0
+        samples = rows.counts[:, 0].tolist()
+        for i, (point, rep, first, last) in enumerate(items):
+            k = self.index(point, rep)
+            if done[k] or first != nb[k]:
+                continue
+            if first == 0:
+                ks.append(k)
+                idx.append(i)
+            else:
+                if ks:  # this stream's first group may be among them
+                    self._hold(ks, rows, idx)
+                    ks, idx = [], []
+                self.loose[k] = self.acc(k).merge(rows.accumulator(i))
+                self._held[k] = False
+            merged += samples[i]
+            nb[k] = last + 1
+            if nb[k] >= n_blocks:
+                done[k] = True
+            elif self.precision is not None:
+                pending = bool(ks) and ks[-1] == k
+                if pending:
+                    self._hold(ks, rows, idx)
+                    ks, idx = [], []
+                done[k] = self._finished(k)
+        if ks:
+            self._hold(ks, rows, idx)
+        return merged
+
+    def _hold(self, ks, rows: Stacked, idx) -> None:
+        """Streams `ks` take rows `idx` of `rows` as their totals."""
+        ks = np.asarray(ks, dtype=np.intp)
+        idx = np.asarray(idx, dtype=np.intp)
+        self._held[ks] = True
+        self._counts[ks] = rows.counts[idx]
+        for n, moments, spans in (
+            ("e", rows.e, rows.e_spans),
+            ("mu", rows.mu, rows.mu_spans),
+            ("lateral", rows.lateral, rows.lateral_spans),
+        ):
+            self._moments[n][ks] = moments[idx]
+            off, ln, chunk, start = self._spans[n]
+            off[ks] = spans.offset[idx]
+            ln[ks] = spans.length[idx]
+            start[ks] = spans.start[idx]
+            chunk[ks] = self._chunk(n, spans.counts)
+
+    def _chunk(self, name: str, flat: np.ndarray) -> int:
+        """The index of `flat` among the kept flat counts of histogram `name` (it
+        is kept alive there, so its id is not reused while it is listed)."""
+        ids = self._flat_ids[name]
+        c = ids.get(id(flat))
+        if c is None:
+            c = ids[id(flat)] = len(self._flats[name])
+            self._flats[name].append(flat)
+        return c
+
+    # ------------------------------------------------------------ results
     def stacked(self) -> Stacked:
         """The accumulator of every (point, replicate), as the rows of one
-        :class:`~.summary.Stacked` in key order (point-major). Streams still held
-        as a task's row are gathered from their tasks' arrays, not rebuilt."""
-        chunk = np.array(self._src_chunk, dtype=np.intp)
-        row = np.array(self._src_row, dtype=np.intp)
-        parts = list(self._chunks)
-        loose = np.flatnonzero(chunk < 0)
-        if loose.size:  # merged from several groups, restored, or never run
-            streams = list(self.by_key.values())  # key order
-            accs = [streams[k].acc for k in loose.tolist()]
-            held = [j for j, a in enumerate(accs) if a is not None]
-            if held:
-                chunk[loose[held]] = len(parts)
-                row[loose[held]] = np.arange(len(held))
-                parts.append(Stacked.of(accs[j] for j in held))
-            if len(held) < loose.size:  # never run: one empty row, taken repeatedly
-                empty = np.setdiff1d(np.arange(loose.size), held, assume_unique=True)
-                chunk[loose[empty]] = len(parts)
-                row[loose[empty]] = 0
-                parts.append(Stacked.of([PointAccumulator()]))
-        if not parts:
-            return Stacked.of([])
-        first = np.zeros(len(parts), dtype=np.intp)
-        np.cumsum([len(p) for p in parts[:-1]], out=first[1:])
-        return Stacked.concat(parts).take(first[chunk] + row)
+        :class:`~.summary.Stacked` in key order (point-major): the table's arrays
+        themselves (the rows of streams not held overwritten with their
+        accumulators, or empty), and the histogram counts gathered from the tasks'
+        flat arrays, which are then replaced by that one array (a later call
+        copies nothing more)."""
+        # streams not held: their accumulators; a stream never run keeps its
+        # table row of zeros (an empty accumulator), without an object
+        other = np.array(sorted(self.loose), dtype=np.intp)
+        extra = Stacked.of(self.loose[k] for k in other.tolist()).narrow()
+        self._counts[other] = extra.counts
+        spans = []
+        for n, moments, ex, size in (
+            ("e", extra.e, extra.e_spans, E_EDGES.size + 1),
+            ("mu", extra.mu, extra.mu_spans, MU_EDGES.size + 1),
+            ("lateral", extra.lateral, extra.lateral_spans, LATERAL_BINS),
+        ):
+            self._moments[n][other] = moments
+            spans.append(self._gather(n, other, ex, size))
+        return Stacked(
+            self._counts,
+            self._moments["e"],
+            self._moments["mu"],
+            spans[0],
+            spans[1],
+            self._moments["lateral"],
+            spans[2],
+        )
+
+    def _gather(self, name, other, extra, size) -> Spans:
+        off, ln, chunk, start = self._spans[name]
+        flats = self._flats[name]
+        held = self._held
+        base = np.zeros(len(flats) + 1, dtype=np.int64)
+        np.cumsum([f.size for f in flats], out=base[1:])
+        off[other] = extra.offset
+        ln[other] = extra.length
+        never = ~held
+        never[other] = False
+        off[never] = 0
+        ln[never] = 0
+        length = ln.astype(np.int64)
+        packed = np.zeros(self.size, dtype=np.int64)
+        np.cumsum(length[:-1], out=packed[1:])
+        where = packed.copy()  # where each row's counts are (empty rows: anywhere)
+        where[held] = base[chunk[held]] + start[held]
+        where[other] = base[-1] + extra.start
+        if len(flats) != 1 or other.size:
+            parts = [*flats, extra.counts] if other.size else flats
+            flat = np.concatenate(parts) if parts else np.zeros(0, dtype=np.uint8)
+        else:
+            flat = flats[0]
+        if not (flat.size == int(length.sum()) and np.array_equal(where, packed)):
+            flat = gather_segments(flat, where, length)
+        if not other.size:  # compact: the one array the table's rows point into
+            self._flats[name] = [flat]
+            self._flat_ids[name] = {id(flat): 0}
+            chunk[:] = 0
+            start[:] = packed
+        return Spans(off, ln, flat, size)
 
     def state(self) -> StackedState:
         """What the checkpoint keeps: every (point, replicate) with merged work, its
-        next block and its accumulator, as arrays gathered from the task rows
-        (:meth:`stacked`). No accumulator object is built for a stream still held
-        as a task's row, so a checkpoint of a 10^6-point sweep costs arrays, not
-        10^6 objects kept for the rest of the run."""
-        streams = list(self.by_key.values())  # key order
-        has = np.fromiter(
-            (st.row is not None or st._acc is not None for st in streams),
-            dtype=bool,
-            count=len(streams),
-        )
+        next block and its accumulator, as arrays (:meth:`stacked`): no
+        accumulator object is built for a stream held in the table."""
+        has = self._held.copy()
+        if self.loose:
+            has[np.fromiter(self.loose, dtype=np.intp, count=len(self.loose))] = True
         rows = np.flatnonzero(has)
-        keys = np.array(list(self.by_key), dtype=np.int64).reshape(-1, 2)[rows]
-        next_block = np.fromiter(
-            (st.next_block for st in streams), dtype=np.int64, count=len(streams)
-        )[rows]
+        R = self.replicates
+        points = rows // R
+        if self.point_ids is not None:
+            points = np.asarray(self.point_ids, dtype=np.int64)[points]
+        keys = np.stack([points, rows % R], axis=1)
+        next_block = np.asarray(self.next_block, dtype=np.int64)[rows]
         return StackedState(keys, next_block, self.stacked().take(rows))
 
     def unconverged(self) -> list:
-        return [
-            p
-            for (p, _r), st in self.by_key.items()
-            if st.acc is None or not _converged(st.acc, self.precision, self.confidence)
-        ]
-
-
-def _caps(plan, n_target, precision) -> dict:
-    """Samples (or the cap of a precision target) of every (point, replicate)."""
-    if precision is not None:
-        cap = precision.max_samples
-    else:
-        cap = math.ceil(n_target / plan.replicates)
-    return {
-        (sp.index, rep): cap for sp in plan.points for rep in range(plan.replicates)
-    }
+        out = []
+        for k in range(self.size):
+            acc = self.acc(k)
+            if acc is None or not _converged(acc, self.precision, self.confidence):
+                out.append(self.key(k)[0])
+        return out
 
 
 # ------------------------------------------------------------------- scheduling
@@ -357,15 +514,13 @@ def _fixed_tasks(streams: _Streams) -> Iterator[tuple]:
     T, B = BLOCKS_PER_TASK, streams.block_size
 
     def groups():
-        for key in sorted(streams.by_key):
-            st = streams.by_key[key]
-            if st.done:
+        cap = streams.cap
+        stop = -(-cap // B)
+        last = cap - (stop - 1) * B  # impacts of the last block
+        for k, start in enumerate(streams.next_block):
+            if streams.done[k]:
                 continue
-            point, rep = key
-            cap = st.max_samples
-            stop = -(-cap // B)
-            last = cap - (stop - 1) * B  # impacts of the last block
-            start = st.next_block
+            point, rep = streams.key(k)
             while start < stop:
                 end = min((start // T + 1) * T, stop)
                 if end < stop:
@@ -387,12 +542,11 @@ def _precision_wave(streams: _Streams, per_key: int, workers: int) -> list[tuple
     (convergence is decided block by block), packed into at least ``4 workers``
     tasks when there are enough blocks (a wave is short: every worker gets some)."""
     groups = []
-    for key in streams.active():
-        st = streams.by_key[key]
-        stop = min(st.next_block + per_key, streams.n_blocks(st))
-        groups.extend(
-            ((spec,), spec[3]) for spec in streams.specs(key, st.next_block, stop)
-        )
+    n_blocks = streams.n_blocks()
+    for k in streams.active():
+        start = streams.next_block[k]
+        stop = min(start + per_key, n_blocks)
+        groups.extend(((spec,), spec[3]) for spec in streams.specs(k, start, stop))
     return list(_pack(groups, max(1, len(groups) // (4 * workers))))
 
 
@@ -451,6 +605,7 @@ class _Job:
                     None if self.precision is None else vars(self.precision),
                 ),
             )
+        self.total_blocks = self.streams.total_blocks
         self.progress = check_progress(progress)
         self.resumed_blocks = 0
         #: how several local workers ran: "threads" or "processes" (None: one
@@ -462,7 +617,7 @@ class _Job:
     def provenance(self) -> dict:
         out = {
             "resumed_blocks": self.resumed_blocks,
-            "total_blocks": self.streams.total_blocks,
+            "total_blocks": self.total_blocks,
         }
         if self.workers != self.workers_requested:
             out["workers_requested"] = self.workers_requested
@@ -479,7 +634,9 @@ class _Job:
         :meth:`_Streams.stacked` (no per-group result objects are built)."""
         for _ in self._drive(results=False):
             pass
-        return self.streams.stacked()
+        stacked = self.streams.stacked()
+        self.streams = None  # the table's arrays now belong to `stacked` alone
+        return stacked
 
     def _drive(self, *, results: bool) -> Iterator[BlockResult]:
         streams, ck = self.streams, self.checkpoint
@@ -489,7 +646,7 @@ class _Job:
             ck.started(self.resumed_blocks, streams.total_blocks)
         if results:
             yield from streams.finished_results()
-        if not streams.active():
+        if not streams.any_active():
             self._start_background()
             return  # everything was restored from the checkpoint: no workers needed
         fixed = self.precision is None
@@ -506,27 +663,35 @@ class _Job:
             self._start_background()  # no fork to come: the kernel frees the GIL
         bar = Progress(
             self.progress,
-            total=sum(st.max_samples for st in streams.by_key.values())
-            if fixed
-            else None,
+            total=streams.cap * streams.size if fixed else None,
             unit="impacts",
             desc=self.scenario.name,
             initial=streams.samples_done(),
         )
         try:
-            if fixed:
+            if fixed and not results and hasattr(runner, "reduced"):
+                # reduced on the workers (Dask): one partial per batch of tasks
+                for partial in runner.reduced(_fixed_tasks(streams)):
+                    self._start_background()
+                    bar.update(streams.merge_partial(partial))
+                    self._checkpoint_if_due()
+            elif fixed:
                 tasks, todo = itertools.tee(_fixed_tasks(streams))
                 for task, rows in zip(todo, runner.imap(tasks), strict=True):
                     # the workers have started (a pool forks on its first task)
                     self._start_background()
-                    yield from self._merge(
-                        zip(task, itertools.repeat(rows), range(len(task))),
-                        bar,
-                        results,
-                    )
+                    if results:
+                        yield from self._merge(
+                            zip(task, itertools.repeat(rows), range(len(task))),
+                            bar,
+                            results,
+                        )
+                    else:  # the task's first groups in one step
+                        bar.update(streams.merge_task(task, rows))
+                        self._checkpoint_if_due()
             else:
                 per_key = max(1, runner.workers * 2)
-                while streams.active():
+                while streams.any_active():
                     wave = _precision_wave(streams, per_key, runner.workers)
                     done = {}
                     for task, rows in zip(wave, runner.map(wave), strict=True):
@@ -551,11 +716,11 @@ class _Job:
     def _merge(self, items, bar, results) -> Iterator[BlockResult]:
         """Merge ``(group, rows, i)`` items in order; with `results`, yield a
         :class:`BlockResult` for each group merged."""
-        merge = self.streams.merge
+        streams = self.streams
         n = 0
         for group, rows, i in items:
-            st = merge(group, rows, i)
-            if st is None:
+            k = streams.merge(group, rows, i)
+            if k is None:
                 continue
             n += int(rows.counts[i, 0])
             if results:
@@ -566,10 +731,13 @@ class _Job:
                     group[0][1],
                     group[-1][2],
                     rows.accumulator(i),
-                    st.acc,
-                    st.done,
+                    streams.acc(k),
+                    streams.done[k],
                 )
         bar.update(n)
+        self._checkpoint_if_due()
+
+    def _checkpoint_if_due(self) -> None:
         ck = self.checkpoint
         if ck is not None and ck.due():
             ck.write(self.streams.state())
@@ -780,7 +948,7 @@ def run(
         job.in_background(functools.partial(SimulationResult.prepare, job.scenario))
         stacked = job.drain()
         elapsed = time.perf_counter() - t0
-        return SimulationResult.from_stacked(
+        result = SimulationResult.from_stacked(
             job.scenario,
             job.plan,
             stacked,
@@ -791,6 +959,16 @@ def run(
             provenance=job.provenance(),
             prepared=job.background_result(),
         )
+        large = job.total_blocks >= RELEASE_BLOCKS
+        del job, stacked
+    if large:  # the plan and the driver's state of a large sweep are garbage now
+        release_memory(collect=True)
+    return result
+
+
+#: Runs of at least this many blocks (a sweep of 65,536 small points) give the
+#: memory they freed back to the system when they end (:func:`release_memory`).
+RELEASE_BLOCKS = 2**16
 
 
 # ------------------------------------------------------------------ estimate
@@ -868,8 +1046,7 @@ def _calibration_batch(plan, specs):
     try:
         tasks, todo = itertools.tee(_fixed_tasks(streams))
         for task, rows in zip(todo, runner.imap(tasks), strict=True):
-            for i, group in enumerate(task):
-                streams.merge(group, rows, i)
+            streams.merge_task(task, rows)
     finally:
         runner.close()
     return streams.stacked()

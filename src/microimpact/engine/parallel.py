@@ -31,6 +31,8 @@ import threading
 import warnings
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 
+import numpy as np
+
 from ..errors import InputError
 from . import kernel
 from .plan import resolve_kernel
@@ -105,6 +107,74 @@ def run_task(plan, task):
     if sum(spec[3] for spec in flat) < 2**31:  # no histogram count can exceed it
         rows = rows.narrow()
     return rows
+
+
+def task_partial(plan, task) -> tuple:
+    """:func:`run_task` as a *partial result*: ``(keys, first, last, rows)`` with
+    each row's (point, replicate) ``keys`` (an ``(n, 2)`` array), the first and
+    last blocks it holds, and the rows themselves (one per group). Partials of
+    consecutive tasks are reduced by :func:`combine_partials` on the workers."""
+    rows = run_task(plan, task)
+    keys = np.array([g[0][:2] for g in task], dtype=np.int64).reshape(-1, 2)
+    first = np.array([g[0][2] for g in task], dtype=np.int64)
+    last = np.array([g[-1][2] for g in task], dtype=np.int64)
+    return keys, first, last, rows
+
+
+def combine_partials(*parts) -> tuple:
+    """Partial results of consecutive tasks (in task order) as one: their rows
+    one after the other, a stream's groups folded where the driver would fold
+    them, in the same order, so the bits are the driver's.
+
+    The driver merges a stream's groups left to right: ``((g0 + g1) + g2) + ...``
+    (:meth:`~.accumulators.PointAccumulator.merge`). A row that starts a stream
+    (its first block is 0) absorbs the rows of the stream's next groups as they
+    follow it, one group at a time; a row that does not start its stream stays a
+    single group, to be folded onto its prefix later (by a later combination, or
+    by the driver when the prefix was restored from a checkpoint). Folding
+    ``g2 + g3`` first would change the last bits; concatenating rows changes
+    none."""
+    parts = [p for p in parts if len(p[3])]
+    if not parts:
+        none = np.zeros(0, dtype=np.int64)
+        return none.reshape(0, 2), none, none, Stacked.of([])
+    keys = np.concatenate([p[0] for p in parts])
+    first = np.concatenate([p[1] for p in parts])
+    last = np.concatenate([p[2] for p in parts])
+    rows = Stacked.concat([p[3] for p in parts])
+    follows = (
+        np.flatnonzero(
+            np.all(keys[1:] == keys[:-1], axis=1) & (first[1:] == last[:-1] + 1)
+        )
+        + 1
+    )
+    if follows.size == 0:
+        return keys, first, last, rows
+    keep = np.ones(len(rows), dtype=bool)
+    head = np.arange(len(rows))  # the row each row was folded into
+    folded = {}
+    for j in follows.tolist():
+        h = head[j - 1]
+        if first[h] != 0 or last[h] + 1 != first[j]:
+            continue  # not a stream's start: stays a group of its own
+        acc = folded.get(h)
+        if acc is None:
+            acc = rows.accumulator(h)
+        folded[h] = acc.merge(rows.accumulator(j))
+        last[h] = last[j]
+        keep[j] = False
+        head[j] = h
+    pieces, at = [], 0
+    for h in sorted(folded):
+        pieces.append(rows.slice(at, h))
+        pieces.append(Stacked.of([folded[h]]))
+        at = h + 1
+    pieces.append(rows.slice(at, len(rows)))
+    merged = Stacked.concat(pieces)  # a row per kept row, in order
+    kept = np.flatnonzero(keep)
+    # `merged` has every original row, the folded heads replaced: drop the
+    # absorbed ones
+    return keys[kept], first[kept], last[kept], merged.take(kept).narrow()
 
 
 def _init_worker(plan):
@@ -373,6 +443,14 @@ def dask_client(*, address=None, workers: int = 2):
             cluster.close()
 
 
+#: Tasks per Dask worker in one reduced batch (:meth:`DaskRunner.reduced`): the
+#: client receives one partial result per batch, and the checkpoint is written
+#: between batches.
+BATCH_TASKS = 4
+#: Partials combined by one reduction task.
+REDUCE_FAN_IN = 8
+
+
 class DaskRunner:
     """Run tasks on a Dask distributed cluster.
 
@@ -380,7 +458,9 @@ class DaskRunner:
     ``LocalCluster`` with `workers` single-threaded worker processes.
     """
 
-    background = "later"  # as before: the driver's thread starts with the first result
+    #: the cluster (a LocalCluster too) is up before the first task: no fork to
+    #: come, so the driver's own work runs while the workers do theirs
+    background = "now"
     local_workers = None
 
     def __init__(self, plan, *, address=None, workers: int = 2):
@@ -400,6 +480,47 @@ class DaskRunner:
             tasks,
             4 * self.workers,
         )
+
+    def reduced(self, tasks, *, batch=None):
+        """The tasks' results reduced on the workers: tasks are submitted in
+        batches of `batch` (default :data:`BATCH_TASKS` per worker); each batch's
+        partials (:func:`task_partial`) are combined in order in a tree of
+        :data:`REDUCE_FAN_IN` (:func:`combine_partials`, on the workers), and only
+        its root comes to the client. Yields one partial per batch, in order; two
+        batches are in flight, so the workers never wait for the client.
+
+        A worker lost mid-run costs its tasks: the scheduler runs them again
+        elsewhere (and any combination whose input was kept on it), each a pure
+        function of the plan and its blocks, so the bits do not change."""
+        if batch is None:
+            batch = BATCH_TASKS * self.workers
+        client, plan = self._client, self._plan
+
+        def submit(chunk):
+            futures = [
+                client.submit(task_partial, plan, t, pure=False, retries=2)
+                for t in chunk
+            ]
+            while len(futures) > 1:
+                futures = [
+                    client.submit(
+                        combine_partials,
+                        *futures[i : i + REDUCE_FAN_IN],
+                        pure=False,
+                        retries=2,
+                    )
+                    for i in range(0, len(futures), REDUCE_FAN_IN)
+                ]
+            return futures[0]
+
+        pending = collections.deque()
+        it = iter(tasks)
+        while chunk := list(itertools.islice(it, batch)):
+            pending.append(submit(chunk))
+            if len(pending) >= 2:
+                yield pending.popleft().result()
+        while pending:
+            yield pending.popleft().result()
 
     def close(self):
         self._client.close()

@@ -40,10 +40,13 @@ from .dataset import (
     encoding,
     history_line,
     point_histogram,
+    small_chunk_cache,
+    summary_columns_of,
     summary_frame,
     summary_frame_of,
     surfaces_from_cf,
     surfaces_to_cf,
+    write_csv,
 )
 from .kernel import KERNEL
 from .plan import BLOCK_SIZE
@@ -52,6 +55,7 @@ from .summary import (
     Stacked,
     point_statistics,
     relative_to_reference,
+    release_memory,
     replicate_statistics,
 )
 
@@ -69,6 +73,11 @@ CAPTURE_COLUMNS = (
     "capture_se",
     "replicates",
 )
+
+#: Sweeps of at least this many points give the freed temporaries of their
+#: statistics and of writing results.nc back to the system
+#: (``summary.release_memory``).
+TRIM_POINTS = 2**16
 
 #: Rows of the summary a notebook shows (the rest stay in ``.summary``).
 HTML_ROWS = 12
@@ -242,13 +251,26 @@ class SimulationResult:
         self._summary = None
         self._attrs = None
         self._capture = {}  # quantile -> capture-speed table (see capture_speed)
+        self._statistics = None  # a fresh run's columns, computed on first use
+        self._columns_value = None
+
+    @property
+    def _columns(self) -> dict:
+        """A fresh run's per-point statistics (computed on first use)."""
+        if self._columns_value is None:
+            statistics, self._statistics = self._statistics, None
+            with stage(f"statistics of {self._grid.size:,} sweep points"):
+                self._columns_value = statistics()
+            if self._grid.size >= TRIM_POINTS:  # the slices' temporaries
+                release_memory()
+        return self._columns_value
 
     @property
     def dataset(self):
         """The canonical Dataset (built on first access for a fresh run: xarray,
         and with it dask where installed, is imported only by what needs it)."""
         if self._dataset is None:
-            self._dataset = self._build()
+            self._dataset = self._build(self._columns)
             self._build = None
         return self._dataset
 
@@ -378,12 +400,11 @@ class SimulationResult:
                     acc = acc.merge(stacked.accumulator(p * R + r))
                 pooled.append(acc)
             pooled_rows = Stacked.of(pooled)
-            columns = replicate_statistics(pooled_rows, stacked, R, confidence)
             accumulators = dict(enumerate(pooled))
         else:
             pooled_rows = stacked
-            columns = point_statistics(stacked, confidence)
             accumulators = _RowAccumulators(stacked)
+        shadowed = None
         if plan.shadowing != "none":
             # the facets removed ('reject') or re-weighted ('weighted') were never
             # sampled: report their exact probability from the table (1 where no
@@ -393,23 +414,23 @@ class SimulationResult:
                 key = (sp.surface, sp.angle_deg)
                 if key not in mass:
                     mass[key] = plan.angle_tables(*key).shadowed_mass
-            columns["shadowed_fraction"] = np.array(
+            shadowed = np.array(
                 [mass[(sp.surface, sp.angle_deg)] for sp in plan.points]
             )
         ref = scenario.reference_angle_deg
-        if ref is not None and np.isclose(grid.angles_deg, ref).any():
-            for stat, se, name in (
-                ("e_rebound_mean", "e_rebound_se", "e_relative"),
-                ("mu_mean", "mu_se", "mu_relative"),
-            ):
-                rel, rel_se = relative_to_reference(
-                    grid.reshape(columns[stat]),
-                    grid.reshape(columns[se]),
-                    grid.angles_deg,
-                    ref,
-                )
-                columns[name] = rel.ravel()
-                columns[f"{name}_se"] = rel_se.ravel()
+        # the statistics are computed on first use (the summary, the files): by
+        # then the run's plan and driver state are gone, so a sweep of 10^6 points
+        # never holds them and its ~60 columns at once
+        statistics = functools.partial(
+            _statistics,
+            pooled_rows,
+            stacked if R > 1 else None,
+            R,
+            confidence,
+            shadowed,
+            grid,
+            ref,
+        )
         kernel = getattr(plan, "kernel", None)
         if kernel is None:
             kernel = KERNEL
@@ -453,16 +474,15 @@ class SimulationResult:
         cls.__init__(out, None, scenario, accumulators, prov)
         out._attrs = attrs
         out._build = functools.partial(
-            build_dataset,
+            _build_dataset,
             grid,
-            columns,
             pooled_rows,
             attrs=attrs,
             inputs=prepared["inputs"],
             smooth=prepared["smooth"],
             areal=prepared.get("areal"),
         )
-        out._grid, out._columns = grid, columns
+        out._grid, out._statistics = grid, statistics
         return out
 
     @classmethod
@@ -633,14 +653,29 @@ class SimulationResult:
     def to_netcdf(self, path) -> Path:
         """Write the Dataset to `path` (NetCDF-4, compressed), atomically."""
         ds = surfaces_to_cf(self.dataset)  # CF: a numeric index, names aside
-        return atomic_write(
-            Path(path),
-            lambda t: ds.to_netcdf(t, engine="netcdf4", encoding=encoding(ds)),
-        )
+        with small_chunk_cache():  # not every variable held until the file closes
+            out = atomic_write(
+                Path(path),
+                lambda t: ds.to_netcdf(t, engine="netcdf4", encoding=encoding(ds)),
+            )
+        if ds["capture_fraction"].size >= TRIM_POINTS:  # the writer's freed buffers
+            release_memory()
+        return out
 
     def to_csv(self, path) -> Path:
         """Write the summary table to `path`, atomically."""
-        return atomic_write(Path(path), lambda t: self.summary.to_csv(t, index=False))
+        return atomic_write(Path(path), self.write_summary)
+
+    def write_summary(self, path) -> None:
+        """Write the summary table to `path` (not atomically: :meth:`to_csv` is),
+        exactly as ``self.summary.to_csv(path, index=False)`` would, in chunks of
+        rows from the columns (:func:`~.dataset.write_csv`; a fresh run's summary
+        table is not built for it)."""
+        if self._summary is None and self._dataset is None:
+            columns = summary_columns_of(self._grid, self._columns)
+        else:
+            columns = self.summary
+        write_csv(path, columns)
 
     def to_files(self, out_dir) -> dict[str, Path]:
         """Write ``summary.csv`` and ``results.nc`` (each atomically) to `out_dir`."""
@@ -649,6 +684,38 @@ class SimulationResult:
             "summary": self.to_csv(out_dir / "summary.csv"),
             "results": self.to_netcdf(out_dir / "results.nc"),
         }
+
+
+def _statistics(rows, replicates, R, confidence, shadowed, grid, ref) -> dict:
+    """The per-point columns of a fresh run (see :meth:`SimulationResult.from_stacked`):
+    the statistics of the pooled `rows` (QMC: their intervals from the `replicates`
+    rows), the shadowed fraction of the tables, the relative coefficients."""
+    if R > 1:
+        columns = replicate_statistics(rows, replicates, R, confidence)
+    else:
+        columns = point_statistics(rows, confidence)
+    if shadowed is not None:
+        columns["shadowed_fraction"] = shadowed
+    if ref is not None and np.isclose(grid.angles_deg, ref).any():
+        for stat, se, name in (
+            ("e_rebound_mean", "e_rebound_se", "e_relative"),
+            ("mu_mean", "mu_se", "mu_relative"),
+        ):
+            rel, rel_se = relative_to_reference(
+                grid.reshape(columns[stat]),
+                grid.reshape(columns[se]),
+                grid.angles_deg,
+                ref,
+            )
+            columns[name] = rel.ravel()
+            columns[f"{name}_se"] = rel_se.ravel()
+    return columns
+
+
+def _build_dataset(grid, rows, columns, **kwargs):
+    """:func:`~.dataset.build_dataset` with the columns given last (they are
+    computed on first use)."""
+    return build_dataset(grid, columns, rows, **kwargs)
 
 
 def _with_lateral(ds):

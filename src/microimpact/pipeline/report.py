@@ -956,7 +956,7 @@ def write_report(
     for k, r in enumerate(results):
         if csv_paths is None:
             csv = report_dir / f"{_slug(r.scenario.name)}_summary.csv"
-            atomic_write(csv, lambda t, r=r: r.summary.to_csv(t, index=False))
+            r.to_csv(csv)
         else:
             csv = Path(csv_paths[k])
         rel = os.path.relpath(csv.resolve(), report_dir.resolve())

@@ -210,9 +210,7 @@ class Study:
         result = self.result
         if "tables" in parts:
             written += [
-                folder.write(
-                    "summary.csv", lambda t: result.summary.to_csv(t, index=False)
-                ),
+                folder.write("summary.csv", result.write_summary),
                 folder.write("results.nc", result.to_netcdf),
                 folder.write(
                     "capture_speed.csv",
