@@ -356,6 +356,32 @@ def test_nan_and_inf_queries_are_refused_without_a_trap(
 
 
 # ------------------------------------------------------ the writer's guarantee
+@settings(max_examples=200, deadline=None)
+@given(
+    xs=st.lists(
+        st.floats(1.0, 100.0).flatmap(
+            lambda x: st.sampled_from([x, np.nextafter(x, 0.0), np.nextafter(x, 1e9)])
+        ),
+        min_size=1,
+        max_size=6,
+    )
+)
+def test_a_spec_the_scenario_accepts_has_axes_the_readers_accept(xs):
+    """Node axes as typed (near-duplicates one ulp apart included, the case
+    hypothesis found: 80 and 79.99999999999999 have one logarithm): a spec either
+    refuses them naming the pair, or holds axes the table's readers accept."""
+    from microimpact.errors import ScenarioError
+    from microimpact.wall_law.checks import axis_problem
+
+    try:
+        spec = WallLawSpec(diameters_um=xs, speeds_m_s=xs, angles_deg=(60.0, 90.0))
+    except ScenarioError as exc:
+        assert "are one node on the table's logarithmic axis" in str(exc)
+        return
+    assert axis_problem("diameter_um", spec.diameters_um, log=True) is None
+    assert axis_problem("speed_m_s", spec.speeds_m_s, log=True) is None
+
+
 @settings(
     max_examples=6,
     deadline=None,

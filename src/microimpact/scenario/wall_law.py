@@ -47,13 +47,27 @@ MAX_RESERVOIR = 1_000_000
 MAX_RESERVOIR_VALUES = 2**30 // 8  # 1 GiB of float64
 
 
-def _axis(values, field, *, low, high=math.inf, high_inclusive=False) -> tuple:
+def _axis(
+    values, field, *, low, high=math.inf, high_inclusive=False, log=False
+) -> tuple:
     """A node axis: the scenario's checked numbers, then sorted, each once (the
-    nodes of an interpolation table)."""
+    nodes of an interpolation table). On a `log` axis (the table interpolates in
+    the logarithm, and its readers refuse nodes equal there) two numbers whose
+    logarithms are equal are refused: e.g. 80 and 79.99999999999999."""
     checked = _positive_tuple(
         values, field, lo=low, hi=high, hi_inclusive=high_inclusive
     )
-    return tuple(float(v) for v in np.unique(checked))
+    nodes = np.unique(checked)
+    if log and nodes.size > 1:
+        same = np.flatnonzero(np.diff(np.log(nodes)) <= 0)
+        if same.size:
+            a, b = float(nodes[same[0]]), float(nodes[same[0] + 1])
+            raise ScenarioError(
+                f"{a!r} and {b!r} are one node on the table's logarithmic axis "
+                "(their logarithms are equal); allowed: nodes that differ in log",
+                field=field,
+            )
+    return tuple(float(v) for v in nodes)
 
 
 @dataclass(frozen=True)
@@ -106,7 +120,7 @@ class WallLawSpec:
         set_(
             self,
             "diameters_um",
-            _axis(self.diameters_um, "wall_law.diameter_um", low=0),
+            _axis(self.diameters_um, "wall_law.diameter_um", low=0, log=True),
         )
         for d in self.diameters_um:  # a unit mistake, refused before any build
             try:
@@ -144,6 +158,7 @@ class WallLawSpec:
                     low=REDUCED_SPEED_RANGE[0],
                     high=REDUCED_SPEED_RANGE[1],
                     high_inclusive=True,
+                    log=True,
                 ),
             )
         else:
@@ -162,7 +177,7 @@ class WallLawSpec:
             set_(
                 self,
                 "speeds_m_s",
-                _axis(self.speeds_m_s, "wall_law.speed_m_s", low=0),
+                _axis(self.speeds_m_s, "wall_law.speed_m_s", low=0, log=True),
             )
             _plausible_speeds(self.speeds_m_s, "wall_law.speed_m_s")
         set_(
