@@ -52,6 +52,7 @@ MODULES = [
 TESTS = [
     "tests/io",
     "tests/population",
+    "tests/surface",  # the profile and height-map readers' tests live here too
     "tests/wall_law",
     "tests/engine/test_checkpoint_fingerprint.py",
     "tests/engine/test_resume.py",
