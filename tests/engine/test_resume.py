@@ -230,6 +230,10 @@ def test_corrupt_and_old_checkpoints_are_reported(tmp_path):
     with pytest.warns(CheckpointWarning, match="cannot be read"):
         run(sc, checkpoint=ck)
     assert ck.rejected == "corrupt"
+    assert repr(ck) == (
+        f"Checkpoint({str(path)!r}, restored_blocks=0, "
+        f"total_blocks={ck.total_blocks}, rejected='corrupt')"
+    )
     np.savez(path, fingerprint=np.array("abc"))  # format 1
     with pytest.warns(CheckpointWarning, match="another file format"):
         run(sc, checkpoint=ck)
