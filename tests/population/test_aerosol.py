@@ -206,3 +206,11 @@ def test_the_scenario_names_all_three_medians():
     assert params["mmad_um"] == 3.0 and params["density_kg_m3"] == 1500.0
     text = repr(sc)
     assert "median_um=" in text and "mass_median_um=" in text and "mmad_um=3" in text
+
+
+@pytest.mark.parametrize("bad", [-1e-6, 0.0])
+def test_a_diameter_that_is_not_positive_is_refused_by_name(bad):
+    from microimpact.population.aerosol import volume_equivalent_diameter
+
+    with pytest.raises(ValueError, match="aerodynamic_m"):
+        volume_equivalent_diameter(bad, 1000.0)

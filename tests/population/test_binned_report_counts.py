@@ -40,3 +40,21 @@ def test_enough_particles_still_give_the_test():
     report = describe_binned_sizes(_bins(5000))
     assert report.chi2_lognormal is not None and report.chi2_lognormal.dof >= 1
     assert not any("no chi-squared test" in n for n in report.notes)
+
+
+def test_the_report_as_plain_data_keeps_its_documented_keys():
+    """`sizes --json` and scripts read these keys: the bins as given, and each
+    test's numbers under their names (written after the fresh mutation sample
+    found the keys unguarded)."""
+    import json
+
+    bins = _bins(5000)
+    report = describe_binned_sizes(bins)
+    out = json.loads(json.dumps(report.to_dict()))
+    assert out["edges_um"] == bins.edges_um.tolist()
+    assert out["number"] == bins.number.tolist()
+    c = out["lognormal"]["chi2"]
+    keys = {"statistic", "dof", "pvalue", "reject", "n_bins", "n_bins_initial"}
+    assert set(c) == keys
+    assert c["pvalue"] == report.chi2_lognormal.pvalue
+    assert c["dof"] == report.chi2_lognormal.dof
