@@ -220,3 +220,17 @@ def test_an_ops_known_by_name_or_model_number_refuses_sizes_it_cannot_measure(
     assert "an OPS measures 0.2 to 15 um, but the bins read in mm span 335" in str(
         info.value
     )
+
+
+def test_edges_for_a_file_of_raw_diameters_are_refused_saying_why(tmp_path):
+    path = tmp_path / "d.csv"
+    path.write_text("diameter_um\n10\n12\n15\n")
+    with pytest.raises(DataFormatError) as info:
+        read_size_data(path, edges_um=[1.0, 2.0, 3.0])
+    assert str(info.value) == (
+        f"{path}: edges_um: edges_um is for wide exports of size bins named bin0, "
+        "bin1, ...; the file holds raw diameters; leave it out"
+    )
+    with pytest.raises(DataFormatError) as info:
+        read_size_bins(path, layout="bogus")
+    assert str(info.value).startswith(f"{path}: layout: layout 'bogus'")

@@ -214,3 +214,10 @@ def test_a_diameter_that_is_not_positive_is_refused_by_name(bad):
 
     with pytest.raises(ValueError, match="aerodynamic_m"):
         volume_equivalent_diameter(bad, 1000.0)
+
+
+def test_a_geometric_std_below_1_is_refused_by_name():
+    from microimpact.population.aerosol import count_median_diameter
+
+    with pytest.raises(ValueError, match=r"^`geometric_std` must be a number >= 1"):
+        count_median_diameter(3e-6, 0.5)

@@ -175,3 +175,10 @@ def test_classes_merge_tails_inward_then_the_smallest_class():
     e, o, x = _merge([0, 1, 2], [1, 8], [1.0, 9.0])
     np.testing.assert_array_equal(e, [0, 2])
     np.testing.assert_array_equal(x, [10.0])
+
+
+@pytest.mark.parametrize("alpha", [-0.1, 0.0, 1.0, float("nan")])
+def test_a_significance_level_outside_0_1_is_refused(alpha):
+    x = np.random.default_rng(1).normal(50.0, 5.0, 200)
+    with pytest.raises(ValueError, match="`alpha`"):
+        chi2_normality(x, alpha=alpha)
