@@ -357,22 +357,7 @@ def resuspend(scenario, resuspension=None, *, samples=None, seed=None):
         radii, source=source, field="the population's diameter classes"
     )
     _check_mc_adhesion(spec, particles, source)
-    per_class = np.stack(
-        [
-            rnr.remaining_fraction_ramp(
-                radii[k],
-                spec.friction_velocities_m_s,
-                spec.exposures_s,
-                spec.density_kg_m3,
-                spec.kinematic_viscosity_m2_s,
-                spec.surface_energy_j_m2,
-                adhesion_median=median[k],
-                adhesion_spread=spread[k],
-                outside="ignore",
-            )
-            for k in range(radii.size)
-        ]
-    )  # (class, step)
+    per_class = spec.ramp_fractions(radii, median, spread)  # (class, step)
     capture = capture_se = coords = None
     if spec.source == "captured":
         capture, capture_se, coords = _capture_by_class(

@@ -242,7 +242,16 @@ class ResuspensionSpec:
         """
         radii = np.asarray(radius, dtype=float)
         median, spread = self.adhesion_parameters(radii, source=source, field=field)
+        return self.ramp_fractions(radii, median, spread)[..., -1]
+
+    def ramp_fractions(self, radius, adhesion_median, adhesion_spread):
+        """Fraction left after each step of the ramp, for particles of each radius
+        [m] with the given adhesion medians and spreads (of
+        :meth:`adhesion_parameters`): shape ``radius.shape + (steps,)``."""
+        radii = np.asarray(radius, dtype=float)
         flat = radii.reshape(-1)
+        median = np.broadcast_to(adhesion_median, radii.shape).reshape(-1)
+        spread = np.broadcast_to(adhesion_spread, radii.shape).reshape(-1)
         out = np.array(
             [
                 rnr.remaining_fraction_ramp(
@@ -255,11 +264,11 @@ class ResuspensionSpec:
                     adhesion_median=median[k],
                     adhesion_spread=spread[k],
                     outside="ignore",
-                )[-1]
+                )
                 for k in range(flat.size)
             ]
         )
-        return out.reshape(radii.shape)
+        return out.reshape((*radii.shape, len(self.exposures_s)))
 
 
 def _steps(ctx: _Ctx, value, key):
