@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import time
 from pathlib import Path
 
@@ -39,6 +38,7 @@ import pandas as pd
 import microimpact as mi
 from microimpact.analysis.calibration import calibrate
 from microimpact.analysis.compare import experiments_from_summary
+from microimpact.engine.statistics import wilson_interval
 from microimpact.scenario.parameters import with_values
 from microimpact.scenario.scenario import scenario_from_dict
 
@@ -170,18 +170,9 @@ def coverage(workers, steps, reps, out):
             r["credible_90"][key][0] <= r["truth"][key] <= r["credible_90"][key][1]
             for r in rows
         )
-        lo, hi = _wilson(hits, len(rows))
+        lo, hi = (float(x) for x in wilson_interval(hits, len(rows)))
         tally[key] = {"hits": hits, "coverage_95ci": [round(lo, 3), round(hi, 3)]}
     return tally
-
-
-def _wilson(k, n, z=1.959963984540054):
-    if n == 0:
-        return 0.0, 1.0
-    p = k / n
-    c = (p + z * z / (2 * n)) / (1 + z * z / n)
-    h = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
-    return c - h, c + h
 
 
 def main():

@@ -32,7 +32,6 @@ import argparse
 import collections
 import glob
 import json
-import math
 import os
 import shutil
 import subprocess
@@ -80,15 +79,6 @@ pytest_add_cli_args = ["-p", "no:xdist", "-k", {json.dumps(DESELECT)}, "-q",
 CAUGHT = {1, 3, 36, -24, 24, 152, 255}
 #: exit codes that mean the mutant was never checked (no verdict)
 UNCHECKED = {None, 2, 34}
-
-
-def wilson(k: int, n: int, z: float = 1.959963984540054) -> tuple[float, float]:
-    if n == 0:
-        return 0.0, 1.0
-    p = k / n
-    c = (p + z * z / (2 * n)) / (1 + z * z / n)
-    h = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
-    return c - h, c + h
 
 
 def prepare(work: Path) -> None:
@@ -160,6 +150,8 @@ def recheck(work: Path, names: list[str]) -> dict:
 def main(argv=None) -> int:
     import numpy as np
 
+    from microimpact.engine.statistics import wilson_interval
+
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sample", type=int, default=400)
     ap.add_argument("--seed", type=int, default=34)
@@ -202,7 +194,7 @@ def main(argv=None) -> int:
         mod = m.split(".x_")[0].split(".xǁ")[0]
         by_module[mod][0] += m in killed
         by_module[mod][1] += 1
-    lo, hi = wilson(len(killed), len(checked))
+    lo, hi = (float(x) for x in wilson_interval(len(killed), len(checked)))
     out = {
         "mutants": len(names),
         "sampled": len(sample),
