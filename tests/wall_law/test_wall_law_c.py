@@ -1026,6 +1026,27 @@ int hit(const double v[3], const double f_normal[3], double diam_m, const double
 """
 
 
+def fluent_udf(tmp_path, table, monkeypatch, surface=None):
+    """The Fluent wrapper built with the mock udf.h and the scripted harness,
+    reading `table` (and `surface`, if given) from its environment variables;
+    ``hit`` and ``message`` typed for ctypes."""
+    (tmp_path / "harness.c").write_text(HARNESS)
+    lib_path = compile_shared(
+        [C_DIR / "fluent_udf.c", C_DIR / "swl.c", tmp_path / "harness.c"],
+        tmp_path / "libudf.so",
+        f"-I{MOCK_UDF}",
+        f"-I{C_DIR}",
+    )
+    monkeypatch.setenv("MICROIMPACT_SWL_TABLE", str(table))
+    if surface is not None:
+        monkeypatch.setenv("MICROIMPACT_SWL_SURFACE", surface)
+    udf = ctypes.CDLL(str(lib_path))
+    d3 = ctypes.c_double * 3
+    udf.hit.argtypes = [d3, d3, ctypes.c_double, ctypes.c_double * 5, d3, d3]
+    udf.message.restype = ctypes.c_char_p
+    return udf
+
+
 @pytest.mark.parametrize("kind", ["absolute", "reduced"])
 def test_fluent_wrapper_rebounds_like_swl_rebound_velocity(
     swl, dataset, reduced, kind, tmp_path, monkeypatch
@@ -1037,19 +1058,8 @@ def test_fluent_wrapper_rebounds_like_swl_rebound_velocity(
     table = write_binary(reduced if kind == "reduced" else dataset, tmp_path / "t.swl")
     rc, law = swl.load(table)
     assert rc == 0
-    (tmp_path / "harness.c").write_text(HARNESS)
-    lib_path = compile_shared(
-        [C_DIR / "fluent_udf.c", C_DIR / "swl.c", tmp_path / "harness.c"],
-        tmp_path / "libudf.so",
-        f"-I{MOCK_UDF}",
-        f"-I{C_DIR}",
-    )
-    monkeypatch.setenv("MICROIMPACT_SWL_TABLE", str(table))
-    monkeypatch.setenv("MICROIMPACT_SWL_SURFACE", "grit-blasted")
-    udf = ctypes.CDLL(str(lib_path))
+    udf = fluent_udf(tmp_path, table, monkeypatch, "grit-blasted")
     d3 = ctypes.c_double * 3
-    udf.hit.argtypes = [d3, d3, ctypes.c_double, ctypes.c_double * 5, d3, d3]
-    udf.message.restype = ctypes.c_char_p
     path_active, path_abort = 1, 3
     rng = np.random.default_rng(8)
     seen = set()

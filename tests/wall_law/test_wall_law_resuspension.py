@@ -32,14 +32,13 @@ from test_wall_law_c import (
     E_SIZE,
     E_TRUNCATED,
     E_VALUE,
-    HARNESS,
-    MOCK_UDF,
     REBOUND,
     STAY,
     TRAPS,
     K,
     Swl,
     compile_shared,
+    fluent_udf,
     queries,
     reference_sample,
     synthetic_dataset,
@@ -515,19 +514,8 @@ def test_fluent_counts_the_resuspended(swl, stay_ds, tmp_path, monkeypatch):
     table = write_binary(stay_ds, tmp_path / "t.swl")
     rc, law = swl.load(table)
     assert rc == 0
-    (tmp_path / "harness.c").write_text(HARNESS)
-    lib_path = compile_shared(
-        [C_DIR / "fluent_udf.c", C_DIR / "swl.c", tmp_path / "harness.c"],
-        tmp_path / "libudf.so",
-        f"-I{MOCK_UDF}",
-        f"-I{C_DIR}",
-    )
-    monkeypatch.setenv("MICROIMPACT_SWL_TABLE", str(table))
-    monkeypatch.setenv("MICROIMPACT_SWL_SURFACE", "polished")
-    udf = ctypes.CDLL(str(lib_path))
+    udf = fluent_udf(tmp_path, table, monkeypatch, "polished")
     d3 = ctypes.c_double * 3
-    udf.hit.argtypes = [d3, d3, ctypes.c_double, ctypes.c_double * 5, d3, d3]
-    udf.message.restype = ctypes.c_char_p
     rng = np.random.default_rng(3)
     counts = {"captured": 0, "resuspended": 0}
     for _ in range(600):

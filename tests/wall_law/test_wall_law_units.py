@@ -19,11 +19,10 @@ import pytest
 from test_wall_law_c import (
     C_DIR,
     CC,
-    HARNESS,
-    MOCK_UDF,
     ROOT,
     SPEEDS,
     compile_shared,
+    fluent_udf,
     synthetic_dataset,
 )
 
@@ -125,18 +124,8 @@ def test_fluent_wrapper_aborts_a_wrong_unit_and_says_so_once(
     if CC is None:
         pytest.skip("no C compiler")
     table = write_binary(dataset, tmp_path / "t.swl")
-    (tmp_path / "harness.c").write_text(HARNESS)
-    lib = compile_shared(
-        [C_DIR / "fluent_udf.c", C_DIR / "swl.c", tmp_path / "harness.c"],
-        tmp_path / "libudf.so",
-        f"-I{MOCK_UDF}",
-        f"-I{C_DIR}",
-    )
-    monkeypatch.setenv("MICROIMPACT_SWL_TABLE", str(table))
-    udf = ctypes.CDLL(str(lib))
+    udf = fluent_udf(tmp_path, table, monkeypatch)
     d3 = ctypes.c_double * 3
-    udf.hit.argtypes = [d3, d3, ctypes.c_double, ctypes.c_double * 5, d3, d3]
-    udf.message.restype = ctypes.c_char_p
     path_active, path_abort = 1, 3
 
     def hit(diam_m):
