@@ -142,26 +142,36 @@ def _timed(exp, data, bounds, truth, workers, steps, seed=None, sampler_seed=Non
     }
 
 
-def coverage(workers, steps, reps, out):
-    """Run replications 0..reps-1 not yet in `out` (JSON lines), then tally."""
-    path = Path(out)
+def _read_reps(path):
     done = {}
     if path.exists():
         for line in path.read_text().splitlines():
             if line.strip():
                 row = json.loads(line)
                 done[row["rep"]] = row
+    return done
+
+
+def coverage(workers, steps, reps, out, shard=(0, 1)):
+    """Run replications 0..reps-1 not yet in `out` (JSON lines), then tally.
+
+    ``shard=(k, n)`` runs only the replications ``r`` with ``r % n == k``, so that
+    ``n`` processes (one worker each) can share one file; the tally counts every
+    replication in the file."""
+    path = Path(out)
+    done = _read_reps(path)
     for rep in range(reps):
-        if rep in done:
+        if rep in done or rep % shard[1] != shard[0]:
             continue
         row = two(
             workers, steps, data_seed=1000 + rep, seed=5000 + rep, sampler_seed=rep
         )
         row["rep"] = rep
-        with path.open("a") as f:  # one whole line per replication
+        with path.open("a") as f:  # one whole line per replication, one write
             f.write(json.dumps(row) + "\n")
         done[rep] = row
         print(json.dumps(row), flush=True)
+    done = _read_reps(path)  # with the other shards' replications
     rows = [done[r] for r in sorted(done) if r < reps]
     tally = {"replications": len(rows)}
     tally["converged"] = sum(bool(r["converged"]) for r in rows)
@@ -183,10 +193,18 @@ def main():
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--steps", type=int, default=5000)
     p.add_argument("--smoke", action="store_true", help="20 steps: end to end only")
+    p.add_argument(
+        "--shard",
+        default="0/1",
+        help="coverage: K/N runs the replications r with r %% N == K (N processes)",
+    )
     args = p.parse_args()
     steps = 20 if args.smoke else args.steps
     if args.what == "coverage":
-        print(json.dumps(coverage(args.workers, steps, args.reps, args.out)))
+        k, n = (int(x) for x in args.shard.split("/"))
+        if not 0 <= k < n:
+            p.error(f"--shard {args.shard!r}: K/N with 0 <= K < N")
+        print(json.dumps(coverage(args.workers, steps, args.reps, args.out, (k, n))))
         return
     run = two if args.what == "two" else one
     print(json.dumps(run(args.workers, steps)))
