@@ -87,6 +87,10 @@ def test_packing_changes_no_bit(monkeypatch, impacts):
     _same(ref, run(sc, workers=2))
 
 
+def _no_stacked(plan, specs, groups=None):
+    return None  # as a kernel without the stacked path
+
+
 def test_simulate_specs_is_used_when_the_kernel_has_it(monkeypatch):
     """One kernel call per task with all its block specs, and the same bits as
     simulate_block per spec."""
@@ -101,7 +105,7 @@ def test_simulate_specs_is_used_when_the_kernel_has_it(monkeypatch):
     monkeypatch.setattr(kernel, "simulate_specs", simulate_specs, raising=False)
     # the per-accumulator path (the stacked one, tested against it in
     # tests/engine/test_grid_speed.py, is switched off here)
-    monkeypatch.setattr(kernel, "simulate_specs_stacked", lambda plan, specs: None)
+    monkeypatch.setattr(kernel, "simulate_specs_stacked", _no_stacked)
     _same(ref, run(sc))
     assert len(calls) == 1 and len(calls[0]) == 36
 
@@ -110,7 +114,7 @@ def test_the_stacked_kernel_path_is_one_call_per_task(monkeypatch):
     """Tasks of single-block groups go through kernel.simulate_specs_stacked, one
     call with all the task's specs, with the same bits."""
     sc = _grid()
-    monkeypatch.setattr(kernel, "simulate_specs_stacked", lambda plan, specs: None)
+    monkeypatch.setattr(kernel, "simulate_specs_stacked", _no_stacked)
     ref = run(sc)
     monkeypatch.undo()
     if kernel.KERNEL != "compiled":
@@ -118,9 +122,9 @@ def test_the_stacked_kernel_path_is_one_call_per_task(monkeypatch):
     calls = []
     real = kernel.simulate_specs_stacked
 
-    def stacked(plan, specs):
+    def stacked(plan, specs, groups=None):
         calls.append(list(specs))
-        return real(plan, specs)
+        return real(plan, specs, groups)
 
     monkeypatch.setattr(kernel, "simulate_specs_stacked", stacked)
     _same(ref, run(sc))
@@ -138,10 +142,27 @@ def test_merge_in_a_task_follows_block_order(monkeypatch):
         samples=8 * BLOCK_SIZE,
     )
     ref = run(sc).accumulators[0]
-    real = parallel._simulate
-    monkeypatch.setattr(parallel, "_simulate", lambda p, s: real(p, s[::-1])[::-1])
-    assert run(sc).accumulators[0] == ref  # same specs, same order of merging
-    monkeypatch.setattr(parallel, "_simulate", lambda p, s: real(p, s)[::-1])
+    with pytest.MonkeyPatch.context() as m:  # the Python fold (no compiled kernel)
+        m.setattr(kernel, "simulate_specs_stacked", _no_stacked)
+        real = parallel._simulate
+        m.setattr(parallel, "_simulate", lambda p, s: real(p, s[::-1])[::-1])
+        assert run(sc).accumulators[0] == ref  # same specs, same order of merging
+        m.setattr(parallel, "_simulate", lambda p, s: real(p, s)[::-1])
+        bad = run(sc).accumulators[0]
+        assert bad.n == ref.n and bad.e != ref.e
+    if kernel.KERNEL != "compiled":
+        return
+    # the compiled kernel's fold: the specs of each group handed over reversed
+    real_stacked = kernel.simulate_specs_stacked
+
+    def reversed_groups(p, specs, groups=None):
+        specs, at = list(specs), 0
+        for g in groups:
+            specs[at : at + g] = specs[at : at + g][::-1]
+            at += g
+        return real_stacked(p, specs, groups)
+
+    monkeypatch.setattr(kernel, "simulate_specs_stacked", reversed_groups)
     bad = run(sc).accumulators[0]
     assert bad.n == ref.n and bad.e != ref.e
 

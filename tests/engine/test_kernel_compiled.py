@@ -481,6 +481,59 @@ def test_areal_specs_and_stacked_rows_equal_blocks_one_by_one():
         assert stacked.accumulator(i) == want.accumulator(i)
 
 
+@pytest.mark.parametrize("sampling", ["mc", "qmc"])
+def test_grouped_specs_are_the_python_fold_bit_for_bit(sampling):
+    """``simulate_specs_stacked(plan, specs, groups)``: the kernel merges each
+    group's blocks itself. Oracle: every block's accumulator from the NumPy
+    kernel, folded left to right by ``PointAccumulator.merge`` (the driver's
+    order), stacked: every array equal bit for bit (-0.0 and NaN included), over
+    areal, profile and smooth points, spread speeds, blocks of 0, 1 and 3,000
+    impacts, points that capture everything, and groups of 1 to 4 blocks."""
+    from microimpact.engine.summary import Stacked
+
+    sc = scenario(
+        surfaces=(*_areal_surfaces()[:1], rough(12.0), SurfaceVariant("smooth")),
+        speeds_m_s=(0.01, 1.0),
+        angles_deg=(20.0, 70.0),
+        shadowing="weighted",
+        speed_spread=0.1,
+        sampling=sampling,
+    )
+    plan = build_plan(sc)
+    plain = dataclasses.replace(plan, kernel="numpy")
+    sizes = [(3000, 1, 0, 2000), (257,), (0, 1000), (1, 1, 1)]
+    specs, groups = [], []
+    for p in range(len(plan.points)):
+        for g in sizes[p % len(sizes)], sizes[(p + 1) % len(sizes)]:
+            first = specs[-1][2] + 1 if specs and specs[-1][0] == p else 0
+            specs += [(p, 0, first + b, n) for b, n in enumerate(g)]
+            groups.append(len(g))
+    want = []
+    at = 0
+    for g in groups:
+        accs = [kernel.simulate_block(plain, *spec) for spec in specs[at : at + g]]
+        acc = accs[0]
+        for other in accs[1:]:
+            acc = acc.merge(other)
+        want.append(acc)
+        at += g
+    want = Stacked.of(want)
+    got = kernel.simulate_specs_stacked(plan, specs, groups)
+    for name in ("counts", "e", "mu", "lateral"):
+        a, b = getattr(got, name), getattr(want, name)
+        assert a.dtype == b.dtype, name
+        assert_array_equal(a.view(np.int64), b.view(np.int64), err_msg=name)
+    for name in ("e_spans", "mu_spans", "lateral_spans"):
+        a, b = getattr(got, name), getattr(want, name)
+        for f in ("offset", "length", "counts"):
+            assert_array_equal(getattr(a, f), getattr(b, f), err_msg=f"{name}.{f}")
+    assert np.any(want.counts[:, 2] == want.counts[:, 0] - want.counts[:, 1])
+    with pytest.raises(ValueError, match="group lengths"):
+        kernel.simulate_specs_stacked(plan, specs, [*groups[:-1], groups[-1] + 1])
+    with pytest.raises(ValueError, match="group lengths"):
+        kernel.simulate_specs_stacked(plan, specs, [0, *groups])
+
+
 def test_areal_runs_give_the_same_bits_on_any_worker_count(monkeypatch):
     """microimpact.run of an areal scenario: the compiled kernel on one worker and
     on two worker threads, and the NumPy kernel on two worker processes, give the

@@ -51,8 +51,8 @@ class KernelSpy:
         real_stacked = getattr(kernel, "simulate_specs_stacked", None)
         if real_stacked is not None:
 
-            def stacked(plan, specs):
-                rows = real_stacked(plan, specs)
+            def stacked(plan, specs, groups=None):
+                rows = real_stacked(plan, specs, groups)
                 if rows is not None:
                     for spec in specs:
                         self._count(spec)

@@ -1824,6 +1824,58 @@ occupied(const int64_t *h, int64_t size, int64_t *lo, int64_t *hi)
     *hi = j;
 }
 
+/* The moments (n, mean, M2, M3) of n values from their shifted sums s = (shift,
+ * S1, S2, S3): accumulators.Moments.from_shifted_sums, the same operations in the
+ * same order (this file is built with -ffp-contract=off), the cube as Python's
+ * float power takes it (pow of the magnitude, the sign put back). */
+static double
+py_cube(double d)
+{
+    if (d == 0.0 || d != d)
+        return d * d * d; /* 0 keeps its sign; NaN stays NaN */
+    return d < 0.0 ? -pow(-d, 3.0) : pow(d, 3.0);
+}
+
+static void
+moments_of_sums(int64_t n, const double *s, double *out)
+{
+    if (n == 0) {
+        out[0] = out[1] = out[2] = out[3] = 0.0;
+        return;
+    }
+    double dn = (double)n;
+    double delta = s[1] / dn;
+    double m2 = s[2] - s[1] * delta;
+    double m3 = (s[3] - 3.0 * delta * s[2]) + 2.0 * dn * py_cube(delta);
+    out[0] = dn;
+    out[1] = s[0] + delta;
+    out[2] = m2 < 0.0 ? 0.0 : m2; /* Python's max(m2, 0.0) */
+    out[3] = m3;
+}
+
+/* a = a merged with b (accumulators.Moments.merge, Pebay 2008 Eqs. 1.1-1.3): the
+ * same operations in the same order; counts below 2^53 are exact doubles. */
+static void
+moments_merge(double *a, const double *b)
+{
+    if (b[0] == 0.0)
+        return;
+    if (a[0] == 0.0) {
+        memcpy(a, b, 4 * sizeof *a);
+        return;
+    }
+    double na = a[0], nb = b[0], n = na + nb;
+    double delta = b[1] - a[1];
+    double mean = a[1] + delta * nb / n;
+    double m2 = a[2] + b[2] + delta * delta * na * nb / n;
+    double m3 = a[3] + b[3] + py_cube(delta) * na * nb * (na - nb) / (n * n) +
+                3.0 * delta * (na * b[2] - nb * a[2]) / n;
+    a[0] = n;
+    a[1] = mean;
+    a[2] = m2;
+    a[3] = m3;
+}
+
 PyDoc_STRVAR(specs_doc,
 "specs(entropy_words, common, specs, counts, sums, spans) -> bytes\n\n"
 "Run block specs in order, each drawing its variables from its keyed streams\n"
@@ -1849,12 +1901,13 @@ ck_specs(PyObject *self, PyObject *args)
     Py_buffer be, bh, bc, bs, bp;
     Py_buffer bst[4] = {{0}};
     int nst = 0;
-    PyObject *dsamp, *ssamp, *list, *store = Py_None;
+    Py_buffer bg = {0};
+    PyObject *dsamp, *ssamp, *list, *store = Py_None, *groups = Py_None;
     int speed_random;
     double p, q, friction;
-    if (!PyArg_ParseTuple(args, "y*(OOpdddy*)O!w*w*w*|O:specs", &be, &dsamp, &ssamp,
+    if (!PyArg_ParseTuple(args, "y*(OOpdddy*)O!w*w*w*|OO:specs", &be, &dsamp, &ssamp,
                           &speed_random, &p, &q, &friction, &bh, &PyList_Type,
-                          &list, &bc, &bs, &bp, &store))
+                          &list, &bc, &bs, &bp, &store, &groups))
         return NULL; /* (the parser releases what it acquired) */
     PyObject *result = NULL;
     Py_ssize_t total_n = 0;
@@ -1862,13 +1915,40 @@ ck_specs(PyObject *self, PyObject *args)
     spec_t *sp = NULL;
     scratch_t *scr = NULL;
     int64_t *eh = NULL, *mh = NULL, *lh = NULL, *out = NULL;
-    Py_ssize_t K = PyList_GET_SIZE(list);
+    Py_ssize_t K = PyList_GET_SIZE(list), G = K;
+    const int64_t *glen = NULL;
     ss_state st;
     hist_t hs;
     const sampler_t *sd, *ss;
+    if (groups != Py_None) {
+        if (PyObject_GetBuffer(groups, &bg, PyBUF_C_CONTIGUOUS) < 0)
+            goto done;
+        if (bg.len % 8 != 0) {
+            PyErr_SetString(PyExc_ValueError, "_ckernel.specs: groups is int64");
+            goto done;
+        }
+        G = bg.len / 8;
+        glen = bg.buf;
+        Py_ssize_t covered = 0;
+        for (Py_ssize_t g = 0; g < G; g++) {
+            if (glen[g] < 1 || glen[g] > K - covered) {
+                PyErr_SetString(PyExc_ValueError,
+                                "_ckernel.specs: group lengths must be >= 1 and "
+                                "sum to the number of specs");
+                goto done;
+            }
+            covered += glen[g];
+        }
+        if (covered != K) {
+            PyErr_SetString(PyExc_ValueError,
+                            "_ckernel.specs: group lengths must sum to the number "
+                            "of specs");
+            goto done;
+        }
+    }
     if (parse_entropy(&be, &st) || parse_hist(&bh, &hs) ||
-        check_len(&bc, "counts", 8, 5 * K) || check_len(&bs, "sums", 8, 12 * K) ||
-        check_len(&bp, "spans", 8, 6 * K))
+        check_len(&bc, "counts", 8, 5 * G) || check_len(&bs, "sums", 8, 12 * G) ||
+        check_len(&bp, "spans", 8, 6 * G))
         goto done;
     if ((sd = sampler_of(&set, dsamp, "diameter", 8)) == NULL ||
         (ss = sampler_of(&set, ssamp, "speed", 4)) == NULL)
@@ -1984,7 +2064,7 @@ ck_specs(PyObject *self, PyObject *args)
     int64_t *counts = bc.buf, *spans = bp.buf;
     double *sums = bs.buf;
     int oom = 0;
-    Py_ssize_t offset = 0;
+    Py_ssize_t offset = 0, g = 0, at = 0; /* group, and block within it */
     Py_BEGIN_ALLOW_THREADS
     for (Py_ssize_t i = 0; i < K && !oom; i++) {
         const spec_t *x = &sp[i];
@@ -2034,24 +2114,49 @@ ck_specs(PyObject *self, PyObject *args)
                 stream_seed(&st, key, 3, &a.gen[v]);
         }
         run_block(&a, scr);
-        int64_t *c = counts + 5 * i;
-        c[0] = a.counts.shadow;
-        c[1] = a.counts.capt;
-        c[2] = a.counts.reimp;
-        c[3] = a.counts.roll;
-        c[4] = a.counts.reb;
-        memcpy(sums + 12 * i, a.sums, sizeof a.sums);
+        int lat_areal = a.areal && a.angle_random && a.pair_shift == 0;
+        /* this block's row, or its group's (merged in block order) */
+        Py_ssize_t row = glen == NULL ? i : g;
+        int64_t *c = counts + 5 * row;
+        if (glen == NULL || at == 0)
+            memset(c, 0, 5 * sizeof *c);
+        c[0] += a.counts.shadow;
+        c[1] += a.counts.capt;
+        c[2] += a.counts.reimp;
+        c[3] += a.counts.roll;
+        c[4] += a.counts.reb;
+        if (glen == NULL) {
+            memcpy(sums + 12 * i, a.sums, sizeof a.sums);
+        } else {
+            double *gm = sums + 12 * g;
+            for (int h = 0; h < 3; h++) {
+                double bm[4];
+                moments_of_sums(a.counts.reb, a.sums + 4 * h, bm);
+                if (at == 0)
+                    memcpy(gm + 4 * h, bm, sizeof bm);
+                else
+                    moments_merge(gm + 4 * h, bm);
+            }
+        }
+        /* off an areal surface psi_f = 0 for every rebound: one bin */
+        if (!lat_areal)
+            lh[hs.lat_zero] += a.counts.reb;
+        memset(eh + hs.e_spill, 0, SPILL * sizeof *eh);
+        memset(mh + hs.mu_spill, 0, SPILL * sizeof *mh);
+        memset(lh + hs.lat_spill, 0, SPILL * sizeof *lh);
+        if (glen != NULL && ++at < glen[g])
+            continue; /* the group's histograms go on adding up */
+        at = 0;
+        if (glen != NULL)
+            g++;
         /* the occupied spans, appended to `out`; then the scratch histograms are
-         * zeroed where they were written (the spans and the spill slots). Off an
-         * areal surface psi_f = 0 for every rebound: one bin, written here */
+         * zeroed where they were written */
         int64_t lo[3], hi[3];
         occupied(eh, hs.e_top + 1, &lo[0], &hi[0]);
         occupied(mh, hs.mu_top + 1, &lo[1], &hi[1]);
-        int lat_areal = a.areal && a.angle_random && a.pair_shift == 0;
         if (!lat_areal) {
-            lh[hs.lat_zero] = a.counts.reb;
-            lo[2] = a.counts.reb ? hs.lat_zero : 0;
-            hi[2] = a.counts.reb ? hs.lat_zero + 1 : 0;
+            lo[2] = c[4] ? hs.lat_zero : 0;
+            hi[2] = c[4] ? hs.lat_zero + 1 : 0;
         } else {
             occupied(lh, hs.lat_top + 1, &lo[2], &hi[2]);
         }
@@ -2072,13 +2177,10 @@ ck_specs(PyObject *self, PyObject *args)
             memcpy(out + used, hist + lo[h], (hi[h] - lo[h]) * sizeof *out);
             used += hi[h] - lo[h];
             memset(hist + lo[h], 0, (hi[h] - lo[h]) * sizeof *hist);
-            spans[6 * i + 2 * h] = lo[h];
-            spans[6 * i + 2 * h + 1] = hi[h] - lo[h];
+            spans[6 * row + 2 * h] = lo[h];
+            spans[6 * row + 2 * h + 1] = hi[h] - lo[h];
         }
         lh[hs.lat_zero] = 0;
-        memset(eh + hs.e_spill, 0, SPILL * sizeof *eh);
-        memset(mh + hs.mu_spill, 0, SPILL * sizeof *mh);
-        memset(lh + hs.lat_spill, 0, SPILL * sizeof *lh);
     }
     Py_END_ALLOW_THREADS
     if (oom) {
@@ -2099,6 +2201,8 @@ done:
     PyBuffer_Release(&bc);
     PyBuffer_Release(&bs);
     PyBuffer_Release(&bp);
+    if (bg.obj != NULL)
+        PyBuffer_Release(&bg);
     for (int j = 0; j < nst; j++)
         PyBuffer_Release(&bst[j]);
     return result;

@@ -842,11 +842,17 @@ def sobol_state(plan: Plan, point: int, rep: int, dim: int) -> bytes:
     return state
 
 
-def _keyed_outputs(plan: Plan, specs, store=None):
+def _keyed_outputs(plan: Plan, specs, store=None, groups=None):
     """One ``_ckernel.specs`` call for block specs: ``(items, counts, sums, spans,
     flat)`` (the per-block counts, the shifted sums, the occupied histogram spans
     and their counts, flat). Monte Carlo blocks draw from their keyed streams, QMC
-    blocks from their replicate's Sobol' points ``[block B, block B + n)``."""
+    blocks from their replicate's Sobol' points ``[block B, block B + n)``.
+
+    With `groups` (an int64 array of group lengths summing to ``len(specs)``) the
+    kernel merges each group's consecutive blocks itself, as
+    :meth:`~.accumulators.PointAccumulator.merge` folds them left to right (the
+    same bits): a row per group, and ``sums`` then holds each group's moments
+    ``(n, mean, M2, M3)`` of e_m, mu_m and psi_f."""
     items = []
     points = plan.points
     qmc = plan.sampling == "qmc"
@@ -865,14 +871,16 @@ def _keyed_outputs(plan: Plan, specs, store=None):
             items.append((point, start, n, args, sobol_state(plan, point, rep, dim)))
         else:
             items.append((point, block, n, args))
-    k = len(items)
+    k = len(items) if groups is None else len(groups)
     counts = np.empty((k, 5), dtype=np.int64)
     sums = np.empty((k, 12))
     spans = np.empty((k, 6), dtype=np.int64)
     args = [entropy_words(plan.entropy), _common_args(plan), items, counts, sums]
     args.append(spans)
-    if store is not None:
+    if store is not None or groups is not None:
         args.append(store)
+    if groups is not None:
+        args.append(np.ascontiguousarray(groups, dtype=np.int64))
     buf = _ckernel().specs(*args)
     return items, counts, sums, spans, np.frombuffer(buf, dtype=np.int64)
 
@@ -942,40 +950,30 @@ def _simulate_keyed(plan: Plan, specs) -> list[PointAccumulator]:
     return out
 
 
-def _stacked_moments(m: np.ndarray, sums: np.ndarray) -> np.ndarray:
-    """``Moments.from_shifted_sums`` of every row as ``(n, mean, M2, M3)`` columns,
-    the same bits (the cube by Python's ``pow``, as the scalar method takes it)."""
-    out = np.zeros((m.size, 4))
-    ok = m > 0
-    if np.any(ok):
-        n = m[ok]
-        shift, s1, s2, s3 = sums[ok].T
-        delta = s1 / n
-        m2 = s2 - s1 * delta
-        cube = np.array([d**3 for d in delta.tolist()])
-        m3 = s3 - 3.0 * delta * s2 + (2.0 * n) * cube
-        out[ok, 0] = n
-        out[ok, 1] = shift + delta
-        out[ok, 2] = np.maximum(m2, 0.0)
-        out[ok, 3] = m3
-    return out
-
-
-def simulate_specs_stacked(plan: Plan, specs):
+def simulate_specs_stacked(plan: Plan, specs, groups=None):
     """:func:`simulate_specs` as one :class:`~.summary.Stacked` (a row per spec),
     built from the compiled kernel's arrays without an object per block: exactly
-    ``Stacked.of(simulate_specs(plan, specs))``. The compiled kernel only (None
+    ``Stacked.of(simulate_specs(plan, specs))``. With `groups` (lengths of runs of
+    consecutive specs, summing to ``len(specs)``) a row per group: its blocks'
+    accumulators merged left to right in the kernel, exactly as
+    :meth:`~.accumulators.PointAccumulator.merge` folds them (the driver's bits,
+    with no Python object or GIL per block). The compiled kernel only (None
     otherwise)."""
 
     if plan.kernel != "compiled":
         return None
-    items, counts, sums, spans, flat = _keyed_outputs(plan, specs)
-    m = counts[:, 4]
-    table = np.empty((len(items), 5), dtype=np.int64)
-    table[:, 0] = [it[2] for it in items]
+    if groups is None:
+        groups = np.ones(len(specs), dtype=np.int64)
+    else:
+        groups = np.asarray(groups, dtype=np.int64)
+    _, counts, moments, spans, flat = _keyed_outputs(plan, specs, groups=groups)
+    table = np.empty((len(groups), 5), dtype=np.int64)
+    n = np.fromiter((spec[3] for spec in specs), dtype=np.int64, count=len(specs))
+    if n.size:
+        table[:, 0] = np.add.reduceat(n, np.cumsum(groups) - groups)
     table[:, 1:] = counts[:, :4]
     e_len, mu_len, l_len = spans[:, 1], spans[:, 3], spans[:, 5]
-    start = np.zeros(len(items), dtype=np.int64)
+    start = np.zeros(len(groups), dtype=np.int64)
     np.cumsum((e_len + mu_len + l_len)[:-1], out=start[1:])
     e_spans = Spans(
         np.where(e_len > 0, spans[:, 0], 0),
@@ -997,10 +995,10 @@ def simulate_specs_stacked(plan: Plan, specs):
     )
     return Stacked(
         table,
-        _stacked_moments(m, sums[:, :4]),
-        _stacked_moments(m, sums[:, 4:8]),
+        np.ascontiguousarray(moments[:, :4]),
+        np.ascontiguousarray(moments[:, 4:8]),
         e_spans,
         mu_spans,
-        _stacked_moments(m, sums[:, 8:]),
+        np.ascontiguousarray(moments[:, 8:]),
         lat_spans,
     )

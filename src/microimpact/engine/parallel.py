@@ -92,9 +92,8 @@ def run_task(plan, task):
     array, not two small arrays and a dozen numbers per group).
     """
     flat = [spec for group in task for spec in group]
-    rows = None
-    if all(len(group) == 1 for group in task):  # a group per block: no merging
-        rows = kernel.simulate_specs_stacked(plan, flat)
+    # the compiled kernel merges each group's blocks itself (no object per block)
+    rows = kernel.simulate_specs_stacked(plan, flat, [len(g) for g in task])
     if rows is None:
         accs = iter(_simulate(plan, flat))
         out = []
