@@ -39,7 +39,10 @@ from pathlib import Path
 
 #: Each child starts with this: ``WARM`` set means the path runs once at a tiny
 #: size before the measured call (imports, lazy set-up and caches done).
-PRELUDE = "import os\nWARM = os.environ.get('MICROIMPACT_GIL_WARM') == '1'\n"
+PRELUDE = (
+    "import os\nWARM = os.environ.get('MICROIMPACT_GIL_WARM') == '1'\n"
+    "REPEAT = int(os.environ.get('MICROIMPACT_GIL_REPEAT', '1'))\n"
+)
 
 CHILD = {
     "run": (
@@ -106,14 +109,24 @@ def _samples(raw: Path, where: collections.Counter | None = None) -> int:
     return n
 
 
-def measure(name: str, pyspy: str, rate: int = 250, *, warm: bool = False) -> dict:
+def measure(
+    name: str, pyspy: str, rate: int = 250, *, warm: bool = False, repeat: int = 1
+) -> dict:
     """GIL share of path `name`: in a fresh process (cold: the path's first call
     pays the imports and lazy set-up) or after a tiny warm-up call (warm)."""
     where = collections.Counter()
-    env = dict(os.environ, MICROIMPACT_GIL_WARM="1" if warm else "0")
+    env = dict(
+        os.environ,
+        MICROIMPACT_GIL_WARM="1" if warm else "0",
+        MICROIMPACT_GIL_REPEAT=str(repeat),
+    )
     with tempfile.TemporaryDirectory() as tmp:
         child = Path(tmp) / "child.py"
-        child.write_text(PRELUDE + CHILD[name], encoding="utf-8")
+        # the path's call `repeat` times (more samples, the same share)
+        body = CHILD[name].replace(
+            "\npath()\n", "\nfor _ in range(REPEAT):\n    path()\n"
+        )
+        child.write_text(PRELUDE + body, encoding="utf-8")
         counts = {}
         for kind, extra in (("all", []), ("gil", ["--gil"])):
             raw = Path(tmp) / f"{kind}.txt"
@@ -176,13 +189,26 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--paths", nargs="+", default=list(CHILD), choices=list(CHILD))
     ap.add_argument("--json", type=Path)
+    ap.add_argument("--rate", type=int, default=250, help="py-spy samples per second")
+    ap.add_argument(
+        "--repeat", type=int, default=1, help="calls of each path per recording"
+    )
+    ap.add_argument(
+        "--starts",
+        nargs="+",
+        default=["cold", "warm"],
+        choices=["cold", "warm"],
+        help="cold: the path's first call in a fresh process; warm: after a tiny one",
+    )
     args = ap.parse_args(argv)
     pyspy = shutil.which("py-spy") or str(Path(sys.executable).with_name("py-spy"))
     if not Path(pyspy).exists():
         print("py-spy is not installed: pip install py-spy", file=sys.stderr)
         return 2
     rows = [
-        measure(name, pyspy, warm=warm) for name in args.paths for warm in (False, True)
+        measure(name, pyspy, args.rate, warm=start == "warm", repeat=args.repeat)
+        for name in args.paths
+        for start in args.starts
     ]
     print(f"CPU: {_cpu()}")
     print("| path | start | samples | GIL held | Amdahl 16 cores | Amdahl 64 cores |")

@@ -856,10 +856,13 @@ def _keyed_outputs(plan: Plan, specs, store=None, groups=None):
     items = []
     points = plan.points
     qmc = plan.sampling == "qmc"
+    last = None  # consecutive specs of one point (a group's blocks) share its args
     for point, rep, block, n in specs:
-        sp = points[point]
-        tables = plan.angle_tables(sp.surface, sp.angle_deg)
-        args = _point_args(tables, float(sp.speed))
+        if point != last:
+            sp = points[point]
+            tables = plan.angle_tables(sp.surface, sp.angle_deg)
+            args = _point_args(tables, float(sp.speed))
+            last = point
         if qmc:
             start = block * plan.block_size
             if start + n > 2**30:  # what scipy's Sobol(bits=30) refuses too
@@ -968,37 +971,34 @@ def simulate_specs_stacked(plan: Plan, specs, groups=None):
         groups = np.asarray(groups, dtype=np.int64)
     _, counts, moments, spans, flat = _keyed_outputs(plan, specs, groups=groups)
     table = np.empty((len(groups), 5), dtype=np.int64)
-    n = np.fromiter((spec[3] for spec in specs), dtype=np.int64, count=len(specs))
-    if n.size:
-        table[:, 0] = np.add.reduceat(n, np.cumsum(groups) - groups)
+    n, at = [], 0
+    for g in groups.tolist():
+        n.append(sum(spec[3] for spec in specs[at : at + g]))
+        at += g
+    table[:, 0] = n
     table[:, 1:] = counts[:, :4]
-    e_len, mu_len, l_len = spans[:, 1], spans[:, 3], spans[:, 5]
-    start = np.zeros(len(groups), dtype=np.int64)
-    np.cumsum((e_len + mu_len + l_len)[:-1], out=start[1:])
-    e_spans = Spans(
-        np.where(e_len > 0, spans[:, 0], 0),
-        e_len,
-        gather_segments(flat, start, e_len),
-        E_BINS,
-    )
-    mu_spans = Spans(
-        np.where(mu_len > 0, spans[:, 2], 0),
-        mu_len,
-        gather_segments(flat, start + e_len, mu_len),
-        MU_BINS,
-    )
-    lat_spans = Spans(
-        np.where(l_len > 0, spans[:, 4], 0),
-        l_len,
-        gather_segments(flat, start + e_len + mu_len, l_len),
-        LATERAL_BINS,
-    )
-    return Stacked(
-        table,
-        np.ascontiguousarray(moments[:, :4]),
-        np.ascontiguousarray(moments[:, 4:8]),
-        e_spans,
-        mu_spans,
-        np.ascontiguousarray(moments[:, 8:]),
-        lat_spans,
-    )
+    # (3, G) rows: offsets and lengths of e_m's, mu_m's and psi_f's spans
+    ln = spans[:, 1::2].T.copy()
+    offset = np.where(ln > 0, spans[:, 0::2].T, 0)
+    if len(groups) == 1:  # one group: each histogram's counts are one slice
+        cut = np.cumsum(ln[:, 0]).tolist()
+        parts = (flat[: cut[0]], flat[cut[0] : cut[1]], flat[cut[1] : cut[2]])
+        starts = (np.zeros(1, dtype=np.int64),) * 3
+    else:
+        start = np.zeros(len(groups), dtype=np.int64)
+        np.cumsum(ln.sum(axis=0)[:-1], out=start[1:])
+        parts = (
+            gather_segments(flat, start, ln[0]),
+            gather_segments(flat, start + ln[0], ln[1]),
+            gather_segments(flat, start + ln[0] + ln[1], ln[2]),
+        )
+        starts = (None,) * 3
+    hists = []
+    for h, size in enumerate((E_BINS, MU_BINS, LATERAL_BINS)):
+        sp = Spans(offset[h], ln[h], parts[h], size)
+        if starts[h] is not None:
+            vars(sp)["start"] = starts[h]  # Spans.start, known: not recomputed
+        hists.append(sp)
+    # (3, G, 4): the moments of e_m, mu_m and psi_f, each block contiguous
+    m = moments.reshape(-1, 3, 4).transpose(1, 0, 2).copy()
+    return Stacked(table, m[0], m[1], hists[0], hists[1], m[2], hists[2])

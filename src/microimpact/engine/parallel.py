@@ -103,7 +103,7 @@ def run_task(plan, task):
                 acc = acc.merge(next(accs))
             out.append(acc)
         rows = Stacked.of(out)
-    if sum(spec[3] for spec in flat) < 2**31:  # no histogram count can exceed it
+    if int(rows.counts[:, 0].sum()) < 2**31:  # no histogram count can exceed it
         rows = rows.narrow()
     return rows
 

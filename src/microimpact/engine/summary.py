@@ -89,7 +89,10 @@ class Spans:
         holds every one of them exactly (:func:`compact_counts`: ``uint8`` for a
         sweep of a few hundred impacts per point, ``uint16``, ``int32``, else
         ``int64``): an eighth of the bytes to send, gather and keep."""
-        return Spans(self.offset, self.length, compact_counts(self.counts), self.size)
+        out = Spans(self.offset, self.length, compact_counts(self.counts), self.size)
+        if "start" in vars(self):  # the same rows: keep the computed starts
+            vars(out)["start"] = self.start
+        return out
 
     def slice(self, lo: int, hi: int) -> Spans:
         """Rows ``lo .. hi - 1`` as views (no copy)."""
@@ -148,14 +151,16 @@ def compact_counts(counts) -> np.ndarray:
     above 255). Returned as they are when already that narrow."""
     counts = np.asarray(counts)
     top = int(counts.max()) if counts.size else 0
-    for dtype in (np.uint8, np.uint16, np.int32):
-        if top <= np.iinfo(dtype).max:
-            break
-    else:
-        dtype = np.int64
-    if counts.dtype.itemsize <= np.dtype(dtype).itemsize:
+    dtype = next((t for most, t in _NARROW if top <= most), np.dtype(np.int64))
+    if counts.dtype.itemsize <= dtype.itemsize:
         return counts
     return counts.astype(dtype)
+
+
+#: ``(largest value, dtype)`` of the narrow count types, narrowest first.
+_NARROW = tuple(
+    (int(np.iinfo(t).max), np.dtype(t)) for t in (np.uint8, np.uint16, np.int32)
+)
 
 
 def release_memory(*, collect: bool = False) -> None:
