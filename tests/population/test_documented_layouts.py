@@ -114,3 +114,47 @@ def test_binned_summary_says_whether_the_values_are_counts():
     first = density.summary().splitlines()[0]
     assert first.startswith("10 bins, 1 to 100 um, values dN/dlogDp, total ")
     assert first.endswith(" (not counts)")
+
+
+def test_describe_echoes_the_users_arguments_and_the_truncated_moments():
+    """`describe()` of each factory: its params are the arguments as given (the
+    provenance a result records), and the moments of a truncated population are
+    those of scipy's own truncated distributions (an independent computation)."""
+    from scipy import stats
+
+    from microimpact.population import (
+        lognormal_diameters,
+        normal_diameters,
+        uniform_diameters,
+    )
+
+    d = normal_diameters(50.0, 5.0, min_um=40.0, max_um=60.0).describe()
+    assert d["kind"] == "normal"
+    assert d["params"] == {
+        "mean_um": 50.0,
+        "std_um": 5.0,
+        "min_um": 40.0,
+        "max_um": 60.0,
+    }
+    t = stats.truncnorm(-2.0, 2.0, loc=50.0, scale=5.0)
+    assert d["mean_um"] == pytest.approx(t.mean(), rel=1e-12)
+    assert d["std_um"] == pytest.approx(t.std(), rel=1e-9)
+    assert d["truncated_mass"] == pytest.approx(2 * stats.norm.sf(2.0), rel=1e-9)
+    assert d["support_um"] == pytest.approx((40.0, 60.0), rel=1e-12)
+
+    d = lognormal_diameters(50.0, 1.5, max_um=200.0).describe()
+    assert d["params"] == {
+        "median_um": 50.0,
+        "geometric_std": 1.5,
+        "min_um": None,
+        "max_um": 200.0,
+    }
+    ln = stats.lognorm(np.log(1.5), scale=50.0)
+    kept = ln.cdf(200.0)
+    mean = ln.expect(lambda x: x, ub=200.0, conditional=True)
+    assert d["truncated_mass"] == pytest.approx(1.0 - kept, rel=1e-9)
+    assert d["mean_um"] == pytest.approx(mean, rel=1e-7)
+
+    d = uniform_diameters(10.0, 20.0).describe()
+    assert d["params"] == {"min_um": 10.0, "max_um": 20.0}
+    assert d["std_um"] == pytest.approx(10.0 / np.sqrt(12.0), rel=1e-12)
