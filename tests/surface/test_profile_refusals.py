@@ -170,3 +170,73 @@ def test_a_missing_x3p_file_is_named(tmp_path):
     with pytest.raises(ProfileFormatError) as info:
         read_profile(path)
     assert (info.value.source, info.value.message) == (str(path), "file not found")
+
+
+# ---------------------------------------------------------------- plausibility
+ALLOWED = "allowed: a spacing of 1 Å to 1 mm and a field under 1 m"
+SCAN_OVERRIDE = (
+    "x_unit=... (or unit=...) where the file names none, or dx_um=... for heights "
+    "alone; a unit the file names is corrected in the file"
+)
+
+
+def test_an_implausible_scan_names_its_scan_the_unit_read_and_the_likely_slip():
+    """2 mm per point read as mm: the message names the scan, the number as read,
+    the likely unit (the one giving a spacing nearest 1 µm) and the overrides."""
+    import numpy as np
+
+    from microimpact.io.plausibility import check_scan
+
+    x = np.arange(5) * 2e-3
+    with pytest.raises(ProfileFormatError) as info:
+        check_scan(x, np.zeros(5), source="s.csv", x_unit="mm", scan="b")
+    err = info.value
+    assert (err.source, err.field) == ("s.csv", "dx")
+    assert err.message == (
+        "implausible lateral spacing dx = 2 mm (2 read as mm: was it µm?) (scan b): "
+        f"outside 1 Å to 1 mm per point; {ALLOWED}; if the unit is wrong, give the "
+        f"spacing with {SCAN_OVERRIDE}"
+    )
+
+
+def test_a_field_of_view_over_a_metre_is_refused_with_the_field():
+    import numpy as np
+
+    from microimpact.io.plausibility import check_scan
+
+    x = np.arange(4001) * 5e-4  # 0.5 mm per point (allowed), 2 m in all
+    with pytest.raises(ProfileFormatError) as info:
+        check_scan(x, np.zeros(x.size))
+    assert info.value.source is None
+    assert info.value.message == (
+        "implausible lateral spacing dx = 500 µm: a field of view of 2 m, over 1 m; "
+        f"{ALLOWED}; if the unit is wrong, give the spacing with {SCAN_OVERRIDE}"
+    )
+
+
+def test_implausible_heights_name_the_range_the_field_and_the_slip():
+    """Heights of 0..5 read as mm over a 100 µm scan (50 times the field): the
+    largest unit that fits is named (µm: a range of 5 µm)."""
+    import numpy as np
+
+    from microimpact.io.plausibility import check_map, check_scan
+
+    x = np.arange(101) * 1e-6
+    z = np.linspace(0.0, 5e-3, 101)
+    with pytest.raises(ProfileFormatError) as info:
+        check_scan(x, z, source="s.csv", z_unit="mm", scan=3)
+    assert info.value.field == "z"
+    assert info.value.message == (
+        "implausible heights: a range of 5 mm (5 read as mm: was it µm?) over a "
+        "field of 100 µm (scan 3); allowed: a height range up to 10 times the "
+        "field; if the file's height unit is wrong, give it with z_unit=..."
+    )
+    zz = np.zeros((3, 4))
+    with pytest.raises(ProfileFormatError) as info:
+        check_map(zz, 1e-6, 2e-3, source="m.txt", xy_unit="um")
+    assert info.value.field == "dy"
+    assert info.value.message == (
+        "implausible lateral spacing dy = 2 mm (2,000 read as µm: was it nm?): "
+        f"outside 1 Å to 1 mm per point; {ALLOWED}; if the unit is wrong, give the "
+        "spacing with dy_um=..."
+    )
