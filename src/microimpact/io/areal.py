@@ -388,7 +388,12 @@ def _read_text(path, *, dx_um, dy_um, z_unit, delimiter) -> HeightMap:
         "z_unit": unit,
         "z_unit_from": z_from,
         "xy_unit": xy_unit if xy_unit is not None else "um",
-        "xy_unit_from": "file" if xy_unit is not None else "key or argument",
+        # where the lateral unit came from, in the words docs/roughness.md uses:
+        # an xy_unit line or a unit in the header's key ('dx_um', 'dx [nm]') is the
+        # header's; a spacing given as `dx_um` is in µm by that argument's name
+        "xy_unit_from": (
+            "header" if xy_unit is not None or dx_from == "header" else "dx_um"
+        ),
         "dx_from": dx_from,
         "dy_from": dy_from,
         "dx_unit": dx_unit,
