@@ -89,3 +89,22 @@ def test_each_refusal_of_a_real_file_in_full(reader, name, kw, field, message):
             reader(path, **kw)
     err = info.value
     assert (err.source, err.field, err.message) == (str(path), field, message)
+
+
+@pytest.mark.parametrize(
+    ("unit", "metres"),
+    [("km", 1e3), ("pm", 1e-12), ("mm", 1e-3), ("µm", 1e-6), ("Å", 1e-10)],
+)
+def test_surfacetopography_units_in_metres(unit, metres):
+    """Units SurfaceTopography names, in metres by definition (km and pm are not
+    among microimpact's own names: SurfaceTopography's table answers)."""
+    from microimpact.io.instruments import surfacetopography_unit_factor
+
+    assert surfacetopography_unit_factor(unit) == pytest.approx(metres, rel=1e-15)
+
+
+@pytest.mark.parametrize("unit", ["V", "deg", "", None])
+def test_a_unit_that_is_not_a_length_has_no_factor(unit):
+    from microimpact.io.instruments import surfacetopography_unit_factor
+
+    assert surfacetopography_unit_factor(unit) is None
