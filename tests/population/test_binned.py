@@ -243,3 +243,13 @@ def test_a_log_normal_fit_to_rising_bins_is_clipped_and_says_so():
         "top of the range, or are split in separate modes), and its parameters are "
         "not estimates",
     )
+
+
+def test_binned_inputs_are_refused_by_name():
+    edges, counts = [1.0, 2.0, 4.0, 8.0, 16.0, 32.0], [10, 20, 30, 20, 10]
+    fit = fit_binned_lognormal(edges, counts)
+    for alpha in (0.0, -0.1, 1.0):  # a significance level lies in (0, 1)
+        with pytest.raises(ValueError, match="`alpha`"):
+            chi2_binned(edges, counts, fit, alpha=alpha)
+    with pytest.raises(TypeError, match="`edges_um` must be numeric"):
+        fit_binned_lognormal(["a", "b"], [1])
