@@ -61,6 +61,18 @@ def test_a_negative_value_names_the_value_kind_it_is_read_as(write_file):
     )
 
 
+def test_a_plain_wide_export_says_how_it_was_read(write_file):
+    bins, meta = read_size_bins(write_file("w.csv", WIDE), values="count")
+    assert bins.notes[0] == (
+        "wide export (utf-8, one sample per row, the 3 bin midpoints in um as "
+        "column headers), sample 1 of 1; bin edges derived from the midpoints as "
+        "geometric (log) midpoints"
+    )
+    # it names no diameter type: taken as geometric, never as mobility
+    assert meta["diameter"] is None and bins.diameter is None
+    assert not any("mobility" in n for n in bins.notes)
+
+
 def test_a_sample_number_missing_from_a_short_row_numbers_rows_instead(write_file):
     # the Sample # column last, and the second row cut short of it: the rows are
     # numbered 1, 2 and said to be, never an internal error
@@ -103,4 +115,63 @@ def test_a_layout_that_is_not_binned_is_refused_by_its_field(write_file):
     assert msg.endswith(
         "lay.csv: layout: layout 'diameters' is not a binned layout; "
         "allowed: edges, midpoints"
+    )
+
+
+@pytest.mark.parametrize(
+    ("text", "end"),
+    [
+        (
+            "lower_um,upper_um,count\n1,2,5\n2.5,4,7\n",
+            "g.csv:3: lower edge: lower edge 2.5 um does not equal the previous upper "
+            "edge 2 um (a gap); allowed: contiguous bins in increasing order",
+        ),
+        (
+            "Dp (um),count\n1,5\n0.5,6\n",
+            "g.csv:3: column 'Dp (um)': the midpoints must be strictly increasing; "
+            "allowed: one row per bin, in increasing order",
+        ),
+    ],
+)
+def test_bins_out_of_order_name_the_line(write_file, text, end):
+    _, msg = _error(write_file, "g.csv", text)
+    assert msg.endswith(end)
+
+
+def test_midpoints_say_how_their_edges_were_derived(write_file):
+    # log-spaced midpoints 1, 2, 4, 8: the edges sqrt(2), 2 sqrt(2), ... rebuild
+    # them exactly (0 %)
+    text = "Dp (um),dN/dlogDp\n1,5\n2,6\n4,2\n8,1\n"
+    bins, meta = read_size_bins(write_file("d.csv", text))
+    np.testing.assert_allclose(bins.edges_um, 2.0 ** np.arange(-0.5, 4), rtol=1e-12)
+    assert bins.notes[-1] == (
+        "bin edges derived from the 4 midpoints as geometric (log) midpoints "
+        "(interior edges the geometric means of neighbours); the rebuilt bins' "
+        "midpoints match the file's within 0 %"
+    )
+    # a file without a header: its value column is named by its 0-based index
+    bare = write_file("h.csv", "1,5\n2,6\n4,2\n8,1\n")
+    _, meta = read_size_bins(bare, unit="um", values="count", layout="midpoints")
+    assert meta["header"] is None and meta["value_column"] == 1
+
+
+def test_a_sampled_volume_that_is_no_volume_says_what_is_allowed(write_file):
+    text = "Dp (um),dN/dlogDp\n1,5\n2,6\n4,2\n"
+    exc, msg = _error(write_file, "v.csv", text, sampled_volume_cm3=0)
+    assert exc.field == "sampled_volume_cm3"
+    assert msg == (
+        f"{write_file('v.csv', text)}: sampled_volume_cm3: sampled_volume_cm3 0 is "
+        "not a volume; allowed: a number > 0 (cm^3 of air in which one sample's "
+        "particles were counted)"
+    )
+
+
+def test_values_for_raw_diameters_are_refused_by_name(write_file):
+    path = write_file("r.csv", "diameter_um\n1\n2\n3\n")
+    with pytest.raises(DataFormatError) as info:
+        read_size_data(path, layout="diameters", values="count")
+    assert info.value.field == "values"
+    assert str(info.value).endswith(
+        "r.csv: values: values 'count' is for size bins, not raw diameters; leave "
+        "it out or choose the edges or midpoints layout"
     )

@@ -158,6 +158,7 @@ def test_ops_cut_points_are_its_edges_and_the_oversize_bin_is_counted_out():
     assert bins.total == 10105 and bins.counted
     oversize = [t for t in bins.notes if "oversize bin Bin 17" in t]
     assert len(oversize) == 1 and "held 18 of 10123" in oversize[0]
+    assert "held 18 of 10123 (count, 0.178 %) and is left out" in oversize[0]
     assert "np.float64" not in " ".join(bins.notes)
     # its upper edge given: all 17 bins
     bins, _ = read_size_data(
