@@ -12,6 +12,8 @@ an equivalent mutant).
 
     pip install mutmut==3.8.1              # not a dependency of the package
     python benchmarks/mutation_score.py --sample 400 --json mutation.json
+    python benchmarks/mutation_score.py --sample 150 --seed 4100 \\
+        --only microimpact.io,microimpact.population   # a part only
 
 Survivors in ``wall_law/`` are then checked once more against the OpenFOAM
 exporter's tests (``FOAM_TESTS``), run in the scratch copy itself with the mutant
@@ -122,6 +124,17 @@ def _in_foam(name: str) -> bool:
     return name.startswith("microimpact.wall_law.")
 
 
+def in_prefixes(name: str, prefixes: str) -> bool:
+    """Whether mutant ``name`` lies in one of the comma-separated dotted
+    ``prefixes`` (a package such as ``microimpact.io`` or a module)."""
+    module = name.split(".x_")[0].split(".xǁ")[0]
+    return any(
+        module == p or module.startswith(p + ".")
+        for p in (q.strip() for q in prefixes.split(","))
+        if p
+    )
+
+
 def recheck(work: Path, names: list[str]) -> dict:
     """{mutant: killed} by :data:`FOAM_TESTS`, each mutant applied to the scratch
     copy's source (``mutmut apply``), the tests run, the file restored."""
@@ -158,6 +171,12 @@ def main(argv=None) -> int:
     ap.add_argument("--workdir", type=Path)
     ap.add_argument("--json", type=Path)
     ap.add_argument(
+        "--only",
+        default="",
+        help="sample only mutants of these comma-separated dotted prefixes, "
+        "e.g. microimpact.io,microimpact.population (a package or a module)",
+    )
+    ap.add_argument(
         "--batch",
         type=int,
         default=1000,
@@ -170,6 +189,10 @@ def main(argv=None) -> int:
     if not exit_codes(work):
         mutmut(work, ["zz_generate_and_map_only"])  # mutants + the test map
     names = sorted(exit_codes(work))
+    if args.only:
+        names = [m for m in names if in_prefixes(m, args.only)]
+        if len(names) < args.sample:
+            ap.error(f"--only {args.only}: {len(names)} mutants, fewer than --sample")
     rng = np.random.default_rng(args.seed)
     pick = sorted(rng.choice(len(names), size=args.sample, replace=False))
     sample = [names[i] for i in pick]
@@ -206,6 +229,7 @@ def main(argv=None) -> int:
         "survivors": {m: verdict[m] for m in survived},
         "killed_by_foam_tests": sorted(m for m, k in rechecked.items() if k),
         "seed": args.seed,
+        "only": args.only,
         "workdir": str(work),
     }
     print(

@@ -202,6 +202,9 @@ def test_a_file_without_a_unit_names_the_arguments_and_the_hint_works(tmp_path):
     assert (hm.dx, hm.dy) == (pytest.approx(0.5e-6), pytest.approx(0.5e-6))
     assert hm.metadata["z_unit_from"] == "argument"
     assert hm.metadata["dx_from"] == "argument"
+    # dy_um given as well: its own spacing, not dx_um's
+    hm = read_height_map(ibw, dx_um=0.5, dy_um=2.0, z_unit="nm")
+    assert (hm.dx, hm.dy) == (pytest.approx(0.5e-6), pytest.approx(2e-6))
     # the same for a line scan: the message, then the hint followed
     xy = DATA / "nonuniform.asc"
     with pytest.raises(ProfileFormatError, match=r"no length unit.*`unit`"):

@@ -474,6 +474,28 @@ def test_without_any_unit_the_error_names_the_arguments_and_following_it_works(
     assert_allclose(read_profile(h, dx_um=0.5, z_unit="nm").z[-1], 3e-9, rtol=1e-12)
 
 
+@pytest.mark.parametrize(
+    ("header", "missing", "give"),
+    [
+        ("x,z_nm", "x", "`unit` (both columns) or `x_unit`"),
+        ("x_um,z", "z", "`unit` (both columns) or `z_unit`"),
+        ("x,z", "x and z", "`unit` (both columns) or `x_unit` and `z_unit`"),
+    ],
+)
+def test_a_missing_unit_is_named_with_exactly_the_arguments_that_give_it(
+    write_file, header, missing, give
+):
+    # only the axes without a unit are named, and only the arguments for them
+    p = write_file("u.csv", header + "\n0,1\n0.5,2\n1,3\n")
+    with pytest.raises(ProfileFormatError) as info:
+        read_profile(p)
+    assert info.value.field == "unit"
+    assert str(info.value) == (
+        f"{p}: unit: the file gives no length unit for {missing}; give {give}, "
+        "or name it in the header (e.g. x_um, z_nm)"
+    )
+
+
 def test_scan_column_file_with_header_units_through_read_profiles(write_file):
     text = "scan,x_um,z_nm\n" + "".join(
         f"{s},{i * 0.5},{(-1) ** i * 10 * s}\n" for s in (1, 2) for i in range(6)

@@ -160,6 +160,9 @@ def test_a_spacing_read_as_mm_is_refused_naming_nm_and_the_override(tmp_path):
         read_height_map(p)
     msg = str(info.value)
     assert "312.5 read as mm: was it nm?" in msg and "dx_um=" in msg
+    # one map has no scans to number: no "(scan ...)", no None
+    assert "was it nm?): outside 1 Å to 1 mm per point;" in msg
+    assert "scan" not in msg and "None" not in msg
     hm = read_height_map(p, dx_um=0.3125)  # the override
     assert hm.dx == pytest.approx(312.5e-9)
     assert hm.metadata["dx_from"].startswith("argument")
@@ -178,7 +181,8 @@ def test_heights_read_in_mm_are_refused_naming_um(tmp_path):
         read_height_map(p, z_unit="mm")
     msg = str(info.value)
     assert "implausible heights" in msg and "read as mm: was it µm?" in msg
-    assert "z_unit=" in msg
+    assert msg.endswith("if the file's height unit is wrong, give it with z_unit=...")
+    assert "scan" not in msg and "None" not in msg
     assert read_height_map(p, z_unit="um").metadata["z_unit"] == "um"  # followed
 
 
@@ -197,6 +201,7 @@ def test_a_profile_in_nm_read_as_mm_is_refused(write_file):
     msg = str(info.value)
     # 50 nm is nearer a profilometer's usual 1 µm than 50 µm is
     assert "dx = 50 mm (50 read as mm: was it nm?)" in msg and "x_unit=" in msg
+    assert msg.startswith(f"{p}: dx: implausible lateral spacing")  # the file named
 
 
 @settings(max_examples=60, deadline=None)

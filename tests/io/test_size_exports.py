@@ -32,6 +32,7 @@ def test_aim_export_matches_aims_own_statistics(sample):
     aim = meta["instrument_statistics"]
     assert meta["values"] == "dN/dlogDp" and meta["unit"] == "nm"
     assert bins.number.size == 107 and len(meta["samples"]) == 15
+    assert meta["layout"] == "aim-columns" and meta["header"] is None  # no header row
     total = next(v for k, v in aim.items() if k.startswith("Total Conc"))
     assert_allclose(bins.total, total, rtol=1e-5)  # dN/dlogDp x dlogDp summed
     mid_nm = bins.midpoints_um * 1e3

@@ -90,6 +90,11 @@ def test_aim_column_mean_turned_into_counts_counts_every_scan():
     np.testing.assert_allclose(mean.number, total.number, rtol=1e-12)
     note = next(t for t in mean.notes if "counted particles" in t)
     assert f"x the sampled volume {v:g} cm^3 x 15 samples" in note
+    assert note.endswith(
+        "particles; the standard errors and the chi-squared test assume Poisson "
+        "counting of every particle in that volume (no coincidence, "
+        "counting-efficiency, charging or inversion correction)"
+    )
     one, _ = read_size_data(AIM_COLUMNS, sample="3", sampled_volume_cm3=v)
     note = next(t for t in one.notes if "counted particles" in t)
     assert "samples" not in note.split("cm^3", 1)[1].split("=")[0]
@@ -107,6 +112,7 @@ def test_a_time_range_end_that_is_not_a_time_is_named():
         assert f"sample range end {bad} is neither a Sample # nor an ISO 8601" in str(
             info.value
         )
+        assert info.value.field == "sample"
 
 
 def test_a_time_range_without_a_zone_says_the_allowed_forms():

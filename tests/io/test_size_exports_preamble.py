@@ -84,6 +84,10 @@ def test_a_wide_export_of_channel_thresholds_reads_with_edges_um(tmp_path):
     assert_allclose(bins.edges_um, THRESHOLDS, rtol=0)
     assert_allclose(bins.number, [250, 162, 118, 63, 29, 17, 5, 2], rtol=0)
     assert bins.counted and any("lower boundaries" in t for t in bins.notes)
+    assert bins.notes[0].endswith(
+        "bin edges as given (9 edges_um); the header sizes are the bins' lower "
+        "boundaries (channel thresholds)"
+    )
     # run reads the same bins from [particles] edges_um
     sc = _scenario(path, unit="um", values="count", sample="sum", edges_um=THRESHOLDS)
     assert_allclose(sc.particles.params["edges_um"], THRESHOLDS, rtol=1e-15)

@@ -158,6 +158,7 @@ def test_ops_cut_points_are_its_edges_and_the_oversize_bin_is_counted_out():
     assert bins.total == 10105 and bins.counted
     oversize = [t for t in bins.notes if "oversize bin Bin 17" in t]
     assert len(oversize) == 1 and "held 18 of 10123" in oversize[0]
+    assert "held 18 of 10123 (count, 0.178 %) and is left out" in oversize[0]
     assert "np.float64" not in " ".join(bins.notes)
     # its upper edge given: all 17 bins
     bins, _ = read_size_data(
@@ -303,3 +304,36 @@ def test_aim10_3_txt_matches_the_vendors_statistics(sample):
     assert gsd == pytest.approx(float(row["Geo. Std. Dev."]), rel=0.02)
     median = binned_median(bins.edges_um, bins.number) * 1e3
     assert median == pytest.approx(float(row["Median (nm)"]), rel=0.02)
+
+
+def _grimm_file(write_file, sizes, name="grimm8.csv"):
+    """A wide export whose bin headers are `sizes` (strings), one row of counts."""
+    head = "DateTime," + ",".join(sizes) + "\n"
+    counts = ",".join(str(10 * (k + 1)) for k in range(len(sizes)))
+    row = "01/06/2024 10:00:00," + counts
+    return write_file(name, head + row + "\n")
+
+
+def test_eight_consecutive_grimm_thresholds_are_a_channel_set(write_file):
+    # docs/populations.md: a run of at least 8 consecutive Grimm channel
+    # thresholds is read as lower channel boundaries; 8 is the fewest accepted
+    eight = [f"{t:g}" for t in GRIMM[:8]]
+    bins, meta = read_size_data(_grimm_file(write_file, eight), values="count")
+    assert meta["unit_from"] == "Grimm channel set"
+    np.testing.assert_array_equal(bins.edges_um, GRIMM[:8])
+    # the 8th channel (0.58 um) has no upper edge: 7 bins of counts 10..70
+    np.testing.assert_array_equal(bins.number, [10, 20, 30, 40, 50, 60, 70])
+    # 7 thresholds are not enough: read as midpoints, here in the unit given
+    seven = _grimm_file(write_file, eight[:7], name="grimm7.csv")
+    bins7, meta7 = read_size_data(seven, values="count", unit="um")
+    assert meta7["unit_from"] != "Grimm channel set"
+    assert bins7.number.size == 7
+
+
+def test_grimm_thresholds_headed_in_nm_are_a_channel_set(write_file):
+    # the header cells state their unit (250 nm = 0.25 um): the set is still
+    # recognised, its edges given in um
+    nm = [f"{1000 * t:g} nm" for t in GRIMM[2:12]]
+    bins, meta = read_size_data(_grimm_file(write_file, nm), values="count")
+    assert meta["unit_from"] == "Grimm channel set"
+    np.testing.assert_allclose(bins.edges_um, GRIMM[2:12], rtol=1e-12)

@@ -5,6 +5,7 @@ Hatch-Choate, the chi-squared law of the statistic under the null."""
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -224,3 +225,31 @@ def test_bad_bin_values_are_refused_saying_what_is_allowed(values, message):
     with pytest.raises(ValueError) as info:
         number_per_bin([1.0, 2.0, 4.0, 8.0], values, "count")
     assert str(info.value) == message
+
+
+def test_a_log_normal_fit_to_rising_bins_is_clipped_and_says_so():
+    # counts that rise to the top of the range have no log-normal maximum: the
+    # median runs off to infinity. Shown clipped at the documented limits
+    # (median 1e300 um, GSD 1000) with no standard errors, and the note says why
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        fit = fit_binned_lognormal([1.0, 2.0, 4.0, 8.0], [1, 1, 1000])
+    assert fit.params["median_um"] == pytest.approx(1e300, rel=1e-9)
+    assert fit.params["geometric_std"] == pytest.approx(1000.0, rel=1e-12)
+    assert np.isnan(fit.stderr["median_um"]) and np.isnan(fit.stderr["geometric_std"])
+    assert fit.notes == (
+        "the log-normal fit diverges (GSD beyond 1000 or median beyond 1e300 um; "
+        "shown clipped there): the bins have no log-normal shape (they rise to the "
+        "top of the range, or are split in separate modes), and its parameters are "
+        "not estimates",
+    )
+
+
+def test_binned_inputs_are_refused_by_name():
+    edges, counts = [1.0, 2.0, 4.0, 8.0, 16.0, 32.0], [10, 20, 30, 20, 10]
+    fit = fit_binned_lognormal(edges, counts)
+    for alpha in (0.0, -0.1, 1.0):  # a significance level lies in (0, 1)
+        with pytest.raises(ValueError, match="`alpha`"):
+            chi2_binned(edges, counts, fit, alpha=alpha)
+    with pytest.raises(TypeError, match="`edges_um` must be numeric"):
+        fit_binned_lognormal(["a", "b"], [1])

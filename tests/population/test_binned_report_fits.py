@@ -208,3 +208,59 @@ def test_a_fit_that_does_not_converge_is_flagged_not_a_crash(tmp_path):
         report = describe_binned_sizes(read_size_bins(path)[0])
     assert any("did not converge" in t for t in report.notes)
     _loads(report)
+
+
+def _lognormal_bins(total=1e4):
+    """Counts of a log-normal (CMD 10 um, GSD 1.82) over 7 octave bins, 1-128 um."""
+    e = 2.0 ** np.arange(8)
+    return BinnedSizes(
+        e, np.round(total * np.diff(stats.lognorm(0.6, scale=10).cdf(e)))
+    )
+
+
+def test_the_aerodynamic_medians_use_the_shape_factor():
+    # d_a = d sqrt(rho / (chi rho_0)) for particles of 10 um and more, where the
+    # slip corrections of d and d_a differ by under 0.5 %
+    report = describe_binned_sizes(
+        _lognormal_bins(), density_kg_m3=2000.0, shape_factor=1.5
+    )
+    a = report.aerosol
+    assert (a["density_kg_m3"], a["shape_factor"]) == (2000.0, 1.5)
+    for key, d in (
+        ("aerodynamic_count_median_um", a["count_median_um"]),
+        ("aerodynamic_mass_median_um", a["mass_median_hatch_choate_um"]),
+    ):
+        assert a[key] == pytest.approx(d * math.sqrt(2000.0 / 1500.0), rel=5e-3)
+
+
+def test_the_verdict_summary_and_json_of_counted_bins():
+    report = describe_binned_sizes(_lognormal_bins())
+    # the comparison the verdict states: the AICs it reports, to 2 decimals
+    assert report.verdict.startswith(
+        "the log-normal fits better than the normal (binned likelihood, AIC "
+        f"{report.aic_normal:.2f} vs {report.aic_lognormal:.2f}, difference "
+        f"{report.aic_normal - report.aic_lognormal:+.2f}); "
+    )
+    assert report.to_dict()["verdict"] == report.verdict
+    assert report.summary().splitlines()[0] == (
+        "7 bins, 1 to 128 um, values count, total 9999 particles"
+    )
+    # values that are not counts are said to be so
+    e = 2.0 ** np.arange(8)
+    dens = BinnedSizes(e, _lognormal_bins().number / 3, values="dN", counted=False)
+    assert (
+        describe_binned_sizes(dens)
+        .summary()
+        .splitlines()[0]
+        .endswith(", values dN, total 3333 (not counts)")
+    )
+
+
+def test_too_few_bins_for_chi_squared_recommend_the_likelihood():
+    # 4 counted bins leave 1 degree of freedom, too few classes after merging:
+    # the note says the test is not made and what is recommended instead
+    e = 2.0 ** np.arange(5)
+    report = describe_binned_sizes(BinnedSizes(e, np.array([30.0, 50.0, 30.0, 2.0])))
+    notes = [t for t in report.notes if t.startswith("no chi-squared test: ")]
+    assert len(notes) == 1
+    assert notes[0].endswith("; the better fit by likelihood is recommended")

@@ -140,8 +140,11 @@ def test_paper_decision_for_sst65_like_gaussian(rng):
 
 
 def test_errors():
-    with pytest.raises(ValueError, match="too few diameters"):
+    with pytest.raises(ValueError, match="too few diameters") as info:
         chi2_normality([10.0, 11.0, 12.0, 13.0, 14.0, 15.0])
+    # the count given and the documented remedy (docs/populations.md)
+    assert str(info.value).startswith("too few diameters for the chi-squared test: n=6")
+    assert str(info.value).endswith("need at least 4 (about 30 or more diameters).")
     with pytest.raises(ValueError, match="`alpha`"):
         chi2_normality(TINY_UM, alpha=1.5)
     with pytest.raises(ValueError, match="`classes`"):

@@ -500,3 +500,23 @@ def test_table_is_evaluated_in_slices_with_unchanged_values():
     table = QuantileTable.from_ppf(ppf)
     assert max(sizes) == PPF_SLICE and sum(sizes) == TABLE_SIZE
     np.testing.assert_array_equal(table.values, dist.ppf(mid_probabilities()))
+
+
+@pytest.mark.parametrize("median", [0.0, -5.0])
+def test_a_lognormal_median_must_be_positive(median):
+    with pytest.raises(ValueError, match=r"`median_um` must be a number > 0"):
+        lognormal_diameters(median, 1.5)
+
+
+def test_a_normal_population_keeps_its_truncation_limits_by_name():
+    # the limits the user gave are the population's parameters, under the names
+    # of the [particles] table (min_um, max_um)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # the truncated mass
+        dist = normal_diameters(50.0, 5.0, min_um=30.0, max_um=70.0)
+    assert dist.params == {
+        "mean_um": 50.0,
+        "std_um": 5.0,
+        "min_um": 30.0,
+        "max_um": 70.0,
+    }

@@ -44,6 +44,20 @@ def test_normal_sample_keeps_the_papers_gaussian():
     r = _describe(np.random.default_rng(3).normal(52.8, 8.0, 500))
     assert r.better_fit == "normal" and r.recommended == "normal"
     assert not r.chi2_normal.reject
+    # the population recommended is the normal fit itself, not the measured one
+    assert r.recommended_distribution.kind == "normal"
+    assert r.recommended_distribution.params["mean_um"] == r.normal.params["mean_um"]
+
+
+def test_the_json_particles_table_refers_to_the_measured_file_and_column():
+    rng = np.random.default_rng(4)
+    r = _describe(np.r_[rng.normal(20, 1.5, 300), rng.normal(80, 3, 300)])
+    assert r.recommended == "empirical"
+    toml = r.to_dict(file="m.csv", column="d_um", unit="um")["particles_toml"]
+    table = tomllib.loads(toml)["particles"]
+    assert table == {
+        "distribution": "empirical", "file": "m.csv", "column": "d_um", "unit": "um",
+    }  # fmt: skip
 
 
 def test_both_rejected_gives_the_empirical_population(tmp_path):
