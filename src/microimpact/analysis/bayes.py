@@ -569,6 +569,9 @@ def calibrate_bayes(
             like = Likelihood(data, smodel.samples)
             post = LogPosterior(smodel, like, prior_list)
             _, blob0 = post(np.clip(x0, B[:, 0], B[:, 1]))
+    # e and mu of one file at one point: correlated as the model's impacts at the
+    # start point are (bayes_data's module notes)
+    like.set_correlations(smodel, np.clip(x0, B[:, 0], B[:, 1]))
     ratios = like.mc_variance_ratio(blob0)
     _warn_if_mc_error(ratios, smodel.samples)
     rng = np.random.default_rng(sampler_seed)
@@ -593,6 +596,18 @@ def calibrate_bayes(
     blobs = sampler.get_blobs()[diag.burn_in :]
     info = {
         "points_without_error_left_out": dropped,
+        # e and mu of one file at one point (experiment lines) and the
+        # correlation of their impacts in the model at the start point
+        "same_impact_pairs": [
+            {
+                "lines": [
+                    int(data.means["line"].iloc[i]),
+                    int(data.means["line"].iloc[j]),
+                ],
+                "rho": round(float(r), 6),
+            }
+            for (i, j), r in zip(like.pairs, like.rho, strict=True)
+        ],
         "mc_variance_ratio": ratios,
         "mc_variance_ratio_limit": MC_VARIANCE_RATIO,
         "model_runs": int(done * walkers),

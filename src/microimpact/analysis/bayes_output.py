@@ -52,7 +52,12 @@ def _replicate(res, seed=0):
     if res.likelihood.n_means:
         s_exp = data.means["se"].to_numpy(float)
         sigma = np.sqrt(s_exp**2 + np.nan_to_num(s_sim) ** 2)
-        means = m + sigma * rng.standard_normal(m.shape)
+        z = rng.standard_normal(m.shape)
+        lk = res.likelihood
+        if len(lk.pairs):  # e and mu on one set of impacts: correlated as fitted
+            i, j = lk.pairs[:, 0], lk.pairs[:, 1]
+            z[..., j] = lk.rho * z[..., i] + np.sqrt(1.0 - lk.rho**2) * z[..., j]
+        means = m + sigma * z
     if res.likelihood.n_counts:
         n = data.counts["n"].to_numpy(int)
         lo = 0.5 / res.samples
