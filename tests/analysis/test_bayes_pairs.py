@@ -17,9 +17,9 @@ from scipy import stats
 import microimpact
 from microimpact.analysis.bayes_data import (
     Likelihood,
-    _same_impact_pairs,
     gaussian_loglik,
     read_calibration_data,
+    same_impact_pairs,
 )
 from microimpact.analysis.compare import experiments_from_summary
 from microimpact.analysis.model import ScenarioModel
@@ -54,13 +54,13 @@ def test_the_pair_likelihood_is_the_bivariate_normal_density():
     var = rng.uniform(0.5, 2.0, size=5)
     pairs = np.array([[0, 3], [1, 4]])
     rho = np.array([0.9, -0.4])
+    cov = rho * np.sqrt(var[pairs[:, 0]] * var[pairs[:, 1]])
     want = 0.0
-    for (i, j), r in zip(pairs, rho, strict=True):
-        c = r * np.sqrt(var[i] * var[j])
-        cov = [[var[i], c], [c, var[j]]]
-        want += stats.multivariate_normal([0, 0], cov).logpdf([resid[i], resid[j]])
+    for (i, j), c in zip(pairs, cov, strict=True):
+        m = [[var[i], c], [c, var[j]]]
+        want += stats.multivariate_normal([0, 0], m).logpdf([resid[i], resid[j]])
     want += stats.norm(0, np.sqrt(var[2])).logpdf(resid[2])
-    assert gaussian_loglik(resid, var, pairs, rho) == pytest.approx(want, rel=1e-12)
+    assert gaussian_loglik(resid, var, pairs, cov) == pytest.approx(want, rel=1e-12)
     # no pairs: independent Gaussians
     alone = stats.norm(0, np.sqrt(var)).logpdf(resid).sum()
     assert gaussian_loglik(resid, var) == pytest.approx(alone, rel=1e-12)
@@ -81,7 +81,7 @@ def test_pairs_are_e_and_mu_of_one_table_at_one_point():
     )
     # (0, 1) one table, one point; e at 60 and mu at 60 come from two tables;
     # e at 2 m/s has no mu; a capture fraction is no pair
-    assert _same_impact_pairs(rows).tolist() == [[0, 1]]
+    assert same_impact_pairs(rows).tolist() == [[0, 1]]
 
 
 def test_the_means_of_one_set_of_impacts_are_correlated_as_the_impacts_are():
@@ -107,11 +107,13 @@ def test_the_means_of_one_set_of_impacts_are_correlated_as_the_impacts_are():
     ll, _ = like.evaluate(result)
     m, s_sim = like.match_means(result.summary)
     table = like.data.means
-    var = table["se"].to_numpy() ** 2 + s_sim**2
+    s_exp = table["se"].to_numpy()
+    var = s_exp**2 + s_sim**2
     r = m - table["mean"].to_numpy()
     want = 0.0
     for (i, j), rho in zip(like.pairs, like.rho, strict=True):
-        c = rho * np.sqrt(var[i] * var[j])
+        # measurement and Monte Carlo errors, each correlated by rho
+        c = rho * (s_exp[i] * s_exp[j] + s_sim[i] * s_sim[j])
         cov = [[var[i], c], [c, var[j]]]
         want += stats.multivariate_normal([0, 0], cov).logpdf([r[i], r[j]])
     assert ll == pytest.approx(want, rel=1e-10)
@@ -148,3 +150,45 @@ def test_a_calibration_records_its_pairs(tmp_path):
     assert len(pairs) == 1
     assert 0.0 < pairs[0]["rho"] < 1.0
     assert len(pairs[0]["lines"]) == 2
+
+
+def test_least_squares_weighs_a_pair_by_its_full_covariance():
+    """The least-squares residuals, whitened per pair: their sum of squares is the
+    generalised chi-squared r' C^-1 r with C the pairs' covariance (measurement and
+    Monte Carlo errors, each correlated by rho), computed here with numpy."""
+    from microimpact.analysis.calibration import _Model, _Objective
+
+    y = np.array([0.5, 0.2, 0.7, 0.1])
+    s_exp = np.array([0.02, 0.03, 0.01, 0.05])
+    s_sim = np.array([0.005, 0.004, 0.003, 0.0])
+    m = np.array([0.52, 0.18, 0.69, 0.16])
+
+    class Stub(_Model):
+        def __init__(self):
+            self.pairs = np.array([[0, 1]])
+            self.rho = np.array([0.9])
+
+        def points(self, summary):
+            return m, s_sim
+
+    obj = _Objective(Stub(), y, s_exp, s_sim, [0], [0.0], np.array([1.0]), None)
+    r = obj.residual_of(None)
+    var = s_exp**2 + s_sim**2
+    cov = np.diag(var)
+    cov[0, 1] = cov[1, 0] = 0.9 * (s_exp[0] * s_exp[1] + s_sim[0] * s_sim[1])
+    d = m - y
+    assert r @ r == pytest.approx(d @ np.linalg.solve(cov, d), rel=1e-12)
+
+
+def test_least_squares_records_its_pairs(tmp_path):
+    from microimpact.analysis.calibration import calibrate
+
+    data = _scenario(angles=(45.0,))
+    truth = scenario_from_dict(with_values(data, {STD: 12.0}))
+    s = microimpact.run(truth, samples=300, seed=3, progress=False).summary
+    exp = experiments_from_summary(s, ("e", "mu"), by_surface=False)
+    res = calibrate(
+        data, exp, {STD: (4.0, 20.0)}, samples=300, seed=2, bootstrap=0, band_draws=0
+    )
+    (pair,) = res.info["same_impact_pairs"]
+    assert 0.5 < pair["rho"] < 1.0

@@ -347,7 +347,7 @@ class Likelihood:
         self.match_means = self.match_counts = None
         #: rows (i, j) of the means that are e and mu on one set of impacts, and
         #: their correlation (set by :meth:`set_correlations`; 0 until then)
-        self.pairs = _same_impact_pairs(m) if self.n_means else np.zeros((0, 2), int)
+        self.pairs = same_impact_pairs(m) if self.n_means else np.zeros((0, 2), int)
         self.rho = np.zeros(len(self.pairs))
 
     def setup(self, summary):
@@ -406,9 +406,14 @@ class Likelihood:
             blob[self.n_means : 2 * self.n_means] = s_sim
             if not np.isfinite(m).all():
                 return -math.inf, blob
-            var = exp["se"].to_numpy(float) ** 2 + np.nan_to_num(s_sim) ** 2
+            s_exp = exp["se"].to_numpy(float)
+            s_sim = np.nan_to_num(s_sim)
+            var = s_exp**2 + s_sim**2
             ll += gaussian_loglik(
-                m - exp["mean"].to_numpy(float), var, self.pairs, self.rho
+                m - exp["mean"].to_numpy(float),
+                var,
+                self.pairs,
+                pair_covariance(self.pairs, self.rho, s_exp, s_sim),
             )
         if self.n_counts:
             p, _ = self.match_counts(summary)
@@ -435,28 +440,10 @@ class Likelihood:
         return ll, blob
 
     def set_correlations(self, model, row) -> None:
-        """:attr:`rho` of every pair: the correlation of ``e_m`` and ``mu_m`` over
-        the rebounds `model` (a :class:`~.model.ScenarioModel`) simulates at the
-        pair's sweep point(s) at parameters `row`, its own impacts (its seed and
-        samples; weighted like the means where a point is interpolated)."""
-        if not len(self.pairs) or self.match_means is None:
-            return
-        # deferred: the engine's planner, once per calibration
-        from ..engine.plan import build_plan
-
-        plan = build_plan(model.scenario(row), seed=model.seed)
-        cache = {}
-
-        def rho_at(point):
-            if point not in cache:
-                cache[point] = _impact_correlation(plan, point, model.samples)
-            return cache[point]
-
-        for k, (i, _) in enumerate(self.pairs):
-            rows, w = self.match_means.rows[i], self.match_means.weights[i]
-            self.rho[k] = float(
-                sum(wt * rho_at(int(r)) for r, wt in zip(rows, w, strict=True))
-            )
+        """:attr:`rho` of every pair (:func:`pair_correlations`) at parameters
+        `row` of `model` (a :class:`~.model.ScenarioModel`)."""
+        if len(self.pairs) and self.match_means is not None:
+            self.rho = pair_correlations(model, row, self.pairs, self.match_means)
 
     def mc_variance_ratio(self, blob):
         """The largest ratio of the model's Monte Carlo variance to the data's, over
@@ -476,16 +463,17 @@ class Likelihood:
         return out
 
 
-def _same_impact_pairs(means) -> np.ndarray:
+def same_impact_pairs(means) -> np.ndarray:
     """Rows ``(i, j)`` of the means table that are the mean e (i) and the mean mu
-    (j) of one table (``impact_set``) at one surface, speed and angle."""
+    (j) of one table (``impact_set``, else one ``source`` file) at one surface,
+    speed and angle."""
     groups = {}
     for i, r in enumerate(means.itertuples(index=False)):
         stat = r.statistic
         if stat not in ("e", "mu"):
             continue
         key = (
-            getattr(r, "impact_set", 0),
+            getattr(r, "impact_set", getattr(r, "source", 0)),
             str(getattr(r, "surface", None)),
             *(
                 round(float(getattr(r, c)), 12)
@@ -522,10 +510,43 @@ def _impact_correlation(plan, point: int, samples: int) -> float:
     return float(np.corrcoef(e, mu)[0, 1])
 
 
-def gaussian_loglik(resid, var, pairs=None, rho=None) -> float:
+def pair_covariance(pairs, rho, s_exp, s_sim) -> np.ndarray:
+    """The covariance of each pair's two residuals: the measurement's errors and
+    the model's Monte Carlo errors, each correlated by the pair's ``rho`` (the same
+    impacts in each), ``rho (s_exp,i s_exp,j + s_sim,i s_sim,j)``."""
+    if not len(pairs):
+        return np.zeros(0)
+    i, j = pairs[:, 0], pairs[:, 1]
+    return np.asarray(rho) * (s_exp[i] * s_exp[j] + s_sim[i] * s_sim[j])
+
+
+def pair_correlations(model, row, pairs, matcher) -> np.ndarray:
+    """The correlation of ``e_m`` and ``mu_m`` over the rebounds `model` (a
+    :class:`~.model.ScenarioModel`) simulates at each pair's sweep point(s) at
+    parameters `row`, with its own seed and samples (weighted like the means where
+    a point is interpolated); `matcher` maps experiment rows to sweep rows."""
+    # deferred: the engine's planner, once per calibration
+    from ..engine.plan import build_plan
+
+    plan = build_plan(model.scenario(row), seed=model.seed)
+    cache = {}
+
+    def rho_at(point):
+        if point not in cache:
+            cache[point] = _impact_correlation(plan, point, model.samples)
+        return cache[point]
+
+    out = np.zeros(len(pairs))
+    for k, (i, _) in enumerate(pairs):
+        rows, w = matcher.rows[i], matcher.weights[i]
+        out[k] = float(sum(wt * rho_at(int(r)) for r, wt in zip(rows, w, strict=True)))
+    return out
+
+
+def gaussian_loglik(resid, var, pairs=None, cov=None) -> float:
     """Log-density of residuals `resid` with variances `var`: independent
     Gaussians, except the rows of each pair ``(i, j)`` of `pairs`, bivariate with
-    correlation ``rho[k]``."""
+    covariance ``cov[k]``."""
     resid = np.asarray(resid, float)
     var = np.asarray(var, float)
     single = np.ones(resid.size, bool)
@@ -534,7 +555,7 @@ def gaussian_loglik(resid, var, pairs=None, rho=None) -> float:
         i, j = pairs[:, 0], pairs[:, 1]
         single[i] = single[j] = False
         vi, vj = var[i], var[j]
-        c = rho * np.sqrt(vi * vj)
+        c = np.asarray(cov, float)
         det = vi * vj - c * c
         q = (
             resid[i] ** 2 * vj - 2 * resid[i] * resid[j] * c + resid[j] ** 2 * vi

@@ -56,7 +56,10 @@ def _replicate(res, seed=0):
         lk = res.likelihood
         if len(lk.pairs):  # e and mu on one set of impacts: correlated as fitted
             i, j = lk.pairs[:, 0], lk.pairs[:, 1]
-            z[..., j] = lk.rho * z[..., i] + np.sqrt(1.0 - lk.rho**2) * z[..., j]
+            s_sim0 = np.nan_to_num(s_sim)
+            cov = lk.rho * (s_exp[i] * s_exp[j] + s_sim0[..., i] * s_sim0[..., j])
+            r = cov / (sigma[..., i] * sigma[..., j])
+            z[..., j] = r * z[..., i] + np.sqrt(1.0 - r**2) * z[..., j]
         means = m + sigma * z
     if res.likelihood.n_counts:
         n = data.counts["n"].to_numpy(int)

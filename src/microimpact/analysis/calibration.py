@@ -74,6 +74,12 @@ from ..plotting.calibration import plot_calibration
 from ..scenario.parameters import with_values
 from ..scenario.scenario import scenario_from_dict
 from .bayes import BayesResult, calibrate_bayes, split_calibration_table
+from .bayes_data import (
+    _Matcher,
+    pair_correlations,
+    pair_covariance,
+    same_impact_pairs,
+)
 from .calibration_inputs import (
     _parameters,
     _read_experiments,
@@ -137,6 +143,31 @@ class _Model:
         self.map = mapper
         self.cache: dict = {}
         self.runs = 0
+        #: rows (i, j) of e and mu measured on one set of impacts, and the
+        #: correlation of e_m and mu_m there (bayes_data.same_impact_pairs)
+        self.pairs = np.zeros((0, 2), int)
+        self.rho = np.zeros(0)
+
+    def set_pairs(self, x) -> None:
+        """Find the pairs of :attr:`exp` and their correlation at `x`."""
+        self.pairs = same_impact_pairs(self.exp)
+        self.rho = np.zeros(len(self.pairs))
+        if len(self.pairs):
+            (s,) = self.summaries([x])
+            matcher = _Matcher(s, self.exp)
+            self.rho = pair_correlations(
+                self.scenario_model, self.scenario_model.values(x), self.pairs, matcher
+            )
+
+    def pair_r(self, s_exp, s_sim) -> np.ndarray:
+        """Each pair's correlation of its two residuals (measurement and Monte
+        Carlo errors, each correlated by rho)."""
+        if not len(self.pairs):
+            return np.zeros(0)
+        i, j = self.pairs[:, 0], self.pairs[:, 1]
+        sigma = np.sqrt(s_exp**2 + s_sim**2)
+        cov = pair_covariance(self.pairs, self.rho, s_exp, s_sim)
+        return cov / (sigma[i] * sigma[j])
 
     def summaries(self, xs):
         """The summary at every parameter vector of `xs` (cached)."""
@@ -418,6 +449,9 @@ class _Objective:
     def __init__(self, model, y, s_exp, s_sim, free, x_full, h, bounds):
         self.model, self.y = model, y
         self.sigma = np.sqrt(s_exp**2 + s_sim**2)
+        # e and mu pairs on one set of impacts (none for a model without them)
+        self.pairs = getattr(model, "pairs", np.zeros((0, 2), int))
+        self.pair_r = model.pair_r(s_exp, s_sim) if len(self.pairs) else np.zeros(0)
         self.free = np.asarray(free)  # indices of the fitted parameters
         self.x_full = np.asarray(x_full, dtype=float)
         self.h, self.bounds = h, bounds
@@ -428,8 +462,17 @@ class _Objective:
         return x
 
     def residual_of(self, summary):
+        """Standardised residuals, each pair of e and mu on one set of impacts
+        decorrelated (whitened: the sum of squares is then the Gaussian's
+        chi-squared with the pair's covariance)."""
         m, _ = self.model.points(summary)
-        return (m - self.y) / self.sigma
+        r = (m - self.y) / self.sigma
+        pairs = self.pairs
+        if len(pairs):
+            i, j = pairs[:, 0], pairs[:, 1]
+            c = self.pair_r
+            r[j] = (r[j] - c * r[i]) / np.sqrt(1.0 - c * c)
+        return r
 
     def __call__(self, xf):
         (s,) = self.model.summaries([self.full(xf)])
@@ -687,6 +730,7 @@ def calibrate(
         model = _Model(smodel, exp, mapper)
         y, s_exp, s_sim = _start(model, x0, exp_source)
         exp = model.exp
+        model.set_pairs(x0)
         fit, x, sx, s_sim = _fit(model, y, s_exp, s_sim, x0, h, B, scale)
         steps.update()
         u = _uncertainty(
@@ -739,6 +783,15 @@ def calibrate(
         "jacobian_fd_error_normalised": u["fd_noise"],
         "band": band_from,
         "undefined_at_optimum": [int(v) for v in exp["line"].to_numpy()[undefined]],
+        # e and mu of one file at one point (experiment lines), weighted as one
+        # correlated pair (docs/calibration.md)
+        "same_impact_pairs": [
+            {
+                "lines": [int(exp["line"].iloc[i]), int(exp["line"].iloc[j])],
+                "rho": round(float(r), 6),
+            }
+            for (i, j), r in zip(model.pairs, model.rho, strict=True)
+        ],
         "experiments": exp_source,
         "scenario": None if source is None else str(source),
     }
@@ -883,7 +936,11 @@ def _bootstrap(model, sx, y, s_exp, s_sim, x, h, B, scale, idx, bootstrap, seed,
     rng = np.random.default_rng(seed)
     fits, curves = [], []
     for _b in range(bootstrap):
-        yb = m_hat + sigma * rng.standard_normal(len(y))
+        z = rng.standard_normal(len(y))
+        if len(model.pairs):  # e and mu on one set of impacts: correlated
+            i, j, c = model.pairs[:, 0], model.pairs[:, 1], model.pair_r(s_exp, s_sim)
+            z[j] = c * z[i] + np.sqrt(1.0 - c * c) * z[j]
+        yb = m_hat + sigma * z
         ob = _Objective(model, yb, s_exp, s_sim, idx, x, h, B)
         fb = _least_squares(ob, x[idx], B[idx], scale[idx], xtol=1e-4)
         xb = ob.full(fb.x)
