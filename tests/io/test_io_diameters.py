@@ -178,6 +178,11 @@ def test_histogram_file_to_distribution_reproduces_counts(write_file):
         ("10,20,5\n20,30,-7\n30,40,1\n", r":2: column 2 \(count\): bad value '-7'"),
         ("10,20,5\n20,30,x\n30,40,1\n", r":2: column 2 \(count\): non-numeric"),
         ("10,20,5\n20,30\n30,40,1\n", r":2: row has 2 cells; expected columns"),
+        # a decimal comma splits a cell: 4 cells, and the hint says why
+        (
+            "10,20,5\n20,30,0,5\n",
+            r":2: row has 4 cells; .*the decimal separator must be",
+        ),
         ("10,20,0\n20,30,0\n30,40,0\n", r"count: all counts are zero"),
         ("-10,20,5\n20,30,7\n30,40,1\n", r":1: column 0 \(lower edge\): bad value"),
         ("a,b\n10,20\n", "header has 2 columns"),
@@ -186,8 +191,10 @@ def test_histogram_file_to_distribution_reproduces_counts(write_file):
     ],
 )
 def test_read_histogram_errors(write_file, text, match):
-    with pytest.raises(DataFormatError, match=match):
-        read_histogram(write_file("h.csv", text))
+    path = write_file("h.csv", text)
+    with pytest.raises(DataFormatError, match=match) as info:
+        read_histogram(path)
+    assert str(info.value).startswith(f"{path}")  # every refusal names the file
 
 
 # -- delimited text: decimal commas, quotes, extra cells, duplicates, units ---------

@@ -168,6 +168,14 @@ def test_combine_experiments(tmp_path):
     assert len(t) == 2
     assert list(t["statistic"]) == ["e", "mu"]
     assert np.isnan(t.loc[0, "angle_deg"]) and np.isnan(t.loc[1, "speed_m_s"])
+    # a table made by hand (the four columns combine_experiments requires) gets
+    # the speed, angle and surface columns, empty
+    own = pd.DataFrame(
+        {"statistic": ["e"], "mean": [0.5], "ci_low": [0.4], "ci_high": [0.6]}
+    )
+    alone = combine_experiments(own)
+    assert np.isnan(alone.loc[0, "speed_m_s"]) and np.isnan(alone.loc[0, "angle_deg"])
+    assert alone.loc[0, "surface"] is None
     assert combine_experiments(None) is None
     assert combine_experiments([]) is None
     with pytest.raises(TypeError, match="experiments"):

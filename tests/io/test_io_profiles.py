@@ -253,8 +253,11 @@ def test_x3p_surface_rows_are_scans(tmp_path):
     ps = read_profiles(p)
     assert len(ps) == 3
     assert_allclose(ps[2].z, z[2], rtol=1e-15)
-    with pytest.raises(ProfileFormatError, match="holds 3 scans"):
+    with pytest.raises(ProfileFormatError, match="holds 3 scans") as info:
         read_profile(p)
+    assert str(info.value) == (
+        f"{p}: the file holds 3 scans; read it with read_profiles()"
+    )
 
 
 def test_x3p_damaged(tmp_path):
