@@ -175,3 +175,31 @@ def test_values_for_raw_diameters_are_refused_by_name(write_file):
         "r.csv: values: values 'count' is for size bins, not raw diameters; leave "
         "it out or choose the edges or midpoints layout"
     )
+
+
+def test_a_unit_slip_is_suggested_only_where_every_bin_then_fits(write_file):
+    # an SMPS measures 0.001 to 1.5 um; bins headed 0.5 to 1024 um are outside it.
+    # Read as nm they would span 0.0005 to 1.024 um: the first bin still below
+    # the range, so no unit is suggested
+    mids = [0.5 * 2**k for k in range(12)]
+    text = (
+        "Instrument,SMPS 3938\nSample #,"
+        + ",".join(f"{m:g} um" for m in mids)
+        + "\n1,"
+        + ",".join("5" for _ in mids)
+        + "\n"
+    )
+    exc, msg = _error(write_file, "smps.csv", text, values="count")
+    assert exc.field == "unit"
+    assert msg.endswith(
+        "smps.csv: unit: an SMPS measures 0.001 to 1.5 um, but the bins read in um "
+        "span 0.5 to 1024 um; the header names it: correct the header"
+    )
+
+
+def test_a_trailing_comment_on_a_first_data_row_is_cut(write_file):
+    # no header: the first row is data, and its '# ...' is a comment, as on
+    # every other row (only a header keeps its '#')
+    path = write_file("c.csv", "1,5 # first channel\n2,6\n4,2\n8,1\n")
+    bins, _ = read_size_bins(path, unit="um", values="count", layout="midpoints")
+    np.testing.assert_array_equal(bins.number, [5, 6, 2, 1])
