@@ -291,3 +291,36 @@ def test_surfacetopography_units_are_metres_by_their_si_prefix(unit, metres):
 
     factor = surfacetopography_unit_factor(unit)
     assert factor == (None if metres is None else pytest.approx(metres, rel=1e-12))
+
+
+class _Proxy:
+    """An object answering as `inner`, except for the attributes given."""
+
+    def __init__(self, inner, **override):
+        self._inner, self._override = inner, override
+
+    def __getattr__(self, name):
+        if name in self._override:
+            return self._override[name]
+        return getattr(self._inner, name)
+
+
+def test_a_channel_that_is_not_a_height_is_refused_naming_the_file():
+    # an AFM file's default channel can be a signal in volts (deflection):
+    # the reader of sdf-1.sdf, its channel's unit made 'V'
+    from SurfaceTopography import open_topography
+
+    from microimpact.io.instruments import read_instrument
+
+    path = DATA / "sdf-1.sdf"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        real = open_topography(str(path))
+    volts = _Proxy(real, default_channel=_Proxy(real.default_channel, unit="V"))
+    with pytest.raises(ProfileFormatError) as info:
+        read_instrument(path, want="map", reader=volts)
+    assert info.value.field == "unit"
+    assert str(info.value) == (
+        f"{path}: unit: the file gives the unit 'V', which is not a length unit; "
+        "allowed: a height topography (m, mm, µm, nm, Å)"
+    )
