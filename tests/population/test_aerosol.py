@@ -221,3 +221,12 @@ def test_a_geometric_std_below_1_is_refused_by_name():
 
     with pytest.raises(ValueError, match=r"^`geometric_std` must be a number >= 1"):
         count_median_diameter(3e-6, 0.5)
+
+
+def test_the_aerodynamic_iteration_says_when_it_stops_short():
+    # the documented RuntimeError when max_iter is reached: one step cannot meet
+    # a tolerance of 1e-15 for a 0.1 um particle (slip correction about 2.9)
+    with pytest.raises(
+        RuntimeError, match=r"^the aerodynamic diameter iteration did not converge\.$"
+    ):
+        aerodynamic_diameter(1e-7, 2000.0, rtol=1e-15, max_iter=1)
