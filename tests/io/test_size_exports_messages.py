@@ -7,6 +7,8 @@ export's own cells, and the bins read by hand."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -203,3 +205,48 @@ def test_a_trailing_comment_on_a_first_data_row_is_cut(write_file):
     path = write_file("c.csv", "1,5 # first channel\n2,6\n4,2\n8,1\n")
     bins, _ = read_size_bins(path, unit="um", values="count", layout="midpoints")
     np.testing.assert_array_equal(bins.number, [5, 6, 2, 1])
+
+
+AIM_COLUMNS = Path(__file__).parents[1] / "data/size_exports/aim_smps_column_pysmps.txt"
+
+
+def test_an_aim_column_export_refuses_edges_and_reads_as_midpoints():
+    with pytest.raises(DataFormatError) as info:
+        read_size_bins(AIM_COLUMNS, sample="1", edges_um=[1, 2])
+    assert info.value.field == "edges_um"
+    assert str(info.value).endswith(
+        "edges_um: edges_um is for wide exports whose bin columns do not give sizes "
+        "(bin0, bin1, ...); a TSI AIM column export gives its midpoints"
+    )
+    # its bins are midpoints: layout='midpoints' reads it as the default does
+    given, meta = read_size_bins(AIM_COLUMNS, sample="1", layout="midpoints")
+    plain, _ = read_size_bins(AIM_COLUMNS, sample="1")
+    assert meta["layout"] == "aim-columns"
+    np.testing.assert_array_equal(given.number, plain.number)
+    # a sample it does not hold: the samples it does, without time ranges
+    with pytest.raises(DataFormatError) as info:
+        read_size_bins(AIM_COLUMNS, sample="zz")
+    assert str(info.value).endswith(
+        "sample: sample 'zz' is not in the AIM column export; allowed: a Sample # "
+        "(1..15), 'mean', 'sum', 'A..B' or 'sum A..B'"
+    )
+
+
+@pytest.mark.parametrize(
+    ("header", "layout", "values"),
+    [
+        ("Dp (um),dW/dlogDp\n1,5\n2,6\n4,2\n", "midpoints", "dM/dlogDp"),  # W: weight
+        # min/max edges beside a midpoint column: the edges are read
+        ("Dp_min,Dp_max,Dp,count\n1,2,1.4,5\n2,4,2.8,6\n", "edges", "count"),
+    ],
+)
+def test_header_aliases_name_their_columns(write_file, header, layout, values):
+    _, meta = read_size_bins(write_file("a.csv", header), unit="um")
+    assert (meta["layout"], meta["values"]) == (layout, values)
+
+
+def test_a_sampled_volume_for_raw_diameters_is_refused_by_name(write_file):
+    path = write_file("r.csv", "diameter_um\n1\n2\n3\n")
+    with pytest.raises(DataFormatError) as info:
+        read_size_data(path, layout="diameters", sampled_volume_cm3=1.0)
+    assert info.value.field == "sampled_volume_cm3"
