@@ -534,3 +534,12 @@ def test_check_xz_names_the_array_that_is_not_numeric():
 
     with pytest.raises(TypeError, match=r"^`z` must be numeric"):
         check_xz([0.0, 1e-6], ["a", "b"])
+
+
+def test_a_profile_is_read_only():
+    # a Profile is immutable: its arrays too, so a caller cannot change a scan
+    # that a cached result was computed from
+    p = Profile([0.0, 1e-6, 2e-6], [0.0, 1e-9, 0.0])
+    for a in (p.x, p.z):
+        with pytest.raises(ValueError, match="read-only"):
+            a[0] = 1.0

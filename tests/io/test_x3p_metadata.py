@@ -85,3 +85,14 @@ def test_a_crash_inside_x3pio_is_one_line_naming_the_format(tmp_path, monkeypatc
         f"{path}: format: the x3pio reader failed on this x3p file (KeyError: "
         "'no\\nsuch record'); microimpact cannot read it"
     )
+
+
+@pytest.mark.parametrize("shape", [(1, 7), (7, 1)])
+def test_a_surface_of_one_row_or_column_is_not_a_map(tmp_path, shape):
+    path = tmp_path / "thin.x3p"
+    x3pio.write(path, np.full(shape, 1e-6), x_scale=0.5e-6, y_scale=0.5e-6)
+    with pytest.raises(ProfileFormatError) as info:
+        read_height_map(path)
+    assert str(info.value) == (
+        f"{path}: Record3: the surface is {shape}; allowed: at least 2 x 2 points"
+    )
