@@ -250,3 +250,19 @@ def test_a_sampled_volume_for_raw_diameters_is_refused_by_name(write_file):
     with pytest.raises(DataFormatError) as info:
         read_size_data(path, layout="diameters", sampled_volume_cm3=1.0)
     assert info.value.field == "sampled_volume_cm3"
+
+
+def test_a_negative_aim_midpoint_is_refused_naming_line_and_column(tmp_path):
+    # the real AIM column export with its first Diameter Midpoint made negative
+    lines = AIM_COLUMNS.read_text(encoding="cp1252").splitlines()
+    i = next(k for k, t in enumerate(lines) if t.startswith("Diameter Midpoint")) + 1
+    assert lines[i].startswith(" 21.7,")
+    lines[i] = "-" + lines[i][1:]
+    path = tmp_path / "neg.txt"
+    path.write_bytes(("\r\n".join(lines) + "\r\n").encode("cp1252"))
+    with pytest.raises(DataFormatError) as info:
+        read_size_bins(path, sample="1")
+    assert str(info.value) == (
+        f"{path}:{i + 1}: column 0 (Diameter Midpoint): bad value '-21.7'; "
+        "allowed: a diameter > 0"
+    )

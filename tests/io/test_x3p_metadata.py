@@ -96,3 +96,11 @@ def test_a_surface_of_one_row_or_column_is_not_a_map(tmp_path, shape):
     assert str(info.value) == (
         f"{path}: Record3: the surface is {shape}; allowed: at least 2 x 2 points"
     )
+
+
+def test_a_profile_of_one_valid_point_names_the_record(tmp_path):
+    path = tmp_path / "p1.x3p"
+    x3pio.write(path, np.array([1e-6, np.nan, np.nan, np.nan]), x_scale=0.5e-6)
+    with pytest.raises(ProfileFormatError) as info:
+        read_profile(path)
+    assert str(info.value) == f"{path}: Record3: fewer than 2 valid points"
