@@ -98,6 +98,23 @@ def test_stated_channel_bounds_not_increasing_name_the_bound(write_file):
     )
 
 
+def test_a_channel_off_the_stated_grid_names_its_channel(write_file):
+    # bounds 0.8 and 6.4 um over 3 printed channels: edges 0.8, 1.6, 3.2, 6.4
+    # (a factor 2 each); the printed 0.7 um lies below its channel [0.8, 1.6]
+    text = (
+        "Lower Channel Bound,0.8\nUpper Channel Bound,6.4\n"
+        "Sample #,0.7 um,1.4 um,2.8 um\n1,5,6,5\n"
+    )
+    exc, msg = _error(write_file, "grid.csv", text, values="count")
+    assert exc.field == "Lower Channel Bound"
+    assert msg.endswith(
+        "grid.csv: Lower Channel Bound: the printed channel 0.7 um lies outside its "
+        "channel [0.8, 1.6] um of the grid the export states (Lower Channel Bound "
+        "0.8, Upper Channel Bound 6.4, 3 channels printed); allowed: an export "
+        "whose channels lie on its stated grid"
+    )
+
+
 def test_raw_diameters_read_as_bins_name_the_value_columns_allowed(write_file):
     exc, msg = _error(write_file, "raw.csv", "diameter_um\n1\n2\n3\n")
     assert exc.field is None
