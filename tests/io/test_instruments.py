@@ -196,12 +196,21 @@ def test_a_file_without_a_unit_names_the_arguments_and_the_hint_works(tmp_path):
     with pytest.raises(ProfileFormatError) as info:
         read_height_map(ibw)
     msg = str(info.value)
+    assert info.value.field == "unit"
     for arg in ("`dx_um`", "`dy_um`", "`z_unit`"):
         assert arg in msg
     hm = read_height_map(ibw, dx_um=0.5, z_unit="nm")  # followed
     assert (hm.dx, hm.dy) == (pytest.approx(0.5e-6), pytest.approx(0.5e-6))
     assert hm.metadata["z_unit_from"] == "argument"
     assert hm.metadata["dx_from"] == "argument"
+    # its rows as profiles: positions in the µm of dx_um
+    rows = read_profiles(ibw, dx_um=0.5, z_unit="nm")
+    assert len(rows) == 10
+    assert (rows[0].metadata["x_unit"], rows[0].metadata["x_unit_from"]) == (
+        "um",
+        "dx_um",
+    )
+    np.testing.assert_allclose(rows[0].x[:3], [0.0, 0.5e-6, 1e-6], rtol=1e-12)
     # dy_um given as well: its own spacing, not dx_um's
     hm = read_height_map(ibw, dx_um=0.5, dy_um=2.0, z_unit="nm")
     assert (hm.dx, hm.dy) == (pytest.approx(0.5e-6), pytest.approx(2e-6))
@@ -253,3 +262,65 @@ def test_non_uniform_angles_use_real_positions(tmp_path):
     assert ch.non_uniform_scans == 1
     np.testing.assert_allclose(np.tan(ch.angles), 0.3, rtol=1e-9)
     assert ch.profile.Rdq == pytest.approx(0.3, rel=1e-9)
+
+
+def test_a_spacing_argument_that_agrees_with_the_file_is_accepted():
+    # frt-2.frt states 200 µm pixels: the same value given is no conflict, and
+    # the spacing is still the file's
+    hm = read_height_map(DATA / "frt-2.frt", dx_um=200.0)
+    assert hm.dx == pytest.approx(200e-6) and hm.metadata["dx_from"] == "file"
+
+
+def test_a_file_no_microimpact_reader_knows_is_named_with_the_docs():
+    with pytest.raises(ProfileFormatError) as info:
+        read_profiles(DATA / "wrongnpyfile.npy")
+    assert str(info.value) == (
+        f"{DATA / 'wrongnpyfile.npy'}: not a format that microimpact or "
+        "SurfaceTopography reads (no reader recognises the file; see "
+        "docs/roughness.md for the formats read)"
+    )
+
+
+@pytest.mark.parametrize(
+    ("unit", "metres"), [("pm", 1e-12), ("km", 1e3), ("nm", 1e-9), ("s", None)]
+)
+def test_surfacetopography_units_are_metres_by_their_si_prefix(unit, metres):
+    # units microimpact does not spell itself (pm, km) through SurfaceTopography's
+    # table; a unit that is not a length is None
+    from microimpact.io.instruments import surfacetopography_unit_factor
+
+    factor = surfacetopography_unit_factor(unit)
+    assert factor == (None if metres is None else pytest.approx(metres, rel=1e-12))
+
+
+class _Proxy:
+    """An object answering as `inner`, except for the attributes given."""
+
+    def __init__(self, inner, **override):
+        self._inner, self._override = inner, override
+
+    def __getattr__(self, name):
+        if name in self._override:
+            return self._override[name]
+        return getattr(self._inner, name)
+
+
+def test_a_channel_that_is_not_a_height_is_refused_naming_the_file():
+    # an AFM file's default channel can be a signal in volts (deflection):
+    # the reader of sdf-1.sdf, its channel's unit made 'V'
+    from SurfaceTopography import open_topography
+
+    from microimpact.io.instruments import read_instrument
+
+    path = DATA / "sdf-1.sdf"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        real = open_topography(str(path))
+    volts = _Proxy(real, default_channel=_Proxy(real.default_channel, unit="V"))
+    with pytest.raises(ProfileFormatError) as info:
+        read_instrument(path, want="map", reader=volts)
+    assert info.value.field == "unit"
+    assert str(info.value) == (
+        f"{path}: unit: the file gives the unit 'V', which is not a length unit; "
+        "allowed: a height topography (m, mm, µm, nm, Å)"
+    )

@@ -177,7 +177,16 @@ def test_histogram_file_to_distribution_reproduces_counts(write_file):
         ("10,20,5\n20,20,7\n20,40,1\n", r":2: column 1 \(upper edge\): upper edge"),
         ("10,20,5\n20,30,-7\n30,40,1\n", r":2: column 2 \(count\): bad value '-7'"),
         ("10,20,5\n20,30,x\n30,40,1\n", r":2: column 2 \(count\): non-numeric"),
-        ("10,20,5\n20,30\n30,40,1\n", r":2: row has 2 cells; expected columns"),
+        # too few cells: no hint at a decimal comma
+        (
+            "10,20,5\n20,30\n30,40,1\n",
+            r":2: row has 2 cells; expected columns.*values\)$",
+        ),
+        # a decimal comma splits a cell: 4 cells, and the hint says why
+        (
+            "10,20,5\n20,30,0,5\n",
+            r":2: row has 4 cells; .*the decimal separator must be",
+        ),
         ("10,20,0\n20,30,0\n30,40,0\n", r"count: all counts are zero"),
         ("-10,20,5\n20,30,7\n30,40,1\n", r":1: column 0 \(lower edge\): bad value"),
         ("a,b\n10,20\n", "header has 2 columns"),
@@ -186,8 +195,10 @@ def test_histogram_file_to_distribution_reproduces_counts(write_file):
     ],
 )
 def test_read_histogram_errors(write_file, text, match):
-    with pytest.raises(DataFormatError, match=match):
-        read_histogram(write_file("h.csv", text))
+    path = write_file("h.csv", text)
+    with pytest.raises(DataFormatError, match=match) as info:
+        read_histogram(path)
+    assert str(info.value).startswith(f"{path}")  # every refusal names the file
 
 
 # -- delimited text: decimal commas, quotes, extra cells, duplicates, units ---------
@@ -400,3 +411,30 @@ def test_implausible_diameters_in_a_scenario_are_refused(particles, key):
     }
     with pytest.raises(ScenarioError, match=rf"particles\.{key}: .* not a particle"):
         scenario_from_dict(data)
+
+
+@pytest.mark.parametrize(
+    ("header", "kw", "fix"),
+    [
+        (
+            "diameter",
+            {"unit": "um"},
+            "give the unit the file holds (unit='m', 'mm', 'nm'; --unit on the CLI)",
+        ),
+        (
+            "diameter_um",
+            {},
+            "the header names 'um'; if the file holds another unit, correct the "
+            "header (e.g. diameter_m, diameter_mm)",
+        ),
+    ],
+)
+def test_diameters_in_metres_read_as_um_say_how_to_fix_it(write_file, header, kw, fix):
+    # 40 um particles written in metres: a median of 4e-05 um, below 10 nm
+    path = write_file("d.csv", header + "\n4e-5\n5e-5\n3e-5\n")
+    with pytest.raises(DataFormatError) as info:
+        read_diameters(path, **kw)
+    assert str(info.value).endswith(
+        "the median diameter read as 'um' is 4e-05 um, below 10 nm, which is not a "
+        f"particle diameter: the values are probably in another unit; {fix}"
+    )

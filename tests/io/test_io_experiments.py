@@ -10,7 +10,11 @@ import pytest
 from numpy.testing import assert_allclose
 
 from microimpact.errors import DataFormatError
-from microimpact.io.experiments import combine_experiments, read_experiments
+from microimpact.io.experiments import (
+    combine_experiments,
+    read_experiments,
+    write_experiments,
+)
 
 # Two-sided 95 % quantiles from printed tables (not recomputed by the code's path):
 Z95 = 1.959963984540054  # standard normal
@@ -168,6 +172,14 @@ def test_combine_experiments(tmp_path):
     assert len(t) == 2
     assert list(t["statistic"]) == ["e", "mu"]
     assert np.isnan(t.loc[0, "angle_deg"]) and np.isnan(t.loc[1, "speed_m_s"])
+    # a table made by hand (the four columns combine_experiments requires) gets
+    # the speed, angle and surface columns, empty
+    own = pd.DataFrame(
+        {"statistic": ["e"], "mean": [0.5], "ci_low": [0.4], "ci_high": [0.6]}
+    )
+    alone = combine_experiments(own)
+    assert np.isnan(alone.loc[0, "speed_m_s"]) and np.isnan(alone.loc[0, "angle_deg"])
+    assert alone.loc[0, "surface"] is None
     assert combine_experiments(None) is None
     assert combine_experiments([]) is None
     with pytest.raises(TypeError, match="experiments"):
@@ -194,3 +206,27 @@ def test_scenario_experiments_are_explicit(tmp_path):
     bad = write(tmp_path, "speed_m_s,statistic,mean,half_width\n1,e,x,0.1\n", "c.csv")
     with pytest.raises(DataFormatError, match=r"c\.csv:2: mean: non-numeric"):
         scenario_experiments(None, (a, bad))
+
+
+def test_written_experiments_read_back_the_same(tmp_path):
+    # the documented round trip: write_experiments writes what read_experiments
+    # reads, to the same means, intervals and standard errors
+    text = "speed_m_s,statistic,mean,half_width\n1,e,0.5,0.1\n2,e,0.4,0.05\n"
+    table = read_experiments(write(tmp_path, text, "a.csv"))
+    out = tmp_path / "back.csv"
+    write_experiments(table, out, comment="from a.csv")
+    assert out.read_text(encoding="utf-8").startswith("# from a.csv\n")
+    back = read_experiments(out)
+    for c in ("speed_m_s", "mean", "ci_low", "ci_high", "se"):
+        assert_allclose(back[c], table[c], rtol=1e-12)
+    assert list(back["statistic"]) == ["e", "e"]
+
+
+def test_a_table_without_speed_or_angle_names_both(tmp_path):
+    with pytest.raises(DataFormatError) as info:
+        read_experiments(write(tmp_path, "statistic,mean,half_width\ne,0.5,0.1\n"))
+    assert info.value.field == "speed_m_s"
+    assert str(info.value).endswith(
+        "exp.csv:1: speed_m_s: required column missing; header has ['statistic', "
+        "'mean', 'half_width'], need speed_m_s and/or angle_deg."
+    )

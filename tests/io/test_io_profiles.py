@@ -253,8 +253,11 @@ def test_x3p_surface_rows_are_scans(tmp_path):
     ps = read_profiles(p)
     assert len(ps) == 3
     assert_allclose(ps[2].z, z[2], rtol=1e-15)
-    with pytest.raises(ProfileFormatError, match="holds 3 scans"):
+    with pytest.raises(ProfileFormatError, match="holds 3 scans") as info:
         read_profile(p)
+    assert str(info.value) == (
+        f"{p}: the file holds 3 scans; read it with read_profiles()"
+    )
 
 
 def test_x3p_damaged(tmp_path):
@@ -504,3 +507,39 @@ def test_scan_column_file_with_header_units_through_read_profiles(write_file):
     assert len(ps) == 2 and [p.scan for p in ps] == ["1", "2"]
     assert_allclose(np.abs(ps[1].z), 20e-9, rtol=1e-12)
     assert ps[0].metadata["scan_column"] == "scan"
+
+
+def test_a_decreasing_scan_that_turns_back_names_the_turn(write_file):
+    # positions 3, 2, 2.5: decreasing (read reversed) until 2.5 follows 2
+    p = write_file("dec.csv", "x_um,z_um\n3,1\n2,2\n2.5,3\n")
+    with pytest.raises(ProfileFormatError) as info:
+        read_profile(p)
+    assert str(info.value) == (
+        f"{p}:4: positions are not strictly monotonic: x = 2.5 follows 2.0"
+    )
+
+
+def test_a_file_without_a_position_column_is_named(write_file):
+    # the scan and height columns named, none left for the positions
+    p = write_file("np.csv", "s,z\n1,2\n1,4\n")
+    with pytest.raises(ProfileFormatError) as info:
+        read_profiles(p, z_column="z", scan_column="s", unit="um")
+    assert str(info.value) == (
+        f"{p}:2: no position column: give `x_column`, or `dx_um` for heights alone"
+    )
+
+
+def test_check_xz_names_the_array_that_is_not_numeric():
+    from microimpact.io.profiles import check_xz
+
+    with pytest.raises(TypeError, match=r"^`z` must be numeric"):
+        check_xz([0.0, 1e-6], ["a", "b"])
+
+
+def test_a_profile_is_read_only():
+    # a Profile is immutable: its arrays too, so a caller cannot change a scan
+    # that a cached result was computed from
+    p = Profile([0.0, 1e-6, 2e-6], [0.0, 1e-9, 0.0])
+    for a in (p.x, p.z):
+        with pytest.raises(ValueError, match="read-only"):
+            a[0] = 1.0

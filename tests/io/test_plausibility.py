@@ -272,3 +272,18 @@ def test_nms_rows_give_rq_and_rdq_of_the_hand_reading():
     assert par.Rq == pytest.approx(np.sqrt(np.mean(res**2)), rel=0.02)
     slopes = np.diff(res, axis=1) / dx
     assert par.Rdq == pytest.approx(np.sqrt(np.mean(slopes**2)), rel=0.05)
+
+
+def test_an_implausible_scan_of_several_is_named_by_its_scan(write_file):
+    # scan 1 at 0.5 mm per point is plausible, scan 2 at 5 mm is not: the
+    # message says which scan
+    text = "scan,x_mm,z_nm\n" + "".join(
+        f"{s},{i * step},{i % 3}\n" for s, step in ((1, 0.5), (2, 5)) for i in range(6)
+    )
+    p = write_file("scans.csv", text)
+    with pytest.raises(ProfileFormatError) as info:
+        read_profiles(p)
+    assert str(info.value).startswith(
+        f"{p}: dx: implausible lateral spacing dx = 5 mm (5 read as mm: was it µm?) "
+        "(scan 2): outside 1 Å to 1 mm per point;"
+    )

@@ -7,6 +7,8 @@ export's own cells, and the bins read by hand."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -96,6 +98,23 @@ def test_stated_channel_bounds_not_increasing_name_the_bound(write_file):
     )
 
 
+def test_a_channel_off_the_stated_grid_names_its_channel(write_file):
+    # bounds 0.8 and 6.4 um over 3 printed channels: edges 0.8, 1.6, 3.2, 6.4
+    # (a factor 2 each); the printed 0.7 um lies below its channel [0.8, 1.6]
+    text = (
+        "Lower Channel Bound,0.8\nUpper Channel Bound,6.4\n"
+        "Sample #,0.7 um,1.4 um,2.8 um\n1,5,6,5\n"
+    )
+    exc, msg = _error(write_file, "grid.csv", text, values="count")
+    assert exc.field == "Lower Channel Bound"
+    assert msg.endswith(
+        "grid.csv: Lower Channel Bound: the printed channel 0.7 um lies outside its "
+        "channel [0.8, 1.6] um of the grid the export states (Lower Channel Bound "
+        "0.8, Upper Channel Bound 6.4, 3 channels printed); allowed: an export "
+        "whose channels lie on its stated grid"
+    )
+
+
 def test_raw_diameters_read_as_bins_name_the_value_columns_allowed(write_file):
     exc, msg = _error(write_file, "raw.csv", "diameter_um\n1\n2\n3\n")
     assert exc.field is None
@@ -174,4 +193,93 @@ def test_values_for_raw_diameters_are_refused_by_name(write_file):
     assert str(info.value).endswith(
         "r.csv: values: values 'count' is for size bins, not raw diameters; leave "
         "it out or choose the edges or midpoints layout"
+    )
+
+
+def test_a_unit_slip_is_suggested_only_where_every_bin_then_fits(write_file):
+    # an SMPS measures 0.001 to 1.5 um; bins headed 0.5 to 1024 um are outside it.
+    # Read as nm they would span 0.0005 to 1.024 um: the first bin still below
+    # the range, so no unit is suggested
+    mids = [0.5 * 2**k for k in range(12)]
+    text = (
+        "Instrument,SMPS 3938\nSample #,"
+        + ",".join(f"{m:g} um" for m in mids)
+        + "\n1,"
+        + ",".join("5" for _ in mids)
+        + "\n"
+    )
+    exc, msg = _error(write_file, "smps.csv", text, values="count")
+    assert exc.field == "unit"
+    assert msg.endswith(
+        "smps.csv: unit: an SMPS measures 0.001 to 1.5 um, but the bins read in um "
+        "span 0.5 to 1024 um; the header names it: correct the header"
+    )
+
+
+def test_a_trailing_comment_on_a_first_data_row_is_cut(write_file):
+    # no header: the first row is data, and its '# ...' is a comment, as on
+    # every other row (only a header keeps its '#')
+    path = write_file("c.csv", "1,5 # first channel\n2,6\n4,2\n8,1\n")
+    bins, _ = read_size_bins(path, unit="um", values="count", layout="midpoints")
+    np.testing.assert_array_equal(bins.number, [5, 6, 2, 1])
+
+
+AIM_COLUMNS = Path(__file__).parents[1] / "data/size_exports/aim_smps_column_pysmps.txt"
+
+
+def test_an_aim_column_export_refuses_edges_and_reads_as_midpoints():
+    with pytest.raises(DataFormatError) as info:
+        read_size_bins(AIM_COLUMNS, sample="1", edges_um=[1, 2])
+    assert info.value.field == "edges_um"
+    assert str(info.value).endswith(
+        "edges_um: edges_um is for wide exports whose bin columns do not give sizes "
+        "(bin0, bin1, ...); a TSI AIM column export gives its midpoints"
+    )
+    # its bins are midpoints: layout='midpoints' reads it as the default does
+    given, meta = read_size_bins(AIM_COLUMNS, sample="1", layout="midpoints")
+    plain, _ = read_size_bins(AIM_COLUMNS, sample="1")
+    assert meta["layout"] == "aim-columns"
+    np.testing.assert_array_equal(given.number, plain.number)
+    # a sample it does not hold: the samples it does, without time ranges
+    with pytest.raises(DataFormatError) as info:
+        read_size_bins(AIM_COLUMNS, sample="zz")
+    assert str(info.value).endswith(
+        "sample: sample 'zz' is not in the AIM column export; allowed: a Sample # "
+        "(1..15), 'mean', 'sum', 'A..B' or 'sum A..B'"
+    )
+
+
+@pytest.mark.parametrize(
+    ("header", "layout", "values"),
+    [
+        ("Dp (um),dW/dlogDp\n1,5\n2,6\n4,2\n", "midpoints", "dM/dlogDp"),  # W: weight
+        # min/max edges beside a midpoint column: the edges are read
+        ("Dp_min,Dp_max,Dp,count\n1,2,1.4,5\n2,4,2.8,6\n", "edges", "count"),
+    ],
+)
+def test_header_aliases_name_their_columns(write_file, header, layout, values):
+    _, meta = read_size_bins(write_file("a.csv", header), unit="um")
+    assert (meta["layout"], meta["values"]) == (layout, values)
+
+
+def test_a_sampled_volume_for_raw_diameters_is_refused_by_name(write_file):
+    path = write_file("r.csv", "diameter_um\n1\n2\n3\n")
+    with pytest.raises(DataFormatError) as info:
+        read_size_data(path, layout="diameters", sampled_volume_cm3=1.0)
+    assert info.value.field == "sampled_volume_cm3"
+
+
+def test_a_negative_aim_midpoint_is_refused_naming_line_and_column(tmp_path):
+    # the real AIM column export with its first Diameter Midpoint made negative
+    lines = AIM_COLUMNS.read_text(encoding="cp1252").splitlines()
+    i = next(k for k, t in enumerate(lines) if t.startswith("Diameter Midpoint")) + 1
+    assert lines[i].startswith(" 21.7,")
+    lines[i] = "-" + lines[i][1:]
+    path = tmp_path / "neg.txt"
+    path.write_bytes(("\r\n".join(lines) + "\r\n").encode("cp1252"))
+    with pytest.raises(DataFormatError) as info:
+        read_size_bins(path, sample="1")
+    assert str(info.value) == (
+        f"{path}:{i + 1}: column 0 (Diameter Midpoint): bad value '-21.7'; "
+        "allowed: a diameter > 0"
     )

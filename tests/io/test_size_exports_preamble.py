@@ -99,7 +99,8 @@ def test_edges_um_that_do_not_hold_the_header_sizes_are_refused(tmp_path):
     bad = [0.35, *THRESHOLDS[1:]]  # 0.3 falls below its bin
     with pytest.raises(DataFormatError, match=r"edges_um: the bin column 0\.3"):
         read_size_bins(path, unit="um", values="count", sample="sum", edges_um=bad)
-    with pytest.raises(DataFormatError, match="9 increasing boundaries"):
+    with pytest.raises(DataFormatError, match="9 increasing boundaries") as info:
         read_size_bins(
             path, unit="um", values="count", sample="sum", edges_um=THRESHOLDS[:-1]
         )
+    assert info.value.field == "edges_um"

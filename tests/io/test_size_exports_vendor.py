@@ -159,6 +159,9 @@ def test_ops_cut_points_are_its_edges_and_the_oversize_bin_is_counted_out():
     oversize = [t for t in bins.notes if "oversize bin Bin 17" in t]
     assert len(oversize) == 1 and "held 18 of 10123" in oversize[0]
     assert "held 18 of 10123 (count, 0.178 %) and is left out" in oversize[0]
+    # 17 bins have 18 boundaries: the hint asks for all of them, as followed below
+    assert oversize[0].endswith("give its upper edge with edges_um (all 18 "
+                                "boundaries) to include it")  # fmt: skip
     assert "np.float64" not in " ".join(bins.notes)
     # its upper edge given: all 17 bins
     bins, _ = read_size_data(
@@ -297,6 +300,7 @@ def test_aim10_3_txt_matches_the_vendors_statistics(sample):
     row = AIM103_ROWS[sample]
     bins, meta = read_size_data(AIM103, sample=sample)
     assert meta["layout"] == "aim-rows" and meta["diameter"] == "mobility"
+    assert bins.notes[0].startswith("TSI AIM row export (cp1252, ")  # not UTF-8
     total = float(row["Total Conc. (#/cm³)"])
     assert bins.total == pytest.approx(total, rel=1e-3)
     gm, gsd = _geo(bins)

@@ -221,3 +221,36 @@ def test_a_geometric_std_below_1_is_refused_by_name():
 
     with pytest.raises(ValueError, match=r"^`geometric_std` must be a number >= 1"):
         count_median_diameter(3e-6, 0.5)
+
+
+def test_the_aerodynamic_iteration_says_when_it_stops_short():
+    # the documented RuntimeError when max_iter is reached: one step cannot meet
+    # a tolerance of 1e-15 for a 0.1 um particle (slip correction about 2.9)
+    with pytest.raises(
+        RuntimeError, match=r"^the aerodynamic diameter iteration did not converge\.$"
+    ):
+        aerodynamic_diameter(1e-7, 2000.0, rtol=1e-15, max_iter=1)
+
+
+def test_a_count_median_from_an_mmad_uses_the_mean_free_path_given():
+    # at 0.5 atm the mean free path doubles: the MMAD's volume-equivalent
+    # diameter d then solves d_a^2 Cc(d_a) = d^2 (rho / rho_0) Cc(d) with that
+    # path (Hinds eq. 3.28), and CMD = d exp(-3 ln^2 sigma) (Hatch-Choate)
+    mmad, gsd, rho, lam = 1e-6, 1.8, 2000.0, 2 * 65.1e-9
+    cmd = count_median_diameter(
+        mmad, gsd, convention="mmad", density_kg_m3=rho, mean_free_path_m=lam
+    )
+    d = cmd * math.exp(3 * math.log(gsd) ** 2)
+    lhs = mmad**2 * cunningham_correction(mmad, mean_free_path_m=lam)
+    rhs = d**2 * rho / 1000.0 * cunningham_correction(d, mean_free_path_m=lam)
+    assert rhs == pytest.approx(lhs, rel=1e-6)
+    # and not the sea-level answer
+    assert cmd != pytest.approx(
+        count_median_diameter(mmad, gsd, convention="mmad", density_kg_m3=rho),
+        rel=1e-3,
+    )
+
+
+def test_a_diameter_that_is_not_positive_is_named():
+    with pytest.raises(ValueError, match=r"^`diameter_m` must be finite and > 0; got"):
+        cunningham_correction(-1e-6)

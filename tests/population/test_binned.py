@@ -253,3 +253,8 @@ def test_binned_inputs_are_refused_by_name():
             chi2_binned(edges, counts, fit, alpha=alpha)
     with pytest.raises(TypeError, match="`edges_um` must be numeric"):
         fit_binned_lognormal(["a", "b"], [1])
+
+
+def test_number_per_bin_names_a_value_kind_it_does_not_know():
+    with pytest.raises(ValueError, match=r"^`kind` must be one of 'count', 'dN',"):
+        number_per_bin([1.0, 2.0, 4.0], [1.0, 2.0], "bogus")

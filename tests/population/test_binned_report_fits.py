@@ -189,6 +189,7 @@ def test_a_diverging_log_normal_fit_is_flagged_not_a_crash(tmp_path):
         report = describe_binned_sizes(read_size_bins(path)[0])
     assert any("log-normal fit diverges" in t for t in report.notes)
     assert report.recommended != "lognormal"
+    assert "the log-normal fit diverges; it is not recommended" in report.notes
     _loads(report)
 
 

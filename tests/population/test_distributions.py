@@ -520,3 +520,9 @@ def test_a_normal_population_keeps_its_truncation_limits_by_name():
         "min_um": 30.0,
         "max_um": 70.0,
     }
+
+
+def test_a_histogram_with_the_wrong_number_of_counts_says_how_many():
+    with pytest.raises(ValueError) as info:
+        histogram_diameters([1.0, 2.0, 4.0, 8.0], [1.0, 2.0])
+    assert str(info.value) == "`counts` needs len(edges_um) - 1 = 3 values; got 2."

@@ -90,3 +90,10 @@ def test_sizes_json_is_standard_with_the_documented_keys():
 def test_too_few_diameters_is_a_value_error():
     with pytest.raises(ValueError, match="too few diameters"):
         _describe([10.0, 12.0, 13.0, 15.0, 11.0])
+
+
+def test_sizes_json_is_indented_by_two_spaces():
+    r = _describe(np.random.default_rng(5).lognormal(np.log(40), 0.3, 300))
+    text = r.to_json()
+    assert text.startswith('{\n  "schema": "microimpact.sizes/1",\n')
+    assert r.to_json(indent=None).startswith('{"schema": "microimpact.sizes/1", ')
