@@ -24,3 +24,12 @@ def write_file(tmp_path):
         return path
 
     return write
+
+
+def pytest_make_parametrize_id(config, val, argname):
+    """Test ids in ASCII ('µm' -> 'u?m'-like 'µ' replaced): tools that hand
+    listed ids back to pytest (mutmut, benchmarks/mutation_score.py) do not
+    round-trip pytest's escaped non-ASCII ids."""
+    if isinstance(val, str) and not val.isascii():
+        return val.encode("ascii", "replace").decode()
+    return None

@@ -14,6 +14,12 @@ from microimpact.errors import DataFormatError
 from microimpact.io.size_bins import read_size_bins
 from microimpact.population.binned import BIN_VALUES
 
+
+def _ascii(text: str) -> str:
+    """A test id in ASCII (mutmut passes ids back to pytest unescaped)."""
+    return text.encode("ascii", "replace").decode()
+
+
 MIDS = "midpoint_um,dN/dlogDp\n1,5\n2,6\n4,3\n"
 
 CASES = [
@@ -111,7 +117,9 @@ CASES = [
 
 
 @pytest.mark.parametrize(
-    ("text", "kw", "line", "field", "message"), CASES, ids=[c[4][:40] for c in CASES]
+    ("text", "kw", "line", "field", "message"),
+    CASES,
+    ids=[_ascii(c[4][:40]) for c in CASES],
 )
 def test_each_size_bins_refusal_in_full(tmp_path, text, kw, line, field, message):
     path = tmp_path / "bins.csv"

@@ -94,6 +94,7 @@ def test_each_refusal_of_a_real_file_in_full(reader, name, kw, field, message):
 @pytest.mark.parametrize(
     ("unit", "metres"),
     [("km", 1e3), ("pm", 1e-12), ("mm", 1e-3), ("µm", 1e-6), ("Å", 1e-10)],
+    ids=["km", "pm", "mm", "micrometre", "angstrom"],  # ASCII ids (mutmut)
 )
 def test_surfacetopography_units_in_metres(unit, metres):
     """Units SurfaceTopography names, in metres by definition (km and pm are not

@@ -14,6 +14,12 @@ import pytest
 from microimpact.errors import ProfileFormatError
 from microimpact.io.profiles import read_profile
 
+
+def _ascii(text: str) -> str:
+    """A test id in ASCII (mutmut passes ids back to pytest unescaped)."""
+    return text.encode("ascii", "replace").decode()
+
+
 DECIMAL = "; the decimal separator must be '.'"
 
 CASES = [
@@ -139,7 +145,7 @@ CASES = [
 @pytest.mark.parametrize(
     ("name", "text", "kw", "message", "field", "line"),
     CASES,
-    ids=[c[3][:40] for c in CASES],
+    ids=[_ascii(c[3][:40]) for c in CASES],
 )
 def test_each_refusal_names_file_field_line_and_what_is_allowed(
     tmp_path, name, text, kw, message, field, line
