@@ -192,3 +192,31 @@ def test_least_squares_records_its_pairs(tmp_path):
     )
     (pair,) = res.info["same_impact_pairs"]
     assert 0.5 < pair["rho"] < 1.0
+
+
+def test_each_evaluation_takes_rho_at_its_own_parameters():
+    """rho moves with the spread (near 1 the pair's information goes with
+    1 - rho^2), so the posterior at theta uses the correlation of the model's
+    impacts at theta, not at the start."""
+    from microimpact.analysis.bayes import LogPosterior
+    from microimpact.analysis.bayes_data import pair_correlations
+    from microimpact.analysis.priors import uniform_prior
+
+    data = _scenario()
+    s = microimpact.run(
+        scenario_from_dict(with_values(data, {STD: 12.0})),
+        samples=300,
+        seed=3,
+        progress=False,
+    ).summary
+    exp = experiments_from_summary(s, ("e", "mu"), by_surface=False)
+    model = ScenarioModel(data, [STD], samples=2000, seed=2)
+    like = Likelihood(read_calibration_data(exp), 2000)
+    post = LogPosterior(model, like, [uniform_prior(STD, 2, 30)])
+    lp, _ = post(np.array([12.0]))
+    at = {
+        t: pair_correlations(model, [t], like.pairs, like.match_means) for t in (8, 12)
+    }
+    assert np.all(np.abs(at[8] - at[12]) > 0.005)
+    want, _ = like.evaluate(model.run([12.0]), at[12])
+    assert lp - post.log_prior([12.0]) == pytest.approx(want, rel=1e-12)

@@ -52,7 +52,12 @@ import numpy as np
 from .._core.progress import Progress, check_progress
 from ..engine.parallel import cap_workers, map_tasks, process_pool, runs_release_gil
 from ..errors import InputError
-from .bayes_data import MC_VARIANCE_RATIO, Likelihood, read_calibration_data
+from .bayes_data import (
+    MC_VARIANCE_RATIO,
+    Likelihood,
+    pair_correlations,
+    read_calibration_data,
+)
 from .bayes_output import (
     inference_data,
     report_html,
@@ -103,7 +108,14 @@ class LogPosterior:
             result = self.model.run(theta)
         except InputError:  # a value the scenario refuses: outside the support
             return -math.inf, blob
-        ll, blob = self.likelihood.evaluate(result)
+        lk = self.likelihood
+        rho = None
+        if len(lk.pairs) and lk.match_means is None:
+            lk.setup(result.summary)  # the points matched once, on the first run
+        if len(lk.pairs):
+            # e and mu on one set of impacts: their correlation at theta
+            rho = pair_correlations(self.model, theta, lk.pairs, lk.match_means)
+        ll, blob = lk.evaluate(result, rho)
         return (lp + ll if math.isfinite(ll) else -math.inf), blob
 
 
@@ -594,10 +606,14 @@ def calibrate_bayes(
         pool.close()
     chain = sampler.get_chain()[diag.burn_in :]
     blobs = sampler.get_blobs()[diag.burn_in :]
+    if len(like.pairs):  # recorded at the posterior median (it moves with theta)
+        median = np.median(chain.reshape(-1, chain.shape[-1]), axis=0)
+        like.rho = pair_correlations(smodel, median, like.pairs, like.match_means)
     info = {
         "points_without_error_left_out": dropped,
         # e and mu of one file at one point (experiment lines) and the
-        # correlation of their impacts in the model at the start point
+        # correlation of their impacts in the model at the posterior median
+        # (each evaluation uses its own)
         "same_impact_pairs": [
             {
                 "lines": [

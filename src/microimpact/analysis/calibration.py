@@ -869,7 +869,13 @@ def _fit(model, y, s_exp, s_sim, x0, h, B, scale):
         _, s_new = model.points(sx)
         old_sigma = np.sqrt(s_exp**2 + s_sim**2)
         s_sim = s_new
-        if np.max(np.abs(np.sqrt(s_exp**2 + s_sim**2) / old_sigma - 1)) < 0.01:
+        # the pairs' correlation at the optimum too (it moves with the parameters)
+        old_r = model.pair_r(s_exp, s_sim)
+        model.set_pairs(x)
+        moved = np.abs(model.pair_r(s_exp, s_sim) - old_r)
+        if np.max(
+            np.abs(np.sqrt(s_exp**2 + s_sim**2) / old_sigma - 1)
+        ) < 0.01 and not np.any(moved > 0.002):
             break  # the weights hardly moved: no refit
     return fit, x, sx, s_sim
 
