@@ -47,6 +47,8 @@ import numpy as np
 from scipy import stats
 
 from ..engine.accumulators import E_EDGES
+from ..engine.kernel import simulate_block, simulate_specs_impacts
+from ..engine.plan import build_plan
 from ..errors import InputError
 from ..io.experiments import read_experiments
 from .calibration_inputs import _read_experiments
@@ -500,8 +502,6 @@ def _impact_correlation(plan, point: int, samples: int) -> float:
     """The correlation of e_m and mu_m over the rebounds of `samples` impacts at
     sweep point `point` of `plan` (its first replicate's blocks; 0 with fewer
     than 3 rebounds or no spread)."""
-    from ..engine.kernel import simulate_block, simulate_specs_impacts
-
     B = plan.block_size
     specs = [(point, 0, b, min(B, samples - b * B)) for b in range(-(-samples // B))]
     if plan.kernel == "compiled":  # the same impacts, in C
@@ -536,9 +536,6 @@ def pair_correlations(model, row, pairs, matcher) -> np.ndarray:
     :class:`~.model.ScenarioModel`) simulates at each pair's sweep point(s) at
     parameters `row`, with its own seed and samples (weighted like the means where
     a point is interpolated); `matcher` maps experiment rows to sweep rows."""
-    # deferred: the engine's planner, once per calibration
-    from ..engine.plan import build_plan
-
     plan = build_plan(model.scenario(row), seed=model.seed)
     cache = {}
 
