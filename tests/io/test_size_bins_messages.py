@@ -133,3 +133,62 @@ def test_each_size_bins_refusal_in_full(tmp_path, text, kw, line, field, message
         field,
         message,
     )
+
+
+# ---------------------------------------------------------------- read_size_data
+DIAMETERS = "diameter_um\n12\n15\n18\n"
+DATA_CASES = [
+    # (text, arguments, field, message)
+    (
+        MIDS,
+        {"layout": "bins"},
+        "layout",
+        "layout 'bins' unknown; allowed: diameters, edges, midpoints",
+    ),
+    (
+        DIAMETERS,
+        {"layout": "diameters", "edges_um": [1, 2]},
+        "edges_um",
+        "edges_um is for wide exports of size bins named bin0, bin1, ...; the file "
+        "holds raw diameters; leave it out",
+    ),
+    (
+        DIAMETERS,
+        {"layout": "diameters", "sample": 1},
+        "sample",
+        "sample is for exports holding several samples of size bins; the file holds "
+        "raw diameters; leave it out",
+    ),
+    (
+        DIAMETERS,
+        {"layout": "diameters", "sampled_volume_cm3": 1.0},
+        "sampled_volume_cm3",
+        "sampled_volume_cm3 is for size bins of number concentrations, not raw "
+        "diameters (each one a counted particle already); leave it out",
+    ),
+    (
+        DIAMETERS,
+        {"layout": "diameters", "values": "count"},
+        "values",
+        "values 'count' is for size bins, not raw diameters; leave it out or choose "
+        "the edges or midpoints layout",
+    ),
+]
+
+
+@pytest.mark.parametrize(
+    ("text", "kw", "field", "message"),
+    DATA_CASES,
+    ids=[_ascii(c[3][:40]) for c in DATA_CASES],
+)
+def test_each_size_data_refusal_in_full(tmp_path, text, kw, field, message):
+    """read_size_data (raw diameters or bins): the options that do not apply to
+    the file refused, naming the option and saying what to do."""
+    from microimpact.io.size_bins import read_size_data
+
+    path = tmp_path / "data.csv"
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(DataFormatError) as info:
+        read_size_data(path, **kw)
+    err = info.value
+    assert (err.source, err.field, err.message) == (str(path), field, message)
