@@ -192,3 +192,15 @@ def test_each_size_data_refusal_in_full(tmp_path, text, kw, field, message):
         read_size_data(path, **kw)
     err = info.value
     assert (err.source, err.field, err.message) == (str(path), field, message)
+
+
+def test_a_sampled_volume_for_counted_particles_is_refused_by_name(tmp_path):
+    path = tmp_path / "bins.csv"
+    path.write_text("midpoint_um,count\n1,5\n2,6\n4,3\n", encoding="utf-8")
+    with pytest.raises(DataFormatError) as info:
+        read_size_bins(path, sampled_volume_cm3=2.0)
+    assert (info.value.field, info.value.message) == (
+        "sampled_volume_cm3",
+        "the values are counted particles already; sampled_volume_cm3=2.0 is for "
+        "number concentrations (dN, dN/dlogDp, ...); leave it out",
+    )

@@ -246,3 +246,16 @@ def test_implausible_heights_name_the_range_the_field_and_the_slip():
         f"outside 1 Å to 1 mm per point; {ALLOWED}; if the unit is wrong, give the "
         "spacing with dy_um=..."
     )
+
+
+def test_the_height_check_uses_the_scans_length_not_its_end_position():
+    """A 100 um scan that starts 5 mm along its axis: heights of 5 mm are 50
+    times its length (refused), whatever the positions' origin."""
+    import numpy as np
+
+    from microimpact.io.plausibility import check_scan
+
+    x = 5e-3 + np.arange(101) * 1e-6
+    with pytest.raises(ProfileFormatError) as info:
+        check_scan(x, np.linspace(0.0, 5e-3, 101))
+    assert "over a field of 100 µm" in info.value.message
