@@ -71,3 +71,33 @@ def test_well_shaped_bins_carry_no_note():
         warnings.simplefilter("ignore")
         assert fit_binned_lognormal(EDGES, counts).notes == ()
         assert fit_binned_normal(EDGES, counts).notes == ()
+
+
+def test_the_other_fit_is_recommended_only_where_its_test_does_not_reject_it():
+    """docs/populations.md: a fit that is not a population is not recommended;
+    "the other fit is, if it is a population and its test (if any) does not
+    reject it, else the measured bins". Both branches, with fits as the binned
+    fitters return them (the log-normal one diverged)."""
+    from types import SimpleNamespace
+
+    from microimpact.population.binned_report import _usable
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        bad_ln = fit_binned_lognormal(EDGES, TWO_MODES)
+        from scipy import stats
+
+        counts = np.round(np.diff(stats.norm(30.0, 10.0).cdf(EDGES)) * 2000)
+        normal = fit_binned_normal(EDGES, counts)
+    assert normal.notes == ()  # a population: mean 30 um
+    rejects = SimpleNamespace(reject=True)
+    keeps = SimpleNamespace(reject=False)
+    rec, notes = _usable("lognormal", normal, bad_ln, keeps, None)
+    assert rec == "normal"
+    rec, notes = _usable("lognormal", normal, bad_ln, rejects, None)
+    assert rec == "histogram"
+    assert notes[-1] == (
+        "no fit is both a particle population and not rejected: the measured bins "
+        "(a histogram population) are recommended instead"
+    )
+    assert _usable("lognormal", normal, bad_ln, None, None)[0] == "normal"
