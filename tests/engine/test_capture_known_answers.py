@@ -123,3 +123,29 @@ def test_probit_profile_ends_at_the_tabulated_critical_value():
     assert r.method == "probit-profile"
     assert_allclose(math.log(r.speed_m_s), theta, atol=2e-6)
     assert_allclose(np.log([r.ci_low, r.ci_high]), [lo, hi], atol=2e-6)
+
+
+def test_the_curvature_error_is_the_larger_of_the_two_neighbours_readings():
+    """_curvature_error on a probit curve with a quadratic on one side of the
+    cell and a cubic kink on the other: each neighbouring triple's Newton term
+    written out by hand, and the larger one returned (the docstring's rule), not
+    the last one computed."""
+    import math
+
+    import numpy as np
+
+    from microimpact.engine.capture_monotone import _curvature_error
+
+    xf = np.array([0.0, 1.0, 2.0, 3.0])
+    z = np.array([0.0, 1.0, 1.5, 3.5])  # f[0,1]=1, f[1,2]=0.5, f[2,3]=2
+    k, theta = 1, 1.5
+    slope = 0.5
+    left = abs((0.5 - 1.0) / 2.0 * (theta - 1.0) * (theta - 2.0) / slope)  # 0.125
+    right = abs((2.0 - 0.5) / 2.0 * (theta - 1.0) * (theta - 2.0) / slope)  # 0.375
+    assert _curvature_error(xf, z, k, theta) == pytest.approx(max(left, right))
+    # the larger reading first (the triple on the left): still the larger one
+    z2 = np.array([0.0, 3.0, 3.5, 4.0])  # f[0,1]=3, f[1,2]=0.5, f[2,3]=0.5
+    left2 = abs((0.5 - 3.0) / 2.0 * (theta - 1.0) * (theta - 2.0) / slope)  # 0.625
+    assert _curvature_error(xf, z2, k, theta) == pytest.approx(left2)
+    # no neighbour on either side: NaN
+    assert math.isnan(_curvature_error(xf[:2], z[:2], 0, 0.5))
