@@ -971,34 +971,20 @@ def simulate_specs_stacked(plan: Plan, specs, groups=None):
         groups = np.asarray(groups, dtype=np.int64)
     _, counts, moments, spans, flat = _keyed_outputs(plan, specs, groups=groups)
     table = np.empty((len(groups), 5), dtype=np.int64)
-    n, at = [], 0
-    for g in groups.tolist():
-        n.append(sum(spec[3] for spec in specs[at : at + g]))
-        at += g
-    table[:, 0] = n
+    if len(specs):  # each group's impacts
+        n = np.fromiter((spec[3] for spec in specs), np.int64, len(specs))
+        table[:, 0] = np.add.reduceat(n, np.cumsum(groups) - groups)
     table[:, 1:] = counts[:, :4]
-    # (3, G) rows: offsets and lengths of e_m's, mu_m's and psi_f's spans
+    # (3, G): offsets and lengths of e_m's, mu_m's and psi_f's spans, which the
+    # kernel writes one group after another, e_m's, mu_m's then psi_f's counts
     ln = spans[:, 1::2].T.copy()
     offset = np.where(ln > 0, spans[:, 0::2].T, 0)
-    if len(groups) == 1:  # one group: each histogram's counts are one slice
-        cut = np.cumsum(ln[:, 0]).tolist()
-        parts = (flat[: cut[0]], flat[cut[0] : cut[1]], flat[cut[1] : cut[2]])
-        starts = (np.zeros(1, dtype=np.int64),) * 3
-    else:
-        start = np.zeros(len(groups), dtype=np.int64)
-        np.cumsum(ln.sum(axis=0)[:-1], out=start[1:])
-        parts = (
-            gather_segments(flat, start, ln[0]),
-            gather_segments(flat, start + ln[0], ln[1]),
-            gather_segments(flat, start + ln[0] + ln[1], ln[2]),
-        )
-        starts = (None,) * 3
+    start = np.zeros(len(groups), dtype=np.int64)
+    np.cumsum(ln.sum(axis=0)[:-1], out=start[1:])
     hists = []
     for h, size in enumerate((E_BINS, MU_BINS, LATERAL_BINS)):
-        sp = Spans(offset[h], ln[h], parts[h], size)
-        if starts[h] is not None:
-            vars(sp)["start"] = starts[h]  # Spans.start, known: not recomputed
-        hists.append(sp)
+        parts = gather_segments(flat, start + ln[:h].sum(axis=0), ln[h])
+        hists.append(Spans(offset[h], ln[h], parts, size))
     # (3, G, 4): the moments of e_m, mu_m and psi_f, each block contiguous
     m = moments.reshape(-1, 3, 4).transpose(1, 0, 2).copy()
     return Stacked(table, m[0], m[1], hists[0], hists[1], m[2], hists[2])

@@ -256,15 +256,14 @@ class _Streams:
             at = int(start[k])
             flat = self._flats[n][chunk[k]]
             spans[n] = (int(off[k]), flat[at : at + int(ln[k])])
-        c = self._counts[k].tolist()
-        m = {n: self._moments[n][k].tolist() for n in _SPANS}
+        m = {n: Moments.from_array(self._moments[n][k]) for n in _SPANS}
         return PointAccumulator(
-            *c,
-            e=Moments(int(m["e"][0]), *m["e"][1:]),
-            mu=Moments(int(m["mu"][0]), *m["mu"][1:]),
+            *self._counts[k].tolist(),
+            e=m["e"],
+            mu=m["mu"],
             e_span=spans["e"],
             mu_span=spans["mu"],
-            lateral=Moments(int(m["lateral"][0]), *m["lateral"][1:]),
+            lateral=m["lateral"],
             lateral_span=spans["lateral"],
         )
 
@@ -308,20 +307,14 @@ class _Streams:
         k = self.index(point, rep)
         if self.done[k] or first != self.next_block[k]:
             return None
-        if first == 0:  # nothing merged before: the group's row is the total
-            self._hold([k], rows, [i])
-        else:
-            self.loose[k] = self.acc(k).merge(rows.accumulator(i))
-            self._held[k] = False
-        self.next_block[k] = group[-1][2] + 1
-        self.done[k] = self._finished(k)
+        self._merge_rows([(i, point, rep, first, group[-1][2])], rows)
         return k
 
     def merge_task(self, task: tuple, rows: Stacked) -> int:
         """Merge every group of `task` (row ``i`` of `rows` for its ``i``-th group)
         as :meth:`merge` does, the first groups' rows copied into the table in one
         step; returns the samples merged."""
-        items = ((*g[0][:3], g[-1][2]) for g in task)
+        items = ((i, *g[0][:3], g[-1][2]) for i, g in enumerate(task))
         return self._merge_rows(items, rows)
 
     def merge_partial(self, partial: tuple) -> int:
@@ -330,6 +323,7 @@ class _Streams:
         as :meth:`merge_task` merges a task's groups; returns the samples merged."""
         keys, first, last, rows = partial
         items = zip(
+            range(len(keys)),
             keys[:, 0].tolist(),
             keys[:, 1].tolist(),
             first.tolist(),
@@ -340,13 +334,16 @@ class _Streams:
 
     def _merge_rows(self, items, rows: Stacked) -> int:
         """Merge row ``i`` of `rows`, blocks ``first .. last`` of stream (point,
-        rep), for every ``(point, rep, first, last)`` of `items`; a row that does
-        not start its stream is a single group (``combine_partials``)."""
+        rep), for every ``(i, point, rep, first, last)`` of `items`, unless the
+        stream is done or the row is not its next group (blocks run after
+        convergence: discarded, deterministically); a row that does not start its
+        stream is a single group (``combine_partials``). Returns the samples
+        merged."""
         nb, done, n_blocks = self.next_block, self.done, self.n_blocks()
         ks, idx = [], []
         merged = 0
-        samples = rows.counts[:, 0].tolist()
-        for i, (point, rep, first, last) in enumerate(items):
+        samples = rows.counts[:, 0]
+        for i, point, rep, first, last in items:
             k = self.index(point, rep)
             if done[k] or first != nb[k]:
                 continue
@@ -359,7 +356,7 @@ class _Streams:
                     ks, idx = [], []
                 self.loose[k] = self.acc(k).merge(rows.accumulator(i))
                 self._held[k] = False
-            merged += samples[i]
+            merged += int(samples[i])
             nb[k] = last + 1
             if nb[k] >= n_blocks:
                 done[k] = True
@@ -455,8 +452,7 @@ class _Streams:
             flat = np.concatenate(parts) if parts else np.zeros(0, dtype=np.uint8)
         else:
             flat = flats[0]
-        if not (flat.size == int(length.sum()) and np.array_equal(where, packed)):
-            flat = gather_segments(flat, where, length)
+        flat = gather_segments(flat, where, length)  # itself where already packed
         if not other.size:  # compact: the one array the table's rows point into
             self._flats[name] = [flat]
             self._flat_ids[name] = {id(flat): 0}

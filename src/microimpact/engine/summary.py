@@ -89,10 +89,7 @@ class Spans:
         holds every one of them exactly (:func:`compact_counts`: ``uint8`` for a
         sweep of a few hundred impacts per point, ``uint16``, ``int32``, else
         ``int64``): an eighth of the bytes to send, gather and keep."""
-        out = Spans(self.offset, self.length, compact_counts(self.counts), self.size)
-        if "start" in vars(self):  # the same rows: keep the computed starts
-            vars(out)["start"] = self.start
-        return out
+        return Spans(self.offset, self.length, compact_counts(self.counts), self.size)
 
     def slice(self, lo: int, hi: int) -> Spans:
         """Rows ``lo .. hi - 1`` as views (no copy)."""
@@ -111,9 +108,6 @@ class Spans:
         """The rows `rows` (integer indices, in that order) as new spans."""
         rows = np.asarray(rows, dtype=np.intp)
         length = self.length[rows]
-        total = int(length.sum())
-        if rows.size and total == self.counts.size and _is_range(rows):
-            return Spans(self.offset[rows], length, self.counts, self.size)
         counts = gather_segments(self.counts, self.start[rows], length)
         return Spans(self.offset[rows], length, counts, self.size)
 
@@ -179,14 +173,20 @@ def release_memory(*, collect: bool = False) -> None:
 
 
 def gather_segments(flat, start, length) -> np.ndarray:
-    """The segments ``flat[start[i] : start[i] + length[i]]``, concatenated."""
+    """The segments ``flat[start[i] : start[i] + length[i]]``, concatenated: a
+    view of `flat` where they already follow one another there (one run: a
+    single segment, or rows stored in order), else a copy."""
     total = int(length.sum())
     if total == 0:
         return flat[:0]
     first = np.zeros(length.size, dtype=np.int64)
     np.cumsum(length[:-1], out=first[1:])
+    shift = start - first  # each segment's place in `flat` minus its place out
+    used = shift[length > 0]  # (empty segments may point anywhere)
+    if np.all(used == used[0]):
+        return flat[int(used[0]) : int(used[0]) + total]
     # each kept value's place in `flat`: its segment's start plus its rank
-    return flat[np.repeat(start - first, length) + np.arange(total)]
+    return flat[np.repeat(shift, length) + np.arange(total)]
 
 
 def _span_of(acc, name):
@@ -243,17 +243,13 @@ class Stacked:
     def accumulator(self, i: int) -> PointAccumulator:
         """Row `i` as a :class:`~.accumulators.PointAccumulator` (the same values:
         ``Stacked.of([acc]).accumulator(0) == acc``)."""
-        c = self.counts[i].tolist()
-        e = self.e[i].tolist()
-        mu = self.mu[i].tolist()
-        lat = self.lateral[i].tolist()
         return PointAccumulator(
-            *c,
-            e=Moments(int(e[0]), *e[1:]),
-            mu=Moments(int(mu[0]), *mu[1:]),
+            *self.counts[i].tolist(),
+            e=Moments.from_array(self.e[i]),
+            mu=Moments.from_array(self.mu[i]),
             e_span=self.e_spans.row(i),
             mu_span=self.mu_spans.row(i),
-            lateral=Moments(int(lat[0]), *lat[1:]),
+            lateral=Moments.from_array(self.lateral[i]),
             lateral_span=self.lateral_spans.row(i),
         )
 
@@ -407,12 +403,9 @@ def histogram_quantiles(hist, edges, q=QUANTILES) -> np.ndarray:
     off = spans.offset[ok]
     # exact, and non-decreasing across all rows: in int32 when the whole sum fits
     # (cast first: a cumulative sum that casts as it goes is ~8x slower)
-    if counts.dtype.itemsize <= 4 and int(counts.sum(dtype=np.int64)) < 2**31:
-        counts = counts.astype(np.int32, copy=False)
-        csum = np.cumsum(counts)
-    else:
-        counts = counts.astype(np.int64, copy=False)
-        csum = np.cumsum(counts)
+    small = counts.dtype.itemsize <= 4 and int(counts.sum(dtype=np.int64)) < 2**31
+    counts = counts.astype(np.int32 if small else np.int64, copy=False)
+    csum = np.cumsum(counts)
     base = csum[st] - counts[st]  # the count before each row
     total = csum[st + ln - 1] - base
     if int(total.max()) >= 2**52:  # pragma: no cover - beyond any feasible run
