@@ -529,3 +529,17 @@ def test_qmc_capture_interval_at_full_and_no_capture_is_the_counts_wilson():
         assert row["capture_ci_high"] - row["capture_ci_low"] > 1e-3
         assert row["capture_se"] > 0
     assert (s["capture_ci_low"] >= 0).all() and (s["capture_ci_high"] <= 1).all()
+
+
+def test_a_plan_given_to_run_is_used_and_checked():
+    """run(..., plan=build_plan(scenario, seed=seed)) gives the bits of a run that
+    builds its own; a plan of another seed, or not a plan, is refused by name."""
+    sc = scenario(samples=2000)
+    plan = build_plan(sc, seed=11)
+    want = run(sc, seed=11).summary
+    got = run(sc, seed=11, plan=plan).summary
+    assert got.equals(want)
+    with pytest.raises(ValueError, match="`plan` was built with another seed"):
+        run(sc, seed=12, plan=plan)
+    with pytest.raises(TypeError, match="`plan` must be a Plan"):
+        run(sc, seed=11, plan="plan")

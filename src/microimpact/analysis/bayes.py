@@ -52,12 +52,7 @@ import numpy as np
 from .._core.progress import Progress, check_progress
 from ..engine.parallel import cap_workers, map_tasks, process_pool, runs_release_gil
 from ..errors import InputError
-from .bayes_data import (
-    MC_VARIANCE_RATIO,
-    Likelihood,
-    pair_correlations,
-    read_calibration_data,
-)
+from .bayes_data import MC_VARIANCE_RATIO, Likelihood, read_calibration_data
 from .bayes_output import (
     inference_data,
     report_html,
@@ -66,6 +61,7 @@ from .bayes_output import (
 )
 from .calibration_inputs import _parameters
 from .model import ScenarioModel
+from .pairs import pair_correlations, pairs_info
 from .priors import make_prior, uniform_prior
 
 __all__ = ["BayesResult", "calibrate_bayes"]
@@ -104,17 +100,21 @@ class LogPosterior:
         lp = self.log_prior(theta)
         if not math.isfinite(lp):
             return -math.inf, blob
+        lk = self.likelihood
         try:
-            result = self.model.run(theta)
+            # e and mu on one set of impacts: their correlation from the run's own
+            # tables (built once for both)
+            plan = self.model.plan(theta) if len(lk.pairs) else None
+            result = self.model.run(theta, plan=plan)
         except InputError:  # a value the scenario refuses: outside the support
             return -math.inf, blob
-        lk = self.likelihood
         rho = None
-        if len(lk.pairs) and lk.match_means is None:
-            lk.setup(result.summary)  # the points matched once, on the first run
-        if len(lk.pairs):
-            # e and mu on one set of impacts: their correlation at theta
-            rho = pair_correlations(self.model, theta, lk.pairs, lk.match_means)
+        if plan is not None:
+            if lk.match_means is None:
+                lk.setup(result.summary)  # the points matched once, on the first run
+            rho = pair_correlations(
+                self.model, theta, lk.pairs, lk.match_means, plan=plan
+            )
         ll, blob = lk.evaluate(result, rho)
         return (lp + ll if math.isfinite(ll) else -math.inf), blob
 
@@ -581,9 +581,6 @@ def calibrate_bayes(
             like = Likelihood(data, smodel.samples)
             post = LogPosterior(smodel, like, prior_list)
             _, blob0 = post(np.clip(x0, B[:, 0], B[:, 1]))
-    # e and mu of one file at one point: correlated as the model's impacts at the
-    # start point are (bayes_data's module notes)
-    like.set_correlations(smodel, np.clip(x0, B[:, 0], B[:, 1]))
     ratios = like.mc_variance_ratio(blob0)
     _warn_if_mc_error(ratios, smodel.samples)
     rng = np.random.default_rng(sampler_seed)
@@ -607,23 +604,19 @@ def calibrate_bayes(
     chain = sampler.get_chain()[diag.burn_in :]
     blobs = sampler.get_blobs()[diag.burn_in :]
     if len(like.pairs):  # recorded at the posterior median (it moves with theta)
-        median = np.median(chain.reshape(-1, chain.shape[-1]), axis=0)
-        like.rho = pair_correlations(smodel, median, like.pairs, like.match_means)
+        like.set_correlations(
+            smodel, np.median(chain.reshape(-1, chain.shape[-1]), axis=0)
+        )
     info = {
         "points_without_error_left_out": dropped,
         # e and mu of one file at one point (experiment lines) and the
         # correlation of their impacts in the model at the posterior median
         # (each evaluation uses its own)
-        "same_impact_pairs": [
-            {
-                "lines": [
-                    int(data.means["line"].iloc[i]),
-                    int(data.means["line"].iloc[j]),
-                ],
-                "rho": round(float(r), 6),
-            }
-            for (i, j), r in zip(like.pairs, like.rho, strict=True)
-        ],
+        "same_impact_pairs": pairs_info(
+            like.pairs,
+            like.rho,
+            [] if data.means is None else data.means["line"],
+        ),
         "mc_variance_ratio": ratios,
         "mc_variance_ratio_limit": MC_VARIANCE_RATIO,
         "model_runs": int(done * walkers),

@@ -10,7 +10,7 @@ of ``docs/outputs.md``):
   variance is added to the measurement's. The mean ``e`` and the mean ``mu`` of
   one file at one point (surface, speed, angle) are taken as measured on the same
   impacts: per impact, ``e_m`` and ``mu_m`` are strongly correlated on a rough
-  surface (0.86-0.96 in the coverage study's cases), and so are their means, in
+  surface (0.82-0.98 in the coverage study's cases), and so are their means, in
   the data and in the model (common random numbers). Such a pair has a bivariate
   Gaussian likelihood with correlation ``rho``, the correlation of ``e_m`` and
   ``mu_m`` over the rebounds the model simulates there at the parameters being
@@ -47,12 +47,16 @@ import numpy as np
 from scipy import stats
 
 from ..engine.accumulators import E_EDGES
-from ..engine.kernel import simulate_block, simulate_specs_impacts
-from ..engine.plan import build_plan
 from ..errors import InputError
 from ..io.experiments import read_experiments
 from .calibration_inputs import _read_experiments
 from .compare import SIMULATED, _select, compare
+from .pairs import (
+    gaussian_loglik,
+    pair_correlations,
+    pair_covariance,
+    same_impact_pairs,
+)
 
 __all__ = ["CalibrationData", "read_calibration_data"]
 
@@ -446,11 +450,13 @@ class Likelihood:
                 ll += float(np.sum(_kde_logpdf(e_all[idx], counts, _bandwidth(counts))))
         return ll, blob
 
-    def set_correlations(self, model, row) -> None:
-        """:attr:`rho` of every pair (:func:`pair_correlations`) at parameters
-        `row` of `model` (a :class:`~.model.ScenarioModel`)."""
+    def set_correlations(self, model, row, *, plan=None) -> None:
+        """:attr:`rho` of every pair (:func:`~.pairs.pair_correlations`) at
+        parameters `row` of `model` (a :class:`~.model.ScenarioModel`)."""
         if len(self.pairs) and self.match_means is not None:
-            self.rho = pair_correlations(model, row, self.pairs, self.match_means)
+            self.rho = pair_correlations(
+                model, row, self.pairs, self.match_means, plan=plan
+            )
 
     def mc_variance_ratio(self, blob):
         """The largest ratio of the model's Monte Carlo variance to the data's, over
@@ -468,107 +474,3 @@ class Likelihood:
             sizes = [len(g) for g in self.impact_groups]
             out["impacts"] = float(max(sizes) / self.samples)
         return out
-
-
-def same_impact_pairs(means) -> np.ndarray:
-    """Rows ``(i, j)`` of the means table that are the mean e (i) and the mean mu
-    (j) of one table (``impact_set``, else one ``source`` file) at one surface,
-    speed and angle."""
-    groups = {}
-    for i, r in enumerate(means.itertuples(index=False)):
-        stat = r.statistic
-        if stat not in ("e", "mu"):
-            continue
-        key = (
-            getattr(r, "impact_set", getattr(r, "source", 0)),
-            str(getattr(r, "surface", None)),
-            *(
-                round(float(getattr(r, c)), 12)
-                if math.isfinite(getattr(r, c))
-                else None
-                for c in _COORDS
-            ),
-        )
-        groups.setdefault(key, {}).setdefault(stat, []).append(i)
-    out = [
-        (g["e"][0], g["mu"][0])
-        for g in groups.values()
-        if len(g.get("e", ())) == 1 and len(g.get("mu", ())) == 1
-    ]
-    return np.asarray(out, dtype=int).reshape(-1, 2)
-
-
-def _impact_correlation(plan, point: int, samples: int) -> float:
-    """The correlation of e_m and mu_m over the rebounds of `samples` impacts at
-    sweep point `point` of `plan` (its first replicate's blocks; 0 with fewer
-    than 3 rebounds or no spread)."""
-    B = plan.block_size
-    specs = [(point, 0, b, min(B, samples - b * B)) for b in range(-(-samples // B))]
-    if plan.kernel == "compiled":  # the same impacts, in C
-        d = simulate_specs_impacts(plan, specs)
-        ok = d["outcome"] == 0
-        e, mu = d["e_m"][ok], d["mu_m"][ok]
-    else:
-        e, mu = [], []
-        for spec in specs:
-            d = simulate_block(plan, *spec, store=True)
-            ok = ~(np.asarray(d["captured"], bool) | np.asarray(d["shadowed"], bool))
-            e.append(np.asarray(d["e_m"])[ok])
-            mu.append(np.asarray(d["mu_m"])[ok])
-        e, mu = np.concatenate(e), np.concatenate(mu)
-    if e.size < 3 or e.std() == 0 or mu.std() == 0:
-        return 0.0
-    return float(np.corrcoef(e, mu)[0, 1])
-
-
-def pair_covariance(pairs, rho, s_exp, s_sim) -> np.ndarray:
-    """The covariance of each pair's two residuals: the measurement's errors and
-    the model's Monte Carlo errors, each correlated by the pair's ``rho`` (the same
-    impacts in each), ``rho (s_exp,i s_exp,j + s_sim,i s_sim,j)``."""
-    if not len(pairs):
-        return np.zeros(0)
-    i, j = pairs[:, 0], pairs[:, 1]
-    return np.asarray(rho) * (s_exp[i] * s_exp[j] + s_sim[i] * s_sim[j])
-
-
-def pair_correlations(model, row, pairs, matcher) -> np.ndarray:
-    """The correlation of ``e_m`` and ``mu_m`` over the rebounds `model` (a
-    :class:`~.model.ScenarioModel`) simulates at each pair's sweep point(s) at
-    parameters `row`, with its own seed and samples (weighted like the means where
-    a point is interpolated); `matcher` maps experiment rows to sweep rows."""
-    plan = build_plan(model.scenario(row), seed=model.seed)
-    cache = {}
-
-    def rho_at(point):
-        if point not in cache:
-            cache[point] = _impact_correlation(plan, point, model.samples)
-        return cache[point]
-
-    out = np.zeros(len(pairs))
-    for k, (i, _) in enumerate(pairs):
-        rows, w = matcher.rows[i], matcher.weights[i]
-        out[k] = float(sum(wt * rho_at(int(r)) for r, wt in zip(rows, w, strict=True)))
-    return out
-
-
-def gaussian_loglik(resid, var, pairs=None, cov=None) -> float:
-    """Log-density of residuals `resid` with variances `var`: independent
-    Gaussians, except the rows of each pair ``(i, j)`` of `pairs`, bivariate with
-    covariance ``cov[k]``."""
-    resid = np.asarray(resid, float)
-    var = np.asarray(var, float)
-    single = np.ones(resid.size, bool)
-    ll = 0.0
-    if pairs is not None and len(pairs):
-        i, j = pairs[:, 0], pairs[:, 1]
-        single[i] = single[j] = False
-        vi, vj = var[i], var[j]
-        c = np.asarray(cov, float)
-        det = vi * vj - c * c
-        q = (
-            resid[i] ** 2 * vj - 2 * resid[i] * resid[j] * c + resid[j] ** 2 * vi
-        ) / det
-        ll += float(-0.5 * np.sum(q + np.log((2 * math.pi) ** 2 * det)))
-    r, v = resid[single], var[single]
-    ll += float(-0.5 * np.sum(r * r / v + np.log(2 * math.pi * v)))
-    return ll

@@ -16,6 +16,7 @@ from ..io.experiments import STATISTIC_LABELS as _LABELS
 from ..plotting._style import use_agg
 from ..plotting.posterior import plot_corner, plot_posterior_predictive
 from .bayes_data import _group_keys
+from .pairs import correlate, residual_correlation
 
 __all__ = [
     "inference_data",
@@ -52,15 +53,9 @@ def _replicate(res, seed=0):
     if res.likelihood.n_means:
         s_exp = data.means["se"].to_numpy(float)
         sigma = np.sqrt(s_exp**2 + np.nan_to_num(s_sim) ** 2)
-        z = rng.standard_normal(m.shape)
-        lk = res.likelihood
-        if len(lk.pairs):  # e and mu on one set of impacts: correlated as fitted
-            i, j = lk.pairs[:, 0], lk.pairs[:, 1]
-            s_sim0 = np.nan_to_num(s_sim)
-            cov = lk.rho * (s_exp[i] * s_exp[j] + s_sim0[..., i] * s_sim0[..., j])
-            r = cov / (sigma[..., i] * sigma[..., j])
-            z[..., j] = r * z[..., i] + np.sqrt(1.0 - r**2) * z[..., j]
-        means = m + sigma * z
+        lk = res.likelihood  # e and mu on one set of impacts: correlated as fitted
+        r = residual_correlation(lk.pairs, lk.rho, s_exp, np.nan_to_num(s_sim))
+        means = m + sigma * correlate(rng.standard_normal(m.shape), lk.pairs, r)
     if res.likelihood.n_counts:
         n = data.counts["n"].to_numpy(int)
         lo = 0.5 / res.samples

@@ -74,12 +74,7 @@ from ..plotting.calibration import plot_calibration
 from ..scenario.parameters import with_values
 from ..scenario.scenario import scenario_from_dict
 from .bayes import BayesResult, calibrate_bayes, split_calibration_table
-from .bayes_data import (
-    _Matcher,
-    pair_correlations,
-    pair_covariance,
-    same_impact_pairs,
-)
+from .bayes_data import _Matcher
 from .calibration_inputs import (
     _parameters,
     _read_experiments,
@@ -88,6 +83,14 @@ from .calibration_inputs import (
 )
 from .compare import compare
 from .model import ScenarioModel
+from .pairs import (
+    correlate,
+    pair_correlations,
+    pairs_info,
+    residual_correlation,
+    same_impact_pairs,
+    whiten,
+)
 
 __all__ = [
     "CalibrationResult",
@@ -147,27 +150,24 @@ class _Model:
         #: correlation of e_m and mu_m there (bayes_data.same_impact_pairs)
         self.pairs = np.zeros((0, 2), int)
         self.rho = np.zeros(0)
+        self._matcher = None  # the pairs' experiment rows -> sweep rows
 
     def set_pairs(self, x) -> None:
-        """Find the pairs of :attr:`exp` and their correlation at `x`."""
-        self.pairs = same_impact_pairs(self.exp)
-        self.rho = np.zeros(len(self.pairs))
+        """Find the pairs of :attr:`exp` (once) and their correlation at `x`."""
+        if self._matcher is None:
+            self.pairs = same_impact_pairs(self.exp)
+            if not len(self.pairs):
+                return
+            self._matcher = _Matcher(self.summaries([x])[0], self.exp)
         if len(self.pairs):
-            (s,) = self.summaries([x])
-            matcher = _Matcher(s, self.exp)
+            model = self.scenario_model
             self.rho = pair_correlations(
-                self.scenario_model, self.scenario_model.values(x), self.pairs, matcher
+                model, model.values(x), self.pairs, self._matcher
             )
 
     def pair_r(self, s_exp, s_sim) -> np.ndarray:
-        """Each pair's correlation of its two residuals (measurement and Monte
-        Carlo errors, each correlated by rho)."""
-        if not len(self.pairs):
-            return np.zeros(0)
-        i, j = self.pairs[:, 0], self.pairs[:, 1]
-        sigma = np.sqrt(s_exp**2 + s_sim**2)
-        cov = pair_covariance(self.pairs, self.rho, s_exp, s_sim)
-        return cov / (sigma[i] * sigma[j])
+        """Each pair's correlation of its two residuals."""
+        return residual_correlation(self.pairs, self.rho, s_exp, s_sim)
 
     def summaries(self, xs):
         """The summary at every parameter vector of `xs` (cached)."""
@@ -466,13 +466,7 @@ class _Objective:
         decorrelated (whitened: the sum of squares is then the Gaussian's
         chi-squared with the pair's covariance)."""
         m, _ = self.model.points(summary)
-        r = (m - self.y) / self.sigma
-        pairs = self.pairs
-        if len(pairs):
-            i, j = pairs[:, 0], pairs[:, 1]
-            c = self.pair_r
-            r[j] = (r[j] - c * r[i]) / np.sqrt(1.0 - c * c)
-        return r
+        return whiten((m - self.y) / self.sigma, self.pairs, self.pair_r)
 
     def __call__(self, xf):
         (s,) = self.model.summaries([self.full(xf)])
@@ -785,13 +779,7 @@ def calibrate(
         "undefined_at_optimum": [int(v) for v in exp["line"].to_numpy()[undefined]],
         # e and mu of one file at one point (experiment lines), weighted as one
         # correlated pair (docs/calibration.md)
-        "same_impact_pairs": [
-            {
-                "lines": [int(exp["line"].iloc[i]), int(exp["line"].iloc[j])],
-                "rho": round(float(r), 6),
-            }
-            for (i, j), r in zip(model.pairs, model.rho, strict=True)
-        ],
+        "same_impact_pairs": pairs_info(model.pairs, model.rho, exp["line"]),
         "experiments": exp_source,
         "scenario": None if source is None else str(source),
     }
@@ -942,10 +930,10 @@ def _bootstrap(model, sx, y, s_exp, s_sim, x, h, B, scale, idx, bootstrap, seed,
     rng = np.random.default_rng(seed)
     fits, curves = [], []
     for _b in range(bootstrap):
-        z = rng.standard_normal(len(y))
-        if len(model.pairs):  # e and mu on one set of impacts: correlated
-            i, j, c = model.pairs[:, 0], model.pairs[:, 1], model.pair_r(s_exp, s_sim)
-            z[j] = c * z[i] + np.sqrt(1.0 - c * c) * z[j]
+        # e and mu on one set of impacts: drawn correlated
+        z = correlate(
+            rng.standard_normal(len(y)), model.pairs, model.pair_r(s_exp, s_sim)
+        )
         yb = m_hat + sigma * z
         ob = _Objective(model, yb, s_exp, s_sim, idx, x, h, B)
         fb = _least_squares(ob, x[idx], B[idx], scale[idx], xtol=1e-4)

@@ -26,6 +26,7 @@ import numpy as np
 
 from .._core.validation import check_int
 from ..engine.montecarlo import run
+from ..engine.plan import build_plan
 from ..scenario.parameters import check_parameter_key, with_values
 from ..scenario.scenario import (
     ScenarioFile,
@@ -34,6 +35,20 @@ from ..scenario.scenario import (
 )
 
 __all__ = ["ScenarioModel"]
+
+
+@contextlib.contextmanager
+def _quiet():
+    """The scenario's warnings off (a model shows them once, when it reads the
+    file). warnings.catch_warnings swaps process-wide filters: only the main
+    thread may (on worker threads, each warning shows once per place, as by
+    default)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        yield
 
 
 class ScenarioModel:
@@ -120,28 +135,29 @@ class ScenarioModel:
             data, source=self.source, base_dir=self.base_dir, cache=self.cache
         ).scenario
 
-    def run(self, row, *, samples=None, seed=None):
+    def plan(self, row, *, seed=None):
+        """The engine's tables at `row` (``build_plan`` with `seed`, default
+        :attr:`seed`): what :meth:`run` at `row` simulates, for a caller that also
+        draws per-impact outputs from the same impacts (pass it to :meth:`run`)."""
+        with _quiet():
+            return build_plan(
+                self.scenario(row), seed=self.seed if seed is None else seed
+            )
+
+    def run(self, row, *, samples=None, seed=None, plan=None):
         """The engine result at `row`: ``microimpact.run`` with one worker, no
         progress bar, `samples` impacts per point (default :attr:`samples`) and
-        `seed` (default :attr:`seed`). The scenario's warnings were shown once,
-        when the model read the file; they are not repeated for every row."""
-        # warnings.catch_warnings swaps process-wide filters: only the main thread
-        # may (on worker threads, each warning shows once per place, as by default)
-        quiet = (
-            warnings.catch_warnings()
-            if threading.current_thread() is threading.main_thread()
-            else contextlib.nullcontext()
-        )
-        with quiet:
-            if isinstance(quiet, warnings.catch_warnings):
-                warnings.simplefilter("ignore")
-            scenario = self.scenario(row)
+        `seed` (default :attr:`seed`); `plan`: :meth:`plan` at `row` and that seed,
+        not built again. The scenario's warnings were shown once, when the model
+        read the file; they are not repeated for every row."""
+        with _quiet():
             return run(
-                scenario,
+                self.scenario(row),
                 samples=self.samples if samples is None else samples,
                 seed=self.seed if seed is None else seed,
                 workers=1,
                 progress=False,
+                plan=plan,
             )
 
     def summary(self, row, *, samples=None, seed=None):

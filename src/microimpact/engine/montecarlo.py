@@ -60,7 +60,7 @@ from .parallel import (
     cap_workers,
     make_runner,
 )
-from .plan import BLOCK_SIZE, Plan, build_plan, resolve_entropy  # noqa: F401
+from .plan import BLOCK_SIZE, Plan, build_plan, resolve_entropy
 from .result import SimulationResult
 from .statistics import wilson_interval, z_value
 from .summary import Spans, Stacked, gather_segments, release_memory
@@ -881,6 +881,7 @@ def run(
     address=None,
     checkpoint=None,
     progress=None,
+    plan=None,
 ):
     """Run a Monte Carlo study.
 
@@ -917,6 +918,10 @@ def run(
         ``True`` shows a progress bar (tqdm, on stderr), ``False`` nothing, a
         callable is called with ``(impacts done, total)`` as blocks finish;
         default: a bar only when stderr is a terminal.
+    plan : Plan, optional
+        The study's tables, already built by ``build_plan(scenario, seed=seed)``
+        (for a caller that also draws per-impact outputs from them): not built
+        again. One built with another seed is refused.
 
     Returns
     -------
@@ -926,6 +931,16 @@ def run(
     """
 
     t0 = time.perf_counter()
+    if plan is not None:
+        if not isinstance(plan, Plan):
+            raise TypeError(f"`plan` must be a Plan (build_plan); got {plan!r}.")
+        scenario = as_scenario(scenario)
+        entropy = resolve_entropy(scenario.seed if seed is None else seed)
+        if plan.entropy != entropy:
+            raise ValueError(
+                "`plan` was built with another seed than this run's; build it with "
+                "build_plan(scenario, seed=seed)"
+            )
     with _defer_full_collections():
         job = _Job(
             scenario,
@@ -937,8 +952,9 @@ def run(
             address=address,
             checkpoint=checkpoint,
             progress=progress,
-            plan=None,
+            plan=plan,
         )
+        del plan  # the job's now (released with it)
         # what the result needs of the scenario alone is prepared while the
         # workers run
         job.in_background(functools.partial(SimulationResult.prepare, job.scenario))
