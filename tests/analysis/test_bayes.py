@@ -13,6 +13,7 @@ import warnings
 import numpy as np
 import pandas as pd
 import pytest
+from calibration_data import calibration_scenario
 from scipy import special, stats
 
 import microimpact
@@ -33,22 +34,7 @@ VC = "coefficients.v_c.a_m_s"
 
 def tiny(angles=(45.0,), speeds=(1.0,), *, std=10.0, samples=600):
     """A fast scenario: one-size particles on a normal-rough surface."""
-    return {
-        "name": "tiny",
-        "seed": 1,
-        "samples": samples,
-        "particles": {"distribution": "monodisperse", "diameter_um": 50.0},
-        "coefficients": {
-            "k1": 4.0,
-            "k2": {"law": "power", "a_m_s": 0.05, "b": -1.58, "d_ref_um": 52.8},
-            "v_c": {"law": "power", "a_m_s": 0.2, "b": -1.58, "d_ref_um": 52.8},
-            "p": 1.0,
-            "q": 1.0,
-            "friction": 0.15,
-        },
-        "surfaces": [{"name": "rough", "kind": "normal", "std_deg": std}],
-        "sweep": {"speed_m_s": list(speeds), "angle_deg": list(angles)},
-    }
+    return calibration_scenario(angles, speeds, std=std, samples=samples)
 
 
 def simulated(data, values, *, seed, samples, stats=("e",)):

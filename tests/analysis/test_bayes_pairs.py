@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
+from calibration_data import calibration_scenario
 from scipy import stats
 
 import microimpact
@@ -30,22 +31,7 @@ STD = "surfaces.rough.std_deg"
 
 
 def _scenario(angles=(30.0, 60.0)):
-    return {
-        "name": "pairs",
-        "seed": 1,
-        "samples": 300,
-        "particles": {"distribution": "monodisperse", "diameter_um": 50.0},
-        "coefficients": {
-            "k1": 4.0,
-            "k2": {"law": "power", "a_m_s": 0.05, "b": -1.58, "d_ref_um": 52.8},
-            "v_c": {"law": "power", "a_m_s": 0.2, "b": -1.58, "d_ref_um": 52.8},
-            "p": 1.0,
-            "q": 1.0,
-            "friction": 0.15,
-        },
-        "surfaces": [{"name": "rough", "kind": "normal", "std_deg": 12.0}],
-        "sweep": {"speed_m_s": [1.0], "angle_deg": list(angles)},
-    }
+    return calibration_scenario(angles, std=12.0, samples=300, name="pairs")
 
 
 def test_the_pair_likelihood_is_the_bivariate_normal_density():

@@ -12,6 +12,7 @@ import warnings
 import numpy as np
 import pandas as pd
 import pytest
+from calibration_data import calibration_scenario
 
 import microimpact
 from microimpact._core.toml import to_toml
@@ -31,25 +32,10 @@ STD = "surfaces.rough.std_deg"
 def small(angles=(45, 60, 85), *, mono=False, **extra):
     """A fast scenario: normal (or one-size) particles on a normal-rough surface,
     one speed."""
-    particles = {"distribution": "normal", "mean_um": 50.0, "std_um": 5.0}
-    if mono:
-        particles = {"distribution": "monodisperse", "diameter_um": 50.0}
-    data = {
-        "name": "small",
-        "seed": 1,
-        "samples": 4000,
-        "particles": particles,
-        "coefficients": {
-            "k1": 4.0,
-            "k2": {"law": "power", "a_m_s": 0.05, "b": -1.58, "d_ref_um": 52.8},
-            "v_c": {"law": "power", "a_m_s": 0.2, "b": -1.58, "d_ref_um": 52.8},
-            "p": 1.0,
-            "q": 1.0,
-            "friction": 0.15,
-        },
-        "surfaces": [{"name": "rough", "kind": "normal", "std_deg": 10.0}],
-        "sweep": {"speed_m_s": [1.0], "angle_deg": list(angles)},
-    }
+    particles = (
+        None if mono else {"distribution": "normal", "mean_um": 50.0, "std_um": 5.0}
+    )
+    data = calibration_scenario(angles, samples=4000, particles=particles, name="small")
     data.update(extra)
     return data
 
