@@ -3,6 +3,7 @@
 import matplotlib
 import numpy as np
 import pytest
+from ids import ascii_id
 
 matplotlib.use("Agg")
 
@@ -27,9 +28,7 @@ def write_file(tmp_path):
 
 
 def pytest_make_parametrize_id(config, val, argname):
-    """Test ids in ASCII ('µm' -> 'u?m'-like 'µ' replaced): tools that hand
-    listed ids back to pytest (mutmut, benchmarks/mutation_score.py) do not
-    round-trip pytest's escaped non-ASCII ids."""
+    """Ids drawn from non-ASCII values in ASCII (tests/ids.py says why)."""
     if isinstance(val, str) and not val.isascii():
-        return val.encode("ascii", "replace").decode()
+        return ascii_id(val)
     return None

@@ -10,15 +10,10 @@ of 10 nm to 10 mm).
 from __future__ import annotations
 
 import pytest
+from ids import ascii_id
 
 from microimpact.errors import DataFormatError
 from microimpact.io.diameters import read_diameters, read_histogram
-
-
-def _ascii(text: str) -> str:
-    """A test id in ASCII (mutmut passes ids back to pytest unescaped)."""
-    return text.encode("ascii", "replace").decode()
-
 
 LAYOUTS = (
     "columns 'lower, upper, count' (one row per bin) or two rows 'edges' (k + 1 "
@@ -76,7 +71,7 @@ HISTOGRAMS[5] = (
 @pytest.mark.parametrize(
     ("text", "line", "field", "message"),
     HISTOGRAMS,
-    ids=[_ascii(c[3][:40]) for c in HISTOGRAMS],
+    ids=[ascii_id(c[3][:40]) for c in HISTOGRAMS],
 )
 def test_each_histogram_refusal_in_full(tmp_path, text, line, field, message):
     path = tmp_path / "h.csv"

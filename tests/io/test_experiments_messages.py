@@ -13,15 +13,10 @@ import math
 
 import pandas as pd
 import pytest
+from ids import ascii_id
 
 from microimpact.errors import DataFormatError
 from microimpact.io.experiments import combine_experiments, read_experiments
-
-
-def _ascii(text: str) -> str:
-    """A test id in ASCII (mutmut passes ids back to pytest unescaped)."""
-    return text.encode("ascii", "replace").decode()
-
 
 HEAD = "speed_m_s,statistic,mean,half_width\n"
 
@@ -112,7 +107,7 @@ CASES = [
 
 
 @pytest.mark.parametrize(
-    ("text", "field", "message"), CASES, ids=[_ascii(c[2][:40]) for c in CASES]
+    ("text", "field", "message"), CASES, ids=[ascii_id(c[2][:40]) for c in CASES]
 )
 def test_each_refusal_in_full(tmp_path, text, field, message):
     path = tmp_path / "exp.csv"

@@ -9,16 +9,11 @@ the value kinds of ``BIN_VALUES``, contiguous increasing bins) and how to choose
 from __future__ import annotations
 
 import pytest
+from ids import ascii_id
 
 from microimpact.errors import DataFormatError
 from microimpact.io.size_bins import read_size_bins
 from microimpact.population.binned import BIN_VALUES
-
-
-def _ascii(text: str) -> str:
-    """A test id in ASCII (mutmut passes ids back to pytest unescaped)."""
-    return text.encode("ascii", "replace").decode()
-
 
 MIDS = "midpoint_um,dN/dlogDp\n1,5\n2,6\n4,3\n"
 
@@ -119,7 +114,7 @@ CASES = [
 @pytest.mark.parametrize(
     ("text", "kw", "line", "field", "message"),
     CASES,
-    ids=[_ascii(c[4][:40]) for c in CASES],
+    ids=[ascii_id(c[4][:40]) for c in CASES],
 )
 def test_each_size_bins_refusal_in_full(tmp_path, text, kw, line, field, message):
     path = tmp_path / "bins.csv"
@@ -179,7 +174,7 @@ DATA_CASES = [
 @pytest.mark.parametrize(
     ("text", "kw", "field", "message"),
     DATA_CASES,
-    ids=[_ascii(c[3][:40]) for c in DATA_CASES],
+    ids=[ascii_id(c[3][:40]) for c in DATA_CASES],
 )
 def test_each_size_data_refusal_in_full(tmp_path, text, kw, field, message):
     """read_size_data (raw diameters or bins): the options that do not apply to

@@ -15,6 +15,7 @@ import re
 
 import numpy as np
 import pytest
+from ids import ascii_id
 
 from microimpact.population import (
     chi2_binned,
@@ -33,12 +34,6 @@ from microimpact.population.aerosol import (
     count_median_diameter,
     volume_equivalent_diameter,
 )
-
-
-def _ascii(text: str) -> str:
-    """A test id in ASCII (mutmut passes ids back to pytest unescaped)."""
-    return text.encode("ascii", "replace").decode()
-
 
 EDGES = np.geomspace(1.0, 100.0, 11)
 COUNTS = np.array([1, 4, 12, 30, 52, 60, 45, 25, 9, 2], dtype=float)
@@ -246,7 +241,7 @@ CASES = [
 
 
 @pytest.mark.parametrize(
-    ("call", "error", "message"), CASES, ids=[_ascii(c[2][:48]) for c in CASES]
+    ("call", "error", "message"), CASES, ids=[ascii_id(c[2][:48]) for c in CASES]
 )
 def test_each_refusal_names_the_field_the_value_and_what_is_allowed(
     call, error, message

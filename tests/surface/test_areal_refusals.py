@@ -12,15 +12,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from ids import ascii_id
 
 from microimpact.errors import ProfileFormatError
 from microimpact.io.areal import read_height_map
-
-
-def _ascii(text: str) -> str:
-    """A test id in ASCII (mutmut passes ids back to pytest unescaped)."""
-    return text.encode("ascii", "replace").decode()
-
 
 GRID = "1 2 3\n4 5 6\n7 8 9\n"
 
@@ -142,7 +137,7 @@ CASES = [
 @pytest.mark.parametrize(
     ("text", "kw", "message", "field", "line"),
     CASES,
-    ids=[_ascii((c[2] or c[3])[:40]) for c in CASES],
+    ids=[ascii_id((c[2] or c[3])[:40]) for c in CASES],
 )
 def test_each_refusal_names_file_field_line_and_what_is_allowed(
     tmp_path, text, kw, message, field, line

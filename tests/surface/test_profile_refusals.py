@@ -10,15 +10,10 @@ arguments are refused before the file is opened.
 from __future__ import annotations
 
 import pytest
+from ids import ascii_id
 
 from microimpact.errors import ProfileFormatError
 from microimpact.io.profiles import read_profile
-
-
-def _ascii(text: str) -> str:
-    """A test id in ASCII (mutmut passes ids back to pytest unescaped)."""
-    return text.encode("ascii", "replace").decode()
-
 
 DECIMAL = "; the decimal separator must be '.'"
 
@@ -145,7 +140,7 @@ CASES = [
 @pytest.mark.parametrize(
     ("name", "text", "kw", "message", "field", "line"),
     CASES,
-    ids=[_ascii(c[3][:40]) for c in CASES],
+    ids=[ascii_id(c[3][:40]) for c in CASES],
 )
 def test_each_refusal_names_file_field_line_and_what_is_allowed(
     tmp_path, name, text, kw, message, field, line
