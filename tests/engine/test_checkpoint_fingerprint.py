@@ -27,6 +27,8 @@ NOT_FINGERPRINTED = {
     "kernel",
     # a cache of tables derived from the other fields
     "_cache",
+    # the points as arrays, derived from `points`
+    "_columns",
 }
 
 

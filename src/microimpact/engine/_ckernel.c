@@ -1888,12 +1888,196 @@ PyDoc_STRVAR(specs_doc,
 "once). Writes per spec: counts int64[5] (shadowed, captured, reimpact, rolling,\n"
 "rebounds), sums float64[12] (as block()), spans int64[6] (offset and length of\n"
 "the occupied e_m histogram span, then of mu_m's, then of psi_f's: off an areal\n"
-"surface every rebound's psi_f is 0, one bin). Returns the spans' counts, one\n"
-"after the other, as int64 bytes. With `store` = (e_m, mu_m, psi, outcome), C-\n"
-"contiguous writable buffers of float64, float64, float64, int8 of the specs'\n"
-"total n, each impact's e_m and mu_m (0.0 where not a rebound), its lateral angle\n"
+"surface every rebound's psi_f is 0, one bin). Returns the spans' counts as\n"
+"int64 bytes: every row's e_m span, then every row's mu_m span, then every\n"
+"row's psi_f span (each histogram's counts contiguous, in row order).\n"
+"With `store` = (e_m, mu_m, psi, outcome), C-contiguous writable buffers of\n"
+"float64, float64, float64, int8 of the specs' total n, each impact's e_m and mu_m (0.0 where not a rebound), its lateral angle\n"
 "psi [deg] (kernel.atan2_deg; areal surfaces only, else 0.0) and outcome (0 a\n"
-"rebound, 1 captured, 2 shadowed) are written there, in spec order.");
+"rebound, 1 captured, 2 shadowed) are written there, in spec order.\n\n"
+"`specs` may instead be a tuple of arrays (points, which, speed, point, block,\n"
+"n): spec i is the point tuple points[which[i]] at speed[i] (the tuple's own\n"
+"speed is not used) with point[i], block[i] and n[i] (int64; speed float64):\n"
+"the same specs without a Python object each, Monte Carlo only. `points` is a\n"
+"list of point tuples or their capsule from points() (parsed once).");
+
+/* One point tuple `pt` of _ckernel.specs (everything of a spec but its point,
+ * block and n) into `x`, its samplers parsed once per call through `set`; x->sobol
+ * is set by the caller. */
+static int
+parse_point(PyObject *pt, spec_t *x, sampler_set *set, int speed_random)
+{
+    PyObject *as, *ps;
+    unsigned long long cut, pair_total;
+    if (!PyTuple_Check(pt)) {
+        PyErr_SetString(PyExc_TypeError, "_ckernel.specs: a point is a tuple");
+        return -1;
+    }
+    if (!PyArg_ParseTuple(pt, "pOKOKidddpp:specs", &x->angle_random, &as, &cut, &ps,
+                          &pair_total, &x->pair_shift, &x->sin_theta, &x->cos_theta,
+                          &x->speed, &x->shadow_none, &x->areal))
+        return -1;
+    if ((x->a = sampler_of(set, as, "angle", 8)) == NULL ||
+        (x->b = sampler_of(set, ps, "particle", 8)) == NULL)
+        return -1;
+    x->cut = cut;
+    x->pair_total = pair_total;
+    if (check_pairs(x->pair_shift, pair_total, x->a, x->b) ||
+        (x->areal && check_areal(x->pair_shift, x->a)) || sobol_dims(x, speed_random))
+        return -1;
+    return 0;
+}
+
+/* A plan's point tuples parsed once (_ckernel.points): the templates of its
+ * specs and the samplers they read, held for the capsule's life (the tuples'
+ * arrays stay alive through the buffers held, the list through `heads`). */
+typedef struct {
+    PyObject *heads;
+    sampler_set set;
+    spec_t *tmpl;
+    Py_ssize_t n;
+} point_table;
+
+static const char *POINTS_CAPSULE = "microimpact.engine._ckernel.points";
+
+static void
+point_table_free(PyObject *capsule)
+{
+    point_table *t = PyCapsule_GetPointer(capsule, POINTS_CAPSULE);
+    if (t == NULL)
+        return;
+    sampler_set_free(&t->set);
+    PyMem_Free(t->tmpl);
+    Py_XDECREF(t->heads);
+    PyMem_Free(t);
+}
+
+PyDoc_STRVAR(points_doc,
+"points(heads, speed_random) -> capsule\n\n"
+"The point tuples `heads` (a list, as specs() reads them) parsed once, for the\n"
+"tuple-of-arrays form of specs() (in place of its list of points): a plan's\n"
+"points are then parsed once, not in every call.");
+
+static PyObject *
+ck_points(PyObject *self, PyObject *args)
+{
+    PyObject *heads;
+    int speed_random;
+    if (!PyArg_ParseTuple(args, "O!p:points", &PyList_Type, &heads, &speed_random))
+        return NULL;
+    point_table *t = PyMem_Calloc(1, sizeof *t);
+    if (t == NULL)
+        return PyErr_NoMemory();
+    t->n = PyList_GET_SIZE(heads);
+    t->tmpl = PyMem_Malloc((t->n ? t->n : 1) * sizeof *t->tmpl);
+    if (t->tmpl == NULL) {
+        PyMem_Free(t);
+        return PyErr_NoMemory();
+    }
+    Py_INCREF(heads);
+    t->heads = heads;
+    PyObject *capsule = PyCapsule_New(t, POINTS_CAPSULE, point_table_free);
+    if (capsule == NULL) {
+        sampler_set_free(&t->set);
+        PyMem_Free(t->tmpl);
+        Py_DECREF(heads);
+        PyMem_Free(t);
+        return NULL;
+    }
+    for (Py_ssize_t h = 0; h < t->n; h++) {
+        t->tmpl[h].sobol = NULL;
+        if (parse_point(PyList_GET_ITEM(heads, h), &t->tmpl[h], &t->set,
+                        speed_random)) {
+            Py_DECREF(capsule);
+            return NULL;
+        }
+    }
+    return capsule;
+}
+
+/* The specs given as arrays, `arr` = (points, which, speed, point, block, n):
+ * spec i is points[which[i]] (point tuples as in the list form) at speed[i], with
+ * its own point, block and n (int64 arrays; speed float64), all of one length.
+ * Monte Carlo only (no Sobol' states). Fills `*sp` (PyMem_Malloc'd) and `*K`. */
+static int
+specs_from_arrays(PyObject *arr, spec_t **sp, Py_ssize_t *K, sampler_set *set,
+                  int speed_random)
+{
+    static const char *names[5] = {"which", "speed", "point", "block", "n"};
+    Py_buffer b[5] = {{0}};
+    int nb = 0, rc = -1;
+    spec_t *tmpl = NULL;
+    const spec_t *use;
+    PyObject *heads = NULL;
+    point_table *parsed = NULL;
+    if (PyTuple_GET_SIZE(arr) == 6 && PyCapsule_CheckExact(PyTuple_GET_ITEM(arr, 0))) {
+        parsed = PyCapsule_GetPointer(PyTuple_GET_ITEM(arr, 0), POINTS_CAPSULE);
+        if (parsed == NULL)
+            return -1;
+    } else if (PyTuple_GET_SIZE(arr) != 6 ||
+               !PyList_Check(heads = PyTuple_GET_ITEM(arr, 0))) {
+        PyErr_SetString(PyExc_TypeError,
+                        "_ckernel.specs: array specs are (points, which, speed, "
+                        "point, block, n)");
+        return -1;
+    }
+    for (; nb < 5; nb++) {
+        if (PyObject_GetBuffer(PyTuple_GET_ITEM(arr, nb + 1), &b[nb],
+                               PyBUF_C_CONTIGUOUS) < 0)
+            goto out;
+        if (b[nb].len % 8 != 0 || b[nb].len != b[0].len) {
+            PyErr_Format(PyExc_ValueError,
+                         "_ckernel.specs: %s is 8-byte items, as long as which",
+                         names[nb]);
+            nb++;
+            goto out;
+        }
+    }
+    Py_ssize_t n = b[0].len / 8, H = parsed ? parsed->n : PyList_GET_SIZE(heads);
+    *sp = PyMem_Malloc((n ? n : 1) * sizeof **sp);
+    if (*sp == NULL) {
+        PyErr_NoMemory();
+        goto out;
+    }
+    if (parsed != NULL) {
+        use = parsed->tmpl;
+    } else {
+        tmpl = PyMem_Malloc((H ? H : 1) * sizeof *tmpl);
+        if (tmpl == NULL) {
+            PyErr_NoMemory();
+            goto out;
+        }
+        for (Py_ssize_t h = 0; h < H; h++) {
+            tmpl[h].sobol = NULL;
+            if (parse_point(PyList_GET_ITEM(heads, h), &tmpl[h], set, speed_random))
+                goto out;
+        }
+        use = tmpl;
+    }
+    const int64_t *wh = b[0].buf, *pa = b[2].buf, *bl = b[3].buf, *nn = b[4].buf;
+    const double *spd = b[1].buf;
+    for (Py_ssize_t i = 0; i < n; i++) {
+        if (wh[i] < 0 || wh[i] >= H || pa[i] < 0 || bl[i] < 0 || nn[i] < 0) {
+            PyErr_SetString(PyExc_ValueError,
+                            "_ckernel.specs: which must index the points; point, "
+                            "block and n must be >= 0");
+            goto out;
+        }
+        spec_t *x = &(*sp)[i];
+        *x = use[wh[i]];
+        x->point = (uint64_t)pa[i];
+        x->block = (uint64_t)bl[i];
+        x->n = (Py_ssize_t)nn[i];
+        x->speed = spd[i];
+    }
+    *K = n;
+    rc = 0;
+out:
+    PyMem_Free(tmpl);
+    for (int j = 0; j < nb; j++)
+        PyBuffer_Release(&b[j]);
+    return rc;
+}
 
 static PyObject *
 ck_specs(PyObject *self, PyObject *args)
@@ -1905,18 +2089,35 @@ ck_specs(PyObject *self, PyObject *args)
     PyObject *dsamp, *ssamp, *list, *store = Py_None, *groups = Py_None;
     int speed_random;
     double p, q, friction;
-    if (!PyArg_ParseTuple(args, "y*(OOpdddy*)O!w*w*w*|OO:specs", &be, &dsamp, &ssamp,
-                          &speed_random, &p, &q, &friction, &bh, &PyList_Type,
-                          &list, &bc, &bs, &bp, &store, &groups))
+    if (!PyArg_ParseTuple(args, "y*(OOpdddy*)Ow*w*w*|OO:specs", &be, &dsamp, &ssamp,
+                          &speed_random, &p, &q, &friction, &bh, &list, &bc, &bs,
+                          &bp, &store, &groups))
         return NULL; /* (the parser releases what it acquired) */
     PyObject *result = NULL;
     Py_ssize_t total_n = 0;
     sampler_set set = {NULL, 0, 0};
     spec_t *sp = NULL;
     scratch_t *scr = NULL;
-    int64_t *eh = NULL, *mh = NULL, *lh = NULL, *out = NULL;
-    Py_ssize_t K = PyList_GET_SIZE(list), G = K;
+    int64_t *eh = NULL, *mh = NULL, *lh = NULL;
+    /* the occupied spans' counts, one buffer per histogram (e_m, mu_m, psi_f) */
+    int64_t *out[3] = {NULL, NULL, NULL};
+    Py_ssize_t cap[3] = {4096, 4096, 4096}, used[3] = {0, 0, 0};
+    Py_ssize_t K = 0, G = 0;
     const int64_t *glen = NULL;
+    int arrays = PyTuple_Check(list);
+    if (!arrays && !PyList_Check(list)) {
+        PyErr_SetString(PyExc_TypeError,
+                        "_ckernel.specs: specs is a list of tuples or a tuple of "
+                        "arrays");
+        goto done;
+    }
+    if (arrays) {
+        if (specs_from_arrays(list, &sp, &K, &set, speed_random))
+            goto done;
+    } else {
+        K = PyList_GET_SIZE(list);
+    }
+    G = K;
     ss_state st;
     hist_t hs;
     const sampler_t *sd, *ss;
@@ -1953,16 +2154,16 @@ ck_specs(PyObject *self, PyObject *args)
     if ((sd = sampler_of(&set, dsamp, "diameter", 8)) == NULL ||
         (ss = sampler_of(&set, ssamp, "speed", 4)) == NULL)
         goto done;
-    sp = PyMem_Malloc((K ? K : 1) * sizeof *sp);
+    if (!arrays)
+        sp = PyMem_Malloc((K ? K : 1) * sizeof *sp);
     if (sp == NULL) {
         PyErr_NoMemory();
         goto done;
     }
     PyObject *prev_pt = NULL;
-    for (Py_ssize_t i = 0; i < K; i++) {
-        PyObject *item = PyList_GET_ITEM(list, i), *pt, *po, *bo, *as, *ps;
+    for (Py_ssize_t i = 0; i < K && !arrays; i++) {
+        PyObject *item = PyList_GET_ITEM(list, i), *pt, *po, *bo;
         PyObject *qo = Py_None;
-        unsigned long long cut, pair_total;
         spec_t *x = &sp[i];
         if (!PyTuple_Check(item)) {
             PyErr_SetString(PyExc_TypeError, "_ckernel.specs: a spec is a tuple");
@@ -2015,18 +2216,7 @@ ck_specs(PyObject *self, PyObject *args)
             continue;
         }
         x->sobol = sobol;
-        if (!PyArg_ParseTuple(pt, "pOKOKidddpp:specs", &x->angle_random, &as, &cut,
-                              &ps, &pair_total, &x->pair_shift, &x->sin_theta,
-                              &x->cos_theta, &x->speed, &x->shadow_none, &x->areal))
-            goto done;
-        if ((x->a = sampler_of(&set, as, "angle", 8)) == NULL ||
-            (x->b = sampler_of(&set, ps, "particle", 8)) == NULL)
-            goto done;
-        x->cut = cut;
-        x->pair_total = pair_total;
-        if (check_pairs(x->pair_shift, pair_total, x->a, x->b) ||
-            (x->areal && check_areal(x->pair_shift, x->a)) ||
-            sobol_dims(x, speed_random))
+        if (parse_point(pt, x, &set, speed_random))
             goto done;
         prev_pt = pt;
     }
@@ -2051,13 +2241,14 @@ ck_specs(PyObject *self, PyObject *args)
     }
     int64_t e_size = hs.e_spill + SPILL, mu_size = hs.mu_spill + SPILL;
     int64_t lat_size = hs.lat_spill + SPILL;
-    Py_ssize_t cap = 4096, used = 0;
     scr = PyMem_RawMalloc(sizeof(scratch_t));
     eh = PyMem_RawCalloc(e_size, sizeof *eh);
     mh = PyMem_RawCalloc(mu_size, sizeof *mh);
     lh = PyMem_RawCalloc(lat_size, sizeof *lh);
-    out = PyMem_RawMalloc(cap * sizeof *out);
-    if (scr == NULL || eh == NULL || mh == NULL || lh == NULL || out == NULL) {
+    for (int h = 0; h < 3; h++)
+        out[h] = PyMem_RawMalloc(cap[h] * sizeof *out[h]);
+    if (scr == NULL || eh == NULL || mh == NULL || lh == NULL || out[0] == NULL ||
+        out[1] == NULL || out[2] == NULL) {
         PyErr_NoMemory();
         goto done;
     }
@@ -2149,8 +2340,8 @@ ck_specs(PyObject *self, PyObject *args)
         at = 0;
         if (glen != NULL)
             g++;
-        /* the occupied spans, appended to `out`; then the scratch histograms are
-         * zeroed where they were written */
+        /* the occupied spans, each appended to its histogram's `out`; then the
+         * scratch histograms are zeroed where they were written */
         int64_t lo[3], hi[3];
         occupied(eh, hs.e_top + 1, &lo[0], &hi[0]);
         occupied(mh, hs.mu_top + 1, &lo[1], &hi[1]);
@@ -2160,22 +2351,25 @@ ck_specs(PyObject *self, PyObject *args)
         } else {
             occupied(lh, hs.lat_top + 1, &lo[2], &hi[2]);
         }
-        Py_ssize_t need =
-            used + (hi[0] - lo[0]) + (hi[1] - lo[1]) + (hi[2] - lo[2]);
-        if (need > cap) {
-            while (cap < need)
-                cap *= 2;
-            int64_t *o = PyMem_RawRealloc(out, cap * sizeof *out);
-            if (o == NULL) {
-                oom = 1;
-                break;
+        for (int h = 0; h < 3 && !oom; h++) {
+            Py_ssize_t need = used[h] + (hi[h] - lo[h]);
+            if (need > cap[h]) {
+                while (cap[h] < need)
+                    cap[h] *= 2;
+                int64_t *o = PyMem_RawRealloc(out[h], cap[h] * sizeof *o);
+                if (o == NULL) {
+                    oom = 1;
+                    break;
+                }
+                out[h] = o;
             }
-            out = o;
         }
+        if (oom)
+            break;
         for (int h = 0; h < 3; h++) {
             int64_t *hist = h == 0 ? eh : (h == 1 ? mh : lh);
-            memcpy(out + used, hist + lo[h], (hi[h] - lo[h]) * sizeof *out);
-            used += hi[h] - lo[h];
+            memcpy(out[h] + used[h], hist + lo[h], (hi[h] - lo[h]) * sizeof *hist);
+            used[h] += hi[h] - lo[h];
             memset(hist + lo[h], 0, (hi[h] - lo[h]) * sizeof *hist);
             spans[6 * row + 2 * h] = lo[h];
             spans[6 * row + 2 * h + 1] = hi[h] - lo[h];
@@ -2187,13 +2381,22 @@ ck_specs(PyObject *self, PyObject *args)
         PyErr_NoMemory();
         goto done;
     }
-    result = PyBytes_FromStringAndSize((const char *)out, used * sizeof *out);
+    result = PyBytes_FromStringAndSize(
+        NULL, (used[0] + used[1] + used[2]) * (Py_ssize_t)sizeof(int64_t));
+    if (result != NULL) {
+        char *to = PyBytes_AS_STRING(result);
+        for (int h = 0; h < 3; h++) {
+            memcpy(to, out[h], used[h] * sizeof(int64_t));
+            to += used[h] * sizeof(int64_t);
+        }
+    }
 done:
     PyMem_RawFree(scr);
     PyMem_RawFree(eh);
     PyMem_RawFree(mh);
     PyMem_RawFree(lh);
-    PyMem_RawFree(out);
+    for (int h = 0; h < 3; h++)
+        PyMem_RawFree(out[h]);
     PyMem_Free(sp);
     sampler_set_free(&set);
     PyBuffer_Release(&be);
@@ -2391,6 +2594,7 @@ static PyMethodDef ck_methods[] = {
     {"simd", ck_simd, METH_VARARGS, simd_doc},
     {"stream", ck_stream, METH_VARARGS, stream_doc},
     {"specs", ck_specs, METH_VARARGS, specs_doc},
+    {"points", ck_points, METH_VARARGS, points_doc},
     {"wall_rows", ck_wall_rows, METH_VARARGS, wall_rows_doc},
     {NULL, NULL, 0, NULL},
 };

@@ -26,8 +26,10 @@ formulas, so one angle table serves every apparent angle.
 
 from __future__ import annotations
 
+import threading
 import warnings
 import weakref
+from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
@@ -75,7 +77,7 @@ from .plan import (
     pair_sin,
     resolve_kernel,
 )
-from .summary import Spans, Stacked, gather_segments
+from .summary import Spans, Stacked
 
 #: spawn-key slot that separates QMC scrambles from MC block streams
 QMC_TAG = 0xFFFF_FFFF
@@ -804,6 +806,84 @@ def _point_args(tables, speed: float):
     return args
 
 
+_PLAN_POINTS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_PLAN_POINTS_LOCK = threading.Lock()
+
+
+def _plan_points(plan: Plan):
+    """Every (surface, angle) point tuple of `plan` parsed once by the compiled
+    kernel (``_ckernel.points``), in the order of ``plan.point_columns()``'s
+    keys; None where a surface has tables of its own per angle (weighted
+    shadowing, pair tables: the plan keeps only some of them, and so does a
+    task)."""
+    got = _PLAN_POINTS.get(plan)
+    if got is None:
+        with _PLAN_POINTS_LOCK:  # built once, not by every worker thread at once
+            got = _PLAN_POINTS.get(plan)
+            if got is None:
+                got = _PLAN_POINTS[plan] = _parse_plan_points(plan)
+    return got if got is not False else None
+
+
+def _parse_plan_points(plan: Plan):
+    if any(plan.own_tables(i) for i in range(len(plan.surfaces))):
+        return False
+    keys = plan.point_columns()[4]
+    heads = [_point_args(plan.angle_tables(*key), 0.0) for key in keys]
+    return _ckernel().points(heads, plan.speeds is not None)
+
+
+@dataclass(frozen=True, eq=False)
+class SpecArrays:
+    """Monte Carlo block specs as arrays (int64, one entry per block): what a
+    list of ``(point, 0, block, n)`` tuples describes, without an object per
+    block (issue 31: the driver's Python per point). It still iterates as those
+    tuples, for a caller that reads specs one by one."""
+
+    point: np.ndarray
+    block: np.ndarray
+    n: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.n.size)
+
+    def __iter__(self):
+        rows = zip(
+            self.point.tolist(), self.block.tolist(), self.n.tolist(), strict=True
+        )
+        return ((p, 0, b, n) for p, b, n in rows)
+
+    def __getitem__(self, i):
+        """Spec `i` as its tuple; a slice as specs."""
+        if isinstance(i, slice):
+            return SpecArrays(self.point[i], self.block[i], self.n[i])
+        return (int(self.point[i]), 0, int(self.block[i]), int(self.n[i]))
+
+
+def _array_items(plan: Plan, specs: SpecArrays) -> tuple:
+    """The tuple form of ``_ckernel.specs``'s specs: ``(points, which, speed,
+    point, block, n)``, the point tuples of the (surface, angle) tables the
+    specs use, each once (speed 0.0: the kernel takes each spec's own)."""
+    if plan.sampling == "qmc":
+        raise ValueError("array specs are Monte Carlo only")
+    _, speed, _, table, keys = plan.point_columns()
+    point = np.ascontiguousarray(specs.point, dtype=np.int64)
+    heads = _plan_points(plan)
+    if heads is not None:  # every point's tables, parsed once per plan
+        which = table[point]
+    else:  # tables of their own per angle: only those of these specs
+        used, which = np.unique(table[point], return_inverse=True)
+        heads = [_point_args(plan.angle_tables(*keys[t]), 0.0) for t in used.tolist()]
+    return (
+        heads,
+        which.reshape(-1).astype(np.int64),
+        np.ascontiguousarray(speed[point]),
+        point,
+        np.ascontiguousarray(specs.block, dtype=np.int64),
+        np.ascontiguousarray(specs.n, dtype=np.int64),
+    )
+
+
 _SOBOL: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 #: Scrambled Sobol' sequences kept per plan (a few hundred bytes each; a run goes
 #: through its points in order, so this only saves rebuilding a (point, replicate)
@@ -853,6 +933,28 @@ def _keyed_outputs(plan: Plan, specs, store=None, groups=None):
     :meth:`~.accumulators.PointAccumulator.merge` folds them left to right (the
     same bits): a row per group, and ``sums`` then holds each group's moments
     ``(n, mean, M2, M3)`` of e_m, mu_m and psi_f."""
+    if isinstance(specs, SpecArrays):
+        items = _array_items(plan, specs)
+        specs = ()
+        k = len(items[1]) if groups is None else len(groups)
+    else:
+        items = _tuple_items(plan, specs)
+        k = len(items) if groups is None else len(groups)
+    counts = np.empty((k, 5), dtype=np.int64)
+    sums = np.empty((k, 12))
+    spans = np.empty((k, 6), dtype=np.int64)
+    args = [entropy_words(plan.entropy), _common_args(plan), items, counts, sums]
+    args.append(spans)
+    if store is not None or groups is not None:
+        args.append(store)
+    if groups is not None:
+        args.append(np.ascontiguousarray(groups, dtype=np.int64))
+    buf = _ckernel().specs(*args)
+    return items, counts, sums, spans, np.frombuffer(buf, dtype=np.int64)
+
+
+def _tuple_items(plan: Plan, specs) -> list:
+    """The list form of ``_ckernel.specs``'s specs (:func:`_keyed_outputs`)."""
     items = []
     points = plan.points
     qmc = plan.sampling == "qmc"
@@ -874,18 +976,7 @@ def _keyed_outputs(plan: Plan, specs, store=None, groups=None):
             items.append((point, start, n, args, sobol_state(plan, point, rep, dim)))
         else:
             items.append((point, block, n, args))
-    k = len(items) if groups is None else len(groups)
-    counts = np.empty((k, 5), dtype=np.int64)
-    sums = np.empty((k, 12))
-    spans = np.empty((k, 6), dtype=np.int64)
-    args = [entropy_words(plan.entropy), _common_args(plan), items, counts, sums]
-    args.append(spans)
-    if store is not None or groups is not None:
-        args.append(store)
-    if groups is not None:
-        args.append(np.ascontiguousarray(groups, dtype=np.int64))
-    buf = _ckernel().specs(*args)
-    return items, counts, sums, spans, np.frombuffer(buf, dtype=np.int64)
+    return items
 
 
 def simulate_specs_impacts(plan: Plan, specs, out=None) -> dict:
@@ -900,7 +991,10 @@ def simulate_specs_impacts(plan: Plan, specs, out=None) -> dict:
     returned), reused from call to call."""
     if plan.kernel != "compiled":
         raise ValueError("simulate_specs_impacts needs the compiled kernel")
-    total = sum(int(spec[3]) for spec in specs)
+    if isinstance(specs, SpecArrays):
+        total = int(specs.n.sum())
+    else:
+        total = sum(int(spec[3]) for spec in specs)
     if out is None:
         out = {
             "e_m": np.empty(total),
@@ -918,23 +1012,27 @@ def _simulate_keyed(plan: Plan, specs) -> list[PointAccumulator]:
     each block's variables from its keyed streams itself and returns the counts,
     the shifted sums and the occupied histogram spans (the same bits as
     :func:`_simulate_compiled` on :func:`stream_raw`'s draws)."""
-    items, counts, sums, spans, flat = _keyed_outputs(plan, specs)
+    _, counts, sums, spans, flat = _keyed_outputs(plan, specs)
+    ns = specs.n.tolist() if isinstance(specs, SpecArrays) else [s[3] for s in specs]
     out = []
-    at = 0
+    # each histogram's spans follow one another, e_m's, then mu_m's, then psi_f's
+    at_e = 0
+    at_mu = int(spans[:, 1].sum())
+    at_l = at_mu + int(spans[:, 3].sum())
     of = Moments.from_shifted_sums
-    for (_, _, n, *_), c, s, (e_lo, e_len, mu_lo, mu_len, l_lo, l_len) in zip(
-        items, counts.tolist(), sums.tolist(), spans.tolist(), strict=True
+    for n, c, s, (e_lo, e_len, mu_lo, mu_len, l_lo, l_len) in zip(
+        ns, counts.tolist(), sums.tolist(), spans.tolist(), strict=True
     ):
-        e_counts = flat[at : at + e_len]
-        at += e_len
-        mu_counts = flat[at : at + mu_len]
-        at += mu_len
+        e_counts = flat[at_e : at_e + e_len]
+        at_e += e_len
+        mu_counts = flat[at_mu : at_mu + mu_len]
+        at_mu += mu_len
         m = c[4]
         # off an areal surface the sums are zeros and the span one bin at
         # psi_f = 0: exactly in_plane_lateral(m)
         lateral = of(m, *s[8:])
-        lateral_span = (l_lo, flat[at : at + l_len])
-        at += l_len
+        lateral_span = (l_lo, flat[at_l : at_l + l_len])
+        at_l += l_len
         out.append(
             PointAccumulator(
                 n=n,
@@ -965,25 +1063,30 @@ def simulate_specs_stacked(plan: Plan, specs, groups=None):
 
     if plan.kernel != "compiled":
         return None
+    arrays = isinstance(specs, SpecArrays)
+    size = len(specs.n) if arrays else len(specs)
     if groups is None:
-        groups = np.ones(len(specs), dtype=np.int64)
+        groups = np.ones(size, dtype=np.int64)
     else:
         groups = np.asarray(groups, dtype=np.int64)
     _, counts, moments, spans, flat = _keyed_outputs(plan, specs, groups=groups)
     table = np.empty((len(groups), 5), dtype=np.int64)
-    if len(specs):  # each group's impacts
-        n = np.fromiter((spec[3] for spec in specs), np.int64, len(specs))
+    if size:  # each group's impacts
+        n = (
+            specs.n
+            if arrays
+            else np.fromiter((spec[3] for spec in specs), np.int64, size)
+        )
         table[:, 0] = np.add.reduceat(n, np.cumsum(groups) - groups)
     table[:, 1:] = counts[:, :4]
-    # (3, G): offsets and lengths of e_m's, mu_m's and psi_f's spans, which the
-    # kernel writes one group after another, e_m's, mu_m's then psi_f's counts
+    # (3, G): offsets and lengths of e_m's, mu_m's and psi_f's spans; the
+    # kernel writes every group's e_m counts, then their mu_m's, then psi_f's
     ln = spans[:, 1::2].T.copy()
     offset = np.where(ln > 0, spans[:, 0::2].T, 0)
-    start = np.zeros(len(groups), dtype=np.int64)
-    np.cumsum(ln.sum(axis=0)[:-1], out=start[1:])
+    ends = np.cumsum(ln.sum(axis=1)).tolist()
     hists = []
     for h, size in enumerate((E_BINS, MU_BINS, LATERAL_BINS)):
-        parts = gather_segments(flat, start + ln[:h].sum(axis=0), ln[h])
+        parts = flat[(ends[h - 1] if h else 0) : ends[h]]
         hists.append(Spans(offset[h], ln[h], parts, size))
     # (3, G, 4): the moments of e_m, mu_m and psi_f, each block contiguous
     m = moments.reshape(-1, 3, 4).transpose(1, 0, 2).copy()

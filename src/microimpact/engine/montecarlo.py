@@ -64,6 +64,7 @@ from .plan import BLOCK_SIZE, Plan, build_plan, resolve_entropy
 from .result import SimulationResult
 from .statistics import wilson_interval, z_value
 from .summary import Spans, Stacked, gather_segments, release_memory
+from .tasks import BlockTask, block_tasks
 
 __all__ = [
     "BlockResult",
@@ -179,16 +180,24 @@ class _Streams:
             if precision is not None
             else math.ceil(n_target / plan.replicates)
         )
-        ids = np.fromiter((sp.index for sp in plan.points), np.int64, len(plan.points))
-        ids.sort()
+        if hasattr(plan.points, "columns"):  # a grid's points: 0 .. n - 1
+            ids = np.arange(len(plan.points), dtype=np.int64)
+        else:
+            ids = np.fromiter(
+                (sp.index for sp in plan.points), np.int64, len(plan.points)
+            )
+            ids.sort()
         # the point of each stream: its index in the common case of every point
         # (no list of 10^6 numbers); else the sorted indices
         identity = np.array_equal(ids, np.arange(ids.size))
         self.point_ids = None if identity else ids.tolist()
+        self._ids = None if identity else ids  # (sorted)
         self._pos = None if identity else {p: i for i, p in enumerate(self.point_ids)}
         K = self.size = ids.size * R
-        self.next_block = [0] * K
-        self.done = [False] * K
+        self.next_block = np.zeros(K, dtype=np.int64)
+        self.done = np.zeros(K, dtype=bool)
+        # fixed-size Monte Carlo runs on the compiled kernel: tasks as arrays
+        self.array_tasks = plan.kernel == "compiled" and plan.sampling != "qmc"
         self.loose: dict[int, PointAccumulator] = {}
         # the table of streams held as their first group's row
         self._held = np.zeros(K, dtype=bool)
@@ -232,7 +241,7 @@ class _Streams:
 
     @property
     def merged_blocks(self) -> int:
-        return sum(self.next_block)
+        return int(self.next_block.sum())
 
     def samples_done(self) -> int:
         held = int(self._counts[self._held, 0].sum())
@@ -240,10 +249,10 @@ class _Streams:
 
     def active(self) -> list[int]:
         """The streams not done, in key order."""
-        return [k for k, d in enumerate(self.done) if not d]
+        return np.flatnonzero(~self.done).tolist()
 
     def any_active(self) -> bool:
-        return not all(self.done)
+        return not bool(self.done.all())
 
     def acc(self, k: int) -> PointAccumulator | None:
         """Stream `k`'s total (None before its first group)."""
@@ -284,7 +293,7 @@ class _Streams:
             self.done[k] = self._finished(k)
 
     def _finished(self, k: int) -> bool:
-        if self.next_block[k] >= self.n_blocks():
+        if int(self.next_block[k]) >= self.n_blocks():
             return True
         return self.precision is not None and _converged(
             self.acc(k), self.precision, self.confidence
@@ -292,10 +301,10 @@ class _Streams:
 
     def finished_results(self) -> Iterator[BlockResult]:
         """The (point, replicate) already done (restored), as they were."""
-        for k, d in enumerate(self.done):
-            if d:
-                p, r = self.key(k)
-                yield BlockResult(p, r, self.next_block[k] - 1, None, self.acc(k), True)
+        for k in np.flatnonzero(self.done).tolist():
+            p, r = self.key(k)
+            last = int(self.next_block[k]) - 1
+            yield BlockResult(p, r, last, None, self.acc(k), True)
 
     # ------------------------------------------------------------ merging
     def merge(self, group: tuple, rows: Stacked, i: int) -> int | None:
@@ -314,8 +323,42 @@ class _Streams:
         """Merge every group of `task` (row ``i`` of `rows` for its ``i``-th group)
         as :meth:`merge` does, the first groups' rows copied into the table in one
         step; returns the samples merged."""
-        items = ((i, *g[0][:3], g[-1][2]) for i, g in enumerate(task))
+        if isinstance(task, BlockTask):
+            merged = self._merge_first_groups(task, rows)
+            if merged is not None:
+                return merged
+            items = zip(
+                range(len(task)),
+                task.point.tolist(),
+                itertools.repeat(0),
+                task.first.tolist(),
+                task.last.tolist(),
+            )
+        else:
+            items = ((i, *g[0][:3], g[-1][2]) for i, g in enumerate(task))
         return self._merge_rows(items, rows)
+
+    def _merge_first_groups(self, task: BlockTask, rows: Stacked) -> int | None:
+        """:meth:`_merge_rows` for a task of distinct streams each merging its
+        first group (a sweep of small points), in array steps; None where the
+        task is not that (then merged group by group)."""
+        if self.replicates != 1 or self.precision is not None:
+            return None
+        ks = task.point if self._ids is None else np.searchsorted(self._ids, task.point)
+        if not ks.size:
+            return 0
+        lo, hi = int(ks[0]), int(ks[-1]) + 1
+        if hi - lo == ks.size and not task.first.any():  # consecutive streams
+            # (ascending: a task's groups are in stream order) as slices
+            ks = slice(lo, hi)
+        elif not (np.all(np.diff(ks) > 0) and not task.first.any()):
+            return None
+        if self.done[ks].any() or self.next_block[ks].any():
+            return None
+        self._hold(ks, rows, slice(None))
+        self.next_block[ks] = task.last + 1
+        self.done[ks] = self.next_block[ks] >= self.n_blocks()
+        return int(rows.counts[:, 0].sum())
 
     def merge_partial(self, partial: tuple) -> int:
         """Merge a partial result of the workers (``parallel.combine_partials``:
@@ -340,12 +383,14 @@ class _Streams:
         stream is a single group (``combine_partials``). Returns the samples
         merged."""
         nb, done, n_blocks = self.next_block, self.done, self.n_blocks()
+        # (int() and bool(): numpy scalars of the stream arrays kept out of the
+        # accumulators and the specs)
         ks, idx = [], []
         merged = 0
         samples = rows.counts[:, 0]
         for i, point, rep, first, last in items:
             k = self.index(point, rep)
-            if done[k] or first != nb[k]:
+            if done[k] or first != int(nb[k]):
                 continue
             if first == 0:
                 ks.append(k)
@@ -371,9 +416,12 @@ class _Streams:
         return merged
 
     def _hold(self, ks, rows: Stacked, idx) -> None:
-        """Streams `ks` take rows `idx` of `rows` as their totals."""
-        ks = np.asarray(ks, dtype=np.intp)
-        idx = np.asarray(idx, dtype=np.intp)
+        """Streams `ks` take rows `idx` of `rows` as their totals (indices, or
+        slices)."""
+        if not isinstance(ks, slice):
+            ks = np.asarray(ks, dtype=np.intp)
+        if not isinstance(idx, slice):
+            idx = np.asarray(idx, dtype=np.intp)
         self._held[ks] = True
         self._counts[ks] = rows.counts[idx]
         for n, moments, spans in (
@@ -473,7 +521,7 @@ class _Streams:
         if self.point_ids is not None:
             points = np.asarray(self.point_ids, dtype=np.int64)[points]
         keys = np.stack([points, rows % R], axis=1)
-        next_block = np.asarray(self.next_block, dtype=np.int64)[rows]
+        next_block = self.next_block[rows]
         return StackedState(keys, next_block, self.stacked().take(rows))
 
     def unconverged(self) -> list:
@@ -508,12 +556,27 @@ def _fixed_tasks(streams: _Streams) -> Iterator[tuple]:
     :data:`BLOCKS_PER_TASK` blocks aligned on multiples of it (so a resumed run groups
     as an uninterrupted one), packed into tasks."""
     T, B = BLOCKS_PER_TASK, streams.block_size
+    if streams.array_tasks and streams.replicates == 1:
+        # the same groups and tasks as arrays (tasks.py): no tuple per block
+        cap = streams.cap
+        stop = -(-cap // B)
+        ks = np.flatnonzero(~streams.done)
+        return block_tasks(
+            ks if streams._ids is None else streams._ids[ks],
+            streams.next_block[ks],
+            stop=stop,
+            block_size=B,
+            last_n=cap - (stop - 1) * B,
+            per_group=T,
+            task_impacts=TASK_IMPACTS,
+            task_groups=TASK_GROUPS,
+        )
 
     def groups():
         cap = streams.cap
         stop = -(-cap // B)
         last = cap - (stop - 1) * B  # impacts of the last block
-        for k, start in enumerate(streams.next_block):
+        for k, start in enumerate(streams.next_block.tolist()):
             if streams.done[k]:
                 continue
             point, rep = streams.key(k)
@@ -540,7 +603,7 @@ def _precision_wave(streams: _Streams, per_key: int, workers: int) -> list[tuple
     groups = []
     n_blocks = streams.n_blocks()
     for k in streams.active():
-        start = streams.next_block[k]
+        start = int(streams.next_block[k])
         stop = min(start + per_key, n_blocks)
         groups.extend(((spec,), spec[3]) for spec in streams.specs(k, start, stop))
     return list(_pack(groups, max(1, len(groups) // (4 * workers))))
@@ -728,7 +791,7 @@ class _Job:
                     group[-1][2],
                     rows.accumulator(i),
                     streams.acc(k),
-                    streams.done[k],
+                    bool(streams.done[k]),
                 )
         bar.update(n)
         self._checkpoint_if_due()

@@ -37,6 +37,7 @@ from ..errors import InputError
 from . import kernel
 from .plan import resolve_kernel
 from .summary import Stacked
+from .tasks import BlockTask
 
 _WORKER_PLAN = None
 #: Seconds to wait for a Dask scheduler given by address.
@@ -91,9 +92,14 @@ def run_task(plan, task):
     than one object per group makes the result cheap to send back (one buffer per
     array, not two small arrays and a dozen numbers per group).
     """
-    flat = [spec for group in task for spec in group]
+    if isinstance(task, BlockTask) and plan.kernel == "compiled":
+        # described by arrays: no tuple per block or point (tasks.py)
+        flat, lengths = task.specs(), task.lengths
+    else:
+        flat = [spec for group in task for spec in group]
+        lengths = [len(g) for g in task]
     # the compiled kernel merges each group's blocks itself (no object per block)
-    rows = kernel.simulate_specs_stacked(plan, flat, [len(g) for g in task])
+    rows = kernel.simulate_specs_stacked(plan, flat, lengths)
     if rows is None:
         accs = iter(_simulate(plan, flat))
         out = []
@@ -114,6 +120,9 @@ def task_partial(plan, task) -> tuple:
     last blocks it holds, and the rows themselves (one per group). Partials of
     consecutive tasks are reduced by :func:`combine_partials` on the workers."""
     rows = run_task(plan, task)
+    if isinstance(task, BlockTask):
+        keys = np.stack([task.point, np.zeros_like(task.point)], axis=1)
+        return keys, task.first.copy(), task.last.copy(), rows
     keys = np.array([g[0][:2] for g in task], dtype=np.int64).reshape(-1, 2)
     first = np.array([g[0][2] for g in task], dtype=np.int64)
     last = np.array([g[-1][2] for g in task], dtype=np.int64)

@@ -62,7 +62,7 @@ from .._core.tables import (
     nonempty_cells,
 )
 from ..errors import InputError, ScenarioError
-from ..scenario.grid import GridPoint, SweepGrid
+from ..scenario.grid import GridPoint, GridPoints, SweepGrid
 from . import _compiled
 from ._cells import cell_table
 from ._convolution import MAX_SUM_ATOMS, discrete_atoms, sum_table
@@ -668,6 +668,8 @@ class Plan:
     block_size: int = BLOCK_SIZE
     kernel: str = "numpy"  # "compiled" or "numpy" (see resolve_kernel)
     _cache: dict = field(default_factory=dict, repr=False, compare=False)
+    # (not copied by dataclasses.replace: a plan with other points has its own)
+    _columns: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     #: Bits of a draw the tables read (recorded in checkpoint fingerprints).
     table_bits = DRAW_BITS
@@ -702,6 +704,15 @@ class Plan:
             for s in self.surfaces
         )
 
+    def own_tables(self, surface: int) -> bool:
+        """Whether surface `surface` has tables with rows of their own per
+        apparent angle (weighted shadowing, pair tables): the plan keeps only
+        :data:`WEIGHTED_CACHE_BYTES` of them."""
+        s = self.surfaces[surface]
+        return s is not None and (
+            self.shadowing == "weighted" or isinstance(s, PairSampler | PairSearch)
+        )
+
     def angle_tables(self, surface: int, angle_deg: float) -> AngleTables:
         """Tables of one (surface, angle), cached for the life of the plan: for
         ``"reject"`` and ``"none"`` they are a few scalars, for ``"weighted"`` one
@@ -710,10 +721,7 @@ class Plan:
         key = (surface, float(angle_deg))
         tables = self._cache.get(key)
         if tables is None:
-            own = self.shadowing == "weighted" or isinstance(
-                self.surfaces[surface], PairSampler | PairSearch
-            )  # tables with rows of their own per apparent angle
-            if own and self.surfaces[surface] is not None:
+            if self.own_tables(surface):
                 size = self.surfaces[surface].nbytes
                 if size * (len(self._cache) + 1) > WEIGHTED_CACHE_BYTES:
                     self._cache.clear()
@@ -754,9 +762,39 @@ class Plan:
         near = [t for t in angles if low < np.deg2rad(t) - np.pi + 1e-6]
         return any(s.leans_back(t) for t in sorted(near, reverse=True))
 
+    def point_columns(self):
+        """Every point as arrays, for tasks described by arrays (issue 31):
+        ``(surface, speed, angle_deg, table, keys)``: each point's surface index,
+        nominal speed [m s-1] and apparent angle [deg], the index of its (surface,
+        angle) in `keys` (the arguments of :meth:`angle_tables`, sorted). From the
+        grid's own arrays when the points are a
+        :class:`~microimpact.scenario.grid.GridPoints`, else read point by point
+        once; kept for the life of the plan."""
+        cols = self._columns.get("columns")
+        if cols is None:
+            pts = self.points
+            if hasattr(pts, "columns"):
+                surface, speed, angle = pts.columns()
+            else:
+                n = len(pts)
+                surface = np.fromiter((p.surface for p in pts), np.int64, n)
+                speed = np.fromiter((p.speed for p in pts), float, n)
+                angle = np.fromiter((p.angle_deg for p in pts), float, n)
+            if hasattr(pts, "tables"):
+                table, keys = pts.tables()
+            else:
+                pairs = np.column_stack([surface.astype(float), angle]).reshape(-1, 2)
+                found, table = np.unique(pairs, axis=0, return_inverse=True)
+                keys = [(int(s), float(a)) for s, a in found.tolist()]
+                table = table.reshape(-1).astype(np.int64)
+            cols = (surface, speed, angle, table, keys)
+            self._columns["columns"] = cols
+        return cols
+
     def __getstate__(self):
         state = dict(self.__dict__)
         state["_cache"] = {}
+        state["_columns"] = {}
         return state
 
     def __setstate__(self, state):
@@ -1212,7 +1250,7 @@ def build_plan(scenario, *, seed=None, kernel=None) -> Plan:
     entropy = resolve_entropy(scenario.seed if seed is None else seed)
     diameters = diameter_sampler(scenario)
     coeffs = scenario.coefficients
-    points = tuple(SweepGrid.from_scenario(scenario).points())
+    points = GridPoints(SweepGrid.from_scenario(scenario))
     surfaces = tuple(
         _surface_sampler(
             v, scenario.particle_roughness, scenario.shadowing, scenario.source

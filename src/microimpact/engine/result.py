@@ -409,14 +409,9 @@ class SimulationResult:
             # the facets removed ('reject') or re-weighted ('weighted') were never
             # sampled: report their exact probability from the table (1 where no
             # facet can be reached: then every sample was counted as shadowed)
-            mass = {}
-            for sp in plan.points:
-                key = (sp.surface, sp.angle_deg)
-                if key not in mass:
-                    mass[key] = plan.angle_tables(*key).shadowed_mass
-            shadowed = np.array(
-                [mass[(sp.surface, sp.angle_deg)] for sp in plan.points]
-            )
+            *_, table, keys = plan.point_columns()
+            mass = np.array([plan.angle_tables(*key).shadowed_mass for key in keys])
+            shadowed = mass[table]
         ref = scenario.reference_angle_deg
         # the statistics are computed on first use (the summary, the files): by
         # then the run's plan and driver state are gone, so a sweep of 10^6 points

@@ -20,12 +20,12 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["GridPoint", "SweepGrid"]
+__all__ = ["GridPoint", "GridPoints", "SweepGrid"]
 
 #: Names of the sweep dimensions, in the order of the point numbering (C order).
 DIMS = ("surface", "speed_m_s", "angle_deg")
@@ -117,7 +117,10 @@ class SweepGrid:
         """The per-dimension indices of point `index`."""
         if not 0 <= index < self.size:
             raise IndexError(f"point {index} is outside 0..{self.size - 1}.")
-        return tuple(int(i) for i in np.unravel_index(index, self.shape))
+        _, n_v, n_a = self.shape
+        rest, a = divmod(int(index), n_a)
+        s, v = divmod(rest, n_v)
+        return s, v, a  # C order of dims (numpy's unravel_index, per point)
 
     def point(self, index: int) -> GridPoint:
         """Point `index` with its coordinates."""
@@ -133,6 +136,15 @@ class SweepGrid:
         )
         for i, ((s, name), speed, angle) in enumerate(combos):
             yield GridPoint(i, s, name, speed, angle)
+
+    def columns(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Every point's surface index, speed [m s-1] and angle [deg], as arrays
+        in numbering order (the values :meth:`points` gives, without an object
+        per point)."""
+        s, v, a = np.unravel_index(np.arange(self.size), self.shape)
+        speeds = np.asarray(self.speeds_m_s, dtype=float)
+        angles = np.asarray(self.angles_deg, dtype=float)
+        return s.astype(np.int64), speeds[v], angles[a]
 
     def coords(self, index: int) -> dict:
         """``{"surface": name, "speed_m_s": v, "angle_deg": a}`` of point `index`."""
@@ -162,3 +174,47 @@ class SweepGrid:
             dim: np.asarray(values, dtype=object if dim == "surface" else float)[i]
             for (dim, values), i in zip(self.coordinates().items(), idx, strict=True)
         }
+
+
+class GridPoints(Sequence):
+    """The points of a grid as a sequence, each built when it is asked for: what
+    ``tuple(grid.points())`` holds, without 10^6 objects made before a run
+    starts (and a small pickle for the workers). :meth:`columns` gives them as
+    arrays."""
+
+    __slots__ = ("grid",)
+
+    def __init__(self, grid: SweepGrid):
+        self.grid = grid
+
+    def __len__(self) -> int:
+        return self.grid.size
+
+    def __getitem__(self, index):
+        if isinstance(index, slice):
+            return tuple(self[i] for i in range(*index.indices(len(self))))
+        index = int(index)
+        if index < 0:
+            index += len(self)
+        return self.grid.point(index)
+
+    def __iter__(self) -> Iterator[GridPoint]:
+        return self.grid.points()
+
+    def __reduce__(self):
+        return (GridPoints, (self.grid,))
+
+    def __repr__(self) -> str:
+        return f"GridPoints({self.grid!r})"
+
+    def columns(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`SweepGrid.columns`."""
+        return self.grid.columns()
+
+    def tables(self) -> tuple[np.ndarray, list]:
+        """``(table, keys)``: each point's index in `keys`, the (surface index,
+        angle [deg]) pairs of the grid (surface-major)."""
+        n_s, _, n_a = self.grid.shape
+        s, _, a = np.unravel_index(np.arange(self.grid.size), self.grid.shape)
+        keys = [(i, float(x)) for i in range(n_s) for x in self.grid.angles_deg]
+        return (s * n_a + a).astype(np.int64), keys

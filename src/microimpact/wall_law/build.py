@@ -35,13 +35,13 @@ from .._core.progress import Progress
 from .._core.validation import implausible_speed
 from ..engine import _compiled
 from ..engine.checkpoint import CheckpointMismatch, load_arrays, save_arrays
-from ..engine.kernel import atan2_deg, simulate_specs_impacts
+from ..engine.kernel import SpecArrays, atan2_deg, simulate_specs_impacts
 from ..engine.montecarlo import iter_point_samples
 from ..engine.parallel import cap_workers, map_tasks
 from ..engine.plan import ArealSampler, build_plan, diameter_sampler, resolve_entropy
 from ..errors import ScenarioError
 from ..population.distributions import monodisperse
-from ..scenario.grid import SweepGrid
+from ..scenario.grid import GridPoints, SweepGrid
 from ..scenario.resuspension import ResuspensionSpec, resuspension_from_dict
 from ..scenario.scenario import Scenario, read_scenario
 from ..scenario.wall_law import REBOUND_VARIABLES, RESERVOIR_VARIABLES, WallLawSpec
@@ -198,11 +198,13 @@ def _impacts(plan, points, samples: int, buffers=None) -> dict:
     shape = (len(points), samples)
     if plan.kernel == "compiled":
         bs = plan.block_size
-        specs = [
-            (i, 0, b, min(bs, samples - b * bs))
-            for i in points
-            for b in range(math.ceil(samples / bs))
-        ]
+        per = math.ceil(samples / bs)  # blocks per point
+        block = np.tile(np.arange(per, dtype=np.int64), len(points))
+        specs = SpecArrays(  # every point's blocks, as arrays (no tuple each)
+            np.repeat(np.asarray(points, dtype=np.int64), per),
+            block,
+            np.minimum(bs, samples - block * bs),
+        )
         got = simulate_specs_impacts(plan, specs, buffers)
         return {k: v.reshape(shape) for k, v in got.items()}
     out = {
@@ -326,6 +328,21 @@ def _quantile_rows(srt, n, q):
         return np.where(g >= 0.5, b - diff * (1 - g), a + diff * g)
 
 
+def _geometry(plan) -> np.ndarray:
+    """Per sweep point of `plan`: ``sin(theta)``, ``cos(theta)`` (0 at normal
+    incidence: cos(pi/2) is 6e-17 in floating point) and whether its surface is
+    areal, as ``_ckernel.wall_rows`` reads them; computed once per (surface,
+    angle) with the math module's functions."""
+    *_, table, keys = plan.point_columns()
+    geom = np.empty((len(keys), 3))
+    for r, (surface, angle_deg) in enumerate(keys):
+        theta = math.radians(angle_deg)
+        geom[r, 0] = math.sin(theta)
+        geom[r, 1] = 0.0 if angle_deg == 90.0 else math.cos(theta)
+        geom[r, 2] = float(isinstance(plan.surfaces[surface], ArealSampler))
+    return geom[table]
+
+
 def _node_rows(plan, points, spec: WallLawSpec, samples: int, buffers=None) -> dict:
     """Counts, statistics and reservoirs of the nodes at sweep points `points`
     (arrays with a leading axis over them), from one array of impacts per
@@ -335,15 +352,7 @@ def _node_rows(plan, points, spec: WallLawSpec, samples: int, buffers=None) -> d
     same operations). Means and standard deviations are sequential sums."""
     imp = _impacts(plan, points, samples, buffers)
     p = len(points)
-    geom = np.empty((p, 3))
-    for r, i in enumerate(points):
-        pt = plan.points[i]
-        theta = math.radians(pt.angle_deg)
-        geom[r, 0] = math.sin(theta)
-        # cos(pi/2) is 6e-17 in floating point: the impact is normal
-        geom[r, 1] = 0.0 if pt.angle_deg == 90.0 else math.cos(theta)
-        geom[r, 2] = float(isinstance(plan.surfaces[pt.surface], ArealSampler))
-    out, stats = _wall_rows(imp, geom, buffers=buffers)
+    out, stats = _wall_rows(imp, _geometry(plan)[np.asarray(points)], buffers=buffers)
     n_reb = stats[:, 2].astype(np.int64)
     rows = {
         "n_samples": np.full(p, samples, dtype=np.int64),
@@ -390,12 +399,15 @@ def _diameter_task(plan, scenario, spec, samples, j):
     )
     if spec.speed_axis == "reduced":
         v_c = float(critical_speed_m_s(scenario, spec.diameters_um[j])[0])
-        d_plan = dataclasses.replace(
-            d_plan,
-            points=tuple(
+        if isinstance(plan.points, GridPoints):  # the grid's speeds, scaled
+            grid = plan.points.grid
+            speeds = tuple(v * v_c for v in grid.speeds_m_s)
+            points = GridPoints(dataclasses.replace(grid, speeds_m_s=speeds))
+        else:
+            points = tuple(
                 dataclasses.replace(pt, speed=pt.speed * v_c) for pt in plan.points
-            ),
-        )
+            )
+        d_plan = dataclasses.replace(d_plan, points=points)
     per = max(1, GROUP_IMPACTS // max(samples, 1))
     n = len(plan.points)
     size = min(per, n) * samples

@@ -1,0 +1,401 @@
+"""Tasks described by arrays (engine/tasks.py, issue 31): the same groups, tasks,
+kernel calls and bits as the driver's tuples, whose code stays the oracle."""
+
+from __future__ import annotations
+
+import pickle
+
+import numpy as np
+import pytest
+from engine_helpers import correlated_areal_angles, rough, scenario
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from numpy.testing import assert_array_equal
+
+from microimpact.engine import kernel, montecarlo, parallel, tasks
+from microimpact.engine.montecarlo import _fixed_tasks, _Streams, run
+from microimpact.engine.plan import build_plan
+from microimpact.engine.tasks import BlockTask, block_tasks
+from microimpact.scenario.grid import GridPoints, SweepGrid
+from microimpact.scenario.scenario import SurfaceVariant
+
+pytestmark = pytest.mark.skipif(
+    kernel.KERNEL != "compiled", reason="array tasks need the compiled kernel"
+)
+
+
+def _grid(**kw):
+    base = dict(
+        surfaces=(rough(8.0), rough(14.0, name="rougher")),
+        speeds_m_s=tuple(np.linspace(0.1, 2.0, 9)),
+        angles_deg=(20.0, 50.0, 80.0, 90.0),
+        samples=3000,
+    )
+    base.update(kw)
+    return scenario(**base)
+
+
+def _tuples(streams) -> list:
+    """The driver's tuple tasks for `streams` (the array path switched off)."""
+    streams.array_tasks = False
+    try:
+        return [tuple(t) for t in _fixed_tasks(streams)]
+    finally:
+        streams.array_tasks = True
+
+
+def _same_rows(a, b):
+    for name in ("counts", "e", "mu", "lateral"):
+        assert_array_equal(getattr(a, name), getattr(b, name))
+    for name in ("e_spans", "mu_spans", "lateral_spans"):
+        x, y = getattr(a, name), getattr(b, name)
+        assert_array_equal(x.offset, y.offset)
+        assert_array_equal(x.length, y.length)
+        assert_array_equal(x.counts, y.counts)
+
+
+# ---------------------------------------------------------------- the groups
+@settings(max_examples=60, deadline=None)
+@given(
+    streams=st.integers(1, 40),
+    cap_blocks=st.integers(1, 150),
+    last=st.integers(1, 50),
+    per_group=st.sampled_from([1, 2, 3, 8, 64]),
+    task_blocks=st.integers(1, 40),
+    task_groups=st.integers(1, 9),
+    chunk=st.integers(1, 7),
+    data=st.data(),
+)
+def test_block_tasks_are_the_drivers_tasks(
+    streams, cap_blocks, last, per_group, task_blocks, task_groups, chunk, data
+):
+    """Against the driver's own rule written out per group (montecarlo._pack
+    over groups cut at multiples of `per_group`): the same groups, packed into
+    the same tasks, also across chunk boundaries and from resumed streams."""
+    B = 50
+    stop = cap_blocks
+    starts = np.array(
+        data.draw(st.lists(st.integers(0, stop), min_size=streams, max_size=streams))
+    )
+    ks = np.arange(streams) * 3  # any ascending streams
+
+    def groups():
+        for k, start in zip(ks.tolist(), starts.tolist(), strict=True):
+            while start < stop:
+                end = min((start // per_group + 1) * per_group, stop)
+                g = tuple(
+                    (k, 0, b, last if b == stop - 1 else B) for b in range(start, end)
+                )
+                yield g, sum(s[3] for s in g)
+                start = end
+
+    old = (montecarlo.TASK_IMPACTS, montecarlo.TASK_GROUPS, tasks.CHUNK_STREAMS)
+    try:
+        montecarlo.TASK_IMPACTS = task_blocks * B
+        montecarlo.TASK_GROUPS = task_groups
+        tasks.CHUNK_STREAMS = chunk
+        want = [tuple(t) for t in montecarlo._pack(groups())]
+        got = list(
+            block_tasks(
+                ks,
+                starts,
+                stop=stop,
+                block_size=B,
+                last_n=last,
+                per_group=per_group,
+                task_impacts=task_blocks * B,
+                task_groups=task_groups,
+            )
+        )
+    finally:
+        montecarlo.TASK_IMPACTS, montecarlo.TASK_GROUPS, tasks.CHUNK_STREAMS = old
+    assert [tuple(t) for t in got] == want
+    for t in got:  # the arrays describe what the tuples say
+        specs = list(t.specs())
+        assert specs == [s for g in t for s in g]
+        assert t.impacts().tolist() == [sum(s[3] for s in g) for g in t]
+        assert t.lengths.tolist() == [len(g) for g in t]
+
+
+@pytest.mark.parametrize("samples", [3000, 70_001, 5 * 32768 * 64 + 7])
+def test_fixed_tasks_as_arrays_equal_the_tuples(samples):
+    """A sweep of small points, points of several blocks, points of several
+    groups of 64 blocks: the driver's tasks, group for group."""
+    sc = _grid(samples=samples, speeds_m_s=(0.5, 1.0), angles_deg=(30.0, 60.0))
+    streams = _Streams(build_plan(sc, seed=3), samples, None, 0.95)
+    got = list(_fixed_tasks(streams))
+    assert all(isinstance(t, BlockTask) for t in got)
+    assert [tuple(t) for t in got] == _tuples(streams)
+
+
+def test_a_resumed_run_groups_as_the_tuples():
+    sc = _grid(samples=40 * 32768)
+    streams = _Streams(build_plan(sc, seed=3), sc.samples, None, 0.95)
+    streams.next_block[[0, 5, 7]] = [3, 40, 39]
+    streams.done[11] = True
+    got = list(_fixed_tasks(streams))
+    assert [tuple(t) for t in got] == _tuples(streams)
+    assert 11 not in np.concatenate([t.point for t in got])
+
+
+# ---------------------------------------------------------------- the kernel
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(data=st.data())
+def test_array_specs_give_the_tuple_specs_bits(data):
+    """Random specs (points, blocks, sizes, groups) through the kernel as arrays
+    and as tuples: the same rows, bit for bit."""
+    plan = _PLAN()
+    n_points = len(plan.points)
+    k = data.draw(st.integers(1, 30))
+    specs = [
+        (
+            data.draw(st.integers(0, n_points - 1)),
+            0,
+            data.draw(st.integers(0, 5)),
+            data.draw(st.integers(0, 700)),
+        )
+        for _ in range(k)
+    ]
+    cuts = (
+        sorted(set(data.draw(st.lists(st.integers(1, k - 1), max_size=5))))
+        if k > 1
+        else []
+    )
+    groups = np.diff([0, *cuts, k])
+    arrays = kernel.SpecArrays(
+        np.array([s[0] for s in specs]),
+        np.array([s[2] for s in specs]),
+        np.array([s[3] for s in specs]),
+    )
+    want = kernel.simulate_specs_stacked(plan, specs, groups)
+    _same_rows(kernel.simulate_specs_stacked(plan, arrays, groups), want)
+    # the per-block accumulators and the per-impact outputs too
+    assert kernel.simulate_specs(plan, arrays) == kernel.simulate_specs(plan, specs)
+    a = kernel.simulate_specs_impacts(plan, arrays)
+    b = kernel.simulate_specs_impacts(plan, specs)
+    for name in a:
+        assert_array_equal(a[name], b[name])
+
+
+def _make_plan():
+    plans = {}
+
+    def get():
+        if "p" not in plans:
+            sc = _grid(
+                surfaces=(
+                    SurfaceVariant("smooth"),
+                    rough(9.0),
+                    SurfaceVariant("areal", correlated_areal_angles(400)),
+                ),
+                speed_spread=0.1,
+            )
+            plans["p"] = build_plan(sc, seed=9)
+        return plans["p"]
+
+    return get
+
+
+_PLAN = _make_plan()
+
+
+def test_the_parsed_points_and_the_per_task_points_agree(monkeypatch):
+    """The plan's points parsed once (a capsule) and the points of each task
+    parsed in its call (the path of surfaces with tables per angle) give the
+    same bits; a weighted plan takes the second path."""
+    sc = _grid(samples=2000)
+    ref = run(sc, seed=4)
+    assert kernel._plan_points(build_plan(sc, seed=4)) is not None
+    monkeypatch.setattr(kernel, "_parse_plan_points", lambda plan: False)
+    got = run(sc, seed=4)
+    assert_array_equal(got.summary["e_mean"], ref.summary["e_mean"])
+    for key in ref.accumulators:
+        assert got.accumulators[key] == ref.accumulators[key]
+    weighted = build_plan(_grid(shadowing="weighted"), seed=4)
+    assert kernel._plan_points(weighted) is None
+
+
+def test_array_specs_are_checked():
+    plan = _PLAN()
+    ck = kernel._ckernel()
+    heads = kernel._plan_points(plan)
+    words = kernel.entropy_words(plan.entropy)
+    common = kernel._common_args(plan)
+
+    def call(items, k=1):
+        return ck.specs(
+            words,
+            common,
+            items,
+            np.empty((k, 5), np.int64),
+            np.empty((k, 12)),
+            np.empty((k, 6), np.int64),
+        )
+
+    def arrays(which=0, point=0, block=0, n=10, speed=1.0, points=heads):
+        i64 = lambda v: np.array([v], dtype=np.int64)  # noqa: E731
+        return (points, i64(which), np.array([speed]), i64(point), i64(block), i64(n))
+
+    assert len(call(arrays())) > 0
+    for bad in (
+        arrays(which=10**6),
+        arrays(which=-1),
+        arrays(point=-1),
+        arrays(block=-2),
+        arrays(n=-1),
+    ):
+        with pytest.raises(ValueError):
+            call(bad)
+    with pytest.raises(ValueError):  # lengths that disagree
+        a = list(arrays())
+        a[4] = np.zeros(2, dtype=np.int64)
+        call(tuple(a))
+    with pytest.raises(TypeError):
+        call(arrays()[:5])
+    with pytest.raises(TypeError):
+        call(arrays(points=(1, 2)))
+    with pytest.raises(TypeError):  # another capsule, or a list of non-tuples
+        call(arrays(points=[[1, 2]]))
+    with pytest.raises(TypeError):
+        call({"not": "specs"})
+
+
+# ---------------------------------------------------------------- the driver
+@pytest.mark.parametrize("workers", [1, 2])
+def test_runs_with_array_tasks_match_the_tuple_tasks(monkeypatch, workers):
+    """Whole runs, small points and points of several groups, on 1 and 2
+    workers: the same results as with the driver's tuples."""
+    made = []
+    orig_init = _Streams.__init__
+
+    def tuples_only(self, *a, **k):
+        orig_init(self, *a, **k)
+        self.array_tasks = False
+        made.append(self)
+
+    for sc in (
+        _grid(samples=3000),
+        _grid(samples=70 * 32768 + 3, speeds_m_s=(1.0,), angles_deg=(40.0,)),
+    ):
+        monkeypatch.setattr(_Streams, "__init__", tuples_only)
+        ref = run(sc, seed=6, workers=workers)
+        monkeypatch.undo()
+        got = run(sc, seed=6, workers=workers)
+        assert made and not made[-1].array_tasks  # the tuple path was taken
+        for key in ref.accumulators:
+            assert got.accumulators[key] == ref.accumulators[key]
+
+
+def test_the_first_groups_merge_in_one_step_as_group_by_group():
+    """_merge_first_groups (slices, fancy indices) against _merge_rows (the
+    oracle), and None where it does not apply."""
+    sc = _grid(samples=3000)
+    plan = build_plan(sc, seed=2)
+    a, b = (_Streams(plan, sc.samples, None, 0.95) for _ in range(2))
+    for task in list(_fixed_tasks(a)):
+        rows = parallel.run_task(plan, task)
+        # a sparse task (every other group) takes the fancy-index path
+        for part in (
+            BlockTask(
+                task.point[::2],
+                task.first[::2],
+                task.last[::2],
+                task.stop,
+                task.block_size,
+                task.last_n,
+            ),
+            BlockTask(
+                task.point[1::2],
+                task.first[1::2],
+                task.last[1::2],
+                task.stop,
+                task.block_size,
+                task.last_n,
+            ),
+        ):
+            idx = np.searchsorted(task.point, part.point)
+            sub = rows.take(idx)
+            assert a._merge_first_groups(part, sub) == int(sub.counts[:, 0].sum())
+            items = zip(
+                range(len(part)),
+                part.point.tolist(),
+                [0] * len(part),
+                part.first.tolist(),
+                part.last.tolist(),
+                strict=True,
+            )
+            b._merge_rows(items, sub)
+    assert_array_equal(a.next_block, b.next_block)
+    assert_array_equal(a.done, b.done)
+    _same_rows(a.stacked(), b.stacked())
+    # merged already: not first groups any more
+    task = next(iter(_fixed_tasks(_Streams(plan, sc.samples, None, 0.95))))
+    assert a._merge_first_groups(task, parallel.run_task(plan, task)) is None
+
+
+# ---------------------------------------------------------------- the points
+def test_grid_points_are_the_tuple_of_points():
+    grid = SweepGrid(("a", "b"), (0.3, 1.0, 7.5), (10.0, 45.0, 90.0, 33.0))
+    pts = GridPoints(grid)
+    want = tuple(grid.points())
+    assert len(pts) == len(want) == 24
+    assert tuple(pts) == want
+    assert [pts[i] for i in range(24)] == list(want)
+    assert pts[-1] == want[-1] and pts[3:17:4] == want[3:17:4]
+    assert pickle.loads(pickle.dumps(pts))[13] == want[13]
+    s, v, a = pts.columns()
+    assert s.tolist() == [p.surface for p in want]
+    assert v.tolist() == [p.speed for p in want]
+    assert a.tolist() == [p.angle_deg for p in want]
+    table, keys = pts.tables()
+    assert [keys[t] for t in table] == [(p.surface, p.angle_deg) for p in want]
+    with pytest.raises(IndexError):
+        pts[24]
+
+
+def test_a_plan_with_other_points_has_its_own_columns():
+    """dataclasses.replace(plan, points=...) (the wall law's reduced speed axis)
+    must not reuse the columns of the plan it was made from."""
+    import dataclasses
+
+    plan = build_plan(_grid(), seed=1)
+    before = plan.point_columns()[1].copy()
+    points = tuple(dataclasses.replace(p, speed=2 * p.speed) for p in plan.points)
+    other = dataclasses.replace(plan, points=points)
+    assert_array_equal(other.point_columns()[1], 2 * before)
+    assert_array_equal(plan.point_columns()[1], before)
+    # read point by point, the same columns as the grid's own arrays
+    listed = dataclasses.replace(plan, points=tuple(plan.points))
+    for x, y in zip(listed.point_columns()[:4], plan.point_columns()[:4], strict=True):
+        assert_array_equal(x, y)
+    assert [listed.point_columns()[4][t] for t in listed.point_columns()[3]] == [
+        plan.point_columns()[4][t] for t in plan.point_columns()[3]
+    ]
+
+
+def test_streams_of_some_points_take_array_tasks_too(monkeypatch):
+    """The calibration batch of estimate_duration (streams of a subset of the
+    points: their ids are not 0..n-1) as arrays and as tuples: the same rows."""
+    plan = build_plan(_grid(), seed=8)
+    specs = [(p, 0, 0, 500) for p in (1, 2, 3, 7, 30, 31, 50)]
+    seen = []
+    real = parallel.run_task
+
+    def spy(p, task):
+        seen.append(type(task).__name__)
+        return real(p, task)
+
+    monkeypatch.setattr(parallel, "run_task", spy)
+    got = montecarlo._calibration_batch(plan, specs)
+    assert seen and set(seen) == {"BlockTask"}
+    orig_init = _Streams.__init__
+
+    def tuples_only(self, *a, **k):
+        orig_init(self, *a, **k)
+        self.array_tasks = False
+
+    monkeypatch.setattr(_Streams, "__init__", tuples_only)
+    seen.clear()
+    want = montecarlo._calibration_batch(plan, specs)
+    assert "BlockTask" not in seen
+    _same_rows(got, want)
