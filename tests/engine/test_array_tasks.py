@@ -399,3 +399,34 @@ def test_streams_of_some_points_take_array_tasks_too(monkeypatch):
     want = montecarlo._calibration_batch(plan, specs)
     assert "BlockTask" not in seen
     _same_rows(got, want)
+
+
+@settings(max_examples=20, deadline=None)
+@given(
+    samples=st.sampled_from([1, 2, 99, 32767, 32768, 32769, 65 * 32768 + 1]),
+    n_speeds=st.integers(1, 7),
+    n_angles=st.integers(1, 5),
+    workers=st.sampled_from([1, 2]),
+)
+def test_any_grid_runs_as_with_the_tuple_tasks(samples, n_speeds, n_angles, workers):
+    """Random grids and sample counts (a block and one over, a group of 64 and
+    one over) through ``run``: the array tasks give the tuple tasks' results."""
+    if samples * n_speeds * n_angles > 3_000_000:
+        samples = 32769
+    sc = _grid(
+        samples=samples,
+        speeds_m_s=tuple(np.linspace(0.2, 3.0, n_speeds)),
+        angles_deg=tuple(np.linspace(10.0, 90.0, n_angles)),
+    )
+    got = run(sc, seed=11, workers=workers)
+    orig_init = _Streams.__init__
+
+    def tuples_only(self, *a, **k):
+        orig_init(self, *a, **k)
+        self.array_tasks = False
+
+    with pytest.MonkeyPatch.context() as m:
+        m.setattr(_Streams, "__init__", tuples_only)
+        want = run(sc, seed=11, workers=workers)
+    for key in want.accumulators:
+        assert got.accumulators[key] == want.accumulators[key]
