@@ -48,6 +48,7 @@ from __future__ import annotations
 
 import os
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import lru_cache
 
@@ -654,7 +655,7 @@ class Plan:
     :func:`build_plan`)."""
 
     entropy: int
-    points: tuple[SweepPoint, ...]
+    points: Sequence[SweepPoint]  # a GridPoints from build_plan, or a tuple
     diameters: Sampler  # rows: 1/k1, 1/k2, v_c, d
     p: float
     q: float
