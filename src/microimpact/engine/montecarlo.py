@@ -190,14 +190,15 @@ class _Streams:
         # the point of each stream: its index in the common case of every point
         # (no list of 10^6 numbers); else the sorted indices
         identity = np.array_equal(ids, np.arange(ids.size))
-        self.point_ids = None if identity else ids.tolist()
-        self._ids = None if identity else ids  # (sorted)
-        self._pos = None if identity else {p: i for i, p in enumerate(self.point_ids)}
+        self.point_ids = None if identity else ids  # (sorted)
+        self._pos = None if identity else {p: i for i, p in enumerate(ids.tolist())}
         K = self.size = ids.size * R
         self.next_block = np.zeros(K, dtype=np.int64)
         self.done = np.zeros(K, dtype=bool)
         # fixed-size Monte Carlo runs on the compiled kernel: tasks as arrays
-        self.array_tasks = plan.kernel == "compiled" and plan.sampling != "qmc"
+        self.array_tasks = (
+            plan.kernel == "compiled" and plan.sampling != "qmc" and R == 1
+        )
         self.loose: dict[int, PointAccumulator] = {}
         # the table of streams held as their first group's row
         self._held = np.zeros(K, dtype=bool)
@@ -223,7 +224,7 @@ class _Streams:
 
     def key(self, k: int) -> tuple[int, int]:
         point, rep = divmod(k, self.replicates)
-        return (point if self.point_ids is None else self.point_ids[point]), rep
+        return (point if self.point_ids is None else int(self.point_ids[point])), rep
 
     def n_blocks(self) -> int:
         """Blocks of every stream (at the cap of a precision target)."""
@@ -342,9 +343,10 @@ class _Streams:
         """:meth:`_merge_rows` for a task of distinct streams each merging its
         first group (a sweep of small points), in array steps; None where the
         task is not that (then merged group by group)."""
-        if self.replicates != 1 or self.precision is not None:
+        if self.precision is not None:
             return None
-        ks = task.point if self._ids is None else np.searchsorted(self._ids, task.point)
+        ids = self.point_ids
+        ks = task.point if ids is None else np.searchsorted(ids, task.point)
         if not ks.size:
             return 0
         lo, hi = int(ks[0]), int(ks[-1]) + 1
@@ -519,7 +521,7 @@ class _Streams:
         R = self.replicates
         points = rows // R
         if self.point_ids is not None:
-            points = np.asarray(self.point_ids, dtype=np.int64)[points]
+            points = self.point_ids[points]
         keys = np.stack([points, rows % R], axis=1)
         next_block = self.next_block[rows]
         return StackedState(keys, next_block, self.stacked().take(rows))
@@ -556,13 +558,13 @@ def _fixed_tasks(streams: _Streams) -> Iterator[tuple]:
     :data:`BLOCKS_PER_TASK` blocks aligned on multiples of it (so a resumed run groups
     as an uninterrupted one), packed into tasks."""
     T, B = BLOCKS_PER_TASK, streams.block_size
-    if streams.array_tasks and streams.replicates == 1:
+    if streams.array_tasks:
         # the same groups and tasks as arrays (tasks.py): no tuple per block
         cap = streams.cap
         stop = -(-cap // B)
         ks = np.flatnonzero(~streams.done)
         return block_tasks(
-            ks if streams._ids is None else streams._ids[ks],
+            ks if streams.point_ids is None else streams.point_ids[ks],
             streams.next_block[ks],
             stop=stop,
             block_size=B,

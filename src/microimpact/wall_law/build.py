@@ -35,10 +35,11 @@ from .._core.progress import Progress
 from .._core.validation import implausible_speed
 from ..engine import _compiled
 from ..engine.checkpoint import CheckpointMismatch, load_arrays, save_arrays
-from ..engine.kernel import SpecArrays, atan2_deg, simulate_specs_impacts
+from ..engine.kernel import atan2_deg, simulate_specs_impacts
 from ..engine.montecarlo import iter_point_samples
 from ..engine.parallel import cap_workers, map_tasks
 from ..engine.plan import ArealSampler, build_plan, diameter_sampler, resolve_entropy
+from ..engine.tasks import BlockTask
 from ..errors import ScenarioError
 from ..population.distributions import monodisperse
 from ..scenario.grid import GridPoints, SweepGrid
@@ -197,15 +198,19 @@ def _impacts(plan, points, samples: int, buffers=None) -> dict:
     gives the same values (``simulate_block(..., store=True)``)."""
     shape = (len(points), samples)
     if plan.kernel == "compiled":
+        # every point's blocks as one group each, as arrays (no tuple per block)
         bs = plan.block_size
         per = math.ceil(samples / bs)  # blocks per point
-        block = np.tile(np.arange(per, dtype=np.int64), len(points))
-        specs = SpecArrays(  # every point's blocks, as arrays (no tuple each)
-            np.repeat(np.asarray(points, dtype=np.int64), per),
-            block,
-            np.minimum(bs, samples - block * bs),
+        pts = np.asarray(points, dtype=np.int64)
+        task = BlockTask(
+            pts,
+            np.zeros_like(pts),
+            np.full_like(pts, per - 1),
+            per,
+            bs,
+            samples - (per - 1) * bs,
         )
-        got = simulate_specs_impacts(plan, specs, buffers)
+        got = simulate_specs_impacts(plan, task.specs(), buffers)
         return {k: v.reshape(shape) for k, v in got.items()}
     out = {
         "e_m": np.zeros(shape),
