@@ -430,3 +430,155 @@ def test_any_grid_runs_as_with_the_tuple_tasks(samples, n_speeds, n_angles, work
         want = run(sc, seed=11, workers=workers)
     for key in want.accumulators:
         assert got.accumulators[key] == want.accumulators[key]
+
+
+# ------------------------------------------------------ one kernel call a task
+def _same_narrow_rows(a, b):
+    """:func:`_same_rows`, and the histogram counts of one dtype."""
+    _same_rows(a, b)
+    for name in ("e_spans", "mu_spans", "lateral_spans"):
+        assert getattr(a, name).counts.dtype == getattr(b, name).counts.dtype
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(data=st.data())
+def test_task_rows_are_the_stacked_rows_narrowed(data):
+    """kernel.task_rows (``_ckernel.task``: blocks expanded, points looked up,
+    rows laid out and narrowed in C) against the specs of the same task through
+    simulate_specs_stacked and Stacked.narrow (the oracle): random groups of
+    random points of a smooth, a rough and an areal surface, any block sizes."""
+    plan = _PLAN()
+    n_points = len(plan.points)
+    G = data.draw(st.integers(0, 8))
+    stop = data.draw(st.integers(1, 5))
+    block_size = data.draw(st.integers(1, 900))
+    last_n = data.draw(st.integers(1, block_size))
+    point = np.array(
+        data.draw(st.lists(st.integers(0, n_points - 1), min_size=G, max_size=G)),
+        dtype=np.int64,
+    )
+    first = np.array(
+        data.draw(st.lists(st.integers(0, stop - 1), min_size=G, max_size=G)),
+        dtype=np.int64,
+    )
+    last = np.array(
+        [data.draw(st.integers(int(f), stop - 1)) for f in first], dtype=np.int64
+    )
+    task = BlockTask(point, first, last, stop, block_size, last_n)
+    want = kernel.simulate_specs_stacked(plan, task.specs(), task.lengths).narrow()
+    _same_narrow_rows(kernel.task_rows(plan, task), want)
+
+
+@pytest.mark.parametrize("block_size", [200, 3000, 70_000])
+def test_task_rows_narrow_as_compact_counts(block_size):
+    """Counts that need uint8, uint16 and int32: the bin of psi_f = 0 off an
+    areal surface holds every rebound of a group, the others fewer."""
+    plan = _PLAN()
+    # a smooth point where nearly every impact rebounds, two where most stick
+    point = np.array([3, 29, 40], dtype=np.int64)
+    assert plan.points[29].surface_name == "smooth"
+    task = BlockTask(point, np.zeros(3, np.int64), np.zeros(3, np.int64), 1,
+                     block_size, block_size)
+    got = kernel.task_rows(plan, task)
+    want = kernel.simulate_specs_stacked(plan, task.specs(), task.lengths).narrow()
+    _same_narrow_rows(got, want)
+    top = int(got.lateral_spans.counts.max())
+    assert top >= 0.99 * block_size  # nearly every impact rebounds: one psi_f bin
+    assert got.lateral_spans.counts.dtype.itemsize == (
+        1 if top < 256 else 2 if top < 65536 else 4
+    )
+
+
+def test_task_rows_is_the_path_of_a_run(monkeypatch):
+    """A fixed-size run takes task_rows (one kernel call a task), with the bits of
+    the specs' path (task_rows switched off)."""
+    sc = _grid(samples=3000)
+    calls = []
+    real = kernel.task_rows
+
+    def counted(plan, task):
+        calls.append(len(task))
+        return real(plan, task)
+
+    monkeypatch.setattr(kernel, "task_rows", counted)
+    got = run(sc, seed=5)
+    assert sum(calls) == len(got.accumulators)
+    monkeypatch.setattr(kernel, "task_rows", lambda plan, task: None)
+    ref = run(sc, seed=5)
+    for key in ref.accumulators:
+        assert got.accumulators[key] == ref.accumulators[key]
+
+
+def test_task_arguments_are_checked():
+    plan = _PLAN()
+    ck = kernel._ckernel()
+    points = kernel._plan_points(plan)
+    words = kernel.entropy_words(plan.entropy)
+    common = kernel._common_args(plan)
+    i64 = lambda *v: np.array(v, dtype=np.int64)  # noqa: E731
+
+    def call(point=(0,), first=(0,), last=(0,), stop=2, bs=10, last_n=5, pts=points):
+        G = len(point)
+        return ck.task(words, common, pts, i64(*point), i64(*first), i64(*last),
+                       stop, bs, last_n, np.empty((G, 5), np.int64),
+                       np.empty((3, G, 4)), np.empty((3, 2, G), np.int64))
+
+    assert len(call()) == 6
+    n_points = len(plan.points)
+    for bad in (
+        dict(point=(n_points,)),
+        dict(point=(-1,)),
+        dict(first=(1,), last=(0,)),
+        dict(last=(2,)),
+        dict(first=(-1,)),
+        dict(last_n=11),
+        dict(last_n=0),
+        dict(bs=0),
+        dict(stop=0),
+        dict(point=(0, 1)),  # lengths that disagree
+    ):
+        with pytest.raises(ValueError):
+            call(**bad)
+    bare = ck.points([], False)  # parsed points without every point's table
+    with pytest.raises(ValueError):
+        call(pts=bare)
+    with pytest.raises(TypeError):
+        call(pts=(1, 2))
+    with pytest.raises(ValueError):  # which must index the heads
+        ck.points([], False, i64(0), np.zeros(1))
+    with pytest.raises(ValueError):
+        ck.points([], False, i64(), np.zeros(1))
+    with pytest.raises(TypeError):
+        ck.points([], False, i64())
+
+
+@pytest.mark.parametrize("pending", [1, 3, 10_000])
+def test_rows_held_back_are_in_the_table_when_it_is_read(monkeypatch, pending):
+    """The driver keeps up to PENDING_TASKS tasks' rows before it copies them
+    into its table: any number gives the same table, and the checkpoint state
+    read between merges holds every merged row."""
+    monkeypatch.setattr(montecarlo, "TASK_IMPACTS", 3 * 3000)
+    monkeypatch.setattr(montecarlo, "PENDING_TASKS", pending)
+    sc = _grid(samples=3000)
+    plan = build_plan(sc, seed=2)
+    a, b = (_Streams(plan, sc.samples, None, 0.95) for _ in range(2))
+    tasks_ = list(_fixed_tasks(a))
+    assert len(tasks_) > 4
+    for i, task in enumerate(tasks_):
+        rows = parallel.run_task(plan, task)
+        a.merge_task(task, rows)
+        items = zip(range(len(task)), task.point.tolist(), [0] * len(task),
+                    task.first.tolist(), task.last.tolist(), strict=True)
+        b._merge_rows(items, rows)
+        # each reader of the table, with rows held back (unless pending is 1)
+        if i == 1:
+            k = int(task.point[0])
+            assert a.acc(k) == b.acc(k) is not None
+        elif i == 2:
+            assert a.samples_done() == b.samples_done()
+        elif i == 3:
+            sa, sb = a.state(), b.state()
+            assert_array_equal(sa.keys, sb.keys)
+            assert_array_equal(sa.next_block, sb.next_block)
+            _same_rows(sa.stacked, sb.stacked)
+    _same_rows(a.stacked(), b.stacked())

@@ -91,6 +91,10 @@ def _no_stacked(plan, specs, groups=None):
     return None  # as a kernel without the stacked path
 
 
+def _no_task(plan, task):
+    return None  # as a kernel without the one-call task path
+
+
 def test_simulate_specs_is_used_when_the_kernel_has_it(monkeypatch):
     """One kernel call per task with all its block specs, and the same bits as
     simulate_block per spec."""
@@ -106,6 +110,7 @@ def test_simulate_specs_is_used_when_the_kernel_has_it(monkeypatch):
     # the per-accumulator path (the stacked one, tested against it in
     # tests/engine/test_grid_speed.py, is switched off here)
     monkeypatch.setattr(kernel, "simulate_specs_stacked", _no_stacked)
+    monkeypatch.setattr(kernel, "task_rows", _no_task)
     _same(ref, run(sc))
     assert len(calls) == 1 and len(calls[0]) == 36
 
@@ -127,6 +132,7 @@ def test_the_stacked_kernel_path_is_one_call_per_task(monkeypatch):
         return real(plan, specs, groups)
 
     monkeypatch.setattr(kernel, "simulate_specs_stacked", stacked)
+    monkeypatch.setattr(kernel, "task_rows", _no_task)
     _same(ref, run(sc))
     assert len(calls) == 1 and len(calls[0]) == 36
 
@@ -144,6 +150,7 @@ def test_merge_in_a_task_follows_block_order(monkeypatch):
     ref = run(sc).accumulators[0]
     with pytest.MonkeyPatch.context() as m:  # the Python fold (no compiled kernel)
         m.setattr(kernel, "simulate_specs_stacked", _no_stacked)
+        m.setattr(kernel, "task_rows", _no_task)
         real = parallel._simulate
         m.setattr(parallel, "_simulate", lambda p, s: real(p, s[::-1])[::-1])
         assert run(sc).accumulators[0] == ref  # same specs, same order of merging
@@ -163,6 +170,7 @@ def test_merge_in_a_task_follows_block_order(monkeypatch):
         return real_stacked(p, specs, groups)
 
     monkeypatch.setattr(kernel, "simulate_specs_stacked", reversed_groups)
+    monkeypatch.setattr(kernel, "task_rows", _no_task)
     bad = run(sc).accumulators[0]
     assert bad.n == ref.n and bad.e != ref.e
 

@@ -59,6 +59,18 @@ class KernelSpy:
                 return rows
 
             monkeypatch.setattr(kernel, "simulate_specs_stacked", stacked)
+        real_task = getattr(kernel, "task_rows", None)
+        if real_task is not None:
+
+            def task_rows(plan, task):
+                rows = real_task(plan, task)
+                if rows is not None:
+                    for group in task:
+                        for spec in group:
+                            self._count(spec)
+                return rows
+
+            monkeypatch.setattr(kernel, "task_rows", task_rows)
 
     def _count(self, spec):
         if self.raise_after is not None and len(self.blocks) >= self.raise_after:

@@ -1936,6 +1936,9 @@ typedef struct {
     sampler_set set;
     spec_t *tmpl;
     Py_ssize_t n;
+    /* optional (task()): every plan point's template (int64) and speed */
+    Py_buffer which, speed;
+    Py_ssize_t points;
 } point_table;
 
 static const char *POINTS_CAPSULE = "microimpact.engine._ckernel.points";
@@ -1949,21 +1952,28 @@ point_table_free(PyObject *capsule)
     sampler_set_free(&t->set);
     PyMem_Free(t->tmpl);
     Py_XDECREF(t->heads);
+    if (t->which.obj != NULL)
+        PyBuffer_Release(&t->which);
+    if (t->speed.obj != NULL)
+        PyBuffer_Release(&t->speed);
     PyMem_Free(t);
 }
 
 PyDoc_STRVAR(points_doc,
-"points(heads, speed_random) -> capsule\n\n"
+"points(heads, speed_random[, which, speed]) -> capsule\n\n"
 "The point tuples `heads` (a list, as specs() reads them) parsed once, for the\n"
 "tuple-of-arrays form of specs() (in place of its list of points): a plan's\n"
-"points are then parsed once, not in every call.");
+"points are then parsed once, not in every call. With `which` (int64, an index\n"
+"of `heads` per plan point) and `speed` (float64, its speed), task() can run\n"
+"groups of the plan's points from their indices alone.");
 
 static PyObject *
 ck_points(PyObject *self, PyObject *args)
 {
-    PyObject *heads;
+    PyObject *heads, *which = Py_None, *speed = Py_None;
     int speed_random;
-    if (!PyArg_ParseTuple(args, "O!p:points", &PyList_Type, &heads, &speed_random))
+    if (!PyArg_ParseTuple(args, "O!p|OO:points", &PyList_Type, &heads, &speed_random,
+                          &which, &speed))
         return NULL;
     point_table *t = PyMem_Calloc(1, sizeof *t);
     if (t == NULL)
@@ -1991,6 +2001,34 @@ ck_points(PyObject *self, PyObject *args)
             Py_DECREF(capsule);
             return NULL;
         }
+    }
+    if ((which == Py_None) != (speed == Py_None)) {
+        PyErr_SetString(PyExc_TypeError, "_ckernel.points: which and speed together");
+        Py_DECREF(capsule);
+        return NULL;
+    }
+    if (which != Py_None) {
+        if (PyObject_GetBuffer(which, &t->which, PyBUF_C_CONTIGUOUS) < 0 ||
+            PyObject_GetBuffer(speed, &t->speed, PyBUF_C_CONTIGUOUS) < 0) {
+            Py_DECREF(capsule);
+            return NULL;
+        }
+        if (t->which.len % 8 || t->speed.len != t->which.len) {
+            PyErr_SetString(PyExc_ValueError,
+                            "_ckernel.points: which (int64) and speed (float64) "
+                            "are of one length");
+            Py_DECREF(capsule);
+            return NULL;
+        }
+        t->points = t->which.len / 8;
+        const int64_t *w = t->which.buf;
+        for (Py_ssize_t i = 0; i < t->points; i++)
+            if (w[i] < 0 || w[i] >= t->n) {
+                PyErr_SetString(PyExc_ValueError,
+                                "_ckernel.points: which must index heads");
+                Py_DECREF(capsule);
+                return NULL;
+            }
     }
     return capsule;
 }
@@ -2079,6 +2117,167 @@ out:
     return rc;
 }
 
+/* The blocks `sp[0 .. K)` through the kernel, the GIL released (the core of
+ * specs() and task()): per block (glen NULL) or per group of glen[g] consecutive
+ * blocks merged in block order, its counts (shadowed, captured, reimpact,
+ * rolling, rebounds) in counts[5 row], its shifted sums (per block) or moments
+ * (n, mean, M2, M3 per group) of e_m, mu_m, psi_f in sums[12 row], and its
+ * occupied histogram spans (lo, length per histogram) in spans[6 row], their
+ * counts appended to out[h] (PyMem_RawMalloc'd here, freed by the caller;
+ * used[h] values). st_d/st_code: the per-impact outputs, or NULL. Needs no
+ * GIL (the callers release it); returns -1 where memory ran out. */
+static int
+run_specs(const ss_state *st, const hist_t *hs, const sampler_t *sd,
+          const sampler_t *ss, int speed_random, double p, double q,
+          double friction, const spec_t *sp, Py_ssize_t K, const int64_t *glen,
+          int64_t *counts, double *sums, int64_t *spans, double *const st_d[3],
+          int8_t *st_code, int64_t *out[3], Py_ssize_t used[3])
+{
+    scratch_t *scr = NULL;
+    int64_t *eh = NULL, *mh = NULL, *lh = NULL;
+    Py_ssize_t cap[3] = {4096, 4096, 4096};
+    int oom = 0;
+    int64_t e_size = hs->e_spill + SPILL, mu_size = hs->mu_spill + SPILL;
+    int64_t lat_size = hs->lat_spill + SPILL;
+    scr = PyMem_RawMalloc(sizeof(scratch_t));
+    eh = PyMem_RawCalloc(e_size, sizeof *eh);
+    mh = PyMem_RawCalloc(mu_size, sizeof *mh);
+    lh = PyMem_RawCalloc(lat_size, sizeof *lh);
+    for (int h = 0; h < 3; h++)
+        out[h] = PyMem_RawMalloc(cap[h] * sizeof *out[h]);
+    if (scr == NULL || eh == NULL || mh == NULL || lh == NULL || out[0] == NULL ||
+        out[1] == NULL || out[2] == NULL) {
+        oom = 1;
+        goto end;
+    }
+    Py_ssize_t offset = 0, g = 0, at = 0; /* group, and block within it */
+    for (Py_ssize_t i = 0; i < K && !oom; i++) {
+        const spec_t *x = &sp[i];
+        block_args a;
+        a.st_em = a.st_mum = a.st_psi = NULL;
+        a.st_code = NULL;
+        if (st_code != NULL) { /* this block's impacts in the per-impact outputs */
+            a.st_em = st_d[0] + offset;
+            a.st_mum = st_d[1] + offset;
+            a.st_psi = st_d[2] + offset;
+            a.st_code = st_code + offset;
+        }
+        offset += x->n;
+        a.i_d = a.i_a = a.i_s = a.i_p = NULL;
+        a.n = x->n;
+        a.angle_random = x->angle_random;
+        a.speed_random = speed_random;
+        a.d = *sd;
+        a.a = *x->a;
+        a.s = *ss;
+        a.b = *x->b;
+        a.cut = x->cut;
+        a.pair_total = x->pair_total;
+        a.pair_shift = x->pair_shift;
+        a.sin_theta = x->sin_theta;
+        a.cos_theta = x->cos_theta;
+        a.speed = x->speed;
+        a.p = p;
+        a.q = q;
+        a.friction = friction;
+        a.shadow_none = x->shadow_none;
+        a.hist = *hs;
+        a.e_hist = eh;
+        a.mu_hist = mh;
+        a.lat_hist = lh;
+        a.areal = x->areal;
+        memset(&a.counts, 0, sizeof a.counts);
+        a.keyed = 1;
+        int search = x->angle_random && x->pair_shift < 0;
+        a.qmc = x->sobol != NULL;
+        if (a.qmc)
+            sobol_start(&a, x->sobol, x->block, speed_random);
+        for (int v = 0; v < 4 && !a.qmc; v++) {
+            uint64_t key[3] = {x->point, x->block, (uint64_t)v};
+            if (v == 0 || (v == 1 && x->angle_random) || (v == 2 && speed_random) ||
+                (v == 3 && search))
+                stream_seed(st, key, 3, &a.gen[v]);
+        }
+        run_block(&a, scr);
+        int lat_areal = a.areal && a.angle_random && a.pair_shift == 0;
+        /* this block's row, or its group's (merged in block order) */
+        Py_ssize_t row = glen == NULL ? i : g;
+        int64_t *c = counts + 5 * row;
+        if (glen == NULL || at == 0)
+            memset(c, 0, 5 * sizeof *c);
+        c[0] += a.counts.shadow;
+        c[1] += a.counts.capt;
+        c[2] += a.counts.reimp;
+        c[3] += a.counts.roll;
+        c[4] += a.counts.reb;
+        if (glen == NULL) {
+            memcpy(sums + 12 * i, a.sums, sizeof a.sums);
+        } else {
+            double *gm = sums + 12 * g;
+            for (int h = 0; h < 3; h++) {
+                double bm[4];
+                moments_of_sums(a.counts.reb, a.sums + 4 * h, bm);
+                if (at == 0)
+                    memcpy(gm + 4 * h, bm, sizeof bm);
+                else
+                    moments_merge(gm + 4 * h, bm);
+            }
+        }
+        /* off an areal surface psi_f = 0 for every rebound: one bin */
+        if (!lat_areal)
+            lh[hs->lat_zero] += a.counts.reb;
+        memset(eh + hs->e_spill, 0, SPILL * sizeof *eh);
+        memset(mh + hs->mu_spill, 0, SPILL * sizeof *mh);
+        memset(lh + hs->lat_spill, 0, SPILL * sizeof *lh);
+        if (glen != NULL && ++at < glen[g])
+            continue; /* the group's histograms go on adding up */
+        at = 0;
+        if (glen != NULL)
+            g++;
+        /* the occupied spans, each appended to its histogram's `out`; then the
+         * scratch histograms are zeroed where they were written */
+        int64_t lo[3], hi[3];
+        occupied(eh, hs->e_top + 1, &lo[0], &hi[0]);
+        occupied(mh, hs->mu_top + 1, &lo[1], &hi[1]);
+        if (!lat_areal) {
+            lo[2] = c[4] ? hs->lat_zero : 0;
+            hi[2] = c[4] ? hs->lat_zero + 1 : 0;
+        } else {
+            occupied(lh, hs->lat_top + 1, &lo[2], &hi[2]);
+        }
+        for (int h = 0; h < 3 && !oom; h++) {
+            Py_ssize_t need = used[h] + (hi[h] - lo[h]);
+            if (need > cap[h]) {
+                while (cap[h] < need)
+                    cap[h] *= 2;
+                int64_t *o = PyMem_RawRealloc(out[h], cap[h] * sizeof *o);
+                if (o == NULL) {
+                    oom = 1;
+                    break;
+                }
+                out[h] = o;
+            }
+        }
+        if (oom)
+            break;
+        for (int h = 0; h < 3; h++) {
+            int64_t *hist = h == 0 ? eh : (h == 1 ? mh : lh);
+            memcpy(out[h] + used[h], hist + lo[h], (hi[h] - lo[h]) * sizeof *hist);
+            used[h] += hi[h] - lo[h];
+            memset(hist + lo[h], 0, (hi[h] - lo[h]) * sizeof *hist);
+            spans[6 * row + 2 * h] = lo[h];
+            spans[6 * row + 2 * h + 1] = hi[h] - lo[h];
+        }
+        lh[hs->lat_zero] = 0;
+    }
+end:
+    PyMem_RawFree(scr);
+    PyMem_RawFree(eh);
+    PyMem_RawFree(mh);
+    PyMem_RawFree(lh);
+    return oom ? -1 : 0;
+}
+
 static PyObject *
 ck_specs(PyObject *self, PyObject *args)
 {
@@ -2097,11 +2296,9 @@ ck_specs(PyObject *self, PyObject *args)
     Py_ssize_t total_n = 0;
     sampler_set set = {NULL, 0, 0};
     spec_t *sp = NULL;
-    scratch_t *scr = NULL;
-    int64_t *eh = NULL, *mh = NULL, *lh = NULL;
     /* the occupied spans' counts, one buffer per histogram (e_m, mu_m, psi_f) */
     int64_t *out[3] = {NULL, NULL, NULL};
-    Py_ssize_t cap[3] = {4096, 4096, 4096}, used[3] = {0, 0, 0};
+    Py_ssize_t used[3] = {0, 0, 0};
     Py_ssize_t K = 0, G = 0;
     const int64_t *glen = NULL;
     int arrays = PyTuple_Check(list);
@@ -2239,143 +2436,19 @@ ck_specs(PyObject *self, PyObject *args)
             }
         }
     }
-    int64_t e_size = hs.e_spill + SPILL, mu_size = hs.mu_spill + SPILL;
-    int64_t lat_size = hs.lat_spill + SPILL;
-    scr = PyMem_RawMalloc(sizeof(scratch_t));
-    eh = PyMem_RawCalloc(e_size, sizeof *eh);
-    mh = PyMem_RawCalloc(mu_size, sizeof *mh);
-    lh = PyMem_RawCalloc(lat_size, sizeof *lh);
-    for (int h = 0; h < 3; h++)
-        out[h] = PyMem_RawMalloc(cap[h] * sizeof *out[h]);
-    if (scr == NULL || eh == NULL || mh == NULL || lh == NULL || out[0] == NULL ||
-        out[1] == NULL || out[2] == NULL) {
-        PyErr_NoMemory();
-        goto done;
-    }
     int64_t *counts = bc.buf, *spans = bp.buf;
     double *sums = bs.buf;
-    int oom = 0;
-    Py_ssize_t offset = 0, g = 0, at = 0; /* group, and block within it */
-    Py_BEGIN_ALLOW_THREADS
-    for (Py_ssize_t i = 0; i < K && !oom; i++) {
-        const spec_t *x = &sp[i];
-        block_args a;
-        a.st_em = a.st_mum = a.st_psi = NULL;
-        a.st_code = NULL;
-        if (nst == 4) { /* this block's impacts in the per-impact outputs */
-            a.st_em = (double *)bst[0].buf + offset;
-            a.st_mum = (double *)bst[1].buf + offset;
-            a.st_psi = (double *)bst[2].buf + offset;
-            a.st_code = (int8_t *)bst[3].buf + offset;
-        }
-        offset += x->n;
-        a.i_d = a.i_a = a.i_s = a.i_p = NULL;
-        a.n = x->n;
-        a.angle_random = x->angle_random;
-        a.speed_random = speed_random;
-        a.d = *sd;
-        a.a = *x->a;
-        a.s = *ss;
-        a.b = *x->b;
-        a.cut = x->cut;
-        a.pair_total = x->pair_total;
-        a.pair_shift = x->pair_shift;
-        a.sin_theta = x->sin_theta;
-        a.cos_theta = x->cos_theta;
-        a.speed = x->speed;
-        a.p = p;
-        a.q = q;
-        a.friction = friction;
-        a.shadow_none = x->shadow_none;
-        a.hist = hs;
-        a.e_hist = eh;
-        a.mu_hist = mh;
-        a.lat_hist = lh;
-        a.areal = x->areal;
-        memset(&a.counts, 0, sizeof a.counts);
-        a.keyed = 1;
-        int search = x->angle_random && x->pair_shift < 0;
-        a.qmc = x->sobol != NULL;
-        if (a.qmc)
-            sobol_start(&a, x->sobol, x->block, speed_random);
-        for (int v = 0; v < 4 && !a.qmc; v++) {
-            uint64_t key[3] = {x->point, x->block, (uint64_t)v};
-            if (v == 0 || (v == 1 && x->angle_random) || (v == 2 && speed_random) ||
-                (v == 3 && search))
-                stream_seed(&st, key, 3, &a.gen[v]);
-        }
-        run_block(&a, scr);
-        int lat_areal = a.areal && a.angle_random && a.pair_shift == 0;
-        /* this block's row, or its group's (merged in block order) */
-        Py_ssize_t row = glen == NULL ? i : g;
-        int64_t *c = counts + 5 * row;
-        if (glen == NULL || at == 0)
-            memset(c, 0, 5 * sizeof *c);
-        c[0] += a.counts.shadow;
-        c[1] += a.counts.capt;
-        c[2] += a.counts.reimp;
-        c[3] += a.counts.roll;
-        c[4] += a.counts.reb;
-        if (glen == NULL) {
-            memcpy(sums + 12 * i, a.sums, sizeof a.sums);
-        } else {
-            double *gm = sums + 12 * g;
-            for (int h = 0; h < 3; h++) {
-                double bm[4];
-                moments_of_sums(a.counts.reb, a.sums + 4 * h, bm);
-                if (at == 0)
-                    memcpy(gm + 4 * h, bm, sizeof bm);
-                else
-                    moments_merge(gm + 4 * h, bm);
-            }
-        }
-        /* off an areal surface psi_f = 0 for every rebound: one bin */
-        if (!lat_areal)
-            lh[hs.lat_zero] += a.counts.reb;
-        memset(eh + hs.e_spill, 0, SPILL * sizeof *eh);
-        memset(mh + hs.mu_spill, 0, SPILL * sizeof *mh);
-        memset(lh + hs.lat_spill, 0, SPILL * sizeof *lh);
-        if (glen != NULL && ++at < glen[g])
-            continue; /* the group's histograms go on adding up */
-        at = 0;
-        if (glen != NULL)
-            g++;
-        /* the occupied spans, each appended to its histogram's `out`; then the
-         * scratch histograms are zeroed where they were written */
-        int64_t lo[3], hi[3];
-        occupied(eh, hs.e_top + 1, &lo[0], &hi[0]);
-        occupied(mh, hs.mu_top + 1, &lo[1], &hi[1]);
-        if (!lat_areal) {
-            lo[2] = c[4] ? hs.lat_zero : 0;
-            hi[2] = c[4] ? hs.lat_zero + 1 : 0;
-        } else {
-            occupied(lh, hs.lat_top + 1, &lo[2], &hi[2]);
-        }
-        for (int h = 0; h < 3 && !oom; h++) {
-            Py_ssize_t need = used[h] + (hi[h] - lo[h]);
-            if (need > cap[h]) {
-                while (cap[h] < need)
-                    cap[h] *= 2;
-                int64_t *o = PyMem_RawRealloc(out[h], cap[h] * sizeof *o);
-                if (o == NULL) {
-                    oom = 1;
-                    break;
-                }
-                out[h] = o;
-            }
-        }
-        if (oom)
-            break;
-        for (int h = 0; h < 3; h++) {
-            int64_t *hist = h == 0 ? eh : (h == 1 ? mh : lh);
-            memcpy(out[h] + used[h], hist + lo[h], (hi[h] - lo[h]) * sizeof *hist);
-            used[h] += hi[h] - lo[h];
-            memset(hist + lo[h], 0, (hi[h] - lo[h]) * sizeof *hist);
-            spans[6 * row + 2 * h] = lo[h];
-            spans[6 * row + 2 * h + 1] = hi[h] - lo[h];
-        }
-        lh[hs.lat_zero] = 0;
+    double *st_d[3] = {NULL, NULL, NULL};
+    int8_t *st_code = NULL;
+    if (nst == 4) {
+        for (int j = 0; j < 3; j++)
+            st_d[j] = bst[j].buf;
+        st_code = bst[3].buf;
     }
+    int oom;
+    Py_BEGIN_ALLOW_THREADS
+    oom = run_specs(&st, &hs, sd, ss, speed_random, p, q, friction, sp, K, glen,
+                    counts, sums, spans, st_d, st_code, out, used);
     Py_END_ALLOW_THREADS
     if (oom) {
         PyErr_NoMemory();
@@ -2391,10 +2464,6 @@ ck_specs(PyObject *self, PyObject *args)
         }
     }
 done:
-    PyMem_RawFree(scr);
-    PyMem_RawFree(eh);
-    PyMem_RawFree(mh);
-    PyMem_RawFree(lh);
     for (int h = 0; h < 3; h++)
         PyMem_RawFree(out[h]);
     PyMem_Free(sp);
@@ -2408,6 +2477,192 @@ done:
         PyBuffer_Release(&bg);
     for (int j = 0; j < nst; j++)
         PyBuffer_Release(&bst[j]);
+    return result;
+}
+
+/* The counts `c` rewritten in place, from the front, in the narrowest of uint8,
+ * uint16, int32 and int64 that holds every one of them (summary.compact_counts;
+ * item i is written at byte w i <= 8 i, after it is read); returns w. */
+static int
+narrow_in_place(int64_t *c, Py_ssize_t n)
+{
+    int64_t top = 0;
+    for (Py_ssize_t i = 0; i < n; i++)
+        top = c[i] > top ? c[i] : top;
+    int w = top <= UINT8_MAX ? 1 : (top <= UINT16_MAX ? 2 : (top <= INT32_MAX ? 4 : 8));
+    char *to = (char *)c; /* byte stores: ordered against the int64 loads */
+    if (w == 1)
+        for (Py_ssize_t i = 0; i < n; i++) {
+            uint8_t v = (uint8_t)c[i];
+            memcpy(to + i, &v, 1);
+        }
+    else if (w == 2)
+        for (Py_ssize_t i = 0; i < n; i++) {
+            uint16_t v = (uint16_t)c[i];
+            memcpy(to + 2 * i, &v, 2);
+        }
+    else if (w == 4)
+        for (Py_ssize_t i = 0; i < n; i++) {
+            int32_t v = (int32_t)c[i];
+            memcpy(to + 4 * i, &v, 4);
+        }
+    return w;
+}
+
+PyDoc_STRVAR(task_doc,
+"task(entropy, common, points, point, first, last, stop, block_size, last_n,\n"
+"     table, moments, spans) -> (e, e_size, mu, mu_size, lat, lat_size)\n\n"
+"A task of G groups run as the driver keeps them (tasks.BlockTask): group g is\n"
+"blocks first[g] .. last[g] of point point[g]'s keyed stream (replicate 0),\n"
+"merged in block order; every stream has `stop` blocks of `block_size` impacts,\n"
+"its last one `last_n`. `points` is a capsule of points() with `which` and\n"
+"`speed`. Written: table int64[G][5] (impacts, shadowed, captured, reimpact,\n"
+"rolling), moments float64[3][G][4] ((n, mean, M2, M3) of e_m, mu_m, psi_f) and\n"
+"spans int64[3][2][G] (each histogram's offset, 0 where empty, and length).\n"
+"Returned: each histogram's span counts, one group after the other, as bytes\n"
+"of the narrowest of uint8, uint16, int32 and int64 that holds them, with\n"
+"that item size. The bits of specs() with groups, followed by the driver's\n"
+"own layout (kernel.simulate_specs_stacked) and Stacked.narrow().");
+
+static PyObject *
+ck_task(PyObject *self, PyObject *args)
+{
+    Py_buffer be, bh, bpt, bf, bl, bt, bm, bsp;
+    PyObject *dsamp, *ssamp, *capsule;
+    int speed_random;
+    double p, q, friction;
+    Py_ssize_t stop, bsize, last_n;
+    if (!PyArg_ParseTuple(args, "y*(OOpdddy*)O!y*y*y*nnnw*w*w*:task", &be, &dsamp,
+                          &ssamp, &speed_random, &p, &q, &friction, &bh,
+                          &PyCapsule_Type, &capsule, &bpt, &bf, &bl, &stop, &bsize,
+                          &last_n, &bt, &bm, &bsp))
+        return NULL;
+    PyObject *result = NULL, *bytes[3] = {NULL, NULL, NULL};
+    int width[3] = {0, 0, 0};
+    sampler_set set = {NULL, 0, 0};
+    spec_t *sp = NULL;
+    int64_t *glen = NULL, *counts = NULL, *spans = NULL;
+    double *sums = NULL;
+    int64_t *out[3] = {NULL, NULL, NULL};
+    Py_ssize_t used[3] = {0, 0, 0};
+    ss_state st;
+    hist_t hs;
+    const sampler_t *sd, *ss;
+    point_table *t = PyCapsule_GetPointer(capsule, POINTS_CAPSULE);
+    if (t == NULL)
+        goto done;
+    if (t->which.obj == NULL) {
+        PyErr_SetString(PyExc_ValueError,
+                        "_ckernel.task: points has no which and speed");
+        goto done;
+    }
+    if (bpt.len % 8 || bf.len != bpt.len || bl.len != bpt.len) {
+        PyErr_SetString(PyExc_ValueError,
+                        "_ckernel.task: point, first and last are int64 of one length");
+        goto done;
+    }
+    Py_ssize_t G = bpt.len / 8;
+    if (stop < 1 || bsize < 1 || last_n < 1 || last_n > bsize) {
+        PyErr_SetString(PyExc_ValueError,
+                        "_ckernel.task: stop, block_size >= 1 and 1 <= last_n <= "
+                        "block_size");
+        goto done;
+    }
+    const int64_t *pt = bpt.buf, *fi = bf.buf, *la = bl.buf;
+    Py_ssize_t K = 0;
+    for (Py_ssize_t g = 0; g < G; g++) {
+        if (pt[g] < 0 || pt[g] >= t->points || fi[g] < 0 || la[g] < fi[g] ||
+            la[g] >= stop) {
+            PyErr_SetString(PyExc_ValueError,
+                            "_ckernel.task: a point outside the plan, or not 0 <= "
+                            "first <= last < stop");
+            goto done;
+        }
+        K += la[g] - fi[g] + 1;
+    }
+    if (parse_entropy(&be, &st) || parse_hist(&bh, &hs) ||
+        check_len(&bt, "table", 8, 5 * G) || check_len(&bm, "moments", 8, 12 * G) ||
+        check_len(&bsp, "spans", 8, 6 * G))
+        goto done;
+    if ((sd = sampler_of(&set, dsamp, "diameter", 8)) == NULL ||
+        (ss = sampler_of(&set, ssamp, "speed", 4)) == NULL)
+        goto done;
+    sp = PyMem_Malloc((K ? K : 1) * sizeof *sp);
+    glen = PyMem_Malloc((G ? G : 1) * sizeof *glen);
+    counts = PyMem_Malloc((G ? G : 1) * 5 * sizeof *counts);
+    sums = PyMem_Malloc((G ? G : 1) * 12 * sizeof *sums);
+    spans = PyMem_Malloc((G ? G : 1) * 6 * sizeof *spans);
+    if (sp == NULL || glen == NULL || counts == NULL || sums == NULL || spans == NULL) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    const int64_t *which = t->which.buf;
+    const double *speed = t->speed.buf;
+    int64_t *table = bt.buf;
+    double *moments = bm.buf;
+    int64_t *sp3 = bsp.buf;
+    int oom;
+    Py_BEGIN_ALLOW_THREADS
+    Py_ssize_t k = 0;
+    for (Py_ssize_t g = 0; g < G; g++) {
+        glen[g] = la[g] - fi[g] + 1;
+        int64_t n = 0;
+        for (int64_t b = fi[g]; b <= la[g]; b++, k++) {
+            spec_t *x = &sp[k];
+            *x = t->tmpl[which[pt[g]]];
+            x->point = (uint64_t)pt[g];
+            x->block = (uint64_t)b;
+            x->n = b == stop - 1 ? last_n : bsize;
+            x->speed = speed[pt[g]];
+            n += x->n;
+        }
+        table[5 * g] = n;
+    }
+    oom = run_specs(&st, &hs, sd, ss, speed_random, p, q, friction, sp, K, glen,
+                    counts, sums, spans, NULL, NULL, out, used);
+    for (Py_ssize_t g = 0; g < G && !oom; g++) {
+        memcpy(table + 5 * g + 1, counts + 5 * g, 4 * sizeof *table);
+        for (int h = 0; h < 3; h++) {
+            memcpy(moments + 4 * (h * G + g), sums + 12 * g + 4 * h, 4 * sizeof *sums);
+            /* (an empty span's lo is 0: occupied()) */
+            sp3[(2 * h) * G + g] = spans[6 * g + 2 * h];
+            sp3[(2 * h + 1) * G + g] = spans[6 * g + 2 * h + 1];
+        }
+    }
+    for (int h = 0; h < 3 && !oom; h++)
+        width[h] = narrow_in_place(out[h], used[h]);
+    Py_END_ALLOW_THREADS
+    if (oom) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    for (int h = 0; h < 3; h++) {
+        bytes[h] = PyBytes_FromStringAndSize((const char *)out[h], used[h] * width[h]);
+        if (bytes[h] == NULL)
+            goto done;
+    }
+    result = Py_BuildValue("(NiNiNi)", bytes[0], width[0], bytes[1], width[1],
+                           bytes[2], width[2]);
+    bytes[0] = bytes[1] = bytes[2] = NULL; /* stolen, also on failure */
+done:
+    for (int h = 0; h < 3; h++) {
+        Py_XDECREF(bytes[h]);
+        PyMem_RawFree(out[h]);
+    }
+    PyMem_Free(sp);
+    PyMem_Free(glen);
+    PyMem_Free(counts);
+    PyMem_Free(sums);
+    PyMem_Free(spans);
+    sampler_set_free(&set);
+    PyBuffer_Release(&be);
+    PyBuffer_Release(&bh);
+    PyBuffer_Release(&bpt);
+    PyBuffer_Release(&bf);
+    PyBuffer_Release(&bl);
+    PyBuffer_Release(&bt);
+    PyBuffer_Release(&bm);
+    PyBuffer_Release(&bsp);
     return result;
 }
 
@@ -2468,17 +2723,51 @@ PyDoc_STRVAR(wall_rows_doc,
 "impacts, captured, rebounds, reimpacts (e_n < 0), the means of the first five\n"
 "(a sequential sum / count), their standard deviations (ddof 1, sequential\n"
 "sums). geom float64[P][3]: sin theta, cos theta (0 at 90 deg) and 1.0 for an\n"
-"areal surface's node (then u_y = -u_x tan(psi), 0 where sin(psi) = 0).");
+"areal surface's node (then u_y = -u_x tan(psi), 0 where sin(psi) = 0).\n\n"
+"With `reservoir` float64[V'][P][R], `slots` int64[V'][2] and `lat_max`, also\n"
+"each node's reservoirs: row v' holds the first min(R, rebounds) values of\n"
+"variable slots[v'][0] in draw order, NaN after them; kind slots[v'][1] 1\n"
+"clips them to [-lat_max, lat_max], 2 to at most 1.0 (wall_law.build).");
 
 static PyObject *
 ck_wall_rows(PyObject *self, PyObject *args)
 {
     Py_ssize_t P, S;
     Py_buffer be, bm, bp, bc, bg, bo, bs;
-    if (!PyArg_ParseTuple(args, "nny*y*y*y*y*w*w*:wall_rows", &P, &S, &be, &bm, &bp,
-                          &bc, &bg, &bo, &bs))
+    Py_buffer br = {0}, bk = {0};
+    double lat_max = 90.0;
+    if (!PyArg_ParseTuple(args, "nny*y*y*y*y*w*w*|w*y*d:wall_rows", &P, &S, &be, &bm,
+                          &bp, &bc, &bg, &bo, &bs, &br, &bk, &lat_max))
         return NULL;
     PyObject *result = NULL;
+    Py_ssize_t VR = 0, R = 0;
+    const int64_t *slots = NULL;
+    double *res = NULL;
+    if ((br.obj == NULL) != (bk.obj == NULL)) {
+        PyErr_SetString(PyExc_TypeError, "_ckernel.wall_rows: reservoir and slots "
+                                         "together");
+        goto done;
+    }
+    if (br.obj != NULL) {
+        VR = bk.len / 16;
+        slots = bk.buf;
+        res = br.buf;
+        if (bk.len % 16 || VR < 1 || P < 1 || br.len % (8 * VR * P)) {
+            PyErr_SetString(PyExc_ValueError,
+                            "_ckernel.wall_rows: slots is int64[V'][2], reservoir "
+                            "float64[V'][P][R]");
+            goto done;
+        }
+        R = br.len / (8 * VR * P);
+        for (Py_ssize_t i = 0; i < VR; i++)
+            if (slots[2 * i] < 0 || slots[2 * i] >= WV_COUNT || slots[2 * i + 1] < 0 ||
+                slots[2 * i + 1] > 2) {
+                PyErr_SetString(PyExc_ValueError,
+                                "_ckernel.wall_rows: a slot is (variable 0..5, kind "
+                                "0..2)");
+                goto done;
+            }
+    }
     if (P < 0 || S < 0 || check_len(&be, "e_m", 8, P * S) ||
         check_len(&bm, "mu_m", 8, P * S) || check_len(&bp, "psi", 8, P * S) ||
         check_len(&bc, "outcome", 1, P * S) || check_len(&bg, "geom", 8, 3 * P) ||
@@ -2548,11 +2837,32 @@ ck_wall_rows(PyObject *self, PyObject *args)
             st[WS_MEAN + v] = mean[v];
             st[WS_STD + v] = sqrt(ss[v] / dof);
         }
+        /* the reservoirs: the first rebounds in draw order (before any sort) */
+        for (Py_ssize_t i = 0; i < VR; i++) {
+            const double *x = o[slots[2 * i]];
+            const int64_t kind = slots[2 * i + 1];
+            double *to = res + (i * P + r) * R;
+            Py_ssize_t k = m < R ? m : R;
+            for (Py_ssize_t j = 0; j < k; j++) {
+                double y = x[j];
+                if (kind == 1) /* np.clip: NaN stays NaN */
+                    y = y < -lat_max ? -lat_max : (y > lat_max ? lat_max : y);
+                else if (kind == 2) /* np.minimum(y, 1.0) */
+                    y = y > 1.0 ? 1.0 : y;
+                to[j] = y;
+            }
+            for (Py_ssize_t j = k; j < R; j++)
+                to[j] = NAN;
+        }
     }
     Py_END_ALLOW_THREADS
     result = Py_None;
     Py_INCREF(result);
 done:
+    if (br.obj != NULL)
+        PyBuffer_Release(&br);
+    if (bk.obj != NULL)
+        PyBuffer_Release(&bk);
     PyBuffer_Release(&be);
     PyBuffer_Release(&bm);
     PyBuffer_Release(&bp);
@@ -2560,6 +2870,82 @@ done:
     PyBuffer_Release(&bg);
     PyBuffer_Release(&bo);
     PyBuffer_Release(&bs);
+    return result;
+}
+
+PyDoc_STRVAR(wall_quantiles_doc,
+"wall_quantiles(P, S, V, out, stats, q, means, stds, quant) -> None\n\n"
+"After wall_rows() and a sort of each of the first V rows of `out`\n"
+"(float64[>= V][P][S]): per variable v and node r, with n its rebounds (stats\n"
+"float64[P][14], column 2), the quantiles q (float64[Q]) of out[v][r][:n] as\n"
+"np.quantile's linear rule computes them (its operations: the virtual index\n"
+"(n - 1) q, its floor, the two-sided lerp), and the mean and standard\n"
+"deviation of stats, into quant float64[V][P][Q], means and stds float64[V][P]:\n"
+"NaN where the node has no rebound or the mean is NaN, the deviation also where\n"
+"n < 2 (wall_law.build._node_rows).");
+
+static PyObject *
+ck_wall_quantiles(PyObject *self, PyObject *args)
+{
+    Py_ssize_t P, S, V;
+    Py_buffer bo, bs, bq, bm, bd, bu;
+    if (!PyArg_ParseTuple(args, "nnny*y*y*w*w*w*:wall_quantiles", &P, &S, &V, &bo,
+                          &bs, &bq, &bm, &bd, &bu))
+        return NULL;
+    PyObject *result = NULL;
+    Py_ssize_t Q = bq.len / 8;
+    if (P < 0 || S < 1 || V < 1 || V > 5 || bq.len % 8 ||
+        check_len(&bo, "out", 8, V * P * S) || check_len(&bs, "stats", 8, WS_COUNT * P) ||
+        check_len(&bm, "means", 8, V * P) || check_len(&bd, "stds", 8, V * P) ||
+        check_len(&bu, "quant", 8, V * P * Q)) {
+        if (!PyErr_Occurred())
+            PyErr_SetString(PyExc_ValueError,
+                            "_ckernel.wall_quantiles: P >= 0, S >= 1, 1 <= V <= 5");
+        goto done;
+    }
+    const double *out = bo.buf, *stats = bs.buf, *q = bq.buf;
+    double *means = bm.buf, *stds = bd.buf, *quant = bu.buf;
+    Py_BEGIN_ALLOW_THREADS
+    const double top = (double)(S - 1);
+    for (Py_ssize_t r = 0; r < P; r++) {
+        const double *st = stats + (Py_ssize_t)WS_COUNT * r;
+        const double nf = st[WS_REBOUNDS];
+        for (Py_ssize_t v = 0; v < V; v++) {
+            const double mean = st[WS_MEAN + v];
+            const int empty = nf == 0.0 || mean != mean;
+            means[v * P + r] = empty ? NAN : mean;
+            stds[v * P + r] = empty || nf < 2.0 ? NAN : st[WS_STD + v];
+            const double *row = out + (v * P + r) * S;
+            double *to = quant + (v * P + r) * Q;
+            for (Py_ssize_t j = 0; j < Q; j++) {
+                if (empty) {
+                    to[j] = NAN;
+                    continue;
+                }
+                double x = (nf - 1.0) * q[j];
+                double prev = floor(x);
+                int last = x >= nf - 1.0;
+                double x0 = last ? nf - 1.0 : prev, x1 = last ? nf - 1.0 : prev + 1.0;
+                /* np.clip(., 0, top), then the cast to an index */
+                x0 = x0 < 0.0 ? 0.0 : (x0 > top ? top : x0);
+                x1 = x1 < 0.0 ? 0.0 : (x1 > top ? top : x1);
+                double a = row[(Py_ssize_t)x0], b = row[(Py_ssize_t)x1];
+                double g = x - (last ? -1.0 : prev);
+                double diff = b - a;
+                to[j] = g >= 0.5 ? b - diff * (1.0 - g) : a + diff * g;
+            }
+        }
+    }
+    Py_END_ALLOW_THREADS
+    result = Py_None;
+    Py_INCREF(result);
+done:
+    PyBuffer_Release(&bo);
+    PyBuffer_Release(&bs);
+    PyBuffer_Release(&bq);
+    PyBuffer_Release(&bm);
+    PyBuffer_Release(&bd);
+    PyBuffer_Release(&bu);
     return result;
 }
 
@@ -2595,7 +2981,9 @@ static PyMethodDef ck_methods[] = {
     {"stream", ck_stream, METH_VARARGS, stream_doc},
     {"specs", ck_specs, METH_VARARGS, specs_doc},
     {"points", ck_points, METH_VARARGS, points_doc},
+    {"task", ck_task, METH_VARARGS, task_doc},
     {"wall_rows", ck_wall_rows, METH_VARARGS, wall_rows_doc},
+    {"wall_quantiles", ck_wall_quantiles, METH_VARARGS, wall_quantiles_doc},
     {NULL, NULL, 0, NULL},
 };
 

@@ -828,9 +828,15 @@ def _plan_points(plan: Plan):
 def _parse_plan_points(plan: Plan):
     if any(plan.own_tables(i) for i in range(len(plan.surfaces))):
         return False
-    keys = plan.point_columns()[4]
+    _, speed, _, table, keys = plan.point_columns()
     heads = [_point_args(plan.angle_tables(*key), 0.0) for key in keys]
-    return _ckernel().points(heads, plan.speeds is not None)
+    # with every point's table and speed: task() runs a task from its indices
+    return _ckernel().points(
+        heads,
+        plan.speeds is not None,
+        np.ascontiguousarray(table, dtype=np.int64),
+        np.ascontiguousarray(speed, dtype=np.float64),
+    )
 
 
 @dataclass(frozen=True, eq=False)
@@ -881,6 +887,55 @@ def _array_items(plan: Plan, specs: SpecArrays) -> tuple:
         point,
         np.ascontiguousarray(specs.block, dtype=np.int64),
         np.ascontiguousarray(specs.n, dtype=np.int64),
+    )
+
+
+#: The count dtype of each item size ``_ckernel.task`` narrows to.
+_NARROWED = {1: np.uint8, 2: np.uint16, 4: np.int32, 8: np.int64}
+
+
+def task_rows(plan: Plan, task) -> Stacked | None:
+    """The rows of a :class:`~.tasks.BlockTask` (a row per group, its blocks
+    merged in block order) from one ``_ckernel.task`` call: the kernel expands
+    the groups into blocks, looks each point's tables and speed up in the plan's
+    parsed points, and writes the rows in the driver's own layout with the
+    histogram counts narrowed, so the GIL is held for a few array allocations
+    per task (issue 31). Exactly ``simulate_specs_stacked(plan, task.specs(),
+    task.lengths).narrow()``; None where the plan's points are not parsed once
+    (tables of their own per angle) or the kernel is not the compiled one."""
+    if plan.kernel != "compiled" or plan.sampling == "qmc":
+        return None
+    points = _plan_points(plan)
+    if points is None:
+        return None
+    G = len(task.point)
+    table = np.empty((G, 5), dtype=np.int64)
+    moments = np.empty((3, G, 4))
+    spans = np.empty((3, 2, G), dtype=np.int64)
+    e, e_w, mu, mu_w, lat, lat_w = _ckernel().task(
+        entropy_words(plan.entropy),
+        _common_args(plan),
+        points,
+        np.ascontiguousarray(task.point, dtype=np.int64),
+        np.ascontiguousarray(task.first, dtype=np.int64),
+        np.ascontiguousarray(task.last, dtype=np.int64),
+        task.stop,
+        task.block_size,
+        task.last_n,
+        table,
+        moments,
+        spans,
+    )
+    return Stacked(
+        table,
+        moments[0],
+        moments[1],
+        Spans(spans[0, 0], spans[0, 1], np.frombuffer(e, _NARROWED[e_w]), E_BINS),
+        Spans(spans[1, 0], spans[1, 1], np.frombuffer(mu, _NARROWED[mu_w]), MU_BINS),
+        moments[2],
+        Spans(
+            spans[2, 0], spans[2, 1], np.frombuffer(lat, _NARROWED[lat_w]), LATERAL_BINS
+        ),
     )
 
 

@@ -95,6 +95,10 @@ CALIBRATION_POINTS = 2048
 CALIBRATION_IMPACTS = 2**22
 #: Most groups per task (bounds a task's result when points have very few samples).
 TASK_GROUPS = 2048
+#: Tasks whose rows the driver keeps before it copies them into its table in one
+#: step (``_Streams._flush``): the table's per-field copies are paid once per
+#: this many tasks, not per task (issue 31: the GIL between kernel calls).
+PENDING_TASKS = 256
 #: Least seconds between checkpoint writes (override:
 #: MICROIMPACT_CHECKPOINT_INTERVAL); writes are further spaced to take at most
 #: ``checkpoint.WRITE_FRACTION`` of the run time.
@@ -216,6 +220,9 @@ class _Streams:
         }
         self._flats: dict[str, list] = {n: [] for n in _SPANS}
         self._flat_ids: dict[str, dict] = {n: {} for n in _SPANS}
+        # tasks' rows of first groups not yet copied into the table: (streams,
+        # rows), copied together (:meth:`_flush`) before the table is read
+        self._pending: list[tuple] = []
 
     # ------------------------------------------------------------ addressing
     def index(self, point: int, rep: int) -> int:
@@ -245,6 +252,7 @@ class _Streams:
         return int(self.next_block.sum())
 
     def samples_done(self) -> int:
+        self._flush()
         held = int(self._counts[self._held, 0].sum())
         return held + sum(acc.n for acc in self.loose.values())
 
@@ -258,8 +266,11 @@ class _Streams:
     def acc(self, k: int) -> PointAccumulator | None:
         """Stream `k`'s total (None before its first group)."""
         acc = self.loose.get(k)
-        if acc is not None or not self._held[k]:
+        if acc is not None:
             return acc
+        self._flush()
+        if not self._held[k]:
+            return None
         spans = {}
         for n in _SPANS:
             off, ln, chunk, start = self._spans[n]
@@ -357,10 +368,29 @@ class _Streams:
             return None
         if self.done[ks].any() or self.next_block[ks].any():
             return None
-        self._hold(ks, rows, slice(None))
+        # copied into the table with other tasks' rows later (_flush): a few
+        # array steps per task here, the copies in one step per field there
+        self._pending.append((ks, rows))
+        if len(self._pending) >= PENDING_TASKS:
+            self._flush()
         self.next_block[ks] = task.last + 1
         self.done[ks] = self.next_block[ks] >= self.n_blocks()
         return int(rows.counts[:, 0].sum())
+
+    def _flush(self) -> None:
+        """Copy the pending tasks' rows (:meth:`_merge_first_groups`) into the
+        table, all of them at once."""
+        pending = self._pending
+        if not pending:
+            return
+        self._pending = []
+        ks = np.concatenate(
+            [
+                np.arange(k.start, k.stop) if isinstance(k, slice) else k
+                for k, _ in pending
+            ]
+        )
+        self._hold(ks, Stacked.concat([rows for _, rows in pending]), slice(None))
 
     def merge_partial(self, partial: tuple) -> int:
         """Merge a partial result of the workers (``parallel.combine_partials``:
@@ -384,6 +414,8 @@ class _Streams:
         convergence: discarded, deterministically); a row that does not start its
         stream is a single group (``combine_partials``). Returns the samples
         merged."""
+        # (rows held back by _merge_first_groups are first groups: none of
+        # these streams takes a first group here, and acc() copies them in)
         nb, done, n_blocks = self.next_block, self.done, self.n_blocks()
         # (int() and bool(): numpy scalars of the stream arrays kept out of the
         # accumulators and the specs)
@@ -456,6 +488,7 @@ class _Streams:
         accumulators, or empty), and the histogram counts gathered from the tasks'
         flat arrays, which are then replaced by that one array (a later call
         copies nothing more)."""
+        self._flush()
         # streams not held: their accumulators; a stream never run keeps its
         # table row of zeros (an empty accumulator), without an object
         other = np.array(sorted(self.loose), dtype=np.intp)
@@ -514,6 +547,7 @@ class _Streams:
         """What the checkpoint keeps: every (point, replicate) with merged work, its
         next block and its accumulator, as arrays (:meth:`stacked`): no
         accumulator object is built for a stream held in the table."""
+        self._flush()
         has = self._held.copy()
         if self.loose:
             has[np.fromiter(self.loose, dtype=np.intp, count=len(self.loose))] = True

@@ -93,7 +93,11 @@ def run_task(plan, task):
     array, not two small arrays and a dozen numbers per group).
     """
     if isinstance(task, BlockTask) and plan.kernel == "compiled":
-        # described by arrays: no tuple per block or point (tasks.py)
+        # described by arrays: no tuple per block or point (tasks.py); where the
+        # plan's points are parsed once, one kernel call gives the final rows
+        rows = kernel.task_rows(plan, task)
+        if rows is not None:
+            return rows
         flat, lengths = task.specs(), task.lengths
     else:
         flat = [spec for group in task for spec in group]

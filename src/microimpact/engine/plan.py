@@ -991,7 +991,6 @@ def _angle_tables(sampler, angle_deg: float, shadowing: str) -> AngleTables:
     # reachable facets are a prefix: the first cell whose end is not reachable
     ends = np.where(rows[:-1, A_SIN + 1] == 0.0, a, b)
     blocked = np.flatnonzero(~(ends > 0.0))
-    widths = table.widths()
     if blocked.size == 0:
         cut, shadowed = 0, 0.0
     else:
@@ -1023,7 +1022,7 @@ def _angle_tables(sampler, angle_deg: float, shadowing: str) -> AngleTables:
             np.where(a > 0, 0.5 * a * a / (a - b), tri_a),
         )
         f_end = np.where((a > 0) & (b < 0), a / (a - b), 1.0)
-    mass = widths * pos
+    mass = table.widths() * pos
     if areal:
         # the facet's exposure max(0, -n'.u) = cos(chi) sin(theta - phi_par)_+
         # (docs/engine.md); cos(chi) = 1 exactly where phi_perp = 0
