@@ -840,13 +840,79 @@ def test_compiled_statistics_equal_their_numpy_form():
             for r, a in enumerate(angles)
         ]
     )
-    out_c, st_c = _wall_rows(imp, geom)
-    out_n, st_n = _wall_rows(imp, geom, force_numpy=True)
+    out_c, st_c, _ = _wall_rows(imp, geom)
+    out_n, st_n, _ = _wall_rows(imp, geom, force_numpy=True)
     profile = geom[:, 2] == 0
     np.testing.assert_array_equal(st_c[profile], st_n[profile])
     np.testing.assert_array_equal(out_c[:, profile], out_n[:, profile])
     np.testing.assert_allclose(st_c, st_n, rtol=1e-13, atol=1e-13)
     np.testing.assert_allclose(out_c, out_n, rtol=1e-13, atol=1e-13)
+
+
+def test_compiled_reservoirs_and_quantiles_equal_their_numpy_form():
+    """``_ckernel.wall_rows``' reservoirs and ``_ckernel.wall_quantiles`` against
+    the NumPy forms they replace (np.where/np.clip/np.minimum on the draw-order
+    rows; _summary_rows, whose quantiles tests above hold to np.quantile): the
+    same bits, for nodes with no rebound, one, fewer and more than the
+    reservoir, quantiles at 0 and 1, NaN means, and +-inf values."""
+    from microimpact.engine import _compiled, kernel
+    from microimpact.wall_law.build import (
+        _RESERVOIR_ROWS,
+        _RESERVOIR_SLOTS,
+        _summary_rows,
+        _wall_rows,
+    )
+    from microimpact.wall_law.checks import MAX_LATERAL_DEG
+
+    if kernel.KERNEL != "compiled":  # pragma: no cover - no C compiler
+        pytest.skip("the compiled kernel is not built")
+    rng = np.random.default_rng(11)
+    p, n, R = 9, 200, 16
+    imp = {
+        "e_m": rng.uniform(-0.2, 1.5, (p, n)),
+        "mu_m": rng.normal(0.0, 0.4, (p, n)),
+        "lateral_angle_deg": rng.normal(0.0, 60.0, (p, n)),
+        "outcome": rng.choice(np.array([0, 0, 0, 1, 2], np.int8), (p, n)),
+    }
+    imp["outcome"][4] = 1  # no rebound at all
+    imp["outcome"][5, 1:] = 2  # one
+    imp["outcome"][6, 10:] = 1  # fewer rebounds than the reservoir holds
+    geom = np.array([[0.6, 0.8, float(r % 2)] for r in range(p)])
+    geom[3] = (1.0, 0.0, 1.0)  # normal incidence: e_t is NaN, so is its mean
+    res = np.empty((len(_RESERVOIR_ROWS), p, R))
+    out, stats, filled = _wall_rows(imp, geom, reservoir=res)
+    assert filled
+    n_reb = stats[:, 2].astype(np.int64)
+    k = np.minimum(R, n_reb)
+    want = np.full_like(res, np.nan)
+    keep = np.arange(R)[None, :] < k[:, None]
+    want[:] = np.where(keep, out[list(_RESERVOIR_ROWS), :, :R], np.nan)
+    for i, (_, kind) in enumerate(_RESERVOIR_SLOTS.tolist()):
+        if kind == 1:
+            np.clip(want[i], -MAX_LATERAL_DEG, MAX_LATERAL_DEG, out=want[i])
+        elif kind == 2:
+            np.minimum(want[i], 1.0, out=want[i])
+    np.testing.assert_array_equal(res, want)
+    assert np.isnan(res[:, 4]).all() and (~np.isnan(res[:, 0])).all()
+    V = 5
+    out[:V].sort(axis=2)
+    out[1, 7, 0] = -np.inf  # an infinite value inside the rebounds
+    q = np.array([0.0, 0.05, 0.5, 0.9, 0.95, 1.0])
+    means, stds, quant = np.empty((V, p)), np.empty((V, p)), np.empty((V, p, q.size))
+    _compiled.ckernel.wall_quantiles(p, n, V, out, stats, q, means, stds, quant)
+    for got, exp in zip(
+        (means, stds, quant), _summary_rows(out[:V], stats, n_reb, q), strict=True
+    ):
+        np.testing.assert_array_equal(got, exp)
+    assert np.isnan(quant[:, 4]).all() and np.isnan(stds[:, 5]).all()
+    assert np.isnan(means[1, 3])  # e_t at normal incidence
+    with pytest.raises(ValueError):
+        _compiled.ckernel.wall_quantiles(p, n, 6, out, stats, q, means, stds, quant)
+    with pytest.raises(ValueError):
+        _compiled.ckernel.wall_rows(
+            p, n, imp["e_m"], imp["mu_m"], imp["lateral_angle_deg"],
+            imp["outcome"], geom, out, stats, res, np.array([[9, 0]]), 90.0,
+        )
 
 
 def test_fallback_at_in_the_file_sets_the_openfoam_condition(tmp_path, capsys):

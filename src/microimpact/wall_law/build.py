@@ -185,7 +185,7 @@ def node_outcomes(e_m, mu_m, angle_deg: float, psi_deg=None) -> dict:
 
 #: Impacts simulated per kernel call of a wall-law build (a group of nodes; ~25
 #: bytes each while their statistics are formed).
-GROUP_IMPACTS = 1 << 18
+GROUP_IMPACTS = 1 << 19
 
 
 def _impacts(plan, points, samples: int, buffers=None) -> dict:
@@ -237,6 +237,19 @@ _ROW_VARIABLES = (*REBOUND_VARIABLES, "speed_ratio")
 #: Its per-node columns: impacts, captured, rebounds, reimpacts, then the means
 #: and standard deviations of the five rebound variables.
 _STAT_COLUMNS = 14
+#: The reservoir variables as rows of :func:`_wall_rows`'s output, in its order,
+#: each with how ``_ckernel.wall_rows`` bounds them (0 not, 1 the lateral angle
+#: to +-MAX_LATERAL_DEG, 2 the speed ratio to at most 1).
+_RESERVOIR_ROWS = tuple(
+    v for v, name in enumerate(_ROW_VARIABLES) if name in RESERVOIR_VARIABLES
+)
+_RESERVOIR_SLOTS = np.array(
+    [
+        (v, {"lateral_angle_deg": 1, "speed_ratio": 2}.get(_ROW_VARIABLES[v], 0))
+        for v in _RESERVOIR_ROWS
+    ],
+    dtype=np.int64,
+)
 
 
 def _wall_rows_numpy(imp, geom, out, stats):
@@ -286,9 +299,12 @@ def _wall_rows_numpy(imp, geom, out, stats):
             stats[:, 9 + v] = np.sqrt(np.cumsum(d * d, axis=1)[:, -1] / dof)
 
 
-def _wall_rows(imp, geom, force_numpy=False, buffers=None):
+def _wall_rows(imp, geom, force_numpy=False, buffers=None, reservoir=None):
     """``(out, stats)`` of ``_ckernel.wall_rows`` (or its NumPy form); `buffers`
-    (a dict) keeps the output array from call to call."""
+    (a dict) keeps the output array from call to call. With `reservoir` (an
+    array ``(len(_RESERVOIR_SLOTS), P, R)``) the compiled kernel also writes the
+    nodes' reservoirs there (:data:`_RESERVOIR_SLOTS`), and ``True`` comes
+    third; else ``False`` (the caller takes them from `out`)."""
     p, n = imp["outcome"].shape
     size = len(_ROW_VARIABLES) * p * n
     if buffers is not None and buffers.get("rows", np.empty(0)).size >= size:
@@ -300,33 +316,43 @@ def _wall_rows(imp, geom, force_numpy=False, buffers=None):
     stats = np.empty((p, _STAT_COLUMNS))
     if _compiled.ckernel is None or n == 0 or force_numpy:
         _wall_rows_numpy(imp, geom, out, stats)
-    else:
-        _compiled.ckernel.wall_rows(
-            p,
-            n,
-            np.ascontiguousarray(imp["e_m"]),
-            np.ascontiguousarray(imp["mu_m"]),
-            np.ascontiguousarray(imp["lateral_angle_deg"]),
-            np.ascontiguousarray(imp["outcome"]),
-            geom,
-            out,
-            stats,
-        )
-    return out, stats
+        return out, stats, False
+    extra = () if reservoir is None else (reservoir, _RESERVOIR_SLOTS, MAX_LATERAL_DEG)
+    _compiled.ckernel.wall_rows(
+        p,
+        n,
+        np.ascontiguousarray(imp["e_m"]),
+        np.ascontiguousarray(imp["mu_m"]),
+        np.ascontiguousarray(imp["lateral_angle_deg"]),
+        np.ascontiguousarray(imp["outcome"]),
+        geom,
+        out,
+        stats,
+        *extra,
+    )
+    return out, stats, reservoir is not None
 
 
 def _quantile_rows(srt, n, q):
     """``np.quantile(row[:n], q)`` of each sorted row (method "linear", its
-    operations: virtual index ``(n - 1) q``, its floor and the two-sided lerp)."""
+    operations: virtual index ``(n - 1) q``, its floor and the two-sided lerp).
+    `srt` is ``(..., P, width)``: the rows of P nodes, for any leading axes (the
+    variables of a node share its `n`)."""
     nf = n.astype(float)[:, None]
     v = (nf - 1.0) * q[None, :]
     prev = np.floor(v)
     last = v >= nf - 1.0
-    top = srt.shape[1] - 1
+    width = srt.shape[-1]
+    top = width - 1
     i0 = np.clip(np.where(last, nf - 1.0, prev), 0, top).astype(np.intp)
     i1 = np.clip(np.where(last, nf - 1.0, prev + 1.0), 0, top).astype(np.intp)
-    a = np.take_along_axis(srt, i0, axis=1)
-    b = np.take_along_axis(srt, i1, axis=1)
+    # each row's first element in the flat array: the values are gathered by
+    # np.take, which frees the GIL while it waits on memory (the rows were just
+    # sorted, and most are out of the cache)
+    base = np.arange(0, srt.size, width, dtype=np.intp).reshape(srt.shape[:-1] + (1,))
+    flat = srt.reshape(-1)
+    a = np.take(flat, base + i0)
+    b = np.take(flat, base + i1)
     g = v - np.where(last, -1.0, prev)  # numpy's gamma (previous index -1 above)
     with np.errstate(invalid="ignore"):
         diff = b - a
@@ -357,39 +383,61 @@ def _node_rows(plan, points, spec: WallLawSpec, samples: int, buffers=None) -> d
     same operations). Means and standard deviations are sequential sums."""
     imp = _impacts(plan, points, samples, buffers)
     p = len(points)
-    out, stats = _wall_rows(imp, _geometry(plan)[np.asarray(points)], buffers=buffers)
-    n_reb = stats[:, 2].astype(np.int64)
+    res = np.empty((len(_RESERVOIR_ROWS), p, spec.reservoir))
+    out, stats, filled = _wall_rows(
+        imp, _geometry(plan)[np.asarray(points)], buffers=buffers, reservoir=res
+    )
+    counts = stats[:, :4].T.astype(np.int64)
+    n_reb = counts[2]
     rows = {
         "n_samples": np.full(p, samples, dtype=np.int64),
-        "n_impacts": stats[:, 0].astype(np.int64),
-        "n_captured": stats[:, 1].astype(np.int64),
+        "n_impacts": counts[0],
+        "n_captured": counts[1],
         "n_rebounds": n_reb,
-        "n_reimpacts": stats[:, 3].astype(np.int64),
+        "n_reimpacts": counts[3],
     }
     k = np.minimum(spec.reservoir, n_reb)
     rows["reservoir_count"] = k
-    width = min(spec.reservoir, samples)
-    keep = np.arange(width)[None, :] < k[:, None]
-    for v, name in enumerate(_ROW_VARIABLES):
-        if name in RESERVOIR_VARIABLES:  # before the sort: in draw order
-            res = np.full((p, spec.reservoir), np.nan)
-            res[:, :width] = np.where(keep, out[v, :, :width], np.nan)
+    if not filled:  # the NumPy form: before the sort, in draw order
+        width = min(spec.reservoir, samples)
+        keep = np.arange(width)[None, :] < k[:, None]
+        res[:] = np.nan
+        res[:, :, :width] = np.where(keep, out[list(_RESERVOIR_ROWS), :, :width], np.nan)
+        for i, (_, kind) in enumerate(_RESERVOIR_SLOTS.tolist()):
             # within the readers' ranges (wall_law/checks.py) also at round-off:
             # a lateral angle that rounds to 90 degrees, a ratio 1 + 1 ulp
-            if name == "lateral_angle_deg":
-                np.clip(res, -MAX_LATERAL_DEG, MAX_LATERAL_DEG, out=res)
-            elif name == "speed_ratio":
-                np.minimum(res, 1.0, out=res)
-            rows[f"reservoir_{name}"] = res
-    out[: len(REBOUND_VARIABLES)].sort(axis=2)
+            if kind == 1:
+                np.clip(res[i], -MAX_LATERAL_DEG, MAX_LATERAL_DEG, out=res[i])
+            elif kind == 2:
+                np.minimum(res[i], 1.0, out=res[i])
+    for i, v in enumerate(_RESERVOIR_ROWS):
+        rows[f"reservoir_{_ROW_VARIABLES[v]}"] = res[i]
+    V = len(REBOUND_VARIABLES)
+    out[:V].sort(axis=2)
     q = np.asarray(spec.quantiles, dtype=float)
+    if filled:  # the quantiles, means and deviations in one kernel call
+        means, stds = np.empty((V, p)), np.empty((V, p))
+        quant = np.empty((V, p, q.size))
+        _compiled.ckernel.wall_quantiles(p, samples, V, out, stats, q, means, stds, quant)
+    else:
+        means, stds, quant = _summary_rows(out[:V], stats, n_reb, q)
     for v, name in enumerate(REBOUND_VARIABLES):
-        empty = (n_reb == 0) | np.isnan(stats[:, 4 + v])
-        rows[f"{name}_mean"] = np.where(empty, np.nan, stats[:, 4 + v])
-        rows[f"{name}_std"] = np.where(empty | (n_reb < 2), np.nan, stats[:, 9 + v])
-        quant = _quantile_rows(out[v], n_reb, q)
-        rows[f"{name}_quantile"] = np.where(empty[:, None], np.nan, quant)
+        rows[f"{name}_mean"] = means[v]
+        rows[f"{name}_std"] = stds[v]
+        rows[f"{name}_quantile"] = quant[v]
     return rows
+
+
+def _summary_rows(srt, stats, n_reb, q):
+    """What ``_ckernel.wall_quantiles`` computes, in NumPy: each variable's mean,
+    standard deviation and quantiles per node (NaN without rebounds)."""
+    V = srt.shape[0]
+    mean, std = stats[:, 4 : 4 + V].T, stats[:, 9 : 9 + V].T  # (V, P)
+    empty = (n_reb == 0)[None, :] | np.isnan(mean)
+    means = np.where(empty, np.nan, mean)
+    stds = np.where(empty | (n_reb < 2)[None, :], np.nan, std)
+    quant = np.where(empty[:, :, None], np.nan, _quantile_rows(srt, n_reb, q))
+    return means, stds, quant
 
 
 def _diameter_task(plan, scenario, spec, samples, j):
