@@ -582,3 +582,29 @@ def test_rows_held_back_are_in_the_table_when_it_is_read(monkeypatch, pending):
             assert_array_equal(sa.next_block, sb.next_block)
             _same_rows(sa.stacked, sb.stacked)
     _same_rows(a.stacked(), b.stacked())
+
+
+def test_derived_plans_share_parsed_points_only_with_their_points():
+    """A plan derived with dataclasses.replace shares its parent's parsed points
+    (the wall law's plan per diameter) only where it keeps the parent's points:
+    one with other speeds gets its own, and so its own speeds."""
+    import dataclasses
+
+    sc = _grid(samples=3000)
+    plan = build_plan(sc, seed=3)
+    grid = plan.points.grid
+    faster = dataclasses.replace(
+        plan,
+        points=GridPoints(
+            dataclasses.replace(grid, speeds_m_s=tuple(3 * v for v in grid.speeds_m_s))
+        ),
+    )
+    same = dataclasses.replace(plan, entropy=plan.entropy + 1)
+    assert kernel._plan_points(same) is kernel._plan_points(plan)
+    assert kernel._plan_points(faster) is not kernel._plan_points(plan)
+    P = len(plan.points)
+    task = BlockTask(np.arange(P), np.zeros(P, np.int64), np.zeros(P, np.int64), 1,
+                     3000, 3000)
+    for p in (plan, faster, same):
+        want = kernel.simulate_specs_stacked(p, task.specs(), task.lengths).narrow()
+        _same_narrow_rows(kernel.task_rows(p, task), want)

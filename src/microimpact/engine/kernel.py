@@ -821,8 +821,33 @@ def _plan_points(plan: Plan):
         with _PLAN_POINTS_LOCK:  # built once, not by every worker thread at once
             got = _PLAN_POINTS.get(plan)
             if got is None:
-                got = _PLAN_POINTS[plan] = _parse_plan_points(plan)
+                got = _PLAN_POINTS[plan] = _shared_plan_points(plan)
     return got if got is not False else None
+
+
+def prepare_plan(plan: Plan) -> None:
+    """Parse what the compiled kernel reads of `plan` now (its common arguments
+    and its points, each once per plan), so that the first kernel calls of the
+    workers do not (they would hold the GIL between kernel calls to do it)."""
+    if plan.kernel == "compiled":
+        _common_args(plan)
+        _plan_points(plan)
+
+
+def _shared_plan_points(plan: Plan):
+    """:func:`_parse_plan_points`, shared by the plans derived from one another
+    with ``dataclasses.replace`` that keep its points, surfaces and angle tables
+    (a wall law's plan per diameter: only the diameters differ, which the
+    capsule does not hold). It is kept in the tables' cache they share, with
+    the points and the speed flag it was parsed for."""
+    key = ("_ckernel.points", plan.shadowing, plan.speeds is not None)
+    held = plan._cache.get(key)
+    if held is not None and held[0] is plan.points and held[1] is plan.surfaces:
+        return held[2]
+    got = _parse_plan_points(plan)
+    if got is not False:
+        plan._cache[key] = (plan.points, plan.surfaces, got)
+    return got
 
 
 def _parse_plan_points(plan: Plan):

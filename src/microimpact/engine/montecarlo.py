@@ -52,7 +52,7 @@ from .checkpoint import (
     StackedState,
     plan_fingerprint,
 )
-from .kernel import simulate_block
+from .kernel import prepare_plan, simulate_block
 from .parallel import (
     BACKENDS,
     _simulate,
@@ -745,6 +745,9 @@ class _Job:
             self._start_background()
             return  # everything was restored from the checkpoint: no workers needed
         fixed = self.precision is None
+        if fixed and streams.array_tasks:
+            # the plan's points parsed here, once, before any worker waits on it
+            prepare_plan(self.plan)
         runner = make_runner(
             self.plan,
             workers=self.workers,

@@ -35,7 +35,7 @@ from .._core.progress import Progress
 from .._core.validation import implausible_speed
 from ..engine import _compiled
 from ..engine.checkpoint import CheckpointMismatch, load_arrays, save_arrays
-from ..engine.kernel import atan2_deg, simulate_specs_impacts
+from ..engine.kernel import atan2_deg, prepare_plan, simulate_specs_impacts
 from ..engine.montecarlo import iter_point_samples
 from ..engine.parallel import cap_workers, map_tasks
 from ..engine.plan import ArealSampler, build_plan, diameter_sampler, resolve_entropy
@@ -440,12 +440,11 @@ def _summary_rows(srt, stats, n_reb, q):
     return means, stds, quant
 
 
-def _diameter_task(plan, scenario, spec, samples, j):
-    """Every node of diameter ``spec.diameters_um[j]``: a dict of stacked arrays
-    over the sweep points (surface x speed x angle, in :class:`SweepGrid` order),
-    built a group of nodes at a time (:data:`GROUP_IMPACTS`). On a reduced speed
-    axis the plan's speeds are the ratios r, and this diameter's points are at
-    ``r v_c(d)``; the points keep their numbers, hence their random streams."""
+def _diameter_plan(plan, scenario, spec, j):
+    """The plan of diameter node ``spec.diameters_um[j]``: `plan` with that one
+    diameter. On a reduced speed axis the plan's speeds are the ratios r, and
+    this diameter's points are at ``r v_c(d)``; the points keep their numbers,
+    hence their random streams."""
     d_plan = dataclasses.replace(
         plan,
         diameters=diameter_sampler(scenario, monodisperse(spec.diameters_um[j])),
@@ -461,6 +460,18 @@ def _diameter_task(plan, scenario, spec, samples, j):
                 dataclasses.replace(pt, speed=pt.speed * v_c) for pt in plan.points
             )
         d_plan = dataclasses.replace(d_plan, points=points)
+    return d_plan
+
+
+def _diameter_task(plan, scenario, spec, samples, j, prepared=None):
+    """Every node of diameter ``spec.diameters_um[j]``: a dict of stacked arrays
+    over the sweep points (surface x speed x angle, in :class:`SweepGrid` order),
+    built a group of nodes at a time (:data:`GROUP_IMPACTS`). `prepared`: the
+    diameters' plans made beforehand (:func:`_prepared_plans`), or None."""
+    if prepared is not None:
+        d_plan = prepared[j]
+    else:
+        d_plan = _diameter_plan(plan, scenario, spec, j)
     per = max(1, GROUP_IMPACTS // max(samples, 1))
     n = len(plan.points)
     size = min(per, n) * samples
@@ -485,7 +496,12 @@ def _results(plan, scenario, spec, samples, workers, executor, indices):
     (:func:`~microimpact.engine.parallel.map_tasks`: the executor, else threads
     where the compiled kernel frees the GIL, as do NumPy's sorts, else
     processes)."""
-    task = functools.partial(_diameter_task, plan, scenario, spec, samples)
+    prepared = None
+    if plan.kernel == "compiled" and executor is None:  # threads: one process
+        prepared = _prepared_plans(plan, scenario, spec, indices)
+    task = functools.partial(
+        _diameter_task, plan, scenario, spec, samples, prepared=prepared
+    )
     results = map_tasks(
         task,
         indices,
@@ -494,6 +510,19 @@ def _results(plan, scenario, spec, samples, workers, executor, indices):
         threads=plan.kernel == "compiled",
     )
     yield from zip(indices, results, strict=True)
+
+
+def _prepared_plans(plan, scenario, spec, indices) -> dict:
+    """The plans of diameters `indices`, each with the compiled kernel's
+    arguments parsed (its diameters; the points parsed once for all of them
+    where they share them): made in the driver before the workers start, all
+    at once, rather than by each worker thread between its kernel calls, where
+    every Python step holds the GIL and finds the caches cold (issue 31)."""
+    prepared = {}
+    for j in indices:
+        prepared[j] = _diameter_plan(plan, scenario, spec, j)
+        prepare_plan(prepared[j])
+    return prepared
 
 
 class _Partial:
