@@ -608,3 +608,23 @@ def test_derived_plans_share_parsed_points_only_with_their_points():
     for p in (plan, faster, same):
         want = kernel.simulate_specs_stacked(p, task.specs(), task.lengths).narrow()
         _same_narrow_rows(kernel.task_rows(p, task), want)
+
+
+def test_task_rows_store_the_impacts_of_the_specs():
+    """task_rows with `store` writes each impact's outputs as
+    simulate_specs_impacts writes those of the same blocks (the wall law's
+    path), and the rows are unchanged by it."""
+    plan = _PLAN()
+    P = len(plan.points)
+    point = np.array([0, 5, P - 1, 40], dtype=np.int64)
+    task = BlockTask(point, np.array([0, 1, 0, 2]), np.array([2, 1, 0, 2]), 3, 500, 77)
+    total = int(task.impacts().sum())
+    store = (np.empty(total), np.empty(total), np.empty(total), np.empty(total, np.int8))
+    rows = kernel.task_rows(plan, task, store=store)
+    _same_narrow_rows(rows, kernel.task_rows(plan, task))
+    want = kernel.simulate_specs_impacts(plan, task.specs())
+    for got, name in zip(store, ("e_m", "mu_m", "lateral_angle_deg", "outcome"),
+                         strict=True):
+        assert_array_equal(got, want[name])
+    with pytest.raises(ValueError):  # too short for the task's impacts
+        kernel.task_rows(plan, task, store=tuple(a[:-1] for a in store))

@@ -2522,20 +2522,23 @@ PyDoc_STRVAR(task_doc,
 "Returned: each histogram's span counts, one group after the other, as bytes\n"
 "of the narrowest of uint8, uint16, int32 and int64 that holds them, with\n"
 "that item size. The bits of specs() with groups, followed by the driver's\n"
-"own layout (kernel.simulate_specs_stacked) and Stacked.narrow().");
+"own layout (kernel.simulate_specs_stacked) and Stacked.narrow(). `store`: as\n"
+"specs()'s, the per-impact outputs of every block, in order.");
 
 static PyObject *
 ck_task(PyObject *self, PyObject *args)
 {
     Py_buffer be, bh, bpt, bf, bl, bt, bm, bsp;
-    PyObject *dsamp, *ssamp, *capsule;
+    Py_buffer bst[4] = {{0}};
+    int nst = 0;
+    PyObject *dsamp, *ssamp, *capsule, *store = Py_None;
     int speed_random;
     double p, q, friction;
     Py_ssize_t stop, bsize, last_n;
-    if (!PyArg_ParseTuple(args, "y*(OOpdddy*)O!y*y*y*nnnw*w*w*:task", &be, &dsamp,
+    if (!PyArg_ParseTuple(args, "y*(OOpdddy*)O!y*y*y*nnnw*w*w*|O:task", &be, &dsamp,
                           &ssamp, &speed_random, &p, &q, &friction, &bh,
                           &PyCapsule_Type, &capsule, &bpt, &bf, &bl, &stop, &bsize,
-                          &last_n, &bt, &bm, &bsp))
+                          &last_n, &bt, &bm, &bsp, &store))
         return NULL;
     PyObject *result = NULL, *bytes[3] = {NULL, NULL, NULL};
     int width[3] = {0, 0, 0};
@@ -2569,7 +2572,7 @@ ck_task(PyObject *self, PyObject *args)
         goto done;
     }
     const int64_t *pt = bpt.buf, *fi = bf.buf, *la = bl.buf;
-    Py_ssize_t K = 0;
+    Py_ssize_t K = 0, total_n = 0;
     for (Py_ssize_t g = 0; g < G; g++) {
         if (pt[g] < 0 || pt[g] >= t->points || fi[g] < 0 || la[g] < fi[g] ||
             la[g] >= stop) {
@@ -2579,6 +2582,31 @@ ck_task(PyObject *self, PyObject *args)
             goto done;
         }
         K += la[g] - fi[g] + 1;
+        total_n += (la[g] - fi[g] + 1) * bsize - (la[g] == stop - 1 ? bsize - last_n : 0);
+    }
+    if (store != Py_None) { /* per-impact outputs: e_m, mu_m, psi, outcome */
+        static const char *names[4] = {"e_m", "mu_m", "psi", "outcome"};
+        static const Py_ssize_t sizes[4] = {8, 8, 8, 1};
+        if (!PyTuple_Check(store) || PyTuple_GET_SIZE(store) != 4) {
+            PyErr_SetString(PyExc_TypeError, "_ckernel.task: store is a 4-tuple");
+            goto done;
+        }
+        for (; nst < 4; nst++) {
+            if (PyObject_GetBuffer(PyTuple_GET_ITEM(store, nst), &bst[nst],
+                                   PyBUF_WRITABLE | PyBUF_C_CONTIGUOUS) < 0)
+                goto done;
+            if (check_len(&bst[nst], names[nst], sizes[nst], total_n)) {
+                nst++;
+                goto done;
+            }
+        }
+    }
+    double *st_d[3] = {NULL, NULL, NULL};
+    int8_t *st_code = NULL;
+    if (nst == 4) {
+        for (int j = 0; j < 3; j++)
+            st_d[j] = bst[j].buf;
+        st_code = bst[3].buf;
     }
     if (parse_entropy(&be, &st) || parse_hist(&bh, &hs) ||
         check_len(&bt, "table", 8, 5 * G) || check_len(&bm, "moments", 8, 12 * G) ||
@@ -2619,7 +2647,7 @@ ck_task(PyObject *self, PyObject *args)
         table[5 * g] = n;
     }
     oom = run_specs(&st, &hs, sd, ss, speed_random, p, q, friction, sp, K, glen,
-                    counts, sums, spans, NULL, NULL, out, used);
+                    counts, sums, spans, st_d, st_code, out, used);
     for (Py_ssize_t g = 0; g < G && !oom; g++) {
         memcpy(table + 5 * g + 1, counts + 5 * g, 4 * sizeof *table);
         for (int h = 0; h < 3; h++) {
@@ -2663,6 +2691,8 @@ done:
     PyBuffer_Release(&bt);
     PyBuffer_Release(&bm);
     PyBuffer_Release(&bsp);
+    for (int j = 0; j < nst; j++)
+        PyBuffer_Release(&bst[j]);
     return result;
 }
 

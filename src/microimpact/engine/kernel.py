@@ -919,7 +919,7 @@ def _array_items(plan: Plan, specs: SpecArrays) -> tuple:
 _NARROWED = {1: np.uint8, 2: np.uint16, 4: np.int32, 8: np.int64}
 
 
-def task_rows(plan: Plan, task) -> Stacked | None:
+def task_rows(plan: Plan, task, store=None) -> Stacked | None:
     """The rows of a :class:`~.tasks.BlockTask` (a row per group, its blocks
     merged in block order) from one ``_ckernel.task`` call: the kernel expands
     the groups into blocks, looks each point's tables and speed up in the plan's
@@ -927,7 +927,10 @@ def task_rows(plan: Plan, task) -> Stacked | None:
     histogram counts narrowed, so the GIL is held for a few array allocations
     per task (issue 31). Exactly ``simulate_specs_stacked(plan, task.specs(),
     task.lengths).narrow()``; None where the plan's points are not parsed once
-    (tables of their own per angle) or the kernel is not the compiled one."""
+    (tables of their own per angle) or the kernel is not the compiled one.
+    `store`: ``(e_m, mu_m, lateral_angle_deg, outcome)`` arrays of the task's
+    impacts (float64, int8), written as :func:`simulate_specs_impacts` writes
+    them."""
     if plan.kernel != "compiled" or plan.sampling == "qmc":
         return None
     points = _plan_points(plan)
@@ -950,6 +953,7 @@ def task_rows(plan: Plan, task) -> Stacked | None:
         table,
         moments,
         spans,
+        *(() if store is None else (store,)),
     )
     return Stacked(
         table,
