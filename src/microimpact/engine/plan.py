@@ -1221,22 +1221,30 @@ def diameter_sampler(scenario, particles=None) -> Sampler:
             np.broadcast_to(np.asarray(a, dtype=float), end.shape)
             for a in coeffs.evaluate(end)
         )
-        for name, arr in (("k1", k1), ("k2", k2), ("v_c", v_c)):
-            bad = np.isnan(arr) | (arr < 0) | ((name == "v_c") & np.isinf(arr))
-            if np.any(bad):
-                i = int(np.argmax(bad))
-                raise ScenarioError(
-                    f"the law gives {arr[i]!r} at diameter {end[i] * 1e6:.4g} µm; "
-                    "coefficients must be >= 0 (k1, k2 may be inf) over the whole "
-                    "particle distribution",
-                    source=scenario.source,
-                    field=f"coefficients.{name}",
-                )
+        every = np.stack([k1, k2, v_c])
+        if not (np.all(every >= 0) and np.all(np.isfinite(v_c))):
+            _bad_coefficient(scenario, end, k1, k2, v_c)
         with np.errstate(divide="ignore"):
             columns.append((1.0 / k1, 1.0 / k2, v_c))
     return Sampler.of(
         table, (table.left, table.right), *zip(columns[0], columns[1], strict=True)
     )
+
+
+def _bad_coefficient(scenario, end, k1, k2, v_c):
+    """Raise the error of the first coefficient the law gives outside its range
+    (:func:`diameter_sampler`): NaN or negative, or an infinite v_c."""
+    for name, arr in (("k1", k1), ("k2", k2), ("v_c", v_c)):
+        bad = np.isnan(arr) | (arr < 0) | ((name == "v_c") & np.isinf(arr))
+        if np.any(bad):
+            i = int(np.argmax(bad))
+            raise ScenarioError(
+                f"the law gives {arr[i]!r} at diameter {end[i] * 1e6:.4g} µm; "
+                "coefficients must be >= 0 (k1, k2 may be inf) over the whole "
+                "particle distribution",
+                source=scenario.source,
+                field=f"coefficients.{name}",
+            )
 
 
 def build_plan(scenario, *, seed=None, kernel=None) -> Plan:

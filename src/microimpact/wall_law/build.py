@@ -25,6 +25,7 @@ import hashlib
 import math
 import shutil
 import time
+import weakref
 from pathlib import Path
 
 import numpy as np
@@ -373,11 +374,17 @@ def _quantile_rows(srt, n, q):
         return np.where(g >= 0.5, b - diff * (1 - g), a + diff * g)
 
 
+_GEOMETRY: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
 def _geometry(plan) -> np.ndarray:
     """Per sweep point of `plan`: ``sin(theta)``, ``cos(theta)`` (0 at normal
     incidence: cos(pi/2) is 6e-17 in floating point) and whether its surface is
     areal, as ``_ckernel.wall_rows`` reads them; computed once per (surface,
     angle) with the math module's functions."""
+    got = _GEOMETRY.get(plan)  # once per plan
+    if got is not None:
+        return got
     *_, table, keys = plan.point_columns()
     geom = np.empty((len(keys), 3))
     for r, (surface, angle_deg) in enumerate(keys):
@@ -385,7 +392,8 @@ def _geometry(plan) -> np.ndarray:
         geom[r, 0] = math.sin(theta)
         geom[r, 1] = 0.0 if angle_deg == 90.0 else math.cos(theta)
         geom[r, 2] = float(isinstance(plan.surfaces[surface], ArealSampler))
-    return geom[table]
+    got = _GEOMETRY[plan] = geom[table]
+    return got
 
 
 def _node_rows(plan, points, spec: WallLawSpec, samples: int, buffers=None) -> dict:
@@ -538,6 +546,7 @@ def _prepared_plans(plan, scenario, spec, indices) -> dict:
     for j in indices:
         prepared[j] = _diameter_plan(plan, scenario, spec, j)
         prepare_plan(prepared[j])
+        _geometry(prepared[j])
     return prepared
 
 
