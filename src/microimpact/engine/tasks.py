@@ -19,6 +19,7 @@ kernel calls and the same bits.
 
 from __future__ import annotations
 
+import bisect
 from collections.abc import Iterator
 from dataclasses import dataclass
 
@@ -132,13 +133,14 @@ def block_tasks(
                 for a, b in zip(carry, (point, first, last), strict=True)
             )
         task = BlockTask(point, first, last, stop, block_size, last_n)
-        cum = np.cumsum(task.impacts())
+        # (Python integers: a bisection per task costs no array call)
+        cum = np.cumsum(task.impacts()).tolist()
         g, i = point.size, 0
         carry = None
         while i < g:
             before = cum[i - 1] if i else 0
             # the first group at which the task holds task_impacts impacts
-            j = int(np.searchsorted(cum, before + task_impacts, side="left"))
+            j = bisect.bisect_left(cum, before + task_impacts, lo=i)
             end = min(j + 1, i + task_groups)
             if end > g:  # open: may take groups of the next chunk
                 carry = (point[i:], first[i:], last[i:])
