@@ -115,6 +115,8 @@ def test_block_tasks_are_the_drivers_tasks(
         assert specs == [s for g in t for s in g]
         assert t.impacts().tolist() == [sum(s[3] for s in g) for g in t]
         assert t.lengths.tolist() == [len(g) for g in t]
+        # whole: every group is a whole stream (its blocks 0 .. stop - 1)
+        assert t.whole == all(g[0][2] == 0 and g[-1][2] == stop - 1 for g in t)
 
 
 @pytest.mark.parametrize("samples", [3000, 70_001, 5 * 32768 * 64 + 7])
@@ -628,3 +630,34 @@ def test_task_rows_store_the_impacts_of_the_specs():
         assert_array_equal(got, want[name])
     with pytest.raises(ValueError):  # too short for the task's impacts
         kernel.task_rows(plan, task, store=tuple(a[:-1] for a in store))
+
+
+@pytest.mark.parametrize("samples", [3000, 70_001])
+def test_whole_fresh_streams_merge_as_group_by_group(samples):
+    """Tasks of whole streams never merged before (block_tasks' `whole`, the
+    driver's shortcut) against _merge_rows (the oracle): the same table, the
+    same samples merged; and a task of streams already merged is refused."""
+    sc = _grid(samples=samples)
+    plan = build_plan(sc, seed=2)
+    a, b = (_Streams(plan, sc.samples, None, 0.95) for _ in range(2))
+    todo = list(_fixed_tasks(a))
+    assert any(t.whole for t in todo)
+    for task in todo:
+        rows = parallel.run_task(plan, task)
+        items = zip(range(len(task)), task.point.tolist(), [0] * len(task),
+                    task.first.tolist(), task.last.tolist(), strict=True)
+        assert a.merge_task(task, rows) == b._merge_rows(items, rows)
+    assert_array_equal(a.next_block, b.next_block)
+    assert_array_equal(a.done, b.done)
+    _same_rows(a.stacked(), b.stacked())
+    again = [t for t in _fixed_tasks(_Streams(plan, sc.samples, None, 0.95))
+             if t.whole]
+    assert again and a._merge_first_groups(again[0], parallel.run_task(plan, again[0])) is None
+    # streams merged group by group, or restored from a checkpoint, are not
+    # fresh: a whole task of them is refused too
+    task, rows = todo[0], parallel.run_task(plan, todo[0])
+    c, d = (_Streams(plan, sc.samples, None, 0.95) for _ in range(2))
+    c._merge_rows([(0, int(task.point[0]), 0, 0, int(task.last[0]))], rows)
+    assert c._merge_first_groups(task, rows) is None
+    d.restore({(int(task.point[-1]), 0): (int(task.last[-1]) + 1, rows.accumulator(0))})
+    assert d._merge_first_groups(task, rows) is None

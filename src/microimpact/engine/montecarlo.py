@@ -223,6 +223,9 @@ class _Streams:
         # tasks' rows of first groups not yet copied into the table: (streams,
         # rows), copied together (:meth:`_flush`) before the table is read
         self._pending: list[tuple] = []
+        # every stream from this one on is untouched (no block merged or
+        # restored): a task of them needs no check of their state
+        self._fresh_from = 0
 
     # ------------------------------------------------------------ addressing
     def index(self, point: int, rep: int) -> int:
@@ -299,6 +302,7 @@ class _Streams:
             ):
                 continue
             k = self.index(point, rep)
+            self._fresh_from = max(self._fresh_from, k + 1)
             self.next_block[k] = nxt
             self.loose[k] = acc
             self._held[k] = False
@@ -360,7 +364,19 @@ class _Streams:
         ks = task.point if ids is None else np.searchsorted(ids, task.point)
         if not ks.size:
             return 0
-        lo, hi = int(ks[0]), int(ks[-1]) + 1
+        lo, hi = ks[[0, -1]].tolist()
+        hi += 1
+        if task.whole and lo >= self._fresh_from and hi - lo == ks.size:
+            # whole streams never touched (the common case of a fresh run): no
+            # array check, and the streams' state set without arithmetic
+            ks = slice(lo, hi)
+            self._pending.append((ks, rows))
+            if len(self._pending) >= PENDING_TASKS:
+                self._flush()
+            self.next_block[ks] = task.stop
+            self.done[ks] = True
+            self._fresh_from = hi
+            return (hi - lo) * ((task.stop - 1) * task.block_size + task.last_n)
         if hi - lo == ks.size and not task.first.any():  # consecutive streams
             # (ascending: a task's groups are in stream order) as slices
             ks = slice(lo, hi)
@@ -375,6 +391,7 @@ class _Streams:
             self._flush()
         self.next_block[ks] = task.last + 1
         self.done[ks] = self.next_block[ks] >= self.n_blocks()
+        self._fresh_from = max(self._fresh_from, hi)
         return int(rows.counts[:, 0].sum())
 
     def _flush(self) -> None:
@@ -422,10 +439,12 @@ class _Streams:
         ks, idx = [], []
         merged = 0
         samples = rows.counts[:, 0]
+        top = -1  # the last stream merged
         for i, point, rep, first, last in items:
             k = self.index(point, rep)
             if done[k] or first != int(nb[k]):
                 continue
+            top = max(top, k)
             if first == 0:
                 ks.append(k)
                 idx.append(i)
@@ -447,6 +466,7 @@ class _Streams:
                 done[k] = self._finished(k)
         if ks:
             self._hold(ks, rows, idx)
+        self._fresh_from = max(self._fresh_from, top + 1)
         return merged
 
     def _hold(self, ks, rows: Stacked, idx) -> None:

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import bisect
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -44,6 +44,9 @@ class BlockTask:
     stop: int  # blocks of every stream
     block_size: int
     last_n: int  # impacts of block stop - 1
+    #: Every group is a whole stream (blocks 0 .. stop - 1): known where
+    #: block_tasks made the task, None where not known (then not assumed).
+    whole: bool | None = field(default=None, compare=False)
 
     def __len__(self) -> int:
         return int(self.point.size)
@@ -135,6 +138,8 @@ def block_tasks(
         task = BlockTask(point, first, last, stop, block_size, last_n)
         # (Python integers: a bisection per task costs no array call)
         cum = np.cumsum(task.impacts()).tolist()
+        # groups that are not a whole stream, counted up to each group
+        part = np.cumsum((first != 0) | (last != stop - 1)).tolist()
         g, i = point.size, 0
         carry = None
         while i < g:
@@ -145,9 +150,13 @@ def block_tasks(
             if end > g:  # open: may take groups of the next chunk
                 carry = (point[i:], first[i:], last[i:])
                 break
+            whole = part[end - 1] == (part[i - 1] if i else 0)
             yield BlockTask(
-                point[i:end], first[i:end], last[i:end], stop, block_size, last_n
+                point[i:end], first[i:end], last[i:end], stop, block_size, last_n,
+                whole,
             )
             i = end
     if carry is not None and carry[0].size:
-        yield BlockTask(*carry, stop, block_size, last_n)
+        point, first, last = carry
+        whole = not bool(np.any((first != 0) | (last != stop - 1)))
+        yield BlockTask(point, first, last, stop, block_size, last_n, whole)
