@@ -561,6 +561,7 @@ def test_rows_held_back_are_in_the_table_when_it_is_read(monkeypatch, pending):
     read between merges holds every merged row."""
     monkeypatch.setattr(montecarlo, "TASK_IMPACTS", 3 * 3000)
     monkeypatch.setattr(montecarlo, "PENDING_TASKS", pending)
+    monkeypatch.setattr(montecarlo, "PENDING_ROWS", 10**9)
     sc = _grid(samples=3000)
     plan = build_plan(sc, seed=2)
     a, b = (_Streams(plan, sc.samples, None, 0.95) for _ in range(2))
@@ -661,3 +662,18 @@ def test_whole_fresh_streams_merge_as_group_by_group(samples):
     assert c._merge_first_groups(task, rows) is None
     d.restore({(int(task.point[-1]), 0): (int(task.last[-1]) + 1, rows.accumulator(0))})
     assert d._merge_first_groups(task, rows) is None
+
+
+def test_rows_held_back_are_bounded(monkeypatch):
+    """The rows kept before the copy into the table are bounded in rows as well
+    as in tasks (a sweep of small points packs 2,048 rows into a task)."""
+    monkeypatch.setattr(montecarlo, "TASK_IMPACTS", 3 * 3000)
+    monkeypatch.setattr(montecarlo, "PENDING_ROWS", 5)
+    sc = _grid(samples=3000)
+    plan = build_plan(sc, seed=2)
+    a = _Streams(plan, sc.samples, None, 0.95)
+    most = 0
+    for task in _fixed_tasks(a):
+        a.merge_task(task, parallel.run_task(plan, task))
+        most = max(most, sum(len(r) for _, r in a._pending))
+    assert 0 < most < 5

@@ -99,6 +99,9 @@ TASK_GROUPS = 2048
 #: step (``_Streams._flush``): the table's per-field copies are paid once per
 #: this many tasks, not per task (issue 31: the GIL between kernel calls).
 PENDING_TASKS = 256
+#: ... and at most this many rows (a sweep of small points packs 2,048 into a
+#: task: ~0.4 MB of rows each, kept once more while they are copied).
+PENDING_ROWS = 1 << 15
 #: Least seconds between checkpoint writes (override:
 #: MICROIMPACT_CHECKPOINT_INTERVAL); writes are further spaced to take at most
 #: ``checkpoint.WRITE_FRACTION`` of the run time.
@@ -223,6 +226,7 @@ class _Streams:
         # tasks' rows of first groups not yet copied into the table: (streams,
         # rows), copied together (:meth:`_flush`) before the table is read
         self._pending: list[tuple] = []
+        self._pending_rows = 0
         # every stream from this one on is untouched (no block merged or
         # restored): a task of them needs no check of their state
         self._fresh_from = 0
@@ -370,9 +374,7 @@ class _Streams:
             # whole streams never touched (the common case of a fresh run): no
             # array check, and the streams' state set without arithmetic
             ks = slice(lo, hi)
-            self._pending.append((ks, rows))
-            if len(self._pending) >= PENDING_TASKS:
-                self._flush()
+            self._hold_later(ks, rows)
             self.next_block[ks] = task.stop
             self.done[ks] = True
             self._fresh_from = hi
@@ -386,13 +388,20 @@ class _Streams:
             return None
         # copied into the table with other tasks' rows later (_flush): a few
         # array steps per task here, the copies in one step per field there
-        self._pending.append((ks, rows))
-        if len(self._pending) >= PENDING_TASKS:
-            self._flush()
+        self._hold_later(ks, rows)
         self.next_block[ks] = task.last + 1
         self.done[ks] = self.next_block[ks] >= self.n_blocks()
         self._fresh_from = max(self._fresh_from, hi)
         return int(rows.counts[:, 0].sum())
+
+    def _hold_later(self, ks, rows: Stacked) -> None:
+        """Keep a task's rows for :meth:`_flush` (streams `ks`: a slice or
+        indices), which copies them in once :data:`PENDING_TASKS` tasks or
+        :data:`PENDING_ROWS` rows are kept."""
+        self._pending.append((ks, rows))
+        self._pending_rows += len(rows)
+        if len(self._pending) >= PENDING_TASKS or self._pending_rows >= PENDING_ROWS:
+            self._flush()
 
     def _flush(self) -> None:
         """Copy the pending tasks' rows (:meth:`_merge_first_groups`) into the
@@ -401,6 +410,7 @@ class _Streams:
         if not pending:
             return
         self._pending = []
+        self._pending_rows = 0
         ks = np.concatenate(
             [
                 np.arange(k.start, k.stop) if isinstance(k, slice) else k
