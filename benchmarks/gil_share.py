@@ -21,7 +21,13 @@ Paths, one worker each (the sizes of issue 31's targets):
 
 * ``run``: ``run()`` over 64 points of 10^6 impacts (sst76-formica-oblique physics);
 * ``grid``: a 60 x 60 speed-angle grid at 8,000 impacts per point;
-* ``wall_law``: a 16^3 wall law at 2,000 impacts per node.
+* ``wall_law``: a 16^3 wall law at 2,000 impacts per node;
+* ``sensitivity``: ``sobol_sensitivity`` over 4 coefficient parameters,
+  ``base_size=4`` (24 design rows, each a run of the preset's 20 sweep points at
+  20,000 impacts);
+* ``calibration``: a least-squares ``calibrate`` of a surface's spread and v_c to
+  the mean e and mu of 8 points (a fit of ~30 model runs of 8 points at 20,000
+  impacts), the data made by the model itself at known values.
 """
 
 from __future__ import annotations
@@ -87,6 +93,50 @@ CHILD = {
         "    build_wall_law(sc, WallLawSpec(diameters_um=(10.0, 20.0),\n"
         "        speeds_m_s=(1.0, 2.0), angles_deg=(30.0, 60.0), samples=100,\n"
         "        reservoir=8), workers=1, seed=2)\n"
+        "path()\n"
+    ),
+    "sensitivity": (
+        "import microimpact as mi\n"
+        "PARAMETERS = {\n"
+        "    'coefficients.friction': {'low': 0.1, 'high': 0.3},\n"
+        "    'coefficients.k1': {'low': 3.0, 'high': 5.0},\n"
+        "    'coefficients.v_c.a_m_s': {'low': 0.15, 'high': 0.25},\n"
+        "    'coefficients.k2.a_m_s': {'low': 0.04, 'high': 0.06}}\n"
+        "def go(samples, seed):\n"
+        "    mi.sobol_sensitivity('sst76-formica-oblique', PARAMETERS, base_size=4,\n"
+        "        samples=samples, seed=seed, workers=1, n_resamples=10,\n"
+        "        progress=False)\n"
+        "def path():\n"
+        "    go(20000, 1)\n"
+        "if WARM:\n"
+        "    go(200, 2)\n"
+        "path()\n"
+    ),
+    "calibration": (
+        "import microimpact as mi\n"
+        "from microimpact.analysis.calibration import calibrate\n"
+        "from microimpact.analysis.compare import experiments_from_summary\n"
+        "from microimpact.scenario.parameters import with_values\n"
+        "from microimpact.scenario.scenario import scenario_from_dict\n"
+        "STD, VC = 'surfaces.rough.std_deg', 'coefficients.v_c.a_m_s'\n"
+        "data = {'name': 'bench', 'seed': 1, 'samples': 20000,\n"
+        "    'particles': {'distribution': 'monodisperse', 'diameter_um': 50.0},\n"
+        "    'coefficients': {'k1': 4.0,\n"
+        "        'k2': {'law': 'power', 'a_m_s': 0.05, 'b': -1.58, 'd_ref_um': 52.8},\n"
+        "        'v_c': {'law': 'power', 'a_m_s': 0.2, 'b': -1.58, 'd_ref_um': 52.8},\n"
+        "        'p': 1.0, 'q': 1.0, 'friction': 0.15},\n"
+        "    'surfaces': [{'name': 'rough', 'kind': 'normal', 'std_deg': 10.0}],\n"
+        "    'sweep': {'speed_m_s': [1.0, 3.0], 'angle_deg': [20.0, 40.0, 60.0, 80.0]}}\n"
+        "truth = with_values(data, {STD: 12.0, VC: 0.22})\n"
+        "s = mi.run(scenario_from_dict(truth), seed=7, progress=False).summary\n"
+        "exp = experiments_from_summary(s, ('e', 'mu'), by_surface=False)\n"
+        "def go(samples):\n"
+        "    calibrate(data, exp, {STD: (2.0, 30.0), VC: (0.1, 0.4)},\n"
+        "        samples=samples, workers=1, bootstrap=0, progress=False)\n"
+        "def path():\n"
+        "    go(20000)\n"
+        "if WARM:\n"
+        "    go(2000)\n"
         "path()\n"
     ),
 }

@@ -190,25 +190,42 @@ class EngineModel:
         return int(np.random.SeedSequence([self.seed, *words]).generate_state(1)[0])
 
     def _statistics(self, result) -> np.ndarray:
-        """The output vector of one run, in the order of :attr:`outputs`."""
-        summary = result.summary.set_index(["surface", "speed_m_s", "angle_deg"])
+        """The output vector of one run, in the order of :attr:`outputs` (each
+        output's row of the summary found by its exact (surface, speed, angle),
+        as ``summary.set_index(...).loc`` finds it, without building the index:
+        a design row's Python is then small beside its engine run)."""
+        summary = result.summary
+        where = {
+            key: i
+            for i, key in enumerate(
+                zip(
+                    summary["surface"].tolist(),
+                    summary["speed_m_s"].tolist(),
+                    summary["angle_deg"].tolist(),
+                    strict=True,
+                )
+            )
+        }
         out = []
         for stat in self.statistics:
+            sel = self.outputs[self.outputs["statistic"] == stat]
             if stat == "capture_speed_m_s":
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore")
                     cs = result.capture_speed(CAPTURE_SPEED_QUANTILE)
                 cs = cs.set_index(["surface", "angle_deg"])["speed_m_s"]
-                sel = self.outputs[self.outputs["statistic"] == stat]
                 out.append(
                     cs.loc[list(zip(sel["surface"], sel["angle_deg"], strict=True))]
                 )
             else:
-                sel = self.outputs[self.outputs["statistic"] == stat]
-                idx = list(
-                    zip(sel["surface"], sel["speed_m_s"], sel["angle_deg"], strict=True)
+                keys = zip(
+                    sel["surface"].tolist(),
+                    sel["speed_m_s"].tolist(),
+                    sel["angle_deg"].tolist(),
+                    strict=True,
                 )
-                out.append(summary.loc[idx, stat])
+                rows = [where[key] for key in keys]  # KeyError: not simulated
+                out.append(summary[stat].to_numpy(dtype=float)[rows])
         return np.concatenate([np.asarray(v, dtype=float) for v in out])
 
     def __call__(self, rows) -> np.ndarray:
