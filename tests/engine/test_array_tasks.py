@@ -479,8 +479,9 @@ def test_task_rows_narrow_as_compact_counts(block_size):
     # a smooth point where nearly every impact rebounds, two where most stick
     point = np.array([3, 29, 40], dtype=np.int64)
     assert plan.points[29].surface_name == "smooth"
-    task = BlockTask(point, np.zeros(3, np.int64), np.zeros(3, np.int64), 1,
-                     block_size, block_size)
+    task = BlockTask(
+        point, np.zeros(3, np.int64), np.zeros(3, np.int64), 1, block_size, block_size
+    )
     got = kernel.task_rows(plan, task)
     want = kernel.simulate_specs_stacked(plan, task.specs(), task.lengths).narrow()
     _same_narrow_rows(got, want)
@@ -521,9 +522,20 @@ def test_task_arguments_are_checked():
 
     def call(point=(0,), first=(0,), last=(0,), stop=2, bs=10, last_n=5, pts=points):
         G = len(point)
-        return ck.task(words, common, pts, i64(*point), i64(*first), i64(*last),
-                       stop, bs, last_n, np.empty((G, 5), np.int64),
-                       np.empty((3, G, 4)), np.empty((3, 2, G), np.int64))
+        return ck.task(
+            words,
+            common,
+            pts,
+            i64(*point),
+            i64(*first),
+            i64(*last),
+            stop,
+            bs,
+            last_n,
+            np.empty((G, 5), np.int64),
+            np.empty((3, G, 4)),
+            np.empty((3, 2, G), np.int64),
+        )
 
     assert len(call()) == 6
     n_points = len(plan.points)
@@ -570,8 +582,14 @@ def test_rows_held_back_are_in_the_table_when_it_is_read(monkeypatch, pending):
     for i, task in enumerate(tasks_):
         rows = parallel.run_task(plan, task)
         a.merge_task(task, rows)
-        items = zip(range(len(task)), task.point.tolist(), [0] * len(task),
-                    task.first.tolist(), task.last.tolist(), strict=True)
+        items = zip(
+            range(len(task)),
+            task.point.tolist(),
+            [0] * len(task),
+            task.first.tolist(),
+            task.last.tolist(),
+            strict=True,
+        )
         b._merge_rows(items, rows)
         # each reader of the table, with rows held back (unless pending is 1)
         if i == 1:
@@ -606,8 +624,9 @@ def test_derived_plans_share_parsed_points_only_with_their_points():
     assert kernel._plan_points(same) is kernel._plan_points(plan)
     assert kernel._plan_points(faster) is not kernel._plan_points(plan)
     P = len(plan.points)
-    task = BlockTask(np.arange(P), np.zeros(P, np.int64), np.zeros(P, np.int64), 1,
-                     3000, 3000)
+    task = BlockTask(
+        np.arange(P), np.zeros(P, np.int64), np.zeros(P, np.int64), 1, 3000, 3000
+    )
     for p in (plan, faster, same):
         want = kernel.simulate_specs_stacked(p, task.specs(), task.lengths).narrow()
         _same_narrow_rows(kernel.task_rows(p, task), want)
@@ -622,12 +641,18 @@ def test_task_rows_store_the_impacts_of_the_specs():
     point = np.array([0, 5, P - 1, 40], dtype=np.int64)
     task = BlockTask(point, np.array([0, 1, 0, 2]), np.array([2, 1, 0, 2]), 3, 500, 77)
     total = int(task.impacts().sum())
-    store = (np.empty(total), np.empty(total), np.empty(total), np.empty(total, np.int8))
+    store = (
+        np.empty(total),
+        np.empty(total),
+        np.empty(total),
+        np.empty(total, np.int8),
+    )
     rows = kernel.task_rows(plan, task, store=store)
     _same_narrow_rows(rows, kernel.task_rows(plan, task))
     want = kernel.simulate_specs_impacts(plan, task.specs())
-    for got, name in zip(store, ("e_m", "mu_m", "lateral_angle_deg", "outcome"),
-                         strict=True):
+    for got, name in zip(
+        store, ("e_m", "mu_m", "lateral_angle_deg", "outcome"), strict=True
+    ):
         assert_array_equal(got, want[name])
     with pytest.raises(ValueError):  # too short for the task's impacts
         kernel.task_rows(plan, task, store=tuple(a[:-1] for a in store))
@@ -645,15 +670,23 @@ def test_whole_fresh_streams_merge_as_group_by_group(samples):
     assert any(t.whole for t in todo)
     for task in todo:
         rows = parallel.run_task(plan, task)
-        items = zip(range(len(task)), task.point.tolist(), [0] * len(task),
-                    task.first.tolist(), task.last.tolist(), strict=True)
+        items = zip(
+            range(len(task)),
+            task.point.tolist(),
+            [0] * len(task),
+            task.first.tolist(),
+            task.last.tolist(),
+            strict=True,
+        )
         assert a.merge_task(task, rows) == b._merge_rows(items, rows)
     assert_array_equal(a.next_block, b.next_block)
     assert_array_equal(a.done, b.done)
     _same_rows(a.stacked(), b.stacked())
-    again = [t for t in _fixed_tasks(_Streams(plan, sc.samples, None, 0.95))
-             if t.whole]
-    assert again and a._merge_first_groups(again[0], parallel.run_task(plan, again[0])) is None
+    again = [t for t in _fixed_tasks(_Streams(plan, sc.samples, None, 0.95)) if t.whole]
+    assert (
+        again
+        and a._merge_first_groups(again[0], parallel.run_task(plan, again[0])) is None
+    )
     # streams merged group by group, or restored from a checkpoint, are not
     # fresh: a whole task of them is refused too
     task, rows = todo[0], parallel.run_task(plan, todo[0])

@@ -910,8 +910,18 @@ def test_compiled_reservoirs_and_quantiles_equal_their_numpy_form():
         _compiled.ckernel.wall_quantiles(p, n, 6, out, stats, q, means, stds, quant)
     with pytest.raises(ValueError):
         _compiled.ckernel.wall_rows(
-            p, n, imp["e_m"], imp["mu_m"], imp["lateral_angle_deg"],
-            imp["outcome"], geom, out, stats, res, np.array([[9, 0]]), 90.0,
+            p,
+            n,
+            imp["e_m"],
+            imp["mu_m"],
+            imp["lateral_angle_deg"],
+            imp["outcome"],
+            geom,
+            out,
+            stats,
+            res,
+            np.array([[9, 0]]),
+            90.0,
         )
 
 

@@ -166,6 +166,16 @@ class EngineModel:
         self.outputs = pd.DataFrame(
             rows, columns=["statistic", "surface", "speed_m_s", "angle_deg"]
         )
+        # each statistic's outputs as the keys a run's summary rows have
+        # (surface, speed, angle; the capture speed's without the speed)
+        self._keys = {
+            stat: [
+                r[1:] if stat != "capture_speed_m_s" else (r[1], r[3])
+                for r in rows
+                if r[0] == stat
+            ]
+            for stat in self.statistics
+        }
 
     def scenario(self, values):
         """The validated scenario at parameter `values` (a row, or a mapping of
@@ -208,23 +218,14 @@ class EngineModel:
         }
         out = []
         for stat in self.statistics:
-            sel = self.outputs[self.outputs["statistic"] == stat]
             if stat == "capture_speed_m_s":
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore")
                     cs = result.capture_speed(CAPTURE_SPEED_QUANTILE)
                 cs = cs.set_index(["surface", "angle_deg"])["speed_m_s"]
-                out.append(
-                    cs.loc[list(zip(sel["surface"], sel["angle_deg"], strict=True))]
-                )
+                out.append(cs.loc[self._keys[stat]])
             else:
-                keys = zip(
-                    sel["surface"].tolist(),
-                    sel["speed_m_s"].tolist(),
-                    sel["angle_deg"].tolist(),
-                    strict=True,
-                )
-                rows = [where[key] for key in keys]  # KeyError: not simulated
+                rows = [where[key] for key in self._keys[stat]]  # KeyError: absent
                 out.append(summary[stat].to_numpy(dtype=float)[rows])
         return np.concatenate([np.asarray(v, dtype=float) for v in out])
 

@@ -152,7 +152,12 @@ def block_tasks(
                 break
             whole = part[end - 1] == (part[i - 1] if i else 0)
             yield BlockTask(
-                point[i:end], first[i:end], last[i:end], stop, block_size, last_n,
+                point[i:end],
+                first[i:end],
+                last[i:end],
+                stop,
+                block_size,
+                last_n,
                 whole,
             )
             i = end

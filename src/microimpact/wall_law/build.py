@@ -364,7 +364,7 @@ def _quantile_rows(srt, n, q):
     # each row's first element in the flat array: the values are gathered by
     # np.take, which frees the GIL while it waits on memory (the rows were just
     # sorted, and most are out of the cache)
-    base = np.arange(0, srt.size, width, dtype=np.intp).reshape(srt.shape[:-1] + (1,))
+    base = np.arange(0, srt.size, width, dtype=np.intp).reshape((*srt.shape[:-1], 1))
     flat = srt.reshape(-1)
     a = np.take(flat, base + i0)
     b = np.take(flat, base + i1)
@@ -424,7 +424,9 @@ def _node_rows(plan, points, spec: WallLawSpec, samples: int, buffers=None) -> d
         width = min(spec.reservoir, samples)
         keep = np.arange(width)[None, :] < k[:, None]
         res[:] = np.nan
-        res[:, :, :width] = np.where(keep, out[list(_RESERVOIR_ROWS), :, :width], np.nan)
+        res[:, :, :width] = np.where(
+            keep, out[list(_RESERVOIR_ROWS), :, :width], np.nan
+        )
         for i, (_, kind) in enumerate(_RESERVOIR_SLOTS.tolist()):
             # within the readers' ranges (wall_law/checks.py) also at round-off:
             # a lateral angle that rounds to 90 degrees, a ratio 1 + 1 ulp
@@ -440,7 +442,9 @@ def _node_rows(plan, points, spec: WallLawSpec, samples: int, buffers=None) -> d
     if filled:  # the quantiles, means and deviations in one kernel call
         means, stds = np.empty((V, p)), np.empty((V, p))
         quant = np.empty((V, p, q.size))
-        _compiled.ckernel.wall_quantiles(p, samples, V, out, stats, q, means, stds, quant)
+        _compiled.ckernel.wall_quantiles(
+            p, samples, V, out, stats, q, means, stds, quant
+        )
     else:
         means, stds, quant = _summary_rows(out[:V], stats, n_reb, q)
     for v, name in enumerate(REBOUND_VARIABLES):
