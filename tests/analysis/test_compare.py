@@ -419,3 +419,133 @@ def test_cli_compare_counts_only_what_it_compared(tmp_path, capsys):
     assert "line 2 (e, g, 9 m/s, 30 deg): not compared: speed_m_s = 9" in captured.out
     assert "warning" not in captured.err.lower()
     assert (out / "comparison.csv").exists() and not (out / "comparison.png").exists()
+
+
+# ------------------------------------------------------------ the point recipe
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+from microimpact.analysis.compare import PointRecipe  # noqa: E402
+
+
+def _random_summary(rng, speeds, angles, nan_share):
+    rows = []
+    for v in speeds:
+        for a in angles:
+            e = rng.uniform(0.2, 0.9)
+            mu = rng.uniform(0.0, 0.5)
+            cap = rng.uniform(0.0, 1.0)
+            rows.append(
+                (
+                    "rough",
+                    v,
+                    a,
+                    math.nan if rng.random() < nan_share else e,
+                    rng.uniform(0.001, 0.05),
+                    mu,
+                    rng.uniform(0.001, 0.05),
+                    cap,
+                    max(0.0, cap - 0.05),
+                    min(1.0, cap + 0.05),
+                )
+            )
+    cols = [
+        "surface",
+        "speed_m_s",
+        "angle_deg",
+        "e_rebound_mean",
+        "e_rebound_se",
+        "mu_mean",
+        "mu_se",
+        "capture_fraction",
+        "capture_ci_low",
+        "capture_ci_high",
+    ]
+    return pd.DataFrame(rows, columns=cols)
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    n_speeds=st.integers(1, 4),
+    n_angles=st.integers(1, 4),
+    seed=st.integers(0, 2**31),
+    nan_share=st.sampled_from([0.0, 0.2]),
+    data=st.data(),
+)
+def test_point_recipe_is_compare(n_speeds, n_angles, seed, nan_share, data):
+    """PointRecipe against compare (the oracle), bit for bit: exact sweep
+    points, points between them in speed, in angle or in both, points outside
+    the sweep, corners without a value, every statistic kind, and summaries of
+    other values of the same sweep (a calibration's runs)."""
+    rng = np.random.default_rng(seed)
+    speeds = np.sort(rng.choice(np.arange(1, 40) * 0.25, n_speeds, replace=False))
+    angles = np.sort(rng.choice(np.arange(1, 18) * 5.0, n_angles, replace=False))
+    s0 = _random_summary(rng, speeds, angles, nan_share)
+    rows = []
+    for _ in range(data.draw(st.integers(1, 8))):
+        # a sweep value, or one between (or beside) them, on each axis
+        v = data.draw(st.sampled_from([*speeds.tolist(), float(speeds.mean()) + 0.01]))
+        a = data.draw(st.sampled_from([*angles.tolist(), float(angles.mean()) + 0.3]))
+        stat = data.draw(st.sampled_from(["e", "mu", "capture_fraction"]))
+        rows.append(("rough", v, a, stat, 0.5, 0.02))
+    exp = exp_table(rows)
+    recipe = PointRecipe(s0, exp)
+    for s in (s0, _random_summary(rng, speeds, angles, nan_share)):
+        want = compare(s, exp)
+        m, se = recipe(s)
+        np.testing.assert_array_equal(m, want["sim_mean"].to_numpy(float))
+        np.testing.assert_array_equal(se, want["sim_se"].to_numpy(float))
+
+
+def test_point_recipe_refuses_another_sweep(summary):
+    exp = exp_table([("rough", 1.0, 20.0, "e", 0.7, 0.02)])
+    recipe = PointRecipe(summary, exp)
+    m, _ = recipe(summary)
+    assert m[0] == pytest.approx(0.70)  # halfway between 0.80 and 0.60
+    with pytest.raises(ValueError, match="another sweep"):
+        recipe(summary.iloc[::-1])
+    with pytest.raises(ValueError):  # compare's own refusal
+        PointRecipe(summary, exp_table([("glass", 1.0, 20.0, "e", 0.7, 0.02)]))
+
+
+def test_point_recipe_between_speeds_and_angles():
+    """A point inside a cell of the speed-angle grid: the bilinear mean of its
+    four corners, written out here."""
+    rows = [
+        ("rough", v, a, e, 0.01, 0.1, 0.01, 0.5, 0.4, 0.6)
+        for (v, a, e) in [
+            (1.0, 10.0, 0.8),
+            (1.0, 30.0, 0.6),
+            (2.0, 10.0, 0.7),
+            (2.0, 30.0, 0.4),
+        ]
+    ]
+    cols = [
+        "surface",
+        "speed_m_s",
+        "angle_deg",
+        "e_rebound_mean",
+        "e_rebound_se",
+        "mu_mean",
+        "mu_se",
+        "capture_fraction",
+        "capture_ci_low",
+        "capture_ci_high",
+    ]
+    s = pd.DataFrame(rows, columns=cols)
+    exp = exp_table([("rough", 1.25, 25.0, "e", 0.6, 0.02)])
+    m, se = PointRecipe(s, exp)(s)
+    ws, wa = 0.75, 0.25  # weights of speed 1 and of angle 10
+    want = ws * wa * 0.8 + ws * (1 - wa) * 0.6 + (1 - ws) * wa * 0.7
+    want += (1 - ws) * (1 - wa) * 0.4
+    assert m[0] == pytest.approx(want, rel=1e-14)
+    assert se[0] == pytest.approx(
+        0.01
+        * math.sqrt(
+            (ws * wa) ** 2
+            + (ws * (1 - wa)) ** 2
+            + ((1 - ws) * wa) ** 2
+            + ((1 - ws) * (1 - wa)) ** 2
+        ),
+        rel=1e-14,
+    )

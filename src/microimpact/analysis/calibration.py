@@ -81,7 +81,7 @@ from .calibration_inputs import (
     default_bounds,
     parse_parameter,
 )
-from .compare import compare
+from .compare import PointRecipe, compare
 from .model import ScenarioModel
 from .pairs import (
     correlate,
@@ -151,6 +151,7 @@ class _Model:
         self.pairs = np.zeros((0, 2), int)
         self.rho = np.zeros(0)
         self._matcher = None  # the pairs' experiment rows -> sweep rows
+        self._recipe = None  # the experiment points -> sweep rows (points())
 
     def set_pairs(self, x) -> None:
         """Find the pairs of :attr:`exp` (once) and their correlation at `x`."""
@@ -183,9 +184,12 @@ class _Model:
         return [self.cache[tuple(np.asarray(x, dtype=float).tolist())] for x in xs]
 
     def points(self, summary):
-        """``(m_sim, s_sim)`` at the experimental points."""
-        t = compare(summary, self.exp)
-        return t["sim_mean"].to_numpy(float), t["sim_se"].to_numpy(float)
+        """``(m_sim, s_sim)`` at the experimental points: :func:`compare`'s
+        values, with each point's rows and weights found at the first call
+        (:class:`~.compare.PointRecipe`)."""
+        if self._recipe is None:
+            self._recipe = PointRecipe(summary, self.exp)
+        return self._recipe(summary)
 
 
 @contextlib.contextmanager

@@ -314,6 +314,110 @@ def _interpolate(g, axes, coords, col, se_col):
     return mean, se, error, note
 
 
+class PointRecipe:
+    """:func:`compare`'s ``sim_mean`` and ``sim_se`` at every experimental point,
+    with the summary rows and weights each point uses found once: a calibration
+    compares hundreds of runs of one sweep with one experiments table, and
+    matching every point with pandas costs more than a small run of the engine
+    (issue 31). The same operations on the same values as :func:`compare`, so
+    the same bits (tests/analysis/test_compare.py holds it to compare).
+
+    Built from one summary of the sweep (which must match every point, as
+    :func:`compare` requires of a calibration's data); called with any summary
+    of the same sweep (the same surfaces, speeds and angles, in the same
+    order; another raises ValueError)."""
+
+    def __init__(self, summary_or_result, experiments):
+        summary = _summary_iv(summary_or_result)
+        exp = _experiments_iv(experiments)
+        compare(summary, exp)  # compare's own errors for points it cannot match
+        self._coords = _coordinates(summary)
+        self.cols: list[tuple[str, str]] = []
+        #: per point: ("exact", row), ("none", None) or ("mix", [(weight, row)])
+        self.terms: list[tuple] = []
+        for _, row in exp.iterrows():
+            self.cols.append(SIMULATED[row["statistic"]])
+            _, g, axis = _select(summary, row)
+            coords = {c: float(row[c]) for c in _COORDS}
+            if not axis:
+                self.terms.append(("exact", int(g.index[0])))
+            elif len(axis) == 1:
+                (ax,) = axis
+                g = g.sort_values(ax)
+                v = g[ax].to_numpy(dtype=float)
+                i, _ = _bracket(v, coords[ax], ax)
+                if i is None:
+                    self.terms.append(("none", None))
+                    continue
+                w = (v[i + 1] - coords[ax]) / (v[i + 1] - v[i])  # as _interpolate
+                rows = (int(g.index[i]), int(g.index[i + 1]))
+                self.terms.append(("mix", [(w, rows[0]), (1.0 - w, rows[1])]))
+            else:
+                vs, va = (np.unique(g[a].to_numpy(dtype=float)) for a in axis)
+                j = np.searchsorted(vs, g[axis[0]].to_numpy(dtype=float)).tolist()
+                k = np.searchsorted(va, g[axis[1]].to_numpy(dtype=float)).tolist()
+                at = dict(zip(zip(j, k, strict=True), g.index.tolist(), strict=True))
+                (i, _), (j, _) = (
+                    _bracket(vs, coords[axis[0]], axis[0]),
+                    _bracket(va, coords[axis[1]], axis[1]),
+                )
+                if i is None or j is None:
+                    self.terms.append(("none", None))
+                    continue
+                ws = (vs[i + 1] - coords[axis[0]]) / (vs[i + 1] - vs[i])
+                wa = (va[j + 1] - coords[axis[1]]) / (va[j + 1] - va[j])
+                mix = []
+                for a, wa_ in ((i, ws), (i + 1, 1 - ws)):
+                    for b, wb_ in ((j, wa), (j + 1, 1 - wa)):
+                        mix.append((wa_ * wb_, at.get((a, b))))  # None: no row
+                self.terms.append(("mix", mix))
+
+    def __call__(self, summary_or_result) -> tuple[np.ndarray, np.ndarray]:
+        """``(sim_mean, sim_se)`` at every experimental point, as arrays."""
+        summary = getattr(summary_or_result, "summary", summary_or_result)
+        if not all(
+            np.array_equal(a, b)
+            for a, b in zip(_coordinates(summary), self._coords, strict=True)
+        ):
+            raise ValueError("PointRecipe: the summary is of another sweep")
+        values: dict[str, np.ndarray] = {}
+        m = np.empty(len(self.terms))
+        s = np.empty(len(self.terms))
+        for n, ((col, se_col), (kind, how)) in enumerate(
+            zip(self.cols, self.terms, strict=True)
+        ):
+            for c in (col, se_col):
+                if c not in values:
+                    values[c] = _column(summary, c)
+            mean, se = values[col], values[se_col]
+            if kind == "exact":
+                m[n], s[n] = float(mean[how]), float(se[how])
+                continue
+            corners = [mean[r] if r is not None else math.nan for _, r in how or ()]
+            if kind == "none" or any(math.isnan(c) for c in corners):
+                m[n] = s[n] = math.nan
+                continue
+            m[n] = sum(w * c for (w, _), c in zip(how, corners, strict=True))
+            s[n] = math.sqrt(sum((w * se[r]) ** 2 for w, r in how))
+        return m, s
+
+
+def _coordinates(summary) -> tuple:
+    return tuple(summary[c].to_numpy() for c in ("surface", *_COORDS))
+
+
+def _column(summary, name) -> np.ndarray:
+    """Column `name` of a summary as :func:`compare` reads it (``capture_se``
+    from the capture interval where the summary has none, as _summary_iv)."""
+    if name in summary:
+        return summary[name].to_numpy(dtype=float)
+    if name == "capture_se" and "capture_ci_low" in summary:
+        conf = float(summary.attrs.get("confidence", 0.95))
+        se = interval_se(summary["capture_ci_low"], summary["capture_ci_high"], conf)
+        return np.asarray(se, dtype=float)
+    raise KeyError(name)
+
+
 def compare(summary_or_result, experiments, *, confidence=0.95):
     """Compare simulated means with experimental means, point by point.
 
