@@ -2278,6 +2278,45 @@ end:
     return oom ? -1 : 0;
 }
 
+/* The per-impact outputs `store` of specs() and task() (None, or a tuple of
+ * e_m, mu_m, psi float64 and outcome int8 buffers of at least `total_n` items)
+ * into bst[0 .. *nst); -1 with the error set (the caller releases bst[0 ..
+ * *nst) either way). */
+static int
+store_of(PyObject *store, Py_ssize_t total_n, const char *fn, Py_buffer bst[4],
+         int *nst)
+{
+    static const char *names[4] = {"e_m", "mu_m", "psi", "outcome"};
+    static const Py_ssize_t sizes[4] = {8, 8, 8, 1};
+    if (store == Py_None)
+        return 0;
+    if (!PyTuple_Check(store) || PyTuple_GET_SIZE(store) != 4) {
+        PyErr_Format(PyExc_TypeError, "_ckernel.%s: store is a 4-tuple", fn);
+        return -1;
+    }
+    for (; *nst < 4; (*nst)++) {
+        if (PyObject_GetBuffer(PyTuple_GET_ITEM(store, *nst), &bst[*nst],
+                               PyBUF_WRITABLE | PyBUF_C_CONTIGUOUS) < 0)
+            return -1;
+        if (check_len(&bst[*nst], names[*nst], sizes[*nst], total_n)) {
+            (*nst)++;
+            return -1;
+        }
+    }
+    return 0;
+}
+
+/* The outputs' pointers of a parsed `store` (NULL where there is none). */
+static void
+store_pointers(Py_buffer bst[4], int nst, double *st_d[3], int8_t **st_code)
+{
+    if (nst != 4)
+        return;
+    for (int j = 0; j < 3; j++)
+        st_d[j] = bst[j].buf;
+    *st_code = bst[3].buf;
+}
+
 static PyObject *
 ck_specs(PyObject *self, PyObject *args)
 {
@@ -2419,32 +2458,13 @@ ck_specs(PyObject *self, PyObject *args)
     }
     for (Py_ssize_t i = 0; i < K; i++)
         total_n += sp[i].n;
-    if (store != Py_None) { /* per-impact outputs: e_m, mu_m, psi, outcome */
-        static const char *names[4] = {"e_m", "mu_m", "psi", "outcome"};
-        static const Py_ssize_t sizes[4] = {8, 8, 8, 1};
-        if (!PyTuple_Check(store) || PyTuple_GET_SIZE(store) != 4) {
-            PyErr_SetString(PyExc_TypeError, "_ckernel.specs: store is a 4-tuple");
-            goto done;
-        }
-        for (; nst < 4; nst++) {
-            if (PyObject_GetBuffer(PyTuple_GET_ITEM(store, nst), &bst[nst],
-                                   PyBUF_WRITABLE | PyBUF_C_CONTIGUOUS) < 0)
-                goto done;
-            if (check_len(&bst[nst], names[nst], sizes[nst], total_n)) {
-                nst++;
-                goto done;
-            }
-        }
-    }
+    if (store_of(store, total_n, "specs", bst, &nst))
+        goto done;
     int64_t *counts = bc.buf, *spans = bp.buf;
     double *sums = bs.buf;
     double *st_d[3] = {NULL, NULL, NULL};
     int8_t *st_code = NULL;
-    if (nst == 4) {
-        for (int j = 0; j < 3; j++)
-            st_d[j] = bst[j].buf;
-        st_code = bst[3].buf;
-    }
+    store_pointers(bst, nst, st_d, &st_code);
     int oom;
     Py_BEGIN_ALLOW_THREADS
     oom = run_specs(&st, &hs, sd, ss, speed_random, p, q, friction, sp, K, glen,
@@ -2584,30 +2604,11 @@ ck_task(PyObject *self, PyObject *args)
         K += la[g] - fi[g] + 1;
         total_n += (la[g] - fi[g] + 1) * bsize - (la[g] == stop - 1 ? bsize - last_n : 0);
     }
-    if (store != Py_None) { /* per-impact outputs: e_m, mu_m, psi, outcome */
-        static const char *names[4] = {"e_m", "mu_m", "psi", "outcome"};
-        static const Py_ssize_t sizes[4] = {8, 8, 8, 1};
-        if (!PyTuple_Check(store) || PyTuple_GET_SIZE(store) != 4) {
-            PyErr_SetString(PyExc_TypeError, "_ckernel.task: store is a 4-tuple");
-            goto done;
-        }
-        for (; nst < 4; nst++) {
-            if (PyObject_GetBuffer(PyTuple_GET_ITEM(store, nst), &bst[nst],
-                                   PyBUF_WRITABLE | PyBUF_C_CONTIGUOUS) < 0)
-                goto done;
-            if (check_len(&bst[nst], names[nst], sizes[nst], total_n)) {
-                nst++;
-                goto done;
-            }
-        }
-    }
+    if (store_of(store, total_n, "task", bst, &nst))
+        goto done;
     double *st_d[3] = {NULL, NULL, NULL};
     int8_t *st_code = NULL;
-    if (nst == 4) {
-        for (int j = 0; j < 3; j++)
-            st_d[j] = bst[j].buf;
-        st_code = bst[3].buf;
-    }
+    store_pointers(bst, nst, st_d, &st_code);
     if (parse_entropy(&be, &st) || parse_hist(&bh, &hs) ||
         check_len(&bt, "table", 8, 5 * G) || check_len(&bm, "moments", 8, 12 * G) ||
         check_len(&bsp, "spans", 8, 6 * G))
@@ -2947,11 +2948,9 @@ ck_wall_quantiles(PyObject *self, PyObject *args)
             stds[v * P + r] = empty || nf < 2.0 ? NAN : st[WS_STD + v];
             const double *row = out + (v * P + r) * S;
             double *to = quant + (v * P + r) * Q;
-            for (Py_ssize_t j = 0; j < Q; j++) {
-                if (empty) {
-                    to[j] = NAN;
-                    continue;
-                }
+            for (Py_ssize_t j = 0; j < Q && empty; j++)
+                to[j] = NAN;
+            for (Py_ssize_t j = 0; j < Q && !empty; j++) {
                 double x = (nf - 1.0) * q[j];
                 double prev = floor(x);
                 int last = x >= nf - 1.0;
