@@ -370,29 +370,31 @@ class _Streams:
             return 0
         lo, hi = ks[[0, -1]].tolist()
         hi += 1
-        if task.whole and lo >= self._fresh_from and hi - lo == ks.size:
-            # whole streams never touched (the common case of a fresh run): no
-            # array check, and the streams' state set without arithmetic
+        # consecutive streams: slices (a task's groups are in stream order)
+        consecutive = hi - lo == ks.size
+        # whole streams never touched (the common case of a fresh run) need no
+        # look at their state; others must be first groups of streams not begun
+        fresh = bool(task.whole) and consecutive and lo >= self._fresh_from
+        if not fresh:
+            if task.first.any() or not (consecutive or np.all(np.diff(ks) > 0)):
+                return None
+            if self.done[ks].any() or self.next_block[ks].any():
+                return None
+        if consecutive:
             ks = slice(lo, hi)
-            self._hold_later(ks, rows)
-            self.next_block[ks] = task.stop
-            self.done[ks] = True
-            self._fresh_from = hi
-            return (hi - lo) * ((task.stop - 1) * task.block_size + task.last_n)
-        if hi - lo == ks.size and not task.first.any():  # consecutive streams
-            # (ascending: a task's groups are in stream order) as slices
-            ks = slice(lo, hi)
-        elif not (np.all(np.diff(ks) > 0) and not task.first.any()):
-            return None
-        if self.done[ks].any() or self.next_block[ks].any():
-            return None
         # copied into the table with other tasks' rows later (_flush): a few
         # array steps per task here, the copies in one step per field there
         self._hold_later(ks, rows)
-        self.next_block[ks] = task.last + 1
-        self.done[ks] = self.next_block[ks] >= self.n_blocks()
+        if task.whole:  # every block of each stream: done, cap impacts each
+            self.next_block[ks] = task.stop
+            self.done[ks] = True
+            merged = len(task) * ((task.stop - 1) * task.block_size + task.last_n)
+        else:
+            self.next_block[ks] = task.last + 1
+            self.done[ks] = self.next_block[ks] >= self.n_blocks()
+            merged = int(rows.counts[:, 0].sum())
         self._fresh_from = max(self._fresh_from, hi)
-        return int(rows.counts[:, 0].sum())
+        return merged
 
     def _hold_later(self, ks, rows: Stacked) -> None:
         """Keep a task's rows for :meth:`_flush` (streams `ks`: a slice or

@@ -147,10 +147,11 @@ def block_tasks(
             # the first group at which the task holds task_impacts impacts
             j = bisect.bisect_left(cum, before + task_impacts, lo=i)
             end = min(j + 1, i + task_groups)
+            # every group a whole stream: no group that is not, from i to end
+            whole = part[min(end, g) - 1] == (part[i - 1] if i else 0)
             if end > g:  # open: may take groups of the next chunk
                 carry = (point[i:], first[i:], last[i:])
                 break
-            whole = part[end - 1] == (part[i - 1] if i else 0)
             yield BlockTask(
                 point[i:end],
                 first[i:end],
@@ -162,6 +163,4 @@ def block_tasks(
             )
             i = end
     if carry is not None and carry[0].size:
-        point, first, last = carry
-        whole = not bool(np.any((first != 0) | (last != stop - 1)))
-        yield BlockTask(point, first, last, stop, block_size, last_n, whole)
+        yield BlockTask(*carry, stop, block_size, last_n, whole)
