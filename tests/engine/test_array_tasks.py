@@ -654,6 +654,10 @@ def test_task_rows_store_the_impacts_of_the_specs():
         store, ("e_m", "mu_m", "lateral_angle_deg", "outcome"), strict=True
     ):
         assert_array_equal(got, want[name])
+    # simulate_specs_impacts takes the task itself (the wall law's call)
+    got = kernel.simulate_specs_impacts(plan, task)
+    for name in want:
+        assert_array_equal(got[name], want[name])
     with pytest.raises(ValueError):  # too short for the task's impacts
         kernel.task_rows(plan, task, store=tuple(a[:-1] for a in store))
 

@@ -1072,10 +1072,17 @@ def simulate_specs_impacts(plan: Plan, specs, out=None) -> dict:
     store=True)`` gives for those outcomes (tests/test_kernel_compiled.py); what
     the wall law is built from without a Python array per node. `out`: arrays of
     at least the specs' total length to write into (their leading parts are
-    returned), reused from call to call."""
+    returned), reused from call to call. `specs` may be a
+    :class:`~.tasks.BlockTask` (its blocks in order): then one ``_ckernel.task``
+    call on the plan's parsed points (:func:`task_rows`) where it has them."""
+    from .tasks import BlockTask  # (tasks imports this module)
+
     if plan.kernel != "compiled":
         raise ValueError("simulate_specs_impacts needs the compiled kernel")
-    if isinstance(specs, SpecArrays):
+    task = specs if isinstance(specs, BlockTask) else None
+    if task is not None:
+        total = int(task.impacts().sum())
+    elif isinstance(specs, SpecArrays):
         total = int(specs.n.sum())
     else:
         total = sum(int(spec[3]) for spec in specs)
@@ -1087,7 +1094,11 @@ def simulate_specs_impacts(plan: Plan, specs, out=None) -> dict:
             "outcome": np.empty(total, dtype=np.int8),
         }
     out = {k: out[k][:total] for k in ("e_m", "mu_m", "lateral_angle_deg", "outcome")}
-    _keyed_outputs(plan, specs, store=tuple(out.values()))
+    store = tuple(out.values())
+    if task is None:
+        _keyed_outputs(plan, specs, store=store)
+    elif task_rows(plan, task, store=store) is None:  # points not parsed once
+        _keyed_outputs(plan, task.specs(), store=store)
     return out
 
 

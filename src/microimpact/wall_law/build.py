@@ -36,12 +36,7 @@ from .._core.progress import Progress
 from .._core.validation import implausible_speed
 from ..engine import _compiled
 from ..engine.checkpoint import CheckpointMismatch, load_arrays, save_arrays
-from ..engine.kernel import (
-    atan2_deg,
-    prepare_plan,
-    simulate_specs_impacts,
-    task_rows,
-)
+from ..engine.kernel import atan2_deg, prepare_plan, simulate_specs_impacts
 from ..engine.montecarlo import iter_point_samples
 from ..engine.parallel import cap_workers, map_tasks
 from ..engine.plan import ArealSampler, build_plan, diameter_sampler, resolve_entropy
@@ -216,16 +211,7 @@ def _impacts(plan, points, samples: int, buffers=None) -> dict:
             bs,
             samples - (per - 1) * bs,
         )
-        total = shape[0] * shape[1]
-        names = ("e_m", "mu_m", "lateral_angle_deg", "outcome")
-        if buffers is not None:
-            store = tuple(buffers[k][:total] for k in names)
-        else:
-            store = (*(np.empty(total) for _ in range(3)), np.empty(total, np.int8))
-        # one kernel call from the plan's parsed points (else the specs' path)
-        if task_rows(plan, task, store=store) is not None:
-            return {k: v.reshape(shape) for k, v in zip(names, store, strict=True)}
-        got = simulate_specs_impacts(plan, task.specs(), buffers)
+        got = simulate_specs_impacts(plan, task, buffers)
         return {k: v.reshape(shape) for k, v in got.items()}
     out = {
         "e_m": np.zeros(shape),
