@@ -23,6 +23,19 @@ from microimpact.plotting.comparison import plot_comparison
 
 matplotlib.use("Agg")
 
+#: The columns of the hand-made summaries (each row's fields in this order).
+SUMMARY_COLUMNS = [
+    "surface",
+    "speed_m_s",
+    "angle_deg",
+    "e_rebound_mean",
+    "e_rebound_se",
+    "mu_mean",
+    "mu_se",
+    "capture_fraction",
+    "capture_ci_low",
+    "capture_ci_high",
+]
 Z95 = 1.959963984540054
 Z99 = 2.5758293035489004
 
@@ -37,18 +50,7 @@ def summary():
         ("rough", 1.0, 85.0, 0.50, 0.03, 0.01, 0.01, 0.02, 0.01, 0.03),
         ("smooth", 1.0, 85.0, 0.55, 0.02, 0.00, 0.001, 0.02, 0.01, 0.03),
     ]
-    cols = [
-        "surface",
-        "speed_m_s",
-        "angle_deg",
-        "e_rebound_mean",
-        "e_rebound_se",
-        "mu_mean",
-        "mu_se",
-        "capture_fraction",
-        "capture_ci_low",
-        "capture_ci_high",
-    ]
+    cols = SUMMARY_COLUMNS
     return pd.DataFrame(rows, columns=cols)
 
 
@@ -300,18 +302,7 @@ def _grid(values, se=0.02, speeds=(1.0, 2.0, 3.0), angles=(10.0, 30.0, 50.0)):
         for v in speeds
         for a in angles
     ]
-    cols = [
-        "surface",
-        "speed_m_s",
-        "angle_deg",
-        "e_rebound_mean",
-        "e_rebound_se",
-        "mu_mean",
-        "mu_se",
-        "capture_fraction",
-        "capture_ci_low",
-        "capture_ci_high",
-    ]
+    cols = SUMMARY_COLUMNS
     return pd.DataFrame(rows, columns=cols)
 
 
@@ -449,18 +440,7 @@ def _random_summary(rng, speeds, angles, nan_share):
                     min(1.0, cap + 0.05),
                 )
             )
-    cols = [
-        "surface",
-        "speed_m_s",
-        "angle_deg",
-        "e_rebound_mean",
-        "e_rebound_se",
-        "mu_mean",
-        "mu_se",
-        "capture_fraction",
-        "capture_ci_low",
-        "capture_ci_high",
-    ]
+    cols = SUMMARY_COLUMNS
     return pd.DataFrame(rows, columns=cols)
 
 
@@ -520,18 +500,7 @@ def test_point_recipe_between_speeds_and_angles():
             (2.0, 30.0, 0.4),
         ]
     ]
-    cols = [
-        "surface",
-        "speed_m_s",
-        "angle_deg",
-        "e_rebound_mean",
-        "e_rebound_se",
-        "mu_mean",
-        "mu_se",
-        "capture_fraction",
-        "capture_ci_low",
-        "capture_ci_high",
-    ]
+    cols = SUMMARY_COLUMNS
     s = pd.DataFrame(rows, columns=cols)
     exp = exp_table([("rough", 1.25, 25.0, "e", 0.6, 0.02)])
     m, se = PointRecipe(s, exp)(s)

@@ -44,6 +44,19 @@ def _tuples(streams) -> list:
         streams.array_tasks = True
 
 
+def _items(task) -> zip:
+    """The ``(i, point, rep, first, last)`` items of _merge_rows for a task's
+    groups (the oracle of the merge's array paths)."""
+    return zip(
+        range(len(task)),
+        task.point.tolist(),
+        [0] * len(task),
+        task.first.tolist(),
+        task.last.tolist(),
+        strict=True,
+    )
+
+
 def _same_rows(a, b):
     for name in ("counts", "e", "mu", "lateral"):
         assert_array_equal(getattr(a, name), getattr(b, name))
@@ -318,14 +331,7 @@ def test_the_first_groups_merge_in_one_step_as_group_by_group():
             idx = np.searchsorted(task.point, part.point)
             sub = rows.take(idx)
             assert a._merge_first_groups(part, sub) == int(sub.counts[:, 0].sum())
-            items = zip(
-                range(len(part)),
-                part.point.tolist(),
-                [0] * len(part),
-                part.first.tolist(),
-                part.last.tolist(),
-                strict=True,
-            )
+            items = _items(part)
             b._merge_rows(items, sub)
     assert_array_equal(a.next_block, b.next_block)
     assert_array_equal(a.done, b.done)
@@ -582,14 +588,7 @@ def test_rows_held_back_are_in_the_table_when_it_is_read(monkeypatch, pending):
     for i, task in enumerate(tasks_):
         rows = parallel.run_task(plan, task)
         a.merge_task(task, rows)
-        items = zip(
-            range(len(task)),
-            task.point.tolist(),
-            [0] * len(task),
-            task.first.tolist(),
-            task.last.tolist(),
-            strict=True,
-        )
+        items = _items(task)
         b._merge_rows(items, rows)
         # each reader of the table, with rows held back (unless pending is 1)
         if i == 1:
@@ -674,14 +673,7 @@ def test_whole_fresh_streams_merge_as_group_by_group(samples):
     assert any(t.whole for t in todo)
     for task in todo:
         rows = parallel.run_task(plan, task)
-        items = zip(
-            range(len(task)),
-            task.point.tolist(),
-            [0] * len(task),
-            task.first.tolist(),
-            task.last.tolist(),
-            strict=True,
-        )
+        items = _items(task)
         assert a.merge_task(task, rows) == b._merge_rows(items, rows)
     assert_array_equal(a.next_block, b.next_block)
     assert_array_equal(a.done, b.done)
