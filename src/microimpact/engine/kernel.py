@@ -1073,13 +1073,12 @@ def simulate_specs_impacts(plan: Plan, specs, out=None) -> dict:
     the wall law is built from without a Python array per node. `out`: arrays of
     at least the specs' total length to write into (their leading parts are
     returned), reused from call to call. `specs` may be a
-    :class:`~.tasks.BlockTask` (its blocks in order): then one ``_ckernel.task``
-    call on the plan's parsed points (:func:`task_rows`) where it has them."""
-    from .tasks import BlockTask  # (tasks imports this module)
-
+    :class:`~.tasks.BlockTask` (its blocks in order; known by its ``impacts()``,
+    which specs have not): then one ``_ckernel.task`` call on the plan's parsed
+    points (:func:`task_rows`) where it has them."""
     if plan.kernel != "compiled":
         raise ValueError("simulate_specs_impacts needs the compiled kernel")
-    task = specs if isinstance(specs, BlockTask) else None
+    task = specs if hasattr(specs, "impacts") else None
     if task is not None:
         total = int(task.impacts().sum())
     elif isinstance(specs, SpecArrays):
