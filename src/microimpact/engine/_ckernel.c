@@ -3004,6 +3004,56 @@ ck_simd(PyObject *self, PyObject *args)
 #endif
 }
 
+PyDoc_STRVAR(reach_cut_doc,
+"reach_cut(rows, width, sin_col, cos_col, st, ct) -> (j, a_j, b_j)\n\n"
+"The first cell j of an angle table (float64 rows of `width` columns, the last\n"
+"row the end sentinel) whose end is not reachable at the apparent angle theta\n"
+"(st, ct = sin, cos theta), with sin(theta - phi) at its start (a_j) and end\n"
+"(b_j); j = -1 where every cell is reachable. The operations of plan._reach\n"
+"and plan._first_blocked, in the same order (no contraction: the same bits).");
+
+static PyObject *
+ck_reach_cut(PyObject *self, PyObject *args)
+{
+    Py_buffer br;
+    Py_ssize_t W, cs, cc;
+    double st, ct;
+    if (!PyArg_ParseTuple(args, "y*nnndd:reach_cut", &br, &W, &cs, &cc, &st, &ct))
+        return NULL;
+    PyObject *result = NULL;
+    if (W < 2 || cs < 0 || cc < 0 || cs + 1 >= W || cc + 1 >= W ||
+        br.len % (8 * W) || br.len < 8 * W) {
+        PyErr_SetString(PyExc_ValueError,
+                        "_ckernel.reach_cut: rows of `width` float64 columns "
+                        "(at least the sentinel), 0 <= sin_col, cos_col < width - 1");
+        goto done;
+    }
+    const double *rows = br.buf;
+    const Py_ssize_t n = br.len / (8 * W) - 1; /* the last row is the sentinel */
+    Py_ssize_t j = -1;
+    double a = 0.0, b = 0.0;
+    Py_BEGIN_ALLOW_THREADS
+    for (Py_ssize_t i = 0; i < n; i++) {
+        const double *r = rows + i * W;
+        /* _reach at f = 0 and f = 1: s = lo + f * span, st * c - ct * s */
+        const double s0 = r[cs] + 0.0 * r[cs + 1], c0 = r[cc] + 0.0 * r[cc + 1];
+        const double s1 = r[cs] + 1.0 * r[cs + 1], c1 = r[cc] + 1.0 * r[cc + 1];
+        const double ai = st * c0 - ct * s0, bi = st * c1 - ct * s1;
+        const double end = r[cs + 1] == 0.0 ? ai : bi;
+        if (!(end > 0.0)) {
+            j = i;
+            a = ai;
+            b = bi;
+            break;
+        }
+    }
+    Py_END_ALLOW_THREADS
+    result = Py_BuildValue("ndd", j, a, b);
+done:
+    PyBuffer_Release(&br);
+    return result;
+}
+
 static PyMethodDef ck_methods[] = {
     {"block", ck_block, METH_VARARGS, block_doc},
     {"simd", ck_simd, METH_VARARGS, simd_doc},
@@ -3013,6 +3063,7 @@ static PyMethodDef ck_methods[] = {
     {"task", ck_task, METH_VARARGS, task_doc},
     {"wall_rows", ck_wall_rows, METH_VARARGS, wall_rows_doc},
     {"wall_quantiles", ck_wall_quantiles, METH_VARARGS, wall_quantiles_doc},
+    {"reach_cut", ck_reach_cut, METH_VARARGS, reach_cut_doc},
     {NULL, NULL, 0, NULL},
 };
 

@@ -809,6 +809,35 @@ def _reach(s_theta, c_theta, rows, f):
     return s_theta * c - c_theta * s
 
 
+def _first_blocked_of(rows, a, b) -> tuple[int, float, float]:
+    """The first cell whose end is not reachable (the reachable facets are a
+    prefix of the table), from every cell's reach at its start `a` and end `b`
+    (:func:`_reach`): ``(j, a[j], b[j])``, or ``(-1, 0.0, 0.0)`` where every
+    cell is reachable. A cell of zero span ends where it starts."""
+    ends = np.where(rows[:-1, A_SIN + 1] == 0.0, a, b)
+    blocked = np.flatnonzero(~(ends > 0.0))
+    if blocked.size == 0:
+        return -1, 0.0, 0.0
+    j = int(blocked[0])
+    return j, float(a[j]), float(b[j])
+
+
+def first_blocked(st: float, ct: float, rows: np.ndarray) -> tuple[int, float, float]:
+    """:func:`_first_blocked_of` at the apparent angle with sine `st` and cosine
+    `ct`: by the compiled kernel where there is one (``_ckernel.reach_cut``:
+    the same operations, so the same bits, stopping at the first blocked cell
+    and without holding the GIL; issue 31: a sweep's angles are set up before its
+    workers start), else with NumPy."""
+    ck = _compiled.ckernel
+    if ck is None:
+        return _first_blocked_of(
+            rows, _reach(st, ct, rows, 0.0), _reach(st, ct, rows, 1.0)
+        )
+    rows = np.ascontiguousarray(rows, dtype=np.float64)
+    j, a_j, b_j = ck.reach_cut(rows, rows.shape[1], A_SIN, A_COS, st, ct)
+    return j, a_j, b_j
+
+
 def pair_sin(st, ct, sa, ca, sb, cb):
     """``sin`` and ``cos`` of ``theta - a - b`` as the kernels compute them."""
     s1 = st * ca - ct * sa
@@ -986,23 +1015,23 @@ def _angle_tables(sampler, angle_deg: float, shadowing: str) -> AngleTables:
     # phi_par alone; "weighted" multiplies by the exposure's cos(chi) as well
     areal = isinstance(sampler, ArealSampler)
     table, rows = sampler.table, sampler.rows
-    a = _reach(st, ct, rows, 0.0)  # at the start of each cell
-    b = _reach(st, ct, rows, 1.0)  # at its end
-    # reachable facets are a prefix: the first cell whose end is not reachable
-    ends = np.where(rows[:-1, A_SIN + 1] == 0.0, a, b)
-    blocked = np.flatnonzero(~(ends > 0.0))
-    if blocked.size == 0:
+    if shadowing == "weighted":  # every cell's reach, for the weights below
+        a = _reach(st, ct, rows, 0.0)  # at the start of each cell
+        b = _reach(st, ct, rows, 1.0)  # at its end
+        j, a_j, b_j = _first_blocked_of(rows, a, b)
+    else:  # only the first cell that cannot be reached
+        j, a_j, b_j = first_blocked(st, ct, rows)
+    if j < 0:
         cut, shadowed = 0, 0.0
     else:
-        j = int(blocked[0])
         start = int(table.cum[j])
-        if a[j] > 0.0:  # the crossing inside cell j: sin(theta - phi) linear in f
+        if a_j > 0.0:  # the crossing inside cell j: sin(theta - phi) linear in f
             width = (int(table.cum[j + 1]) if j + 1 < table.size else 2**64) - start
-            f_star = a[j] / (a[j] - b[j])
+            f_star = a_j / (a_j - b_j)
             start += min(width, int(f_star * width))
         cut = start
         shadowed = 1.0 - cut / 2.0**64
-    if shadowing == "none" or (cut == 0 and blocked.size):
+    if shadowing == "none" or (cut == 0 and j >= 0):
         # "none"; or no facet at all can be reached at this angle, which every
         # option reports the same way: each sample is shadowed, none impacts
         return AngleTables(
