@@ -563,3 +563,27 @@ def test_the_bounds_themselves_are_inside(dataset):
     ds["reservoir_speed_ratio"].values[(0, 0, 0, 2, 1)] = 0.0
     assert int(ds["reservoir_count"].values[at[:4]]) >= 2
     assert WallLaw(ds) is not None
+
+
+def test_any_dimension_order_is_read_in_node_order(dataset):
+    """A table whose dimensions another writer put in another order is the same
+    law: the same node arrays and draws, and a value out of range is named at
+    its own node (the checks and the reader transpose each variable)."""
+    order = ("sample", "angle_deg", "surface", "speed_m_s", "diameter_um")
+    a, b = WallLaw(dataset), WallLaw(dataset.transpose(*order))
+    np.testing.assert_array_equal(a._p, b._p)
+    np.testing.assert_array_equal(a._count, b._count)
+    for name in a._res:
+        np.testing.assert_array_equal(a._res[name], b._res[name], err_msg=name)
+    d = np.geomspace(dataset["diameter_um"].values[0], 50.0, 40)
+    draws = [
+        law.sample(d, 2.0, 45.0, rng=np.random.default_rng(7)) for law in (a, b)
+    ]
+    np.testing.assert_array_equal(draws[0].velocity, draws[1].velocity)
+    bad = _set("reservoir_count", 9)(dataset).transpose(*order)
+    with pytest.raises(DataFormatError) as err:
+        WallLaw(bad)
+    assert (
+        "reservoir_count must be in [0, 8]; at surface 0, diameter_um 0, "
+        "speed_m_s 0, angle_deg 2 it is 9"
+    ) in str(err.value)

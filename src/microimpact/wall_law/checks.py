@@ -162,24 +162,36 @@ def dataset_problem(ds, dims) -> str | None:
     speed axis, angle) breaks the documented ranges, or None. (The critical
     speeds of a reduced axis are checked where they are read: ``WallLaw`` and the
     binary writer.)"""
-    ds = ds.transpose(*dims, "sample", ...)
+    order = (*dims, "sample")
     for name in dims[1:]:
         problem = axis_problem(
-            name, ds[name].values, log=name != "angle_deg", angle=name == "angle_deg"
+            name,
+            node_values(ds, name, order),
+            log=name != "angle_deg",
+            angle=name == "angle_deg",
         )
         if problem:
             return problem
     problem = node_problem(
-        ds["angle_deg"].values,
-        ds["capture_probability"].values,
-        ds["reservoir_count"].values,
-        {n: ds[f"reservoir_{n}"].values for n in RESERVOIRS},
+        node_values(ds, "angle_deg", order),
+        node_values(ds, "capture_probability", order),
+        node_values(ds, "reservoir_count", order),
+        {n: node_values(ds, f"reservoir_{n}", order) for n in RESERVOIRS},
         int(ds.sizes["sample"]),
         dims,
     )
     if problem is None and "stay_probability" in ds:
-        problem = stay_problem(ds["stay_probability"].transpose(*dims).values, dims)
+        problem = stay_problem(node_values(ds, "stay_probability", order), dims)
     return problem
+
+
+def node_values(ds, name: str, order) -> np.ndarray:
+    """The values of variable or coordinate `name` of Dataset `ds`, its
+    dimensions in `order` where it has them (then the rest): what
+    ``ds.transpose(*order, ...)[name].values`` gives, from the variable itself
+    (no Dataset or DataArray built: ~1.5 ms of Python per wall law, issue 31)."""
+    var = ds.variables[name]
+    return var.transpose(*(d for d in order if d in var.dims), ...).values
 
 
 #: Queries that look like a wrong unit (swl.c: SWL_MIN_DIAMETER_UM,
