@@ -10,6 +10,7 @@ speed-up of n threads by Amdahl's law, ``1 / (g + (1 - g) / n)``.
     pip install py-spy                      # not a dependency of the package
     python benchmarks/gil_share.py          # about a minute on 2 cores
     python benchmarks/gil_share.py --json out.json
+    python benchmarks/gil_share.py --starts warm --repeat 8 --recordings 5
 
 Each path is measured twice: ``cold``, its first call in a fresh process (the
 imports of xarray, SciPy and the first-call set-up fall inside it: a one-off cost
@@ -219,6 +220,36 @@ def measure(
     }
 
 
+def pooled(records: list[dict]) -> dict:
+    """One row from several recordings of a path: the share of the pooled
+    samples, with a standard error from the spread between the recordings
+    (one recording's binomial error where there is one). The recordings of one
+    path vary more than binomially (2-4 % for the same grid on one machine):
+    each is a separate process, with its own memory layout and neighbours."""
+    if len(records) == 1:
+        return records[0]
+    n = sum(r["samples"] for r in records)
+    held = sum(r["gil_samples"] for r in records)
+    g = min(held / n, 1.0) if n else float("nan")
+    shares = [r["gil_share"] for r in records]
+    mean = sum(shares) / len(shares)
+    spread = (sum((x - mean) ** 2 for x in shares) / (len(shares) - 1)) ** 0.5
+    where = collections.Counter()
+    for r in records:
+        where.update(dict((f, c) for f, c in r["gil_frames"]))
+    return {
+        **records[0],
+        "samples": n,
+        "gil_samples": held,
+        "gil_share": g,
+        "gil_share_se": spread / len(shares) ** 0.5,
+        "recordings": shares,
+        "amdahl_16": 1.0 / (g + (1.0 - g) / 16.0),
+        "amdahl_64": 1.0 / (g + (1.0 - g) / 64.0),
+        "gil_frames": where.most_common(5),
+    }
+
+
 def _cpu() -> str:
     try:
         info = Path("/proc/cpuinfo").read_text()
@@ -251,13 +282,27 @@ def main(argv=None) -> int:
         choices=["cold", "warm"],
         help="cold: the path's first call in a fresh process; warm: after a tiny one",
     )
+    ap.add_argument(
+        "--recordings",
+        type=int,
+        default=1,
+        help="recordings of each path, pooled (the spread between them gives the "
+        "standard error)",
+    )
     args = ap.parse_args(argv)
     pyspy = shutil.which("py-spy") or str(Path(sys.executable).with_name("py-spy"))
     if not Path(pyspy).exists():
         print("py-spy is not installed: pip install py-spy", file=sys.stderr)
         return 2
     rows = [
-        measure(name, pyspy, args.rate, warm=start == "warm", repeat=args.repeat)
+        pooled(
+            [
+                measure(
+                    name, pyspy, args.rate, warm=start == "warm", repeat=args.repeat
+                )
+                for _ in range(max(1, args.recordings))
+            ]
+        )
         for name in args.paths
         for start in args.starts
     ]
@@ -266,6 +311,9 @@ def main(argv=None) -> int:
     print("|---|---|---|---|---|---|")
     for r in rows:
         share = f"{100 * r['gil_share']:.1f} ± {100 * r['gil_share_se']:.1f} %"
+        if "recordings" in r:
+            each = " / ".join(f"{100 * x:.1f}" for x in r["recordings"])
+            share += f" ({each})"
         print(
             f"| `{r['path']}` | {r['start']} | {r['samples']} | {share} | "
             f"{r['amdahl_16']:.1f}x | {r['amdahl_64']:.1f}x |"

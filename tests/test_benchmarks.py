@@ -145,3 +145,47 @@ def test_numpy_baseline_agrees_with_engine(bench, angles):
     shifted = dict(eng, e_mean=eng["e_mean"] + 10 * eng["e_se"])
     with pytest.raises(RuntimeError, match="standard errors"):
         bench.check_agreement(base, shifted, "test")
+
+
+def _gil_share_module():
+    path = ROOT / "benchmarks" / "gil_share.py"
+    spec = importlib.util.spec_from_file_location("microimpact_bench_gil", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_gil_share_pools_recordings_by_their_samples():
+    """Recordings of one path pool their samples; the standard error is the
+    spread between recordings over sqrt(R), written out here by hand."""
+    pooled = _gil_share_module().pooled
+    rec = [
+        {
+            "samples": 1000,
+            "gil_samples": 20,
+            "gil_share": 0.02,
+            "gil_frames": [["a", 3]],
+        },
+        {
+            "samples": 500,
+            "gil_samples": 20,
+            "gil_share": 0.04,
+            "gil_frames": [["a", 1]],
+        },
+        {
+            "samples": 1500,
+            "gil_samples": 45,
+            "gil_share": 0.03,
+            "gil_frames": [["b", 9]],
+        },
+    ]
+    row = pooled(rec)
+    assert row["samples"] == 3000 and row["gil_samples"] == 85
+    assert row["gil_share"] == pytest.approx(85 / 3000)
+    # shares 0.02, 0.04, 0.03: mean 0.03, sample std 0.01, over sqrt(3)
+    assert row["gil_share_se"] == pytest.approx(0.01 / math.sqrt(3))
+    assert row["recordings"] == [0.02, 0.04, 0.03]
+    assert row["gil_frames"] == [("b", 9), ("a", 4)]
+    g = 85 / 3000
+    assert row["amdahl_16"] == pytest.approx(1 / (g + (1 - g) / 16))
+    assert pooled(rec[:1]) is rec[0]
