@@ -7,6 +7,19 @@ every active moment (``--format raw``), once only the moments that hold the GIL
 count, so imports and planning outside it do not. The GIL share g bounds the
 speed-up of n threads by Amdahl's law, ``1 / (g + (1 - g) / n)``.
 
+A second reading needs no sampler: the child also runs once alone, timing the
+path's calls and the compiled kernel's own count of the time it ran with the
+GIL released (``_ckernel.released_ns``). With one worker, one minus that share
+is an upper bound of the GIL's share (the "kernel bound"): every moment outside
+the kernel counts as held, NumPy's own GIL-free loops too. It is tight where
+the path's time outside the kernel is Python (``run``, ``grid``) and loose where
+NumPy works on large arrays (the wall law sorts its rebounds for the quantiles).
+
+One path's py-spy recordings vary more than their binomial error (2-5 % for the
+same ``run()`` on a 2-core VM: each recording is a separate process, with its
+own memory layout and neighbours). ``--recordings R`` pools R of them, with a
+standard error from their spread.
+
     pip install py-spy                      # not a dependency of the package
     python benchmarks/gil_share.py          # about a minute on 2 cores
     python benchmarks/gil_share.py --json out.json
@@ -174,11 +187,23 @@ def measure(
     )
     with tempfile.TemporaryDirectory() as tmp:
         child = Path(tmp) / "child.py"
-        # the path's call `repeat` times (more samples, the same share)
-        body = CHILD[name].replace(
-            "\npath()\n", "\nfor _ in range(REPEAT):\n    path()\n"
-        )
+        # the path's call `repeat` times (more samples, the same share), timed
+        # with the kernel's own count of its GIL-free time
+        body = CHILD[name].replace("\npath()\n", TIMED)
         child.write_text(PRELUDE + body, encoding="utf-8")
+        # the second reading, without py-spy: one minus the kernel's GIL-free
+        # share of the wall time (an upper bound of the GIL's share with one
+        # worker: every moment outside the kernel counts as held, also NumPy's
+        # own GIL-free loops)
+        plain = subprocess.run(
+            [sys.executable, str(child)],
+            check=True,
+            capture_output=True,
+            text=True,
+            cwd=tmp,
+            env=env,
+        )
+        wall, released = _released(plain.stdout)
         counts = {}
         for kind, extra in (("all", []), ("gil", ["--gil"])):
             raw = Path(tmp) / f"{kind}.txt"
@@ -217,7 +242,33 @@ def measure(
         "amdahl_16": 1.0 / (g + (1.0 - g) / 16.0),
         "amdahl_64": 1.0 / (g + (1.0 - g) / 64.0),
         "gil_frames": where.most_common(5),
+        "wall_s": wall,
+        "released_s": released,
+        "kernel_bound": 1.0 - released / wall if wall > 0 else float("nan"),
     }
+
+
+#: The path's calls, timed: the wall time and the kernel's GIL-free time
+#: (``_ckernel.released_ns``, NaN without the compiled kernel) on one line.
+TIMED = (
+    "\nimport time as _time\n"
+    "from microimpact.engine import _compiled as _c\n"
+    "_ns = _c.ckernel.released_ns if _c.ckernel is not None else None\n"
+    "_r0, _w0 = (_ns() if _ns else 0), _time.perf_counter()\n"
+    "for _ in range(REPEAT):\n    path()\n"
+    "_w = _time.perf_counter() - _w0\n"
+    "_r = (_ns() - _r0) / 1e9 if _ns else float('nan')\n"
+    "print('MICROIMPACT_RELEASED', repr(_w), repr(_r))\n"
+)
+
+
+def _released(stdout: str) -> tuple[float, float]:
+    """The (wall, GIL-free) seconds a child printed (:data:`TIMED`)."""
+    for line in stdout.splitlines():
+        if line.startswith("MICROIMPACT_RELEASED "):
+            _, wall, released = line.split()
+            return float(wall), float(released)
+    raise RuntimeError("the child printed no timing line")
 
 
 def pooled(records: list[dict]) -> dict:
@@ -247,6 +298,11 @@ def pooled(records: list[dict]) -> dict:
         "amdahl_16": 1.0 / (g + (1.0 - g) / 16.0),
         "amdahl_64": 1.0 / (g + (1.0 - g) / 64.0),
         "gil_frames": where.most_common(5),
+        "wall_s": sum(r["wall_s"] for r in records),
+        "released_s": sum(r["released_s"] for r in records),
+        "kernel_bound": 1.0
+        - sum(r["released_s"] for r in records) / sum(r["wall_s"] for r in records),
+        "kernel_bounds": [r["kernel_bound"] for r in records],
     }
 
 
@@ -307,15 +363,21 @@ def main(argv=None) -> int:
         for start in args.starts
     ]
     print(f"CPU: {_cpu()}")
-    print("| path | start | samples | GIL held | Amdahl 16 cores | Amdahl 64 cores |")
-    print("|---|---|---|---|---|---|")
+    print(
+        "| path | start | samples | GIL held (py-spy) | kernel bound | "
+        "Amdahl 16 cores | Amdahl 64 cores |"
+    )
+    print("|---|---|---|---|---|---|---|")
     for r in rows:
         share = f"{100 * r['gil_share']:.1f} ± {100 * r['gil_share_se']:.1f} %"
         if "recordings" in r:
             each = " / ".join(f"{100 * x:.1f}" for x in r["recordings"])
             share += f" ({each})"
+        bound = f"{100 * r['kernel_bound']:.1f} %"
+        if "kernel_bounds" in r:
+            bound += f" ({' / '.join(f'{100 * x:.1f}' for x in r['kernel_bounds'])})"
         print(
-            f"| `{r['path']}` | {r['start']} | {r['samples']} | {share} | "
+            f"| `{r['path']}` | {r['start']} | {r['samples']} | {share} | {bound} | "
             f"{r['amdahl_16']:.1f}x | {r['amdahl_64']:.1f}x |"
         )
     print("\nWhere the GIL samples are (deepest microimpact frame):")

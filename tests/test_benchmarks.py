@@ -5,7 +5,9 @@ expectation). No timing is asserted."""
 
 from __future__ import annotations
 
+import contextlib
 import importlib.util
+import io
 import json
 import math
 import subprocess
@@ -157,35 +159,51 @@ def _gil_share_module():
 
 def test_gil_share_pools_recordings_by_their_samples():
     """Recordings of one path pool their samples; the standard error is the
-    spread between recordings over sqrt(R), written out here by hand."""
+    spread between recordings over sqrt(R), written out here by hand; the
+    kernel bound pools the seconds."""
     pooled = _gil_share_module().pooled
-    rec = [
-        {
-            "samples": 1000,
-            "gil_samples": 20,
-            "gil_share": 0.02,
-            "gil_frames": [["a", 3]],
-        },
-        {
-            "samples": 500,
-            "gil_samples": 20,
-            "gil_share": 0.04,
-            "gil_frames": [["a", 1]],
-        },
-        {
-            "samples": 1500,
-            "gil_samples": 45,
-            "gil_share": 0.03,
-            "gil_frames": [["b", 9]],
-        },
+
+    def rec(n, held, frames, wall, released):
+        return {
+            "samples": n,
+            "gil_samples": held,
+            "gil_share": held / n,
+            "gil_frames": frames,
+            "wall_s": wall,
+            "released_s": released,
+            "kernel_bound": 1 - released / wall,
+        }
+
+    recs = [
+        rec(1000, 20, [["a", 3]], 2.0, 1.96),
+        rec(500, 20, [["a", 1]], 1.0, 0.97),
+        rec(1500, 45, [["b", 9]], 3.0, 2.97),
     ]
-    row = pooled(rec)
+    row = pooled(recs)
     assert row["samples"] == 3000 and row["gil_samples"] == 85
     assert row["gil_share"] == pytest.approx(85 / 3000)
     # shares 0.02, 0.04, 0.03: mean 0.03, sample std 0.01, over sqrt(3)
     assert row["gil_share_se"] == pytest.approx(0.01 / math.sqrt(3))
-    assert row["recordings"] == [0.02, 0.04, 0.03]
+    assert row["recordings"] == pytest.approx([0.02, 0.04, 0.03])
     assert row["gil_frames"] == [("b", 9), ("a", 4)]
     g = 85 / 3000
     assert row["amdahl_16"] == pytest.approx(1 / (g + (1 - g) / 16))
-    assert pooled(rec[:1]) is rec[0]
+    # 6 s of wall time, 5.9 s of it in the kernel without the GIL
+    assert row["kernel_bound"] == pytest.approx(0.1 / 6.0)
+    assert row["kernel_bounds"] == pytest.approx([0.02, 0.03, 0.01])
+    assert pooled(recs[:1]) is recs[0]
+
+
+def test_gil_share_child_timing_line_is_read_back():
+    """The timing the children print (TIMED) runs and is parsed back: the wall
+    time of the calls and the kernel's GIL-free time within it."""
+    gil = _gil_share_module()
+    out = io.StringIO()
+    code = "REPEAT = 2\ndef path():\n    sum(range(1000))\n" + gil.TIMED
+    with contextlib.redirect_stdout(out):
+        exec(code, {})
+    wall, released = gil._released(out.getvalue())
+    assert wall > 0
+    assert released == 0.0 or math.isnan(released)  # no kernel call in the path
+    with pytest.raises(RuntimeError, match="timing line"):
+        gil._released("nothing\n")

@@ -47,6 +47,35 @@
 #include <stdint.h>
 #include <string.h>
 
+#include <time.h>
+
+/* The nanoseconds the kernel has run with the GIL released, summed over every
+ * call and thread (released_ns()): benchmarks/gil_share.py's second reading of
+ * a path's GIL share. Two clock reads per call (~40 ns). */
+static int64_t released_total_ns = 0;
+
+static int64_t
+clock_ns(void)
+{
+    struct timespec t;
+#if defined(CLOCK_MONOTONIC) && !defined(_WIN32)
+    clock_gettime(CLOCK_MONOTONIC, &t);
+#else
+    timespec_get(&t, TIME_UTC);
+#endif
+    return (int64_t)t.tv_sec * 1000000000 + t.tv_nsec;
+}
+
+/* Py_BEGIN/END_ALLOW_THREADS that also count the time between them. */
+#define RELEASE_GIL                                                            \
+    Py_BEGIN_ALLOW_THREADS {                                                   \
+        const int64_t released_from_ = clock_ns();
+#define ACQUIRE_GIL                                                            \
+    __atomic_fetch_add(&released_total_ns, clock_ns() - released_from_,       \
+                       __ATOMIC_RELAXED);                                      \
+    }                                                                          \
+    Py_END_ALLOW_THREADS
+
 #define CHUNK 256 /* impacts per inner chunk: the scratch stays in L1 */
 #define SPILL 8   /* rotating spill slots appended to each histogram array */
 
@@ -1604,9 +1633,9 @@ ck_block(PyObject *self, PyObject *args)
         PyErr_NoMemory();
         goto done;
     }
-    Py_BEGIN_ALLOW_THREADS
+    RELEASE_GIL
     run_block(&a, s);
-    Py_END_ALLOW_THREADS
+    ACQUIRE_GIL
     PyMem_RawFree(s);
     result = Py_BuildValue(
         "(LLLLL)(dddddddddddd)", (long long)a.counts.shadow,
@@ -1676,9 +1705,9 @@ ck_stream(PyObject *self, PyObject *args)
     }
     pcg64_t g;
     stream_seed(&st, k, (int)nk, &g);
-    Py_BEGIN_ALLOW_THREADS
+    RELEASE_GIL
     pcg_fill(&g, (uint64_t *)bo.buf, bo.len / 8);
-    Py_END_ALLOW_THREADS
+    ACQUIRE_GIL
     result = Py_None;
     Py_INCREF(result);
 done:
@@ -2466,10 +2495,10 @@ ck_specs(PyObject *self, PyObject *args)
     int8_t *st_code = NULL;
     store_pointers(bst, nst, st_d, &st_code);
     int oom;
-    Py_BEGIN_ALLOW_THREADS
+    RELEASE_GIL
     oom = run_specs(&st, &hs, sd, ss, speed_random, p, q, friction, sp, K, glen,
                     counts, sums, spans, st_d, st_code, out, used);
-    Py_END_ALLOW_THREADS
+    ACQUIRE_GIL
     if (oom) {
         PyErr_NoMemory();
         goto done;
@@ -2631,7 +2660,7 @@ ck_task(PyObject *self, PyObject *args)
     double *moments = bm.buf;
     int64_t *sp3 = bsp.buf;
     int oom;
-    Py_BEGIN_ALLOW_THREADS
+    RELEASE_GIL
     Py_ssize_t k = 0;
     for (Py_ssize_t g = 0; g < G; g++) {
         glen[g] = la[g] - fi[g] + 1;
@@ -2660,7 +2689,7 @@ ck_task(PyObject *self, PyObject *args)
     }
     for (int h = 0; h < 3 && !oom; h++)
         width[h] = narrow_in_place(out[h], used[h]);
-    Py_END_ALLOW_THREADS
+    ACQUIRE_GIL
     if (oom) {
         PyErr_NoMemory();
         goto done;
@@ -2808,7 +2837,7 @@ ck_wall_rows(PyObject *self, PyObject *args)
     const double *em = be.buf, *mum = bm.buf, *psi = bp.buf, *geom = bg.buf;
     const int8_t *code = bc.buf;
     double *out = bo.buf, *stats = bs.buf;
-    Py_BEGIN_ALLOW_THREADS
+    RELEASE_GIL
     for (Py_ssize_t r = 0; r < P; r++) {
         const double s = geom[3 * r], c = geom[3 * r + 1];
         const int areal = geom[3 * r + 2] != 0.0;
@@ -2886,7 +2915,7 @@ ck_wall_rows(PyObject *self, PyObject *args)
                 to[j] = NAN;
         }
     }
-    Py_END_ALLOW_THREADS
+    ACQUIRE_GIL
     result = Py_None;
     Py_INCREF(result);
 done:
@@ -2936,7 +2965,7 @@ ck_wall_quantiles(PyObject *self, PyObject *args)
     }
     const double *out = bo.buf, *stats = bs.buf, *q = bq.buf;
     double *means = bm.buf, *stds = bd.buf, *quant = bu.buf;
-    Py_BEGIN_ALLOW_THREADS
+    RELEASE_GIL
     const double top = (double)(S - 1);
     for (Py_ssize_t r = 0; r < P; r++) {
         const double *st = stats + (Py_ssize_t)WS_COUNT * r;
@@ -2965,7 +2994,7 @@ ck_wall_quantiles(PyObject *self, PyObject *args)
             }
         }
     }
-    Py_END_ALLOW_THREADS
+    ACQUIRE_GIL
     result = Py_None;
     Py_INCREF(result);
 done:
@@ -3032,7 +3061,7 @@ ck_reach_cut(PyObject *self, PyObject *args)
     const Py_ssize_t n = br.len / (8 * W) - 1; /* the last row is the sentinel */
     Py_ssize_t j = -1;
     double a = 0.0, b = 0.0;
-    Py_BEGIN_ALLOW_THREADS
+    RELEASE_GIL
     for (Py_ssize_t i = 0; i < n; i++) {
         const double *r = rows + i * W;
         /* _reach at f = 0 and f = 1: s = lo + f * span, st * c - ct * s */
@@ -3047,14 +3076,27 @@ ck_reach_cut(PyObject *self, PyObject *args)
             break;
         }
     }
-    Py_END_ALLOW_THREADS
+    ACQUIRE_GIL
     result = Py_BuildValue("ndd", j, a, b);
 done:
     PyBuffer_Release(&br);
     return result;
 }
 
+PyDoc_STRVAR(released_ns_doc,
+"released_ns() -> int\n\n"
+"Nanoseconds the kernel's calls have run with the GIL released since the module\n"
+"was loaded, summed over threads (a monotonic count: take differences).");
+
+static PyObject *
+ck_released_ns(PyObject *self, PyObject *args)
+{
+    return PyLong_FromLongLong(
+        (long long)__atomic_load_n(&released_total_ns, __ATOMIC_RELAXED));
+}
+
 static PyMethodDef ck_methods[] = {
+    {"released_ns", ck_released_ns, METH_NOARGS, released_ns_doc},
     {"block", ck_block, METH_VARARGS, block_doc},
     {"simd", ck_simd, METH_VARARGS, simd_doc},
     {"stream", ck_stream, METH_VARARGS, stream_doc},
