@@ -8,6 +8,8 @@ import math
 import numpy as np
 import pytest
 from engine_helpers import PowerCoefficients, normal_diameters, rough, scenario
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from numpy.testing import assert_allclose, assert_array_equal
 from scipy import integrate, stats
 
@@ -477,6 +479,76 @@ def test_summary_from_the_columns_equals_the_datasets(kw):
     want.attrs["confidence"] = r.confidence
     pd.testing.assert_frame_equal(fresh, want, check_exact=True)
     assert r.seed_entropy == int(r.dataset.attrs["seed_entropy"])
+
+
+_COLUMNS_KW = [
+    {},
+    {"sampling": "qmc"},
+    {"angles_deg": (30.0, 85.0)},  # the relative coefficients
+    {
+        "surfaces": (rough(5.0), mi.SurfaceVariant("smooth")),
+        "speeds_m_s": (0.2, 1.0),
+    },
+]
+
+
+@pytest.fixture(scope="module")
+def column_runs():
+    """Per scenario of :data:`_COLUMNS_KW`: the run's arguments and its summary
+    (the oracle: every column, from the full statistics)."""
+    out = []
+    for kw in _COLUMNS_KW:
+        base = dict(surfaces=(rough(10.0),), speeds_m_s=(0.3,), angles_deg=(30.0, 60.0))
+        base.update(kw)
+        sc = scenario(samples=2000, **base)
+        out.append((sc, run(sc, seed=4).summary))
+    return out
+
+
+@settings(max_examples=25, deadline=None)
+@given(which=st.integers(0, len(_COLUMNS_KW) - 1), data=st.data())
+def test_summary_columns_are_the_summarys(column_runs, which, data):
+    """``summary_columns`` of a fresh run computes only what its columns need
+    (no table, no other statistics) and gives the summary's values, rows and
+    dtypes, for any set of columns (the summary of the same run, made whole,
+    is the oracle)."""
+    sc, summary = column_runs[which]
+    stats = [
+        c for c in summary.columns if c not in ("surface", "speed_m_s", "angle_deg")
+    ]
+    names = data.draw(st.lists(st.sampled_from(stats), min_size=1, max_size=6))
+    r = run(sc, seed=4)
+    got = r.summary_columns(names)
+    assert r._summary is None and r._columns_value is None  # nothing else made
+    assert list(got) == list(
+        dict.fromkeys(["surface", "speed_m_s", "angle_deg", *names])
+    )
+    for c, values in got.items():
+        want = summary[c].to_numpy()
+        assert values.dtype == want.dtype, c
+        if want.dtype == object:
+            assert values.tolist() == want.tolist()
+        else:
+            assert_array_equal(values, want, err_msg=c)
+    # the same columns once the summary exists, and a column it lacks refused
+    assert_array_equal(r.summary_columns(names[:1])[names[0]], summary[names[0]])
+    with pytest.raises(KeyError, match="not summary columns: nope"):
+        r.summary_columns(["nope"])
+
+
+def test_summary_columns_compute_only_what_they_need(monkeypatch):
+    """The moments' columns alone need no histogram quantile or tail statistic."""
+    from microimpact.engine import summary as summary_module
+
+    r = run(scenario(samples=2000, surfaces=(rough(10.0),), speeds_m_s=(0.3,)), seed=4)
+    for name in ("histogram_quantiles", "tail_pull"):
+        monkeypatch.setattr(summary_module, name, _refuse)
+    got = r.summary_columns(["e_mean", "capture_fraction", "mu_se"])
+    assert np.isfinite(got["e_mean"]).all()
+
+
+def _refuse(*args, **kwargs):
+    raise AssertionError("computed a statistic no column asked for")
 
 
 def test_a_run_and_its_summary_import_no_xarray():

@@ -202,9 +202,13 @@ class EngineModel:
     def _statistics(self, result) -> np.ndarray:
         """The output vector of one run, in the order of :attr:`outputs` (each
         output's row of the summary found by its exact (surface, speed, angle),
-        as ``summary.set_index(...).loc`` finds it, without building the index:
-        a design row's Python is then small beside its engine run)."""
-        summary = result.summary
+        as ``summary.set_index(...).loc`` finds it, without building the index;
+        and only the columns the outputs read, without the summary table:
+        ``result.summary_columns``. A design row's Python is then small beside
+        its engine run)."""
+        summary = result.summary_columns(
+            [s for s in dict.fromkeys(self.statistics) if s != "capture_speed_m_s"]
+        )
         where = {
             key: i
             for i, key in enumerate(
@@ -226,7 +230,7 @@ class EngineModel:
                 out.append(cs.loc[self._keys[stat]])
             else:
                 rows = [where[key] for key in self._keys[stat]]  # KeyError: absent
-                out.append(summary[stat].to_numpy(dtype=float)[rows])
+                out.append(np.asarray(summary[stat], dtype=float)[rows])
         return np.concatenate([np.asarray(v, dtype=float) for v in out])
 
     def __call__(self, rows) -> np.ndarray:

@@ -253,6 +253,7 @@ class SimulationResult:
         self._capture = {}  # quantile -> capture-speed table (see capture_speed)
         self._statistics = None  # a fresh run's columns, computed on first use
         self._columns_value = None
+        self._subsets = {}  # see _subset_statistics
 
     @property
     def _columns(self) -> dict:
@@ -559,6 +560,35 @@ class SimulationResult:
             self._summary = df
         return self._summary
 
+    def summary_columns(self, names) -> dict[str, np.ndarray]:
+        """Columns `names` of :attr:`summary` as arrays, with the sweep axes
+        (``surface``, ``speed_m_s``, ``angle_deg``): the summary's values, rows
+        and dtypes. A fresh run whose summary is not made yet computes only the
+        statistics these columns need, without the table (a design row of a
+        sensitivity study or a calibration's model run reads a few columns:
+        issue 31). Raises KeyError for a column the summary does not have."""
+        names = list(names)
+        fresh = self._statistics is not None and self._columns_value is None
+        if self._summary is None and fresh:
+            columns = self._subset_statistics(frozenset(names))
+            data = summary_columns_of(self._grid, columns)
+        else:
+            frame = self.summary
+            data = {c: frame[c].to_numpy() for c in frame.columns}
+        axes = [a for a in ("surface", "speed_m_s", "angle_deg") if a in data]
+        missing = [n for n in names if n not in data]
+        if missing:
+            raise KeyError(f"not summary columns: {', '.join(map(str, missing))}")
+        return {c: data[c] for c in dict.fromkeys([*axes, *names])}
+
+    def _subset_statistics(self, want: frozenset) -> dict:
+        """The statistics of a fresh run that columns `want` need (kept: each
+        set is computed once)."""
+        got = self._subsets.get(want)
+        if got is None:
+            got = self._subsets[want] = self._statistics(want=set(want))
+        return got
+
     def _repr_html_(self) -> str:
         """The repr line, then the first rows of the summary (notebooks)."""
         cols = [
@@ -681,16 +711,23 @@ class SimulationResult:
         }
 
 
-def _statistics(rows, replicates, R, confidence, shadowed, grid, ref) -> dict:
+def _statistics(
+    rows, replicates, R, confidence, shadowed, grid, ref, want=None
+) -> dict:
     """The per-point columns of a fresh run (see :meth:`SimulationResult.from_stacked`):
     the statistics of the pooled `rows` (QMC: their intervals from the `replicates`
-    rows), the shadowed fraction of the tables, the relative coefficients."""
+    rows), the shadowed fraction of the tables, the relative coefficients. `want`:
+    a set of columns; those computed only where wanted are then left out where
+    none of theirs is (:func:`~.summary.point_statistics`)."""
     if R > 1:
         columns = replicate_statistics(rows, replicates, R, confidence)
     else:
-        columns = point_statistics(rows, confidence)
+        columns = point_statistics(rows, confidence, want=want)
     if shadowed is not None:
         columns["shadowed_fraction"] = shadowed
+    relative = ("e_relative", "e_relative_se", "mu_relative", "mu_relative_se")
+    if want is not None and want.isdisjoint(relative):
+        return columns
     if ref is not None and np.isclose(grid.angles_deg, ref).any():
         for stat, se, name in (
             ("e_rebound_mean", "e_rebound_se", "e_relative"),

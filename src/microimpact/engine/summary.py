@@ -642,20 +642,24 @@ STATISTICS_ROWS = 2**16
 
 
 def point_statistics(
-    stacked: Stacked, confidence: float, *, rows: int = STATISTICS_ROWS
+    stacked: Stacked, confidence: float, *, rows: int = STATISTICS_ROWS, want=None
 ) -> dict[str, np.ndarray]:
     """Every per-point summary statistic of plain Monte Carlo (``docs/outputs.md``).
 
     Computed for `rows` points at a time (views of `stacked`), into columns
-    allocated once. Returns ``{column: array of length P}``.
+    allocated once. Returns ``{column: array of length P}``. `want`: a set of
+    column names; the histogram quantiles, the lateral statistics and the tail
+    statistics are then computed only where one of their columns is wanted
+    (the same values: issue 31, a design row or model run reads a few columns).
+    The moments' columns are always there.
     """
     size = len(stacked)
     if size <= rows:
-        return _point_statistics(stacked, confidence)
+        return _point_statistics(stacked, confidence, want)
     out = {}
     for lo in range(0, size, rows):
         hi = min(size, lo + rows)
-        part = _point_statistics(stacked.slice(lo, hi), confidence)
+        part = _point_statistics(stacked.slice(lo, hi), confidence, want)
         for name, values in part.items():
             if name not in out:
                 out[name] = np.empty(size, dtype=values.dtype)
@@ -663,7 +667,35 @@ def point_statistics(
     return out
 
 
-def _point_statistics(stacked: Stacked, confidence: float) -> dict[str, np.ndarray]:
+#: The columns :func:`point_statistics` computes only where one is wanted.
+QUANTILE_COLUMNS = {
+    name: tuple(f"{name}_p{round(q * 100):02d}" for q in QUANTILES)
+    for name in ("e", "mu")
+}
+LATERAL_COLUMNS = (
+    "lateral_mean_deg",
+    "lateral_std_deg",
+    "lateral_se_deg",
+    "lateral_ci_low_deg",
+    "lateral_ci_high_deg",
+    *(f"lateral_p{round(q * 100):02d}_deg" for q in QUANTILES),
+)
+TAIL_COLUMNS = (
+    "e_tail_share",
+    "mu_tail_share",
+    "e_tail_shift",
+    "mu_tail_shift",
+    "heavy_tail",
+)
+
+
+def _wanted(want, columns) -> bool:
+    return want is None or not want.isdisjoint(columns)
+
+
+def _point_statistics(
+    stacked: Stacked, confidence: float, want=None
+) -> dict[str, np.ndarray]:
     """:func:`point_statistics` of all rows of `stacked` at once."""
     z = z_value(confidence)
     c = stacked.counts
@@ -712,10 +744,29 @@ def _point_statistics(stacked: Stacked, confidence: float) -> dict[str, np.ndarr
         ("e", stacked.e_spans, E_EDGES),
         ("mu", stacked.mu_spans, MU_EDGES),
     ):
+        if not _wanted(want, QUANTILE_COLUMNS[name]):
+            continue
         qs = histogram_quantiles(hist, edges)
         for k, qv in enumerate(QUANTILES):
             out[f"{name}_p{round(qv * 100):02d}"] = qs[:, k]
     out["capture_se"] = interval_se(low, high, confidence)
+    if _wanted(want, LATERAL_COLUMNS):
+        _lateral_statistics(stacked, z, out)
+    if _wanted(want, TAIL_COLUMNS):
+        # heavy tails (docs/outputs.md): how far the 0.1 % of rebounds farthest
+        # from the mean pull it, and the share of the spread they hold
+        e_shift, e_share = tail_pull(stacked.e, stacked.e_spans, E_EDGES)
+        mu_shift, mu_share = tail_pull(stacked.mu, stacked.mu_spans, MU_EDGES)
+        out["e_tail_share"] = e_share
+        out["mu_tail_share"] = mu_share
+        out["e_tail_shift"] = e_shift
+        out["mu_tail_shift"] = mu_shift
+        out["heavy_tail"] = heavy_tail_flag(out)
+    return out
+
+
+def _lateral_statistics(stacked: Stacked, z: float, out: dict) -> None:
+    """The folded lateral angle's columns of :func:`point_statistics` into `out`."""
     # the folded lateral angle psi_f [deg] over rebounds (docs/outputs.md)
     lat_mean, lat_std, lat_se, lat_lo, lat_hi = _mean_stats(stacked.lateral, z)
     out["lateral_mean_deg"] = lat_mean
@@ -730,16 +781,6 @@ def _point_statistics(stacked: Stacked, confidence: float) -> dict[str, np.ndarr
     qs[constant] = stacked.lateral[constant, 1:2]
     for k, qv in enumerate(QUANTILES):
         out[f"lateral_p{round(qv * 100):02d}_deg"] = qs[:, k]
-    # heavy tails (docs/outputs.md): how far the 0.1 % of rebounds farthest from
-    # the mean pull it, and the share of the spread they hold
-    e_shift, e_share = tail_pull(stacked.e, stacked.e_spans, E_EDGES)
-    mu_shift, mu_share = tail_pull(stacked.mu, stacked.mu_spans, MU_EDGES)
-    out["e_tail_share"] = e_share
-    out["mu_tail_share"] = mu_share
-    out["e_tail_shift"] = e_shift
-    out["mu_tail_shift"] = mu_shift
-    out["heavy_tail"] = heavy_tail_flag(out)
-    return out
 
 
 #: QMC: statistic -> (interval columns, SE column).
