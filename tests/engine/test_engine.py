@@ -615,3 +615,27 @@ def test_a_plan_given_to_run_is_used_and_checked():
         run(sc, seed=12, plan=plan)
     with pytest.raises(TypeError, match="`plan` must be a Plan"):
         run(sc, seed=11, plan="plan")
+
+
+@pytest.mark.parametrize("threshold", [0, 2**62])
+def test_short_runs_prepare_their_result_in_the_caller(monkeypatch, threshold):
+    """The result's scenario-only work runs in a thread only for a run of at
+    least ``BACKGROUND_IMPACTS`` impacts (a short run's caller waited for that
+    thread's turn at the GIL); either way the result is the same."""
+    started = []
+    start = montecarlo._Background.start
+
+    def record(self):
+        started.append(self)
+        start(self)
+
+    monkeypatch.setattr(montecarlo._Background, "start", record)
+    monkeypatch.setattr(montecarlo, "BACKGROUND_IMPACTS", threshold)
+    sc = scenario(samples=2000, surfaces=(rough(10.0),), speeds_m_s=(0.3, 1.0))
+    got = run(sc, seed=5, workers=1)
+    # (start() is called at each stage that may start it; it starts once)
+    assert len({id(b) for b in started}) == (1 if threshold == 0 else 0)
+    monkeypatch.setattr(montecarlo, "BACKGROUND_IMPACTS", 2**62 - threshold)
+    other = run(sc, seed=5, workers=1)
+    assert got.summary.equals(other.summary)
+    assert got.provenance["scenario"] == other.provenance["scenario"]

@@ -236,6 +236,8 @@ def test_the_description_is_prepared_while_the_workers_run(monkeypatch):
         return real(scenario)
 
     monkeypatch.setattr(SimulationResult, "prepare", staticmethod(prepare))
+    # as for a long run (a short one prepares in the caller: test_engine.py)
+    monkeypatch.setattr(montecarlo, "BACKGROUND_IMPACTS", 0)
     ref = run(sc, seed=4)
     assert seen == [False]
     seen.clear()

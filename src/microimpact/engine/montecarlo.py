@@ -882,10 +882,16 @@ class _Job:
 
     def _start_background(self) -> None:
         """Start the background work unless the runner wants it at the end
-        (:attr:`~.parallel.ThreadRunner.background`): then
-        :meth:`background_result` computes it in the caller."""
-        if self._background is not None and self._background_policy != "end":
-            self._background.start()
+        (:attr:`~.parallel.ThreadRunner.background`) or the run is short
+        (:data:`BACKGROUND_IMPACTS`): then :meth:`background_result` computes it
+        in the caller."""
+        if self._background is None or self._background_policy == "end":
+            return
+        streams = self.streams
+        if self.precision is None and streams is not None:
+            if streams.cap * streams.size < BACKGROUND_IMPACTS:
+                return
+        self._background.start()
 
     def background_result(self):
         return self._background.result()
@@ -938,6 +944,15 @@ def _defer_full_collections():
                 saved = _GC_STATE["saved"]
                 if gc.get_threshold() == (saved[0], saved[1], _GC_DEFERRED):
                     gc.set_threshold(*saved)
+
+
+#: A fixed-size run of fewer impacts than this (~0.1 s of kernel on one core)
+#: computes its background work (:meth:`_Job.in_background`, ~0.5 ms for a
+#: small scenario) in the caller instead of a thread: a thread that waits for the
+#: GIL while the driver runs Python gets it only at the switch interval (5 ms),
+#: so a short run's caller waited ~5 ms for it at the end (issue 31: a
+#: calibration's model runs and a sensitivity study's design rows are short).
+BACKGROUND_IMPACTS = 2**22
 
 
 class _Background:
