@@ -3,6 +3,7 @@ same expectations, the reference physics function, and invariants."""
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -639,3 +640,40 @@ def test_short_runs_prepare_their_result_in_the_caller(monkeypatch, threshold):
     other = run(sc, seed=5, workers=1)
     assert got.summary.equals(other.summary)
     assert got.provenance["scenario"] == other.provenance["scenario"]
+
+
+def test_a_short_runs_description_waits_until_it_is_read(monkeypatch):
+    """A short run prepared in the caller describes its scenario (quadratures
+    of truncated distributions) only when its provenance, an attribute or its
+    Dataset is first read, once; the description is the scenario's own, as an
+    eagerly described run's; a pickled result carries it."""
+    import pickle
+
+    sc = scenario(samples=2000, surfaces=(rough(10.0),), speeds_m_s=(0.3, 1.0))
+    calls = []
+    real = type(sc).describe
+
+    def describe(self):
+        calls.append(1)
+        return real(self)
+
+    monkeypatch.setattr(type(sc), "describe", describe)
+    r = run(sc, seed=6)
+    r.summary_columns(["e_mean"])
+    assert len(r.summary) == 2
+    assert calls == []  # a calibration's model run stops here
+    assert r.seed_entropy == int(r.provenance["seed_entropy"])
+    assert r.provenance["scenario"] == real(sc)
+    assert len(calls) == 1
+    assert json.loads(r.dataset.attrs["scenario"]) == json.loads(json.dumps(real(sc)))
+    assert len(calls) == 1  # computed once, shared by the provenance and the file
+    fresh = run(sc, seed=6)
+    # an attribute read without the Dataset: the file's own string
+    assert fresh._attr("scenario") == r.dataset.attrs["scenario"]
+    fresh = run(sc, seed=6)
+    back = pickle.loads(pickle.dumps(fresh))
+    assert back.provenance["scenario"] == real(sc)
+    monkeypatch.setattr(montecarlo, "BACKGROUND_IMPACTS", 0)  # eager, in a thread
+    eager = run(sc, seed=6)
+    assert eager.provenance["scenario"] == r.provenance["scenario"]
+    assert eager.dataset.attrs["scenario"] == r.dataset.attrs["scenario"]

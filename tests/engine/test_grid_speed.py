@@ -231,9 +231,9 @@ def test_the_description_is_prepared_while_the_workers_run(monkeypatch):
     seen = []
     real = SimulationResult.prepare
 
-    def prepare(scenario):
+    def prepare(scenario, **kw):
         seen.append(threading.current_thread() is threading.main_thread())
-        return real(scenario)
+        return real(scenario, **kw)
 
     monkeypatch.setattr(SimulationResult, "prepare", staticmethod(prepare))
     # as for a long run (a short one prepares in the caller: test_engine.py)
@@ -259,7 +259,7 @@ def test_the_description_is_prepared_while_the_workers_run(monkeypatch):
     assert seen == [False]
     monkeypatch.setattr(montecarlo, "build_plan", real_plan)
 
-    def broken(scenario):
+    def broken(scenario, **kw):
         raise RuntimeError("describe failed")
 
     monkeypatch.setattr(SimulationResult, "prepare", staticmethod(broken))

@@ -873,12 +873,14 @@ class _Job:
             ck.write(self.streams.state())
 
     # ------------------------------------------------------------ background
-    def in_background(self, fn) -> None:
+    def in_background(self, fn, *, inline=None) -> None:
         """Run `fn` in a thread while the workers run (driver work that does not
         depend on the results, e.g. the scenario's description); its value is
         :meth:`background_result`. The thread starts once no fork is to come (a
-        process pool forks on its first task: a thread must not be running then)."""
-        self._background = _Background(fn)
+        process pool forks on its first task: a thread must not be running then).
+        `inline`: what the caller runs instead where no thread was started
+        (default `fn`)."""
+        self._background = _Background(fn, inline)
 
     def _start_background(self) -> None:
         """Start the background work unless the runner wants it at the end
@@ -956,10 +958,12 @@ BACKGROUND_IMPACTS = 2**22
 
 
 class _Background:
-    """A function run once in a daemon thread, or in the caller if never started."""
+    """A function run once in a daemon thread, or (its inline form) in the
+    caller if never started."""
 
-    def __init__(self, fn):
+    def __init__(self, fn, inline=None):
         self._fn = fn
+        self._inline = fn if inline is None else inline
         self._thread = None
         self._value = None
         self._error = None
@@ -979,7 +983,7 @@ class _Background:
 
     def result(self):
         if self._thread is None:
-            return self._fn()
+            return self._inline()
         self._thread.join()
         if self._error is not None:
             raise self._error
@@ -1106,7 +1110,13 @@ def run(
         del plan  # the job's now (released with it)
         # what the result needs of the scenario alone is prepared while the
         # workers run
-        job.in_background(functools.partial(SimulationResult.prepare, job.scenario))
+        job.in_background(
+            functools.partial(SimulationResult.prepare, job.scenario),
+            # in the caller (a short run): the description when first read
+            inline=functools.partial(
+                SimulationResult.prepare, job.scenario, describe=False
+            ),
+        )
         stacked = job.drain()
         elapsed = time.perf_counter() - t0
         result = SimulationResult.from_stacked(

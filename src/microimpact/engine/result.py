@@ -213,6 +213,10 @@ class _RowAccumulators(Mapping):
         return f"<{len(self)} accumulators>"
 
 
+def _stored(deferred: _Deferred):
+    return _storable(deferred.value())
+
+
 def _storable(value):
     """A provenance value as a NetCDF attribute (str, number or number array)."""
     if isinstance(value, bool | np.bool_):
@@ -224,6 +228,42 @@ def _storable(value):
     ):
         return np.asarray(value, dtype=float)
     return json_dumps(value, keep_nonfinite=True)
+
+
+class _Deferred:
+    """A value computed on first use, once: the scenario's description of a
+    short run, whose quadratures (~20 ms for a truncated distribution) a
+    calibration's model run or a design row would pay without ever reading its
+    provenance (issue 31). Pickled as its value."""
+
+    __slots__ = ("_fn", "_value")
+
+    def __init__(self, fn):
+        self._fn, self._value = fn, None
+
+    def value(self):
+        if self._fn is not None:
+            self._value, self._fn = self._fn(), None
+        return self._value
+
+    def __reduce__(self):
+        return (_computed, (self.value(),))
+
+
+def _computed(value) -> _Deferred:
+    out = _Deferred(None)
+    out._value = value
+    return out
+
+
+def _resolve(mapping: dict | None) -> dict | None:
+    """`mapping` with its deferred values computed, in place (keys keep their
+    order)."""
+    if mapping is not None:
+        for key, value in list(mapping.items()):
+            if isinstance(value, _Deferred):
+                mapping[key] = value.value()
+    return mapping
 
 
 class SimulationResult:
@@ -271,6 +311,7 @@ class SimulationResult:
         """The canonical Dataset (built on first access for a fresh run: xarray,
         and with it dask where installed, is imported only by what needs it)."""
         if self._dataset is None:
+            _resolve(self._attrs)  # the attributes the builder was given
             self._dataset = self._build(self._columns)
             self._build = None
         return self._dataset
@@ -284,7 +325,10 @@ class SimulationResult:
     def _attr(self, key, default=None):
         """A global attribute of the Dataset, without building it."""
         attrs = self._attrs if self._dataset is None else self._dataset.attrs
-        return attrs.get(key, default)
+        value = attrs.get(key, default)
+        if isinstance(value, _Deferred):
+            value = attrs[key] = value.value()
+        return value
 
     # -------------------------------------------------------------- builders
     @classmethod
@@ -330,12 +374,17 @@ class SimulationResult:
         )
 
     @staticmethod
-    def prepare(scenario) -> dict:
+    def prepare(scenario, *, describe=True) -> dict:
         """What the result takes from the scenario alone (its description, the
         input quantile functions, the grid): :func:`~microimpact.run` computes it
-        while the workers run and passes it to :meth:`from_stacked`."""
+        while the workers run and passes it to :meth:`from_stacked`. `describe`
+        False: the description is computed when the result's provenance, one of
+        its attributes or its Dataset is first read (a short run, prepared in
+        the caller)."""
         return {
-            "description": scenario.describe(),
+            "description": (
+                scenario.describe() if describe else _Deferred(scenario.describe)
+            ),
             "inputs": _input_quantiles(scenario),
             "smooth": [_is_smooth(s) for s in scenario.surfaces],
             "areal": [is_areal_surface(s) for s in scenario.surfaces],
@@ -464,7 +513,9 @@ class SimulationResult:
         if ref is not None:
             attrs["reference_angle_deg"] = float(ref)
         for key, value in prov.items():
-            if value is not None:
+            if isinstance(value, _Deferred):  # computed with the provenance
+                attrs[key] = _Deferred(functools.partial(_stored, value))
+            elif value is not None:
                 attrs[key] = _storable(value)
         out = cls.__new__(cls)
         cls.__init__(out, None, scenario, accumulators, prov)
@@ -496,28 +547,29 @@ class SimulationResult:
     @property
     def provenance(self) -> dict:
         """Scenario description, versions, seed entropy, sample counts, backend."""
-        if self._provenance is None:
-            out = {}
-            skip = {
-                "title",
-                "institution",
-                "history",
-                "source",
-                "references",
-                "Conventions",
-            }
-            for key, value in self.dataset.attrs.items():
-                if key in skip:
-                    continue
-                if key in _JSON_ATTRS and isinstance(value, str):
-                    value = restore_nonfinite(json.loads(value))
-                elif isinstance(value, np.ndarray):
-                    value = value.tolist()
-                elif isinstance(value, np.generic):
-                    value = value.item()
-                out[key] = value
-            self._provenance = out
-        return self._provenance
+        if self._provenance is not None:
+            return _resolve(self._provenance)
+        out = {}
+        skip = {
+            "title",
+            "institution",
+            "history",
+            "source",
+            "references",
+            "Conventions",
+        }
+        for key, value in self.dataset.attrs.items():
+            if key in skip:
+                continue
+            if key in _JSON_ATTRS and isinstance(value, str):
+                value = restore_nonfinite(json.loads(value))
+            elif isinstance(value, np.ndarray):
+                value = value.tolist()
+            elif isinstance(value, np.generic):
+                value = value.item()
+            out[key] = value
+        self._provenance = out
+        return out
 
     @property
     def seed_entropy(self) -> int:
