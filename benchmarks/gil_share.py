@@ -249,11 +249,12 @@ def measure(
 
 
 #: The path's calls, timed: the wall time and the kernel's GIL-free time
-#: (``_ckernel.released_ns``, NaN without the compiled kernel) on one line.
+#: (``_ckernel.released_ns``; NaN without the compiled kernel, or with one built
+#: before it counted) on one line.
 TIMED = (
     "\nimport time as _time\n"
     "from microimpact.engine import _compiled as _c\n"
-    "_ns = _c.ckernel.released_ns if _c.ckernel is not None else None\n"
+    "_ns = getattr(_c.ckernel, 'released_ns', None)\n"
     "_r0, _w0 = (_ns() if _ns else 0), _time.perf_counter()\n"
     "for _ in range(REPEAT):\n    path()\n"
     "_w = _time.perf_counter() - _w0\n"
