@@ -576,9 +576,7 @@ def test_any_dimension_order_is_read_in_node_order(dataset):
     for name in a._res:
         np.testing.assert_array_equal(a._res[name], b._res[name], err_msg=name)
     d = np.geomspace(dataset["diameter_um"].values[0], 50.0, 40)
-    draws = [
-        law.sample(d, 2.0, 45.0, rng=np.random.default_rng(7)) for law in (a, b)
-    ]
+    draws = [law.sample(d, 2.0, 45.0, rng=np.random.default_rng(7)) for law in (a, b)]
     np.testing.assert_array_equal(draws[0].velocity, draws[1].velocity)
     bad = _set("reservoir_count", 9)(dataset).transpose(*order)
     with pytest.raises(DataFormatError) as err:
