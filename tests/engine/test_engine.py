@@ -548,6 +548,21 @@ def test_summary_columns_compute_only_what_they_need(monkeypatch):
     assert np.isfinite(got["e_mean"]).all()
 
 
+def test_the_optional_column_groups_are_the_datasets_variables():
+    """The groups point_statistics computes only on demand name the Dataset's
+    own variables: every lateral variable, the tail ones, the quantiles."""
+    from microimpact.engine import dataset as dataset_module
+    from microimpact.engine import summary as summary_module
+
+    variables = dataset_module.VARIABLES
+    lateral = tuple(k for k in variables if k.startswith("lateral_"))
+    assert summary_module.LATERAL_COLUMNS == lateral
+    assert set(summary_module.TAIL_COLUMNS) <= set(variables)
+    assert {"e_tail_share", "heavy_tail"} <= set(summary_module.TAIL_COLUMNS)
+    for names in summary_module.QUANTILE_COLUMNS.values():
+        assert set(names) <= set(variables)
+
+
 def _refuse(*args, **kwargs):
     raise AssertionError("computed a statistic no column asked for")
 

@@ -19,7 +19,7 @@ import numpy as np
 from .. import __version__
 from ..scenario.grid import DIMS, SweepGrid
 from .accumulators import E_EDGES, LATERAL_EDGES, MU_EDGES
-from .summary import compact_counts
+from .summary import LATERAL_COLUMNS, TAIL_COLUMNS, compact_counts
 
 #: CF conventions version the files follow.
 CONVENTIONS = "CF-1.10"
@@ -114,15 +114,9 @@ VARIABLES: dict[str, tuple[str, str]] = {
     ),
 }
 #: The lateral summary variables (NaN in a result written before they existed).
-LATERAL_VARIABLES = tuple(k for k in VARIABLES if k.startswith("lateral_"))
+LATERAL_VARIABLES = LATERAL_COLUMNS
 #: The heavy-tail variables (NaN in a result written before they existed).
-TAIL_VARIABLES = (
-    "e_tail_share",
-    "mu_tail_share",
-    "e_tail_shift",
-    "mu_tail_shift",
-    "heavy_tail",
-)
+TAIL_VARIABLES = TAIL_COLUMNS
 #: The state of the pooled accumulators not already in the summary (so that a saved
 #: result can be merged with more samples): counts and central moment sums.
 STATE: dict[str, tuple[str, str]] = {
