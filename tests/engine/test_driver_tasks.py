@@ -383,3 +383,45 @@ def test_threads_and_processes_give_the_bits_of_one_worker(kernel_name):
     assert one.keys() == two.keys() and len(one) == 36
     for k in one:
         assert one[k] == two[k], k
+
+
+@pytest.mark.parametrize(
+    ("remaining", "workers", "want"),
+    [
+        (10**9, 1, montecarlo.TASK_IMPACTS),  # one worker: always the full size
+        (100, 1, montecarlo.TASK_IMPACTS),
+        (10**9, 16, montecarlo.TASK_IMPACTS),  # enough tasks of the full size
+        # a 60 x 60 grid at 8,000 per point: 28.8e6 / (4 x 16) = 450,000
+        (28_800_000, 16, 450_000),
+        (28_800_000, 256, montecarlo.MIN_TASK_IMPACTS),  # floored
+        (400_000, 2, montecarlo.MIN_TASK_IMPACTS),
+        (0, 4, montecarlo.MIN_TASK_IMPACTS),
+    ],
+)
+def test_task_impacts_keep_the_workers_busy(remaining, workers, want):
+    assert montecarlo.task_impacts(remaining, workers) == want
+
+
+@pytest.mark.parametrize("workers", [2, 3])
+def test_small_runs_spread_over_the_workers(monkeypatch, workers):
+    """A sweep of fewer impacts than one full task is packed into tasks of at
+    least MIN_TASK_IMPACTS for several workers, so each gets work; the bits are
+    those of one worker (whose tasks are the full size)."""
+    sizes = []
+    real = parallel.run_task
+
+    def counted(plan, task):
+        sizes.append(int(np.sum(task.impacts())))
+        return real(plan, task)
+
+    monkeypatch.setattr(parallel, "run_task", counted)
+    sc = _grid(speeds_m_s=(0.2, 0.5, 1.0, 2.0), angles_deg=(20.0, 40.0, 60.0, 80.0))
+    one = run(sc, samples=30_000, seed=3, workers=1)
+    assert len(sizes) == 1  # 16 x 30,000 impacts: one task of the full size
+    sizes.clear()
+    many = run(sc, samples=30_000, seed=3, workers=workers)
+    # 480,000 impacts over 4 x workers tasks: floored at MIN_TASK_IMPACTS
+    assert len(sizes) == math.ceil(480_000 / montecarlo.MIN_TASK_IMPACTS)
+    assert sum(sizes) == 480_000
+    assert all(s >= montecarlo.MIN_TASK_IMPACTS for s in sizes[:-1])
+    _same(one, many)

@@ -89,6 +89,13 @@ BLOCKS_PER_TASK = 64
 #: packing does not change any bit: each group's accumulator is returned and merged
 #: on the driver in key order.
 TASK_IMPACTS = 16 * BLOCK_SIZE
+#: Tasks a run of several workers makes per worker at least, where its tasks
+#: can be as small as :data:`MIN_TASK_IMPACTS` (:func:`task_impacts`): the last
+#: round of tasks then leaves at most a quarter of a worker's share idle.
+TASKS_PER_WORKER = 4
+#: The smallest task made to keep more workers busy: 4 full blocks, ~2-4 ms of
+#: kernel on one core, ~50x the ~55 us of GIL the driver spends per task.
+MIN_TASK_IMPACTS = 4 * BLOCK_SIZE
 #: Points :func:`estimate_duration` times in one calibration batch (at most).
 CALIBRATION_POINTS = 2048
 #: Impacts of that batch (at most, unless 16 points of one block hold more).
@@ -602,28 +609,46 @@ class _Streams:
 
 
 # ------------------------------------------------------------------- scheduling
-def _pack(groups, max_groups=None) -> Iterator[tuple]:
-    """Consecutive groups packed into tasks of up to :data:`TASK_IMPACTS` impacts
-    or `max_groups` (default :data:`TASK_GROUPS`) groups; a larger group is a task
-    alone. `groups` yields ``(group, impacts)``. Packing is transport only: it
-    changes no bit."""
+def _pack(groups, max_groups=None, task_impacts=None) -> Iterator[tuple]:
+    """Consecutive groups packed into tasks of up to `task_impacts` (default
+    :data:`TASK_IMPACTS`) impacts or `max_groups` (default :data:`TASK_GROUPS`)
+    groups; a larger group is a task alone. `groups` yields ``(group, impacts)``.
+    Packing is transport only: it changes no bit."""
     max_groups = TASK_GROUPS if max_groups is None else min(max_groups, TASK_GROUPS)
+    task_impacts = TASK_IMPACTS if task_impacts is None else task_impacts
     task, impacts = [], 0
     for group, n in groups:
         task.append(group)
         impacts += n
-        if impacts >= TASK_IMPACTS or len(task) >= max_groups:
+        if impacts >= task_impacts or len(task) >= max_groups:
             yield tuple(task)
             task, impacts = [], 0
     if task:
         yield tuple(task)
 
 
-def _fixed_tasks(streams: _Streams) -> Iterator[tuple]:
+def task_impacts(remaining: int, workers: int) -> int:
+    """Impacts per task of a run with `remaining` impacts to draw on `workers`
+    workers: :data:`TASK_IMPACTS`, or fewer where that would make fewer than
+    :data:`TASKS_PER_WORKER` tasks per worker (a 60 x 60 grid at 8,000 impacts
+    per point is 55 tasks of TASK_IMPACTS: 16 workers would run 4 rounds for 3.4
+    rounds of work, 64 workers would leave 9 idle), but not below
+    :data:`MIN_TASK_IMPACTS`. The tasks pack the same groups: no bit changes."""
+    if workers <= 1:
+        return TASK_IMPACTS
+    share = int(remaining) // (TASKS_PER_WORKER * int(workers))
+    return max(MIN_TASK_IMPACTS, min(TASK_IMPACTS, share))
+
+
+def _fixed_tasks(streams: _Streams, workers: int = 1) -> Iterator[tuple]:
     """The remaining blocks of a fixed-size run, in key order: groups of
     :data:`BLOCKS_PER_TASK` blocks aligned on multiples of it (so a resumed run groups
-    as an uninterrupted one), packed into tasks."""
+    as an uninterrupted one), packed into tasks of :func:`task_impacts` impacts for
+    `workers` workers."""
     T, B = BLOCKS_PER_TASK, streams.block_size
+    # (a finished stream has nothing left: its next block is past the cap)
+    left = np.maximum(streams.cap - streams.next_block * B, 0)
+    size = task_impacts(int(left.sum()), workers)
     if streams.array_tasks:
         # the same groups and tasks as arrays (tasks.py): no tuple per block
         cap = streams.cap
@@ -636,7 +661,7 @@ def _fixed_tasks(streams: _Streams) -> Iterator[tuple]:
             block_size=B,
             last_n=cap - (stop - 1) * B,
             per_group=T,
-            task_impacts=TASK_IMPACTS,
+            task_impacts=size,
             task_groups=TASK_GROUPS,
         )
 
@@ -661,7 +686,7 @@ def _fixed_tasks(streams: _Streams) -> Iterator[tuple]:
                     yield group, (end - 1 - start) * B + last
                 start = end
 
-    return _pack(groups())
+    return _pack(groups(), task_impacts=size)
 
 
 def _precision_wave(streams: _Streams, per_key: int, workers: int) -> list[tuple]:
@@ -801,12 +826,12 @@ class _Job:
         try:
             if fixed and not results and hasattr(runner, "reduced"):
                 # reduced on the workers (Dask): one partial per batch of tasks
-                for partial in runner.reduced(_fixed_tasks(streams)):
+                for partial in runner.reduced(_fixed_tasks(streams, runner.workers)):
                     self._start_background()
                     bar.update(streams.merge_partial(partial))
                     self._checkpoint_if_due()
             elif fixed:
-                tasks, todo = itertools.tee(_fixed_tasks(streams))
+                tasks, todo = itertools.tee(_fixed_tasks(streams, runner.workers))
                 for task, rows in zip(todo, runner.imap(tasks), strict=True):
                     # the workers have started (a pool forks on its first task)
                     self._start_background()
