@@ -230,12 +230,20 @@ def test_the_parsed_points_and_the_per_task_points_agree(monkeypatch):
     assert kernel._plan_points(weighted) is None
 
 
+def _kernel_args(plan):
+    """The compiled kernel and what every call of it reads of `plan`: its parsed
+    points, entropy words and common arguments."""
+    return (
+        kernel._ckernel(),
+        kernel._plan_points(plan),
+        kernel.entropy_words(plan.entropy),
+        kernel._common_args(plan),
+    )
+
+
 def test_array_specs_are_checked():
     plan = _PLAN()
-    ck = kernel._ckernel()
-    heads = kernel._plan_points(plan)
-    words = kernel.entropy_words(plan.entropy)
-    common = kernel._common_args(plan)
+    ck, heads, words, common = _kernel_args(plan)
 
     def call(items, k=1):
         return ck.specs(
@@ -520,10 +528,7 @@ def test_task_rows_is_the_path_of_a_run(monkeypatch):
 
 def test_task_arguments_are_checked():
     plan = _PLAN()
-    ck = kernel._ckernel()
-    points = kernel._plan_points(plan)
-    words = kernel.entropy_words(plan.entropy)
-    common = kernel._common_args(plan)
+    ck, points, words, common = _kernel_args(plan)
     i64 = lambda *v: np.array(v, dtype=np.int64)  # noqa: E731
 
     def call(point=(0,), first=(0,), last=(0,), stop=2, bs=10, last_n=5, pts=points):

@@ -3046,7 +3046,7 @@ PyDoc_STRVAR(reach_cut_doc,
 "row the end sentinel) whose end is not reachable at the apparent angle theta\n"
 "(st, ct = sin, cos theta), with sin(theta - phi) at its start (a_j) and end\n"
 "(b_j); j = -1 where every cell is reachable. The operations of plan._reach\n"
-"and plan._first_blocked, in the same order (no contraction: the same bits).");
+"and plan._first_blocked_of, in the same order (no contraction: the same bits).");
 
 static PyObject *
 ck_reach_cut(PyObject *self, PyObject *args)

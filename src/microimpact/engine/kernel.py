@@ -836,18 +836,11 @@ def prepare_plan(plan: Plan) -> None:
 
 def _shared_plan_points(plan: Plan):
     """:func:`_parse_plan_points`, shared by the plans derived from one another
-    with ``dataclasses.replace`` that keep its points, surfaces and angle tables
-    (a wall law's plan per diameter: only the diameters differ, which the
-    capsule does not hold). It is kept in the tables' cache they share, with
-    the points and the speed flag it was parsed for."""
+    that keep its points, surfaces and angle tables (:meth:`Plan.shared`: a wall
+    law's plan per diameter; the capsule holds no diameter), for the shadowing
+    and speed flag it was parsed for."""
     key = ("_ckernel.points", plan.shadowing, plan.speeds is not None)
-    held = plan._cache.get(key)
-    if held is not None and held[0] is plan.points and held[1] is plan.surfaces:
-        return held[2]
-    got = _parse_plan_points(plan)
-    if got is not False:
-        plan._cache[key] = (plan.points, plan.surfaces, got)
-    return got
+    return plan.shared(key, _parse_plan_points)
 
 
 def _parse_plan_points(plan: Plan):

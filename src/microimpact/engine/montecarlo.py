@@ -814,6 +814,8 @@ class _Job:
         )
         self.local_workers = runner.local_workers
         self._background_policy = runner.background
+        if fixed and streams.cap * streams.size < BACKGROUND_IMPACTS:
+            self._background_policy = "end"  # a short run: in the caller
         if runner.background == "now":
             self._start_background()  # no fork to come: the kernel frees the GIL
         bar = Progress(
@@ -908,17 +910,12 @@ class _Job:
         self._background = _Background(fn, inline)
 
     def _start_background(self) -> None:
-        """Start the background work unless the runner wants it at the end
-        (:attr:`~.parallel.ThreadRunner.background`) or the run is short
-        (:data:`BACKGROUND_IMPACTS`): then :meth:`background_result` computes it
+        """Start the background work unless it is wanted at the end (the
+        runner's :attr:`~.parallel.ThreadRunner.background`, or a short run:
+        :data:`BACKGROUND_IMPACTS`): then :meth:`background_result` computes it
         in the caller."""
-        if self._background is None or self._background_policy == "end":
-            return
-        streams = self.streams
-        if self.precision is None and streams is not None:
-            if streams.cap * streams.size < BACKGROUND_IMPACTS:
-                return
-        self._background.start()
+        if self._background is not None and self._background_policy != "end":
+            self._background.start()
 
     def background_result(self):
         return self._background.result()

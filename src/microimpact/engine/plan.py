@@ -705,6 +705,19 @@ class Plan:
             for s in self.surfaces
         )
 
+    def shared(self, key, make):
+        """``make(self)``, kept in the tables' cache that the plans derived from
+        this one with ``dataclasses.replace`` share, for each of them that keeps
+        its points and surfaces (a wall law's plan per diameter: only the
+        diameters differ): made once for all of them, and once for each points
+        of theirs (a reduced speed axis gives each diameter its own). `key`
+        names the value (with whatever else it depends on)."""
+        at = (key, id(self.points), id(self.surfaces))
+        held = self._cache.get(at)
+        if held is None:  # (kept with the objects: their ids are not reused)
+            held = self._cache[at] = (self.points, self.surfaces, make(self))
+        return held[2]
+
     def own_tables(self, surface: int) -> bool:
         """Whether surface `surface` has tables with rows of their own per
         apparent angle (weighted shadowing, pair tables): the plan keeps only

@@ -672,13 +672,16 @@ QUANTILE_COLUMNS = {
     name: tuple(f"{name}_p{round(q * 100):02d}" for q in QUANTILES)
     for name in ("e", "mu")
 }
+LATERAL_QUANTILE_COLUMNS = tuple(
+    f"lateral_p{round(q * 100):02d}_deg" for q in QUANTILES
+)
 LATERAL_COLUMNS = (
     "lateral_mean_deg",
     "lateral_std_deg",
     "lateral_se_deg",
     "lateral_ci_low_deg",
     "lateral_ci_high_deg",
-    *(f"lateral_p{round(q * 100):02d}_deg" for q in QUANTILES),
+    *LATERAL_QUANTILE_COLUMNS,
 )
 TAIL_COLUMNS = (
     "e_tail_share",
@@ -747,8 +750,8 @@ def _point_statistics(
         if not _wanted(want, QUANTILE_COLUMNS[name]):
             continue
         qs = histogram_quantiles(hist, edges)
-        for k, qv in enumerate(QUANTILES):
-            out[f"{name}_p{round(qv * 100):02d}"] = qs[:, k]
+        for k, column in enumerate(QUANTILE_COLUMNS[name]):
+            out[column] = qs[:, k]
     out["capture_se"] = interval_se(low, high, confidence)
     if _wanted(want, LATERAL_COLUMNS):
         _lateral_statistics(stacked, z, out)
@@ -779,8 +782,8 @@ def _lateral_statistics(stacked: Stacked, z: float, out: dict) -> None:
     # its value as every quantile, not a point inside its 0.5 degree bin
     constant = (stacked.lateral[:, 0] > 0) & (stacked.lateral[:, 2] == 0.0)
     qs[constant] = stacked.lateral[constant, 1:2]
-    for k, qv in enumerate(QUANTILES):
-        out[f"lateral_p{round(qv * 100):02d}_deg"] = qs[:, k]
+    for k, column in enumerate(LATERAL_QUANTILE_COLUMNS):
+        out[column] = qs[:, k]
 
 
 #: QMC: statistic -> (interval columns, SE column).

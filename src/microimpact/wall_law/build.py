@@ -25,7 +25,6 @@ import hashlib
 import math
 import shutil
 import time
-import weakref
 from pathlib import Path
 
 import numpy as np
@@ -360,17 +359,16 @@ def _quantile_rows(srt, n, q):
         return np.where(g >= 0.5, b - diff * (1 - g), a + diff * g)
 
 
-_GEOMETRY: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-
-
 def _geometry(plan) -> np.ndarray:
     """Per sweep point of `plan`: ``sin(theta)``, ``cos(theta)`` (0 at normal
     incidence: cos(pi/2) is 6e-17 in floating point) and whether its surface is
     areal, as ``_ckernel.wall_rows`` reads them; computed once per (surface,
-    angle) with the math module's functions."""
-    got = _GEOMETRY.get(plan)  # once per plan
-    if got is not None:
-        return got
+    angle) with the math module's functions, once for every diameter's plan
+    that keeps the points (:meth:`~microimpact.engine.plan.Plan.shared`)."""
+    return plan.shared("wall_rows geometry", _make_geometry)
+
+
+def _make_geometry(plan) -> np.ndarray:
     *_, table, keys = plan.point_columns()
     geom = np.empty((len(keys), 3))
     for r, (surface, angle_deg) in enumerate(keys):
@@ -378,8 +376,7 @@ def _geometry(plan) -> np.ndarray:
         geom[r, 0] = math.sin(theta)
         geom[r, 1] = 0.0 if angle_deg == 90.0 else math.cos(theta)
         geom[r, 2] = float(isinstance(plan.surfaces[surface], ArealSampler))
-    got = _GEOMETRY[plan] = geom[table]
-    return got
+    return geom[table]
 
 
 def _node_rows(plan, points, spec: WallLawSpec, samples: int, buffers=None) -> dict:
