@@ -347,6 +347,9 @@ def main(argv=None) -> int:
         "standard error)",
     )
     args = ap.parse_args(argv)
+    for name in ("repeat", "recordings", "rate"):
+        if getattr(args, name) < 1:
+            ap.error(f"--{name} must be at least 1; got {getattr(args, name)}")
     pyspy = shutil.which("py-spy") or str(Path(sys.executable).with_name("py-spy"))
     if not Path(pyspy).exists():
         print("py-spy is not installed: pip install py-spy", file=sys.stderr)
@@ -357,7 +360,7 @@ def main(argv=None) -> int:
                 measure(
                     name, pyspy, args.rate, warm=start == "warm", repeat=args.repeat
                 )
-                for _ in range(max(1, args.recordings))
+                for _ in range(args.recordings)
             ]
         )
         for name in args.paths

@@ -537,6 +537,19 @@ def test_summary_columns_are_the_summarys(column_runs, which, data):
         r.summary_columns(["nope"])
 
 
+def test_summary_columns_name_what_is_wrong():
+    """A misspelt column is named with the columns there are, even before the
+    summary is made; one name given as a string is refused with the fix."""
+    r = run(scenario(samples=500, surfaces=(rough(10.0),), speeds_m_s=(0.3,)), seed=4)
+    # (every column the summary has, also those the request did not compute)
+    with pytest.raises(
+        KeyError, match=r"not summary columns: e_men; .*e_p50.*heavy_tail"
+    ):
+        r.summary_columns(["e_mean", "e_men"])
+    with pytest.raises(TypeError, match=r"\['e_mean'\]"):
+        r.summary_columns("e_mean")
+
+
 def test_summary_columns_compute_only_what_they_need(monkeypatch):
     """The moments' columns alone need no histogram quantile or tail statistic."""
     from microimpact.engine import summary as summary_module

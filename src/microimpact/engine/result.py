@@ -619,6 +619,11 @@ class SimulationResult:
         statistics these columns need, without the table (a design row of a
         sensitivity study or a calibration's model run reads a few columns:
         issue 31). Raises KeyError for a column the summary does not have."""
+        if isinstance(names, str):
+            raise TypeError(
+                f"`names` is a list of summary columns, e.g. [{names!r}]; got the "
+                f"string {names!r}"
+            )
         names = list(names)
         fresh = self._statistics is not None and self._columns_value is None
         if self._summary is None and fresh:
@@ -630,7 +635,11 @@ class SimulationResult:
         axes = [a for a in ("surface", "speed_m_s", "angle_deg") if a in data]
         missing = [n for n in names if n not in data]
         if missing:
-            raise KeyError(f"not summary columns: {', '.join(map(str, missing))}")
+            have = self.summary.columns if fresh else list(data)
+            raise KeyError(
+                f"not summary columns: {', '.join(map(str, missing))}; the summary "
+                f"has {', '.join(map(str, have))}"
+            )
         return {c: data[c] for c in dict.fromkeys([*axes, *names])}
 
     def _subset_statistics(self, want: frozenset) -> dict:
