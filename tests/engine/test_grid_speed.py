@@ -28,6 +28,7 @@ from microimpact.engine.summary import (
     Spans,
     Stacked,
     _histogram_quantiles_dense_search,
+    _histogram_quantiles_numpy,
     histogram_quantiles,
 )
 
@@ -116,6 +117,106 @@ def test_histogram_quantiles_equal_the_definitions(rng):
         if int(dense.max()) < 2**31:  # int32 counts, as tasks return them
             narrow = histogram_quantiles(spans.narrow(), E_EDGES, qs)
             assert_array_equal(_bits(narrow), _bits(got))
+
+
+def _spans_of(dense):
+    return Spans.of(
+        [
+            (
+                int(np.flatnonzero(r)[0]),
+                r[np.flatnonzero(r)[0] :][: np.ptp(np.flatnonzero(r)) + 1],
+            )
+            if r.any()
+            else (0, r[:0])
+            for r in dense
+        ],
+        dense.shape[1],
+    )
+
+
+def _numpy_form(spans, edges, qs):
+    q = np.asarray(qs, dtype=float)
+    return _histogram_quantiles_numpy(
+        spans, edges, q, np.full((spans.rows, q.size), np.nan)
+    )
+
+
+@pytest.mark.skipif(
+    __import__("microimpact.engine._compiled", fromlist=["x"]).ckernel is None,
+    reason="the compiled kernel is not built",
+)
+@pytest.mark.parametrize("seed", range(6))
+def test_compiled_span_quantiles_are_the_numpy_forms_bits(seed):
+    """``_ckernel.span_quantiles`` (row by row, in C) against the NumPy form (all
+    rows at once), bit for bit: every count dtype, rows with under/overflow and
+    single bins, empty rows, rows of zero counts, q at 0 and 1, and a view of a
+    larger table (a slice of rows)."""
+    from microimpact.engine.accumulators import MU_EDGES
+
+    rng = np.random.default_rng(seed)
+    qs = [0.0, 1e-300, 0.05, 1 / 3, 0.5, 0.95, 1 - 1e-12, 1.0]
+    for size, edges in ((E_BINS, E_EDGES), (MU_BINS, MU_EDGES)):
+        dense = _random_rows(rng, 40, size)
+        spans = _spans_of(dense)
+        got = histogram_quantiles(spans, edges, qs)
+        assert_array_equal(_bits(got), _bits(_numpy_form(spans, edges, qs)))
+        # the per-point definition (dense, from bin 0) also, but at q = 0: it
+        # takes the leading empty bins, the spans start at the first occupied one
+        oracle = np.array([histogram_quantile(r, edges, qs[1:]) for r in dense])
+        assert_array_equal(_bits(got[:, 1:]), _bits(oracle))
+        small = np.minimum(dense, 200)  # every compact dtype, uint8 among them
+        for dtype in (np.uint8, np.uint16, np.int32, np.uint32, np.int64):
+            sp = _spans_of(small)
+            sp = Spans(sp.offset, sp.length, sp.counts.astype(dtype), sp.size)
+            assert_array_equal(
+                _bits(histogram_quantiles(sp, edges, qs)),
+                _bits(_numpy_form(sp, edges, qs)),
+                err_msg=str(dtype),
+            )
+        part = spans.slice(7, 31)
+        assert_array_equal(
+            _bits(histogram_quantiles(part, edges, qs)), _bits(got[7:31])
+        )
+    # a stored row of zero counts has no quantiles (NaN), as an empty row
+    zero = Spans(
+        np.array([3, 0]), np.array([4, 2]), np.array([0, 0, 0, 0, 5, 1]), E_BINS
+    )
+    got = histogram_quantiles(zero, E_EDGES, qs)
+    assert np.isnan(got[0]).all() and not np.isnan(got[1]).any()
+    assert_array_equal(_bits(got), _bits(_numpy_form(zero, E_EDGES, qs)))
+
+
+def test_span_quantiles_without_the_compiled_kernel_and_outside_unit_q(monkeypatch):
+    """The NumPy form serves where there is no compiled kernel; q outside [0, 1]
+    is refused by both (the compiled kernel itself too)."""
+    from microimpact.engine import _compiled
+
+    rng = np.random.default_rng(3)
+    spans = _spans_of(_random_rows(rng, 20))
+    qs = [0.05, 0.5, 0.95]
+    with_kernel = histogram_quantiles(spans, E_EDGES, qs)
+    for q in ([-0.5, 0.5], [0.5, 1.5], [np.nan]):
+        with pytest.raises(ValueError, match=r"\[0, 1\]"):
+            histogram_quantiles(spans, E_EDGES, q)
+    if _compiled.ckernel is not None:
+        with pytest.raises(ValueError, match="q in"):
+            _compiled.ckernel.span_quantiles(
+                spans.counts,
+                "q",
+                spans.start,
+                spans.length,
+                spans.offset,
+                E_BINS,
+                E_EDGES,
+                np.array([1.5]),
+                np.empty(spans.rows),
+            )
+    monkeypatch.setattr(_compiled, "ckernel", None)
+    assert_array_equal(
+        _bits(histogram_quantiles(spans, E_EDGES, qs)), _bits(with_kernel)
+    )
+    with pytest.raises(ValueError, match=r"\[0, 1\]"):
+        histogram_quantiles(spans, E_EDGES, [2.0])
 
 
 def _accumulators(rng, k):

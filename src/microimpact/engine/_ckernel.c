@@ -3090,6 +3090,126 @@ done:
     return result;
 }
 
+PyDoc_STRVAR(span_quantiles_doc,
+"span_quantiles(counts, kind, start, length, offset, size, edges, q, out)\n\n"
+"Quantiles q (float64, each in [0, 1]) of histograms stored as spans (summary.Spans:\n"
+"row i is dense bins offset[i] .. offset[i] + length[i] - 1 of `size` bins, its\n"
+"counts counts[start[i] : start[i] + length[i]]; start, length, offset int64),\n"
+"linear within a bin on `edges` (float64, size - 1 of them), into `out` (float64,\n"
+"rows x len(q), row-major): -inf/+inf in the under/overflow bin; rows of length 0\n"
+"or with no counts are left as they are. `kind` is the counts' dtype character ('B', 'H', 'i', 'I',\n"
+"'q'). Each row's totals must be below 2**52. The definitions and operations of\n"
+"summary.histogram_quantiles, row by row (the same bits), with the GIL released.");
+
+#define SPAN_COUNT(k)                                                          \
+    (kind == 'B'   ? (int64_t)((const uint8_t *)cv)[k]                         \
+     : kind == 'H' ? (int64_t)((const uint16_t *)cv)[k]                        \
+     : kind == 'i' ? (int64_t)((const int32_t *)cv)[k]                         \
+     : kind == 'I' ? (int64_t)((const uint32_t *)cv)[k]                        \
+                   : ((const int64_t *)cv)[k])
+
+static PyObject *
+ck_span_quantiles(PyObject *self, PyObject *args)
+{
+    Py_buffer bc, bs, bl, bo, be, bq, bout;
+    int kind;
+    Py_ssize_t size;
+    if (!PyArg_ParseTuple(args, "y*Cy*y*y*ny*y*w*:span_quantiles", &bc, &kind, &bs,
+                          &bl, &bo, &size, &be, &bq, &bout))
+        return NULL;
+    PyObject *result = NULL;
+    const Py_ssize_t item = kind == 'B' ? 1 : kind == 'H' ? 2 :
+                            (kind == 'i' || kind == 'I') ? 4 : kind == 'q' ? 8 : 0;
+    const Py_ssize_t rows = bs.len / 8, nq = bq.len / 8, nc = item ? bc.len / item : 0;
+    int bad = item == 0 || bc.len % (item ? item : 1) || bs.len % 8 ||
+              bl.len != bs.len || bo.len != bs.len || bq.len % 8 || be.len % 8 ||
+              size < 2 || be.len / 8 != size - 1 || bout.len != 8 * rows * nq;
+    const int64_t *st = bs.buf, *ln = bl.buf, *off = bo.buf;
+    const double *edges = be.buf, *q = bq.buf;
+    for (Py_ssize_t k = 0; !bad && k < nq; k++)
+        bad = !(q[k] >= 0.0 && q[k] <= 1.0);
+    for (Py_ssize_t r = 0; !bad && r < rows; r++)
+        bad = ln[r] < 0 || (ln[r] > 0 && (st[r] < 0 || st[r] + ln[r] > nc ||
+                                          off[r] < 0 || off[r] + ln[r] > size));
+    if (bad) {
+        PyErr_SetString(PyExc_ValueError,
+                        "_ckernel.span_quantiles: counts of dtype `kind`, int64 "
+                        "start/length/offset of one length whose spans lie in counts "
+                        "and in `size` >= 2 bins, size - 1 float64 edges, q in [0, 1], "
+                        "out of rows x len(q) float64");
+        goto done;
+    }
+    const void *cv = bc.buf;
+    double *out = bout.buf;
+    int too_big = 0;
+    RELEASE_GIL
+    for (Py_ssize_t r = 0; r < rows && !too_big; r++) {
+        const int64_t n = ln[r];
+        if (n <= 0)
+            continue;
+        const int64_t s0 = st[r], o = off[r];
+        int64_t total = 0;
+        for (int64_t j = 0; j < n; j++)
+            total += SPAN_COUNT(s0 + j);
+        if (total >= ((int64_t)1 << 52)) {
+            too_big = 1;
+            break;
+        }
+        if (total == 0)
+            continue; /* no values: left as they are, as an empty row */
+        const double tf = (double)total;
+        for (Py_ssize_t k = 0; k < nq; k++) {
+            const double qk = q[k];
+            /* least c in [0, total + 1] with float(c) / float(total) >= qk */
+            double c0 = floor(qk * tf);
+            int64_t c = c0 < 0.0 ? 0 : c0 > tf + 1.0 ? total + 1 : (int64_t)c0;
+            while (c > 0 && (double)(c - 1) / tf >= qk)
+                c--;
+            while (c <= total && !((double)c / tf >= qk))
+                c++;
+            /* below: the first stored bin whose cumulative count is >= c */
+            int64_t below = 0, cum = SPAN_COUNT(s0);
+            while (cum < c && below < n - 1) {
+                below++;
+                cum += SPAN_COUNT(s0 + below);
+            }
+            if (cum < c)
+                below = n; /* none (only for q > 1, refused above) */
+            const int64_t i = o + below;
+            double val;
+            if (i > 0 && i < size - 1 && below < n) {
+                /* the row's cumulative fraction after and before this bin */
+                const double after = (double)cum / tf;
+                const double before =
+                    below > 0 ? (double)(cum - SPAN_COUNT(s0 + below)) / tf : 0.0;
+                const double frac =
+                    after > before ? (qk - before) / (after - before) : 0.5;
+                const double lo = edges[i - 1], hi = edges[i];
+                val = lo + frac * (hi - lo);
+            } else {
+                val = i == 0 ? -INFINITY : INFINITY;
+            }
+            out[r * nq + k] = val;
+        }
+    }
+    ACQUIRE_GIL
+    if (too_big)
+        PyErr_SetString(PyExc_OverflowError,
+                        "_ckernel.span_quantiles: a row's total is 2**52 or more");
+    else
+        result = Py_NewRef(Py_None);
+done:
+    PyBuffer_Release(&bc);
+    PyBuffer_Release(&bs);
+    PyBuffer_Release(&bl);
+    PyBuffer_Release(&bo);
+    PyBuffer_Release(&be);
+    PyBuffer_Release(&bq);
+    PyBuffer_Release(&bout);
+    return result;
+}
+#undef SPAN_COUNT
+
 PyDoc_STRVAR(released_ns_doc,
 "released_ns() -> int\n\n"
 "Nanoseconds the kernel's calls have run with the GIL released since the module\n"
@@ -3112,6 +3232,7 @@ static PyMethodDef ck_methods[] = {
     {"wall_rows", ck_wall_rows, METH_VARARGS, wall_rows_doc},
     {"wall_quantiles", ck_wall_quantiles, METH_VARARGS, wall_quantiles_doc},
     {"reach_cut", ck_reach_cut, METH_VARARGS, reach_cut_doc},
+    {"span_quantiles", ck_span_quantiles, METH_VARARGS, span_quantiles_doc},
     {NULL, NULL, 0, NULL},
 };
 

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import _compiled
 from .accumulators import (
     E_EDGES,
     LATERAL_BINS,
@@ -392,7 +393,18 @@ def histogram_quantiles(hist, edges, q=QUANTILES) -> np.ndarray:
         )
     )
     q = np.asarray(q, dtype=float)
+    if not np.all((q >= 0.0) & (q <= 1.0)):
+        raise ValueError(f"quantiles must lie in [0, 1]; got {q.tolist()}")
     out = np.full((spans.rows, q.size), np.nan)
+    if _span_quantiles_compiled(spans, edges, q, out):
+        return out
+    return _histogram_quantiles_numpy(spans, edges, q, out)
+
+
+def _histogram_quantiles_numpy(spans: Spans, edges, q, out) -> np.ndarray:
+    """:func:`histogram_quantiles` in NumPy, into `out` (NaN-filled): all rows
+    at once (the form ``_ckernel.span_quantiles`` follows row by row, and its
+    oracle in the tests)."""
     length, counts = spans.length, spans.counts
     ok = length > 0
     if not ok.any():
@@ -410,6 +422,11 @@ def histogram_quantiles(hist, edges, q=QUANTILES) -> np.ndarray:
     total = csum[st + ln - 1] - base
     if int(total.max()) >= 2**52:  # pragma: no cover - beyond any feasible run
         return _histogram_quantiles_dense_search(spans, edges, q)
+    if not total.all():  # a row with no counts: as an empty row
+        keep = total > 0
+        rows, st, ln, off, base, total = (
+            a[keep] for a in (rows, st, ln, off, base, total)
+        )
     tf = total.astype(float)
     for k, qk in enumerate(q):
         # least c in [0, total + 1] with float(c) / float(total) >= qk
@@ -431,6 +448,46 @@ def histogram_quantiles(hist, edges, q=QUANTILES) -> np.ndarray:
             lambda r, at: (csum[at] - base[r]) / total[r],
         )
     return out
+
+
+def _span_quantiles_compiled(spans: Spans, edges, q, out) -> bool:
+    """:func:`histogram_quantiles` into `out` by the compiled kernel
+    (``_ckernel.span_quantiles``: the same definitions and operations row by
+    row, with the GIL released, and no cumulative sum of every stored bin);
+    False where there is none, or a row's total needs the dense search."""
+    ck = _compiled.ckernel
+    dt = spans.counts.dtype
+    kind = _SPAN_KINDS.get((dt.kind, dt.itemsize))
+    if ck is None or kind is None or spans.rows == 0:
+        return False
+    try:
+        ck.span_quantiles(
+            np.ascontiguousarray(spans.counts),
+            kind,
+            np.ascontiguousarray(spans.start, dtype=np.int64),
+            np.ascontiguousarray(spans.length, dtype=np.int64),
+            np.ascontiguousarray(spans.offset, dtype=np.int64),
+            int(spans.size),
+            np.ascontiguousarray(edges, dtype=np.float64),
+            np.ascontiguousarray(q, dtype=np.float64),
+            out,
+        )
+    except OverflowError:  # pragma: no cover - a row of 2**52 counts or more
+        out.fill(np.nan)
+        return False
+    return True
+
+
+#: The count dtypes ``_ckernel.span_quantiles`` reads, by (kind, itemsize), as its
+#: `kind` characters: uint8, uint16, int32, uint32, int64 (every
+#: :func:`compact_counts` type and the kernel's own).
+_SPAN_KINDS = {
+    ("u", 1): "B",
+    ("u", 2): "H",
+    ("i", 4): "i",
+    ("u", 4): "I",
+    ("i", 8): "q",
+}
 
 
 def _interpolate_quantile(qk, below, st, off, size, edges, cum):
