@@ -101,7 +101,7 @@ def test_a_reduced_node_at_an_implausible_speed_is_refused_before_any_work(
     """r = 900 on v_c = 277 m/s (10 um) is 2.5e5 m/s: refused, naming the node."""
     from microimpact.wall_law import build
 
-    monkeypatch.setattr(build, "_diameter_task", lambda *a: pytest.fail("simulated"))
+    monkeypatch.setattr(build, "_node_rows", lambda *a: pytest.fail("simulated"))
     f = tmp_path / "w.toml"
     f.write_text(TOML.format(a=20.0, speeds="[1]"))
     from microimpact.scenario.scenario import read_scenario

@@ -761,6 +761,68 @@ def test_table_bits_do_not_depend_on_kernel_workers_or_executor(monkeypatch):
         pytest.skip("the compiled kernel is not built")
 
 
+def test_node_groups_on_threads_do_not_change_the_table(monkeypatch):
+    """On several threads a diameter's nodes run as groups of a few nodes
+    (``_group_nodes``), joined in order: the table is the same bits as one worker
+    running whole diameters, with the groups split down to one node, into
+    TASKS_PER_WORKER groups per worker, to a size that leaves a short last group,
+    and not at all."""
+    from microimpact.wall_law import build
+
+    sc = _scenario(_areal_and_rough(), samples=1500)
+    one = build_wall_law(sc, SMALL)
+    seen = []
+    real = build._node_rows
+
+    def spy(plan, points, *a, **k):
+        seen.append(len(points))
+        return real(plan, points, *a, **k)
+
+    monkeypatch.setattr(build, "_node_rows", spy)
+    nodes = 2 * 2 * 3  # surfaces x speeds x angles
+    # 2 workers, 2 diameters: TASKS_PER_WORKER = 4 wants 4 groups per diameter
+    for floor, per_worker, sizes in (
+        (1, 12, {1}),
+        (1, 4, {3}),
+        (1500 * 5, 4, {5, 2}),
+        (10**9, 4, {nodes}),
+    ):
+        monkeypatch.setattr(build, "MIN_GROUP_IMPACTS", floor)
+        monkeypatch.setattr(build, "TASKS_PER_WORKER", per_worker)
+        seen.clear()
+        _same_tables(one, build_wall_law(sc, SMALL, workers=2))
+        assert set(seen) == sizes, (floor, seen)
+        assert sum(seen) == nodes * len(SMALL.diameters_um)
+
+
+def test_group_nodes_arithmetic():
+    """Groups of GROUP_IMPACTS worth of nodes on one worker; on several, at least
+    TASKS_PER_WORKER groups per worker where MIN_GROUP_IMPACTS allows."""
+    from microimpact.engine.montecarlo import TASKS_PER_WORKER
+    from microimpact.wall_law.build import (
+        GROUP_IMPACTS,
+        MIN_GROUP_IMPACTS,
+        _group_nodes,
+    )
+
+    assert _group_nodes(256, 2000) == 256  # GROUP_IMPACTS is 262 nodes: one group
+    assert _group_nodes(256, 2000, 16, 1) == 256
+    assert _group_nodes(1000, 2000) == GROUP_IMPACTS // 2000
+    # 16 diameters on 16 workers: 4 groups per diameter (of 64 nodes, but the
+    # floor is 65 nodes at 2,000 impacts: 65, 65, 65, 61)
+    per = _group_nodes(256, 2000, 16, 16)
+    assert per == max(64, MIN_GROUP_IMPACTS // 2000)
+    assert 16 * -(-256 // per) >= TASKS_PER_WORKER * 16
+    # 2 diameters on 4 workers at 10,000 impacts: 8 groups of 32 nodes each
+    assert _group_nodes(256, 10_000, 2, 4) == 32
+    # at 100 impacts the floor is 1,310 nodes: no split
+    assert _group_nodes(256, 100, 2, 4) == 256
+    # never below the floor: 64 workers would want groups of 16 nodes
+    assert _group_nodes(256, 2000, 16, 64) == MIN_GROUP_IMPACTS // 2000
+    # impacts per node above GROUP_IMPACTS: one node per group
+    assert _group_nodes(10, GROUP_IMPACTS * 2, 1, 8) == 1
+
+
 def test_node_statistics_against_numpy_per_node():
     """Each node's counts, quantiles (np.quantile, bit for bit), reservoir (its
     first rebounds in draw order, bit for bit) and mean/std (np.mean/np.std to

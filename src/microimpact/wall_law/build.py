@@ -24,6 +24,7 @@ import functools
 import hashlib
 import math
 import shutil
+import threading
 import time
 from pathlib import Path
 
@@ -36,7 +37,7 @@ from .._core.validation import implausible_speed
 from ..engine import _compiled
 from ..engine.checkpoint import CheckpointMismatch, load_arrays, save_arrays
 from ..engine.kernel import atan2_deg, prepare_plan, simulate_specs_impacts
-from ..engine.montecarlo import iter_point_samples
+from ..engine.montecarlo import TASKS_PER_WORKER, iter_point_samples
 from ..engine.parallel import cap_workers, map_tasks
 from ..engine.plan import ArealSampler, build_plan, diameter_sampler, resolve_entropy
 from ..engine.tasks import BlockTask
@@ -186,6 +187,9 @@ def node_outcomes(e_m, mu_m, angle_deg: float, psi_deg=None) -> dict:
 #: Impacts simulated per kernel call of a wall-law build (a group of nodes; ~25
 #: bytes each while their statistics are formed).
 GROUP_IMPACTS = 1 << 19
+#: The fewest impacts of a group split for several workers (:func:`_group_nodes`;
+#: ~3 ms of kernel and sort: a group's Python costs ~0.1 ms).
+MIN_GROUP_IMPACTS = 1 << 17
 
 
 def _impacts(plan, points, samples: int, buffers=None) -> dict:
@@ -481,24 +485,63 @@ def _diameter_task(plan, scenario, spec, samples, j, prepared=None):
         d_plan = prepared[j]
     else:
         d_plan = _diameter_plan(plan, scenario, spec, j)
-    per = max(1, GROUP_IMPACTS // max(samples, 1))
     n = len(plan.points)
-    size = min(per, n) * samples
-    # the groups' arrays, allocated once (fresh pages for every group cost more
-    # than the arithmetic on them)
-    buffers = {
-        "e_m": np.empty(size),
-        "mu_m": np.empty(size),
-        "lateral_angle_deg": np.empty(size),
-        "outcome": np.empty(size, dtype=np.int8),
-    }
+    per = _group_nodes(n, samples)
+    buffers = _buffers(per * samples)
     parts = [
         _node_rows(d_plan, range(lo, min(n, lo + per)), spec, samples, buffers)
         for lo in range(0, n, per)
     ]
+    return _joined(parts)
+
+
+def _group_task(spec, samples, prepared, item):
+    """The nodes ``range(lo, hi)`` of diameter ``j`` for ``item = (j, lo, hi)``
+    (a part of :func:`_diameter_task`'s work, on a worker thread: `prepared`
+    holds every diameter's plan)."""
+    j, lo, hi = item
+    buffers = _buffers(_group_nodes(len(prepared[j].points), samples) * samples)
+    return _node_rows(prepared[j], range(lo, hi), spec, samples, buffers)
+
+
+def _joined(parts):
     if len(parts) == 1:
         return parts[0]
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+
+
+def _group_nodes(n: int, samples: int, diameters: int = 1, workers: int = 1) -> int:
+    """Nodes per group (per kernel call) of a diameter's `n` nodes at `samples`
+    impacts: :data:`GROUP_IMPACTS` worth, or, where `workers` threads share the
+    groups of `diameters` diameters, fewer, so that there are at least
+    :data:`~microimpact.engine.montecarlo.TASKS_PER_WORKER` groups per worker
+    (16 diameters on 16 workers were one round of one diameter each: the
+    slowest diameter set the time), but not fewer impacts than
+    :data:`MIN_GROUP_IMPACTS`; at most `n`. A node's values do not depend on its
+    group."""
+    per = max(1, GROUP_IMPACTS // max(samples, 1))
+    if workers > 1:
+        groups = -(-TASKS_PER_WORKER * workers // max(diameters, 1))
+        floor = max(1, MIN_GROUP_IMPACTS // max(samples, 1))
+        per = min(per, max(floor, -(-n // groups)))
+    return min(per, max(n, 1))
+
+
+#: Thread-local arrays of the groups' impacts, allocated once per thread (fresh
+#: pages for every group cost more than the arithmetic on them).
+_BUFFERS = threading.local()
+
+
+def _buffers(size: int) -> dict:
+    held = getattr(_BUFFERS, "arrays", None)
+    if held is None or held["e_m"].size < size:
+        held = _BUFFERS.arrays = {
+            "e_m": np.empty(size),
+            "mu_m": np.empty(size),
+            "lateral_angle_deg": np.empty(size),
+            "outcome": np.empty(size, dtype=np.int8),
+        }
+    return held
 
 
 def _results(plan, scenario, spec, samples, workers, executor, indices):
@@ -506,21 +549,34 @@ def _results(plan, scenario, spec, samples, workers, executor, indices):
     spread as every engine caller spreads work
     (:func:`~microimpact.engine.parallel.map_tasks`: the executor, else threads
     where the compiled kernel frees the GIL, as do NumPy's sorts, else
-    processes)."""
-    prepared = None
-    if plan.kernel == "compiled" and executor is None:  # threads: one process
-        prepared = _prepared_plans(plan, scenario, spec, indices)
-    task = functools.partial(
-        _diameter_task, plan, scenario, spec, samples, prepared=prepared
-    )
-    results = map_tasks(
-        task,
-        indices,
-        workers=workers,
-        executor=executor,
-        threads=plan.kernel == "compiled",
-    )
-    yield from zip(indices, results, strict=True)
+    processes). On threads the tasks are groups of nodes (:func:`_group_nodes`),
+    joined into their diameter's arrays in order; elsewhere one diameter each
+    (a process builds the diameter's plan for each task)."""
+    if plan.kernel != "compiled" or executor is not None:
+        task = functools.partial(_diameter_task, plan, scenario, spec, samples)
+        results = map_tasks(
+            task,
+            indices,
+            workers=workers,
+            executor=executor,
+            threads=plan.kernel == "compiled",
+        )
+        yield from zip(indices, results, strict=True)
+        return
+    prepared = _prepared_plans(plan, scenario, spec, indices)
+    n = len(plan.points)
+    per = _group_nodes(n, samples, len(indices), workers)
+    items = [(j, lo, min(n, lo + per)) for j in indices for lo in range(0, n, per)]
+    task = functools.partial(_group_task, spec, samples, prepared)
+    parts = []
+    for (j, _, hi), arrays in zip(
+        items, map_tasks(task, items, workers=workers, threads=True), strict=True
+    ):
+        parts.append(arrays)
+        if hi == n:  # the diameter's last group
+            yield j, _joined(parts)
+            parts = []
+            del prepared[j]  # its plan's tables are no longer needed
 
 
 def _prepared_plans(plan, scenario, spec, indices) -> dict:
