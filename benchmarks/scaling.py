@@ -1,0 +1,302 @@
+"""Scaling with the number of workers, on one machine (issue 31, item 5).
+
+For each path, the median wall time of ``--repeats`` calls at each worker count
+(threads, the engine's default), after a warm-up call at that count, and whether
+the results are the same bits as with one worker:
+
+* ``run``: ``run()`` over 64 points (4 speeds x 16 angles) of 10^6 impacts;
+* ``run4``: the same at 4 * 10^6 impacts per point;
+* ``grid``: a 60 x 60 speed-angle grid at 8,000 impacts per point;
+* ``wall_law``: a 16^3 wall law at 2,000 impacts per node;
+* ``sensitivity``: the Sobol design of ``benchmarks/gil_share.py`` (24 rows of
+  the preset at 20,000 impacts);
+* ``calibration``: its least-squares calibration (two parameters, 8 points at
+  20,000 impacts per model run).
+
+The paths are those of ``benchmarks/two_threads.py`` and ``benchmarks/gil_share.py``
+(the sst76-formica-oblique physics, one surface), so the measured speed-ups stand
+beside the Amdahl projections of the GIL share. ``--dask N`` also times ``run``
+and ``grid`` on a ``LocalCluster`` of N single-threaded worker processes, started
+once, with its results reduced on the workers.
+
+    python benchmarks/scaling.py --workers 1 2 4 8 16 --dask 16 --json out.json
+
+The machine is recorded with the figures: CPU model, core count and vector
+extensions (AVX2-only machines are 2-4x slower per core).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from two_threads import _same
+
+
+def _base():
+    from microimpact.scenario import load_preset
+
+    base = load_preset("sst76-formica-oblique")
+    return base.with_options(surfaces=base.surfaces[:1])
+
+
+def _points(samples):
+    from microimpact.engine.montecarlo import run
+
+    sc = _base().with_options(
+        speeds_m_s=(0.5, 1.0, 2.0, 5.0), angles_deg=tuple(range(10, 90, 5))[:16]
+    )
+    return lambda **kw: run(sc, samples=samples, progress=False, **kw)
+
+
+def _grid():
+    from microimpact.engine.montecarlo import run
+
+    sc = _base().with_options(
+        speeds_m_s=tuple(np.linspace(0.2, 5.0, 60)),
+        angles_deg=tuple(np.linspace(5.0, 90.0, 60)),
+    )
+    return lambda **kw: run(sc, samples=8000, progress=False, **kw)
+
+
+def _wall_law():
+    from microimpact.wall_law import WallLawSpec, build_wall_law
+
+    spec = WallLawSpec(
+        diameters_um=tuple(np.geomspace(10, 80, 16)),
+        speeds_m_s=tuple(np.geomspace(0.2, 10, 16)),
+        angles_deg=tuple(np.linspace(6, 90, 16)),
+        samples=2000,
+        reservoir=64,
+    )
+    base = _base()
+    return lambda **kw: build_wall_law(base, spec, seed=1, **kw)
+
+
+def _sensitivity():
+    import microimpact as mi
+
+    parameters = {
+        "coefficients.friction": {"low": 0.1, "high": 0.3},
+        "coefficients.k1": {"low": 3.0, "high": 5.0},
+        "coefficients.v_c.a_m_s": {"low": 0.15, "high": 0.25},
+        "coefficients.k2.a_m_s": {"low": 0.04, "high": 0.06},
+    }
+
+    def go(**kw):
+        return mi.sobol_sensitivity(
+            "sst76-formica-oblique",
+            parameters,
+            base_size=4,
+            samples=20000,
+            seed=1,
+            n_resamples=10,
+            progress=False,
+            **kw,
+        )
+
+    return go
+
+
+def _calibration():
+    import microimpact as mi
+    from microimpact.analysis.calibration import calibrate
+    from microimpact.analysis.compare import experiments_from_summary
+    from microimpact.scenario.parameters import with_values
+    from microimpact.scenario.scenario import scenario_from_dict
+
+    std, vc = "surfaces.rough.std_deg", "coefficients.v_c.a_m_s"
+    data = {
+        "name": "bench",
+        "seed": 1,
+        "samples": 20000,
+        "particles": {"distribution": "monodisperse", "diameter_um": 50.0},
+        "coefficients": {
+            "k1": 4.0,
+            "k2": {"law": "power", "a_m_s": 0.05, "b": -1.58, "d_ref_um": 52.8},
+            "v_c": {"law": "power", "a_m_s": 0.2, "b": -1.58, "d_ref_um": 52.8},
+            "p": 1.0,
+            "q": 1.0,
+            "friction": 0.15,
+        },
+        "surfaces": [{"name": "rough", "kind": "normal", "std_deg": 10.0}],
+        "sweep": {"speed_m_s": [1.0, 3.0], "angle_deg": [20.0, 40.0, 60.0, 80.0]},
+    }
+    truth = with_values(data, {std: 12.0, vc: 0.22})
+    summary = mi.run(scenario_from_dict(truth), seed=7, progress=False).summary
+    exp = experiments_from_summary(summary, ("e", "mu"), by_surface=False)
+
+    def go(**kw):
+        fit = calibrate(
+            data,
+            exp,
+            {std: (2.0, 30.0), vc: (0.1, 0.4)},
+            samples=20000,
+            bootstrap=0,
+            progress=False,
+            **kw,
+        )
+        return fit
+
+    return go
+
+
+PATHS = {
+    "run": (lambda: _points(1_000_000), 64_000_000),
+    "run4": (lambda: _points(4_000_000), 256_000_000),
+    "grid": (_grid, 3600 * 8000),
+    "wall_law": (_wall_law, 16**3 * 2000),
+    "sensitivity": (_sensitivity, None),
+    "calibration": (_calibration, None),
+}
+
+
+def table(result):
+    """What a user reads of a path's result (timed with the call): a run's
+    summary, a wall law's Dataset, a sensitivity table, a calibration's
+    estimate."""
+    for name in ("summary", "dataset", "table", "estimate"):
+        if hasattr(result, name):
+            return getattr(result, name)
+    raise TypeError(f"no table in {type(result).__name__}")
+
+
+def _equal(a, b) -> bool:
+    if isinstance(a, np.ndarray):
+        return bool(np.array_equal(a, b, equal_nan=True))
+    try:
+        return _same(a, b)
+    except Exception:  # another kind of table: compare its numbers
+        x, y = a.select_dtypes("number"), b.select_dtypes("number")
+        return bool(np.array_equal(x.to_numpy(), y.to_numpy(), equal_nan=True))
+
+
+def _timed(fn, repeats):
+    fn()  # warm-up at this worker count: pools started, tables built
+    times, out = [], None
+    for _ in range(repeats):
+        t = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - t)
+    return times, out
+
+
+def measure(name, workers, repeats, dask=None):
+    make, impacts = PATHS[name]
+    fn = make()
+    rows, ref, t1 = [], None, None
+    for w in workers:
+        times, out = _timed(lambda w=w: table(fn(workers=w)), repeats)
+        med = statistics.median(times)
+        if ref is None:
+            ref, t1 = out, med
+        rows.append(
+            {
+                "path": name,
+                "backend": "threads",
+                "workers": w,
+                "median_s": med,
+                "times_s": times,
+                "speedup": t1 / med,
+                "efficiency": t1 / med / w,
+                "impacts_per_s": impacts / med if impacts else None,
+                "same_bits": _equal(ref, out),
+            }
+        )
+        print(_line(rows[-1]), flush=True)
+    if dask and name in ("run", "run4", "grid"):
+        from dask.distributed import LocalCluster
+
+        with LocalCluster(
+            n_workers=dask, threads_per_worker=1, processes=True, dashboard_address=":0"
+        ) as cluster:
+            address = cluster.scheduler_address
+            times, out = _timed(
+                lambda: table(fn(backend="dask", address=address)), max(repeats, 2)
+            )
+        med = statistics.median(times)
+        rows.append(
+            {
+                "path": name,
+                "backend": "dask",
+                "workers": dask,
+                "median_s": med,
+                "times_s": times,
+                "speedup": t1 / med,
+                "efficiency": t1 / med / dask,
+                "impacts_per_s": impacts / med if impacts else None,
+                "same_bits": _equal(ref, out),
+            }
+        )
+        print(_line(rows[-1]), flush=True)
+    return rows
+
+
+def _line(r) -> str:
+    rate = f"{r['impacts_per_s'] / 1e6:.1f}" if r["impacts_per_s"] else "-"
+    return (
+        f"| `{r['path']}` | {r['backend']} | {r['workers']} | {r['median_s']:.3f} | "
+        f"{rate} | {r['speedup']:.2f}x | {r['efficiency']:.2f} | {r['same_bits']} |"
+    )
+
+
+def machine() -> dict:
+    info = {"python": platform.python_version(), "numpy": np.__version__}
+    try:
+        text = Path("/proc/cpuinfo").read_text()
+    except OSError:
+        return {**info, "cpu": platform.processor(), "cpus": os.cpu_count()}
+    lines = text.splitlines()
+    model = next((x.split(":", 1)[1].strip() for x in lines if "model name" in x), "?")
+    flags = next(x.split(":", 1)[1].split() for x in lines if x.startswith("flags"))
+    vector = [f for f in flags if f.startswith(("avx", "fma", "sse4"))]
+    return {
+        **info,
+        "cpu": model,
+        "cpus": os.cpu_count(),
+        "affinity": len(os.sched_getaffinity(0)),
+        "vector": vector,
+    }
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--paths", nargs="+", default=list(PATHS), choices=list(PATHS))
+    ap.add_argument("--workers", nargs="+", type=int, default=[1, 2])
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument(
+        "--dask", type=int, default=0, help="LocalCluster workers (0: none)"
+    )
+    ap.add_argument("--json", type=Path)
+    args = ap.parse_args(argv)
+    if args.repeats < 1 or min(args.workers) < 1 or args.dask < 0:
+        ap.error("--repeats and --workers must be at least 1, --dask at least 0")
+    if args.workers[0] != 1:
+        ap.error("--workers must start at 1 (the speed-ups are against one worker)")
+    info = machine()
+    print(f"machine: {json.dumps(info)}", flush=True)
+    print(
+        "| path | backend | workers | median [s] | M impacts/s | speed-up | "
+        "efficiency | same bits |"
+    )
+    print("|---|---|---|---|---|---|---|---|", flush=True)
+    rows = []
+    for name in args.paths:
+        rows += measure(name, args.workers, args.repeats, args.dask)
+        if args.json:  # after each path, so that a cut-off run keeps what it did
+            args.json.write_text(json.dumps({"machine": info, "rows": rows}, indent=1))
+    return 0 if all(r["same_bits"] for r in rows) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
