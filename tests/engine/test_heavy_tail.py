@@ -118,6 +118,70 @@ def test_vectorised_equals_the_row_by_row_rule():
             assert_allclose(g, w_, rtol=1e-9, atol=1e-12, equal_nan=True)
 
 
+@pytest.mark.parametrize("seed", range(4))
+def test_compiled_steps_are_the_numpy_loops_bits(seed, monkeypatch):
+    """``_ckernel.tail_steps`` (row by row, in C) against the NumPy loop over all
+    rows (``_tail_steps_numpy``), bit for bit: the whole rule on random rows of
+    every count dtype, and the steps alone on random runs, ties and ends."""
+    from microimpact.engine import _compiled
+    from microimpact.engine import summary as S
+
+    if _compiled.ckernel is None:  # pragma: no cover - no C compiler
+        pytest.skip("the compiled kernel is not built")
+    rng = np.random.default_rng(seed)
+    samples = [
+        np.concatenate([rng.normal(rng.uniform(0, 1), 0.2, 2000), [30.0] * i])
+        for i in range(5)
+    ] + [rng.standard_t(1.5, 3000), rng.exponential(1.0, 50) - 1.0, np.full(9, 0.4)]
+    for edges in (E_EDGES, MU_EDGES):
+        mom = np.array([Moments.of(x).as_array() for x in samples])
+        spans = Spans.of(
+            [_span_of_dense(histogram_counts(x, edges)) for x in samples],
+            edges.size + 1,
+        )
+        for dtype in (np.uint16, np.int32, np.uint32, np.int64):
+            sp = Spans(
+                spans.offset, spans.length, spans.counts.astype(dtype), spans.size
+            )
+            got = tail_pull(mom, sp, edges)
+            with monkeypatch.context() as m:
+                m.setattr(_compiled, "ckernel", None)
+                want = tail_pull(mom, sp, edges)
+            for g, w_ in zip(got, want, strict=True):
+                np.testing.assert_array_equal(g.view(np.uint64), w_.view(np.uint64))
+    # the steps alone: runs of random counts (zeros among them), centres placed
+    # for ties (the mean on a bin edge or centre), needs beyond the run
+    n = 200
+    counts = rng.integers(0, 4, 5000).astype(np.uint8)
+    ia = rng.integers(0, 4000, n)
+    right = rng.integers(-1, 60, n)
+    w = 0.01
+    first_x = rng.uniform(-1, 1, n)
+    mean = first_x + w * rng.integers(0, 60, n) / rng.choice([1.0, 2.0, 3.0], n)
+    need = rng.choice([0.0, 1.0, 7.0, 50.0, 1e9], n)
+    t1, t2 = rng.normal(size=n), rng.normal(size=n)
+    ref = [a.copy() for a in (need, t1, t2)]
+    left = np.zeros(n, dtype=np.int64)
+    S._tail_steps_numpy(
+        counts,
+        ia,
+        first_x,
+        mean,
+        w,
+        w * w / 12,
+        ref[0],
+        left.copy(),
+        right.copy(),
+        ref[1],
+        ref[2],
+    )
+    assert S._tail_steps_compiled(
+        counts, ia, first_x, mean, w, w * w / 12, need, left, right, t1, t2
+    )
+    for g, w_ in zip((need, t1, t2), ref, strict=True):
+        np.testing.assert_array_equal(g.view(np.uint64), w_.view(np.uint64))
+
+
 def engine_pull(x, edges):
     m = Moments.of(np.asarray(x, dtype=float))
     spans = Spans.of([_span_of_dense(histogram_counts(x, edges))], edges.size + 1)

@@ -3210,6 +3210,90 @@ done:
 }
 #undef SPAN_COUNT
 
+PyDoc_STRVAR(tail_steps_doc,
+"tail_steps(counts, kind, ia, first_x, mean, w, width2, need, left, right, tail1,\n"
+"           tail2)\n\n"
+"The in-range steps of summary.tail_pull, row by row with the GIL released: each\n"
+"row r takes its bins from the two ends of its run (stored counts from ia[r] +\n"
+"left[r] to ia[r] + right[r]; `kind` as for span_quantiles), the one whose centre\n"
+"first_x[r] + w * index is farther from mean[r] first (a tie: the left one),\n"
+"min(need, count) values at a time, adding take * dev to tail1[r] and\n"
+"take * (dev * dev + width2) to tail2[r], until need[r] (updated in place) is\n"
+"spent or the run is. ia, left, right int64; first_x, mean, need, tail1, tail2\n"
+"float64, all of one length. The NumPy loop's operations, in its order.");
+
+#define TAIL_COUNT(k)                                                          \
+    (kind == 'B'   ? (int64_t)((const uint8_t *)cv)[k]                         \
+     : kind == 'H' ? (int64_t)((const uint16_t *)cv)[k]                        \
+     : kind == 'i' ? (int64_t)((const int32_t *)cv)[k]                         \
+     : kind == 'I' ? (int64_t)((const uint32_t *)cv)[k]                        \
+                   : ((const int64_t *)cv)[k])
+
+static PyObject *
+ck_tail_steps(PyObject *self, PyObject *args)
+{
+    Py_buffer bc, bia, bfx, bmu, bneed, bl, br, bt1, bt2;
+    int kind;
+    double w, width2;
+    if (!PyArg_ParseTuple(args, "y*Cy*y*y*ddw*y*y*w*w*:tail_steps", &bc, &kind,
+                          &bia, &bfx, &bmu, &w, &width2, &bneed, &bl, &br, &bt1,
+                          &bt2))
+        return NULL;
+    PyObject *result = NULL;
+    const Py_ssize_t item = kind == 'B' ? 1 : kind == 'H' ? 2 :
+                            (kind == 'i' || kind == 'I') ? 4 : kind == 'q' ? 8 : 0;
+    const Py_ssize_t rows = bia.len / 8, nc = item ? bc.len / item : 0;
+    int bad = item == 0 || bc.len % (item ? item : 1) || bia.len % 8 ||
+              bfx.len != bia.len || bmu.len != bia.len || bneed.len != bia.len ||
+              bl.len != bia.len || br.len != bia.len || bt1.len != bia.len ||
+              bt2.len != bia.len;
+    const int64_t *ia = bia.buf, *left0 = bl.buf, *right0 = br.buf;
+    for (Py_ssize_t r = 0; !bad && r < rows; r++)
+        bad = left0[r] <= right0[r] &&
+              (ia[r] + left0[r] < 0 || ia[r] + right0[r] >= nc);
+    if (bad) {
+        PyErr_SetString(PyExc_ValueError,
+                        "_ckernel.tail_steps: counts of dtype `kind`; int64 ia, left, "
+                        "right and float64 first_x, mean, need, tail1, tail2 of one "
+                        "length, each run inside counts");
+        goto done;
+    }
+    const void *cv = bc.buf;
+    const double *fx = bfx.buf, *mu = bmu.buf;
+    double *need = bneed.buf, *t1 = bt1.buf, *t2 = bt2.buf;
+    RELEASE_GIL
+    for (Py_ssize_t r = 0; r < rows; r++) {
+        int64_t left = left0[r], right = right0[r];
+        while (need[r] > 0 && left <= right) {
+            const double dl = fx[r] + w * (double)left - mu[r];
+            const double dr = fx[r] + w * (double)right - mu[r];
+            const int use_r = fabs(dr) > fabs(dl);
+            const double dev = use_r ? dr : dl;
+            const double c = (double)TAIL_COUNT(ia[r] + (use_r ? right : left));
+            const double take = need[r] <= c ? need[r] : c;
+            t1[r] += take * dev;
+            t2[r] += take * (dev * dev + width2);
+            need[r] -= take;
+            right -= use_r;
+            left += !use_r;
+        }
+    }
+    ACQUIRE_GIL
+    result = Py_NewRef(Py_None);
+done:
+    PyBuffer_Release(&bc);
+    PyBuffer_Release(&bia);
+    PyBuffer_Release(&bfx);
+    PyBuffer_Release(&bmu);
+    PyBuffer_Release(&bneed);
+    PyBuffer_Release(&bl);
+    PyBuffer_Release(&br);
+    PyBuffer_Release(&bt1);
+    PyBuffer_Release(&bt2);
+    return result;
+}
+#undef TAIL_COUNT
+
 PyDoc_STRVAR(released_ns_doc,
 "released_ns() -> int\n\n"
 "Nanoseconds the kernel's calls have run with the GIL released since the module\n"
@@ -3233,6 +3317,7 @@ static PyMethodDef ck_methods[] = {
     {"wall_quantiles", ck_wall_quantiles, METH_VARARGS, wall_quantiles_doc},
     {"reach_cut", ck_reach_cut, METH_VARARGS, reach_cut_doc},
     {"span_quantiles", ck_span_quantiles, METH_VARARGS, span_quantiles_doc},
+    {"tail_steps", ck_tail_steps, METH_VARARGS, tail_steps_doc},
     {NULL, NULL, 0, NULL},
 };
 

@@ -623,7 +623,7 @@ def tail_pull(moments, spans: Spans, edges, fraction=TAIL_FRACTION):
     w = float(edges[1] - edges[0])
     width2 = w * w / 12.0
     size = spans.size
-    counts = spans.counts.astype(np.int64, copy=False)  # sums below must not wrap
+    counts = spans.counts  # read a few at a time, each cast to int64 (no wrap)
     n, mean, m2 = moments[rows, 0], moments[rows, 1], moments[rows, 2]
     st, ln, off = spans.start[rows], spans.length[rows], spans.offset[rows]
     # each row's in-range bins are one contiguous run of its stored span: the
@@ -634,8 +634,8 @@ def tail_pull(moments, spans: Spans, edges, fraction=TAIL_FRACTION):
     ib = st + ln - has_over
     nin = np.maximum(ib - ia, 0)
     first_x = edges[0] + (off + has_under - 0.5) * w  # centre of the first one
-    n_out = np.where(has_under, counts[st], 0) + np.where(
-        has_over & (ln > has_under), counts[st + ln - 1], 0
+    n_out = np.where(has_under, counts[st].astype(np.int64), 0) + np.where(
+        has_over & (ln > has_under), counts[st + ln - 1].astype(np.int64), 0
     )
     n_out = n_out.astype(float)
     k = np.ceil(fraction * n)
@@ -662,6 +662,24 @@ def tail_pull(moments, spans: Spans, edges, fraction=TAIL_FRACTION):
     # for as many steps as the most bins any row needs (few: the tails are thin)
     left = np.zeros(rows.size, dtype=np.int64)
     right = nin - 1
+    args = (ia, first_x, mean, w, width2, need, left, right, tail1, tail2)
+    if not _tail_steps_compiled(counts, *args):
+        _tail_steps_numpy(counts, *args)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        # mean - mean of the others = sum over the tail of (x - mean) / (n - k)
+        shift[rows] = np.where(n > k, tail1 / (n - k), np.nan)
+        ok = m2 / n >= 12.0 * width2  # std >= one bin width
+        share[rows] = np.where(ok, np.minimum(1.0, tail2 / m2), np.nan)
+    return shift, share
+
+
+def _tail_steps_numpy(
+    counts, ia, first_x, mean, w, width2, need, left, right, tail1, tail2
+) -> None:
+    """The in-range steps of :func:`tail_pull`, all rows at once, for as many
+    steps as the most bins any row needs (few: the tails are thin); `need`,
+    `left`, `right`, `tail1` and `tail2` are updated in place (the form
+    ``_ckernel.tail_steps`` follows row by row, and its oracle in the tests)."""
     active = np.flatnonzero((need > 0) & (left <= right))
     while active.size:
         mu_a = mean[active]
@@ -670,19 +688,46 @@ def tail_pull(moments, spans: Spans, edges, fraction=TAIL_FRACTION):
         use_r = np.abs(dr) > np.abs(dl)
         at = ia[active] + np.where(use_r, right[active], left[active])
         dev = np.where(use_r, dr, dl)
-        take = np.minimum(need[active], counts[at])
+        take = np.minimum(need[active], counts[at].astype(np.int64))
         tail1[active] += take * dev
         tail2[active] += take * (dev * dev + width2)
         need[active] -= take
         right[active] -= use_r
         left[active] += ~use_r
         active = active[(need[active] > 0) & (left[active] <= right[active])]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        # mean - mean of the others = sum over the tail of (x - mean) / (n - k)
-        shift[rows] = np.where(n > k, tail1 / (n - k), np.nan)
-        ok = m2 / n >= 12.0 * width2  # std >= one bin width
-        share[rows] = np.where(ok, np.minimum(1.0, tail2 / m2), np.nan)
-    return shift, share
+
+
+def _tail_steps_compiled(
+    counts, ia, first_x, mean, w, width2, need, left, right, tail1, tail2
+) -> bool:
+    """:func:`_tail_steps_numpy` by the compiled kernel (``_ckernel.tail_steps``,
+    row by row with the GIL released: the same operations in the same order);
+    False where there is none (`need`, `tail1`, `tail2` updated in place, not
+    `left` and `right`)."""
+    ck = _compiled.ckernel
+    kind = _SPAN_KINDS.get((counts.dtype.kind, counts.dtype.itemsize))
+    if ck is None or kind is None:
+        return False
+    f64 = functools.partial(np.ascontiguousarray, dtype=np.float64)
+    i64 = functools.partial(np.ascontiguousarray, dtype=np.int64)
+    for a in (need, tail1, tail2):  # written in place: must be the arrays
+        if a.dtype != np.float64 or not a.flags.c_contiguous:
+            return False
+    ck.tail_steps(
+        np.ascontiguousarray(counts),
+        kind,
+        i64(ia),
+        f64(first_x),
+        f64(mean),
+        float(w),
+        float(width2),
+        need,
+        i64(left),
+        i64(right),
+        tail1,
+        tail2,
+    )
+    return True
 
 
 def tail_share(moments, spans: Spans, edges, fraction=TAIL_FRACTION) -> np.ndarray:
