@@ -779,6 +779,14 @@ def test_node_groups_on_threads_do_not_change_the_table(monkeypatch):
         return real(plan, points, *a, **k)
 
     monkeypatch.setattr(build, "_node_rows", spy)
+    made = []
+    real_plan = build._diameter_plan
+
+    def plan_spy(plan, scenario, spec, j):
+        made.append(j)
+        return real_plan(plan, scenario, spec, j)
+
+    monkeypatch.setattr(build, "_diameter_plan", plan_spy)
     nodes = 2 * 2 * 3  # surfaces x speeds x angles
     # 2 workers, 2 diameters: TASKS_PER_WORKER = 4 wants 4 groups per diameter
     for floor, per_worker, sizes in (
@@ -793,6 +801,9 @@ def test_node_groups_on_threads_do_not_change_the_table(monkeypatch):
         _same_tables(one, build_wall_law(sc, SMALL, workers=2))
         assert set(seen) == sizes, (floor, seen)
         assert sum(seen) == nodes * len(SMALL.diameters_um)
+        # each diameter's plan made once, by the first of its groups' workers
+        assert sorted(made) == list(range(len(SMALL.diameters_um)))
+        made.clear()
 
 
 def test_group_nodes_arithmetic():

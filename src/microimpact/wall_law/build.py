@@ -19,6 +19,7 @@ diameter, and the seed reproduces the table bit for bit for any worker count.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
 import hashlib
@@ -480,14 +481,14 @@ def _diameter_task(plan, scenario, spec, samples, j, prepared=None):
     """Every node of diameter ``spec.diameters_um[j]``: a dict of stacked arrays
     over the sweep points (surface x speed x angle, in :class:`SweepGrid` order),
     built a group of nodes at a time (:data:`GROUP_IMPACTS`). `prepared`: the
-    diameters' plans made beforehand (:func:`_prepared_plans`), or None."""
+    diameters' plans (:class:`_PreparedPlans`), or None."""
     if prepared is not None:
         d_plan = prepared[j]
     else:
         d_plan = _diameter_plan(plan, scenario, spec, j)
     n = len(plan.points)
     per = _group_nodes(n, samples)
-    buffers = _buffers(per * samples)
+    buffers = _Buffers(per * samples)._new()
     parts = [
         _node_rows(d_plan, range(lo, min(n, lo + per)), spec, samples, buffers)
         for lo in range(0, n, per)
@@ -495,13 +496,13 @@ def _diameter_task(plan, scenario, spec, samples, j, prepared=None):
     return _joined(parts)
 
 
-def _group_task(spec, samples, prepared, item):
+def _group_task(spec, samples, prepared, buffers, item):
     """The nodes ``range(lo, hi)`` of diameter ``j`` for ``item = (j, lo, hi)``
     (a part of :func:`_diameter_task`'s work, on a worker thread: `prepared`
-    holds every diameter's plan)."""
+    holds every diameter's plan, `buffers` the :class:`_Buffers`)."""
     j, lo, hi = item
-    buffers = _buffers(_group_nodes(len(prepared[j].points), samples) * samples)
-    return _node_rows(prepared[j], range(lo, hi), spec, samples, buffers)
+    with buffers.lend() as arrays:
+        return _node_rows(prepared[j], range(lo, hi), spec, samples, arrays)
 
 
 def _joined(parts):
@@ -527,21 +528,34 @@ def _group_nodes(n: int, samples: int, diameters: int = 1, workers: int = 1) -> 
     return min(per, max(n, 1))
 
 
-#: Thread-local arrays of the groups' impacts, allocated once per thread (fresh
-#: pages for every group cost more than the arithmetic on them).
-_BUFFERS = threading.local()
+class _Buffers:
+    """The groups' impact arrays, one set per worker at work, reused from group
+    to group (fresh pages for every group cost more than the arithmetic on
+    them) and freed with the build (kept past it, they made the table's checks
+    fault in fresh pages: ~10 ms)."""
 
+    def __init__(self, size: int):
+        self._size = size
+        self._free: list = []
 
-def _buffers(size: int) -> dict:
-    held = getattr(_BUFFERS, "arrays", None)
-    if held is None or held["e_m"].size < size:
-        held = _BUFFERS.arrays = {
-            "e_m": np.empty(size),
-            "mu_m": np.empty(size),
-            "lateral_angle_deg": np.empty(size),
-            "outcome": np.empty(size, dtype=np.int8),
+    def _new(self) -> dict:
+        return {
+            "e_m": np.empty(self._size),
+            "mu_m": np.empty(self._size),
+            "lateral_angle_deg": np.empty(self._size),
+            "outcome": np.empty(self._size, dtype=np.int8),
         }
-    return held
+
+    @contextlib.contextmanager
+    def lend(self):
+        try:
+            held = self._free.pop()  # atomic: no lock needed
+        except IndexError:
+            held = self._new()
+        try:
+            yield held
+        finally:
+            self._free.append(held)
 
 
 def _results(plan, scenario, spec, samples, workers, executor, indices):
@@ -563,11 +577,13 @@ def _results(plan, scenario, spec, samples, workers, executor, indices):
         )
         yield from zip(indices, results, strict=True)
         return
-    prepared = _prepared_plans(plan, scenario, spec, indices)
+    prepared = _PreparedPlans(plan, scenario, spec, indices)
     n = len(plan.points)
     per = _group_nodes(n, samples, len(indices), workers)
     items = [(j, lo, min(n, lo + per)) for j in indices for lo in range(0, n, per)]
-    task = functools.partial(_group_task, spec, samples, prepared)
+    task = functools.partial(
+        _group_task, spec, samples, prepared, _Buffers(per * samples)
+    )
     parts = []
     for (j, _, hi), arrays in zip(
         items, map_tasks(task, items, workers=workers, threads=True), strict=True
@@ -579,18 +595,34 @@ def _results(plan, scenario, spec, samples, workers, executor, indices):
             del prepared[j]  # its plan's tables are no longer needed
 
 
-def _prepared_plans(plan, scenario, spec, indices) -> dict:
+class _PreparedPlans:
     """The plans of diameters `indices`, each with the compiled kernel's
     arguments parsed (its diameters; the points parsed once for all of them
-    where they share them): made in the driver before the workers start, all
-    at once, rather than by each worker thread between its kernel calls, where
-    every Python step holds the GIL and finds the caches cold (issue 31)."""
-    prepared = {}
-    for j in indices:
-        prepared[j] = _diameter_plan(plan, scenario, spec, j)
-        prepare_plan(prepared[j])
-        _geometry(prepared[j])
-    return prepared
+    where they share them, :meth:`Plan.shared`), made on first use by the
+    worker that needs it (under a lock of its own: the others wait for it, not
+    for the GIL), and dropped once the diameter is done. Made in the driver
+    before the workers started, all 16 of a 16^3 table held every worker back
+    for ~5 ms (13 ms on a 16-core Xeon: an eighth of the build there)."""
+
+    def __init__(self, plan, scenario, spec, indices):
+        self._args = (plan, scenario, spec)
+        self._plans: dict = {}
+        self._locks = {j: threading.Lock() for j in indices}
+
+    def __getitem__(self, j):
+        got = self._plans.get(j)
+        if got is None:
+            with self._locks[j]:
+                got = self._plans.get(j)
+                if got is None:
+                    got = _diameter_plan(*self._args, j)
+                    prepare_plan(got)
+                    _geometry(got)
+                    self._plans[j] = got
+        return got
+
+    def __delitem__(self, j):
+        self._plans.pop(j, None)
 
 
 class _Partial:
