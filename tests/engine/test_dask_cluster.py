@@ -44,6 +44,7 @@ def many_groups(monkeypatch):
     reduction must fold groups that reach it from different tasks."""
     monkeypatch.setattr(montecarlo, "BLOCKS_PER_TASK", 2)
     monkeypatch.setattr(montecarlo, "TASK_IMPACTS", 2 * BLOCK_SIZE)
+    monkeypatch.setattr(montecarlo, "DASK_TASK_IMPACTS", 2 * BLOCK_SIZE)
 
 
 def _same(a, b):

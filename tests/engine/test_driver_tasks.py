@@ -402,6 +402,57 @@ def test_task_impacts_keep_the_workers_busy(remaining, workers, want):
     assert montecarlo.task_impacts(remaining, workers) == want
 
 
+@pytest.mark.parametrize(
+    ("remaining", "workers", "want"),
+    [
+        # 64 points of 10^6 on 2 Dask workers: 4 tasks each, of 8 points
+        (64_000_000, 2, 8_000_000),
+        (10**12, 2, montecarlo.DASK_TASK_IMPACTS),  # capped
+        (64_000_000, 16, 1_000_000),
+        (28_800_000, 16, montecarlo.TASK_IMPACTS),  # never below a thread's
+        (100, 2, montecarlo.TASK_IMPACTS),
+    ],
+)
+def test_task_impacts_on_a_dask_cluster(remaining, workers, want):
+    """Dask tasks cost ~1-2 ms each to schedule and send: as large as make
+    TASKS_PER_WORKER per worker, between TASK_IMPACTS and DASK_TASK_IMPACTS."""
+    assert montecarlo.task_impacts(remaining, workers, remote=True) == want
+
+
+def test_a_dask_run_packs_its_tasks_by_the_cluster_rule(monkeypatch):
+    """The driver sizes a Dask run's tasks by the remote rule (a stand-in runner
+    that reduces locally records them), with the bits of one local worker."""
+    sizes = []
+
+    class Reduced:
+        background, local_workers, workers = "now", None, 2
+
+        def __init__(self, plan, *, address=None, workers=2):
+            self.plan = plan
+
+        def reduced(self, tasks):
+            for task in tasks:
+                sizes.append(int(np.sum(task.impacts())))
+                yield parallel.task_partial(self.plan, task)
+
+        def close(self):
+            pass
+
+    monkeypatch.setattr(parallel, "DaskRunner", Reduced)
+    # a thread's task holds one point of 200,000 (> 4 blocks); a Dask task two
+    monkeypatch.setattr(montecarlo, "TASK_IMPACTS", montecarlo.MIN_TASK_IMPACTS)
+    sc = _grid(speeds_m_s=(0.2, 0.5, 1.0, 2.0), angles_deg=(20.0, 40.0, 60.0, 80.0))
+    one = run(sc, samples=200_000, seed=3, workers=1)
+    many = run(sc, samples=200_000, seed=3, backend="dask", workers=2)
+    size = montecarlo.task_impacts(16 * 200_000, 2, remote=True)
+    assert size == 400_000
+    assert sum(sizes) == 16 * 200_000
+    # whole points are packed until a task holds `size` impacts
+    assert all(s >= size for s in sizes[:-1])
+    assert len(sizes) == montecarlo.TASKS_PER_WORKER * 2  # 8 tasks of 2 points
+    _same(one, many)
+
+
 @pytest.mark.parametrize("workers", [2, 3])
 def test_small_runs_spread_over_the_workers(monkeypatch, workers):
     """A sweep of fewer impacts than one full task is packed into tasks of at
