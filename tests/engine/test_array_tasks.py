@@ -77,10 +77,11 @@ def _same_rows(a, b):
     task_blocks=st.integers(1, 40),
     task_groups=st.integers(1, 9),
     chunk=st.integers(1, 7),
+    shrink=st.integers(0, 9),
     data=st.data(),
 )
 def test_block_tasks_are_the_drivers_tasks(
-    streams, cap_blocks, last, per_group, task_blocks, task_groups, chunk, data
+    streams, cap_blocks, last, per_group, task_blocks, task_groups, chunk, shrink, data
 ):
     """Against the driver's own rule written out per group (montecarlo._pack
     over groups cut at multiples of `per_group`): the same groups, packed into
@@ -107,7 +108,12 @@ def test_block_tasks_are_the_drivers_tasks(
         montecarlo.TASK_IMPACTS = task_blocks * B
         montecarlo.TASK_GROUPS = task_groups
         tasks.CHUNK_STREAMS = chunk
-        want = [tuple(t) for t in montecarlo._pack(groups())]
+        # a fixed size, or one that shrinks with the impacts packed before
+        # (montecarlo.task_sizes' form)
+        size = task_blocks * B
+        if shrink:
+            size = lambda packed: max(B, task_blocks * B - packed // shrink)  # noqa: E731
+        want = [tuple(t) for t in montecarlo._pack(groups(), task_impacts=size)]
         got = list(
             block_tasks(
                 ks,
@@ -116,7 +122,7 @@ def test_block_tasks_are_the_drivers_tasks(
                 block_size=B,
                 last_n=last,
                 per_group=per_group,
-                task_impacts=task_blocks * B,
+                task_impacts=size,
                 task_groups=task_groups,
             )
         )

@@ -402,6 +402,50 @@ def test_task_impacts_keep_the_workers_busy(remaining, workers, want):
     assert montecarlo.task_impacts(remaining, workers) == want
 
 
+def test_task_sizes_shrink_toward_the_end_on_several_workers():
+    """Guided sizes: task_impacts until the impacts left fall below TAIL_SPLIT x
+    workers tasks of it, then what is left over that, floored; one worker and
+    a Dask cluster keep one size."""
+    M = montecarlo
+    size = M.task_sizes(28_800_000, 16)
+    assert size(0) == 450_000  # task_impacts(28.8e6, 16)
+    split = M.TAIL_SPLIT * 16
+    assert size(28_800_000 - 450_000 * split) == 450_000  # not yet
+    assert size(28_800_000 - 200_000 * split) == 200_000
+    assert size(28_800_000 - 1000) == M.MIN_TASK_IMPACTS  # the floor
+    one = M.task_sizes(28_800_000, 1)
+    assert one(0) == one(28_799_999) == M.TASK_IMPACTS
+    far = M.task_sizes(64_000_000, 2, remote=True)
+    assert far(0) == far(63_999_999) == M.task_impacts(64_000_000, 2, remote=True)
+
+
+def test_a_grid_on_several_workers_ends_with_short_tasks(monkeypatch):
+    """A grid's tasks on 2 workers shrink toward the end (the last ones hold
+    MIN_TASK_IMPACTS, the first TASK_IMPACTS), with the bits of one worker."""
+    sizes = []
+    real = parallel.run_task
+
+    def counted(plan, task):
+        sizes.append(int(np.sum(task.impacts())))
+        return real(plan, task)
+
+    monkeypatch.setattr(parallel, "run_task", counted)
+    sc = _grid(
+        speeds_m_s=tuple(np.linspace(0.2, 2.0, 12)),
+        angles_deg=tuple(np.linspace(10.0, 80.0, 12)),
+    )
+    one = run(sc, samples=40_000, seed=3, workers=1)
+    sizes.clear()
+    many = run(sc, samples=40_000, seed=3, workers=2)
+    total = 144 * 40_000
+    assert sum(sizes) == total
+    assert sizes[0] >= montecarlo.TASK_IMPACTS
+    # the last tasks: whole points up to a task of MIN_TASK_IMPACTS
+    assert max(sizes[-3:]) < montecarlo.MIN_TASK_IMPACTS + 40_000
+    assert sizes[-1] < sizes[0] / 3
+    _same(one, many)
+
+
 @pytest.mark.parametrize(
     ("remaining", "workers", "want"),
     [

@@ -122,7 +122,11 @@ def block_tasks(
     """The tasks of the streams of `points` (ascending) whose next blocks are
     `starts`: their remaining blocks in groups aligned on multiples of
     `per_group`, packed in order into tasks that close when they hold at least
-    `task_impacts` impacts or `task_groups` groups (the driver's ``_pack``)."""
+    `task_impacts` impacts or `task_groups` groups (the driver's ``_pack``).
+    `task_impacts` may be a function of the impacts packed into the tasks
+    before (``montecarlo.task_sizes``: smaller tasks toward the end)."""
+    size = task_impacts if callable(task_impacts) else (lambda _packed: task_impacts)
+    packed = 0
     ks = np.asarray(points, dtype=np.int64)
     starts = np.asarray(starts, dtype=np.int64)
     carry = None  # the open task's groups, carried into the next chunk
@@ -145,7 +149,7 @@ def block_tasks(
         while i < g:
             before = cum[i - 1] if i else 0
             # the first group at which the task holds task_impacts impacts
-            j = bisect.bisect_left(cum, before + task_impacts, lo=i)
+            j = bisect.bisect_left(cum, before + size(packed), lo=i)
             end = min(j + 1, i + task_groups)
             # every group a whole stream: no group that is not, from i to end
             whole = part[min(end, g) - 1] == (part[i - 1] if i else 0)
@@ -161,6 +165,7 @@ def block_tasks(
                 last_n,
                 whole,
             )
+            packed += cum[min(end, g) - 1] - before
             i = end
     if carry is not None and carry[0].size:
         yield BlockTask(*carry, stop, block_size, last_n, whole)
