@@ -14,8 +14,8 @@ if ls .whl/*.whl >/dev/null 2>&1; then
     export PYTHONPATH=/tmp/site PATH=/tmp/site/bin:$PATH
 fi
 export PYTHONPATH=$PWD/src${PYTHONPATH:+:$PYTHONPATH}
-$PY setup.py build_ext --inplace >"$OUT/build.log" 2>&1
-$PY - <<'PY' || { tail -30 "$OUT/build.log"; exit 3; }
+$PY setup.py build_ext --inplace >/tmp/microimpact-build.log 2>&1
+$PY - <<'PY' || { tail -30 /tmp/microimpact-build.log; exit 3; }
 from microimpact.engine import _compiled
 if _compiled.ckernel is None:
     raise SystemExit(f"no compiled kernel: {_compiled.ERROR}")
