@@ -3101,7 +3101,16 @@ PyDoc_STRVAR(span_quantiles_doc,
 "'q'). Each row's totals must be below 2**52. The definitions and operations of\n"
 "summary.histogram_quantiles, row by row (the same bits), with the GIL released.");
 
-#define SPAN_COUNT(k)                                                          \
+/* Histogram counts of any compact dtype (summary.compact_counts), by its NumPy
+   character `kind`: 'B' uint8, 'H' uint16, 'i' int32, 'I' uint32, 'q' int64. */
+static Py_ssize_t
+count_itemsize(int kind)
+{
+    return kind == 'B' ? 1 : kind == 'H' ? 2 : (kind == 'i' || kind == 'I') ? 4
+         : kind == 'q' ? 8 : 0;
+}
+
+#define COUNT_AT(k)                                                            \
     (kind == 'B'   ? (int64_t)((const uint8_t *)cv)[k]                         \
      : kind == 'H' ? (int64_t)((const uint16_t *)cv)[k]                        \
      : kind == 'i' ? (int64_t)((const int32_t *)cv)[k]                         \
@@ -3118,8 +3127,7 @@ ck_span_quantiles(PyObject *self, PyObject *args)
                           &bl, &bo, &size, &be, &bq, &bout))
         return NULL;
     PyObject *result = NULL;
-    const Py_ssize_t item = kind == 'B' ? 1 : kind == 'H' ? 2 :
-                            (kind == 'i' || kind == 'I') ? 4 : kind == 'q' ? 8 : 0;
+    const Py_ssize_t item = count_itemsize(kind);
     const Py_ssize_t rows = bs.len / 8, nq = bq.len / 8, nc = item ? bc.len / item : 0;
     int bad = item == 0 || bc.len % (item ? item : 1) || bs.len % 8 ||
               bl.len != bs.len || bo.len != bs.len || bq.len % 8 || be.len % 8 ||
@@ -3150,7 +3158,7 @@ ck_span_quantiles(PyObject *self, PyObject *args)
         const int64_t s0 = st[r], o = off[r];
         int64_t total = 0;
         for (int64_t j = 0; j < n; j++)
-            total += SPAN_COUNT(s0 + j);
+            total += COUNT_AT(s0 + j);
         if (total >= ((int64_t)1 << 52)) {
             too_big = 1;
             break;
@@ -3168,10 +3176,10 @@ ck_span_quantiles(PyObject *self, PyObject *args)
             while (c <= total && !((double)c / tf >= qk))
                 c++;
             /* below: the first stored bin whose cumulative count is >= c */
-            int64_t below = 0, cum = SPAN_COUNT(s0);
+            int64_t below = 0, cum = COUNT_AT(s0);
             while (cum < c && below < n - 1) {
                 below++;
-                cum += SPAN_COUNT(s0 + below);
+                cum += COUNT_AT(s0 + below);
             }
             if (cum < c)
                 below = n; /* none (only for q > 1, refused above) */
@@ -3181,7 +3189,7 @@ ck_span_quantiles(PyObject *self, PyObject *args)
                 /* the row's cumulative fraction after and before this bin */
                 const double after = (double)cum / tf;
                 const double before =
-                    below > 0 ? (double)(cum - SPAN_COUNT(s0 + below)) / tf : 0.0;
+                    below > 0 ? (double)(cum - COUNT_AT(s0 + below)) / tf : 0.0;
                 const double frac =
                     after > before ? (qk - before) / (after - before) : 0.5;
                 const double lo = edges[i - 1], hi = edges[i];
@@ -3208,7 +3216,6 @@ done:
     PyBuffer_Release(&bout);
     return result;
 }
-#undef SPAN_COUNT
 
 PyDoc_STRVAR(tail_steps_doc,
 "tail_steps(counts, kind, ia, first_x, mean, w, width2, need, left, right, tail1,\n"
@@ -3222,13 +3229,6 @@ PyDoc_STRVAR(tail_steps_doc,
 "spent or the run is. ia, left, right int64; first_x, mean, need, tail1, tail2\n"
 "float64, all of one length. The NumPy loop's operations, in its order.");
 
-#define TAIL_COUNT(k)                                                          \
-    (kind == 'B'   ? (int64_t)((const uint8_t *)cv)[k]                         \
-     : kind == 'H' ? (int64_t)((const uint16_t *)cv)[k]                        \
-     : kind == 'i' ? (int64_t)((const int32_t *)cv)[k]                         \
-     : kind == 'I' ? (int64_t)((const uint32_t *)cv)[k]                        \
-                   : ((const int64_t *)cv)[k])
-
 static PyObject *
 ck_tail_steps(PyObject *self, PyObject *args)
 {
@@ -3240,8 +3240,7 @@ ck_tail_steps(PyObject *self, PyObject *args)
                           &bt2))
         return NULL;
     PyObject *result = NULL;
-    const Py_ssize_t item = kind == 'B' ? 1 : kind == 'H' ? 2 :
-                            (kind == 'i' || kind == 'I') ? 4 : kind == 'q' ? 8 : 0;
+    const Py_ssize_t item = count_itemsize(kind);
     const Py_ssize_t rows = bia.len / 8, nc = item ? bc.len / item : 0;
     int bad = item == 0 || bc.len % (item ? item : 1) || bia.len % 8 ||
               bfx.len != bia.len || bmu.len != bia.len || bneed.len != bia.len ||
@@ -3269,7 +3268,7 @@ ck_tail_steps(PyObject *self, PyObject *args)
             const double dr = fx[r] + w * (double)right - mu[r];
             const int use_r = fabs(dr) > fabs(dl);
             const double dev = use_r ? dr : dl;
-            const double c = (double)TAIL_COUNT(ia[r] + (use_r ? right : left));
+            const double c = (double)COUNT_AT(ia[r] + (use_r ? right : left));
             const double take = need[r] <= c ? need[r] : c;
             t1[r] += take * dev;
             t2[r] += take * (dev * dev + width2);
@@ -3292,7 +3291,7 @@ done:
     PyBuffer_Release(&bt2);
     return result;
 }
-#undef TAIL_COUNT
+#undef COUNT_AT
 
 PyDoc_STRVAR(released_ns_doc,
 "released_ns() -> int\n\n"
