@@ -477,18 +477,15 @@ def _diameter_plan(plan, scenario, spec, j):
     return d_plan
 
 
-def _diameter_task(plan, scenario, spec, samples, j, prepared=None):
+def _diameter_task(plan, scenario, spec, samples, j):
     """Every node of diameter ``spec.diameters_um[j]``: a dict of stacked arrays
     over the sweep points (surface x speed x angle, in :class:`SweepGrid` order),
-    built a group of nodes at a time (:data:`GROUP_IMPACTS`). `prepared`: the
-    diameters' plans (:class:`_PreparedPlans`), or None."""
-    if prepared is not None:
-        d_plan = prepared[j]
-    else:
-        d_plan = _diameter_plan(plan, scenario, spec, j)
+    built a group of nodes at a time (:data:`GROUP_IMPACTS`), with the diameter's
+    plan made here (a task of a process pool or an executor)."""
+    d_plan = _diameter_plan(plan, scenario, spec, j)
     n = len(plan.points)
     per = _group_nodes(n, samples)
-    buffers = _Buffers(per * samples)._new()
+    buffers = _buffer_set(per * samples)
     parts = [
         _node_rows(d_plan, range(lo, min(n, lo + per)), spec, samples, buffers)
         for lo in range(0, n, per)
@@ -528,6 +525,16 @@ def _group_nodes(n: int, samples: int, diameters: int = 1, workers: int = 1) -> 
     return min(per, max(n, 1))
 
 
+def _buffer_set(size: int) -> dict:
+    """Arrays for a group's impacts (:func:`_impacts`' `buffers`)."""
+    return {
+        "e_m": np.empty(size),
+        "mu_m": np.empty(size),
+        "lateral_angle_deg": np.empty(size),
+        "outcome": np.empty(size, dtype=np.int8),
+    }
+
+
 class _Buffers:
     """The groups' impact arrays, one set per worker at work, reused from group
     to group (fresh pages for every group cost more than the arithmetic on
@@ -538,20 +545,12 @@ class _Buffers:
         self._size = size
         self._free: list = []
 
-    def _new(self) -> dict:
-        return {
-            "e_m": np.empty(self._size),
-            "mu_m": np.empty(self._size),
-            "lateral_angle_deg": np.empty(self._size),
-            "outcome": np.empty(self._size, dtype=np.int8),
-        }
-
     @contextlib.contextmanager
     def lend(self):
         try:
             held = self._free.pop()  # atomic: no lock needed
         except IndexError:
-            held = self._new()
+            held = _buffer_set(self._size)
         try:
             yield held
         finally:
