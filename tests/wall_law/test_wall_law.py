@@ -13,6 +13,7 @@
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 
 import numpy as np
@@ -789,9 +790,11 @@ def test_node_groups_on_threads_do_not_change_the_table(monkeypatch):
     monkeypatch.setattr(build, "_diameter_plan", plan_spy)
     nodes = 2 * 2 * 3  # surfaces x speeds x angles
     # 2 workers, 2 diameters: TASKS_PER_WORKER = 4 wants 4 groups per diameter
+    # (the last groups shrink toward the end: at most the nodes left over
+    # TAIL_SPLIT x workers, down to the floor)
     for floor, per_worker, sizes in (
         (1, 12, {1}),
-        (1, 4, {3}),
+        (1, 4, {3, 2, 1}),
         (1500 * 5, 4, {5, 2}),
         (10**9, 4, {nodes}),
     ):
@@ -804,6 +807,32 @@ def test_node_groups_on_threads_do_not_change_the_table(monkeypatch):
         # each diameter's plan made once, by the first of its groups' workers
         assert sorted(made) == list(range(len(SMALL.diameters_um)))
         made.clear()
+
+
+def test_group_items_shrink_toward_the_end():
+    """16 diameters of 256 nodes on 2 workers at 2,000 impacts: whole diameters
+    until the nodes left fall below TAIL_SPLIT x 2 of them, then smaller groups
+    down to the floor (65 nodes); in order, every node once; one worker keeps
+    whole diameters."""
+    from microimpact.wall_law.build import MIN_GROUP_IMPACTS, _group_items
+
+    items = _group_items(range(16), 256, 256, 2000, 2)
+    floor = MIN_GROUP_IMPACTS // 2000
+    assert [(j, lo) for j, lo, _ in items][:13] == [(j, 0) for j in range(13)]
+    sizes = [hi - lo for _, lo, hi in items]
+    assert sizes[:13] == [256] * 13 and len(items) > 16
+    # below the floor only a diameter's remainder: the last groups are short
+    assert all(
+        s >= floor for (_, _, hi), s in zip(items, sizes, strict=True) if hi < 256
+    )
+    assert max(sizes[-4:]) <= floor
+    for j in range(16):  # each diameter's groups tile its nodes in order
+        los = [(lo, hi) for jj, lo, hi in items if jj == j]
+        assert los[0][0] == 0 and los[-1][1] == 256
+        assert all(a[1] == b[0] for a, b in itertools.pairwise(los))
+    assert _group_items(range(16), 256, 256, 2000, 1) == [
+        (j, 0, 256) for j in range(16)
+    ]
 
 
 def test_group_nodes_arithmetic():

@@ -38,7 +38,7 @@ from .._core.validation import implausible_speed
 from ..engine import _compiled
 from ..engine.checkpoint import CheckpointMismatch, load_arrays, save_arrays
 from ..engine.kernel import atan2_deg, prepare_plan, simulate_specs_impacts
-from ..engine.montecarlo import TASKS_PER_WORKER, iter_point_samples
+from ..engine.montecarlo import TAIL_SPLIT, TASKS_PER_WORKER, iter_point_samples
 from ..engine.parallel import cap_workers, map_tasks
 from ..engine.plan import ArealSampler, build_plan, diameter_sampler, resolve_entropy
 from ..engine.tasks import BlockTask
@@ -535,6 +535,28 @@ def _buffer_set(size: int) -> dict:
     }
 
 
+def _group_items(indices, n: int, per: int, samples: int, workers: int) -> list:
+    """The ``(j, lo, hi)`` groups of the diameters `indices` (`n` nodes each), in
+    order: `per` nodes each, and toward the end, on several workers, at most the
+    nodes left over ``TAIL_SPLIT x workers`` (down to :data:`MIN_GROUP_IMPACTS`
+    worth), so the last round's groups are short and the workers finish
+    together (as :func:`~microimpact.engine.montecarlo.task_sizes` for a run).
+    A node's values do not depend on its group."""
+    left = len(indices) * n
+    split = TAIL_SPLIT * max(int(workers), 1)
+    floor = max(1, MIN_GROUP_IMPACTS // max(samples, 1))
+    items = []
+    for j in indices:
+        lo = 0
+        while lo < n:
+            size = per if workers <= 1 else max(floor, min(per, left // split))
+            hi = min(n, lo + size)
+            items.append((j, lo, hi))
+            left -= hi - lo
+            lo = hi
+    return items
+
+
 class _Buffers:
     """The groups' impact arrays, one set per worker at work, reused from group
     to group (fresh pages for every group cost more than the arithmetic on
@@ -579,7 +601,7 @@ def _results(plan, scenario, spec, samples, workers, executor, indices):
     prepared = _PreparedPlans(plan, scenario, spec, indices)
     n = len(plan.points)
     per = _group_nodes(n, samples, len(indices), workers)
-    items = [(j, lo, min(n, lo + per)) for j in indices for lo in range(0, n, per)]
+    items = _group_items(indices, n, per, samples, workers)
     task = functools.partial(
         _group_task, spec, samples, prepared, _Buffers(per * samples)
     )
