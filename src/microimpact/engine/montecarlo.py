@@ -64,7 +64,7 @@ from .plan import BLOCK_SIZE, Plan, build_plan, resolve_entropy
 from .result import SimulationResult
 from .statistics import wilson_interval, z_value
 from .summary import Spans, Stacked, gather_segments, release_memory
-from .tasks import BlockTask, block_tasks
+from .tasks import BlockTask, block_tasks, size_rule
 
 __all__ = [
     "BlockResult",
@@ -625,8 +625,7 @@ def _pack(groups, max_groups=None, task_impacts=None) -> Iterator[tuple]:
     groups; a larger group is a task alone. `groups` yields ``(group, impacts)``.
     Packing is transport only: it changes no bit."""
     max_groups = TASK_GROUPS if max_groups is None else min(max_groups, TASK_GROUPS)
-    task_impacts = TASK_IMPACTS if task_impacts is None else task_impacts
-    size = task_impacts if callable(task_impacts) else (lambda _packed: task_impacts)
+    size = size_rule(TASK_IMPACTS if task_impacts is None else task_impacts)
     task, impacts, packed = [], 0, 0
     for group, n in groups:
         task.append(group)
@@ -667,14 +666,20 @@ def task_sizes(remaining: int, workers: int, *, remote: bool = False):
     together (with 4 tasks of 450,000 impacts each, 16 workers were busy 85 %
     of a 60 x 60 grid's time). No bit changes: the same groups, packed."""
     base = task_impacts(remaining, workers, remote=remote)
-    if remote or workers <= 1:
+    if remote:
         return lambda _packed: base
-    split = TAIL_SPLIT * int(workers)
+    return lambda packed: tail_size(
+        base, MIN_TASK_IMPACTS, int(remaining) - packed, workers
+    )
 
-    def size(packed: int) -> int:
-        return max(MIN_TASK_IMPACTS, min(base, (int(remaining) - packed) // split))
 
-    return size
+def tail_size(base: int, floor: int, left: int, workers: int) -> int:
+    """The guided rule of :func:`task_sizes` (and of the wall law's node
+    groups): `base` on one worker; on several, at most `left` (the work not yet
+    packed) over ``TAIL_SPLIT x workers``, but not below `floor`."""
+    if workers <= 1:
+        return base
+    return max(floor, min(base, left // (TAIL_SPLIT * int(workers))))
 
 
 def _fixed_tasks(

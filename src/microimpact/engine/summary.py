@@ -455,10 +455,8 @@ def _span_quantiles_compiled(spans: Spans, edges, q, out) -> bool:
     (``_ckernel.span_quantiles``: the same definitions and operations row by
     row, with the GIL released, and no cumulative sum of every stored bin);
     False where there is none, or a row's total needs the dense search."""
-    ck = _compiled.ckernel
-    dt = spans.counts.dtype
-    kind = _SPAN_KINDS.get((dt.kind, dt.itemsize))
-    if ck is None or kind is None or spans.rows == 0:
+    ck, kind = _kernel_for(spans.counts)
+    if ck is None or spans.rows == 0:
         return False
     try:
         ck.span_quantiles(
@@ -488,6 +486,17 @@ _SPAN_KINDS = {
     ("u", 4): "I",
     ("i", 8): "q",
 }
+
+
+def _kernel_for(counts):
+    """``(ckernel, kind)`` for histogram `counts` (the compiled kernel and the
+    counts' `kind` character), or ``(None, None)`` where there is no kernel or
+    it does not read their dtype."""
+    kind = _SPAN_KINDS.get((counts.dtype.kind, counts.dtype.itemsize))
+    ck = _compiled.ckernel
+    if ck is None or kind is None:
+        return None, None
+    return ck, kind
 
 
 def _interpolate_quantile(qk, below, st, off, size, edges, cum):
@@ -704,9 +713,8 @@ def _tail_steps_compiled(
     row by row with the GIL released: the same operations in the same order);
     False where there is none (`need`, `tail1`, `tail2` updated in place, not
     `left` and `right`)."""
-    ck = _compiled.ckernel
-    kind = _SPAN_KINDS.get((counts.dtype.kind, counts.dtype.itemsize))
-    if ck is None or kind is None:
+    ck, kind = _kernel_for(counts)
+    if ck is None:
         return False
     f64 = functools.partial(np.ascontiguousarray, dtype=np.float64)
     i64 = functools.partial(np.ascontiguousarray, dtype=np.int64)

@@ -108,6 +108,14 @@ def _groups(ks, starts, stop, per_group):
     return point, first, last
 
 
+def size_rule(task_impacts):
+    """`task_impacts` as a function of the impacts packed before: itself where
+    it is one (``montecarlo.task_sizes``), else the constant."""
+    if callable(task_impacts):
+        return task_impacts
+    return lambda _packed: task_impacts
+
+
 def block_tasks(
     points,
     starts,
@@ -125,7 +133,7 @@ def block_tasks(
     `task_impacts` impacts or `task_groups` groups (the driver's ``_pack``).
     `task_impacts` may be a function of the impacts packed into the tasks
     before (``montecarlo.task_sizes``: smaller tasks toward the end)."""
-    size = task_impacts if callable(task_impacts) else (lambda _packed: task_impacts)
+    size = size_rule(task_impacts)
     packed = 0
     ks = np.asarray(points, dtype=np.int64)
     starts = np.asarray(starts, dtype=np.int64)

@@ -38,7 +38,7 @@ from .._core.validation import implausible_speed
 from ..engine import _compiled
 from ..engine.checkpoint import CheckpointMismatch, load_arrays, save_arrays
 from ..engine.kernel import atan2_deg, prepare_plan, simulate_specs_impacts
-from ..engine.montecarlo import TAIL_SPLIT, TASKS_PER_WORKER, iter_point_samples
+from ..engine.montecarlo import TASKS_PER_WORKER, iter_point_samples, tail_size
 from ..engine.parallel import cap_workers, map_tasks
 from ..engine.plan import ArealSampler, build_plan, diameter_sampler, resolve_entropy
 from ..engine.tasks import BlockTask
@@ -520,9 +520,13 @@ def _group_nodes(n: int, samples: int, diameters: int = 1, workers: int = 1) -> 
     per = max(1, GROUP_IMPACTS // max(samples, 1))
     if workers > 1:
         groups = -(-TASKS_PER_WORKER * workers // max(diameters, 1))
-        floor = max(1, MIN_GROUP_IMPACTS // max(samples, 1))
-        per = min(per, max(floor, -(-n // groups)))
+        per = min(per, max(_floor_nodes(samples), -(-n // groups)))
     return min(per, max(n, 1))
+
+
+def _floor_nodes(samples: int) -> int:
+    """Nodes of :data:`MIN_GROUP_IMPACTS` at `samples` impacts each (at least 1)."""
+    return max(1, MIN_GROUP_IMPACTS // max(samples, 1))
 
 
 def _buffer_set(size: int) -> dict:
@@ -543,14 +547,12 @@ def _group_items(indices, n: int, per: int, samples: int, workers: int) -> list:
     together (as :func:`~microimpact.engine.montecarlo.task_sizes` for a run).
     A node's values do not depend on its group."""
     left = len(indices) * n
-    split = TAIL_SPLIT * max(int(workers), 1)
-    floor = max(1, MIN_GROUP_IMPACTS // max(samples, 1))
+    floor = _floor_nodes(samples)
     items = []
     for j in indices:
         lo = 0
         while lo < n:
-            size = per if workers <= 1 else max(floor, min(per, left // split))
-            hi = min(n, lo + size)
+            hi = min(n, lo + tail_size(per, floor, left, workers))
             items.append((j, lo, hi))
             left -= hi - lo
             lo = hi
