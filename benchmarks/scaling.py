@@ -13,11 +13,12 @@ the results are the same bits as with one worker:
 * ``calibration``: its least-squares calibration (two parameters, 8 points at
   20,000 impacts per model run).
 
-The paths are those of ``benchmarks/two_threads.py`` and ``benchmarks/gil_share.py``
-(the sst76-formica-oblique physics, one surface), so the measured speed-ups stand
-beside the Amdahl projections of the GIL share. ``--dask N`` also times ``run``
-and ``grid`` on a ``LocalCluster`` of N single-threaded worker processes, started
-once, with its results reduced on the workers.
+The paths are those of ``benchmarks/gil_share.py`` (the sst76-formica-oblique
+physics, one surface; ``two_threads.py`` runs three of them from here), so the
+measured speed-ups stand beside the Amdahl projections of the GIL share.
+``--dask N`` also times ``run`` and ``grid`` on a ``LocalCluster`` of N
+single-threaded worker processes, started once, with its results reduced on the
+workers.
 
     python benchmarks/scaling.py --workers 1 2 4 8 16 --dask 16 --json out.json
 
@@ -40,7 +41,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from two_threads import _same
+from bayes_posterior import STD, VC
+from bayes_posterior import scenario as bench_scenario
 
 
 def _base():
@@ -115,38 +117,21 @@ def _calibration():
     from microimpact.scenario.parameters import with_values
     from microimpact.scenario.scenario import scenario_from_dict
 
-    std, vc = "surfaces.rough.std_deg", "coefficients.v_c.a_m_s"
-    data = {
-        "name": "bench",
-        "seed": 1,
-        "samples": 20000,
-        "particles": {"distribution": "monodisperse", "diameter_um": 50.0},
-        "coefficients": {
-            "k1": 4.0,
-            "k2": {"law": "power", "a_m_s": 0.05, "b": -1.58, "d_ref_um": 52.8},
-            "v_c": {"law": "power", "a_m_s": 0.2, "b": -1.58, "d_ref_um": 52.8},
-            "p": 1.0,
-            "q": 1.0,
-            "friction": 0.15,
-        },
-        "surfaces": [{"name": "rough", "kind": "normal", "std_deg": 10.0}],
-        "sweep": {"speed_m_s": [1.0, 3.0], "angle_deg": [20.0, 40.0, 60.0, 80.0]},
-    }
-    truth = with_values(data, {std: 12.0, vc: 0.22})
+    data = bench_scenario([20.0, 40.0, 60.0, 80.0], [1.0, 3.0], 20000)
+    truth = with_values(data, {STD: 12.0, VC: 0.22})
     summary = mi.run(scenario_from_dict(truth), seed=7, progress=False).summary
     exp = experiments_from_summary(summary, ("e", "mu"), by_surface=False)
 
     def go(**kw):
-        fit = calibrate(
+        return calibrate(
             data,
             exp,
-            {std: (2.0, 30.0), vc: (0.1, 0.4)},
+            {STD: (2.0, 30.0), VC: (0.1, 0.4)},
             samples=20000,
             bootstrap=0,
             progress=False,
             **kw,
         )
-        return fit
 
     return go
 
@@ -171,14 +156,19 @@ def table(result):
     raise TypeError(f"no table in {type(result).__name__}")
 
 
-def _equal(a, b) -> bool:
+def same_bits(a, b) -> bool:
+    """Two tables of one path (:func:`table`) equal bit for bit, NaN as NaN: a
+    wall law's Dataset variable by variable, a table (a summary, a sensitivity
+    table) by its numeric columns, an estimate as an array."""
     if isinstance(a, np.ndarray):
         return bool(np.array_equal(a, b, equal_nan=True))
-    try:
-        return _same(a, b)
-    except Exception:  # another kind of table: compare its numbers
-        x, y = a.select_dtypes("number"), b.select_dtypes("number")
-        return bool(np.array_equal(x.to_numpy(), y.to_numpy(), equal_nan=True))
+    if hasattr(a, "data_vars"):  # a wall-law Dataset
+        return all(
+            np.array_equal(a[k].values, b[k].values, equal_nan=a[k].dtype.kind == "f")
+            for k in a.data_vars
+        )
+    cols = [c for c in a.columns if a[c].dtype.kind in "biuf"]  # not the names
+    return bool(np.array_equal(a[cols].to_numpy(), b[cols].to_numpy(), equal_nan=True))
 
 
 def _timed(fn, repeats):
@@ -191,29 +181,32 @@ def _timed(fn, repeats):
     return times, out
 
 
+def _row(name, backend, workers, times, t1, impacts, same) -> dict:
+    med = statistics.median(times)
+    row = {
+        "path": name,
+        "backend": backend,
+        "workers": workers,
+        "median_s": med,
+        "times_s": times,
+        "speedup": t1 / med,
+        "efficiency": t1 / med / workers,
+        "impacts_per_s": impacts / med if impacts else None,
+        "same_bits": same,
+    }
+    print(_line(row), flush=True)
+    return row
+
+
 def measure(name, workers, repeats, dask=None):
     make, impacts = PATHS[name]
     fn = make()
     rows, ref, t1 = [], None, None
     for w in workers:
         times, out = _timed(lambda w=w: table(fn(workers=w)), repeats)
-        med = statistics.median(times)
         if ref is None:
-            ref, t1 = out, med
-        rows.append(
-            {
-                "path": name,
-                "backend": "threads",
-                "workers": w,
-                "median_s": med,
-                "times_s": times,
-                "speedup": t1 / med,
-                "efficiency": t1 / med / w,
-                "impacts_per_s": impacts / med if impacts else None,
-                "same_bits": _equal(ref, out),
-            }
-        )
-        print(_line(rows[-1]), flush=True)
+            ref, t1 = out, statistics.median(times)
+        rows.append(_row(name, "threads", w, times, t1, impacts, same_bits(ref, out)))
     if dask and name in ("run", "run4", "grid"):
         from dask.distributed import LocalCluster
 
@@ -224,21 +217,7 @@ def measure(name, workers, repeats, dask=None):
             times, out = _timed(
                 lambda: table(fn(backend="dask", address=address)), max(repeats, 2)
             )
-        med = statistics.median(times)
-        rows.append(
-            {
-                "path": name,
-                "backend": "dask",
-                "workers": dask,
-                "median_s": med,
-                "times_s": times,
-                "speedup": t1 / med,
-                "efficiency": t1 / med / dask,
-                "impacts_per_s": impacts / med if impacts else None,
-                "same_bits": _equal(ref, out),
-            }
-        )
-        print(_line(rows[-1]), flush=True)
+        rows.append(_row(name, "dask", dask, times, t1, impacts, same_bits(ref, out)))
     return rows
 
 

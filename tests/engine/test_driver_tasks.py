@@ -46,6 +46,11 @@ class Recorder:
 
         monkeypatch.setattr(parallel, "run_task", record)
 
+    @property
+    def sizes(self) -> list[int]:
+        """The impacts of each (array) task recorded."""
+        return [int(np.sum(task.impacts())) for task in self.tasks]
+
 
 def test_small_points_share_a_task(monkeypatch):
     """36 points of 3,000 impacts: one task, not one per point."""
@@ -422,21 +427,15 @@ def test_task_sizes_shrink_toward_the_end_on_several_workers():
 def test_a_grid_on_several_workers_ends_with_short_tasks(monkeypatch):
     """A grid's tasks on 2 workers shrink toward the end (the last ones hold
     MIN_TASK_IMPACTS, the first TASK_IMPACTS), with the bits of one worker."""
-    sizes = []
-    real = parallel.run_task
-
-    def counted(plan, task):
-        sizes.append(int(np.sum(task.impacts())))
-        return real(plan, task)
-
-    monkeypatch.setattr(parallel, "run_task", counted)
+    rec = Recorder(monkeypatch)
     sc = _grid(
         speeds_m_s=tuple(np.linspace(0.2, 2.0, 12)),
         angles_deg=tuple(np.linspace(10.0, 80.0, 12)),
     )
     one = run(sc, samples=40_000, seed=3, workers=1)
-    sizes.clear()
+    rec.tasks.clear()
     many = run(sc, samples=40_000, seed=3, workers=2)
+    sizes = rec.sizes
     total = 144 * 40_000
     assert sum(sizes) == total
     assert sizes[0] >= montecarlo.TASK_IMPACTS
@@ -502,19 +501,13 @@ def test_small_runs_spread_over_the_workers(monkeypatch, workers):
     """A sweep of fewer impacts than one full task is packed into tasks of at
     least MIN_TASK_IMPACTS for several workers, so each gets work; the bits are
     those of one worker (whose tasks are the full size)."""
-    sizes = []
-    real = parallel.run_task
-
-    def counted(plan, task):
-        sizes.append(int(np.sum(task.impacts())))
-        return real(plan, task)
-
-    monkeypatch.setattr(parallel, "run_task", counted)
+    rec = Recorder(monkeypatch)
     sc = _grid(speeds_m_s=(0.2, 0.5, 1.0, 2.0), angles_deg=(20.0, 40.0, 60.0, 80.0))
     one = run(sc, samples=30_000, seed=3, workers=1)
-    assert len(sizes) == 1  # 16 x 30,000 impacts: one task of the full size
-    sizes.clear()
+    assert len(rec.sizes) == 1  # 16 x 30,000 impacts: one task of the full size
+    rec.tasks.clear()
     many = run(sc, samples=30_000, seed=3, workers=workers)
+    sizes = rec.sizes
     # 480,000 impacts over 4 x workers tasks: floored at MIN_TASK_IMPACTS
     assert len(sizes) == math.ceil(480_000 / montecarlo.MIN_TASK_IMPACTS)
     assert sum(sizes) == 480_000
