@@ -128,6 +128,32 @@ HEADER = (
 )
 
 
+def _knob_settings(ap, knob: str) -> list:
+    """``[(module, (NAME, value)), ...]`` for ``--knob NAME=v1,v2``: an integer
+    constant of ``microimpact.engine.montecarlo`` or ``wall_law.build``; a usage
+    error names what is wrong."""
+    import microimpact.engine.montecarlo as mc
+    from microimpact.wall_law import build
+
+    name, eq, values = knob.partition("=")
+    owner = next(
+        (m for m in (mc, build) if isinstance(getattr(m, name, None), int)), None
+    )
+    if not eq or owner is None:
+        ap.error(
+            f"--knob {knob!r}: give NAME=v1,v2,... with NAME an integer constant of "
+            "microimpact.engine.montecarlo or microimpact.wall_law.build (e.g. "
+            "TASKS_PER_WORKER, TAIL_SPLIT, MIN_GROUP_IMPACTS)"
+        )
+    try:
+        picked = [int(v) for v in values.split(",")]
+    except ValueError:
+        ap.error(f"--knob {knob!r}: the values of {name} must be integers")
+    if min(picked) < 1:
+        ap.error(f"--knob {knob!r}: the values of {name} must be at least 1")
+    return [(owner, (name, v)) for v in picked]
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument(
@@ -144,20 +170,11 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     if args.workers[0] != 1 or args.repeats < 1:
         ap.error("--workers must start at 1; --repeats at least 1")
+    settings = _knob_settings(ap, args.knob) if args.knob else [(None, None)]
     _instrument()
     print(f"machine: {json.dumps(machine())}")
     print(HEADER, flush=True)
     rows = []
-    settings = [(None, None)]
-    if args.knob:
-        import microimpact.engine.montecarlo as mc
-        from microimpact.wall_law import build
-
-        name, _, values = args.knob.partition("=")
-        owner = mc if hasattr(mc, name) else build
-        settings = [
-            (owner, (name, type(getattr(owner, name))(v))) for v in values.split(",")
-        ]
     for owner, kv in settings:
         if kv is not None:
             setattr(owner, *kv)
