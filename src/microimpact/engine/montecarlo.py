@@ -101,9 +101,11 @@ MIN_TASK_IMPACTS = 4 * BLOCK_SIZE
 TAIL_SPLIT = 2
 #: The largest task made for a Dask cluster (:func:`task_impacts`): 256 full
 #: blocks, ~0.1-0.2 s of kernel on one core, so that a lost worker's retried
-#: tasks and the batches between checkpoints stay short. On a 2-worker
-#: LocalCluster, tasks of 8 points of 10^6 impacts instead of one made
-#: ``run()`` over 64 points 599 -> 486 ms (2 threads: 403 ms).
+#: tasks and the batches between checkpoints stay short. The cap was picked
+#: from timings of caps of 1, 2, 4 and 8 x TASK_IMPACTS on a 2-worker
+#: LocalCluster running ``run()`` over 64 points of 10^6 impacts (599, 544,
+#: 524, 486 ms; 2 threads 403 ms): the docs' ratio on that path is the best of
+#: the four (docs/performance.md says so).
 DASK_TASK_IMPACTS = 256 * BLOCK_SIZE
 #: Points :func:`estimate_duration` times in one calibration batch (at most).
 CALIBRATION_POINTS = 2048
