@@ -134,3 +134,60 @@ def test_sensitivity_and_calibration_are_the_same_on_any_workers():
     b = microimpact.calibrate(data, exp, ["coefficients.friction"], workers=2, **ckw)
     assert np.array_equal(a.estimate, b.estimate)
     assert np.array_equal(a.bootstrap, b.bootstrap)
+
+
+def test_design_rows_and_bootstrap_refits_run_in_forked_processes(monkeypatch):
+    """On 2 workers the design rows and the bootstrap refits go to worker
+    processes forked from this one (parallel.fork_pool: they hold the GIL for
+    much of their time), with the one-worker bits."""
+    import pandas as pd
+
+    from microimpact.analysis import calibration, sensitivity
+    from microimpact.engine import parallel
+
+    # a thread another test left running (a Dask client's IO loop) would make
+    # the pools refuse to fork; this test is about what happens when they can
+    monkeypatch.setattr(parallel, "start_method", lambda: "fork")
+    monkeypatch.setattr(sensitivity, "cap_workers", lambda w: w)
+    monkeypatch.setattr(calibration, "cap_workers", lambda w: w)
+    used = []
+
+    def spy(module):
+        real = module.map_held
+
+        def held(pool, items, **kw):
+            for value in real(pool, items, **kw):
+                used.append(module.__name__)
+                yield value
+
+        monkeypatch.setattr(module, "map_held", held)
+
+    spy(sensitivity)
+    spy(calibration)
+    data = copy.deepcopy(BASE)
+    params = {"coefficients.friction": {"low": 0.1, "high": 0.3}}
+    kw = dict(base_size=4, samples=200, seed=7, n_resamples=20, progress=False)
+    one = microimpact.sobol_sensitivity(data, params, workers=1, **kw).table
+    assert not used
+    two = microimpact.sobol_sensitivity(data, params, workers=2, **kw).table
+    assert used and set(used) == {sensitivity.__name__}
+    pd.testing.assert_frame_equal(one, two, check_exact=True)
+    exp = pd.DataFrame(
+        {
+            "surface": ["a", "a"],
+            "statistic": ["mu", "mu"],
+            "speed_m_s": [1.0, 1.0],
+            "angle_deg": [30.0, 60.0],
+            "mean": [0.2, 0.1],
+            "ci_low": [0.15, 0.05],
+            "ci_high": [0.25, 0.15],
+        }
+    )
+    ckw = dict(samples=200, bootstrap=3, band_draws=0, progress=False)
+    a = microimpact.calibrate(data, exp, ["coefficients.friction"], workers=1, **ckw)
+    used.clear()
+    b = microimpact.calibrate(data, exp, ["coefficients.friction"], workers=2, **ckw)
+    assert used == [calibration.__name__] * 3  # one value per refit
+    np.testing.assert_array_equal(a.estimate, b.estimate)
+    np.testing.assert_array_equal(a.bootstrap, b.bootstrap)
+    assert a.to_dict()["parameters"] == b.to_dict()["parameters"]

@@ -43,9 +43,7 @@ class Progress:
             progress = sys.stderr.isatty()
         if progress:
             # deferred: tqdm (and its notebook detection) loads only for a bar
-            from tqdm.auto import tqdm
-
-            self.bar = tqdm(
+            self.bar = _bar_class()(
                 total=total,
                 unit=unit,
                 unit_scale=True,
@@ -71,6 +69,23 @@ class Progress:
 
     def __exit__(self, *exc):
         self.close()
+
+
+def _bar_class():
+    """tqdm's bar without its monitor thread (``monitor_interval = 0``: it
+    only retunes ``miniters`` of bars updated rarely): a thread of its own
+    would keep this process from forking worker processes
+    (:func:`~microimpact.engine.parallel.fork_pool`) while a bar shows."""
+    global _BAR
+    if _BAR is None:
+        # deferred: tqdm (and its notebook detection) loads only for a bar
+        from tqdm.auto import tqdm
+
+        _BAR = type("MicroimpactBar", (tqdm,), {"monitor_interval": 0})
+    return _BAR
+
+
+_BAR = None
 
 
 # ------------------------------------------------------------------ stages

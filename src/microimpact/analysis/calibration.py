@@ -48,6 +48,7 @@ import contextlib
 import copy
 import math
 import re
+import threading
 import warnings
 from collections.abc import Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -63,6 +64,8 @@ from .._core.progress import Progress, check_progress
 from .._core.toml import to_toml
 from ..engine.parallel import (
     cap_workers,
+    fork_pool,
+    map_held,
     map_tasks,
     process_pool,
     runs_release_gil,
@@ -192,32 +195,72 @@ class _Model:
         return self._recipe(summary)
 
 
-@contextlib.contextmanager
-def _mapper(workers, executor):
+class _Mapper:
     """A ``map(func, items)`` spreading model runs as every engine caller does
     (:func:`~microimpact.engine.parallel.map_tasks`: the executor, else threads
     where the runs free the GIL, else processes), with one pool of our own for the
-    whole fit: the optimizer's steps, the Jacobian batches and the bootstrap share
-    it, so an install without the compiled kernel starts its worker processes once,
-    not once per batch. The pool is shut down when the fit ends (or fails)."""
-    threads = runs_release_gil()
-    own = None
-    if executor is None:
-        workers = cap_workers(int(workers))
-        if workers > 1:
-            own = ThreadPoolExecutor(workers) if threads else process_pool(workers)
-            executor = own
+    fit, started at its first use: the optimizer's steps and the Jacobian batches
+    share it, so an install without the compiled kernel starts its worker
+    processes once, not once per batch. :meth:`release` shuts it down (its
+    threads end: the bootstrap forks its own workers, :func:`_bootstrap`); the
+    next batch starts it again."""
 
-    def mapper(func, items):
+    def __init__(self, workers, executor):
+        self.threads = runs_release_gil()
+        self.executor = executor
+        self.workers = workers if executor is not None else cap_workers(int(workers))
+        self._own = None
+
+    def __call__(self, func, items):
+        executor = self.executor
+        if executor is None and self.workers > 1:
+            if self._own is None:
+                self._own = (
+                    ThreadPoolExecutor(self.workers)
+                    if self.threads
+                    else process_pool(self.workers)
+                )
+            executor = self._own
         return list(
-            map_tasks(func, items, workers=workers, executor=executor, threads=threads)
+            map_tasks(
+                func,
+                items,
+                workers=self.workers,
+                executor=executor,
+                threads=self.threads,
+            )
         )
 
+    def fork_ready(self) -> bool:
+        """Whether the runs free the GIL (else the pool is of processes: the
+        refits keep it) and no thread but this pool's runs, so that this process
+        may fork once they end (:func:`~.parallel.start_method`)."""
+        if not self.threads or self.executor is not None:
+            return False
+        own = len(self._own._threads) if self._own is not None else 0
+        return threading.active_count() == 1 + own
+
+    def release(self) -> None:
+        if self._own is not None:
+            self._own.shutdown(wait=True, cancel_futures=True)
+            self._own = None
+
+
+def _serial(func, items):
+    """The model runs of one process, one after the other (a bootstrap worker:
+    :class:`_Refit`)."""
+    return [func(item) for item in items]
+
+
+@contextlib.contextmanager
+def _mapper(workers, executor):
+    """A :class:`_Mapper` for the whole fit, its pool shut down when the fit ends
+    (or fails)."""
+    mapper = _Mapper(workers, executor)
     try:
         yield mapper
     finally:
-        if own is not None:
-            own.shutdown(wait=True, cancel_futures=True)
+        mapper.release()
 
 
 # ---------------------------------------------------------------------- result
@@ -642,7 +685,10 @@ def calibrate(
     workers, executor :
         Model runs of a Jacobian (2 per parameter) and of a batch are mapped on
         `executor` (anything with ``submit`` or ``map``), else on `workers`
-        threads (the compiled kernel) or processes.
+        threads (the compiled kernel) or processes. Without an executor, the
+        bootstrap refits run at once on `workers` processes forked from this
+        one (each an optimiser of its own; where this process cannot fork,
+        because another thread runs, they run one after the other).
     bootstrap : int, default 100
         Parametric bootstrap refits (0: none).
     confidence : float, default 0.95
@@ -924,6 +970,15 @@ def _uncertainty(model, y, s_exp, s_sim, x, h, B, width, scale, confidence, rcon
 def _bootstrap(model, sx, y, s_exp, s_sim, x, h, B, scale, idx, bootstrap, seed, steps):
     """Parametric bootstrap: data drawn from the fitted model with the combined
     noise, refitted `bootstrap` times. Returns ``(refits (B, n), their summaries)``.
+
+    The data sets are drawn first, in order; the refits are independent, so on
+    the fit's several workers (and no executor of the caller's) they run at once
+    in worker processes forked from this one, each holding the model as fitted
+    (:func:`~microimpact.engine.parallel.fork_pool`; a refit is an optimiser
+    over short runs, mostly Python: threads would wait for one another). Each
+    refit's model runs are those of the one-process loop: the same refits, bit
+    for bit (the model has common random numbers). Where this process cannot
+    fork, one after the other, each refit's Jacobian batches on the fit's pool.
     """
     n = len(x)
     m_hat, _ = model.points(sx)
@@ -932,23 +987,68 @@ def _bootstrap(model, sx, y, s_exp, s_sim, x, h, B, scale, idx, bootstrap, seed,
         steps.update(bootstrap)  # nothing identified: no refits to make
         return np.empty((0, n)), []
     rng = np.random.default_rng(seed)
-    fits, curves = [], []
+    data = []
     for _b in range(bootstrap):
         # e and mu on one set of impacts: drawn correlated
         z = correlate(
             rng.standard_normal(len(y)), model.pairs, model.pair_r(s_exp, s_sim)
         )
-        yb = m_hat + sigma * z
-        ob = _Objective(model, yb, s_exp, s_sim, idx, x, h, B)
-        fb = _least_squares(ob, x[idx], B[idx], scale[idx], xtol=1e-4)
-        xb = ob.full(fb.x)
-        fits.append(xb)
-        curves.append(model.summaries([xb])[0])
-        if len(model.cache) > 256:  # bound the memory: keep the optimum
-            keep = tuple(x.tolist())
-            model.cache = {keep: model.cache[keep]}
-        steps.update()
+        data.append(m_hat + sigma * z)
+    refit = _Refit(model, s_exp, s_sim, idx, x, h, B, scale)
+    pool = None
+    if isinstance(model.map, _Mapper) and model.map.fork_ready():
+        model.map.release()  # its threads end: this process may fork
+        pool = fork_pool(min(model.map.workers, bootstrap), refit)
+    fits, curves = [], []
+    try:
+        if pool is not None:
+            for xb, curve, runs in map_held(pool, data):
+                fits.append(xb)
+                curves.append(curve)
+                model.runs += runs
+                steps.update()
+        else:
+            for yb in data:
+                fits.append(refit.fit(model, yb))
+                curves.append(model.summaries([fits[-1]])[0])
+                refit.bound_cache(model)
+                steps.update()
+    finally:
+        if pool is not None:
+            pool.shutdown(wait=True, cancel_futures=True)
     return np.array(fits), curves
+
+
+class _Refit:
+    """One bootstrap refit of data `yb` (:func:`_bootstrap`): called in a worker
+    process (:func:`~microimpact.engine.parallel.fork_pool`), it runs the model
+    there, one run after the other, and returns ``(refit, its summary, model
+    runs made)``."""
+
+    def __init__(self, model, s_exp, s_sim, idx, x, h, B, scale):
+        self.model = model
+        self.args = (s_exp, s_sim, idx, x, h, B)
+        self.x, self.idx, self.B, self.scale = x, idx, B, scale
+
+    def fit(self, model, yb) -> np.ndarray:
+        s_exp, s_sim, idx, x, h, B = self.args
+        ob = _Objective(model, yb, s_exp, s_sim, idx, x, h, B)
+        fb = _least_squares(ob, x[idx], B[idx], self.scale[idx], xtol=1e-4)
+        return ob.full(fb.x)
+
+    def bound_cache(self, model) -> None:
+        if len(model.cache) > 256:  # bound the memory: keep the optimum
+            keep = tuple(self.x.tolist())
+            model.cache = {keep: model.cache[keep]}
+
+    def __call__(self, yb):
+        model = self.model  # this process's own (forked) copy
+        model.map = _serial
+        before = model.runs
+        xb = self.fit(model, yb)
+        curve = model.summaries([xb])[0]
+        self.bound_cache(model)
+        return xb, curve, model.runs - before
 
 
 def _warn_if_rejected(chi2, dof, p_value, confidence):

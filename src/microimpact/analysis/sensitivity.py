@@ -34,6 +34,8 @@ from .._core.progress import Progress
 from .._core.validation import check_int, did_you_mean
 from ..engine.parallel import (
     cap_workers,
+    fork_pool,
+    map_held,
     map_tasks,
     runs_release_gil,
 )
@@ -402,24 +404,38 @@ def _chunks(rows: np.ndarray, workers: int) -> list[np.ndarray]:
 
 def _evaluate(model, rows, *, workers, executor, progress) -> np.ndarray:
     """The model at every design row: an array ``(len(rows), n_outputs)``, chunks of
-    rows spread as every engine caller spreads work
-    (:func:`~microimpact.engine.parallel.map_tasks`: threads where the runs free
-    the GIL, else processes, or the executor)."""
+    rows spread on the executor, else on `workers` processes forked from this
+    one, each holding the model as built
+    (:func:`~microimpact.engine.parallel.fork_pool`: a design row holds the GIL
+    for ~40 % of its time, so threads wait for one another), else as every
+    engine caller spreads work (:func:`~microimpact.engine.parallel.map_tasks`:
+    threads where the runs free the GIL, else processes). Each row's value
+    depends on the row alone: the same bits on any of them."""
     n_out = len(model.outputs)
     out = np.empty((len(rows), n_out))
     parallel = executor is not None or workers > 1
     chunks = _chunks(rows, workers if parallel else 1)
-    threads = isinstance(model, EngineModel) and runs_release_gil()
-    results = map_tasks(
-        model, chunks, workers=workers, executor=executor, threads=threads
-    )
-    k = 0
-    with Progress(progress, total=len(rows), unit="rows") as bar:
-        for chunk, y in zip(chunks, results, strict=True):
-            y = np.asarray(y, dtype=float).reshape(len(chunk), n_out)
-            out[k : k + len(chunk)] = y
-            k += len(chunk)
-            bar.update(len(chunk))
+    pool = None
+    if executor is None:
+        pool = fork_pool(min(workers, len(chunks)), model)
+    try:
+        if pool is not None:
+            results = map_held(pool, chunks)
+        else:
+            threads = isinstance(model, EngineModel) and runs_release_gil()
+            results = map_tasks(
+                model, chunks, workers=workers, executor=executor, threads=threads
+            )
+        k = 0
+        with Progress(progress, total=len(rows), unit="rows") as bar:
+            for chunk, y in zip(chunks, results, strict=True):
+                y = np.asarray(y, dtype=float).reshape(len(chunk), n_out)
+                out[k : k + len(chunk)] = y
+                k += len(chunk)
+                bar.update(len(chunk))
+    finally:
+        if pool is not None:
+            pool.shutdown(wait=True, cancel_futures=True)
     return out
 
 
@@ -508,8 +524,12 @@ def sobol_analysis(
         ``model(rows)`` with `rows` of shape ``(m, d)`` (columns in the order of
         `parameters`) returns ``(m, len(model.outputs))``; ``model.outputs`` is a
         DataFrame with ``statistic``, ``speed_m_s``, ``angle_deg`` and optionally
-        ``surface`` per output column. It must be picklable to run on processes.
-        See :class:`EngineModel`.
+        ``surface`` per output column. On several `workers` it runs in worker
+        processes forked from this one, which inherit it (it need not be
+        picklable); on an `executor`, or where this process cannot fork (another
+        thread runs, e.g. a notebook's kernel or a Dask client: then threads for
+        the engine, else processes), it must be picklable. See
+        :class:`EngineModel`.
     parameters : mapping
         Name -> distribution: a table ``{low, high}`` or ``{distribution = ...}``
         (see :func:`~microimpact.scenario.sensitivity.parameter_distribution`) or a
@@ -518,8 +538,8 @@ def sobol_analysis(
         Base size n of the design, a power of 2; the model is evaluated
         ``n * (d + 2)`` times.
     workers : int
-        Processes evaluating design rows (capped at the available cores); ignored
-        when `executor` is given.
+        Processes evaluating design rows, forked from this one (capped at the
+        available cores); ignored when `executor` is given.
     executor : object with ``submit`` or ``map``, optional
         A ``concurrent.futures`` executor, Dask's ``client.get_executor()``, an
         emcee-style pool...
@@ -650,9 +670,10 @@ def sobol_sensitivity(
         Default ``("capture_fraction", "e_rebound_mean", "mu_mean")``; see
         :data:`microimpact.scenario.sensitivity.STATISTICS`.
     workers, executor :
-        Processes (or any executor with ``submit``/``map``, e.g. Dask's
-        ``client.get_executor()``) running batches of design rows; each engine
-        run inside uses one core.
+        Processes forked from this one (or any executor with
+        ``submit``/``map``, e.g. Dask's ``client.get_executor()``) running
+        batches of design rows; each engine run inside uses one core. Where this
+        process cannot fork (another thread runs), threads.
     seed : int, optional
         Root seed of the design, the engine and the bootstrap (default: the
         scenario's ``seed``, else fresh entropy, recorded in the result).
