@@ -10,8 +10,11 @@ the results are the same bits as with one worker:
 * ``wall_law``: a 16^3 wall law at 2,000 impacts per node;
 * ``sensitivity``: the Sobol design of ``benchmarks/gil_share.py`` (24 rows of
   the preset at 20,000 impacts);
+* ``sensitivity32``: the same design at base size 32 (192 rows);
 * ``calibration``: its least-squares calibration (two parameters, 8 points at
-  20,000 impacts per model run).
+  20,000 impacts per model run);
+* ``bootstrap``: the same with 20 parametric bootstrap refits (the default is
+  100), which run at once on forked worker processes.
 
 The paths are those of ``benchmarks/gil_share.py`` (the sst76-formica-oblique
 physics, one surface; ``two_threads.py`` runs three of them from here), so the
@@ -85,7 +88,7 @@ def _wall_law():
     return lambda **kw: build_wall_law(base, spec, seed=1, **kw)
 
 
-def _sensitivity():
+def _sensitivity(base_size=4):
     import microimpact as mi
 
     parameters = {
@@ -99,7 +102,7 @@ def _sensitivity():
         return mi.sobol_sensitivity(
             "sst76-formica-oblique",
             parameters,
-            base_size=4,
+            base_size=base_size,
             samples=20000,
             seed=1,
             n_resamples=10,
@@ -110,7 +113,7 @@ def _sensitivity():
     return go
 
 
-def _calibration():
+def _calibration(bootstrap=0):
     import microimpact as mi
     from microimpact.analysis.calibration import calibrate
     from microimpact.analysis.compare import experiments_from_summary
@@ -128,7 +131,7 @@ def _calibration():
             exp,
             {STD: (2.0, 30.0), VC: (0.1, 0.4)},
             samples=20000,
-            bootstrap=0,
+            bootstrap=bootstrap,
             progress=False,
             **kw,
         )
@@ -142,7 +145,9 @@ PATHS = {
     "grid": (_grid, 3600 * 8000),
     "wall_law": (_wall_law, 16**3 * 2000),
     "sensitivity": (_sensitivity, None),
+    "sensitivity32": (lambda: _sensitivity(base_size=32), None),
     "calibration": (_calibration, None),
+    "bootstrap": (lambda: _calibration(bootstrap=20), None),
 }
 
 
@@ -198,6 +203,16 @@ def _row(name, backend, workers, times, t1, impacts, same) -> dict:
     return row
 
 
+#: Paths whose workers are processes forked from this one where it can fork
+#: (parallel.fork_pool): the design rows; the bootstrap refits (the fit itself
+#: stays on threads).
+FORKED = {
+    "sensitivity": "processes",
+    "sensitivity32": "processes",
+    "bootstrap": "threads + processes",
+}
+
+
 def measure(name, workers, repeats, dask=None):
     make, impacts = PATHS[name]
     fn = make()
@@ -206,7 +221,8 @@ def measure(name, workers, repeats, dask=None):
         times, out = _timed(lambda w=w: table(fn(workers=w)), repeats)
         if ref is None:
             ref, t1 = out, statistics.median(times)
-        rows.append(_row(name, "threads", w, times, t1, impacts, same_bits(ref, out)))
+        kind = FORKED.get(name, "threads") if w > 1 else "threads"
+        rows.append(_row(name, kind, w, times, t1, impacts, same_bits(ref, out)))
     if dask and name in ("run", "run4", "grid"):
         from dask.distributed import LocalCluster
 
@@ -257,7 +273,19 @@ def main(argv=None) -> int:
         "--dask", type=int, default=0, help="LocalCluster workers (0: none)"
     )
     ap.add_argument("--json", type=Path)
+    ap.add_argument(
+        "--no-fork",
+        action="store_true",
+        help="design rows and bootstrap refits on threads, as before forked "
+        "workers (parallel.fork_pool): the comparison in one run",
+    )
     args = ap.parse_args(argv)
+    if args.no_fork:
+        from microimpact.analysis import calibration, sensitivity
+
+        for module in (calibration, sensitivity):
+            module.fork_pool = lambda workers, func: None
+        FORKED.clear()
     if args.repeats < 1 or min(args.workers) < 1 or args.dask < 0:
         ap.error("--repeats and --workers must be at least 1, --dask at least 0")
     if args.workers[0] != 1:

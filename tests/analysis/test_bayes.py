@@ -669,3 +669,36 @@ def test_a_scenario_with_priors_runs_everywhere(tmp_path):
     out = tmp_path / "out"
     assert main(["run", str(path), "--out", str(out), "--quiet", "--no-figures"]) == 0
     assert (out / "summary.csv").exists()
+
+
+def test_walkers_run_in_forked_processes_with_the_one_worker_chain(monkeypatch):
+    """On 2 workers emcee's walkers go to worker processes forked with the log
+    posterior (parallel.fork_pool): the chain, the log posteriors and the
+    predictions are those of one worker, bit for bit."""
+    from microimpact.analysis import bayes
+    from microimpact.engine import parallel
+
+    # a thread another test left running (a Dask client's IO loop) would make
+    # the pool refuse to fork; this test is about what happens when it can
+    monkeypatch.setattr(parallel, "start_method", lambda: "fork")
+    monkeypatch.setattr(bayes, "cap_workers", lambda w: w)
+    calls = []
+    real = bayes.map_held
+
+    def held(pool, items, **kw):
+        calls.append(len(items))
+        return real(pool, items, **kw)
+
+    monkeypatch.setattr(bayes, "map_held", held)
+    data = tiny(samples=300)
+    exp = simulated(data, {STD: 12.0}, seed=9, samples=3000)
+    kw = dict(method="bayes", steps=8, check_every=8, progress=False, seed=3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        one = calibrate(data, exp, {STD: (2.0, 30.0)}, workers=1, **kw)
+        assert not calls
+        two = calibrate(data, exp, {STD: (2.0, 30.0)}, workers=2, **kw)
+    assert calls and sum(calls) >= 8 * one.walkers // 2
+    np.testing.assert_array_equal(one.chain, two.chain)
+    np.testing.assert_array_equal(one.log_prob, two.log_prob)
+    np.testing.assert_array_equal(one.blobs, two.blobs)

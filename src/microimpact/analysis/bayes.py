@@ -50,7 +50,14 @@ from pathlib import Path
 import numpy as np
 
 from .._core.progress import Progress, check_progress
-from ..engine.parallel import cap_workers, map_tasks, process_pool, runs_release_gil
+from ..engine.parallel import (
+    cap_workers,
+    fork_pool,
+    map_held,
+    map_tasks,
+    process_pool,
+    runs_release_gil,
+)
 from ..errors import InputError
 from .bayes_data import MC_VARIANCE_RATIO, Likelihood, read_calibration_data
 from .bayes_output import (
@@ -121,15 +128,23 @@ class LogPosterior:
 
 class _Pool:
     """emcee's ``pool``: ``map`` over the project's one mechanism for spreading
-    work, one pool of our own for the whole run."""
+    work, one pool of our own for the whole run. Without an executor, on
+    several workers, the walkers' log posteriors run in worker processes forked
+    from this one, each holding `held` (the :class:`LogPosterior`, its tables
+    built: :func:`~microimpact.engine.parallel.fork_pool`; a run holds the GIL
+    for much of its time, so threads waited for one another); where this
+    process cannot fork, threads (the compiled kernel) or processes."""
 
-    def __init__(self, workers, executor):
+    def __init__(self, workers, executor, held=None):
         self.threads = runs_release_gil()
-        self.own = None
+        self.own = self.forked = None
+        self.held = held
         self.workers = 1
         if executor is None:
             self.workers = cap_workers(int(workers))
-            if self.workers > 1:
+            if self.workers > 1 and held is not None:
+                self.forked = fork_pool(self.workers, held)
+            if self.workers > 1 and self.forked is None:
                 self.own = (
                     ThreadPoolExecutor(self.workers)
                     if self.threads
@@ -139,6 +154,10 @@ class _Pool:
         self.executor = executor
 
     def map(self, func, items):
+        # emcee wraps the log posterior (its _FunctionWrapper keeps it as `f`)
+        plain = not (getattr(func, "args", None) or getattr(func, "kwargs", None))
+        if self.forked is not None and getattr(func, "f", func) is self.held and plain:
+            return list(map_held(self.forked, list(items)))
         return list(
             map_tasks(
                 func,
@@ -150,8 +169,9 @@ class _Pool:
         )
 
     def close(self):
-        if self.own is not None:
-            self.own.shutdown(wait=True, cancel_futures=True)
+        for pool in (self.own, self.forked):
+            if pool is not None:
+                pool.shutdown(wait=True, cancel_futures=True)
 
 
 # ---------------------------------------------------------------------- diagnostics
@@ -587,7 +607,7 @@ def calibrate_bayes(
     p0 = np.column_stack(
         [p.dist.rvs(size=walkers, random_state=rng) for p in prior_list]
     )
-    pool = _Pool(workers, executor)
+    pool = _Pool(workers, executor, held=post)
     try:
         sampler, diag, done = run_sampler(
             post,
