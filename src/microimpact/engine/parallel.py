@@ -258,8 +258,10 @@ def process_pool(workers: int, **kwargs):
 
 
 def map_tasks(func, items, *, workers=1, executor=None, threads=False, in_flight=None):
-    """``func(item)`` for every item, yielded in order: the one way the engine's
-    callers (runs, the wall law, sensitivity, calibration) spread work.
+    """``func(item)`` for every item, yielded in order: how the engine's callers
+    (runs, the wall law, sensitivity, calibration) spread work, except whole
+    model evaluations on local workers where this process can fork
+    (:func:`fork_pool`).
 
     On `executor` (anything with ``submit``, e.g. a ``concurrent.futures``
     executor or Dask's client, else ``map``); else on `workers` threads of this
