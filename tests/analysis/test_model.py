@@ -191,3 +191,29 @@ def test_design_rows_and_bootstrap_refits_run_in_forked_processes(monkeypatch):
     np.testing.assert_array_equal(a.estimate, b.estimate)
     np.testing.assert_array_equal(a.bootstrap, b.bootstrap)
     assert a.to_dict()["parameters"] == b.to_dict()["parameters"]
+
+
+def test_where_the_process_cannot_fork_the_rows_go_to_threads(monkeypatch):
+    """Another thread running (a notebook's kernel, a Dask client): no fork, the
+    rows go to threads as before, with the one-worker bits."""
+    import threading
+
+    from microimpact.analysis import sensitivity
+
+    monkeypatch.setattr(sensitivity, "cap_workers", lambda w: w)
+    monkeypatch.setattr(
+        sensitivity, "map_held", lambda *a, **k: pytest.fail("forked with a thread")
+    )
+    data = copy.deepcopy(BASE)
+    params = {"coefficients.friction": {"low": 0.1, "high": 0.3}}
+    kw = dict(base_size=4, samples=200, seed=7, n_resamples=20, progress=False)
+    one = microimpact.sobol_sensitivity(data, params, workers=1, **kw).table
+    stop = threading.Event()
+    other = threading.Thread(target=stop.wait)
+    other.start()
+    try:
+        two = microimpact.sobol_sensitivity(data, params, workers=2, **kw).table
+    finally:
+        stop.set()
+        other.join()
+    assert one.equals(two)

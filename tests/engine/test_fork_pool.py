@@ -5,10 +5,13 @@ one another; parallel.fork_pool)."""
 from __future__ import annotations
 
 import os
+import signal
 import threading
+from pathlib import Path
 
 import pytest
 
+import microimpact
 from microimpact._core.progress import Progress
 from microimpact.engine import parallel
 from microimpact.engine.parallel import fork_pool, map_held
@@ -63,3 +66,65 @@ def test_a_progress_bar_starts_no_thread():
     with Progress(True, total=10, unit="rows") as bar:
         bar.update(3)
         assert threading.active_count() == before
+
+
+def _killed(i):
+    if i == 3:
+        os.kill(os.getpid(), signal.SIGKILL)  # as the out-of-memory killer does
+    return i
+
+
+def _crashed(i):
+    if i == 3:
+        os._exit(70)  # ended otherwise (a crash of ours ends by its own signal)
+    return i
+
+
+def test_a_worker_killed_by_the_system_is_an_environment_failure(can_fork):
+    """SIGKILL (the out-of-memory killer) comes back as MemoryError, which the
+    CLI reports as the environment's (exit 3); a crash stays a bug of ours."""
+    from concurrent.futures.process import BrokenProcessPool
+
+    with fork_pool(2, _killed) as pool, pytest.raises(MemoryError, match="SIGKILL"):
+        list(map_held(pool, range(8)))
+    with fork_pool(2, _crashed) as pool, pytest.raises(BrokenProcessPool):
+        list(map_held(pool, range(8)))
+
+
+def test_the_cli_reports_a_killed_worker_as_the_environment(
+    can_fork, monkeypatch, tmp_path, capsys
+):
+    from microimpact.analysis import sensitivity
+    from microimpact.cli import main
+
+    monkeypatch.setattr(sensitivity, "cap_workers", lambda w: w)
+    real = sensitivity.EngineModel.__call__
+    parent = os.getpid()
+
+    def dying(self, rows):
+        if os.getpid() != parent:
+            os.kill(os.getpid(), signal.SIGKILL)
+        return real(self, rows)
+
+    monkeypatch.setattr(sensitivity.EngineModel, "__call__", dying)
+    preset = Path(microimpact.__file__).parent / "scenario/presets"
+    code = main(
+        [
+            "sensitivity",
+            str(preset / "sst76-formica-oblique.toml"),
+            "--out",
+            str(tmp_path / "s"),
+            "--parameter",
+            "coefficients.friction=0.1:0.3",
+            "--base-size",
+            "4",
+            "--samples",
+            "200",
+            "--workers",
+            "2",
+            "--yes",
+        ]
+    )
+    err = capsys.readouterr().err
+    assert code == 3, err
+    assert "out of memory" in err and "Traceback" not in err

@@ -27,9 +27,11 @@ import functools
 import itertools
 import multiprocessing as mp
 import os
+import signal
 import threading
 import warnings
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 
 import numpy as np
 
@@ -336,7 +338,26 @@ def map_held(pool, items, *, in_flight=None):
     order, at most `in_flight` (default 4 per worker) submitted ahead."""
     if in_flight is None:
         in_flight = 4 * pool._max_workers
-    yield from _ordered(lambda it: pool.submit(_call_held, it), items, in_flight)
+    workers = {}
+
+    def submit(item):
+        future = pool.submit(_call_held, item)
+        workers.update(pool._processes or {})  # known once the first is sent
+        return future
+
+    try:
+        yield from _ordered(submit, items, in_flight)
+    except BrokenProcessPool as err:
+        # a worker killed by SIGKILL: the kernel's out-of-memory killer (an
+        # environment failure), not a bug of ours (a crash ends by its own signal)
+        for proc in workers.values():
+            proc.join(timeout=1.0)
+        if any(proc.exitcode == -signal.SIGKILL for proc in workers.values()):
+            raise MemoryError(
+                "a worker process was killed (SIGKILL: most likely the system's "
+                "out-of-memory killer)"
+            ) from err
+        raise
 
 
 def runs_release_gil() -> bool:
