@@ -48,7 +48,6 @@ import contextlib
 import copy
 import math
 import re
-import threading
 import warnings
 from collections.abc import Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -232,13 +231,13 @@ class _Mapper:
         )
 
     def fork_ready(self) -> bool:
-        """Whether the runs free the GIL (else the pool is of processes: the
-        refits keep it) and no thread but this pool's runs, so that this process
-        may fork once they end (:func:`~.parallel.start_method`)."""
-        if not self.threads or self.executor is not None:
-            return False
-        own = len(self._own._threads) if self._own is not None else 0
-        return threading.active_count() == 1 + own
+        """Whether the bootstrap may fork its own workers once this mapper's
+        pool is released (:meth:`release`): several workers, no executor of the
+        caller's, and the runs free the GIL (else the pool is of processes,
+        which the refits keep). :func:`~.parallel.fork_pool` then checks that
+        no other thread runs; where one does, a thread pool is started again
+        (cheap)."""
+        return self.threads and self.executor is None and self.workers > 1
 
     def release(self) -> None:
         if self._own is not None:
