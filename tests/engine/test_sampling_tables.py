@@ -26,6 +26,8 @@ import math
 import numpy as np
 import pytest
 from engine_helpers import PowerCoefficients, scenario
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 from scipy import integrate, stats
 
@@ -431,3 +433,42 @@ def test_rough_particle_pairs_match_the_reference_physics():
     assert_array_equal_or_close(
         s["mu_m"], ref.mu_m, rtol=1e-9, atol=1e-12, equal_nan=True
     )
+
+
+@settings(max_examples=60, deadline=None)
+@given(d_um=st.floats(min_value=0.01, max_value=5000.0, allow_nan=False))
+def test_one_atom_table_is_the_cells_of_monodisperse_bit_for_bit(d_um):
+    """The wall law's per-diameter table (one template, its atom replaced) is
+    every field of cell_table(monodisperse(d)), and so is the sampler the
+    plan makes of it."""
+    import dataclasses
+
+    from microimpact.engine._cells import cell_table, one_atom_table
+    from microimpact.engine.plan import diameter_sampler
+    from microimpact.population.distributions import monodisperse
+    from microimpact.scenario import load_preset
+    from microimpact.units import um_to_m
+
+    ref = cell_table(monodisperse(d_um))
+    got = one_atom_table(um_to_m(d_um))
+    for f in dataclasses.fields(ref):
+        a, b = getattr(ref, f.name), getattr(got, f.name)
+        if isinstance(a, np.ndarray):
+            assert a.dtype == b.dtype and np.array_equal(a, b), f.name
+            assert not b.flags.writeable, f.name
+        else:
+            assert a == b, f.name
+    sc = _PRESET.get("sc") or _PRESET.setdefault(
+        "sc", load_preset("sst76-formica-oblique")
+    )
+    s_ref = diameter_sampler(sc, monodisperse(d_um))
+    s_got = diameter_sampler(sc, table=got)
+    for f in dataclasses.fields(s_ref):
+        a, b = getattr(s_ref, f.name), getattr(s_got, f.name)
+        if isinstance(a, np.ndarray):
+            assert a.dtype == b.dtype and np.array_equal(a, b, equal_nan=True), f.name
+        elif not isinstance(a, type(ref)):
+            assert a == b or (a != a and b != b), f.name
+
+
+_PRESET: dict = {}

@@ -7,11 +7,13 @@ distribution, the quantile function on the refined grid for a continuous one.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from .._core.tables import CellTable, QuantileTable
 
-__all__ = ["cell_table"]
+__all__ = ["cell_table", "one_atom_table"]
 
 
 def _histogram_breaks(dist):
@@ -47,3 +49,36 @@ def cell_table(dist) -> CellTable:
         return CellTable.from_quantile(dist.ppf, isf, breaks=_histogram_breaks(dist))
     table: QuantileTable = dist.table()
     return CellTable.from_atoms(table.values)
+
+
+@functools.lru_cache(maxsize=1)
+def _one_atom_template() -> CellTable:
+    return CellTable.from_atoms(np.array([1.0]))
+
+
+def one_atom_table(value: float) -> CellTable:
+    """The table of the degenerate distribution at `value` [SI]: what
+    :func:`cell_table` gives for ``monodisperse`` (every field the same, bit for
+    bit; tests/engine/test_sampling_tables.py), without building the
+    distribution and its cells. A one-atom table's cells, guide and kind do not
+    depend on the atom, so they come from one template; a wall law makes one
+    per diameter node, and the generic path held the GIL ~0.2-0.6 ms each
+    (issue 31)."""
+    x = np.array([float(value)])
+    if not np.isfinite(x[0]):
+        raise ValueError("atoms must be a non-empty array of finite values.")
+    y = x.copy()
+    x.setflags(write=False)
+    y.setflags(write=False)
+    t = _one_atom_template()
+    return CellTable(
+        t.cum,
+        t.inv_width,
+        x,
+        y,
+        t.guide,
+        t.guide_shift,
+        t.kind,
+        t.levels,
+        t.cells_log2,
+    )

@@ -1250,15 +1250,20 @@ def _warn_beyond_vertical(table: CellTable, surface: str) -> None:
         )
 
 
-def diameter_sampler(scenario, particles=None) -> Sampler:
+def diameter_sampler(scenario, particles=None, *, table=None) -> Sampler:
     """The kernel's diameter table for `scenario` (rows 1/k1, 1/k2, v_c, d): the
-    cells of `particles` (default ``scenario.particles``) with the scenario's
-    coefficient laws evaluated at both ends of each cell. A wall law builds one per
-    fixed diameter and keeps the rest of the plan."""
-    table = cell_table(scenario.particles if particles is None else particles)
+    cells of `particles` (default ``scenario.particles``; or `table`, the cells
+    already made) with the scenario's coefficient laws evaluated at both ends of
+    each cell. A wall law builds one per fixed diameter (from
+    :func:`~._cells.one_atom_table`) and keeps the rest of the plan."""
+    if table is None:
+        table = cell_table(scenario.particles if particles is None else particles)
     coeffs = scenario.coefficients
     columns = []
-    for end in (table.left, table.right):
+    ends = [table.left]
+    if not np.array_equal(table.left, table.right):
+        ends.append(table.right)  # (atoms: both ends the same, so the columns)
+    for end in ends:
         k1, k2, v_c = (
             np.broadcast_to(np.asarray(a, dtype=float), end.shape)
             for a in coeffs.evaluate(end)
@@ -1268,6 +1273,8 @@ def diameter_sampler(scenario, particles=None) -> Sampler:
             _bad_coefficient(scenario, end, k1, k2, v_c)
         with np.errstate(divide="ignore"):
             columns.append((1.0 / k1, 1.0 / k2, v_c))
+    if len(columns) == 1:
+        columns.append(columns[0])
     return Sampler.of(
         table, (table.left, table.right), *zip(columns[0], columns[1], strict=True)
     )

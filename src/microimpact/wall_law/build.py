@@ -36,6 +36,7 @@ from .._core.json import dumps
 from .._core.progress import Progress
 from .._core.validation import implausible_speed
 from ..engine import _compiled
+from ..engine._cells import one_atom_table
 from ..engine.checkpoint import CheckpointMismatch, load_arrays, save_arrays
 from ..engine.kernel import atan2_deg, prepare_plan, simulate_specs_impacts
 from ..engine.montecarlo import TASKS_PER_WORKER, iter_point_samples, tail_size
@@ -43,7 +44,6 @@ from ..engine.parallel import cap_workers, map_tasks
 from ..engine.plan import ArealSampler, build_plan, diameter_sampler, resolve_entropy
 from ..engine.tasks import BlockTask
 from ..errors import ScenarioError
-from ..population.distributions import monodisperse
 from ..scenario.grid import GridPoints, SweepGrid
 from ..scenario.resuspension import ResuspensionSpec, resuspension_from_dict
 from ..scenario.scenario import Scenario, read_scenario
@@ -461,7 +461,10 @@ def _diameter_plan(plan, scenario, spec, j):
     hence their random streams."""
     d_plan = dataclasses.replace(
         plan,
-        diameters=diameter_sampler(scenario, monodisperse(spec.diameters_um[j])),
+        # the cells of monodisperse(d), bit for bit, without building it
+        diameters=diameter_sampler(
+            scenario, table=one_atom_table(um_to_m(spec.diameters_um[j]))
+        ),
     )
     if spec.speed_axis == "reduced":
         v_c = float(critical_speed_m_s(scenario, spec.diameters_um[j])[0])
