@@ -217,3 +217,27 @@ def test_where_the_process_cannot_fork_the_rows_go_to_threads(monkeypatch):
         stop.set()
         other.join()
     assert one.equals(two)
+
+
+def test_a_refit_in_a_worker_runs_its_model_runs_in_that_process(monkeypatch):
+    """A forked worker's refit runs its model one run after the other
+    (calibration._serial), not on a copy of the parent's pool: a pool in each
+    worker would oversubscribe the cores (no result would show it)."""
+    from microimpact.analysis import calibration
+
+    seen = []
+
+    class Model:
+        def __init__(self):
+            self.map = object()  # the parent's mapper, as the fork left it
+            self.runs = 0
+            self.cache = {}
+
+        def summaries(self, xs):
+            seen.append(self.map)
+            return ["summary"]
+
+    refit = calibration._Refit(Model(), None, None, None, np.zeros(1), None, None, None)
+    monkeypatch.setattr(refit, "fit", lambda model, yb: (seen.append(model.map), 1)[1])
+    assert refit([0.0])[1] == "summary"
+    assert seen == [calibration._serial, calibration._serial]
