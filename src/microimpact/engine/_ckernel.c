@@ -3293,6 +3293,39 @@ done:
 }
 #undef COUNT_AT
 
+PyDoc_STRVAR(pow_into_doc,
+"pow_into(x, y, out) -> None\n\n"
+"out[i] = pow(x[i], y) for float64 arrays x and out of one length, with the C\n"
+"library's pow (what math.pow returns, bit for bit, where it returns; NaN or\n"
+"inf where math.pow raises), the GIL released (summary._skewness).");
+
+static PyObject *
+ck_pow_into(PyObject *self, PyObject *args)
+{
+    Py_buffer bx, bo;
+    double y;
+    if (!PyArg_ParseTuple(args, "y*dw*:pow_into", &bx, &y, &bo))
+        return NULL;
+    PyObject *result = NULL;
+    if (bx.len % 8 || bo.len != bx.len) {
+        PyErr_SetString(PyExc_ValueError,
+                        "_ckernel.pow_into: x and out are float64 of one length");
+        goto done;
+    }
+    const double *x = bx.buf;
+    double *out = bo.buf;
+    const Py_ssize_t n = bx.len / 8;
+    RELEASE_GIL
+    for (Py_ssize_t i = 0; i < n; i++)
+        out[i] = pow(x[i], y);
+    ACQUIRE_GIL
+    result = Py_NewRef(Py_None);
+done:
+    PyBuffer_Release(&bx);
+    PyBuffer_Release(&bo);
+    return result;
+}
+
 PyDoc_STRVAR(released_ns_doc,
 "released_ns() -> int\n\n"
 "Nanoseconds the kernel's calls have run with the GIL released since the module\n"
@@ -3316,6 +3349,7 @@ static PyMethodDef ck_methods[] = {
     {"wall_quantiles", ck_wall_quantiles, METH_VARARGS, wall_quantiles_doc},
     {"reach_cut", ck_reach_cut, METH_VARARGS, reach_cut_doc},
     {"span_quantiles", ck_span_quantiles, METH_VARARGS, span_quantiles_doc},
+    {"pow_into", ck_pow_into, METH_VARARGS, pow_into_doc},
     {"tail_steps", ck_tail_steps, METH_VARARGS, tail_steps_doc},
     {NULL, NULL, 0, NULL},
 };
