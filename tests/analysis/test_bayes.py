@@ -681,7 +681,7 @@ def test_walkers_run_in_forked_processes_with_the_one_worker_chain(monkeypatch):
     # a thread another test left running (a Dask client's IO loop) would make
     # the pool refuse to fork; this test is about what happens when it can
     monkeypatch.setattr(parallel, "start_method", lambda: "fork")
-    monkeypatch.setattr(bayes, "cap_workers", lambda w: w)
+    monkeypatch.setattr(parallel, "cap_workers", lambda w: w)
     calls = []
     real = bayes.map_held
 

@@ -383,7 +383,7 @@ def test_a_fit_starts_one_pool_and_gives_the_one_worker_answer(monkeypatch):
     one-worker answer bit for bit."""
     import concurrent.futures
 
-    from microimpact.analysis import calibration
+    from microimpact.engine import parallel
 
     pools = []
 
@@ -394,9 +394,9 @@ def test_a_fit_starts_one_pool_and_gives_the_one_worker_answer(monkeypatch):
     data = small()
     exp = measured(data, {STD: 9.0}, seed=21)
     one = calibrate(data, exp, [STD], seed=5, bootstrap=3, band_draws=0, workers=1)
-    monkeypatch.setattr(calibration, "runs_release_gil", lambda: False)
-    monkeypatch.setattr(calibration, "process_pool", counting_pool)
-    monkeypatch.setattr(calibration, "cap_workers", lambda w: w)
+    monkeypatch.setattr(parallel, "runs_release_gil", lambda: False)
+    monkeypatch.setattr(parallel, "process_pool", counting_pool)
+    monkeypatch.setattr(parallel, "cap_workers", lambda w: w)
     two = calibrate(data, exp, [STD], seed=5, bootstrap=3, band_draws=0, workers=2)
     assert pools == [2]
     assert two.info["model_runs"] > 3  # several batches went through that pool

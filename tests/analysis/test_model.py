@@ -106,19 +106,11 @@ def test_common_random_numbers_across_rows():
     assert not np.array_equal(b1, b2)
 
 
-def test_sensitivity_and_calibration_are_the_same_on_any_workers():
-    """map_tasks spreads the rows (threads for the compiled kernel, else
-    processes): the indices and the calibration are bit for bit those of one
-    worker."""
-    data = copy.deepcopy(BASE)
-    params = {"coefficients.friction": {"low": 0.1, "high": 0.3}}
-    kw = dict(base_size=4, samples=200, seed=7, n_resamples=20, progress=False)
-    one = microimpact.sobol_sensitivity(data, params, workers=1, **kw).table
-    two = microimpact.sobol_sensitivity(data, params, workers=2, **kw).table
-    assert one.equals(two)
+def _mu_measured():
+    """Two measured mu means of surface a (the calibrations below)."""
     import pandas as pd
 
-    exp = pd.DataFrame(
+    return pd.DataFrame(
         {
             "surface": ["a", "a"],
             "statistic": ["mu", "mu"],
@@ -129,6 +121,19 @@ def test_sensitivity_and_calibration_are_the_same_on_any_workers():
             "ci_high": [0.25, 0.15],
         }
     )
+
+
+def test_sensitivity_and_calibration_are_the_same_on_any_workers():
+    """map_tasks spreads the rows (threads for the compiled kernel, else
+    processes): the indices and the calibration are bit for bit those of one
+    worker."""
+    data = copy.deepcopy(BASE)
+    params = {"coefficients.friction": {"low": 0.1, "high": 0.3}}
+    kw = dict(base_size=4, samples=200, seed=7, n_resamples=20, progress=False)
+    one = microimpact.sobol_sensitivity(data, params, workers=1, **kw).table
+    two = microimpact.sobol_sensitivity(data, params, workers=2, **kw).table
+    assert one.equals(two)
+    exp = _mu_measured()
     ckw = dict(samples=200, bootstrap=2, band_draws=0, progress=False)
     a = microimpact.calibrate(data, exp, ["coefficients.friction"], workers=1, **ckw)
     b = microimpact.calibrate(data, exp, ["coefficients.friction"], workers=2, **ckw)
@@ -149,7 +154,7 @@ def test_design_rows_and_bootstrap_refits_run_in_forked_processes(monkeypatch):
     # the pools refuse to fork; this test is about what happens when they can
     monkeypatch.setattr(parallel, "start_method", lambda: "fork")
     monkeypatch.setattr(sensitivity, "cap_workers", lambda w: w)
-    monkeypatch.setattr(calibration, "cap_workers", lambda w: w)
+    monkeypatch.setattr(parallel, "cap_workers", lambda w: w)
     used = []
 
     def spy(module):
@@ -172,17 +177,7 @@ def test_design_rows_and_bootstrap_refits_run_in_forked_processes(monkeypatch):
     two = microimpact.sobol_sensitivity(data, params, workers=2, **kw).table
     assert used and set(used) == {sensitivity.__name__}
     pd.testing.assert_frame_equal(one, two, check_exact=True)
-    exp = pd.DataFrame(
-        {
-            "surface": ["a", "a"],
-            "statistic": ["mu", "mu"],
-            "speed_m_s": [1.0, 1.0],
-            "angle_deg": [30.0, 60.0],
-            "mean": [0.2, 0.1],
-            "ci_low": [0.15, 0.05],
-            "ci_high": [0.25, 0.15],
-        }
-    )
+    exp = _mu_measured()
     ckw = dict(samples=200, bootstrap=3, band_draws=0, progress=False)
     a = microimpact.calibrate(data, exp, ["coefficients.friction"], workers=1, **ckw)
     used.clear()

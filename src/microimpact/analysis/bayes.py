@@ -43,21 +43,13 @@ import os
 import tomllib
 import warnings
 from collections.abc import Mapping
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from .._core.progress import Progress, check_progress
-from ..engine.parallel import (
-    cap_workers,
-    fork_pool,
-    map_held,
-    map_tasks,
-    process_pool,
-    runs_release_gil,
-)
+from ..engine.parallel import RunPool, fork_pool, map_held
 from ..errors import InputError
 from .bayes_data import MC_VARIANCE_RATIO, Likelihood, read_calibration_data
 from .bayes_output import (
@@ -126,52 +118,33 @@ class LogPosterior:
         return (lp + ll if math.isfinite(ll) else -math.inf), blob
 
 
-class _Pool:
-    """emcee's ``pool``: ``map`` over the project's one mechanism for spreading
-    work, one pool of our own for the whole run. Without an executor, on
-    several workers, the walkers' log posteriors run in worker processes forked
-    from this one, each holding `held` (the :class:`LogPosterior`, its tables
-    built: :func:`~microimpact.engine.parallel.fork_pool`; a run holds the GIL
-    for much of its time, so threads waited for one another); where this
-    process cannot fork, threads (the compiled kernel) or processes."""
+class _Pool(RunPool):
+    """emcee's ``pool``: the fit's :class:`~microimpact.engine.parallel.RunPool`.
+    Without an executor, on several workers, the walkers' log posteriors run
+    in worker processes forked from this one, each holding `held` (the
+    :class:`LogPosterior`, its tables built:
+    :func:`~microimpact.engine.parallel.fork_pool`; a run holds the GIL for
+    much of its time, so threads waited for one another); where this process
+    cannot fork, on the run pool."""
 
     def __init__(self, workers, executor, held=None):
-        self.threads = runs_release_gil()
-        self.own = self.forked = None
+        super().__init__(workers, executor)
         self.held = held
-        self.workers = 1
-        if executor is None:
-            self.workers = cap_workers(int(workers))
-            if self.workers > 1 and held is not None:
-                self.forked = fork_pool(self.workers, held)
-            if self.workers > 1 and self.forked is None:
-                self.own = (
-                    ThreadPoolExecutor(self.workers)
-                    if self.threads
-                    else process_pool(self.workers)
-                )
-                executor = self.own
-        self.executor = executor
+        self.forked = None
+        if executor is None and held is not None:
+            self.forked = fork_pool(self.workers, held)
 
     def map(self, func, items):
         # emcee wraps the log posterior (its _FunctionWrapper keeps it as `f`)
         plain = not (getattr(func, "args", None) or getattr(func, "kwargs", None))
         if self.forked is not None and getattr(func, "f", func) is self.held and plain:
             return list(map_held(self.forked, list(items)))
-        return list(
-            map_tasks(
-                func,
-                list(items),
-                workers=self.workers,
-                executor=self.executor,
-                threads=self.threads,
-            )
-        )
+        return super().map(func, items)
 
     def close(self):
-        for pool in (self.own, self.forked):
-            if pool is not None:
-                pool.shutdown(wait=True, cancel_futures=True)
+        super().close()
+        if self.forked is not None:
+            self.forked.shutdown(wait=True, cancel_futures=True)
 
 
 # ---------------------------------------------------------------------- diagnostics

@@ -50,7 +50,6 @@ import math
 import re
 import warnings
 from collections.abc import Mapping, Sequence
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -61,14 +60,7 @@ from .._core import json as _json
 from .._core.files import atomic_write
 from .._core.progress import Progress, check_progress
 from .._core.toml import to_toml
-from ..engine.parallel import (
-    cap_workers,
-    fork_pool,
-    map_held,
-    map_tasks,
-    process_pool,
-    runs_release_gil,
-)
+from ..engine.parallel import RunPool, fork_pool, map_held
 from ..engine.statistics import z_value
 from ..errors import InputError
 from ..plotting._style import use_agg
@@ -194,57 +186,6 @@ class _Model:
         return self._recipe(summary)
 
 
-class _Mapper:
-    """A ``map(func, items)`` spreading model runs as every engine caller does
-    (:func:`~microimpact.engine.parallel.map_tasks`: the executor, else threads
-    where the runs free the GIL, else processes), with one pool of our own for the
-    fit, started at its first use: the optimizer's steps and the Jacobian batches
-    share it, so an install without the compiled kernel starts its worker
-    processes once, not once per batch. :meth:`release` shuts it down (its
-    threads end: the bootstrap forks its own workers, :func:`_bootstrap`); the
-    next batch starts it again."""
-
-    def __init__(self, workers, executor):
-        self.threads = runs_release_gil()
-        self.executor = executor
-        self.workers = workers if executor is not None else cap_workers(int(workers))
-        self._own = None
-
-    def __call__(self, func, items):
-        executor = self.executor
-        if executor is None and self.workers > 1:
-            if self._own is None:
-                self._own = (
-                    ThreadPoolExecutor(self.workers)
-                    if self.threads
-                    else process_pool(self.workers)
-                )
-            executor = self._own
-        return list(
-            map_tasks(
-                func,
-                items,
-                workers=self.workers,
-                executor=executor,
-                threads=self.threads,
-            )
-        )
-
-    def fork_ready(self) -> bool:
-        """Whether the bootstrap may fork its own workers once this mapper's
-        pool is released (:meth:`release`): several workers, no executor of the
-        caller's, and the runs free the GIL (else the pool is of processes,
-        which the refits keep). :func:`~.parallel.fork_pool` then checks that
-        no other thread runs; where one does, a thread pool is started again
-        (cheap)."""
-        return self.threads and self.executor is None and self.workers > 1
-
-    def release(self) -> None:
-        if self._own is not None:
-            self._own.shutdown(wait=True, cancel_futures=True)
-            self._own = None
-
-
 def _serial(func, items):
     """The model runs of one process, one after the other (a bootstrap worker:
     :class:`_Refit`)."""
@@ -253,13 +194,14 @@ def _serial(func, items):
 
 @contextlib.contextmanager
 def _mapper(workers, executor):
-    """A :class:`_Mapper` for the whole fit, its pool shut down when the fit ends
-    (or fails)."""
-    mapper = _Mapper(workers, executor)
+    """A :class:`~microimpact.engine.parallel.RunPool` for the whole fit: the
+    optimizer's steps and the Jacobian batches share its pool, shut down when
+    the fit ends (or fails)."""
+    mapper = RunPool(workers, executor)
     try:
         yield mapper
     finally:
-        mapper.release()
+        mapper.close()
 
 
 # ---------------------------------------------------------------------- result
@@ -995,9 +937,13 @@ def _bootstrap(model, sx, y, s_exp, s_sim, x, h, B, scale, idx, bootstrap, seed,
         data.append(m_hat + sigma * z)
     refit = _Refit(model, s_exp, s_sim, idx, x, h, B, scale)
     pool = None
-    if isinstance(model.map, _Mapper) and model.map.fork_ready():
-        model.map.release()  # its threads end: this process may fork
-        pool = fork_pool(min(model.map.workers, bootstrap), refit)
+    mapper = model.map
+    # the fit's own threads end, so that this process may fork (fork_pool
+    # checks that no other thread runs; a pool of processes, without the
+    # compiled kernel, is the refits' as it is)
+    if isinstance(mapper, RunPool) and mapper.threads and mapper.executor is None:
+        mapper.release()
+        pool = fork_pool(min(mapper.workers, bootstrap), refit)
     fits, curves = [], []
     try:
         if pool is not None:
@@ -1026,12 +972,12 @@ class _Refit:
 
     def __init__(self, model, s_exp, s_sim, idx, x, h, B, scale):
         self.model = model
-        self.args = (s_exp, s_sim, idx, x, h, B)
-        self.x, self.idx, self.B, self.scale = x, idx, B, scale
+        self.s_exp, self.s_sim, self.idx, self.x = s_exp, s_sim, idx, x
+        self.h, self.B, self.scale = h, B, scale
 
     def fit(self, model, yb) -> np.ndarray:
-        s_exp, s_sim, idx, x, h, B = self.args
-        ob = _Objective(model, yb, s_exp, s_sim, idx, x, h, B)
+        idx, x, B = self.idx, self.x, self.B
+        ob = _Objective(model, yb, self.s_exp, self.s_sim, idx, x, self.h, B)
         fb = _least_squares(ob, x[idx], B[idx], self.scale[idx], xtol=1e-4)
         return ob.full(fb.x)
 

@@ -7,6 +7,7 @@ distribution, the quantile function on the refined grid for a continuous one.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 
 import numpy as np
@@ -70,15 +71,4 @@ def one_atom_table(value: float) -> CellTable:
     y = x.copy()
     x.setflags(write=False)
     y.setflags(write=False)
-    t = _one_atom_template()
-    return CellTable(
-        t.cum,
-        t.inv_width,
-        x,
-        y,
-        t.guide,
-        t.guide_shift,
-        t.kind,
-        t.levels,
-        t.cells_log2,
-    )
+    return dataclasses.replace(_one_atom_template(), left=x, right=y)

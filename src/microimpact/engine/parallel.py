@@ -342,7 +342,8 @@ def map_held(pool, items, *, in_flight=None):
 
     def submit(item):
         future = pool.submit(_call_held, item)
-        workers.update(pool._processes or {})  # known once the first is sent
+        if not workers:  # every worker is forked at the first submit
+            workers.update(pool._processes or {})
         return future
 
     try:
@@ -358,6 +359,51 @@ def map_held(pool, items, *, in_flight=None):
                 "out-of-memory killer)"
             ) from err
         raise
+
+
+class RunPool:
+    """``map(func, items)`` (also as a call) for the model runs of one fit or
+    sampler: on `executor`, else on one pool of our own, started at its first
+    use with several workers and kept for every batch (threads where the runs
+    free the GIL, else processes: an install without the compiled kernel
+    starts its worker processes once, not once per batch). :meth:`release`
+    ends it (its threads end, so that the caller may fork); the next batch
+    starts it again. :meth:`close` when done."""
+
+    def __init__(self, workers, executor=None):
+        self.threads = runs_release_gil()
+        self.executor = executor
+        self.workers = workers if executor is not None else cap_workers(int(workers))
+        self._own = None
+
+    def map(self, func, items) -> list:
+        executor = self.executor
+        if executor is None and self.workers > 1:
+            if self._own is None:
+                self._own = (
+                    ThreadPoolExecutor(self.workers)
+                    if self.threads
+                    else process_pool(self.workers)
+                )
+            executor = self._own
+        return list(
+            map_tasks(
+                func,
+                list(items),
+                workers=self.workers,
+                executor=executor,
+                threads=self.threads,
+            )
+        )
+
+    __call__ = map
+
+    def release(self) -> None:
+        if self._own is not None:
+            self._own.shutdown(wait=True, cancel_futures=True)
+            self._own = None
+
+    close = release
 
 
 def runs_release_gil() -> bool:
