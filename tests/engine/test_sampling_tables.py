@@ -471,4 +471,84 @@ def test_one_atom_table_is_the_cells_of_monodisperse_bit_for_bit(d_um):
             assert a == b or (a != a and b != b), f.name
 
 
+def _law_strategy():
+    """Coefficient laws of every kind the scenario files make, with random
+    parameters (the wall law evaluates them over all its diameters at once)."""
+    from microimpact.physics import coefficients as c
+
+    pos = st.floats(min_value=1e-3, max_value=10.0)
+    d_ref = st.floats(min_value=1e-6, max_value=1e-4)
+    table = st.lists(
+        st.floats(min_value=1e-6, max_value=1e-3), min_size=2, max_size=5, unique=True
+    ).flatmap(
+        lambda ds: st.tuples(
+            st.just(tuple(sorted(ds))),
+            st.lists(pos, min_size=len(ds), max_size=len(ds)).map(tuple),
+            st.sampled_from(("clamp", "loglinear")),
+        )
+    )
+    return st.one_of(
+        st.builds(c.PowerLaw, pos, st.floats(min_value=-3.0, max_value=3.0), d_ref),
+        st.builds(
+            c.PolynomialLaw,
+            st.lists(pos, min_size=1, max_size=4).map(tuple),
+            d_ref,
+        ),
+        table.map(lambda t: c.TableLaw(*t)),
+        pos.map(c.ConstantLaw),
+        st.builds(
+            c.ThorntonNingLaw,
+            st.floats(min_value=500.0, max_value=20000.0),
+            st.floats(min_value=1e8, max_value=1e12),
+            st.floats(min_value=1e-3, max_value=1.0),
+        ),
+        st.just(c.CallableLaw(lambda d: 0.3 * np.sqrt(d / 5e-5))),
+    )
+
+
+@settings(max_examples=80, deadline=None)
+@given(
+    laws=st.tuples(_law_strategy(), _law_strategy(), _law_strategy()),
+    d_um=st.lists(st.floats(min_value=0.05, max_value=2000.0), min_size=1, max_size=20),
+)
+def test_atom_samplers_are_the_generic_diameter_samplers_bit_for_bit(laws, d_um):
+    """A wall law's diameter plans (the laws evaluated once over all its
+    diameters, each sampler's rows written directly: plan.atom_columns and
+    atom_sampler) are every field of the generic path's sampler of each
+    diameter alone (diameter_sampler of its one-atom table), for every kind of
+    coefficient law."""
+    import dataclasses
+    import types
+
+    from microimpact.engine._cells import one_atom_table
+    from microimpact.engine.plan import atom_columns, atom_sampler, diameter_sampler
+    from microimpact.physics.coefficients import ImpactCoefficients
+    from microimpact.errors import ScenarioError
+    from microimpact.units import um_to_m
+
+    sc = types.SimpleNamespace(
+        coefficients=ImpactCoefficients(*laws, friction=0.2), source=None
+    )
+    d = um_to_m(np.asarray(d_um))
+    try:
+        refs = [diameter_sampler(sc, table=one_atom_table(x)) for x in d]
+    except ScenarioError:  # a law negative somewhere: refused as well
+        with pytest.raises(ScenarioError, match="coefficients must be >= 0"):
+            atom_columns(sc, d)
+        return
+    columns = atom_columns(sc, d)
+    for x, row, ref in zip(d, columns, refs, strict=True):
+        got = atom_sampler(x, row)
+        for f in dataclasses.fields(ref):
+            a, b = getattr(ref, f.name), getattr(got, f.name)
+            if f.name == "table":  # (one_atom_table: tested above)
+                a, b = vars(a), vars(b)
+                assert a.keys() == b.keys()
+                assert all(np.array_equal(a[k], b[k]) for k in a), f.name
+            else:
+                assert a.dtype == b.dtype and a.shape == b.shape, f.name
+                assert np.array_equal(a.view(np.uint8), b.view(np.uint8)), f.name
+                assert not b.flags.writeable, f.name
+
+
 _PRESET: dict = {}

@@ -594,14 +594,12 @@ def constant_columns(sampler) -> int:
     ``+0.0`` span, so that ``lo + f * span`` is ``lo + 0.0`` for any fraction (k1 of
     every preset). The compiled kernel reads such a column once, not per impact
     (the same bits)."""
-    rows = sampler.rows[:-1]
-    mask = 0
-    for q in range(min(3, (rows.shape[1] - 2) // 2)):
-        lo = rows[:, 2 + 2 * q].view(np.uint64)
-        span = rows[:, 3 + 2 * q].view(np.uint64)
-        if np.all(lo == lo[0]) and not np.any(span):
-            mask |= 1 << q
-    return mask
+    rows = sampler.rows[:-1].view(np.uint64)
+    k = min(3, (rows.shape[1] - 2) // 2)
+    lo, span = rows[:, 2 : 2 + 2 * k : 2], rows[:, 3 : 3 + 2 * k : 2]
+    # (the columns at once: a wall law's 16 one-atom samplers each pay this)
+    same = np.all(lo == lo[:1], axis=0) & ~np.any(span, axis=0)
+    return sum(1 << q for q in np.flatnonzero(same).tolist())
 
 
 @lru_cache(maxsize=4)
@@ -825,13 +823,15 @@ def _plan_points(plan: Plan):
     return got if got is not False else None
 
 
-def prepare_plan(plan: Plan) -> None:
+def prepare_plan(plan: Plan, *, points: bool = True) -> None:
     """Parse what the compiled kernel reads of `plan` now (its common arguments
-    and its points, each once per plan), so that the first kernel calls of the
-    workers do not (they would hold the GIL between kernel calls to do it)."""
+    and, with `points`, its points, each once per plan), so that the first
+    kernel calls of the workers do not (they would hold the GIL between kernel
+    calls to do it)."""
     if plan.kernel == "compiled":
         _common_args(plan)
-        _plan_points(plan)
+        if points:
+            _plan_points(plan)
 
 
 def _shared_plan_points(plan: Plan):

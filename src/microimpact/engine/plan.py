@@ -65,7 +65,7 @@ from .._core.tables import (
 from ..errors import InputError, ScenarioError
 from ..scenario.grid import GridPoint, GridPoints, SweepGrid
 from . import _compiled
-from ._cells import cell_table
+from ._cells import cell_table, one_atom_table
 from ._convolution import MAX_SUM_ATOMS, discrete_atoms, sum_table
 
 #: Samples per block: the engine's unit of randomness (an algorithm constant, never
@@ -1254,30 +1254,60 @@ def diameter_sampler(scenario, particles=None, *, table=None) -> Sampler:
     """The kernel's diameter table for `scenario` (rows 1/k1, 1/k2, v_c, d): the
     cells of `particles` (default ``scenario.particles``; or `table`, the cells
     already made) with the scenario's coefficient laws evaluated at both ends of
-    each cell. A wall law builds one per fixed diameter (from
-    :func:`~._cells.one_atom_table`) and keeps the rest of the plan."""
+    each cell. A wall law's plan per fixed diameter comes from
+    :func:`atom_sampler` instead (the same sampler)."""
     if table is None:
         table = cell_table(scenario.particles if particles is None else particles)
-    coeffs = scenario.coefficients
-    columns = []
-    ends = [table.left]
+    columns = [_coefficient_columns(scenario, table.left)]
     if not np.array_equal(table.left, table.right):
-        ends.append(table.right)  # (atoms: both ends the same, so the columns)
-    for end in ends:
-        k1, k2, v_c = (
-            np.broadcast_to(np.asarray(a, dtype=float), end.shape)
-            for a in coeffs.evaluate(end)
-        )
-        every = np.stack([k1, k2, v_c])
-        if not (np.all(every >= 0) and np.all(np.isfinite(v_c))):
-            _bad_coefficient(scenario, end, k1, k2, v_c)
-        with np.errstate(divide="ignore"):
-            columns.append((1.0 / k1, 1.0 / k2, v_c))
-    if len(columns) == 1:
+        columns.append(_coefficient_columns(scenario, table.right))
+    else:  # (atoms: both ends the same, so the columns)
         columns.append(columns[0])
     return Sampler.of(
         table, (table.left, table.right), *zip(columns[0], columns[1], strict=True)
     )
+
+
+def _coefficient_columns(scenario, d) -> tuple:
+    """``(1/k1, 1/k2, v_c)`` of the scenario's coefficient laws at diameters `d`
+    [m] (an array), checked: a value the laws may not give raises the
+    :class:`ScenarioError` of :func:`_bad_coefficient`."""
+    k1, k2, v_c = (
+        np.broadcast_to(np.asarray(a, dtype=float), d.shape)
+        for a in scenario.coefficients.evaluate(d)
+    )
+    every = np.stack([k1, k2, v_c])
+    if not (np.all(every >= 0) and np.all(np.isfinite(v_c))):
+        _bad_coefficient(scenario, d, k1, k2, v_c)
+    with np.errstate(divide="ignore"):
+        return 1.0 / k1, 1.0 / k2, v_c
+
+
+def atom_columns(scenario, diameters) -> np.ndarray:
+    """``(n, 3)``: the columns ``1/k1, 1/k2, v_c`` of each of the `n` fixed
+    `diameters` [m], the coefficient laws evaluated once over all of them (for
+    :func:`atom_sampler`; a wall law's diameter nodes). The laws are elementwise,
+    so each row has the bits of an evaluation at its diameter alone (tested
+    for every kind of law)."""
+    d = np.array(diameters, dtype=float).reshape(-1)
+    return np.column_stack(_coefficient_columns(scenario, d))
+
+
+def atom_sampler(diameter: float, columns) -> Sampler:
+    """The kernel's diameter table of the one diameter `diameter` [m], with its
+    coefficient columns `columns` (its row of :func:`atom_columns`): every field
+    of ``diameter_sampler(scenario, table=one_atom_table(diameter))``, bit for
+    bit (tests/engine/test_sampling_tables.py), its two rows written directly
+    (an atom's spans are +0.0). The generic path held the GIL ~0.1-0.5 ms per
+    diameter of a wall law (issue 31)."""
+    table = one_atom_table(diameter)
+    rows = np.zeros((2, 8))
+    rows[:, R_CUM] = table.cum.view(np.float64)
+    rows[0, R_INVW] = table.inv_width[0]
+    rows[0, 2::2] = columns  # each column's lo; its span +0.0
+    values = np.zeros((1, 2))
+    values[0, 0] = table.left[0]
+    return Sampler(table, rows, values)
 
 
 def _bad_coefficient(scenario, end, k1, k2, v_c):

@@ -36,12 +36,17 @@ from .._core.json import dumps
 from .._core.progress import Progress
 from .._core.validation import implausible_speed
 from ..engine import _compiled
-from ..engine._cells import one_atom_table
 from ..engine.checkpoint import CheckpointMismatch, load_arrays, save_arrays
 from ..engine.kernel import atan2_deg, prepare_plan, simulate_specs_impacts
 from ..engine.montecarlo import TASKS_PER_WORKER, iter_point_samples, tail_size
 from ..engine.parallel import cap_workers, map_tasks
-from ..engine.plan import ArealSampler, build_plan, diameter_sampler, resolve_entropy
+from ..engine.plan import (
+    ArealSampler,
+    atom_columns,
+    atom_sampler,
+    build_plan,
+    resolve_entropy,
+)
 from ..engine.tasks import BlockTask
 from ..errors import ScenarioError
 from ..scenario.grid import GridPoints, SweepGrid
@@ -454,18 +459,18 @@ def _summary_rows(srt, stats, n_reb, q):
     return means, stds, quant
 
 
-def _diameter_plan(plan, scenario, spec, j):
+def _diameter_plan(plan, scenario, spec, j, columns=None):
     """The plan of diameter node ``spec.diameters_um[j]``: `plan` with that one
     diameter. On a reduced speed axis the plan's speeds are the ratios r, and
     this diameter's points are at ``r v_c(d)``; the points keep their numbers,
-    hence their random streams."""
-    d_plan = dataclasses.replace(
-        plan,
-        # the cells of monodisperse(d), bit for bit, without building it
-        diameters=diameter_sampler(
-            scenario, table=one_atom_table(um_to_m(spec.diameters_um[j]))
-        ),
-    )
+    hence their random streams. `columns`: the diameter's row of
+    :func:`~microimpact.engine.plan.atom_columns` (evaluated here if None)."""
+    d = um_to_m(spec.diameters_um[j])
+    if columns is None:
+        columns = atom_columns(scenario, d)[0]
+    # the cells of monodisperse(d) and the laws at d, bit for bit, without
+    # building the distribution
+    d_plan = dataclasses.replace(plan, diameters=atom_sampler(d, columns))
     if spec.speed_axis == "reduced":
         v_c = float(critical_speed_m_s(scenario, spec.diameters_um[j])[0])
         if isinstance(plan.points, GridPoints):  # the grid's speeds, scaled
@@ -623,28 +628,38 @@ def _results(plan, scenario, spec, samples, workers, executor, indices):
 
 class _PreparedPlans:
     """The plans of diameters `indices`, each with the compiled kernel's
-    arguments parsed (its diameters; the points parsed once for all of them
-    where they share them, :meth:`Plan.shared`), made on first use by the
-    worker that needs it (under a lock of its own: the others wait for it, not
-    for the GIL), and dropped once the diameter is done. Made in the driver
-    before the workers started, all 16 of a 16^3 table held every worker back
-    for ~5 ms (13 ms on a 16-core Xeon: an eighth of the build there)."""
+    arguments parsed, dropped once the diameter is done.
+
+    - Each diameter's own part (its one-atom sampler and the kernel's common
+      arguments) is made here, in the driver, for all of them at once: the
+      coefficient laws evaluated once over every diameter
+      (:func:`~microimpact.engine.plan.atom_columns`), ~40 us per diameter.
+      Made one by one by the workers, after their kernel calls had emptied
+      the caches, they held the GIL ~0.3 ms each (issue 31).
+    - The points (parsed once for all diameters where they share them,
+      :meth:`Plan.shared`; a reduced speed axis gives each diameter its own)
+      and the geometry are made on first use by the worker that needs them,
+      under a lock of the diameter's own: the others wait for it, not for the
+      GIL. Made in the driver before the workers started, all 16 of a reduced
+      16^3 table would hold every worker back."""
 
     def __init__(self, plan, scenario, spec, indices):
-        self._args = (plan, scenario, spec)
+        d = um_to_m(np.asarray(spec.diameters_um, dtype=float)[list(indices)])
         self._plans: dict = {}
+        for j, columns in zip(indices, atom_columns(scenario, d), strict=True):
+            self._plans[j] = got = _diameter_plan(plan, scenario, spec, j, columns)
+            prepare_plan(got, points=False)
+        self._ready: set = set()
         self._locks = {j: threading.Lock() for j in indices}
 
     def __getitem__(self, j):
-        got = self._plans.get(j)
-        if got is None:
+        got = self._plans[j]
+        if j not in self._ready:
             with self._locks[j]:
-                got = self._plans.get(j)
-                if got is None:
-                    got = _diameter_plan(*self._args, j)
+                if j not in self._ready:
                     prepare_plan(got)
                     _geometry(got)
-                    self._plans[j] = got
+                    self._ready.add(j)
         return got
 
     def __delitem__(self, j):
