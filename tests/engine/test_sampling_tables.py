@@ -522,8 +522,8 @@ def test_atom_samplers_are_the_generic_diameter_samplers_bit_for_bit(laws, d_um)
 
     from microimpact.engine._cells import one_atom_table
     from microimpact.engine.plan import atom_columns, atom_sampler, diameter_sampler
-    from microimpact.physics.coefficients import ImpactCoefficients
     from microimpact.errors import ScenarioError
+    from microimpact.physics.coefficients import ImpactCoefficients
     from microimpact.units import um_to_m
 
     sc = types.SimpleNamespace(
