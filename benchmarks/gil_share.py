@@ -155,8 +155,10 @@ CHILD = {
         "path()\n"
     ),
 }
-#: The frame of the path's own call in every sample that counts.
-FRAME = "path (child.py:"
+#: The frames of the path's own work: its call, and the worker threads of a run
+#: whose tasks run inside the compiled kernel (``KernelTasks.run``: their stacks
+#: start in the thread, not in the path's call, while the caller only waits).
+FRAMES = ("path (child.py:", "KernelTasks.run (")
 
 
 def _samples(raw: Path, where: collections.Counter | None = None) -> int:
@@ -165,7 +167,7 @@ def _samples(raw: Path, where: collections.Counter | None = None) -> int:
     n = 0
     for line in raw.read_text(encoding="utf-8").splitlines():
         stack, _, count = line.rpartition(" ")
-        if FRAME in stack:
+        if any(f in stack for f in FRAMES):
             n += int(count)
             if where is not None:
                 frames = stack.split(";")

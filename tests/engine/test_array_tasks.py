@@ -513,8 +513,10 @@ def test_task_rows_narrow_as_compact_counts(block_size):
 
 
 def test_task_rows_is_the_path_of_a_run(monkeypatch):
-    """A fixed-size run takes task_rows (one kernel call a task), with the bits of
-    the specs' path (task_rows switched off)."""
+    """A fixed-size run task by task (not inside the kernel) takes task_rows
+    (one kernel call a task), with the bits of the specs' path (task_rows
+    switched off)."""
+    monkeypatch.setattr(montecarlo, "KERNEL_TASKS", False)
     sc = _grid(samples=3000)
     calls = []
     real = kernel.task_rows

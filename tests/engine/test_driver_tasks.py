@@ -1,4 +1,10 @@
-"""The driver's tasks, worker cap and duration estimate: wiring and invariants."""
+"""The driver's tasks, worker cap and duration estimate: wiring and invariants.
+
+These tests follow the task-by-task driver (each task a kernel call from
+Python, merged by the driver), which resumed, precision and Dask runs take;
+a fresh run of whole streams runs its tasks inside the kernel instead
+(``montecarlo.KERNEL_TASKS``: tests/engine/test_kernel_tasks.py), so it is
+switched off here."""
 
 from __future__ import annotations
 
@@ -13,6 +19,11 @@ from numpy.testing import assert_array_equal
 from microimpact.engine import kernel, montecarlo, parallel
 from microimpact.engine.montecarlo import estimate_duration, iter_blocks, run
 from microimpact.engine.plan import BLOCK_SIZE
+
+
+@pytest.fixture(autouse=True)
+def _task_by_task(monkeypatch):
+    monkeypatch.setattr(montecarlo, "KERNEL_TASKS", False)
 
 
 def _grid(**kw):
@@ -127,6 +138,7 @@ def test_the_stacked_kernel_path_is_one_call_per_task(monkeypatch):
     monkeypatch.setattr(kernel, "simulate_specs_stacked", _no_stacked)
     ref = run(sc)
     monkeypatch.undo()
+    monkeypatch.setattr(montecarlo, "KERNEL_TASKS", False)  # (undone too)
     if kernel.KERNEL != "compiled":
         pytest.skip("compiled kernel not built")
     calls = []

@@ -323,9 +323,11 @@ def test_tasks_return_rows():
 
 def test_the_description_is_prepared_while_the_workers_run(monkeypatch):
     """The scenario's description (slow: quadratures) is computed in a thread
-    during the run, once, for one worker and for worker processes; on worker
-    threads it waits for the end of the run in the caller (beside them it would
-    make them wait for the GIL); an error in it reaches the caller."""
+    during the run, once, for one worker, for worker processes and for worker
+    threads that run the tasks inside the kernel (they never wait for the
+    GIL); on worker threads that run tasks one by one from Python it waits for
+    the end of the run in the caller (beside them it would make them wait for
+    the GIL); an error in it reaches the caller."""
     import dataclasses
 
     sc = _grid()
@@ -345,7 +347,13 @@ def test_the_description_is_prepared_while_the_workers_run(monkeypatch):
     two = run(sc, seed=4, workers=2)
     _same_dataset(ref.dataset, two.dataset)
     assert two.provenance["local_workers"] == "threads"
+    assert seen == [False]  # the tasks inside the kernel
+    seen.clear()
+    monkeypatch.setattr(montecarlo, "KERNEL_TASKS", False)
+    two = run(sc, seed=4, workers=2)
+    _same_dataset(ref.dataset, two.dataset)
     assert seen == [True]
+    monkeypatch.setattr(montecarlo, "KERNEL_TASKS", True)
     # worker processes (the NumPy kernel): in a thread, once the pool has forked
     seen.clear()
     real_plan = montecarlo.build_plan

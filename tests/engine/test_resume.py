@@ -425,8 +425,9 @@ def test_keyed_array_checkpoints_keep_what_they_were_given(tmp_path):
     assert err.value.detail.startswith("BadZipFile: "), err.value.detail
 
 
+@pytest.mark.parametrize("in_kernel", [False, True])
 def test_a_checkpoint_of_many_points_builds_no_accumulator_per_point(
-    tmp_path, monkeypatch
+    tmp_path, monkeypatch, in_kernel
 ):
     """A sweep of many one-group points is checkpointed from the task rows' arrays
     (issue 22: at 10^6 points building one accumulator object per point for each
@@ -439,6 +440,9 @@ def test_a_checkpoint_of_many_points_builds_no_accumulator_per_point(
         angles_deg=tuple(np.linspace(10.0, 90.0, 50)),
         samples=50,
     )
+    # task by task, or inside the kernel, paused at every poll for a write
+    monkeypatch.setattr(montecarlo, "KERNEL_TASKS", in_kernel)
+    monkeypatch.setattr(montecarlo, "KERNEL_POLL_S", 0.0)
     full = run(sc)
     built = []
     real = Stacked.accumulator

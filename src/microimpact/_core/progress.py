@@ -53,6 +53,11 @@ class Progress:
             )
             self.bar.update(initial)
 
+    @property
+    def active(self) -> bool:
+        """Whether anything shows or hears the progress (a bar or a callback)."""
+        return self.bar is not None or self.callback is not None
+
     def update(self, n=1):
         self.done += n
         if self.bar is not None:

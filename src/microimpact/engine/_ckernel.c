@@ -2565,6 +2565,48 @@ narrow_in_place(int64_t *c, Py_ssize_t n)
     return w;
 }
 
+/* The GIL-free middle of task() and tasks_run(): groups g < G of point pt[g]
+ * (its template and speed from the plan's points `t`), blocks fi[g] .. la[g],
+ * each merged in block order. `sp` has room for the groups' blocks, `glen`,
+ * `n_out` for G values. Written: n_out[g] (the group's impacts) and what
+ * run_specs writes (counts[5 g], sums[12 g], spans[6 g], out[h], used[h]),
+ * each histogram's counts narrowed in place to width[h] bytes. Returns -1
+ * where memory ran out (the caller frees out[h]). */
+static int
+task_core(const ss_state *st, const hist_t *hs, const sampler_t *sd,
+          const sampler_t *ss, int speed_random, double p, double q,
+          double friction, const point_table *t, const int64_t *pt,
+          const int64_t *fi, const int64_t *la, Py_ssize_t G, Py_ssize_t stop,
+          Py_ssize_t bsize, Py_ssize_t last_n, spec_t *sp, int64_t *glen,
+          int64_t *n_out, int64_t *counts, double *sums, int64_t *spans,
+          double *const st_d[3], int8_t *st_code, int64_t *out[3],
+          Py_ssize_t used[3], int width[3])
+{
+    const int64_t *which = t->which.buf;
+    const double *speed = t->speed.buf;
+    Py_ssize_t k = 0;
+    for (Py_ssize_t g = 0; g < G; g++) {
+        glen[g] = la[g] - fi[g] + 1;
+        int64_t n = 0;
+        for (int64_t b = fi[g]; b <= la[g]; b++, k++) {
+            spec_t *x = &sp[k];
+            *x = t->tmpl[which[pt[g]]];
+            x->point = (uint64_t)pt[g];
+            x->block = (uint64_t)b;
+            x->n = b == stop - 1 ? last_n : bsize;
+            x->speed = speed[pt[g]];
+            n += x->n;
+        }
+        n_out[g] = n;
+    }
+    if (run_specs(st, hs, sd, ss, speed_random, p, q, friction, sp, k, glen,
+                  counts, sums, spans, st_d, st_code, out, used))
+        return -1;
+    for (int h = 0; h < 3; h++)
+        width[h] = narrow_in_place(out[h], used[h]);
+    return 0;
+}
+
 PyDoc_STRVAR(task_doc,
 "task(entropy, common, points, point, first, last, stop, block_size, last_n,\n"
 "     table, moments, spans) -> (e, e_size, mu, mu_size, lat, lat_size)\n\n"
@@ -2600,7 +2642,7 @@ ck_task(PyObject *self, PyObject *args)
     int width[3] = {0, 0, 0};
     sampler_set set = {NULL, 0, 0};
     spec_t *sp = NULL;
-    int64_t *glen = NULL, *counts = NULL, *spans = NULL;
+    int64_t *glen = NULL, *nimp = NULL, *counts = NULL, *spans = NULL;
     double *sums = NULL;
     int64_t *out[3] = {NULL, NULL, NULL};
     Py_ssize_t used[3] = {0, 0, 0};
@@ -2654,38 +2696,25 @@ ck_task(PyObject *self, PyObject *args)
         goto done;
     sp = PyMem_Malloc((K ? K : 1) * sizeof *sp);
     glen = PyMem_Malloc((G ? G : 1) * sizeof *glen);
+    nimp = PyMem_Malloc((G ? G : 1) * sizeof *nimp);
     counts = PyMem_Malloc((G ? G : 1) * 5 * sizeof *counts);
     sums = PyMem_Malloc((G ? G : 1) * 12 * sizeof *sums);
     spans = PyMem_Malloc((G ? G : 1) * 6 * sizeof *spans);
-    if (sp == NULL || glen == NULL || counts == NULL || sums == NULL || spans == NULL) {
+    if (sp == NULL || glen == NULL || nimp == NULL || counts == NULL ||
+        sums == NULL || spans == NULL) {
         PyErr_NoMemory();
         goto done;
     }
-    const int64_t *which = t->which.buf;
-    const double *speed = t->speed.buf;
     int64_t *table = bt.buf;
     double *moments = bm.buf;
     int64_t *sp3 = bsp.buf;
     int oom;
     RELEASE_GIL
-    Py_ssize_t k = 0;
-    for (Py_ssize_t g = 0; g < G; g++) {
-        glen[g] = la[g] - fi[g] + 1;
-        int64_t n = 0;
-        for (int64_t b = fi[g]; b <= la[g]; b++, k++) {
-            spec_t *x = &sp[k];
-            *x = t->tmpl[which[pt[g]]];
-            x->point = (uint64_t)pt[g];
-            x->block = (uint64_t)b;
-            x->n = b == stop - 1 ? last_n : bsize;
-            x->speed = speed[pt[g]];
-            n += x->n;
-        }
-        table[5 * g] = n;
-    }
-    oom = run_specs(&st, &hs, sd, ss, speed_random, p, q, friction, sp, K, glen,
-                    counts, sums, spans, st_d, st_code, out, used);
+    oom = task_core(&st, &hs, sd, ss, speed_random, p, q, friction, t, pt, fi, la,
+                    G, stop, bsize, last_n, sp, glen, nimp, counts, sums, spans,
+                    st_d, st_code, out, used, width);
     for (Py_ssize_t g = 0; g < G && !oom; g++) {
+        table[5 * g] = nimp[g];
         memcpy(table + 5 * g + 1, counts + 5 * g, 4 * sizeof *table);
         for (int h = 0; h < 3; h++) {
             memcpy(moments + 4 * (h * G + g), sums + 12 * g + 4 * h, 4 * sizeof *sums);
@@ -2694,8 +2723,6 @@ ck_task(PyObject *self, PyObject *args)
             sp3[(2 * h + 1) * G + g] = spans[6 * g + 2 * h + 1];
         }
     }
-    for (int h = 0; h < 3 && !oom; h++)
-        width[h] = narrow_in_place(out[h], used[h]);
     ACQUIRE_GIL
     if (oom) {
         PyErr_NoMemory();
@@ -2716,6 +2743,7 @@ done:
     }
     PyMem_Free(sp);
     PyMem_Free(glen);
+    PyMem_Free(nimp);
     PyMem_Free(counts);
     PyMem_Free(sums);
     PyMem_Free(spans);
@@ -2732,6 +2760,470 @@ done:
         PyBuffer_Release(&bst[j]);
     return result;
 }
+
+/* ------------------------------------------- a run's tasks inside the kernel */
+/* tasks_new/tasks_run/tasks_harvest (kernel.KernelTasks): a fixed-size run's
+ * tasks taken by the worker threads from a shared counter, each written
+ * straight into the driver's table, so that no Python runs between them and
+ * the GIL is not taken from the first task to the last (issue 31). */
+#if defined(__GNUC__)
+#define HAVE_TASK_LOOP 1
+#define A_LOAD(p) __atomic_load_n((p), __ATOMIC_ACQUIRE)
+#define A_STORE(p, v) __atomic_store_n((p), (v), __ATOMIC_RELEASE)
+#define A_ADD(p, v) __atomic_fetch_add((p), (v), __ATOMIC_ACQ_REL)
+#endif
+
+/* A buffer of counts that the kernel allocated, handed to Python without a
+ * copy (np.frombuffer reads it; freed with the last reference). */
+typedef struct {
+    PyObject_HEAD
+    void *data;
+    Py_ssize_t len;
+} FlatObject;
+
+static int
+flat_getbuffer(PyObject *o, Py_buffer *view, int flags)
+{
+    FlatObject *f = (FlatObject *)o;
+    return PyBuffer_FillInfo(view, o, f->data, f->len, 1, flags);
+}
+
+static void
+flat_dealloc(PyObject *o)
+{
+    PyMem_RawFree(((FlatObject *)o)->data);
+    Py_TYPE(o)->tp_free(o);
+}
+
+static PyBufferProcs flat_as_buffer = {flat_getbuffer, NULL};
+
+static PyTypeObject FlatType = {
+    PyVarObject_HEAD_INIT(NULL, 0).tp_name = "microimpact.engine._ckernel.Flat",
+    .tp_basicsize = sizeof(FlatObject),
+    .tp_dealloc = flat_dealloc,
+    .tp_as_buffer = &flat_as_buffer,
+    .tp_flags = Py_TPFLAGS_DEFAULT,
+    .tp_doc = "Counts written by the kernel (read-only bytes, no copy).",
+};
+
+static PyObject *
+flat_new(void *data, Py_ssize_t len)
+{
+    FlatObject *f = PyObject_New(FlatObject, &FlatType);
+    if (f == NULL)
+        return NULL;
+    f->data = data;
+    f->len = len;
+    return (PyObject *)f;
+}
+
+#ifdef HAVE_TASK_LOOP
+enum { TD_COUNTS, TD_MOM = 1, TD_OFF = 4, TD_LEN = 7, TD_START = 10, TD_N = 13 };
+
+typedef struct {
+    ss_state st;
+    hist_t hs;
+    sampler_set set;
+    const sampler_t *sd, *ss;
+    int speed_random;
+    double p, q, friction;
+    PyObject *capsule; /* the plan's points, held */
+    point_table *t;
+    Py_buffer bg[4]; /* point, first, last (per group), task starts */
+    const int64_t *pt, *fi, *la, *ts;
+    Py_ssize_t G, ntasks, stop, bsize, last_n, rows;
+    Py_buffer bd[TD_N]; /* the driver's table: see tasks_doc */
+    int held_g, held_d;
+    /* shared by the worker threads (atomics) */
+    Py_ssize_t next;
+    int halt, failed;
+    int64_t impacts;
+    int *done; /* per task: 1 once its rows and flats are written */
+    /* per task: its flats (3, narrowed), their counts and item sizes; taken[i]
+     * once harvested (under the GIL) */
+    int64_t **flat;
+    Py_ssize_t *used;
+    int *width;
+    char *taken;
+} tasks_ctx;
+
+static const char *TASKS_CAPSULE = "microimpact.engine._ckernel.tasks";
+
+static void
+tasks_free(PyObject *capsule)
+{
+    tasks_ctx *c = PyCapsule_GetPointer(capsule, TASKS_CAPSULE);
+    if (c == NULL)
+        return;
+    if (c->flat != NULL)
+        for (Py_ssize_t i = 0; i < 3 * c->ntasks; i++)
+            PyMem_RawFree(c->flat[i]);
+    PyMem_Free(c->flat);
+    PyMem_Free(c->used);
+    PyMem_Free(c->width);
+    PyMem_Free(c->done);
+    PyMem_Free(c->taken);
+    sampler_set_free(&c->set);
+    for (int j = 0; j < c->held_g; j++)
+        PyBuffer_Release(&c->bg[j]);
+    for (int j = 0; j < c->held_d; j++)
+        PyBuffer_Release(&c->bd[j]);
+    Py_XDECREF(c->capsule);
+    PyMem_Free(c);
+}
+
+PyDoc_STRVAR(tasks_doc,
+"tasks(entropy, common, points, point, first, last, starts, stop, block_size,\n"
+"      last_n, table) -> capsule\n\n"
+"A fixed-size run's tasks for tasks_run(): task i is groups starts[i] ..\n"
+"starts[i+1]-1 (int64, from 0 to the groups' count), group g blocks first[g] ..\n"
+"last[g] of point point[g] (as task()'s), every group of a distinct point.\n"
+"`table` is the driver's table, 13 arrays of R rows, written at row point[g]\n"
+"for group g: counts int64[R][5] (impacts, shadowed, captured, reimpact,\n"
+"rolling); the moments float64[R][4] of e_m, mu_m, psi_f; their spans'\n"
+"offsets (int32[R], 0 where empty), lengths (int32[R]) and starts in their\n"
+"task's flat counts (int64[R]). The same rows and counts as task() of each\n"
+"task, bit for bit.");
+
+static int
+tasks_buffer(PyObject *o, Py_buffer *b, const char *name, Py_ssize_t item,
+             Py_ssize_t need, int writable)
+{
+    if (PyObject_GetBuffer(o, b, writable ? PyBUF_WRITABLE | PyBUF_C_CONTIGUOUS
+                                          : PyBUF_C_CONTIGUOUS))
+        return -1;
+    if (b->len % item != 0 || b->len / item != need) {
+        PyErr_Format(PyExc_ValueError,
+                     "_ckernel.tasks: %s holds %zd bytes, needs %zd items of %zd",
+                     name, b->len, need, item);
+        PyBuffer_Release(b);
+        return -1;
+    }
+    return 0;
+}
+
+static PyObject *
+ck_tasks(PyObject *self, PyObject *args)
+{
+    Py_buffer be, bh;
+    PyObject *dsamp, *ssamp, *capsule, *garr[4], *table;
+    int speed_random;
+    double p, q, friction;
+    Py_ssize_t stop, bsize, last_n;
+    if (!PyArg_ParseTuple(args, "y*(OOpdddy*)O!OOOOnnnO!:tasks", &be, &dsamp, &ssamp,
+                          &speed_random, &p, &q, &friction, &bh, &PyCapsule_Type,
+                          &capsule, &garr[0], &garr[1], &garr[2], &garr[3], &stop,
+                          &bsize, &last_n, &PyTuple_Type, &table))
+        return NULL;
+    PyObject *result = NULL;
+    tasks_ctx *c = PyMem_Calloc(1, sizeof *c);
+    if (c == NULL) {
+        PyErr_NoMemory();
+        goto fail;
+    }
+    c->t = PyCapsule_GetPointer(capsule, POINTS_CAPSULE);
+    if (c->t == NULL)
+        goto fail;
+    if (c->t->which.obj == NULL) {
+        PyErr_SetString(PyExc_ValueError, "_ckernel.tasks: points has no which and speed");
+        goto fail;
+    }
+    Py_INCREF(capsule);
+    c->capsule = capsule;
+    if (parse_entropy(&be, &c->st) || parse_hist(&bh, &c->hs))
+        goto fail;
+    if ((c->sd = sampler_of(&c->set, dsamp, "diameter", 8)) == NULL ||
+        (c->ss = sampler_of(&c->set, ssamp, "speed", 4)) == NULL)
+        goto fail;
+    c->speed_random = speed_random;
+    c->p = p;
+    c->q = q;
+    c->friction = friction;
+    if (stop < 1 || bsize < 1 || last_n < 1 || last_n > bsize) {
+        PyErr_SetString(PyExc_ValueError,
+                        "_ckernel.tasks: stop, block_size >= 1 and 1 <= last_n <= "
+                        "block_size");
+        goto fail;
+    }
+    c->stop = stop;
+    c->bsize = bsize;
+    c->last_n = last_n;
+    if (PyObject_GetBuffer(garr[0], &c->bg[0], PyBUF_C_CONTIGUOUS))
+        goto fail;
+    c->held_g = 1;
+    c->G = c->bg[0].len / 8;
+    const char *gname[3] = {"point", "first", "last"};
+    for (int j = 1; j < 3; j++) {
+        if (tasks_buffer(garr[j], &c->bg[j], gname[j], 8, c->G, 0))
+            goto fail;
+        c->held_g = j + 1;
+    }
+    if (PyObject_GetBuffer(garr[3], &c->bg[3], PyBUF_C_CONTIGUOUS))
+        goto fail;
+    c->held_g = 4;
+    if (c->bg[0].len % 8 || c->bg[3].len % 8 || c->bg[3].len < 16) {
+        PyErr_SetString(PyExc_ValueError,
+                        "_ckernel.tasks: point, first, last and starts are int64");
+        goto fail;
+    }
+    c->pt = c->bg[0].buf;
+    c->fi = c->bg[1].buf;
+    c->la = c->bg[2].buf;
+    c->ts = c->bg[3].buf;
+    c->ntasks = c->bg[3].len / 8 - 1;
+    if (PyTuple_GET_SIZE(table) != TD_N) {
+        PyErr_SetString(PyExc_ValueError, "_ckernel.tasks: table is 13 arrays");
+        goto fail;
+    }
+    if (PyObject_GetBuffer(PyTuple_GET_ITEM(table, 0), &c->bd[0],
+                           PyBUF_WRITABLE | PyBUF_C_CONTIGUOUS))
+        goto fail;
+    c->held_d = 1;
+    c->rows = c->bd[0].len / 40;
+    if (c->bd[0].len % 40) {
+        PyErr_SetString(PyExc_ValueError, "_ckernel.tasks: counts is int64[R][5]");
+        goto fail;
+    }
+    for (int j = 1; j < TD_N; j++) {
+        Py_ssize_t item = j < TD_OFF ? 32 : (j < TD_START ? 4 : 8);
+        if (tasks_buffer(PyTuple_GET_ITEM(table, j), &c->bd[j], "a table array",
+                         item, c->rows, 1))
+            goto fail;
+        c->held_d = j + 1;
+    }
+    /* the tasks and groups (every group's row in the table, once) */
+    if (c->ts[0] != 0 || c->ts[c->ntasks] != c->G) {
+        PyErr_SetString(PyExc_ValueError,
+                        "_ckernel.tasks: starts run from 0 to the groups' count");
+        goto fail;
+    }
+    for (Py_ssize_t i = 0; i < c->ntasks; i++)
+        if (c->ts[i + 1] < c->ts[i]) {
+            PyErr_SetString(PyExc_ValueError, "_ckernel.tasks: starts decrease");
+            goto fail;
+        }
+    for (Py_ssize_t g = 0; g < c->G; g++)
+        if (c->pt[g] < 0 || c->pt[g] >= c->t->points || c->pt[g] >= c->rows ||
+            c->fi[g] < 0 || c->la[g] < c->fi[g] || c->la[g] >= stop ||
+            (g && c->pt[g] <= c->pt[g - 1])) {
+            PyErr_SetString(PyExc_ValueError,
+                            "_ckernel.tasks: a point outside the plan or the table, "
+                            "points not increasing, or not 0 <= first <= last < stop");
+            goto fail;
+        }
+    Py_ssize_t nt = c->ntasks ? c->ntasks : 1;
+    c->flat = PyMem_Calloc(3 * nt, sizeof *c->flat);
+    c->used = PyMem_Calloc(3 * nt, sizeof *c->used);
+    c->width = PyMem_Calloc(3 * nt, sizeof *c->width);
+    c->done = PyMem_Calloc(nt, sizeof *c->done);
+    c->taken = PyMem_Calloc(nt, 1);
+    if (c->flat == NULL || c->used == NULL || c->width == NULL || c->done == NULL ||
+        c->taken == NULL) {
+        PyErr_NoMemory();
+        goto fail;
+    }
+    result = PyCapsule_New(c, TASKS_CAPSULE, tasks_free);
+    if (result == NULL)
+        goto fail;
+    c = NULL;
+fail:
+    if (c != NULL) { /* tasks_free's work, without a capsule */
+        if (c->flat != NULL)
+            PyMem_Free(c->flat);
+        PyMem_Free(c->used);
+        PyMem_Free(c->width);
+        PyMem_Free(c->done);
+        PyMem_Free(c->taken);
+        sampler_set_free(&c->set);
+        for (int j = 0; j < c->held_g; j++)
+            PyBuffer_Release(&c->bg[j]);
+        for (int j = 0; j < c->held_d; j++)
+            PyBuffer_Release(&c->bd[j]);
+        Py_XDECREF(c->capsule);
+        PyMem_Free(c);
+    }
+    PyBuffer_Release(&be);
+    PyBuffer_Release(&bh);
+    return result;
+}
+
+/* Task i of `c` (no GIL): its rows into the table, its flats kept; -1 where
+ * memory ran out. */
+static int
+tasks_one(tasks_ctx *c, Py_ssize_t i)
+{
+    Py_ssize_t g0 = c->ts[i], G = c->ts[i + 1] - g0, K = 0;
+    const int64_t *pt = c->pt + g0, *fi = c->fi + g0, *la = c->la + g0;
+    for (Py_ssize_t g = 0; g < G; g++)
+        K += la[g] - fi[g] + 1;
+    Py_ssize_t G1 = G ? G : 1;
+    spec_t *sp = PyMem_RawMalloc((K ? K : 1) * sizeof *sp);
+    int64_t *glen = PyMem_RawMalloc(G1 * sizeof *glen);
+    int64_t *nimp = PyMem_RawMalloc(G1 * sizeof *nimp);
+    int64_t *counts = PyMem_RawMalloc(G1 * 5 * sizeof *counts);
+    double *sums = PyMem_RawMalloc(G1 * 12 * sizeof *sums);
+    int64_t *spans = PyMem_RawMalloc(G1 * 6 * sizeof *spans);
+    int64_t *out[3] = {NULL, NULL, NULL};
+    Py_ssize_t used[3] = {0, 0, 0};
+    int width[3] = {0, 0, 0};
+    double *const st_d[3] = {NULL, NULL, NULL};
+    int oom = sp == NULL || glen == NULL || nimp == NULL || counts == NULL ||
+              sums == NULL || spans == NULL;
+    if (!oom)
+        oom = task_core(&c->st, &c->hs, c->sd, c->ss, c->speed_random, c->p, c->q,
+                        c->friction, c->t, pt, fi, la, G, c->stop, c->bsize,
+                        c->last_n, sp, glen, nimp, counts, sums, spans, st_d, NULL,
+                        out, used, width);
+    if (!oom) {
+        int64_t *tc = c->bd[TD_COUNTS].buf, total = 0;
+        int64_t at[3] = {0, 0, 0};
+        for (Py_ssize_t g = 0; g < G; g++) {
+            Py_ssize_t k = pt[g];
+            tc[5 * k] = nimp[g];
+            memcpy(tc + 5 * k + 1, counts + 5 * g, 4 * sizeof *tc);
+            total += nimp[g];
+            for (int h = 0; h < 3; h++) {
+                double *m = c->bd[TD_MOM + h].buf;
+                int32_t *off = c->bd[TD_OFF + h].buf, *len = c->bd[TD_LEN + h].buf;
+                int64_t *start = c->bd[TD_START + h].buf;
+                memcpy(m + 4 * k, sums + 12 * g + 4 * h, 4 * sizeof *m);
+                off[k] = (int32_t)spans[6 * g + 2 * h];
+                len[k] = (int32_t)spans[6 * g + 2 * h + 1];
+                start[k] = at[h];
+                at[h] += spans[6 * g + 2 * h + 1];
+            }
+        }
+        for (int h = 0; h < 3; h++) { /* the narrowed counts only */
+            Py_ssize_t bytes = used[h] * width[h];
+            int64_t *small = PyMem_RawRealloc(out[h], bytes ? bytes : 1);
+            c->flat[3 * i + h] = small != NULL ? small : out[h];
+            c->used[3 * i + h] = used[h];
+            c->width[3 * i + h] = width[h];
+            out[h] = NULL;
+        }
+        A_ADD(&c->impacts, total);
+        A_STORE(&c->done[i], 1);
+    }
+    for (int h = 0; h < 3; h++)
+        PyMem_RawFree(out[h]);
+    PyMem_RawFree(sp);
+    PyMem_RawFree(glen);
+    PyMem_RawFree(nimp);
+    PyMem_RawFree(counts);
+    PyMem_RawFree(sums);
+    PyMem_RawFree(spans);
+    return oom ? -1 : 0;
+}
+
+static tasks_ctx *
+tasks_of(PyObject *args, const char *fmt)
+{
+    PyObject *capsule;
+    if (!PyArg_ParseTuple(args, fmt, &PyCapsule_Type, &capsule))
+        return NULL;
+    return PyCapsule_GetPointer(capsule, TASKS_CAPSULE);
+}
+
+PyDoc_STRVAR(tasks_run_doc,
+"tasks_run(tasks) -> int\n\n"
+"Run tasks of tasks() (a capsule) until none is left or tasks_halt() is\n"
+"called, the GIL released throughout: each worker thread calls it once, and\n"
+"the threads take the tasks in order from a shared counter. Returns the tasks\n"
+"this call ran; MemoryError where memory ran out (the other calls then stop\n"
+"after their current task).");
+
+static PyObject *
+ck_tasks_run(PyObject *self, PyObject *args)
+{
+    tasks_ctx *c = tasks_of(args, "O!:tasks_run");
+    if (c == NULL)
+        return NULL;
+    Py_ssize_t ran = 0;
+    int oom = 0;
+    RELEASE_GIL
+    while (!A_LOAD(&c->halt)) {
+        Py_ssize_t i = A_ADD(&c->next, 1);
+        if (i >= c->ntasks)
+            break;
+        if (tasks_one(c, i)) {
+            oom = 1;
+            A_STORE(&c->failed, 1);
+            A_STORE(&c->halt, 1);
+            break;
+        }
+        ran++;
+    }
+    ACQUIRE_GIL
+    if (oom)
+        return PyErr_NoMemory();
+    return PyLong_FromSsize_t(ran);
+}
+
+PyDoc_STRVAR(tasks_halt_doc,
+"tasks_halt(tasks, halt) -> None\n\n"
+"With `halt` true, tasks_run() calls return after their current task (tasks\n"
+"not taken stay to run); false lets later calls take tasks again (not after\n"
+"a MemoryError).");
+
+static PyObject *
+ck_tasks_halt(PyObject *self, PyObject *args)
+{
+    PyObject *capsule;
+    int halt;
+    if (!PyArg_ParseTuple(args, "O!p:tasks_halt", &PyCapsule_Type, &capsule, &halt))
+        return NULL;
+    tasks_ctx *c = PyCapsule_GetPointer(capsule, TASKS_CAPSULE);
+    if (c == NULL)
+        return NULL;
+    A_STORE(&c->halt, halt || A_LOAD(&c->failed));
+    Py_RETURN_NONE;
+}
+
+PyDoc_STRVAR(tasks_harvest_doc,
+"tasks_harvest(tasks) -> (impacts, [(i, e, e_size, mu, mu_size, lat, lat_size)])\n\n"
+"The impacts of the tasks done so far, and each task done since the last\n"
+"harvest, in task order: its index and each histogram's flat counts (a\n"
+"read-only buffer, no copy) with their item size (1, 2, 4 or 8).");
+
+static PyObject *
+ck_tasks_harvest(PyObject *self, PyObject *args)
+{
+    tasks_ctx *c = tasks_of(args, "O!:tasks_harvest");
+    if (c == NULL)
+        return NULL;
+    PyObject *list = PyList_New(0);
+    if (list == NULL)
+        return NULL;
+    for (Py_ssize_t i = 0; i < c->ntasks; i++) {
+        if (c->taken[i] || !A_LOAD(&c->done[i]))
+            continue;
+        PyObject *f[3] = {NULL, NULL, NULL}, *item = NULL;
+        for (int h = 0; h < 3; h++) {
+            f[h] = flat_new(c->flat[3 * i + h],
+                            c->used[3 * i + h] * c->width[3 * i + h]);
+            if (f[h] == NULL)
+                goto fail;
+            c->flat[3 * i + h] = NULL; /* the object's now */
+        }
+        c->taken[i] = 1;
+        item = Py_BuildValue("(nNiNiNi)", i, f[0], c->width[3 * i], f[1],
+                             c->width[3 * i + 1], f[2], c->width[3 * i + 2]);
+        f[0] = f[1] = f[2] = NULL; /* stolen */
+        if (item == NULL || PyList_Append(list, item)) {
+            Py_XDECREF(item);
+            goto fail;
+        }
+        Py_DECREF(item);
+        continue;
+    fail:
+        for (int h = 0; h < 3; h++)
+            Py_XDECREF(f[h]);
+        Py_DECREF(list);
+        return NULL;
+    }
+    return Py_BuildValue("(LN)", (long long)A_LOAD(&c->impacts), list);
+}
+#endif /* HAVE_TASK_LOOP */
 
 /* ------------------------------------------------- wall-law node statistics */
 enum { WV_EN, WV_ET, WV_MU, WV_ANGLE, WV_LATERAL, WV_SPEED, WV_COUNT };
@@ -3345,6 +3837,12 @@ static PyMethodDef ck_methods[] = {
     {"specs", ck_specs, METH_VARARGS, specs_doc},
     {"points", ck_points, METH_VARARGS, points_doc},
     {"task", ck_task, METH_VARARGS, task_doc},
+#ifdef HAVE_TASK_LOOP
+    {"tasks", ck_tasks, METH_VARARGS, tasks_doc},
+    {"tasks_run", ck_tasks_run, METH_VARARGS, tasks_run_doc},
+    {"tasks_halt", ck_tasks_halt, METH_VARARGS, tasks_halt_doc},
+    {"tasks_harvest", ck_tasks_harvest, METH_VARARGS, tasks_harvest_doc},
+#endif
     {"wall_rows", ck_wall_rows, METH_VARARGS, wall_rows_doc},
     {"wall_quantiles", ck_wall_quantiles, METH_VARARGS, wall_quantiles_doc},
     {"reach_cut", ck_reach_cut, METH_VARARGS, reach_cut_doc},
@@ -3370,6 +3868,8 @@ PyInit__ckernel(void)
                   __builtin_cpu_supports("avx512cd") &&
                   __builtin_cpu_supports("avx512vl");
 #endif
+    if (PyType_Ready(&FlatType) < 0)
+        return NULL;
     PyObject *m = PyModule_Create(&ck_module);
     if (m == NULL)
         return NULL;

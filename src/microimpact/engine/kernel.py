@@ -823,6 +823,12 @@ def _plan_points(plan: Plan):
     return got if got is not False else None
 
 
+def plan_points_parsed(plan: Plan) -> bool:
+    """Whether the compiled kernel holds every point of `plan` parsed once
+    (:func:`_plan_points`; not where a surface has tables per angle)."""
+    return plan.kernel == "compiled" and _plan_points(plan) is not None
+
+
 def prepare_plan(plan: Plan, *, points: bool = True) -> None:
     """Parse what the compiled kernel reads of `plan` now (its common arguments
     and, with `points`, its points, each once per plan), so that the first
@@ -959,6 +965,70 @@ def task_rows(plan: Plan, task, store=None) -> Stacked | None:
             spans[2, 0], spans[2, 1], np.frombuffer(lat, _NARROWED[lat_w]), LATERAL_BINS
         ),
     )
+
+
+def kernel_tasks_available() -> bool:
+    """Whether the compiled kernel can run a whole run's tasks itself
+    (:class:`KernelTasks`: built with GCC's atomics)."""
+    ck = _compiled.ckernel
+    return ck is not None and hasattr(ck, "tasks_run")
+
+
+class KernelTasks:
+    """The tasks of a fresh fixed-size run whose groups are whole streams, run
+    inside the compiled kernel (``_ckernel.tasks``): each worker thread makes
+    one :meth:`run` call, the threads take the tasks from a shared counter, and
+    each task's rows are written straight into the driver's `table` (13
+    arrays: see ``_ckernel.tasks``) at its points' rows. No Python runs between
+    two tasks and the GIL is not taken from the first to the last (issue 31:
+    ~60-100 us of held GIL per task before, each after ~7 ms of kernel, when
+    the caches are cold). Each task is the kernel call :func:`task_rows` makes
+    for it, so the rows and counts are the same bits."""
+
+    def __init__(self, plan: Plan, tasks, table: tuple):
+        self.tasks = list(tasks)
+        if not self.tasks:
+            raise ValueError("KernelTasks: no task")
+        first = self.tasks[0]
+        starts = np.zeros(len(self.tasks) + 1, dtype=np.int64)
+        np.cumsum([len(t) for t in self.tasks], out=starts[1:])
+        self._capsule = _ckernel().tasks(
+            entropy_words(plan.entropy),
+            _common_args(plan),
+            _plan_points(plan),
+            np.concatenate([t.point for t in self.tasks]).astype(np.int64),
+            np.concatenate([t.first for t in self.tasks]).astype(np.int64),
+            np.concatenate([t.last for t in self.tasks]).astype(np.int64),
+            starts,
+            first.stop,
+            first.block_size,
+            first.last_n,
+            table,
+        )
+
+    def run(self) -> int:
+        """Run tasks until none is left or :meth:`halt`; the tasks run."""
+        return _ckernel().tasks_run(self._capsule)
+
+    def halt(self, halt: bool = True) -> None:
+        """Make the :meth:`run` calls return after their current task (or,
+        `halt` false, let later calls go on)."""
+        _ckernel().tasks_halt(self._capsule, halt)
+
+    def harvest(self) -> tuple[int, list]:
+        """The impacts of the tasks done so far, and ``(i, e, mu, lateral)``
+        for each task done since the last harvest: its index and its
+        histograms' flat counts (read-only arrays of the narrowest dtype)."""
+        impacts, items = _ckernel().tasks_harvest(self._capsule)
+        return impacts, [
+            (
+                i,
+                np.frombuffer(e, _NARROWED[we]),
+                np.frombuffer(mu, _NARROWED[wm]),
+                np.frombuffer(lat, _NARROWED[wl]),
+            )
+            for i, e, we, mu, wm, lat, wl in items
+        ]
 
 
 _SOBOL: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()

@@ -21,6 +21,7 @@ The driver is made of small pieces with one job each:
 
 from __future__ import annotations
 
+import concurrent.futures
 import contextlib
 import functools
 import gc
@@ -52,9 +53,17 @@ from .checkpoint import (
     StackedState,
     plan_fingerprint,
 )
-from .kernel import prepare_plan, simulate_block
+from .kernel import (
+    KernelTasks,
+    kernel_tasks_available,
+    plan_points_parsed,
+    prepare_plan,
+    simulate_block,
+)
 from .parallel import (
     BACKENDS,
+    SerialRunner,
+    ThreadRunner,
     _simulate,
     available_cores,
     cap_workers,
@@ -120,6 +129,11 @@ PENDING_TASKS = 256
 #: ... and at most this many rows (a sweep of small points packs 2,048 into a
 #: task: ~0.4 MB of rows each, kept once more while they are copied).
 PENDING_ROWS = 1 << 15
+#: Fresh fixed-size runs of whole streams run their tasks inside the compiled
+#: kernel (:class:`~.kernel.KernelTasks`; False: task by task, as other runs).
+KERNEL_TASKS = True
+#: Seconds between the progress updates (and checkpoint checks) of such a run.
+KERNEL_POLL_S = 0.2
 #: Least seconds between checkpoint writes (override:
 #: MICROIMPACT_CHECKPOINT_INTERVAL); writes are further spaced to take at most
 #: ``checkpoint.WRITE_FRACTION`` of the run time.
@@ -438,6 +452,59 @@ class _Streams:
             ]
         )
         self._hold(ks, Stacked.concat([rows for _, rows in pending]), slice(None))
+
+    # ------------------------------------------------------------ kernel tasks
+    def whole_fresh(self) -> bool:
+        """Whether the compiled kernel may run this fixed-size run's tasks
+        itself (:class:`~.kernel.KernelTasks`): array tasks, every stream a
+        point of its own (no replicates, no ids), none begun or restored, and
+        every stream one group (at most :data:`BLOCKS_PER_TASK` blocks)."""
+        return (
+            self.array_tasks
+            and self.precision is None
+            and self.point_ids is None
+            and not self.loose
+            and not self._pending
+            and self.n_blocks() <= BLOCKS_PER_TASK
+            and not self.next_block.any()
+        )
+
+    def kernel_table(self) -> tuple:
+        """The 13 arrays of the table that ``_ckernel.tasks`` writes: counts,
+        the moments of e, mu and lateral, then their spans' offsets, lengths
+        and starts (the chunks are set by :meth:`take_kernel_tasks`)."""
+        spans = [self._spans[n] for n in _SPANS]
+        return (
+            self._counts,
+            *(self._moments[n] for n in _SPANS),
+            *(s[0] for s in spans),
+            *(s[1] for s in spans),
+            *(s[3] for s in spans),
+        )
+
+    def take_kernel_tasks(self, kt, items: list) -> int:
+        """Hold the streams of the tasks of `kt` in `items` (``harvest()``'s:
+        the kernel has written their rows): their flats kept, their chunks set,
+        each stream done. Returns the impacts taken."""
+        if not items:
+            return 0
+        tasks = [kt.tasks[i] for i, *_ in items]
+        rows = np.concatenate([t.point for t in tasks])
+        per = np.array([len(t) for t in tasks])
+        for h, n in enumerate(_SPANS):
+            flats, ids = self._flats[n], self._flat_ids[n]
+            c0 = len(flats)
+            for j, item in enumerate(items):
+                flats.append(item[1 + h])
+                ids[id(item[1 + h])] = c0 + j
+            self._spans[n][2][rows] = np.repeat(
+                np.arange(c0, c0 + len(items), dtype=np.int32), per
+            )
+        self._held[rows] = True
+        self.next_block[rows] = tasks[0].stop
+        self.done[rows] = True
+        self._fresh_from = max(self._fresh_from, int(rows.max()) + 1)
+        return int(self._counts[rows, 0].sum())
 
     def merge_partial(self, partial: tuple) -> int:
         """Merge a partial result of the workers (``parallel.combine_partials``:
@@ -861,7 +928,7 @@ class _Job:
         self.local_workers = runner.local_workers
         self._background_policy = runner.background
         if fixed and streams.cap * streams.size < BACKGROUND_IMPACTS:
-            self._background_policy = "end"  # a short run: in the caller
+            self._background_policy = "short"  # a short run: in the caller
         if runner.background == "now":
             self._start_background()  # no fork to come: the kernel frees the GIL
         bar = Progress(
@@ -880,6 +947,8 @@ class _Job:
                     self._start_background()
                     bar.update(streams.merge_partial(partial))
                     self._checkpoint_if_due()
+            elif fixed and not results and self._in_kernel(runner):
+                self._drive_in_kernel(runner, bar)
             elif fixed:
                 tasks, todo = itertools.tee(_fixed_tasks(streams, runner.workers))
                 for task, rows in zip(todo, runner.imap(tasks), strict=True):
@@ -917,6 +986,87 @@ class _Job:
                 bar.close()
         if not fixed:
             self._warn_unconverged()
+
+    def _in_kernel(self, runner) -> bool:
+        """Whether this run's tasks go to the compiled kernel whole
+        (:class:`~.kernel.KernelTasks`): a fresh fixed-size run of whole
+        streams, on this process's threads (or one worker), with the plan's
+        points parsed once."""
+        return (
+            KERNEL_TASKS
+            and isinstance(runner, SerialRunner | ThreadRunner)
+            and kernel_tasks_available()
+            and self.plan.kernel == "compiled"
+            and self.streams.whole_fresh()
+            and plan_points_parsed(self.plan)
+        )
+
+    def _drive_in_kernel(self, runner, bar) -> None:
+        """Run every task in the compiled kernel: `runner.workers` threads each
+        make one ``KernelTasks.run`` call, and this thread only waits, updates
+        the progress bar and writes the checkpoints (the workers paused at a
+        task's end while it does). On an exception here (Ctrl-C) or in a
+        worker, the workers stop after their current task and every finished
+        task is kept (the caller writes the checkpoint)."""
+        streams = self.streams
+        kt = KernelTasks(
+            self.plan,
+            _fixed_tasks(streams, runner.workers),
+            streams.kernel_table(),
+        )
+        workers = max(1, min(runner.workers, len(kt.tasks)))
+        # a bar or a checkpoint is served between waits; else one wait
+        poll = KERNEL_POLL_S if (bar.active or self.checkpoint is not None) else None
+        pool = concurrent.futures.ThreadPoolExecutor(
+            workers, thread_name_prefix="microimpact-kernel"
+        )
+        futures: list = []
+
+        def start():
+            kt.halt(False)
+            futures[:] = [pool.submit(kt.run) for _ in range(workers)]
+
+        def take():
+            n = streams.take_kernel_tasks(kt, kt.harvest()[1])
+            if n:
+                bar.update(n)
+
+        def stop():
+            kt.halt(True)
+            for f in concurrent.futures.as_completed(futures):
+                f.result()  # a worker's MemoryError
+            futures.clear()
+
+        try:
+            start()
+            # no Python runs in the workers: the description may run beside
+            # them (not for a short run: its caller would wait for the thread)
+            if self._background_policy != "short":
+                self._background_policy = "now"
+            self._start_background()
+            while futures:
+                done, pending = concurrent.futures.wait(
+                    futures,
+                    timeout=poll,
+                    return_when=concurrent.futures.FIRST_EXCEPTION,
+                )
+                for f in done:
+                    f.result()
+                futures[:] = pending
+                if futures and self.checkpoint is not None and self.checkpoint.due():
+                    stop()  # the table is read whole: no worker writes it
+                    take()
+                    self.checkpoint.write(streams.state())
+                    start()
+                else:
+                    take()
+        except BaseException:
+            kt.halt(True)
+            concurrent.futures.wait(futures)
+            take()
+            raise
+        finally:
+            pool.shutdown(wait=True)
 
     def _merge(self, items, bar, results) -> Iterator[BlockResult]:
         """Merge ``(group, rows, i)`` items in order; with `results`, yield a
@@ -962,7 +1112,10 @@ class _Job:
         runner's :attr:`~.parallel.ThreadRunner.background`, or a short run:
         :data:`BACKGROUND_IMPACTS`): then :meth:`background_result` computes it
         in the caller."""
-        if self._background is not None and self._background_policy != "end":
+        if self._background is not None and self._background_policy not in (
+            "end",
+            "short",
+        ):
             self._background.start()
 
     def background_result(self):
