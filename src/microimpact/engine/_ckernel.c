@@ -3093,16 +3093,30 @@ tasks_one(tasks_ctx *c, Py_ssize_t i)
                 at[h] += spans[6 * g + 2 * h + 1];
             }
         }
-        for (int h = 0; h < 3; h++) { /* the narrowed counts only */
+        for (int h = 0; h < 3; h++) {
+            /* the narrowed counts copied out, the int64 buffer freed: shrunk
+             * in place, each task's buffer left 7/8 of it as holes that the
+             * next task's could not use (a 10^6-point sweep's peak +45 %) */
             Py_ssize_t bytes = used[h] * width[h];
-            int64_t *small = PyMem_RawRealloc(out[h], bytes ? bytes : 1);
-            c->flat[3 * i + h] = small != NULL ? small : out[h];
+            int64_t *small = PyMem_RawMalloc(bytes ? bytes : 1);
+            if (small == NULL) {
+                oom = 1;
+                break;
+            }
+            memcpy(small, out[h], bytes);
+            c->flat[3 * i + h] = small;
             c->used[3 * i + h] = used[h];
             c->width[3 * i + h] = width[h];
-            out[h] = NULL;
         }
-        A_ADD(&c->impacts, total);
-        A_STORE(&c->done[i], 1);
+        if (oom) /* (the task's flats made so far) */
+            for (int h = 0; h < 3; h++) {
+                PyMem_RawFree(c->flat[3 * i + h]);
+                c->flat[3 * i + h] = NULL;
+            }
+        else {
+            A_ADD(&c->impacts, total);
+            A_STORE(&c->done[i], 1);
+        }
     }
     for (int h = 0; h < 3; h++)
         PyMem_RawFree(out[h]);

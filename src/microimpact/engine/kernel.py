@@ -986,25 +986,38 @@ class KernelTasks:
     for it, so the rows and counts are the same bits."""
 
     def __init__(self, plan: Plan, tasks, table: tuple):
-        self.tasks = list(tasks)
-        if not self.tasks:
+        parts, sizes = [], []
+        for t in tasks:  # (each task's arrays are views: not kept past here)
+            parts.append((t.point, t.first, t.last))
+            sizes.append(len(t))
+            self.stop, block_size, last_n = t.stop, t.block_size, t.last_n
+        if not parts:
             raise ValueError("KernelTasks: no task")
-        first = self.tasks[0]
-        starts = np.zeros(len(self.tasks) + 1, dtype=np.int64)
-        np.cumsum([len(t) for t in self.tasks], out=starts[1:])
+        #: the groups' points (each a row of the table), and task i's groups
+        #: ``starts[i] .. starts[i + 1] - 1``
+        self.point, first, last = (
+            np.concatenate([p[j] for p in parts]).astype(np.int64, copy=False)
+            for j in range(3)
+        )
+        del parts
+        self.starts = np.zeros(len(sizes) + 1, dtype=np.int64)
+        np.cumsum(sizes, out=self.starts[1:])
         self._capsule = _ckernel().tasks(
             entropy_words(plan.entropy),
             _common_args(plan),
             _plan_points(plan),
-            np.concatenate([t.point for t in self.tasks]).astype(np.int64),
-            np.concatenate([t.first for t in self.tasks]).astype(np.int64),
-            np.concatenate([t.last for t in self.tasks]).astype(np.int64),
-            starts,
-            first.stop,
-            first.block_size,
-            first.last_n,
+            self.point,
+            first,
+            last,
+            self.starts,
+            self.stop,
+            block_size,
+            last_n,
             table,
         )
+
+    def __len__(self) -> int:
+        return self.starts.size - 1
 
     def run(self) -> int:
         """Run tasks until none is left or :meth:`halt`; the tasks run."""

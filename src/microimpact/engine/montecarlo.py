@@ -488,9 +488,13 @@ class _Streams:
         each stream done. Returns the impacts taken."""
         if not items:
             return 0
-        tasks = [kt.tasks[i] for i, *_ in items]
-        rows = np.concatenate([t.point for t in tasks])
-        per = np.array([len(t) for t in tasks])
+        idx = np.array([item[0] for item in items])
+        starts = kt.starts
+        if idx[-1] - idx[0] + 1 == idx.size:  # consecutive tasks (the usual)
+            rows = kt.point[starts[idx[0]] : starts[idx[-1] + 1]]
+        else:
+            rows = np.concatenate([kt.point[starts[i] : starts[i + 1]] for i in idx])
+        per = starts[idx + 1] - starts[idx]
         for h, n in enumerate(_SPANS):
             flats, ids = self._flats[n], self._flat_ids[n]
             c0 = len(flats)
@@ -501,7 +505,7 @@ class _Streams:
                 np.arange(c0, c0 + len(items), dtype=np.int32), per
             )
         self._held[rows] = True
-        self.next_block[rows] = tasks[0].stop
+        self.next_block[rows] = kt.stop
         self.done[rows] = True
         self._fresh_from = max(self._fresh_from, int(rows.max()) + 1)
         return int(self._counts[rows, 0].sum())
@@ -1014,7 +1018,7 @@ class _Job:
             _fixed_tasks(streams, runner.workers),
             streams.kernel_table(),
         )
-        workers = max(1, min(runner.workers, len(kt.tasks)))
+        workers = max(1, min(runner.workers, len(kt)))
         # a bar or a checkpoint is served between waits; else one wait
         poll = KERNEL_POLL_S if (bar.active or self.checkpoint is not None) else None
         pool = concurrent.futures.ThreadPoolExecutor(
