@@ -17,6 +17,8 @@ compiled kernel's own count of the time it ran with the GIL released
   caches, memory bandwidth or a lower all-core clock, not from the GIL);
 * ``task``: the tasks' number and mean time, and their mean time outside the
   kernel (``task - kernel``: argument parsing, copies and waits for the GIL).
+  Where the kernel runs a run's tasks itself (``kernel.KernelTasks``), a
+  "task" is one worker thread's loop over them.
 
     python benchmarks/timeline.py --workers 1 2 4 8 16 [--json PATH]
     python benchmarks/timeline.py --knob TASKS_PER_WORKER=2,4,8,16 --paths grid
@@ -53,10 +55,13 @@ def _timed(fn):
 
 
 def _instrument() -> None:
-    from microimpact.engine import parallel
+    from microimpact.engine import kernel, parallel
     from microimpact.wall_law import build
 
     parallel.run_task = _timed(parallel.run_task)
+    # a fresh run of whole streams runs its tasks inside the kernel: each worker
+    # thread's one loop over them is its "task" here
+    kernel.KernelTasks.run = _timed(kernel.KernelTasks.run)
     build._node_rows = _timed(build._node_rows)
 
 

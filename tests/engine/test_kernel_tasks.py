@@ -272,3 +272,32 @@ def test_task_loop_arguments_are_checked():
     ):
         with pytest.raises(ValueError):
             call(**bad)
+
+
+def test_a_short_run_on_one_worker_runs_its_tasks_in_the_caller(monkeypatch):
+    """Under BACKGROUND_IMPACTS on one worker, the kernel runs the tasks in the
+    calling thread (no thread to start and wake); a longer run, or two
+    workers, in worker threads (the caller stays free for Ctrl-C and the
+    progress bar). The same bits either way."""
+    import threading
+
+    where = []
+    real = kernel.KernelTasks.run
+
+    def recorded(kt):
+        where.append(threading.current_thread() is threading.main_thread())
+        return real(kt)
+
+    monkeypatch.setattr(kernel.KernelTasks, "run", recorded)
+    sc = _grid(samples=2000)  # 72 points: 144,000 impacts
+    short = run(sc, seed=4)
+    assert where == [True]
+    where.clear()
+    monkeypatch.setattr(montecarlo, "BACKGROUND_IMPACTS", 0)
+    long = run(sc, seed=4)
+    assert where == [False]
+    where.clear()
+    two = run(sc, seed=4, workers=2)
+    assert where == [False, False]
+    _same(short, long)
+    _same(short, two)

@@ -443,6 +443,8 @@ def test_a_checkpoint_of_many_points_builds_no_accumulator_per_point(
     # task by task, or inside the kernel, paused at every poll for a write
     monkeypatch.setattr(montecarlo, "KERNEL_TASKS", in_kernel)
     monkeypatch.setattr(montecarlo, "KERNEL_POLL_S", 0.0)
+    # (not a short run, which the kernel runs in the caller, in one go)
+    monkeypatch.setattr(montecarlo, "BACKGROUND_IMPACTS", 0)
     full = run(sc)
     built = []
     real = Stacked.accumulator

@@ -1019,6 +1019,17 @@ class _Job:
             streams.kernel_table(),
         )
         workers = max(1, min(runner.workers, len(kt)))
+        if workers == 1 and self._background_policy == "short":
+            # a short run (under BACKGROUND_IMPACTS, ~50 ms) on one worker: in
+            # this thread (a model run of a calibration or a design row paid
+            # ~0.3 ms for a thread and its wake-ups); Ctrl-C waits for its end
+            try:
+                kt.run()
+            finally:
+                n = streams.take_kernel_tasks(kt, kt.harvest()[1])
+                if n:
+                    bar.update(n)
+            return
         # a bar or a checkpoint is served between waits; else one wait
         poll = KERNEL_POLL_S if (bar.active or self.checkpoint is not None) else None
         pool = concurrent.futures.ThreadPoolExecutor(
