@@ -569,6 +569,8 @@ def test_task_arguments_are_checked():
         dict(bs=0),
         dict(stop=0),
         dict(point=(0, 1)),  # lengths that disagree
+        # a block count whose specs' size would wrap (a heap overrun before)
+        dict(last=(2**62 - 1,), stop=2**62),
     ):
         with pytest.raises(ValueError):
             call(**bad)

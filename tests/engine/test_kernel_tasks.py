@@ -239,22 +239,41 @@ def test_task_loop_arguments_are_checked():
             *(np.zeros(rows, np.int64) for _ in range(3)),
         )
 
-    def call(point=(0, 1), first=(0, 0), last=(0, 0), starts=(0, 2), t=None):
-        return ck.tasks(
-            kernel.entropy_words(plan.entropy),
-            kernel._common_args(plan),
-            kernel._plan_points(plan),
+    def call(
+        point=(0, 1),
+        first=(0, 0),
+        last=(0, 0),
+        starts=(0, 2),
+        t=None,
+        stop=1,
+        arrays=None,
+    ):
+        point, first, last, starts = arrays or (
             i64(*point),
             i64(*first),
             i64(*last),
             i64(*starts),
-            1,
+        )
+        return ck.tasks(
+            kernel.entropy_words(plan.entropy),
+            kernel._common_args(plan),
+            kernel._plan_points(plan),
+            point,
+            first,
+            last,
+            starts,
+            stop,
             100,
             100,
             table() if t is None else t,
         )
 
-    ok = call()
+    # the index arrays are copied when checked: changed afterwards (here to a
+    # point outside the table) they change nothing
+    arrays = (i64(0, 1), i64(0, 0), i64(0, 0), i64(0, 2))
+    ok = call(arrays=arrays)
+    arrays[0][1] = 10**12
+    arrays[3][1] = 7
     assert ck.tasks_run(ok) == 1
     impacts, items = ck.tasks_harvest(ok)
     assert impacts == 200 and [i[0] for i in items] == [0]
@@ -269,6 +288,8 @@ def test_task_loop_arguments_are_checked():
         dict(t=table(R)[:12]),
         dict(t=(np.zeros((R, 4), np.int64), *table()[1:])),
         dict(t=table(1)),
+        # block counts whose specs' size would wrap (a heap overrun before)
+        dict(first=(0, 0), last=(2**62 - 1, 0), stop=2**62),
     ):
         with pytest.raises(ValueError):
             call(**bad)

@@ -2565,6 +2565,27 @@ narrow_in_place(int64_t *c, Py_ssize_t n)
     return w;
 }
 
+/* Adds a group's blocks fi .. la to *K and their impacts to *n (blocks of
+ * bsize impacts, block stop - 1 of last_n); -1 with a ValueError where the
+ * totals would not fit what the kernel allocates for them (specs, and per
+ * impact outputs), which a wrapped size would have overrun. */
+static int
+add_group(Py_ssize_t *K, Py_ssize_t *n, int64_t fi, int64_t la, Py_ssize_t stop,
+          Py_ssize_t bsize, Py_ssize_t last_n, const char *name)
+{
+    const Py_ssize_t kmax = PY_SSIZE_T_MAX / (Py_ssize_t)(sizeof(spec_t) + 64);
+    const Py_ssize_t nmax = PY_SSIZE_T_MAX / 64;
+    int64_t b = la - fi + 1;
+    if (b > kmax - *K || b > (nmax - *n) / bsize) {
+        PyErr_Format(PyExc_ValueError, "_ckernel.%s: too many blocks or impacts",
+                     name);
+        return -1;
+    }
+    *K += b;
+    *n += b * bsize - (la == stop - 1 ? bsize - last_n : 0);
+    return 0;
+}
+
 /* The GIL-free middle of task() and tasks_run(): groups g < G of point pt[g]
  * (its template and speed from the plan's points `t`), blocks fi[g] .. la[g],
  * each merged in block order. `sp` has room for the groups' blocks, `glen`,
@@ -2679,8 +2700,8 @@ ck_task(PyObject *self, PyObject *args)
                             "first <= last < stop");
             goto done;
         }
-        K += la[g] - fi[g] + 1;
-        total_n += (la[g] - fi[g] + 1) * bsize - (la[g] == stop - 1 ? bsize - last_n : 0);
+        if (add_group(&K, &total_n, fi[g], la[g], stop, bsize, last_n, "task"))
+            goto done;
     }
     if (store_of(store, total_n, "task", bst, &nst))
         goto done;
@@ -2830,6 +2851,7 @@ typedef struct {
     PyObject *capsule; /* the plan's points, held */
     point_table *t;
     Py_buffer bg[4]; /* point, first, last (per group), task starts */
+    int64_t *idx;    /* their copies, owned */
     const int64_t *pt, *fi, *la, *ts;
     Py_ssize_t G, ntasks, stop, bsize, last_n, rows;
     Py_buffer bd[TD_N]; /* the driver's table: see tasks_doc */
@@ -2863,6 +2885,7 @@ tasks_free(PyObject *capsule)
     PyMem_Free(c->width);
     PyMem_Free(c->done);
     PyMem_Free(c->taken);
+    PyMem_Free(c->idx);
     sampler_set_free(&c->set);
     for (int j = 0; j < c->held_g; j++)
         PyBuffer_Release(&c->bg[j]);
@@ -2966,11 +2989,24 @@ ck_tasks(PyObject *self, PyObject *args)
                         "_ckernel.tasks: point, first, last and starts are int64");
         goto fail;
     }
-    c->pt = c->bg[0].buf;
-    c->fi = c->bg[1].buf;
-    c->la = c->bg[2].buf;
-    c->ts = c->bg[3].buf;
     c->ntasks = c->bg[3].len / 8 - 1;
+    /* copies of the index arrays, checked below: the callers' arrays could
+     * change while the threads read them, or overlap the table */
+    c->idx = PyMem_Malloc((3 * c->G + c->ntasks + 1 + 1) * sizeof *c->idx);
+    if (c->idx == NULL) {
+        PyErr_NoMemory();
+        goto fail;
+    }
+    for (int j = 0; j < 3; j++)
+        memcpy(c->idx + j * c->G, c->bg[j].buf, c->G * sizeof *c->idx);
+    memcpy(c->idx + 3 * c->G, c->bg[3].buf, (c->ntasks + 1) * sizeof *c->idx);
+    for (int j = 0; j < c->held_g; j++)
+        PyBuffer_Release(&c->bg[j]);
+    c->held_g = 0;
+    c->pt = c->idx;
+    c->fi = c->idx + c->G;
+    c->la = c->idx + 2 * c->G;
+    c->ts = c->idx + 3 * c->G;
     if (PyTuple_GET_SIZE(table) != TD_N) {
         PyErr_SetString(PyExc_ValueError, "_ckernel.tasks: table is 13 arrays");
         goto fail;
@@ -3011,6 +3047,12 @@ ck_tasks(PyObject *self, PyObject *args)
                             "points not increasing, or not 0 <= first <= last < stop");
             goto fail;
         }
+    for (Py_ssize_t i = 0; i < c->ntasks; i++) { /* each task's sizes fit */
+        Py_ssize_t K = 0, n = 0;
+        for (Py_ssize_t g = c->ts[i]; g < c->ts[i + 1]; g++)
+            if (add_group(&K, &n, c->fi[g], c->la[g], stop, bsize, last_n, "tasks"))
+                goto fail;
+    }
     Py_ssize_t nt = c->ntasks ? c->ntasks : 1;
     c->flat = PyMem_Calloc(3 * nt, sizeof *c->flat);
     c->used = PyMem_Calloc(3 * nt, sizeof *c->used);
@@ -3034,6 +3076,7 @@ fail:
         PyMem_Free(c->width);
         PyMem_Free(c->done);
         PyMem_Free(c->taken);
+        PyMem_Free(c->idx);
         sampler_set_free(&c->set);
         for (int j = 0; j < c->held_g; j++)
             PyBuffer_Release(&c->bg[j]);
@@ -3195,7 +3238,8 @@ ck_tasks_halt(PyObject *self, PyObject *args)
 
 PyDoc_STRVAR(tasks_harvest_doc,
 "tasks_harvest(tasks) -> (impacts, [(i, e, e_size, mu, mu_size, lat, lat_size)])\n\n"
-"The impacts of the tasks done so far, and each task done since the last\n"
+"The impacts of the tasks done so far (read after the list: it may count a\n"
+"task that finished since), and each task done since the last\n"
 "harvest, in task order: its index and each histogram's flat counts (a\n"
 "read-only buffer, no copy) with their item size (1, 2, 4 or 8).");
 
@@ -3213,11 +3257,14 @@ ck_tasks_harvest(PyObject *self, PyObject *args)
             continue;
         PyObject *f[3] = {NULL, NULL, NULL}, *item = NULL;
         for (int h = 0; h < 3; h++) {
-            f[h] = flat_new(c->flat[3 * i + h],
-                            c->used[3 * i + h] * c->width[3 * i + h]);
+            f[h] = flat_new(NULL, 0); /* (its data once all three are made) */
             if (f[h] == NULL)
                 goto fail;
-            c->flat[3 * i + h] = NULL; /* the object's now */
+        }
+        for (int h = 0; h < 3; h++) { /* the objects' now */
+            ((FlatObject *)f[h])->data = c->flat[3 * i + h];
+            ((FlatObject *)f[h])->len = c->used[3 * i + h] * c->width[3 * i + h];
+            c->flat[3 * i + h] = NULL;
         }
         c->taken[i] = 1;
         item = Py_BuildValue("(nNiNiNi)", i, f[0], c->width[3 * i], f[1],

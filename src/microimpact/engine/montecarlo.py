@@ -504,9 +504,9 @@ class _Streams:
             self._spans[n][2][rows] = np.repeat(
                 np.arange(c0, c0 + len(items), dtype=np.int32), per
             )
-        self._held[rows] = True
         self.next_block[rows] = kt.stop
         self.done[rows] = True
+        self._held[rows] = True  # last: what a checkpoint reads as taken
         self._fresh_from = max(self._fresh_from, int(rows.max()) + 1)
         return int(self._counts[rows, 0].sum())
 
@@ -1076,9 +1076,19 @@ class _Job:
                 else:
                     take()
         except BaseException:
+            # every worker stopped before the caller reads the table (for the
+            # checkpoint), also through a second Ctrl-C; then the finished tasks
             kt.halt(True)
-            concurrent.futures.wait(futures)
+            again = None
+            while True:
+                try:
+                    concurrent.futures.wait(futures)
+                    break
+                except KeyboardInterrupt as exc:
+                    again = exc
             take()
+            if again is not None:
+                raise again from None
             raise
         finally:
             pool.shutdown(wait=True)
