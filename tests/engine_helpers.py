@@ -8,6 +8,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.testing import assert_array_equal
 from scipy import stats
 
 from microimpact._core.tables import QuantileTable
@@ -91,3 +92,25 @@ def correlated_areal_angles(n, seed=5, std_par=18.0, std_perp=14.0, rho=0.3):
         0.0, std_perp * np.sqrt(1 - rho**2), n
     )
     return areal_angles_from_sample(a, b)
+
+
+def two_surface_grid(**kw):
+    """A 9 x 4 speed-angle grid on two rough surfaces, 3,000 impacts per point
+    (normal incidence included); `kw` overrides."""
+    base = dict(
+        surfaces=(rough(8.0), rough(14.0, name="rougher")),
+        speeds_m_s=tuple(np.linspace(0.1, 2.0, 9)),
+        angles_deg=(20.0, 50.0, 80.0, 90.0),
+        samples=3000,
+    )
+    base.update(kw)
+    return scenario(**base)
+
+
+def same_runs(a, b):
+    """Two results of one run (seed and scenario): every summary column but the
+    surface's name, and every accumulator, bit for bit."""
+    cols = [c for c in a.summary.columns if c != "surface"]
+    assert_array_equal(a.summary[cols].to_numpy(), b.summary[cols].to_numpy())
+    for k in a.accumulators:
+        assert a.accumulators[k] == b.accumulators[k], k

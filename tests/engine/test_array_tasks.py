@@ -7,7 +7,8 @@ import pickle
 
 import numpy as np
 import pytest
-from engine_helpers import correlated_areal_angles, rough, scenario
+from engine_helpers import correlated_areal_angles, rough
+from engine_helpers import two_surface_grid as _grid
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_array_equal
@@ -22,17 +23,6 @@ from microimpact.scenario.scenario import SurfaceVariant
 pytestmark = pytest.mark.skipif(
     kernel.KERNEL != "compiled", reason="array tasks need the compiled kernel"
 )
-
-
-def _grid(**kw):
-    base = dict(
-        surfaces=(rough(8.0), rough(14.0, name="rougher")),
-        speeds_m_s=tuple(np.linspace(0.1, 2.0, 9)),
-        angles_deg=(20.0, 50.0, 80.0, 90.0),
-        samples=3000,
-    )
-    base.update(kw)
-    return scenario(**base)
 
 
 def _tuples(streams) -> list:

@@ -13,8 +13,7 @@ import warnings
 
 import numpy as np
 import pytest
-from engine_helpers import rough, scenario
-from numpy.testing import assert_array_equal
+from engine_helpers import rough, same_runs, scenario
 
 from microimpact.engine import kernel, montecarlo, parallel
 from microimpact.engine.montecarlo import estimate_duration, iter_blocks, run
@@ -35,13 +34,6 @@ def _grid(**kw):
     )
     base.update(kw)
     return scenario(**base)
-
-
-def _same(a, b):
-    cols = [c for c in a.summary.columns if c != "surface"]
-    assert_array_equal(a.summary[cols].to_numpy(), b.summary[cols].to_numpy())
-    for k in a.accumulators:
-        assert a.accumulators[k] == b.accumulators[k]
 
 
 class Recorder:
@@ -99,8 +91,8 @@ def test_packing_changes_no_bit(monkeypatch, impacts):
     sc = _grid(speeds_m_s=(0.1, 0.4), samples=70_000)
     ref = run(sc)
     monkeypatch.setattr(montecarlo, "TASK_IMPACTS", impacts)
-    _same(ref, run(sc))
-    _same(ref, run(sc, workers=2))
+    same_runs(ref, run(sc))
+    same_runs(ref, run(sc, workers=2))
 
 
 def _no_stacked(plan, specs, groups=None):
@@ -127,7 +119,7 @@ def test_simulate_specs_is_used_when_the_kernel_has_it(monkeypatch):
     # tests/engine/test_grid_speed.py, is switched off here)
     monkeypatch.setattr(kernel, "simulate_specs_stacked", _no_stacked)
     monkeypatch.setattr(kernel, "task_rows", _no_task)
-    _same(ref, run(sc))
+    same_runs(ref, run(sc))
     assert len(calls) == 1 and len(calls[0]) == 36
 
 
@@ -150,7 +142,7 @@ def test_the_stacked_kernel_path_is_one_call_per_task(monkeypatch):
 
     monkeypatch.setattr(kernel, "simulate_specs_stacked", stacked)
     monkeypatch.setattr(kernel, "task_rows", _no_task)
-    _same(ref, run(sc))
+    same_runs(ref, run(sc))
     assert len(calls) == 1 and len(calls[0]) == 36
 
 
@@ -228,7 +220,7 @@ def test_workers_above_the_cores_are_capped(monkeypatch):
         res = run(sc, workers=3)
     assert res.provenance["workers"] == 1
     assert res.provenance["workers_requested"] == 3
-    _same(run(sc), res)
+    same_runs(run(sc), res)
 
 
 def test_workers_within_the_cores_are_not_capped(monkeypatch):
@@ -315,7 +307,7 @@ def test_entry_points_take_a_preset_name_or_a_scenario_file(tmp_path):
     name = "sst65-silicon-normal"
     by_name = run(name, samples=300, seed=1)
     by_path = run(preset_path(name), samples=300, seed=1)
-    _same(by_name, by_path)
+    same_runs(by_name, by_path)
     assert next(iter_blocks(name, samples=300, seed=1)).total.n == 300
     assert montecarlo.sample_point(name, 0, 50, seed=1)["e_m"].shape == (50,)
     assert estimate_duration(name, samples=300) > 0
@@ -345,10 +337,10 @@ def test_any_executor_gives_the_same_bits():
     ref = run(sc)
     with ThreadPoolExecutor(2) as ex:
         res = run(sc, executor=ex)
-    _same(ref, res)
+    same_runs(ref, res)
     assert res.provenance["backend"] == "executor"
     with ProcessPoolExecutor(2) as ex:
-        _same(ref, run(sc, executor=ex))
+        same_runs(ref, run(sc, executor=ex))
 
 
 def test_local_workers_are_threads_when_the_kernel_frees_the_gil():
@@ -454,7 +446,7 @@ def test_a_grid_on_several_workers_ends_with_short_tasks(monkeypatch):
     # the last tasks: whole points up to a task of MIN_TASK_IMPACTS
     assert max(sizes[-3:]) < montecarlo.MIN_TASK_IMPACTS + 40_000
     assert sizes[-1] < sizes[0] / 3
-    _same(one, many)
+    same_runs(one, many)
 
 
 @pytest.mark.parametrize(
@@ -505,7 +497,7 @@ def test_a_dask_run_packs_its_tasks_by_the_cluster_rule(monkeypatch):
     # whole points are packed until a task holds `size` impacts
     assert all(s >= size for s in sizes[:-1])
     assert len(sizes) == montecarlo.TASKS_PER_WORKER * 2  # 8 tasks of 2 points
-    _same(one, many)
+    same_runs(one, many)
 
 
 @pytest.mark.parametrize("workers", [2, 3])
@@ -524,4 +516,4 @@ def test_small_runs_spread_over_the_workers(monkeypatch, workers):
     assert len(sizes) == math.ceil(480_000 / montecarlo.MIN_TASK_IMPACTS)
     assert sum(sizes) == 480_000
     assert all(s >= montecarlo.MIN_TASK_IMPACTS for s in sizes[:-1])
-    _same(one, many)
+    same_runs(one, many)

@@ -9,12 +9,14 @@ interrupted run keeps its finished tasks and resumes to the same bits.
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 import pytest
-from engine_helpers import correlated_areal_angles, rough, scenario
+from engine_helpers import correlated_areal_angles, rough, same_runs
+from engine_helpers import two_surface_grid as _grid
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from numpy.testing import assert_array_equal
 
 import microimpact as mi
 from microimpact.engine import checkpoint as ckpt
@@ -29,37 +31,38 @@ pytestmark = pytest.mark.skipif(
 )
 
 
-def _grid(**kw):
-    base = dict(
-        surfaces=(rough(8.0), rough(14.0, name="rougher")),
-        speeds_m_s=tuple(np.linspace(0.1, 2.0, 9)),
-        angles_deg=(20.0, 50.0, 80.0, 90.0),
-        samples=3000,
-    )
-    base.update(kw)
-    return scenario(**base)
-
-
 def _same(a, b):
-    cols = [c for c in a.summary.columns if c != "surface"]
-    assert_array_equal(a.summary[cols].to_numpy(), b.summary[cols].to_numpy())
     assert a.accumulators.keys() == b.accumulators.keys()
-    for k in a.accumulators:
-        assert a.accumulators[k] == b.accumulators[k], k
+    same_runs(a, b)
 
 
 class Spy:
-    """Counts the KernelTasks.run calls (one per worker thread)."""
+    """Counts the KernelTasks.run calls (one per worker thread) and records
+    whether each ran in the main thread (`in_main`)."""
 
     def __init__(self, monkeypatch):
         self.calls = 0
+        self.in_main = []
         real = kernel.KernelTasks.run
 
         def counted(kt):
             self.calls += 1
+            self.in_main.append(threading.current_thread() is threading.main_thread())
             return real(kt)
 
         monkeypatch.setattr(kernel.KernelTasks, "run", counted)
+
+
+def _many_tasks(monkeypatch):
+    """A 30 x 20 grid at 8,000 impacts (not a short run), cut into tasks of 4
+    blocks, with the finished tasks taken at every poll."""
+    monkeypatch.setattr(montecarlo, "KERNEL_POLL_S", 0.0)
+    monkeypatch.setattr(montecarlo, "TASK_IMPACTS", 4 * BLOCK_SIZE)
+    return _grid(
+        speeds_m_s=tuple(np.linspace(0.1, 2.0, 30)),
+        angles_deg=tuple(np.linspace(5.0, 90.0, 20)),
+        samples=8000,
+    )
 
 
 def _task_by_task(monkeypatch, sc, **kw):
@@ -139,14 +142,8 @@ def test_an_interrupted_run_keeps_its_finished_tasks_and_resumes(tmp_path, monke
     callback at the first task done): the workers stop after their current
     task, the finished tasks are written to the checkpoint, and a re-run
     simulates only the rest, to the bits of an uninterrupted run."""
-    sc = _grid(
-        speeds_m_s=tuple(np.linspace(0.1, 2.0, 30)),
-        angles_deg=tuple(np.linspace(5.0, 90.0, 20)),
-        samples=8000,
-    )
+    sc = _many_tasks(monkeypatch)
     full = run(sc, seed=9)
-    monkeypatch.setattr(montecarlo, "KERNEL_POLL_S", 0.0)
-    monkeypatch.setattr(montecarlo, "TASK_IMPACTS", 4 * BLOCK_SIZE)  # many tasks
     raised = []
 
     def interrupt(done, total):
@@ -193,14 +190,8 @@ def test_an_interrupted_run_keeps_its_finished_tasks_and_resumes(tmp_path, monke
 def test_checkpoints_during_the_run_hold_only_finished_tasks(tmp_path, monkeypatch):
     """A checkpoint written while the kernel runs (the workers paused) holds
     the tasks finished by then, each stream as the full run's."""
-    sc = _grid(
-        speeds_m_s=tuple(np.linspace(0.1, 2.0, 30)),
-        angles_deg=tuple(np.linspace(5.0, 90.0, 20)),
-        samples=8000,
-    )
+    sc = _many_tasks(monkeypatch)
     full = run(sc, seed=2)
-    monkeypatch.setattr(montecarlo, "KERNEL_POLL_S", 0.0)
-    monkeypatch.setattr(montecarlo, "TASK_IMPACTS", 4 * BLOCK_SIZE)
     states = []
     real_write = Checkpoint.write
 
@@ -300,16 +291,8 @@ def test_a_short_run_on_one_worker_runs_its_tasks_in_the_caller(monkeypatch):
     calling thread (no thread to start and wake); a longer run, or two
     workers, in worker threads (the caller stays free for Ctrl-C and the
     progress bar). The same bits either way."""
-    import threading
-
-    where = []
-    real = kernel.KernelTasks.run
-
-    def recorded(kt):
-        where.append(threading.current_thread() is threading.main_thread())
-        return real(kt)
-
-    monkeypatch.setattr(kernel.KernelTasks, "run", recorded)
+    spy = Spy(monkeypatch)
+    where = spy.in_main
     sc = _grid(samples=2000)  # 72 points: 144,000 impacts
     short = run(sc, seed=4)
     assert where == [True]

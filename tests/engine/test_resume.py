@@ -13,7 +13,7 @@ import zipfile
 
 import numpy as np
 import pytest
-from engine_helpers import rough, scenario
+from engine_helpers import rough, same_runs, scenario
 from numpy.testing import assert_array_equal
 
 from microimpact.engine import checkpoint as ckpt
@@ -96,13 +96,6 @@ def small_tasks(monkeypatch):
     monkeypatch.setattr(montecarlo, "TASK_IMPACTS", 4 * BLOCK_SIZE)
 
 
-def _same(a, b):
-    cols = [c for c in a.summary.columns if c != "surface"]
-    assert_array_equal(a.summary[cols].to_numpy(), b.summary[cols].to_numpy())
-    for k in a.accumulators:
-        assert a.accumulators[k] == b.accumulators[k]
-
-
 def test_closed_generator_resumes_without_recomputing(
     tmp_path, monkeypatch, small_tasks
 ):
@@ -132,13 +125,13 @@ def test_closed_generator_resumes_without_recomputing(
     assert not run_again & ({(0, 0, b) for b in range(7)} | {(1, 0, 0), (1, 0, 1)})
     assert resumed.provenance["resumed_blocks"] == merged
     assert resumed.provenance["total_blocks"] == total
-    _same(full, resumed)
+    same_runs(full, resumed)
     # a finished checkpoint: everything restored, nothing simulated, same bits
     spy.blocks.clear()
     again = run(sc, checkpoint=ck)
     assert ck.restored_blocks == ck.total_blocks == total
     assert spy.blocks == []
-    _same(full, again)
+    same_runs(full, again)
 
 
 def test_interrupt_inside_the_kernel_keeps_the_merged_prefix(
@@ -157,7 +150,7 @@ def test_interrupt_inside_the_kernel_keeps_the_merged_prefix(
     resumed = run(sc, checkpoint=ck)
     assert ck.restored_blocks == 4  # the first task (4 blocks) was merged
     assert len(spy.blocks) == 21 - 4
-    _same(full, resumed)
+    same_runs(full, resumed)
 
 
 def test_resume_on_two_workers_is_bit_identical(tmp_path, monkeypatch, small_tasks):
@@ -169,7 +162,7 @@ def test_resume_on_two_workers_is_bit_identical(tmp_path, monkeypatch, small_tas
         next(gen)
     gen.close()
     ck = Checkpoint(path)
-    _same(full, run(sc, checkpoint=ck, workers=2))
+    same_runs(full, run(sc, checkpoint=ck, workers=2))
     assert ck.restored_blocks == 9
 
 
@@ -192,7 +185,7 @@ def test_precision_run_resumes(tmp_path, monkeypatch):
     assert ck.restored_blocks == 3  # blocks 0, 1 of point 0, block 0 of point 1
     assert spy.blocks
     assert not {s[:3] for s in spy.blocks} & {(0, 0, 0), (0, 0, 1), (1, 0, 0)}
-    _same(full, resumed)
+    same_runs(full, resumed)
 
 
 # ------------------------------------------------------------------- mismatches
@@ -231,7 +224,7 @@ def test_checkpoint_of_another_run_is_reported_and_moved_aside(
     assert ck.stale_path.read_bytes() == saved  # moved aside, not discarded
     assert len(spy.blocks) == ck.total_blocks  # everything simulated afresh
     assert result.provenance["resumed_blocks"] == 0
-    _same(run(other), result)
+    same_runs(run(other), result)
 
 
 def test_corrupt_and_old_checkpoints_are_reported(tmp_path):
@@ -464,7 +457,7 @@ def test_a_checkpoint_of_many_points_builds_no_accumulator_per_point(
     spy = KernelSpy(monkeypatch)
     again = run(sc, checkpoint=Checkpoint(path))
     assert spy.blocks == []
-    _same(full, again)
+    same_runs(full, again)
 
 
 def test_a_state_saved_as_arrays_reads_back_as_the_accumulators(tmp_path):

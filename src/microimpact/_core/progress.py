@@ -42,7 +42,6 @@ class Progress:
         if progress is None:
             progress = sys.stderr.isatty()
         if progress:
-            # deferred: tqdm (and its notebook detection) loads only for a bar
             self.bar = _bar_class()(
                 total=total,
                 unit=unit,

@@ -954,9 +954,9 @@ def _bootstrap(model, sx, y, s_exp, s_sim, x, h, B, scale, idx, bootstrap, seed,
                 steps.update()
         else:
             for yb in data:
-                fits.append(refit.fit(model, yb))
-                curves.append(model.summaries([fits[-1]])[0])
-                refit.bound_cache(model)
+                xb, curve = refit.refit(model, yb)
+                fits.append(xb)
+                curves.append(curve)
                 steps.update()
     finally:
         if pool is not None:
@@ -981,18 +981,20 @@ class _Refit:
         fb = _least_squares(ob, x[idx], B[idx], self.scale[idx], xtol=1e-4)
         return ob.full(fb.x)
 
-    def bound_cache(self, model) -> None:
+    def refit(self, model, yb) -> tuple:
+        """``(refit, its summary)`` of data `yb` with `model`."""
+        xb = self.fit(model, yb)
+        curve = model.summaries([xb])[0]
         if len(model.cache) > 256:  # bound the memory: keep the optimum
             keep = tuple(self.x.tolist())
             model.cache = {keep: model.cache[keep]}
+        return xb, curve
 
     def __call__(self, yb):
         model = self.model  # this process's own (forked) copy
         model.map = _serial
         before = model.runs
-        xb = self.fit(model, yb)
-        curve = model.summaries([xb])[0]
-        self.bound_cache(model)
+        xb, curve = self.refit(model, yb)
         return xb, curve, model.runs - before
 
 

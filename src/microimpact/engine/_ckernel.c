@@ -2586,20 +2586,58 @@ add_group(Py_ssize_t *K, Py_ssize_t *n, int64_t fi, int64_t la, Py_ssize_t stop,
     return 0;
 }
 
+/* One task's scratch for task_core: K specs, and per group (G) its blocks,
+ * impacts, counts (5), sums (12) and spans (6). */
+typedef struct {
+    spec_t *sp;
+    int64_t *glen, *nimp, *counts, *spans;
+    double *sums;
+} task_scratch;
+
+static void
+task_scratch_free(task_scratch *s)
+{
+    PyMem_RawFree(s->sp);
+    PyMem_RawFree(s->glen);
+    PyMem_RawFree(s->nimp);
+    PyMem_RawFree(s->counts);
+    PyMem_RawFree(s->sums);
+    PyMem_RawFree(s->spans);
+    memset(s, 0, sizeof *s);
+}
+
+/* 0, or -1 where memory ran out (nothing then held); needs no GIL. */
+static int
+task_scratch_new(task_scratch *s, Py_ssize_t K, Py_ssize_t G)
+{
+    Py_ssize_t G1 = G ? G : 1;
+    s->sp = PyMem_RawMalloc((K ? K : 1) * sizeof *s->sp);
+    s->glen = PyMem_RawMalloc(G1 * sizeof *s->glen);
+    s->nimp = PyMem_RawMalloc(G1 * sizeof *s->nimp);
+    s->counts = PyMem_RawMalloc(G1 * 5 * sizeof *s->counts);
+    s->sums = PyMem_RawMalloc(G1 * 12 * sizeof *s->sums);
+    s->spans = PyMem_RawMalloc(G1 * 6 * sizeof *s->spans);
+    if (s->sp == NULL || s->glen == NULL || s->nimp == NULL || s->counts == NULL ||
+        s->sums == NULL || s->spans == NULL) {
+        task_scratch_free(s);
+        return -1;
+    }
+    return 0;
+}
+
 /* The GIL-free middle of task() and tasks_run(): groups g < G of point pt[g]
  * (its template and speed from the plan's points `t`), blocks fi[g] .. la[g],
- * each merged in block order. `sp` has room for the groups' blocks, `glen`,
- * `n_out` for G values. Written: n_out[g] (the group's impacts) and what
- * run_specs writes (counts[5 g], sums[12 g], spans[6 g], out[h], used[h]),
- * each histogram's counts narrowed in place to width[h] bytes. Returns -1
- * where memory ran out (the caller frees out[h]). */
+ * each merged in block order, in the scratch `s` (task_scratch_new(K, G), K
+ * the groups' blocks). Written: s->nimp[g] (the group's impacts) and what
+ * run_specs writes (s->counts[5 g], s->sums[12 g], s->spans[6 g], out[h],
+ * used[h]), each histogram's counts narrowed in place to width[h] bytes.
+ * Returns -1 where memory ran out (the caller frees out[h]). */
 static int
 task_core(const ss_state *st, const hist_t *hs, const sampler_t *sd,
           const sampler_t *ss, int speed_random, double p, double q,
           double friction, const point_table *t, const int64_t *pt,
           const int64_t *fi, const int64_t *la, Py_ssize_t G, Py_ssize_t stop,
-          Py_ssize_t bsize, Py_ssize_t last_n, spec_t *sp, int64_t *glen,
-          int64_t *n_out, int64_t *counts, double *sums, int64_t *spans,
+          Py_ssize_t bsize, Py_ssize_t last_n, task_scratch *s,
           double *const st_d[3], int8_t *st_code, int64_t *out[3],
           Py_ssize_t used[3], int width[3])
 {
@@ -2607,10 +2645,10 @@ task_core(const ss_state *st, const hist_t *hs, const sampler_t *sd,
     const double *speed = t->speed.buf;
     Py_ssize_t k = 0;
     for (Py_ssize_t g = 0; g < G; g++) {
-        glen[g] = la[g] - fi[g] + 1;
+        s->glen[g] = la[g] - fi[g] + 1;
         int64_t n = 0;
         for (int64_t b = fi[g]; b <= la[g]; b++, k++) {
-            spec_t *x = &sp[k];
+            spec_t *x = &s->sp[k];
             *x = t->tmpl[which[pt[g]]];
             x->point = (uint64_t)pt[g];
             x->block = (uint64_t)b;
@@ -2618,10 +2656,10 @@ task_core(const ss_state *st, const hist_t *hs, const sampler_t *sd,
             x->speed = speed[pt[g]];
             n += x->n;
         }
-        n_out[g] = n;
+        s->nimp[g] = n;
     }
-    if (run_specs(st, hs, sd, ss, speed_random, p, q, friction, sp, k, glen,
-                  counts, sums, spans, st_d, st_code, out, used))
+    if (run_specs(st, hs, sd, ss, speed_random, p, q, friction, s->sp, k, s->glen,
+                  s->counts, s->sums, s->spans, st_d, st_code, out, used))
         return -1;
     for (int h = 0; h < 3; h++)
         width[h] = narrow_in_place(out[h], used[h]);
@@ -2662,9 +2700,7 @@ ck_task(PyObject *self, PyObject *args)
     PyObject *result = NULL, *bytes[3] = {NULL, NULL, NULL};
     int width[3] = {0, 0, 0};
     sampler_set set = {NULL, 0, 0};
-    spec_t *sp = NULL;
-    int64_t *glen = NULL, *nimp = NULL, *counts = NULL, *spans = NULL;
-    double *sums = NULL;
+    task_scratch scr = {0};
     int64_t *out[3] = {NULL, NULL, NULL};
     Py_ssize_t used[3] = {0, 0, 0};
     ss_state st;
@@ -2715,14 +2751,7 @@ ck_task(PyObject *self, PyObject *args)
     if ((sd = sampler_of(&set, dsamp, "diameter", 8)) == NULL ||
         (ss = sampler_of(&set, ssamp, "speed", 4)) == NULL)
         goto done;
-    sp = PyMem_Malloc((K ? K : 1) * sizeof *sp);
-    glen = PyMem_Malloc((G ? G : 1) * sizeof *glen);
-    nimp = PyMem_Malloc((G ? G : 1) * sizeof *nimp);
-    counts = PyMem_Malloc((G ? G : 1) * 5 * sizeof *counts);
-    sums = PyMem_Malloc((G ? G : 1) * 12 * sizeof *sums);
-    spans = PyMem_Malloc((G ? G : 1) * 6 * sizeof *spans);
-    if (sp == NULL || glen == NULL || nimp == NULL || counts == NULL ||
-        sums == NULL || spans == NULL) {
+    if (task_scratch_new(&scr, K, G)) {
         PyErr_NoMemory();
         goto done;
     }
@@ -2732,16 +2761,16 @@ ck_task(PyObject *self, PyObject *args)
     int oom;
     RELEASE_GIL
     oom = task_core(&st, &hs, sd, ss, speed_random, p, q, friction, t, pt, fi, la,
-                    G, stop, bsize, last_n, sp, glen, nimp, counts, sums, spans,
-                    st_d, st_code, out, used, width);
+                    G, stop, bsize, last_n, &scr, st_d, st_code, out, used, width);
     for (Py_ssize_t g = 0; g < G && !oom; g++) {
-        table[5 * g] = nimp[g];
-        memcpy(table + 5 * g + 1, counts + 5 * g, 4 * sizeof *table);
+        table[5 * g] = scr.nimp[g];
+        memcpy(table + 5 * g + 1, scr.counts + 5 * g, 4 * sizeof *table);
         for (int h = 0; h < 3; h++) {
-            memcpy(moments + 4 * (h * G + g), sums + 12 * g + 4 * h, 4 * sizeof *sums);
+            memcpy(moments + 4 * (h * G + g), scr.sums + 12 * g + 4 * h,
+                   4 * sizeof *scr.sums);
             /* (an empty span's lo is 0: occupied()) */
-            sp3[(2 * h) * G + g] = spans[6 * g + 2 * h];
-            sp3[(2 * h + 1) * G + g] = spans[6 * g + 2 * h + 1];
+            sp3[(2 * h) * G + g] = scr.spans[6 * g + 2 * h];
+            sp3[(2 * h + 1) * G + g] = scr.spans[6 * g + 2 * h + 1];
         }
     }
     ACQUIRE_GIL
@@ -2762,12 +2791,7 @@ done:
         Py_XDECREF(bytes[h]);
         PyMem_RawFree(out[h]);
     }
-    PyMem_Free(sp);
-    PyMem_Free(glen);
-    PyMem_Free(nimp);
-    PyMem_Free(counts);
-    PyMem_Free(sums);
-    PyMem_Free(spans);
+    task_scratch_free(&scr);
     sampler_set_free(&set);
     PyBuffer_Release(&be);
     PyBuffer_Release(&bh);
@@ -2850,12 +2874,12 @@ typedef struct {
     double p, q, friction;
     PyObject *capsule; /* the plan's points, held */
     point_table *t;
-    Py_buffer bg[4]; /* point, first, last (per group), task starts */
-    int64_t *idx;    /* their copies, owned */
+    /* copies of the point, first, last (per group) and task starts given */
+    int64_t *idx;
     const int64_t *pt, *fi, *la, *ts;
     Py_ssize_t G, ntasks, stop, bsize, last_n, rows;
     Py_buffer bd[TD_N]; /* the driver's table: see tasks_doc */
-    int held_g, held_d;
+    int held_d;
     /* shared by the worker threads (atomics) */
     Py_ssize_t next;
     int halt, failed;
@@ -2871,12 +2895,10 @@ typedef struct {
 
 static const char *TASKS_CAPSULE = "microimpact.engine._ckernel.tasks";
 
+/* Frees `c` and what it holds (the flats not harvested too). */
 static void
-tasks_free(PyObject *capsule)
+tasks_ctx_free(tasks_ctx *c)
 {
-    tasks_ctx *c = PyCapsule_GetPointer(capsule, TASKS_CAPSULE);
-    if (c == NULL)
-        return;
     if (c->flat != NULL)
         for (Py_ssize_t i = 0; i < 3 * c->ntasks; i++)
             PyMem_RawFree(c->flat[i]);
@@ -2887,12 +2909,18 @@ tasks_free(PyObject *capsule)
     PyMem_Free(c->taken);
     PyMem_Free(c->idx);
     sampler_set_free(&c->set);
-    for (int j = 0; j < c->held_g; j++)
-        PyBuffer_Release(&c->bg[j]);
     for (int j = 0; j < c->held_d; j++)
         PyBuffer_Release(&c->bd[j]);
     Py_XDECREF(c->capsule);
     PyMem_Free(c);
+}
+
+static void
+tasks_free(PyObject *capsule)
+{
+    tasks_ctx *c = PyCapsule_GetPointer(capsule, TASKS_CAPSULE);
+    if (c != NULL)
+        tasks_ctx_free(c);
 }
 
 PyDoc_STRVAR(tasks_doc,
@@ -2939,6 +2967,8 @@ ck_tasks(PyObject *self, PyObject *args)
                           &bsize, &last_n, &PyTuple_Type, &table))
         return NULL;
     PyObject *result = NULL;
+    Py_buffer bg[4]; /* point, first, last, starts: copied, then released */
+    int held_g = 0;
     tasks_ctx *c = PyMem_Calloc(1, sizeof *c);
     if (c == NULL) {
         PyErr_NoMemory();
@@ -2971,25 +3001,25 @@ ck_tasks(PyObject *self, PyObject *args)
     c->stop = stop;
     c->bsize = bsize;
     c->last_n = last_n;
-    if (PyObject_GetBuffer(garr[0], &c->bg[0], PyBUF_C_CONTIGUOUS))
+    if (PyObject_GetBuffer(garr[0], &bg[0], PyBUF_C_CONTIGUOUS))
         goto fail;
-    c->held_g = 1;
-    c->G = c->bg[0].len / 8;
+    held_g = 1;
+    c->G = bg[0].len / 8;
     const char *gname[3] = {"point", "first", "last"};
     for (int j = 1; j < 3; j++) {
-        if (tasks_buffer(garr[j], &c->bg[j], gname[j], 8, c->G, 0))
+        if (tasks_buffer(garr[j], &bg[j], gname[j], 8, c->G, 0))
             goto fail;
-        c->held_g = j + 1;
+        held_g = j + 1;
     }
-    if (PyObject_GetBuffer(garr[3], &c->bg[3], PyBUF_C_CONTIGUOUS))
+    if (PyObject_GetBuffer(garr[3], &bg[3], PyBUF_C_CONTIGUOUS))
         goto fail;
-    c->held_g = 4;
-    if (c->bg[0].len % 8 || c->bg[3].len % 8 || c->bg[3].len < 16) {
+    held_g = 4;
+    if (bg[0].len % 8 || bg[3].len % 8 || bg[3].len < 16) {
         PyErr_SetString(PyExc_ValueError,
                         "_ckernel.tasks: point, first, last and starts are int64");
         goto fail;
     }
-    c->ntasks = c->bg[3].len / 8 - 1;
+    c->ntasks = bg[3].len / 8 - 1;
     /* copies of the index arrays, checked below: the callers' arrays could
      * change while the threads read them, or overlap the table */
     c->idx = PyMem_Malloc((3 * c->G + c->ntasks + 1 + 1) * sizeof *c->idx);
@@ -2998,11 +3028,8 @@ ck_tasks(PyObject *self, PyObject *args)
         goto fail;
     }
     for (int j = 0; j < 3; j++)
-        memcpy(c->idx + j * c->G, c->bg[j].buf, c->G * sizeof *c->idx);
-    memcpy(c->idx + 3 * c->G, c->bg[3].buf, (c->ntasks + 1) * sizeof *c->idx);
-    for (int j = 0; j < c->held_g; j++)
-        PyBuffer_Release(&c->bg[j]);
-    c->held_g = 0;
+        memcpy(c->idx + j * c->G, bg[j].buf, c->G * sizeof *c->idx);
+    memcpy(c->idx + 3 * c->G, bg[3].buf, (c->ntasks + 1) * sizeof *c->idx);
     c->pt = c->idx;
     c->fi = c->idx + c->G;
     c->la = c->idx + 2 * c->G;
@@ -3069,22 +3096,10 @@ ck_tasks(PyObject *self, PyObject *args)
         goto fail;
     c = NULL;
 fail:
-    if (c != NULL) { /* tasks_free's work, without a capsule */
-        if (c->flat != NULL)
-            PyMem_Free(c->flat);
-        PyMem_Free(c->used);
-        PyMem_Free(c->width);
-        PyMem_Free(c->done);
-        PyMem_Free(c->taken);
-        PyMem_Free(c->idx);
-        sampler_set_free(&c->set);
-        for (int j = 0; j < c->held_g; j++)
-            PyBuffer_Release(&c->bg[j]);
-        for (int j = 0; j < c->held_d; j++)
-            PyBuffer_Release(&c->bd[j]);
-        Py_XDECREF(c->capsule);
-        PyMem_Free(c);
-    }
+    if (c != NULL)
+        tasks_ctx_free(c);
+    for (int j = 0; j < held_g; j++)
+        PyBuffer_Release(&bg[j]);
     PyBuffer_Release(&be);
     PyBuffer_Release(&bh);
     return result;
@@ -3099,41 +3114,33 @@ tasks_one(tasks_ctx *c, Py_ssize_t i)
     const int64_t *pt = c->pt + g0, *fi = c->fi + g0, *la = c->la + g0;
     for (Py_ssize_t g = 0; g < G; g++)
         K += la[g] - fi[g] + 1;
-    Py_ssize_t G1 = G ? G : 1;
-    spec_t *sp = PyMem_RawMalloc((K ? K : 1) * sizeof *sp);
-    int64_t *glen = PyMem_RawMalloc(G1 * sizeof *glen);
-    int64_t *nimp = PyMem_RawMalloc(G1 * sizeof *nimp);
-    int64_t *counts = PyMem_RawMalloc(G1 * 5 * sizeof *counts);
-    double *sums = PyMem_RawMalloc(G1 * 12 * sizeof *sums);
-    int64_t *spans = PyMem_RawMalloc(G1 * 6 * sizeof *spans);
+    task_scratch scr = {0};
     int64_t *out[3] = {NULL, NULL, NULL};
     Py_ssize_t used[3] = {0, 0, 0};
     int width[3] = {0, 0, 0};
     double *const st_d[3] = {NULL, NULL, NULL};
-    int oom = sp == NULL || glen == NULL || nimp == NULL || counts == NULL ||
-              sums == NULL || spans == NULL;
-    if (!oom)
-        oom = task_core(&c->st, &c->hs, c->sd, c->ss, c->speed_random, c->p, c->q,
+    int oom = task_scratch_new(&scr, K, G) ||
+              task_core(&c->st, &c->hs, c->sd, c->ss, c->speed_random, c->p, c->q,
                         c->friction, c->t, pt, fi, la, G, c->stop, c->bsize,
-                        c->last_n, sp, glen, nimp, counts, sums, spans, st_d, NULL,
-                        out, used, width);
+                        c->last_n, &scr, st_d, NULL, out, used, width);
     if (!oom) {
         int64_t *tc = c->bd[TD_COUNTS].buf, total = 0;
         int64_t at[3] = {0, 0, 0};
         for (Py_ssize_t g = 0; g < G; g++) {
             Py_ssize_t k = pt[g];
-            tc[5 * k] = nimp[g];
-            memcpy(tc + 5 * k + 1, counts + 5 * g, 4 * sizeof *tc);
-            total += nimp[g];
+            tc[5 * k] = scr.nimp[g];
+            memcpy(tc + 5 * k + 1, scr.counts + 5 * g, 4 * sizeof *tc);
+            total += scr.nimp[g];
             for (int h = 0; h < 3; h++) {
+                const int64_t *span = scr.spans + 6 * g + 2 * h; /* lo, length */
                 double *m = c->bd[TD_MOM + h].buf;
                 int32_t *off = c->bd[TD_OFF + h].buf, *len = c->bd[TD_LEN + h].buf;
                 int64_t *start = c->bd[TD_START + h].buf;
-                memcpy(m + 4 * k, sums + 12 * g + 4 * h, 4 * sizeof *m);
-                off[k] = (int32_t)spans[6 * g + 2 * h];
-                len[k] = (int32_t)spans[6 * g + 2 * h + 1];
+                memcpy(m + 4 * k, scr.sums + 12 * g + 4 * h, 4 * sizeof *m);
+                off[k] = (int32_t)span[0];
+                len[k] = (int32_t)span[1];
                 start[k] = at[h];
-                at[h] += spans[6 * g + 2 * h + 1];
+                at[h] += span[1];
             }
         }
         for (int h = 0; h < 3; h++) {
@@ -3163,12 +3170,7 @@ tasks_one(tasks_ctx *c, Py_ssize_t i)
     }
     for (int h = 0; h < 3; h++)
         PyMem_RawFree(out[h]);
-    PyMem_RawFree(sp);
-    PyMem_RawFree(glen);
-    PyMem_RawFree(nimp);
-    PyMem_RawFree(counts);
-    PyMem_RawFree(sums);
-    PyMem_RawFree(spans);
+    task_scratch_free(&scr);
     return oom ? -1 : 0;
 }
 

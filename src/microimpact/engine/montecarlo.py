@@ -496,14 +496,8 @@ class _Streams:
             rows = np.concatenate([kt.point[starts[i] : starts[i + 1]] for i in idx])
         per = starts[idx + 1] - starts[idx]
         for h, n in enumerate(_SPANS):
-            flats, ids = self._flats[n], self._flat_ids[n]
-            c0 = len(flats)
-            for j, item in enumerate(items):
-                flats.append(item[1 + h])
-                ids[id(item[1 + h])] = c0 + j
-            self._spans[n][2][rows] = np.repeat(
-                np.arange(c0, c0 + len(items), dtype=np.int32), per
-            )
+            chunks = [self._chunk(n, item[1 + h]) for item in items]
+            self._spans[n][2][rows] = np.repeat(np.array(chunks, np.int32), per)
         self.next_block[rows] = kt.stop
         self.done[rows] = True
         self._held[rows] = True  # last: what a checkpoint reads as taken
@@ -1000,7 +994,6 @@ class _Job:
             KERNEL_TASKS
             and isinstance(runner, SerialRunner | ThreadRunner)
             and kernel_tasks_available()
-            and self.plan.kernel == "compiled"
             and self.streams.whole_fresh()
             and plan_points_parsed(self.plan)
         )
@@ -1019,6 +1012,12 @@ class _Job:
             streams.kernel_table(),
         )
         workers = max(1, min(runner.workers, len(kt)))
+
+        def take():
+            n = streams.take_kernel_tasks(kt, kt.harvest()[1])
+            if n:
+                bar.update(n)
+
         if workers == 1 and self._background_policy == "short":
             # a short run (under BACKGROUND_IMPACTS, ~50 ms) on one worker: in
             # this thread (a model run of a calibration or a design row paid
@@ -1026,9 +1025,7 @@ class _Job:
             try:
                 kt.run()
             finally:
-                n = streams.take_kernel_tasks(kt, kt.harvest()[1])
-                if n:
-                    bar.update(n)
+                take()
             return
         # a bar or a checkpoint is served between waits; else one wait
         poll = KERNEL_POLL_S if (bar.active or self.checkpoint is not None) else None
@@ -1040,11 +1037,6 @@ class _Job:
         def start():
             kt.halt(False)
             futures[:] = [pool.submit(kt.run) for _ in range(workers)]
-
-        def take():
-            n = streams.take_kernel_tasks(kt, kt.harvest()[1])
-            if n:
-                bar.update(n)
 
         def stop():
             kt.halt(True)

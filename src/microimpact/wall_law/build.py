@@ -472,7 +472,9 @@ def _diameter_plan(plan, scenario, spec, j, columns=None):
     # building the distribution
     d_plan = dataclasses.replace(plan, diameters=atom_sampler(d, columns))
     if spec.speed_axis == "reduced":
-        v_c = float(critical_speed_m_s(scenario, spec.diameters_um[j])[0])
+        # v_c(d): the law's column (build_wall_law checked it is > 0 at every
+        # diameter, critical_speed_m_s)
+        v_c = float(columns[2])
         if isinstance(plan.points, GridPoints):  # the grid's speeds, scaled
             grid = plan.points.grid
             speeds = tuple(v * v_c for v in grid.speeds_m_s)
